@@ -1,0 +1,161 @@
+"""The device interfaces every projector and camera implements, real or simulated.
+
+Public methods hold the shared logic (state checks, validation, keeping the projector dark after a
+fault) and call the `_do_*` methods that each driver implements.
+"""
+
+from __future__ import annotations
+
+import abc
+import enum
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from drivers.errors import DeviceError
+
+
+class ProjectorMode(enum.Enum):
+    """How a projector gets its patterns."""
+
+    STREAMING = "streaming"  # shows any image it is sent, now (HDMI display output)
+    SEQUENCE = "sequence"  # preloads a sequence and steps through it on a trigger (DLP LightCrafter)
+
+
+@dataclass(frozen=True)
+class Frame:
+    """One captured image.
+
+    `image` is uint8 or uint16, shape (H, W) for mono or (H, W, 3) for colour (BGR).
+    `timestamp_s` is monotonic; `sequence` counts frames the camera delivered, so gaps show drops.
+    `bit_depth` is the sensor's (a 12-bit image is stored in uint16 with values up to 4095).
+    """
+
+    image: np.ndarray
+    timestamp_s: float
+    sequence: int
+    exposure_us: float
+    gain: float
+    bit_depth: int = 8
+    meta: dict[str, object] = field(default_factory=dict)
+
+    @property
+    def full_scale(self) -> int:
+        return (1 << self.bit_depth) - 1
+
+
+class Device(abc.ABC):
+    """Lifecycle shared by all devices: open, use, close. `close()` is idempotent."""
+
+    def __init__(self, name: str) -> None:
+        self.name = name
+        self._open = False
+
+    @property
+    def is_open(self) -> bool:
+        return self._open
+
+    def open(self) -> None:
+        if not self._open:
+            self._do_open()
+            self._open = True
+
+    def close(self) -> None:
+        if self._open:
+            try:
+                self._do_close()
+            finally:
+                self._open = False
+
+    def _require_open(self) -> None:
+        if not self._open:
+            raise DeviceError(f"{self.name}: device is not open")
+
+    def __enter__(self) -> Device:
+        self.open()
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+    @abc.abstractmethod
+    def _do_open(self) -> None: ...
+
+    @abc.abstractmethod
+    def _do_close(self) -> None: ...
+
+
+class Projector(Device):
+    """A projector shows 8-bit grayscale patterns of its native resolution."""
+
+    mode: ProjectorMode = ProjectorMode.STREAMING
+
+    @property
+    @abc.abstractmethod
+    def resolution(self) -> tuple[int, int]:
+        """(width, height) in pixels."""
+
+    def show(self, pattern: np.ndarray) -> None:
+        """Show one pattern now (streaming projectors). Goes dark if the device fails."""
+        self._require_open()
+        width, height = self.resolution
+        if pattern.shape != (height, width) or pattern.dtype != np.uint8:
+            raise ValueError(
+                f"{self.name}: pattern must be uint8 of shape {(height, width)}, "
+                f"got {pattern.dtype} {pattern.shape}"
+            )
+        self._guarded(self._do_show, pattern)
+
+    def dark(self) -> None:
+        """Show black. Safe to call at any time, also after a fault; never raises for a closed
+        device."""
+        if self._open:
+            self._do_dark()
+
+    def _guarded(self, action, *args: object) -> None:  # type: ignore[no-untyped-def]
+        try:
+            action(*args)
+        except Exception:
+            try:
+                self._do_dark()
+            except Exception:  # noqa: BLE001 - the first fault is the one to report
+                pass
+            raise
+
+    @abc.abstractmethod
+    def _do_show(self, pattern: np.ndarray) -> None: ...
+
+    @abc.abstractmethod
+    def _do_dark(self) -> None: ...
+
+    def _do_close(self) -> None:
+        self._do_dark()
+
+
+class Camera(Device):
+    """A camera captures frames with a monotonic timestamp and a sequence number."""
+
+    @property
+    @abc.abstractmethod
+    def resolution(self) -> tuple[int, int]:
+        """(width, height) in pixels."""
+
+    @property
+    @abc.abstractmethod
+    def exposure_us(self) -> float: ...
+
+    @abc.abstractmethod
+    def set_exposure_us(self, exposure_us: float) -> None: ...
+
+    def capture(self, timeout_s: float = 2.0) -> Frame:
+        """Capture one frame, taken after this call began; raise DeviceTimeoutError past
+        `timeout_s`."""
+        self._require_open()
+        if timeout_s <= 0:
+            raise ValueError(f"{self.name}: timeout_s must be > 0")
+        deadline = time.monotonic() + timeout_s
+        return self._do_capture(deadline)
+
+    @abc.abstractmethod
+    def _do_capture(self, deadline: float) -> Frame: ...

@@ -1,0 +1,25 @@
+"""The one exception hierarchy for device faults."""
+
+from __future__ import annotations
+
+
+class DeviceError(Exception):
+    """A device failed an operation. Raise a subclass when one fits; this base only for faults
+    that are none of them (for example a device that reports an internal error code)."""
+
+
+class DeviceNotFoundError(DeviceError):
+    """Raised when opening a device whose port, USB id, serial number or index does not exist."""
+
+
+class DeviceTimeoutError(DeviceError):
+    """Raised when a device does not answer, or a frame does not arrive, within its named timeout."""
+
+
+class DeviceDisconnectedError(DeviceError):
+    """Raised when a device that was open disappears (cable pulled, USB reset, port closed)."""
+
+
+class DeviceProtocolError(DeviceError):
+    """Raised when a reply is malformed or does not match the command sent (wrong echo, bad
+    checksum, unexpected length)."""

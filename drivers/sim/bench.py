@@ -1,0 +1,259 @@
+"""The physical model behind the simulated devices.
+
+Deferred rendering: rays are cast once per camera (the geometry pass) and once per
+(camera, projector) pair (shadows and the projector mapping); every frame is then a per-pixel
+gather: pattern lookup through the projector's gamma and defocus, Lambertian shading with distance
+fall-off and ambient light, then the camera: optical blur, shot and read noise, gain, response
+curve and quantisation.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Protocol
+
+import cv2
+import numpy as np
+
+from drivers.sim.raycast import RayCaster
+from drivers.sim.scene import Scene
+
+_SHADOW_EPS_MM = 0.02
+
+
+class ViewModel(Protocol):
+    """The geometry the simulator needs of a camera or projector (see rig.geometry.CameraModel)."""
+
+    width: int
+    height: int
+    projection: str
+
+    @property
+    def center(self) -> np.ndarray: ...
+
+    @property
+    def axis(self) -> np.ndarray: ...
+
+    @property
+    def pixel_rays(self) -> tuple[np.ndarray, np.ndarray]: ...
+
+    def project(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]: ...
+
+
+@dataclass(frozen=True)
+class SimProjectorParams:
+    """Photometry of a simulated projector."""
+
+    gamma: float = 2.2  # pattern value v in [0, 1] emits v ** gamma
+    brightness: float = 1.0  # irradiance of full white at the reference distance, normal incidence
+    black_level: float = 0.004  # light leaked at black, as a fraction of white (250:1 contrast)
+    blur_px: float = 0.5  # defocus, Gaussian sigma in projector pixels
+    reference_distance_mm: float = 600.0
+
+
+@dataclass(frozen=True)
+class SimCameraParams:
+    """Sensor of a simulated camera."""
+
+    exposure_us: float = 10000.0
+    gain: float = 1.0
+    full_scale_exposure_us: float = 12000.0  # albedo 1 under irradiance 1 fills the well at this
+    full_well_e: float = 10000.0
+    read_noise_e: float = 20.0
+    gamma: float = 1.0  # output = signal ** (1 / gamma)
+    blur_px: float = 0.6  # optical blur, Gaussian sigma in camera pixels
+    bit_depth: int = 8
+    frame_period_s: float = 1 / 30
+
+
+@dataclass(frozen=True, eq=False)
+class GroundTruth:
+    """Ground truth per camera pixel for one (camera, projector) pair; arrays are (H, W[, k])."""
+
+    hit: np.ndarray  # a surface is seen
+    points: np.ndarray  # world points, mm (NaN where no hit)
+    normals: np.ndarray  # unit normals facing the camera
+    depth: np.ndarray  # camera-frame z, mm (0 where no hit)
+    projector_uv: np.ndarray  # projector pixel coordinates of the surface point
+    lit: np.ndarray  # inside the projector's image, unshadowed and facing it
+
+
+@dataclass(frozen=True, eq=False)
+class _CameraView:
+    hit: np.ndarray  # (N,) over pixels, row-major
+    points: np.ndarray  # (N, 3)
+    normals: np.ndarray
+    albedo: np.ndarray  # (H, W) float32
+    depth: np.ndarray  # (N,)
+
+
+@dataclass(frozen=True, eq=False)
+class _Illumination:
+    map_x: np.ndarray  # (H, W) float32 projector u per camera pixel, -1e4 where unlit
+    map_y: np.ndarray
+    irradiance_gain: np.ndarray  # (H, W) float32: cos(incidence) * fall-off * brightness * lit
+    uv: np.ndarray  # (N, 2) float64
+    lit: np.ndarray  # (N,)
+
+
+class SimBench:
+    """A scene seen by cameras and lit by projectors, all with known geometry."""
+
+    def __init__(
+        self,
+        scene: Scene,
+        cameras: list[ViewModel],
+        projectors: list[ViewModel],
+        camera_params: list[SimCameraParams] | None = None,
+        projector_params: list[SimProjectorParams] | None = None,
+        ambient: float = 0.02,
+        seed: int = 0,
+    ) -> None:
+        self.scene = scene
+        self.cameras = list(cameras)
+        self.projectors = list(projectors)
+        self.camera_params = camera_params or [SimCameraParams() for _ in cameras]
+        self.projector_params = projector_params or [SimProjectorParams() for _ in projectors]
+        self.ambient = ambient
+        self._rng = np.random.default_rng(seed)
+        self._caster = RayCaster(scene.vertices, scene.faces)
+        self._views: dict[int, _CameraView] = {}
+        self._illumination: dict[tuple[int, int], _Illumination] = {}
+        self._emitted: list[np.ndarray | None] = [None] * len(projectors)
+        self.clock_s = 0.0
+
+    # --- projector state -------------------------------------------------------------------
+    def set_pattern(self, projector: int, pattern: np.ndarray | None) -> None:
+        """Make projector `projector` emit `pattern` (uint8, its resolution), or black for None."""
+        if pattern is None:
+            self._emitted[projector] = None
+            return
+        params = self.projector_params[projector]
+        lut = (np.arange(256, dtype=np.float64) / 255.0) ** params.gamma
+        lut = params.black_level + (1.0 - params.black_level) * lut
+        emitted = lut.astype(np.float32)[pattern]
+        if params.blur_px > 0:
+            emitted = cv2.GaussianBlur(emitted, (0, 0), params.blur_px, borderType=cv2.BORDER_REPLICATE)
+        self._emitted[projector] = emitted
+
+    # --- geometry, computed once per pose --------------------------------------------------
+    def _view(self, camera: int) -> _CameraView:
+        if camera not in self._views:
+            model = self.cameras[camera]
+            origins, directions = model.pixel_rays
+            distance, faces = self._caster.first_hit(origins, directions)
+            hit = faces >= 0
+            points = np.full(origins.shape, np.nan)
+            points[hit] = origins[hit] + distance[hit, None] * directions[hit]
+            normals = np.zeros_like(points)
+            n = self._caster.face_normals(faces[hit])
+            flip = np.einsum("ij,ij->i", n, directions[hit]) > 0
+            n[flip] *= -1
+            normals[hit] = n
+            albedo = np.zeros(len(hit), dtype=np.float32)
+            albedo[hit] = self.scene.face_albedo[faces[hit]]
+            depth = np.zeros(len(hit))
+            if hit.any():
+                _, z = model.project(points[hit])
+                depth[hit] = z
+            self._views[camera] = _CameraView(hit, points, normals,
+                                              albedo.reshape(model.height, model.width), depth)
+        return self._views[camera]
+
+    def _lighting(self, camera: int, projector: int) -> _Illumination:
+        key = (camera, projector)
+        if key not in self._illumination:
+            self._illumination[key] = self._compute_lighting(camera, projector)
+        return self._illumination[key]
+
+    def _compute_lighting(self, camera: int, projector: int) -> _Illumination:
+        view = self._view(camera)
+        cam = self.cameras[camera]
+        proj = self.projectors[projector]
+        params = self.projector_params[projector]
+        n_px = cam.width * cam.height
+        uv = np.full((n_px, 2), np.nan)
+        lit = np.zeros(n_px, dtype=bool)
+        gain = np.zeros(n_px, dtype=np.float32)
+        idx = np.flatnonzero(view.hit)
+        points = view.points[idx]
+        normals = view.normals[idx]
+        puv, pz = proj.project(points)
+        uv[idx] = puv
+        inside = (pz > 0) & (puv[:, 0] >= -0.5) & (puv[:, 0] < proj.width - 0.5) \
+            & (puv[:, 1] >= -0.5) & (puv[:, 1] < proj.height - 0.5)
+        if proj.projection == "orthographic":
+            to_light = np.broadcast_to(-proj.axis, points.shape).copy()
+            distance = np.full(len(points), np.inf)
+            falloff = np.ones(len(points))
+        else:
+            to_light = proj.center - points
+            distance = np.linalg.norm(to_light, axis=1)
+            to_light /= distance[:, None]
+            falloff = (params.reference_distance_mm / distance) ** 2
+        cos_i = np.einsum("ij,ij->i", normals, to_light)
+        candidates = inside & (cos_i > 0)
+        c_idx = np.flatnonzero(candidates)
+        blocker, _ = self._caster.first_hit(points[c_idx] + _SHADOW_EPS_MM * normals[c_idx], to_light[c_idx])
+        unshadowed = blocker >= distance[c_idx] - 2 * _SHADOW_EPS_MM
+        lit_local = np.zeros(len(points), dtype=bool)
+        lit_local[c_idx[unshadowed]] = True
+        lit[idx] = lit_local
+        gain[idx] = np.where(lit_local, cos_i * falloff * params.brightness, 0.0)
+        map_x = np.full(n_px, -1e4, dtype=np.float32)
+        map_y = np.full(n_px, -1e4, dtype=np.float32)
+        map_x[idx[lit_local]] = puv[lit_local, 0]
+        map_y[idx[lit_local]] = puv[lit_local, 1]
+        shape = (cam.height, cam.width)
+        return _Illumination(map_x.reshape(shape), map_y.reshape(shape), gain.reshape(shape), uv, lit)
+
+    # --- rendering -------------------------------------------------------------------------
+    def irradiance(self, camera: int) -> np.ndarray:
+        """Light falling on the surface seen by each camera pixel, before albedo (float32)."""
+        cam = self.cameras[camera]
+        total = np.full((cam.height, cam.width), self.ambient, dtype=np.float32)
+        for p, emitted in enumerate(self._emitted):
+            light = self._lighting(camera, p)
+            black = self.projector_params[p].black_level
+            if emitted is None:
+                total += black * light.irradiance_gain
+                continue
+            sampled = cv2.remap(emitted, light.map_x, light.map_y, cv2.INTER_LINEAR,
+                                borderMode=cv2.BORDER_CONSTANT, borderValue=0)
+            total += sampled * light.irradiance_gain
+        return total
+
+    def render(self, camera: int, exposure_us: float | None = None, gain: float | None = None) -> np.ndarray:
+        """One camera image of the current light, with sensor noise, as uint8 or uint16."""
+        params = self.camera_params[camera]
+        exposure = params.exposure_us if exposure_us is None else exposure_us
+        gain = params.gain if gain is None else gain
+        view = self._view(camera)
+        radiance = self.irradiance(camera) * view.albedo
+        if params.blur_px > 0:
+            radiance = cv2.GaussianBlur(radiance, (0, 0), params.blur_px, borderType=cv2.BORDER_REPLICATE)
+        electrons = radiance * np.float32(exposure / params.full_scale_exposure_us * params.full_well_e)
+        sigma = np.sqrt(electrons + np.float32(params.read_noise_e**2))
+        electrons += sigma * self._rng.standard_normal(electrons.shape, dtype=np.float32)
+        signal = np.clip(electrons * np.float32(gain / params.full_well_e), 0.0, 1.0)
+        if params.gamma != 1.0:
+            signal = signal ** np.float32(1.0 / params.gamma)
+        full_scale = (1 << params.bit_depth) - 1
+        dtype = np.uint8 if params.bit_depth <= 8 else np.uint16
+        self.clock_s += max(params.frame_period_s, exposure * 1e-6)
+        return np.rint(signal * np.float32(full_scale)).astype(dtype)
+
+    # --- ground truth ----------------------------------------------------------------------
+    def ground_truth(self, camera: int, projector: int) -> GroundTruth:
+        view = self._view(camera)
+        light = self._lighting(camera, projector)
+        cam = self.cameras[camera]
+        shape = (cam.height, cam.width)
+        return GroundTruth(
+            hit=view.hit.reshape(shape),
+            points=view.points.reshape(*shape, 3),
+            normals=view.normals.reshape(*shape, 3),
+            depth=view.depth.reshape(shape),
+            projector_uv=light.uv.reshape(*shape, 2),
+            lit=light.lit.reshape(shape),
+        )

@@ -1,0 +1,127 @@
+"""Scene geometry for the simulated bench: procedural shapes and mesh files.
+
+World frame: millimetres, the bench plane is z = 0 and z points up toward the devices.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import trimesh
+
+
+@dataclass(frozen=True, eq=False)
+class SceneObject:
+    """One mesh with a uniform diffuse albedo in [0, 1]."""
+
+    name: str
+    vertices: np.ndarray
+    faces: np.ndarray
+    albedo: float
+
+
+@dataclass(frozen=True, eq=False)
+class Scene:
+    """All objects merged into one mesh, with a per-face albedo."""
+
+    vertices: np.ndarray
+    faces: np.ndarray
+    face_albedo: np.ndarray
+    objects: tuple[SceneObject, ...]
+
+
+def build_scene(objects: list[SceneObject]) -> Scene:
+    if not objects:
+        raise ValueError("a scene needs at least one object")
+    vertices, faces, albedo = [], [], []
+    offset = 0
+    for obj in objects:
+        vertices.append(obj.vertices)
+        faces.append(obj.faces + offset)
+        albedo.append(np.full(len(obj.faces), obj.albedo, dtype=np.float32))
+        offset += len(obj.vertices)
+    return Scene(np.vstack(vertices), np.vstack(faces), np.concatenate(albedo), tuple(objects))
+
+
+def _object(name: str, mesh: trimesh.Trimesh, albedo: float) -> SceneObject:
+    return SceneObject(name, np.asarray(mesh.vertices, float), np.asarray(mesh.faces, np.int64), albedo)
+
+
+def plane(size_mm: float = 600.0, albedo: float = 0.7, height_mm: float = 0.0) -> SceneObject:
+    """A square of side `size_mm` in the plane z = height_mm, facing up."""
+    h = size_mm / 2
+    vertices = np.array([[-h, -h, height_mm], [h, -h, height_mm], [h, h, height_mm], [-h, h, height_mm]])
+    faces = np.array([[0, 1, 2], [0, 2, 3]])
+    return SceneObject("plane", vertices, faces, albedo)
+
+
+def sphere(radius_mm: float, center_mm: tuple[float, float, float], albedo: float = 0.8,
+           subdivisions: int = 6) -> SceneObject:
+    mesh = trimesh.creation.icosphere(subdivisions=subdivisions, radius=radius_mm)
+    mesh.apply_translation(center_mm)
+    return _object("sphere", mesh, albedo)
+
+
+def box(extents_mm: tuple[float, float, float], center_mm: tuple[float, float, float],
+        rotation_deg: tuple[float, float, float] = (0.0, 0.0, 0.0), albedo: float = 0.8) -> SceneObject:
+    mesh = trimesh.creation.box(extents=extents_mm)
+    _pose(mesh, 1.0, center_mm, rotation_deg)
+    return _object("box", mesh, albedo)
+
+
+def terrain(size_mm: float = 400.0, amplitude_mm: float = 30.0, grid: int = 257, seed: int = 7,
+            albedo: float = 0.75) -> SceneObject:
+    """A smooth height field z = f(x, y) >= 0: a sum of seeded Gaussian hills and a gentle wave."""
+    rng = np.random.default_rng(seed)
+    axis = np.linspace(-size_mm / 2, size_mm / 2, grid)
+    x, y = np.meshgrid(axis, axis)
+    z = np.zeros_like(x)
+    for _ in range(6):
+        cx, cy = rng.uniform(-0.35, 0.35, 2) * size_mm
+        sigma = rng.uniform(0.08, 0.18) * size_mm
+        z += rng.uniform(0.3, 1.0) * np.exp(-((x - cx) ** 2 + (y - cy) ** 2) / (2 * sigma**2))
+    z += 0.15 * np.sin(2 * np.pi * x / (0.6 * size_mm)) * np.cos(2 * np.pi * y / (0.8 * size_mm))
+    z = (z - z.min()) / (z.max() - z.min()) * amplitude_mm
+    vertices = np.column_stack([x.ravel(), y.ravel(), z.ravel()])
+    idx = np.arange(grid * grid).reshape(grid, grid)
+    a, b, c, d = idx[:-1, :-1].ravel(), idx[:-1, 1:].ravel(), idx[1:, 1:].ravel(), idx[1:, :-1].ravel()
+    faces = np.vstack([np.column_stack([a, b, c]), np.column_stack([a, c, d])])
+    return SceneObject("terrain", vertices, faces, albedo)
+
+
+def mesh_file(path: str | Path, scale: float = 1.0, position_mm: tuple[float, float, float] = (0, 0, 0),
+              rotation_deg: tuple[float, float, float] = (0.0, 0.0, 0.0), albedo: float = 0.8,
+              fit_size_mm: float | None = None) -> SceneObject:
+    """A PLY, OBJ or STL file, scaled about its bounding-box centre (by `scale`, or so that its
+    largest extent is `fit_size_mm`), rotated (x, y, z Euler angles, degrees) and placed so that the
+    centre of its base sits at `position_mm`.
+
+    Raises FileNotFoundError for a missing file and ValueError for one with no triangles.
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise FileNotFoundError(f"mesh file not found: {path}")
+    try:
+        mesh = trimesh.load(path, force="mesh", process=True)
+    except Exception as exc:  # trimesh raises many types for bad files
+        raise ValueError(f"cannot read mesh file {path}: {exc}") from exc
+    if not isinstance(mesh, trimesh.Trimesh) or len(mesh.faces) == 0:
+        raise ValueError(f"mesh file {path} has no triangles")
+    mesh.apply_translation(-mesh.bounds.mean(axis=0))
+    if fit_size_mm is not None:
+        scale = fit_size_mm / float(np.max(mesh.extents))
+    _pose(mesh, scale, (0, 0, 0), rotation_deg)
+    base = np.array([*mesh.bounds.mean(axis=0)[:2], mesh.bounds[0, 2]])
+    mesh.apply_translation(np.asarray(position_mm, float) - base)
+    return _object(path.stem, mesh, albedo)
+
+
+def _pose(mesh: trimesh.Trimesh, scale: float, center_mm: tuple[float, float, float],
+          rotation_deg: tuple[float, float, float]) -> None:
+    mesh.apply_scale(scale)
+    rx, ry, rz = np.radians(rotation_deg)
+    rotation = trimesh.transformations.euler_matrix(rx, ry, rz, "sxyz")
+    mesh.apply_transform(rotation)
+    mesh.apply_translation(center_mm)

@@ -1,0 +1,278 @@
+"""Rig descriptions: YAML loaded into pydantic models, validated before any device opens.
+
+Every model forbids unknown keys and bounds every number; lengths are millimetres (`_mm`),
+times microseconds (`_us`) or seconds (`_s`), image sizes pixels.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Annotated, Literal
+
+import numpy as np
+import yaml
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
+
+from rig.errors import ConfigError
+from rig.patterns import codec_names
+from rig.patterns.gray import GrayParams
+from rig.patterns.phase import PhaseParams
+
+DEFAULT_CONFIG = Path(__file__).resolve().parent.parent / "config" / "sim.yaml"
+
+Coord = Annotated[float, Field(ge=-100_000.0, le=100_000.0)]
+Vec3 = tuple[Coord, Coord, Coord]
+Name = Annotated[str, Field(pattern=r"^[A-Za-z0-9_-]{1,32}$")]
+Resolution = tuple[Annotated[int, Field(ge=16, le=16384)], Annotated[int, Field(ge=16, le=16384)]]
+Albedo = Annotated[float, Field(ge=0.0, le=1.0)]
+
+
+class Strict(BaseModel):
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+
+class Intrinsics(Strict):
+    """Pixels; for an orthographic device fx, fy are pixels per millimetre."""
+
+    fx: float = Field(gt=0, le=1e6)
+    fy: float = Field(gt=0, le=1e6)
+    cx: float = Field(ge=-1e5, le=1e5)
+    cy: float = Field(ge=-1e5, le=1e5)
+    skew: float = Field(0.0, ge=-1e4, le=1e4)
+
+
+class Pose(Strict):
+    """Where the device is and what it looks at, in the world frame (bench plane z = 0, z up)."""
+
+    position_mm: Vec3
+    look_at_mm: Vec3 = (0.0, 0.0, 0.0)
+    up: Vec3 = (0.0, 1.0, 0.0)
+
+    @model_validator(mode="after")
+    def _well_posed(self) -> Pose:
+        view = np.subtract(self.look_at_mm, self.position_mm)
+        if np.linalg.norm(view) < 1e-6:
+            raise ValueError("look_at_mm must differ from position_mm")
+        if np.linalg.norm(np.cross(view / np.linalg.norm(view), self.up)) < 1e-6:
+            raise ValueError("up must not be parallel to the viewing direction")
+        return self
+
+
+class Geometry(Strict):
+    """Ground-truth (simulation) or calibrated geometry of one device."""
+
+    intrinsics: Intrinsics
+    distortion: list[Annotated[float, Field(ge=-10.0, le=10.0)]] = Field(
+        default_factory=list, max_length=5, description="k1, k2, p1, p2, k3")
+    pose: Pose
+    projection: Literal["pinhole", "orthographic"] = "pinhole"
+
+
+class SimProjectorOptions(Strict):
+    gamma: float = Field(2.2, ge=0.2, le=5.0)
+    brightness: float = Field(1.0, gt=0.0, le=100.0, description="white irradiance at 600 mm, relative")
+    black_level: float = Field(0.004, ge=0.0, le=0.5)
+    blur_px: float = Field(0.5, ge=0.0, le=20.0)
+
+
+class SimCameraOptions(Strict):
+    full_scale_exposure_us: float = Field(12000.0, gt=0.0, le=1e7)
+    full_well_e: float = Field(10000.0, ge=10.0, le=1e7)
+    read_noise_e: float = Field(20.0, ge=0.0, le=1e4)
+    gamma: float = Field(1.0, ge=0.2, le=5.0)
+    blur_px: float = Field(0.6, ge=0.0, le=20.0)
+    frame_period_s: float = Field(1 / 30, gt=0.0, le=10.0)
+
+
+class ProjectorConfig(Strict):
+    name: Name
+    driver: Literal["sim"] = "sim"
+    resolution: Resolution
+    geometry: Geometry
+    sim: SimProjectorOptions = SimProjectorOptions()
+
+
+class CameraConfig(Strict):
+    name: Name
+    driver: Literal["sim"] = "sim"
+    resolution: Resolution
+    geometry: Geometry
+    exposure_us: float = Field(10000.0, ge=1.0, le=1e7)
+    gain: float = Field(1.0, ge=0.0, le=64.0)
+    bit_depth: Literal[8, 10, 12, 16] = 8
+    sim: SimCameraOptions = SimCameraOptions()
+
+
+class PlaneScene(Strict):
+    kind: Literal["plane"]
+    size_mm: float = Field(600.0, gt=0, le=10_000)
+    albedo: Albedo = 0.7
+
+
+class SphereScene(Strict):
+    kind: Literal["sphere"]
+    radius_mm: float = Field(60.0, gt=0, le=5_000)
+    center_mm: Vec3 = (0.0, 0.0, 60.0)
+    albedo: Albedo = 0.8
+
+
+class BoxScene(Strict):
+    kind: Literal["box"]
+    extents_mm: tuple[float, float, float] = (120.0, 80.0, 60.0)
+    rotation_deg: Vec3 = (0.0, 0.0, 25.0)
+    albedo: Albedo = 0.8
+    plane: bool = Field(True, description="put the box on the bench plane")
+
+    @field_validator("extents_mm")
+    @classmethod
+    def _positive(cls, v: tuple[float, float, float]) -> tuple[float, float, float]:
+        if min(v) <= 0 or max(v) > 10_000:
+            raise ValueError("every extent must be in (0, 10000] mm")
+        return v
+
+
+class SphereOnPlaneScene(Strict):
+    kind: Literal["sphere_on_plane"]
+    radius_mm: float = Field(60.0, gt=0, le=5_000)
+    position_mm: tuple[Coord, Coord] = (0.0, 0.0)
+    plane_size_mm: float = Field(600.0, gt=0, le=10_000)
+    sphere_albedo: Albedo = 0.8
+    plane_albedo: Albedo = 0.6
+
+
+class TerrainScene(Strict):
+    kind: Literal["terrain"]
+    size_mm: float = Field(400.0, gt=0, le=10_000)
+    amplitude_mm: float = Field(40.0, ge=0, le=5_000)
+    seed: int = Field(7, ge=0, le=2**31)
+    albedo: Albedo = 0.75
+
+
+class MeshScene(Strict):
+    kind: Literal["mesh"]
+    path: Path = Field(description="PLY, OBJ or STL; relative paths are relative to the config file")
+    scale: float = Field(1.0, gt=0, le=1e6, description="mesh units to millimetres")
+    fit_size_mm: float | None = Field(
+        None, gt=0, le=10_000, description="if set, scale so the largest extent is this (overrides scale)")
+    position_mm: Vec3 = (0.0, 0.0, 0.0)
+    rotation_deg: Vec3 = (0.0, 0.0, 0.0)
+    albedo: Albedo = 0.8
+    plane: bool = Field(True, description="put the mesh on the bench plane")
+
+
+SceneConfig = Annotated[
+    PlaneScene | SphereScene | BoxScene | SphereOnPlaneScene | TerrainScene | MeshScene,
+    Field(discriminator="kind"),
+]
+SCENE_KINDS = ("plane", "sphere", "box", "sphere_on_plane", "terrain", "mesh")
+
+
+class SimulationConfig(Strict):
+    scene: SceneConfig
+    ambient: float = Field(0.02, ge=0.0, le=10.0, description="ambient irradiance, relative to white")
+    seed: int = Field(1, ge=0, le=2**31)
+
+
+class ScanConfig(Strict):
+    codec: str = "phase"
+    gray: GrayParams = GrayParams()
+    phase: PhaseParams = PhaseParams()
+    capture_timeout_s: float = Field(5.0, gt=0.0, le=120.0)
+    save_frames: bool = Field(False, description="keep raw captures in the scan directory")
+
+    @field_validator("codec")
+    @classmethod
+    def _known_codec(cls, v: str) -> str:
+        if v not in codec_names():
+            raise ValueError(f"unknown codec {v!r}; known codecs: {', '.join(codec_names())}")
+        return v
+
+
+class OutputConfig(Strict):
+    data_dir: Path = Path("scans")
+
+
+class RigConfig(Strict):
+    name: Name = "bench"
+    projectors: list[ProjectorConfig] = Field(min_length=1, max_length=16)
+    cameras: list[CameraConfig] = Field(min_length=1, max_length=16)
+    simulation: SimulationConfig | None = None
+    scan: ScanConfig = ScanConfig()
+    output: OutputConfig = OutputConfig()
+
+    @model_validator(mode="after")
+    def _consistent(self) -> RigConfig:
+        names = [d.name for d in (*self.projectors, *self.cameras)]
+        duplicates = sorted({n for n in names if names.count(n) > 1})
+        if duplicates:
+            raise ValueError(f"device names must be unique; repeated: {', '.join(duplicates)}")
+        uses_sim = any(d.driver == "sim" for d in (*self.projectors, *self.cameras))
+        if uses_sim and self.simulation is None:
+            raise ValueError("simulated devices need a 'simulation' section with a scene")
+        return self
+
+    def with_codec(self, codec: str) -> RigConfig:
+        """A copy that scans with `codec`, validated like the file."""
+        data = self.model_dump()
+        data["scan"]["codec"] = codec
+        return _validate(data, "--codec")
+
+    def with_scene(self, scene: dict[str, object], source: str = "--scene") -> RigConfig:
+        if self.simulation is None:
+            raise ConfigError(source, ["simulation: this rig has no simulated scene to replace"])
+        data = self.model_dump()
+        data["simulation"]["scene"] = scene
+        return _validate(data, source)
+
+
+def _location(loc: tuple[int | str, ...]) -> str:
+    out = ""
+    for i, item in enumerate(loc):
+        if isinstance(item, int):
+            out += f"[{item}]"
+        elif i > 0 and loc[i - 1] == "scene" and item in SCENE_KINDS:
+            continue  # the discriminator's tag adds nothing for the reader
+        else:
+            out += ("." if out else "") + str(item)
+    return out or "(top level)"
+
+
+def _validate(data: object, source: str) -> RigConfig:
+    try:
+        return RigConfig.model_validate(data)
+    except ValidationError as exc:
+        problems = [f"{_location(e['loc'])}: {e['msg']}" for e in exc.errors()]
+        raise ConfigError(source, problems) from None
+
+
+def load_config(path: str | Path | None = None) -> RigConfig:
+    """Read and validate a rig description; raises ConfigError listing every problem."""
+    path = Path(path) if path is not None else DEFAULT_CONFIG
+    source = str(path)
+    if not path.is_file():
+        raise ConfigError(source, [f"(file): no such file: {path}"])
+    try:
+        data = yaml.safe_load(path.read_text(encoding="utf-8"))
+    except yaml.YAMLError as exc:
+        raise ConfigError(source, [f"(file): not valid YAML: {exc}"]) from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise ConfigError(source, [f"(file): cannot read: {exc}"]) from None
+    if not isinstance(data, dict):
+        raise ConfigError(source, ["(top level): expected a mapping of sections"])
+    _resolve_paths(data, path.parent)
+    config = _validate(data, source)
+    _check_files(config, source)
+    return config
+
+
+def _resolve_paths(data: dict, base: Path) -> None:  # type: ignore[type-arg]
+    scene = (data.get("simulation") or {}).get("scene") if isinstance(data.get("simulation"), dict) else None
+    if isinstance(scene, dict) and isinstance(scene.get("path"), str):
+        p = Path(scene["path"]).expanduser()
+        scene["path"] = str(p if p.is_absolute() else (base / p).resolve())
+
+
+def _check_files(config: RigConfig, source: str) -> None:
+    scene = config.simulation.scene if config.simulation else None
+    if isinstance(scene, MeshScene) and not scene.path.is_file():
+        raise ConfigError(source, [f"simulation.scene.path: mesh file not found: {scene.path}"])

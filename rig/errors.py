@@ -1,0 +1,33 @@
+"""Errors of slrig itself (device faults are in drivers.errors)."""
+
+from __future__ import annotations
+
+
+class SlrigError(Exception):
+    """Base of slrig's own errors; the CLI prints their message and exits with code 2."""
+
+
+class ConfigError(SlrigError):
+    """Raised when a rig description is invalid; `problems` lists every error, each naming its
+    field (`cameras[0].resolution: ...`)."""
+
+    def __init__(self, source: str, problems: list[str]) -> None:
+        self.source = source
+        self.problems = problems
+        super().__init__(f"invalid config {source}:\n" + "\n".join(f"  {p}" for p in problems))
+
+
+class UnknownCodecError(SlrigError):
+    """Raised when a codec name is not in the registry; the message lists the known names."""
+
+
+class SceneError(SlrigError):
+    """Raised when a simulated scene cannot be built (missing or unreadable mesh file)."""
+
+
+class DecodeError(SlrigError):
+    """Raised when captured frames do not fit the codec (wrong count or shape)."""
+
+
+class ScanError(SlrigError):
+    """Raised when a scan fails; the projectors are dark when it propagates."""

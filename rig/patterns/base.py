@@ -1,0 +1,100 @@
+"""The codec contract: an encoder that makes pattern images and a decoder that turns captured
+frames into a Correspondence. Triangulation depends only on the Correspondence."""
+
+from __future__ import annotations
+
+import abc
+from dataclasses import dataclass, field
+from typing import ClassVar
+
+import cv2
+import numpy as np
+from pydantic import BaseModel, ConfigDict, Field
+
+from rig.errors import DecodeError
+
+
+class CodecParams(BaseModel):
+    """Parameters every codec has. Thresholds are fractions of the camera's full scale."""
+
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+    black_threshold: float = Field(
+        0.03, ge=0.0, le=1.0,
+        description="minimum (white - black) for a pixel to count as lit: masks shadows and background",
+    )
+
+
+@dataclass(frozen=True, eq=False)
+class Correspondence:
+    """What one camera saw of one projector, per camera pixel (arrays (H, W)).
+
+    `u`, `v`: projector column and row (pixel centres at integers), NaN where not decoded; a codec
+    that codes one direction leaves the other None. `extra` holds codec-specific coordinates
+    (ring radius, angle, index). `quality` is the codec's confidence (modulation or contrast, in
+    fractions of full scale). `texture` is the fully lit frame as captured.
+    """
+
+    valid: np.ndarray
+    quality: np.ndarray
+    texture: np.ndarray
+    u: np.ndarray | None = None
+    v: np.ndarray | None = None
+    extra: dict[str, np.ndarray] = field(default_factory=dict)
+    counts: dict[str, int] = field(default_factory=dict)
+
+
+class Codec(abc.ABC):
+    """Encoder and decoder for one pattern family.
+
+    Frame order is the pattern order; every codec starts with a fully lit and a dark frame, which
+    give the texture and the lit mask. Subclasses implement `_coded_patterns` and `_decode`.
+    """
+
+    name: ClassVar[str]
+    Params: ClassVar[type[CodecParams]] = CodecParams
+
+    def __init__(self, projector_size: tuple[int, int], params: CodecParams | None = None) -> None:
+        self.width, self.height = projector_size
+        self.params = params if params is not None else self.Params()
+        if not isinstance(self.params, self.Params):
+            raise TypeError(f"{self.name} codec takes {self.Params.__name__}, got {type(self.params).__name__}")
+
+    def patterns(self) -> list[np.ndarray]:
+        """All pattern images (uint8, projector resolution) in projection order."""
+        white = np.full((self.height, self.width), 255, dtype=np.uint8)
+        black = np.zeros_like(white)
+        return [white, black, *self._coded_patterns()]
+
+    @property
+    def frame_count(self) -> int:
+        return len(self.patterns())
+
+    def decode(self, frames: list[np.ndarray], full_scale: int) -> Correspondence:
+        """Decode captured frames (one per pattern, same order) taken at `full_scale` counts."""
+        expected = self.frame_count
+        if len(frames) != expected:
+            raise DecodeError(f"{self.name}: expected {expected} frames, got {len(frames)}")
+        shapes = {f.shape[:2] for f in frames}
+        if len(shapes) != 1:
+            raise DecodeError(f"{self.name}: frames differ in size: {sorted(shapes)}")
+        texture = frames[0]
+        scale = np.float32(1.0 / full_scale)
+        gray = [self._luminance(f) * scale for f in frames]
+        white, black = gray[0], gray[1]
+        lit = (white - black) >= self.params.black_threshold
+        return self._decode(gray[2:], white, black, lit, texture)
+
+    @staticmethod
+    def _luminance(frame: np.ndarray) -> np.ndarray:
+        if frame.ndim == 3:
+            frame = cv2.cvtColor(frame, cv2.COLOR_BGR2GRAY)
+        return frame.astype(np.float32)
+
+    @abc.abstractmethod
+    def _coded_patterns(self) -> list[np.ndarray]: ...
+
+    @abc.abstractmethod
+    def _decode(self, frames: list[np.ndarray], white: np.ndarray, black: np.ndarray, lit: np.ndarray,
+                texture: np.ndarray) -> Correspondence:
+        """`frames` are the coded frames as float32 in [0, 1]."""

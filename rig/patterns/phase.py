@@ -1,0 +1,110 @@
+"""`phase`: N-step phase shift, unwrapped by a complementary Gray code.
+
+Pattern n for projector coordinate x (pixel centres at integers) is
+    0.5 + 0.5 cos(2 pi x / P - 2 pi n / N)
+so phi = atan2(sum I_n sin d_n, sum I_n cos d_n) = 2 pi x / P (mod 2 pi).
+
+Unwrapping: a Gray code of the half-period index h = floor(x / (P / 2)) (one bit more than the
+period index) gives two period estimates, k1 = h >> 1 with edges at period edges and
+k2 = (h + 1) >> 1 with edges at mid-periods. Near a wrap of the phase (phi < pi/2 or > 3pi/2) k2
+is used, away from it k1: neither is read near its own edges, so a one-pixel disagreement between
+the Gray edges and the phase wrap never makes a 2 pi jump.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from pydantic import Field
+
+from rig.patterns.base import Codec, CodecParams, Correspondence
+from rig.patterns.gray import Directions, _axes
+from rig.patterns.graycode import bit_count, decode_gray, gray_planes, planes_with_inverses
+from rig.patterns.registry import register
+
+
+class PhaseParams(CodecParams):
+    directions: Directions = Field("columns", description="which projector coordinates to code")
+    steps: int = Field(8, ge=3, le=64, description="phase steps N per period")
+    period_px: int = Field(16, ge=4, le=4096, description="fringe period P in projector pixels (even)")
+    min_modulation: float = Field(
+        0.02, ge=0.0, le=1.0, description="minimum fringe amplitude B (fraction of full scale)",
+    )
+    white_threshold: float = Field(
+        0.02, ge=0.0, le=1.0, description="minimum |pattern - inverse| for the unwrapping Gray code",
+    )
+
+
+@register
+class PhaseCodec(Codec):
+    name = "phase"
+    Params = PhaseParams
+    params: PhaseParams
+
+    def __init__(self, projector_size: tuple[int, int], params: PhaseParams | None = None) -> None:
+        super().__init__(projector_size, params)
+        if self.params.period_px % 2:
+            raise ValueError(f"phase: period_px must be even, got {self.params.period_px}")
+
+    def _extent(self, axis: str) -> int:
+        return self.width if axis == "u" else self.height
+
+    def _gray_bits(self, axis: str) -> int:
+        halves = math.ceil(self._extent(axis) / (self.params.period_px // 2))
+        return bit_count(halves)
+
+    def _stretch(self, line: np.ndarray, axis: str) -> np.ndarray:
+        if axis == "u":
+            return np.ascontiguousarray(np.broadcast_to(line, (self.height, self.width)))
+        return np.ascontiguousarray(np.broadcast_to(line[:, None], (self.height, self.width)))
+
+    def _coded_patterns(self) -> list[np.ndarray]:
+        n_steps, period = self.params.steps, self.params.period_px
+        out: list[np.ndarray] = []
+        for axis in _axes(self.params.directions):
+            x = np.arange(self._extent(axis))
+            for n in range(n_steps):
+                value = 0.5 + 0.5 * np.cos(2 * np.pi * x / period - 2 * np.pi * n / n_steps)
+                out.append(self._stretch(np.rint(value * 255).astype(np.uint8), axis))
+            half_index = x // (period // 2)
+            for img in planes_with_inverses(gray_planes(half_index, self._gray_bits(axis))):
+                out.append(self._stretch(img, axis))
+        return out
+
+    def _decode(self, frames, white, black, lit, texture) -> Correspondence:  # type: ignore[no-untyped-def]
+        n_steps, period = self.params.steps, self.params.period_px
+        delta = 2 * np.pi * np.arange(n_steps) / n_steps
+        sin_d, cos_d = np.sin(delta).astype(np.float32), np.cos(delta).astype(np.float32)
+        valid = lit.copy()
+        quality = np.full(lit.shape, np.inf, dtype=np.float32)
+        coords: dict[str, np.ndarray] = {}
+        counts = {"lit": int(lit.sum())}
+        offset = 0
+        for axis in _axes(self.params.directions):
+            s = np.zeros(lit.shape, dtype=np.float32)
+            c = np.zeros(lit.shape, dtype=np.float32)
+            for n in range(n_steps):
+                s += frames[offset + n] * sin_d[n]
+                c += frames[offset + n] * cos_d[n]
+            offset += n_steps
+            modulation = (2.0 / n_steps) * np.sqrt(s * s + c * c)
+            phi = np.mod(np.arctan2(s, c), 2 * np.pi)
+            bits = self._gray_bits(axis)
+            half, strength = decode_gray(frames[offset : offset + 2 * bits], bits)
+            offset += 2 * bits
+            k1 = half >> 1
+            k2 = (half + 1) >> 1
+            k = np.where(phi < np.pi / 2, k2, np.where(phi > 1.5 * np.pi, k2 - 1, k1))
+            x = (k + phi / (2 * np.pi)) * period
+            ok = (modulation >= self.params.min_modulation) & (strength >= self.params.white_threshold)
+            ok &= (x > -0.5) & (x < self._extent(axis) - 0.5)
+            counts[f"low_modulation_{axis}"] = int((lit & (modulation < self.params.min_modulation)).sum())
+            valid &= ok
+            quality = np.minimum(quality, modulation)
+            coords[axis] = x.astype(np.float32)
+        for axis in coords:
+            coords[axis][~valid] = np.nan
+        counts["decoded"] = int(valid.sum())
+        return Correspondence(valid=valid, quality=quality, texture=texture, u=coords.get("u"),
+                              v=coords.get("v"), counts=counts)

@@ -1,0 +1,38 @@
+"""PointSet: the points of a scan with their attributes."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+
+@dataclass(frozen=True, eq=False)
+class PointSet:
+    """N points in the world frame (mm) with unit normals, colour, quality and provenance.
+
+    `source` is the (projector, camera) pair index, `pixel` the flat camera pixel index the point
+    came from (row * width + column) or -1.
+    """
+
+    points: np.ndarray  # (N, 3) float64
+    normals: np.ndarray  # (N, 3) float32
+    colors: np.ndarray  # (N, 3) uint8 RGB
+    quality: np.ndarray  # (N,) float32
+    source: np.ndarray  # (N,) uint8
+    pixel: np.ndarray  # (N,) int64
+
+    def __len__(self) -> int:
+        return len(self.points)
+
+    @staticmethod
+    def empty() -> PointSet:
+        return PointSet(np.zeros((0, 3)), np.zeros((0, 3), np.float32), np.zeros((0, 3), np.uint8),
+                        np.zeros(0, np.float32), np.zeros(0, np.uint8), np.zeros(0, np.int64))
+
+    @staticmethod
+    def concatenate(sets: list[PointSet]) -> PointSet:
+        if not sets:
+            return PointSet.empty()
+        return PointSet(*(np.concatenate([getattr(s, f) for s in sets]) for f in
+                          ("points", "normals", "colors", "quality", "source", "pixel")))

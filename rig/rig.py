@@ -1,0 +1,138 @@
+"""A Rig: the opened devices of a RigConfig with their geometry."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from drivers.base import Camera, Projector
+from drivers.sim import SimBench, SimCamera, SimCameraParams, SimProjector, SimProjectorParams
+from drivers.sim import scene as sim_scene
+from rig.config import (
+    BoxScene,
+    CameraConfig,
+    Geometry,
+    MeshScene,
+    PlaneScene,
+    ProjectorConfig,
+    RigConfig,
+    SimulationConfig,
+    SphereOnPlaneScene,
+    SphereScene,
+    TerrainScene,
+)
+from rig.errors import SceneError
+from rig.geometry import CameraModel, look_at_rotation
+
+
+def geometry_model(geometry: Geometry, resolution: tuple[int, int]) -> CameraModel:
+    """The CameraModel described by a config's geometry section."""
+    i = geometry.intrinsics
+    K = np.array([[i.fx, i.skew, i.cx], [0.0, i.fy, i.cy], [0.0, 0.0, 1.0]])
+    position = np.array(geometry.pose.position_mm, dtype=float)
+    R = look_at_rotation(position, np.array(geometry.pose.look_at_mm, float), np.array(geometry.pose.up, float))
+    return CameraModel(width=resolution[0], height=resolution[1], K=K, R=R, t=-R @ position,
+                       dist=np.array(geometry.distortion, dtype=float), projection=geometry.projection)
+
+
+def build_scene(config: SimulationConfig) -> sim_scene.Scene:
+    """The simulated scene of a config; raises SceneError for a missing or unreadable mesh."""
+    s = config.scene
+    objects: list[sim_scene.SceneObject]
+    if isinstance(s, PlaneScene):
+        objects = [sim_scene.plane(s.size_mm, s.albedo)]
+    elif isinstance(s, SphereScene):
+        objects = [sim_scene.sphere(s.radius_mm, s.center_mm, s.albedo)]
+    elif isinstance(s, SphereOnPlaneScene):
+        center = (*s.position_mm, s.radius_mm)
+        objects = [sim_scene.plane(s.plane_size_mm, s.plane_albedo),
+                   sim_scene.sphere(s.radius_mm, center, s.sphere_albedo)]
+    elif isinstance(s, BoxScene):
+        box = sim_scene.box(s.extents_mm, (0.0, 0.0, s.extents_mm[2] / 2), s.rotation_deg, s.albedo)
+        objects = [sim_scene.plane(600.0, 0.6), box] if s.plane else [box]
+    elif isinstance(s, TerrainScene):
+        objects = [sim_scene.terrain(s.size_mm, s.amplitude_mm, seed=s.seed, albedo=s.albedo)]
+    elif isinstance(s, MeshScene):
+        try:
+            mesh = sim_scene.mesh_file(s.path, s.scale, s.position_mm, s.rotation_deg, s.albedo,
+                                       fit_size_mm=s.fit_size_mm)
+        except (FileNotFoundError, ValueError) as exc:
+            raise SceneError(f"simulation.scene.path: {exc}") from None
+        objects = [sim_scene.plane(600.0, 0.6), mesh] if s.plane else [mesh]
+    else:  # pragma: no cover - the config union is exhaustive
+        raise SceneError(f"unsupported scene kind {s.kind!r}")
+    return sim_scene.build_scene(objects)
+
+
+@dataclass(eq=False)
+class Rig:
+    """Opened devices and their geometry; close() darkens projectors and closes everything."""
+
+    config: RigConfig
+    projectors: list[Projector]
+    cameras: list[Camera]
+    projector_models: list[CameraModel]
+    camera_models: list[CameraModel]
+    sim: SimBench | None = None
+    _closed: bool = field(default=False, repr=False)
+
+    def all_dark(self) -> None:
+        for projector in self.projectors:
+            try:
+                projector.dark()
+            except Exception:  # noqa: BLE001 - darkening the others matters more than this error
+                pass
+
+    def close(self) -> None:
+        if self._closed:
+            return
+        self._closed = True
+        self.all_dark()
+        for device in (*self.projectors, *self.cameras):
+            try:
+                device.close()
+            except Exception:  # noqa: BLE001 - close every device even if one fails
+                pass
+
+    def __enter__(self) -> Rig:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+
+def _sim_projector_params(p: ProjectorConfig) -> SimProjectorParams:
+    return SimProjectorParams(gamma=p.sim.gamma, brightness=p.sim.brightness,
+                              black_level=p.sim.black_level, blur_px=p.sim.blur_px)
+
+
+def _sim_camera_params(c: CameraConfig) -> SimCameraParams:
+    return SimCameraParams(exposure_us=c.exposure_us, gain=c.gain,
+                           full_scale_exposure_us=c.sim.full_scale_exposure_us,
+                           full_well_e=c.sim.full_well_e, read_noise_e=c.sim.read_noise_e,
+                           gamma=c.sim.gamma, blur_px=c.sim.blur_px, bit_depth=c.bit_depth,
+                           frame_period_s=c.sim.frame_period_s)
+
+
+def open_rig(config: RigConfig) -> Rig:
+    """Open every device of `config` (today: the simulated bench)."""
+    projector_models = [geometry_model(p.geometry, p.resolution) for p in config.projectors]
+    camera_models = [geometry_model(c.geometry, c.resolution) for c in config.cameras]
+    assert config.simulation is not None  # validated: simulated devices need a scene
+    bench = SimBench(
+        build_scene(config.simulation), camera_models, projector_models,
+        camera_params=[_sim_camera_params(c) for c in config.cameras],
+        projector_params=[_sim_projector_params(p) for p in config.projectors],
+        ambient=config.simulation.ambient, seed=config.simulation.seed,
+    )
+    projectors: list[Projector] = [SimProjector(p.name, bench, i) for i, p in enumerate(config.projectors)]
+    cameras: list[Camera] = [SimCamera(c.name, bench, i) for i, c in enumerate(config.cameras)]
+    rig = Rig(config, projectors, cameras, projector_models, camera_models, sim=bench)
+    try:
+        for device in (*projectors, *cameras):
+            device.open()
+    except Exception:
+        rig.close()
+        raise
+    return rig

@@ -1,0 +1,120 @@
+"""One scan: show every pattern, capture every camera, decode, triangulate, merge."""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from drivers.errors import DeviceError
+from rig.errors import ScanError
+from rig.patterns import Codec, Correspondence, codec_class
+from rig.pointset import PointSet
+from rig.progress import ProgressCallback, ProgressTracker
+from rig.reconstruct import pair_pointset
+from rig.rig import Rig
+
+
+@dataclass(eq=False)
+class PairResult:
+    """What one (projector, camera) pair produced."""
+
+    projector: int
+    camera: int
+    correspondence: Correspondence
+    grid: np.ndarray  # (H, W, 3) organised points, NaN where none
+    points: PointSet
+
+
+@dataclass(eq=False)
+class ScanResult:
+    codec: str
+    codec_params: dict[str, object]
+    pairs: list[PairResult]
+    cloud: PointSet
+    frames_projected: int
+    bytes_captured: int
+    timings_ms: dict[str, float] = field(default_factory=dict)
+    frames: dict[tuple[int, int], list[np.ndarray]] = field(default_factory=dict)
+
+
+def make_codec(rig: Rig, projector: int, name: str | None = None) -> Codec:
+    name = name or rig.config.scan.codec
+    cls = codec_class(name)
+    params = getattr(rig.config.scan, name, None)
+    return cls(rig.projectors[projector].resolution, params)
+
+
+def capture(rig: Rig, codecs: list[Codec], tracker: ProgressTracker) -> dict[tuple[int, int], list[np.ndarray]]:
+    """Frames per (projector, camera); every projector is dark while another one projects.
+
+    Any device fault darkens every projector and raises ScanError.
+    """
+    timeout = rig.config.scan.capture_timeout_s
+    total = sum(c.frame_count for c in codecs)
+    done = 0
+    frames: dict[tuple[int, int], list[np.ndarray]] = {}
+    try:
+        rig.all_dark()
+        for p, (projector, codec) in enumerate(zip(rig.projectors, codecs, strict=True)):
+            for c in range(len(rig.cameras)):
+                frames[(p, c)] = []
+            last_sequence = [-1] * len(rig.cameras)
+            for pattern in codec.patterns():
+                projector.show(pattern)
+                for c, camera in enumerate(rig.cameras):
+                    frame = camera.capture(timeout_s=timeout)
+                    if frame.sequence <= last_sequence[c]:
+                        raise ScanError(f"{camera.name}: stale frame (sequence {frame.sequence})")
+                    last_sequence[c] = frame.sequence
+                    frames[(p, c)].append(frame.image)
+                done += 1
+                tracker.report("capture", 0.6 * done / total)
+            projector.dark()
+    except DeviceError as exc:
+        rig.all_dark()
+        raise ScanError(f"capture failed: {exc}") from exc
+    except BaseException:
+        rig.all_dark()
+        raise
+    return frames
+
+
+def run_scan(rig: Rig, codec_name: str | None = None, progress: ProgressCallback | None = None,
+             keep_frames: bool = False) -> ScanResult:
+    tracker = ProgressTracker(progress)
+    name = codec_name or rig.config.scan.codec
+    codecs = [make_codec(rig, p, name) for p in range(len(rig.projectors))]
+    timings: dict[str, float] = {}
+    t0 = time.perf_counter()
+    frames = capture(rig, codecs, tracker)
+    timings["capture_ms"] = (time.perf_counter() - t0) * 1e3
+    pairs: list[PairResult] = []
+    decode_s = triangulate_s = 0.0
+    n_pairs = len(frames)
+    for i, ((p, c), images) in enumerate(sorted(frames.items())):
+        t = time.perf_counter()
+        full_scale = (1 << rig.config.cameras[c].bit_depth) - 1
+        corr = codecs[p].decode(images, full_scale)
+        decode_s += time.perf_counter() - t
+        tracker.report("decode", 0.6 + 0.3 * (i + 0.5) / n_pairs)
+        t = time.perf_counter()
+        points, grid = pair_pointset(rig.camera_models[c], rig.projector_models[p], corr, source=i)
+        triangulate_s += time.perf_counter() - t
+        pairs.append(PairResult(p, c, corr, grid, points))
+        tracker.report("triangulate", 0.6 + 0.3 * (i + 1) / n_pairs)
+    timings["decode_ms"] = decode_s * 1e3
+    timings["triangulate_ms"] = triangulate_s * 1e3
+    cloud = PointSet.concatenate([pair.points for pair in pairs])
+    bytes_captured = sum(img.nbytes for images in frames.values() for img in images)
+    return ScanResult(
+        codec=name,
+        codec_params=codecs[0].params.model_dump(),
+        pairs=pairs,
+        cloud=cloud,
+        frames_projected=sum(c.frame_count for c in codecs),
+        bytes_captured=bytes_captured,
+        timings_ms=timings,
+        frames=frames if keep_frames else {},
+    )
