@@ -64,8 +64,7 @@ def main() -> None:
         from trimesh.ray.ray_pyembree import RayMeshIntersector
 
         def trimesh_embree() -> None:
-            RayMeshIntersector(mesh).intersects_id(origins, dirs, multiple_hits=False,
-                                                   return_locations=True)
+            RayMeshIntersector(mesh).intersects_id(origins, dirs, multiple_hits=False, return_locations=True)
 
         first, best = _time(trimesh_embree)
         out["trimesh_embreex_s"] = {"first": round(first, 3), "best": round(best, 3)}
@@ -76,14 +75,15 @@ def main() -> None:
 
         def open3d_cast() -> None:
             scene = o3d.t.geometry.RaycastingScene()
-            scene.add_triangles(o3d.core.Tensor(mesh.vertices.astype(np.float32)),
-                                o3d.core.Tensor(mesh.faces.astype(np.uint32)))
+            scene.add_triangles(
+                o3d.core.Tensor(mesh.vertices.astype(np.float32)), o3d.core.Tensor(mesh.faces.astype(np.uint32))
+            )
             rays = o3d.core.Tensor(np.hstack([origins, dirs]).astype(np.float32))
             scene.cast_rays(rays)
 
         first, best = _time(open3d_cast)
         out["open3d_s"] = {"first": round(first, 3), "best": round(best, 3)}
-    except Exception as exc:  # noqa: BLE001 - any import failure means "not available"
+    except Exception as exc:
         out["open3d_s"] = f"unavailable: {exc}"
     print(json.dumps(out))
 

@@ -7,6 +7,7 @@ fault) and call the `_do_*` methods that each driver implements.
 from __future__ import annotations
 
 import abc
+import contextlib
 import enum
 import time
 from dataclasses import dataclass, field
@@ -102,8 +103,7 @@ class Projector(Device):
         width, height = self.resolution
         if pattern.shape != (height, width) or pattern.dtype != np.uint8:
             raise ValueError(
-                f"{self.name}: pattern must be uint8 of shape {(height, width)}, "
-                f"got {pattern.dtype} {pattern.shape}"
+                f"{self.name}: pattern must be uint8 of shape {(height, width)}, got {pattern.dtype} {pattern.shape}"
             )
         self._guarded(self._do_show, pattern)
 
@@ -117,10 +117,8 @@ class Projector(Device):
         try:
             action(*args)
         except Exception:
-            try:
+            with contextlib.suppress(Exception):  # the first fault is the one to report
                 self._do_dark()
-            except Exception:  # noqa: BLE001 - the first fault is the one to report
-                pass
             raise
 
     @abc.abstractmethod

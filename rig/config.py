@@ -63,7 +63,8 @@ class Geometry(Strict):
 
     intrinsics: Intrinsics
     distortion: list[Annotated[float, Field(ge=-10.0, le=10.0)]] = Field(
-        default_factory=list, max_length=5, description="k1, k2, p1, p2, k3")
+        default_factory=list, max_length=5, description="k1, k2, p1, p2, k3"
+    )
     pose: Pose
     projection: Literal["pinhole", "orthographic"] = "pinhole"
 
@@ -153,7 +154,8 @@ class MeshScene(Strict):
     path: Path = Field(description="PLY, OBJ or STL; relative paths are relative to the config file")
     scale: float = Field(1.0, gt=0, le=1e6, description="mesh units to millimetres")
     fit_size_mm: float | None = Field(
-        None, gt=0, le=10_000, description="if set, scale so the largest extent is this (overrides scale)")
+        None, gt=0, le=10_000, description="if set, scale so the largest extent is this (overrides scale)"
+    )
     position_mm: Vec3 = (0.0, 0.0, 0.0)
     rotation_deg: Vec3 = (0.0, 0.0, 0.0)
     albedo: Albedo = 0.8

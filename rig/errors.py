@@ -31,3 +31,7 @@ class DecodeError(SlrigError):
 
 class ScanError(SlrigError):
     """Raised when a scan fails; the projectors are dark when it propagates."""
+
+
+class StoreError(SlrigError):
+    """Raised when a scan cannot be stored: the target exists already, or the disk refuses."""

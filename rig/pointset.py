@@ -27,12 +27,22 @@ class PointSet:
 
     @staticmethod
     def empty() -> PointSet:
-        return PointSet(np.zeros((0, 3)), np.zeros((0, 3), np.float32), np.zeros((0, 3), np.uint8),
-                        np.zeros(0, np.float32), np.zeros(0, np.uint8), np.zeros(0, np.int64))
+        return PointSet(
+            np.zeros((0, 3)),
+            np.zeros((0, 3), np.float32),
+            np.zeros((0, 3), np.uint8),
+            np.zeros(0, np.float32),
+            np.zeros(0, np.uint8),
+            np.zeros(0, np.int64),
+        )
 
     @staticmethod
     def concatenate(sets: list[PointSet]) -> PointSet:
         if not sets:
             return PointSet.empty()
-        return PointSet(*(np.concatenate([getattr(s, f) for s in sets]) for f in
-                          ("points", "normals", "colors", "quality", "source", "pixel")))
+        return PointSet(
+            *(
+                np.concatenate([getattr(s, f) for s in sets])
+                for f in ("points", "normals", "colors", "quality", "source", "pixel")
+            )
+        )

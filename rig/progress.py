@@ -44,7 +44,7 @@ class TerminalBar:
         self._width = width
 
     def __call__(self, event: ProgressEvent) -> None:
-        filled = int(round(event.fraction * self._width))
+        filled = round(event.fraction * self._width)
         eta = f" ~{event.remaining_s:.0f}s left" if event.remaining_s is not None else ""
         line = f"\r[{'#' * filled}{'.' * (self._width - filled)}] {event.fraction * 100:5.1f}% {event.stage:<11}{eta}"
         self._stream.write(line.ljust(72))

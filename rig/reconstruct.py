@@ -5,93 +5,148 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
-from rig.geometry import CameraModel, ray_plane, ray_ray_midpoint
+from rig.geometry import CameraModel, ray_ray_midpoint
 from rig.patterns import Correspondence
 from rig.pointset import PointSet
 
 _DISTORTION_ITERATIONS = 3
 
 
-def triangulate(camera: CameraModel, projector: CameraModel, corr: Correspondence) -> tuple[np.ndarray, np.ndarray]:
-    """World points per camera pixel (H, W, 3), NaN where invalid, and the validity mask.
+class PairTriangulator:
+    """Triangulation for one (camera, projector) pair, with per-pixel terms computed once.
 
     Both projector coordinates decoded: ray-ray (closest approach). One: the camera ray meets the
-    plane of that projector column (or row); with projector distortion the plane is refined from
-    the other coordinate of the current estimate, a few fixed-point steps.
+    plane of that projector column (or row). That plane is affine in the normalized projector
+    coordinate x: normal a + x b, offset c0 + x c1, so with the dot products of a and b with every
+    camera ray precomputed, a scan costs a few element-wise operations per pixel. With projector
+    distortion the plane is refined from the other coordinate of the current estimate, a few
+    fixed-point steps.
     """
-    shape = (camera.height, camera.width)
-    valid = corr.valid.ravel().copy()
-    idx = np.flatnonzero(valid)
-    origins, directions = camera.pixel_rays
-    o, d = origins[idx], directions[idx]
-    u = corr.u.ravel()[idx].astype(np.float64) if corr.u is not None else None
-    v = corr.v.ravel()[idx].astype(np.float64) if corr.v is not None else None
-    if u is not None and v is not None:
-        po, pd = projector.rays(np.column_stack([u, v]))
-        points, _, ok = ray_ray_midpoint(o, d, po, pd)
-    elif u is not None or v is not None:
-        points, ok = _ray_coordinate_plane(o, d, projector, u, v)
-    else:
-        raise ValueError("correspondence codes neither projector columns nor rows")
-    out = np.full((len(valid), 3), np.nan)
-    out[idx[ok]] = points[ok]
-    valid[idx[~ok]] = False
-    return out.reshape(*shape, 3), valid.reshape(shape)
 
+    def __init__(self, camera: CameraModel, projector: CameraModel) -> None:
+        self.camera = camera
+        self.projector = projector
+        self._terms: dict[str, tuple[np.ndarray, ...]] = {}
 
-def _ray_coordinate_plane(o: np.ndarray, d: np.ndarray, projector: CameraModel, u: np.ndarray | None,
-                          v: np.ndarray | None) -> tuple[np.ndarray, np.ndarray]:
-    coded = u if u is not None else v
-    assert coded is not None
-    other = np.full(len(coded), projector.K[1, 2] if u is not None else projector.K[0, 2])
-    iterations = _DISTORTION_ITERATIONS if projector.has_distortion else 1
-    points, ok = o, np.zeros(len(coded), dtype=bool)
-    for _ in range(iterations):
-        uv = np.column_stack([coded, other]) if u is not None else np.column_stack([other, coded])
-        xy = projector.normalized(uv)
-        if u is not None:
-            normals, offsets = projector.plane_through_column(xy[:, 0])
-        else:
-            normals, offsets = projector.plane_through_row(xy[:, 1])
-        points, ok = ray_plane(o, d, normals, offsets)
-        if iterations > 1:
+    def _plane_terms(self, axis: str) -> tuple[np.ndarray, ...]:
+        if axis not in self._terms:
+            make = self.projector.plane_through_column if axis == "u" else self.projector.plane_through_row
+            n0, c0 = make(np.zeros(1))
+            n1, c1 = make(np.ones(1))
+            a, b = n0[0], n1[0] - n0[0]
+            origins, directions = self.camera.pixel_rays
+            self._terms[axis] = (
+                directions @ a,
+                directions @ b,
+                origins @ a,
+                origins @ b,
+                np.float64(c0[0]),
+                np.float64(c1[0] - c0[0]),
+            )
+        return self._terms[axis]
+
+    def triangulate(self, corr: Correspondence) -> tuple[np.ndarray, np.ndarray]:
+        """World points per camera pixel (H, W, 3), NaN where invalid, and the validity mask."""
+        camera = self.camera
+        shape = (camera.height, camera.width)
+        if corr.u is None and corr.v is None:
+            raise ValueError("correspondence codes neither projector columns nor rows")
+        if corr.u is not None and corr.v is not None:
+            return self._ray_ray(corr, shape)
+        axis = "u" if corr.u is not None else "v"
+        coded = corr.u if corr.u is not None else corr.v
+        assert coded is not None
+        if self.projector.has_distortion or (axis == "u" and self.projector.K[0, 1] != 0):
+            return self._ray_plane_iterative(corr, axis, coded, shape)
+        # Fast path: whole-grid arithmetic, invalid pixels are NaN throughout.
+        x = self._normalized_linear(np.where(corr.valid, coded, np.nan).ravel().astype(np.float64), axis)
+        nd_a, nd_b, no_a, no_b, c0, c1 = self._plane_terms(axis)
+        denom = nd_a + x * nd_b
+        ok = np.abs(denom) >= 1e-3 * np.sqrt(1 + x * x)
+        s = (c0 + x * c1 - no_a - x * no_b) / denom
+        ok &= s > 0
+        s[~ok] = np.nan
+        origins, directions = camera.pixel_rays
+        points = origins + s[:, None] * directions
+        return points.reshape(*shape, 3), ok.reshape(shape)
+
+    def _ray_ray(self, corr: Correspondence, shape: tuple[int, int]) -> tuple[np.ndarray, np.ndarray]:
+        assert corr.u is not None and corr.v is not None
+        idx = np.flatnonzero(corr.valid.ravel())
+        uv = np.column_stack([corr.u.ravel()[idx], corr.v.ravel()[idx]]).astype(np.float64)
+        po, pd = self.projector.rays(uv)
+        origins, directions = self.camera.pixel_rays
+        points, _, ok = ray_ray_midpoint(origins[idx], directions[idx], po, pd)
+        return self._scatter(idx, points, ok, shape)
+
+    def _ray_plane_iterative(
+        self, corr: Correspondence, axis: str, coded_grid: np.ndarray, shape: tuple[int, int]
+    ) -> tuple[np.ndarray, np.ndarray]:
+        projector = self.projector
+        idx = np.flatnonzero(corr.valid.ravel())
+        coded = coded_grid.ravel()[idx].astype(np.float64)
+        nd_a, nd_b, no_a, no_b, c0, c1 = (t[idx] if np.ndim(t) else t for t in self._plane_terms(axis))
+        origins, directions = self.camera.pixel_rays
+        o, d = origins[idx], directions[idx]
+        other = np.full(len(coded), projector.K[1, 2] if axis == "u" else projector.K[0, 2])
+        points, ok = o, np.zeros(len(coded), dtype=bool)
+        for _ in range(_DISTORTION_ITERATIONS):
+            uv = np.column_stack([coded, other] if axis == "u" else [other, coded])
+            x = projector.normalized(uv)[:, 0 if axis == "u" else 1]
+            denom = nd_a + x * nd_b
+            ok = np.abs(denom) >= 1e-3 * np.sqrt(1 + x * x)
+            s = (c0 + x * c1 - no_a - x * no_b) / np.where(ok, denom, 1.0)
+            ok &= s > 0
+            points = o + s[:, None] * d
             puv, _ = projector.project(points)
-            other = np.where(ok, puv[:, 1] if u is not None else puv[:, 0], other)
-    return points, ok
+            other = np.where(ok, puv[:, 1] if axis == "u" else puv[:, 0], other)
+        return self._scatter(idx, points, ok, shape)
+
+    @staticmethod
+    def _scatter(
+        idx: np.ndarray, points: np.ndarray, ok: np.ndarray, shape: tuple[int, int]
+    ) -> tuple[np.ndarray, np.ndarray]:
+        out = np.full((shape[0] * shape[1], 3), np.nan)
+        out[idx[ok]] = points[ok]
+        valid = np.zeros(shape[0] * shape[1], dtype=bool)
+        valid[idx[ok]] = True
+        return out.reshape(*shape, 3), valid.reshape(shape)
+
+    def _normalized_linear(self, coded: np.ndarray, axis: str) -> np.ndarray:
+        K = self.projector.K
+        if axis == "u":
+            return (coded - K[0, 2]) / K[0, 0]
+        return (coded - K[1, 2]) / K[1, 1]
 
 
-def grid_normals(points: np.ndarray, camera_center: np.ndarray, step: int = 2) -> np.ndarray:
-    """Unit normals of an organised point grid (H, W, 3) from neighbours `step` pixels away,
-    oriented toward the camera; NaN where a neighbour is missing."""
-    p = points
-    du = np.full_like(p, np.nan)
-    dv = np.full_like(p, np.nan)
-    du[:, step:-step] = p[:, 2 * step:] - p[:, : -2 * step]
-    dv[step:-step] = p[2 * step:] - p[: -2 * step]
-    n = np.cross(du, dv)
-    norm = np.linalg.norm(n, axis=2, keepdims=True)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        n = n / norm
-    flip = np.einsum("ijk,ijk->ij", n, camera_center - p) < 0
-    n[flip] *= -1
-    return n
+def triangulate(camera: CameraModel, projector: CameraModel, corr: Correspondence) -> tuple[np.ndarray, np.ndarray]:
+    """One-off triangulation (see PairTriangulator for repeated scans)."""
+    return PairTriangulator(camera, projector).triangulate(corr)
 
 
-def fill_missing_normals(normals: np.ndarray, points: np.ndarray, camera_center: np.ndarray) -> np.ndarray:
-    """Where a grid normal is missing (edges of valid regions) use the direction to the camera."""
-    missing = ~np.isfinite(normals).all(axis=2) & np.isfinite(points).all(axis=2)
-    out = normals.copy()
-    to_cam = camera_center - points[missing]
-    out[missing] = to_cam / np.linalg.norm(to_cam, axis=1, keepdims=True)
-    return out
+def grid_normals(points: np.ndarray, toward: np.ndarray, step: int = 2) -> np.ndarray:
+    """Unit normals (float32) of an organised point grid (H, W, 3) from neighbours `step` pixels
+    away, oriented against `toward` (H, W, 3: the camera ray directions). Where a neighbour is
+    missing the normal faces the camera (-toward)."""
+    p = points.astype(np.float32)
+    h, w = p.shape[:2]
+    n = np.full_like(p, np.nan)
+    core = (slice(step, h - step), slice(step, w - step))
+    du = p[step:-step, 2 * step :] - p[step:-step, : -2 * step]
+    dv = p[2 * step :, step:-step] - p[: -2 * step, step:-step]
+    n[core] = np.cross(du, dv)
+    norm = np.sqrt(np.einsum("ijk,ijk->ij", n, n))
+    facing = np.einsum("ijk,ijk->ij", n, toward)
+    n *= (np.where(facing > 0, -1.0, 1.0).astype(np.float32) / norm)[..., None]
+    return np.where(np.isfinite(norm)[..., None], n, -toward)
 
 
-def pair_pointset(camera: CameraModel, projector: CameraModel, corr: Correspondence, source: int) -> tuple[
-        PointSet, np.ndarray]:
-    """Triangulate one pair into a PointSet (normals, colours from the lit frame) and return it with
-    the organised (H, W, 3) point grid."""
-    grid, valid = triangulate(camera, projector, corr)
-    normals = fill_missing_normals(grid_normals(grid, camera.center), grid, camera.center)
+def pair_pointset(
+    grid: np.ndarray, valid: np.ndarray, camera: CameraModel, corr: Correspondence, source: int
+) -> PointSet:
+    """The PointSet of one pair's organised points (normals, colours from the lit frame)."""
+    directions = camera.pixel_rays[1].reshape(camera.height, camera.width, 3).astype(np.float32)
+    normals = grid_normals(grid, directions)
     idx = np.flatnonzero(valid.ravel())
     texture = corr.texture
     if texture.ndim == 2:
@@ -100,13 +155,13 @@ def pair_pointset(camera: CameraModel, projector: CameraModel, corr: Corresponde
         rgb = cv2.cvtColor(_to_uint8(texture), cv2.COLOR_BGR2RGB)
     points = PointSet(
         points=grid.reshape(-1, 3)[idx],
-        normals=normals.reshape(-1, 3)[idx].astype(np.float32),
+        normals=normals.reshape(-1, 3)[idx],
         colors=rgb.reshape(-1, 3)[idx],
         quality=corr.quality.ravel()[idx].astype(np.float32),
         source=np.full(len(idx), source, dtype=np.uint8),
         pixel=idx.astype(np.int64),
     )
-    return points, grid
+    return points
 
 
 def _to_uint8(image: np.ndarray) -> np.ndarray:

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import contextlib
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -24,6 +25,7 @@ from rig.config import (
 )
 from rig.errors import SceneError
 from rig.geometry import CameraModel, look_at_rotation
+from rig.reconstruct import PairTriangulator
 
 
 def geometry_model(geometry: Geometry, resolution: tuple[int, int]) -> CameraModel:
@@ -32,8 +34,15 @@ def geometry_model(geometry: Geometry, resolution: tuple[int, int]) -> CameraMod
     K = np.array([[i.fx, i.skew, i.cx], [0.0, i.fy, i.cy], [0.0, 0.0, 1.0]])
     position = np.array(geometry.pose.position_mm, dtype=float)
     R = look_at_rotation(position, np.array(geometry.pose.look_at_mm, float), np.array(geometry.pose.up, float))
-    return CameraModel(width=resolution[0], height=resolution[1], K=K, R=R, t=-R @ position,
-                       dist=np.array(geometry.distortion, dtype=float), projection=geometry.projection)
+    return CameraModel(
+        width=resolution[0],
+        height=resolution[1],
+        K=K,
+        R=R,
+        t=-R @ position,
+        dist=np.array(geometry.distortion, dtype=float),
+        projection=geometry.projection,
+    )
 
 
 def build_scene(config: SimulationConfig) -> sim_scene.Scene:
@@ -46,8 +55,10 @@ def build_scene(config: SimulationConfig) -> sim_scene.Scene:
         objects = [sim_scene.sphere(s.radius_mm, s.center_mm, s.albedo)]
     elif isinstance(s, SphereOnPlaneScene):
         center = (*s.position_mm, s.radius_mm)
-        objects = [sim_scene.plane(s.plane_size_mm, s.plane_albedo),
-                   sim_scene.sphere(s.radius_mm, center, s.sphere_albedo)]
+        objects = [
+            sim_scene.plane(s.plane_size_mm, s.plane_albedo),
+            sim_scene.sphere(s.radius_mm, center, s.sphere_albedo),
+        ]
     elif isinstance(s, BoxScene):
         box = sim_scene.box(s.extents_mm, (0.0, 0.0, s.extents_mm[2] / 2), s.rotation_deg, s.albedo)
         objects = [sim_scene.plane(600.0, 0.6), box] if s.plane else [box]
@@ -55,8 +66,9 @@ def build_scene(config: SimulationConfig) -> sim_scene.Scene:
         objects = [sim_scene.terrain(s.size_mm, s.amplitude_mm, seed=s.seed, albedo=s.albedo)]
     elif isinstance(s, MeshScene):
         try:
-            mesh = sim_scene.mesh_file(s.path, s.scale, s.position_mm, s.rotation_deg, s.albedo,
-                                       fit_size_mm=s.fit_size_mm)
+            mesh = sim_scene.mesh_file(
+                s.path, s.scale, s.position_mm, s.rotation_deg, s.albedo, fit_size_mm=s.fit_size_mm
+            )
         except (FileNotFoundError, ValueError) as exc:
             raise SceneError(f"simulation.scene.path: {exc}") from None
         objects = [sim_scene.plane(600.0, 0.6), mesh] if s.plane else [mesh]
@@ -76,13 +88,19 @@ class Rig:
     camera_models: list[CameraModel]
     sim: SimBench | None = None
     _closed: bool = field(default=False, repr=False)
+    _triangulators: dict[tuple[int, int], PairTriangulator] = field(default_factory=dict, repr=False)
+
+    def triangulator(self, projector: int, camera: int) -> PairTriangulator:
+        """The pair's triangulator; its per-pixel terms are computed on first use and kept."""
+        key = (projector, camera)
+        if key not in self._triangulators:
+            self._triangulators[key] = PairTriangulator(self.camera_models[camera], self.projector_models[projector])
+        return self._triangulators[key]
 
     def all_dark(self) -> None:
         for projector in self.projectors:
-            try:
+            with contextlib.suppress(Exception):  # darkening the others matters more than this error
                 projector.dark()
-            except Exception:  # noqa: BLE001 - darkening the others matters more than this error
-                pass
 
     def close(self) -> None:
         if self._closed:
@@ -90,10 +108,8 @@ class Rig:
         self._closed = True
         self.all_dark()
         for device in (*self.projectors, *self.cameras):
-            try:
+            with contextlib.suppress(Exception):  # close every device even if one fails
                 device.close()
-            except Exception:  # noqa: BLE001 - close every device even if one fails
-                pass
 
     def __enter__(self) -> Rig:
         return self
@@ -103,16 +119,23 @@ class Rig:
 
 
 def _sim_projector_params(p: ProjectorConfig) -> SimProjectorParams:
-    return SimProjectorParams(gamma=p.sim.gamma, brightness=p.sim.brightness,
-                              black_level=p.sim.black_level, blur_px=p.sim.blur_px)
+    return SimProjectorParams(
+        gamma=p.sim.gamma, brightness=p.sim.brightness, black_level=p.sim.black_level, blur_px=p.sim.blur_px
+    )
 
 
 def _sim_camera_params(c: CameraConfig) -> SimCameraParams:
-    return SimCameraParams(exposure_us=c.exposure_us, gain=c.gain,
-                           full_scale_exposure_us=c.sim.full_scale_exposure_us,
-                           full_well_e=c.sim.full_well_e, read_noise_e=c.sim.read_noise_e,
-                           gamma=c.sim.gamma, blur_px=c.sim.blur_px, bit_depth=c.bit_depth,
-                           frame_period_s=c.sim.frame_period_s)
+    return SimCameraParams(
+        exposure_us=c.exposure_us,
+        gain=c.gain,
+        full_scale_exposure_us=c.sim.full_scale_exposure_us,
+        full_well_e=c.sim.full_well_e,
+        read_noise_e=c.sim.read_noise_e,
+        gamma=c.sim.gamma,
+        blur_px=c.sim.blur_px,
+        bit_depth=c.bit_depth,
+        frame_period_s=c.sim.frame_period_s,
+    )
 
 
 def open_rig(config: RigConfig) -> Rig:
@@ -121,10 +144,13 @@ def open_rig(config: RigConfig) -> Rig:
     camera_models = [geometry_model(c.geometry, c.resolution) for c in config.cameras]
     assert config.simulation is not None  # validated: simulated devices need a scene
     bench = SimBench(
-        build_scene(config.simulation), camera_models, projector_models,
+        build_scene(config.simulation),
+        camera_models,
+        projector_models,
         camera_params=[_sim_camera_params(c) for c in config.cameras],
         projector_params=[_sim_projector_params(p) for p in config.projectors],
-        ambient=config.simulation.ambient, seed=config.simulation.seed,
+        ambient=config.simulation.ambient,
+        seed=config.simulation.seed,
     )
     projectors: list[Projector] = [SimProjector(p.name, bench, i) for i, p in enumerate(config.projectors)]
     cameras: list[Camera] = [SimCamera(c.name, bench, i) for i, c in enumerate(config.cameras)]

@@ -81,8 +81,9 @@ def capture(rig: Rig, codecs: list[Codec], tracker: ProgressTracker) -> dict[tup
     return frames
 
 
-def run_scan(rig: Rig, codec_name: str | None = None, progress: ProgressCallback | None = None,
-             keep_frames: bool = False) -> ScanResult:
+def run_scan(
+    rig: Rig, codec_name: str | None = None, progress: ProgressCallback | None = None, keep_frames: bool = False
+) -> ScanResult:
     tracker = ProgressTracker(progress)
     name = codec_name or rig.config.scan.codec
     codecs = [make_codec(rig, p, name) for p in range(len(rig.projectors))]
@@ -91,21 +92,21 @@ def run_scan(rig: Rig, codec_name: str | None = None, progress: ProgressCallback
     frames = capture(rig, codecs, tracker)
     timings["capture_ms"] = (time.perf_counter() - t0) * 1e3
     pairs: list[PairResult] = []
-    decode_s = triangulate_s = 0.0
+    elapsed = {"decode": 0.0, "triangulate": 0.0, "pointset": 0.0}
     n_pairs = len(frames)
     for i, ((p, c), images) in enumerate(sorted(frames.items())):
         t = time.perf_counter()
         full_scale = (1 << rig.config.cameras[c].bit_depth) - 1
         corr = codecs[p].decode(images, full_scale)
-        decode_s += time.perf_counter() - t
+        t, elapsed["decode"] = time.perf_counter(), elapsed["decode"] + time.perf_counter() - t
         tracker.report("decode", 0.6 + 0.3 * (i + 0.5) / n_pairs)
-        t = time.perf_counter()
-        points, grid = pair_pointset(rig.camera_models[c], rig.projector_models[p], corr, source=i)
-        triangulate_s += time.perf_counter() - t
+        grid, valid = rig.triangulator(p, c).triangulate(corr)
+        t, elapsed["triangulate"] = time.perf_counter(), elapsed["triangulate"] + time.perf_counter() - t
+        points = pair_pointset(grid, valid, rig.camera_models[c], corr, source=i)
+        elapsed["pointset"] += time.perf_counter() - t
         pairs.append(PairResult(p, c, corr, grid, points))
         tracker.report("triangulate", 0.6 + 0.3 * (i + 1) / n_pairs)
-    timings["decode_ms"] = decode_s * 1e3
-    timings["triangulate_ms"] = triangulate_s * 1e3
+    timings.update({f"{stage}_ms": seconds * 1e3 for stage, seconds in elapsed.items()})
     cloud = PointSet.concatenate([pair.points for pair in pairs])
     bytes_captured = sum(img.nbytes for images in frames.values() for img in images)
     return ScanResult(

@@ -156,8 +156,7 @@ class SimBench:
             if hit.any():
                 _, z = model.project(points[hit])
                 depth[hit] = z
-            self._views[camera] = _CameraView(hit, points, normals,
-                                              albedo.reshape(model.height, model.width), depth)
+            self._views[camera] = _CameraView(hit, points, normals, albedo.reshape(model.height, model.width), depth)
         return self._views[camera]
 
     def _lighting(self, camera: int, projector: int) -> _Illumination:
@@ -180,8 +179,13 @@ class SimBench:
         normals = view.normals[idx]
         puv, pz = proj.project(points)
         uv[idx] = puv
-        inside = (pz > 0) & (puv[:, 0] >= -0.5) & (puv[:, 0] < proj.width - 0.5) \
-            & (puv[:, 1] >= -0.5) & (puv[:, 1] < proj.height - 0.5)
+        inside = (
+            (pz > 0)
+            & (puv[:, 0] >= -0.5)
+            & (puv[:, 0] < proj.width - 0.5)
+            & (puv[:, 1] >= -0.5)
+            & (puv[:, 1] < proj.height - 0.5)
+        )
         if proj.projection == "orthographic":
             to_light = np.broadcast_to(-proj.axis, points.shape).copy()
             distance = np.full(len(points), np.inf)
@@ -218,8 +222,9 @@ class SimBench:
             if emitted is None:
                 total += black * light.irradiance_gain
                 continue
-            sampled = cv2.remap(emitted, light.map_x, light.map_y, cv2.INTER_LINEAR,
-                                borderMode=cv2.BORDER_CONSTANT, borderValue=0)
+            sampled = cv2.remap(
+                emitted, light.map_x, light.map_y, cv2.INTER_LINEAR, borderMode=cv2.BORDER_CONSTANT, borderValue=0
+            )
             total += sampled * light.irradiance_gain
         return total
 

@@ -49,8 +49,14 @@ class SimCamera(Camera):
     `stall_after` frames, then no frame arrives (DeviceTimeoutError at the deadline).
     """
 
-    def __init__(self, name: str, bench: SimBench, index: int, disconnect_after: int | None = None,
-                 stall_after: int | None = None) -> None:
+    def __init__(
+        self,
+        name: str,
+        bench: SimBench,
+        index: int,
+        disconnect_after: int | None = None,
+        stall_after: int | None = None,
+    ) -> None:
         super().__init__(name)
         self._bench = bench
         self._index = index
@@ -89,5 +95,11 @@ class SimCamera(Camera):
             raise DeviceTimeoutError(f"{self.name}: no frame before the capture deadline")
         image = self._bench.render(self._index, self._exposure_us, self._gain)
         self._sequence += 1
-        return Frame(image=image, timestamp_s=self._bench.clock_s, sequence=self._sequence,
-                     exposure_us=self._exposure_us, gain=self._gain, bit_depth=self._params.bit_depth)
+        return Frame(
+            image=image,
+            timestamp_s=self._bench.clock_s,
+            sequence=self._sequence,
+            exposure_us=self._exposure_us,
+            gain=self._gain,
+            bit_depth=self._params.bit_depth,
+        )

@@ -57,22 +57,28 @@ def plane(size_mm: float = 600.0, albedo: float = 0.7, height_mm: float = 0.0) -
     return SceneObject("plane", vertices, faces, albedo)
 
 
-def sphere(radius_mm: float, center_mm: tuple[float, float, float], albedo: float = 0.8,
-           subdivisions: int = 6) -> SceneObject:
+def sphere(
+    radius_mm: float, center_mm: tuple[float, float, float], albedo: float = 0.8, subdivisions: int = 6
+) -> SceneObject:
     mesh = trimesh.creation.icosphere(subdivisions=subdivisions, radius=radius_mm)
     mesh.apply_translation(center_mm)
     return _object("sphere", mesh, albedo)
 
 
-def box(extents_mm: tuple[float, float, float], center_mm: tuple[float, float, float],
-        rotation_deg: tuple[float, float, float] = (0.0, 0.0, 0.0), albedo: float = 0.8) -> SceneObject:
+def box(
+    extents_mm: tuple[float, float, float],
+    center_mm: tuple[float, float, float],
+    rotation_deg: tuple[float, float, float] = (0.0, 0.0, 0.0),
+    albedo: float = 0.8,
+) -> SceneObject:
     mesh = trimesh.creation.box(extents=extents_mm)
     _pose(mesh, 1.0, center_mm, rotation_deg)
     return _object("box", mesh, albedo)
 
 
-def terrain(size_mm: float = 400.0, amplitude_mm: float = 30.0, grid: int = 257, seed: int = 7,
-            albedo: float = 0.75) -> SceneObject:
+def terrain(
+    size_mm: float = 400.0, amplitude_mm: float = 30.0, grid: int = 257, seed: int = 7, albedo: float = 0.75
+) -> SceneObject:
     """A smooth height field z = f(x, y) >= 0: a sum of seeded Gaussian hills and a gentle wave."""
     rng = np.random.default_rng(seed)
     axis = np.linspace(-size_mm / 2, size_mm / 2, grid)
@@ -91,9 +97,14 @@ def terrain(size_mm: float = 400.0, amplitude_mm: float = 30.0, grid: int = 257,
     return SceneObject("terrain", vertices, faces, albedo)
 
 
-def mesh_file(path: str | Path, scale: float = 1.0, position_mm: tuple[float, float, float] = (0, 0, 0),
-              rotation_deg: tuple[float, float, float] = (0.0, 0.0, 0.0), albedo: float = 0.8,
-              fit_size_mm: float | None = None) -> SceneObject:
+def mesh_file(
+    path: str | Path,
+    scale: float = 1.0,
+    position_mm: tuple[float, float, float] = (0, 0, 0),
+    rotation_deg: tuple[float, float, float] = (0.0, 0.0, 0.0),
+    albedo: float = 0.8,
+    fit_size_mm: float | None = None,
+) -> SceneObject:
     """A PLY, OBJ or STL file, scaled about its bounding-box centre (by `scale`, or so that its
     largest extent is `fit_size_mm`), rotated (x, y, z Euler angles, degrees) and placed so that the
     centre of its base sits at `position_mm`.
@@ -118,8 +129,9 @@ def mesh_file(path: str | Path, scale: float = 1.0, position_mm: tuple[float, fl
     return _object(path.stem, mesh, albedo)
 
 
-def _pose(mesh: trimesh.Trimesh, scale: float, center_mm: tuple[float, float, float],
-          rotation_deg: tuple[float, float, float]) -> None:
+def _pose(
+    mesh: trimesh.Trimesh, scale: float, center_mm: tuple[float, float, float], rotation_deg: tuple[float, float, float]
+) -> None:
     mesh.apply_scale(scale)
     rx, ry, rz = np.radians(rotation_deg)
     rotation = trimesh.transformations.euler_matrix(rx, ry, rz, "sxyz")

@@ -6,7 +6,10 @@ import numpy as np
 
 
 def ray_plane(
-    origins: np.ndarray, directions: np.ndarray, normals: np.ndarray, offsets: np.ndarray,
+    origins: np.ndarray,
+    directions: np.ndarray,
+    normals: np.ndarray,
+    offsets: np.ndarray,
     min_cos: float = 1e-3,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Intersect rays o + s d with planes n . X = c, element by element.
@@ -24,7 +27,11 @@ def ray_plane(
 
 
 def ray_ray_midpoint(
-    o1: np.ndarray, d1: np.ndarray, o2: np.ndarray, d2: np.ndarray, min_sin: float = 1e-3,
+    o1: np.ndarray,
+    d1: np.ndarray,
+    o2: np.ndarray,
+    d2: np.ndarray,
+    min_sin: float = 1e-3,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Closest-approach midpoint of ray pairs (unit directions).
 

@@ -20,7 +20,9 @@ class CodecParams(BaseModel):
     model_config = ConfigDict(extra="forbid", frozen=True)
 
     black_threshold: float = Field(
-        0.03, ge=0.0, le=1.0,
+        0.03,
+        ge=0.0,
+        le=1.0,
         description="minimum (white - black) for a pixel to count as lit: masks shadows and background",
     )
 
@@ -95,6 +97,7 @@ class Codec(abc.ABC):
     def _coded_patterns(self) -> list[np.ndarray]: ...
 
     @abc.abstractmethod
-    def _decode(self, frames: list[np.ndarray], white: np.ndarray, black: np.ndarray, lit: np.ndarray,
-                texture: np.ndarray) -> Correspondence:
+    def _decode(
+        self, frames: list[np.ndarray], white: np.ndarray, black: np.ndarray, lit: np.ndarray, texture: np.ndarray
+    ) -> Correspondence:
         """`frames` are the coded frames as float32 in [0, 1]."""

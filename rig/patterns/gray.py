@@ -17,7 +17,9 @@ Directions = Literal["columns", "rows", "both"]
 class GrayParams(CodecParams):
     directions: Directions = Field("columns", description="which projector coordinates to code")
     white_threshold: float = Field(
-        0.02, ge=0.0, le=1.0,
+        0.02,
+        ge=0.0,
+        le=1.0,
         description="minimum |pattern - inverse| of every bit but the weakest (fraction of full scale)",
     )
 
@@ -68,5 +70,6 @@ class GrayCodec(Codec):
         for axis in coords:
             coords[axis][~valid] = np.nan
         counts["decoded"] = int(valid.sum())
-        return Correspondence(valid=valid, quality=quality, texture=texture, u=coords.get("u"),
-                              v=coords.get("v"), counts=counts)
+        return Correspondence(
+            valid=valid, quality=quality, texture=texture, u=coords.get("u"), v=coords.get("v"), counts=counts
+        )

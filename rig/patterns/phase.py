@@ -29,10 +29,16 @@ class PhaseParams(CodecParams):
     steps: int = Field(8, ge=3, le=64, description="phase steps N per period")
     period_px: int = Field(16, ge=4, le=4096, description="fringe period P in projector pixels (even)")
     min_modulation: float = Field(
-        0.02, ge=0.0, le=1.0, description="minimum fringe amplitude B (fraction of full scale)",
+        0.02,
+        ge=0.0,
+        le=1.0,
+        description="minimum fringe amplitude B (fraction of full scale)",
     )
     white_threshold: float = Field(
-        0.02, ge=0.0, le=1.0, description="minimum |pattern - inverse| for the unwrapping Gray code",
+        0.02,
+        ge=0.0,
+        le=1.0,
+        description="minimum |pattern - inverse| for the unwrapping Gray code",
     )
 
 
@@ -106,5 +112,6 @@ class PhaseCodec(Codec):
         for axis in coords:
             coords[axis][~valid] = np.nan
         counts["decoded"] = int(valid.sum())
-        return Correspondence(valid=valid, quality=quality, texture=texture, u=coords.get("u"),
-                              v=coords.get("v"), counts=counts)
+        return Correspondence(
+            valid=valid, quality=quality, texture=texture, u=coords.get("u"), v=coords.get("v"), counts=counts
+        )

@@ -1,0 +1,175 @@
+"""The `slrig` command line: scan, eval.
+
+Exit codes: 0 success; 1 the scan failed (device fault); 2 bad input (config, options, files).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+from typing import Any
+
+from drivers.errors import DeviceError
+from rig import __version__
+from rig.config import SCENE_KINDS, RigConfig, load_config
+from rig.errors import ConfigError, ScanError, SlrigError
+from rig.evaluate import evaluate_pair
+from rig.progress import TerminalBar
+from rig.rig import Rig, open_rig
+from rig.scan import ScanResult, run_scan
+from rig.store.scandir import new_scan_id, write_scan
+
+EXIT_FAILED = 1
+EXIT_BAD_INPUT = 2
+MESH_FIT_SIZE_MM = 150.0
+
+
+def _parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(prog="slrig", description="Structured-light 3D scanning rig.")
+    parser.add_argument("--version", action="version", version=f"slrig {__version__}")
+    sub = parser.add_subparsers(dest="command", required=True)
+
+    def common(p: argparse.ArgumentParser) -> None:
+        p.add_argument(
+            "--config",
+            type=Path,
+            default=None,
+            help="rig description (YAML); default: the simulated bench, config/sim.yaml",
+        )
+        p.add_argument("--codec", default=None, help="pattern codec: gray, phase (default: the config's)")
+        p.add_argument("--json", action="store_true", help="print one JSON object instead of text")
+
+    scan = sub.add_parser("scan", help="scan and write a scan directory (cloud.ply, depth, preview)")
+    common(scan)
+    scan.add_argument(
+        "--out",
+        type=Path,
+        default=None,
+        help="scan directory to create (must not exist); default <data_dir>/scans/<id>",
+    )
+    evaluate = sub.add_parser("eval", help="scan the simulated bench and measure it against ground truth")
+    common(evaluate)
+    evaluate.add_argument(
+        "--scene",
+        default=None,
+        help=f"scene name ({', '.join(k for k in SCENE_KINDS if k != 'mesh')}) or a "
+        f"PLY/OBJ/STL file (scaled to {MESH_FIT_SIZE_MM:.0f} mm)",
+    )
+    return parser
+
+
+def _load(args: argparse.Namespace) -> RigConfig:
+    config = load_config(args.config)
+    if args.codec:
+        config = config.with_codec(args.codec)
+    return config
+
+
+def _scene_override(config: RigConfig, scene: str) -> RigConfig:
+    if scene in SCENE_KINDS and scene != "mesh":
+        return config.with_scene({"kind": scene})
+    path = Path(scene)
+    if path.is_file():
+        return config.with_scene({"kind": "mesh", "path": str(path.resolve()), "fit_size_mm": MESH_FIT_SIZE_MM})
+    names = ", ".join(k for k in SCENE_KINDS if k != "mesh")
+    raise ConfigError("--scene", [f"--scene: {scene!r} is neither a scene name ({names}) nor a mesh file"])
+
+
+def _metrics(the_rig: Rig, result: ScanResult) -> dict[str, Any]:
+    """Accuracy of each pair against ground truth (simulated rigs only)."""
+    if the_rig.sim is None:
+        return {}
+    per_pair = {}
+    for pair in result.pairs:
+        key = f"{the_rig.config.projectors[pair.projector].name}/{the_rig.config.cameras[pair.camera].name}"
+        per_pair[key] = evaluate_pair(pair, the_rig.sim.ground_truth(pair.camera, pair.projector))
+    return per_pair
+
+
+def _progress(args: argparse.Namespace) -> TerminalBar | None:
+    return TerminalBar() if sys.stderr.isatty() and not args.json else None
+
+
+def cmd_scan(args: argparse.Namespace) -> int:
+    config = _load(args)
+    scan_id = new_scan_id()
+    target = args.out if args.out is not None else config.output.data_dir / "scans" / scan_id
+    if target.exists():
+        raise ConfigError("--out", [f"--out: {target} already exists; choose a new directory"])
+    with open_rig(config) as the_rig:
+        result = run_scan(the_rig, progress=_progress(args), keep_frames=config.scan.save_frames)
+        metrics = _metrics(the_rig, result)
+        path = write_scan(the_rig, result, target, scan_id, metrics)
+    summary = {
+        "scan_id": scan_id,
+        "path": str(path),
+        "codec": result.codec,
+        "points": len(result.cloud),
+        "frames": result.frames_projected,
+        "timings_ms": {k: round(v, 1) for k, v in result.timings_ms.items()},
+    }
+    if args.json:
+        print(json.dumps(summary))
+    else:
+        print(
+            f"scan {scan_id}: {len(result.cloud)} points with {result.codec} "
+            f"({result.frames_projected} patterns) -> {path}/cloud.ply"
+        )
+    return 0
+
+
+def cmd_eval(args: argparse.Namespace) -> int:
+    config = _load(args)
+    if args.scene:
+        config = _scene_override(config, args.scene)
+    if config.simulation is None:
+        raise ConfigError(str(args.config), ["simulation: eval needs a simulated rig"])
+    with open_rig(config) as the_rig:
+        result = run_scan(the_rig, progress=_progress(args))
+        pair = result.pairs[0]
+        metrics = evaluate_pair(pair, the_rig.sim.ground_truth(pair.camera, pair.projector))  # type: ignore[union-attr]
+    scene = config.simulation.scene
+    report = {
+        "codec": result.codec,
+        "scene": (getattr(scene, "path", None) and Path(str(scene.path)).name) or scene.kind,
+        "frames": result.frames_projected,
+        "bytes_captured": result.bytes_captured,
+        **metrics,
+        "capture_ms": round(result.timings_ms["capture_ms"], 1),
+        "decode_ms": round(result.timings_ms["decode_ms"], 1),
+        "triangulate_ms": round(result.timings_ms["triangulate_ms"], 1),
+        "pointset_ms": round(result.timings_ms["pointset_ms"], 1),
+    }
+    if args.json:
+        print(json.dumps(report))
+    else:
+        width = max(len(k) for k in report)
+        for key, value in report.items():
+            shown = f"{value:.4f}" if isinstance(value, float) else str(value)
+            print(f"{key:<{width}}  {shown}")
+    return 0
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = _parser().parse_args(argv)
+    handler = {"scan": cmd_scan, "eval": cmd_eval}[args.command]
+    try:
+        return handler(args)
+    except ScanError as exc:
+        print(f"slrig: scan failed: {exc}", file=sys.stderr)
+        return EXIT_FAILED
+    except DeviceError as exc:
+        print(f"slrig: device error: {exc}", file=sys.stderr)
+        return EXIT_FAILED
+    except SlrigError as exc:
+        print(f"slrig: {exc}", file=sys.stderr)
+        return EXIT_BAD_INPUT
+    except KeyboardInterrupt:
+        print("slrig: interrupted", file=sys.stderr)
+        return 130
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,1 @@
+"""Durable scan output: atomic files, PLY, depth PNG, preview, the scan directory."""

@@ -1,0 +1,50 @@
+"""Depth maps and preview renderings as PNG bytes."""
+
+from __future__ import annotations
+
+import cv2
+import numpy as np
+
+from rig.geometry import CameraModel
+from rig.pointset import PointSet
+
+
+def depth_png(grid: np.ndarray, camera: CameraModel) -> bytes:
+    """16-bit PNG of camera-frame depth in millimetres (rounded), 0 = no point."""
+    valid = np.isfinite(grid).all(axis=2)
+    depth = np.zeros(valid.shape, dtype=np.uint16)
+    if valid.any():
+        _, z = camera.project(grid[valid])
+        depth[valid] = np.clip(np.rint(z), 0, 65535).astype(np.uint16)
+    return _png(depth)
+
+
+def preview_png(cloud: PointSet, view: CameraModel, max_width: int = 960) -> bytes:
+    """A shaded rendering of the cloud from `view` (usually the first camera): each point splatted
+    into a z-buffer and lit by a light above-left of the viewer; background dark grey."""
+    scale = min(1.0, max_width / view.width)
+    width, height = int(view.width * scale), int(view.height * scale)
+    image = np.full((height, width, 3), 32, dtype=np.uint8)
+    if len(cloud) == 0:
+        return _png(image)
+    uv, z = view.project(cloud.points)
+    uv *= scale
+    col = np.rint(uv[:, 0]).astype(np.int64)
+    row = np.rint(uv[:, 1]).astype(np.int64)
+    inside = (z > 0) & (col >= 0) & (col < width) & (row >= 0) & (row < height)
+    order = np.flatnonzero(inside)[np.argsort(-z[inside])]  # far first, so near points win
+    to_light = view.R.T @ np.array([-0.4, -0.6, -0.7])  # up-left of the viewer, toward it
+    to_light /= np.linalg.norm(to_light)
+    shade = np.clip(cloud.normals.astype(np.float64) @ to_light, 0.0, 1.0)
+    intensity = 0.18 + 0.82 * shade
+    tint = np.array([235, 225, 205], dtype=np.float64)  # warm plaster
+    colors = (intensity[:, None] * tint).astype(np.uint8)
+    image[row[order], col[order]] = colors[order]
+    return _png(cv2.cvtColor(image, cv2.COLOR_RGB2BGR))
+
+
+def _png(image: np.ndarray) -> bytes:
+    ok, buf = cv2.imencode(".png", image)
+    if not ok:  # pragma: no cover - encoding a valid array does not fail
+        raise RuntimeError("PNG encoding failed")
+    return buf.tobytes()

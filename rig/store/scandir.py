@@ -1,0 +1,159 @@
+"""The scan directory: cloud.ply, depth_<camera>.png, preview.png, frames/, manifest.json.
+
+Written into `<id>.partial/`, manifest last, then renamed into place, so a directory without the
+`.partial` suffix is always complete.
+"""
+
+from __future__ import annotations
+
+import datetime as dt
+import hashlib
+import json
+import platform
+import secrets
+import shutil
+from pathlib import Path
+from typing import Any
+
+import cv2
+import numpy as np
+
+import rig
+from rig.errors import StoreError
+from rig.rig import Rig
+from rig.scan import ScanResult
+from rig.store.atomic import fsync_dir, write_atomic
+from rig.store.images import depth_png, preview_png
+from rig.store.ply import ply_bytes
+
+
+def new_scan_id() -> str:
+    now = dt.datetime.now(dt.UTC)
+    return now.strftime("%Y%m%d-%H%M%S-") + secrets.token_hex(3)
+
+
+def calibration_hashes(the_rig: Rig) -> dict[str, str]:
+    out = {}
+    for device in (*the_rig.config.projectors, *the_rig.config.cameras):
+        blob = json.dumps(device.geometry.model_dump(mode="json"), sort_keys=True).encode()
+        out[device.name] = hashlib.sha256(blob).hexdigest()[:16]
+    return out
+
+
+def _software() -> dict[str, str]:
+    return {
+        "slrig": rig.__version__,
+        "python": platform.python_version(),
+        "numpy": np.__version__,
+        "opencv": cv2.__version__,
+    }
+
+
+def build_manifest(
+    the_rig: Rig, result: ScanResult, scan_id: str, files: dict[str, Any], metrics: dict[str, Any] | None = None
+) -> dict[str, Any]:
+    config = the_rig.config
+    return {
+        "scan_id": scan_id,
+        "status": "done",
+        "created_utc": dt.datetime.now(dt.UTC).isoformat(timespec="seconds"),
+        "software": _software(),
+        "codec": {"name": result.codec, "params": result.codec_params},
+        "devices": {
+            "projectors": [
+                {"name": p.name, "driver": p.driver, "resolution": list(p.resolution)} for p in config.projectors
+            ],
+            "cameras": [
+                {
+                    "name": c.name,
+                    "driver": c.driver,
+                    "resolution": list(c.resolution),
+                    "bit_depth": c.bit_depth,
+                    "exposure_us": c.exposure_us,
+                }
+                for c in config.cameras
+            ],
+        },
+        "calibration_sha256": calibration_hashes(the_rig),
+        "economy": {
+            "frames_projected": result.frames_projected,
+            "frames_captured": result.frames_projected * len(config.cameras),
+            "bytes_captured": result.bytes_captured,
+            "points": len(result.cloud),
+        },
+        "pairs": [
+            {
+                "projector": config.projectors[p.projector].name,
+                "camera": config.cameras[p.camera].name,
+                "points": len(p.points),
+                "decode_counts": p.correspondence.counts,
+            }
+            for p in result.pairs
+        ],
+        "timings_ms": {k: round(v, 1) for k, v in result.timings_ms.items()},
+        "metrics": metrics or {},
+        "files": files,
+        "config": config.model_dump(mode="json"),
+    }
+
+
+def _depth_grid(result: ScanResult, camera: int) -> np.ndarray:
+    """Organised points of a camera, filled from each projector in turn."""
+    grid: np.ndarray | None = None
+    for pair in result.pairs:
+        if pair.camera != camera:
+            continue
+        if grid is None:
+            grid = pair.grid.copy()
+        else:
+            missing = ~np.isfinite(grid).all(axis=2)
+            grid[missing] = pair.grid[missing]
+    assert grid is not None
+    return grid
+
+
+def write_scan(
+    the_rig: Rig, result: ScanResult, target: Path, scan_id: str, metrics: dict[str, Any] | None = None
+) -> Path:
+    """Write the scan directory at `target` (which must not exist) and return it."""
+    target = Path(target)
+    if target.exists():
+        raise StoreError(f"output directory already exists, not overwriting: {target}")
+    partial = target.with_name(target.name + ".partial")
+    try:
+        target.parent.mkdir(parents=True, exist_ok=True)
+        if partial.exists():
+            shutil.rmtree(partial)  # left by an interrupted write of this same id: incomplete
+        partial.mkdir()
+        files: dict[str, Any] = {"cloud": "cloud.ply", "preview": "preview.png", "depth": {}}
+        write_atomic(partial / "cloud.ply", ply_bytes(result.cloud, comment=f"slrig scan {scan_id}"))
+        for c, camera in enumerate(the_rig.config.cameras):
+            name = f"depth_{camera.name}.png"
+            write_atomic(partial / name, depth_png(_depth_grid(result, c), the_rig.camera_models[c]))
+            files["depth"][camera.name] = name
+        write_atomic(partial / "preview.png", preview_png(result.cloud, the_rig.camera_models[0]))
+        if result.frames:
+            files["frames"] = _write_frames(the_rig, result, partial)
+        manifest = build_manifest(the_rig, result, scan_id, files, metrics)
+        write_atomic(partial / "manifest.json", json.dumps(manifest, indent=2).encode())
+        partial.rename(target)
+        fsync_dir(target.parent)
+    except OSError as exc:
+        raise StoreError(f"cannot write scan to {target}: {exc}") from exc
+    return target
+
+
+def _write_frames(the_rig: Rig, result: ScanResult, partial: Path) -> dict[str, list[str]]:
+    out: dict[str, list[str]] = {}
+    for (p, c), images in sorted(result.frames.items()):
+        key = f"{the_rig.config.projectors[p].name}_{the_rig.config.cameras[c].name}"
+        folder = partial / "frames" / key
+        folder.mkdir(parents=True)
+        names = []
+        for k, image in enumerate(images):
+            _, buf = cv2.imencode(".png", image)
+            name = f"frames/{key}/{k:03d}.png"
+            write_atomic(partial / name, buf.tobytes())
+            names.append(name)
+        out[key] = names
+    return out

@@ -1,0 +1,47 @@
+"""Shared fixtures: configs of the simulated bench (full size and a small fast one)."""
+
+from __future__ import annotations
+
+import copy
+from pathlib import Path
+from typing import Any
+
+import pytest
+import yaml
+
+from rig.config import DEFAULT_CONFIG, RigConfig, load_config
+
+REPO = Path(__file__).resolve().parent.parent
+
+
+def default_config_data() -> dict[str, Any]:
+    return yaml.safe_load(DEFAULT_CONFIG.read_text())
+
+
+def small_config_data() -> dict[str, Any]:
+    """The default bench at a quarter of the resolution (same field of view): fast scans."""
+    data = copy.deepcopy(default_config_data())
+    cam = data["cameras"][0]
+    cam["resolution"] = [320, 256]
+    cam["geometry"]["intrinsics"] = {"fx": 450.0, "fy": 450.0, "cx": 159.5, "cy": 127.5}
+    proj = data["projectors"][0]
+    proj["resolution"] = [256, 192]
+    proj["geometry"]["intrinsics"] = {"fx": 375.0, "fy": 375.0, "cx": 127.5, "cy": 95.5}
+    data["scan"]["phase"] = {"steps": 6, "period_px": 8}
+    return data
+
+
+def write_config(tmp_path: Path, data: dict[str, Any], name: str = "rig.yaml") -> Path:
+    path = tmp_path / name
+    path.write_text(yaml.safe_dump(data))
+    return path
+
+
+@pytest.fixture
+def small_config(tmp_path: Path) -> RigConfig:
+    return load_config(write_config(tmp_path, small_config_data()))
+
+
+@pytest.fixture
+def small_config_path(tmp_path: Path) -> Path:
+    return write_config(tmp_path, small_config_data())

@@ -1,0 +1,130 @@
+"""The CLI: scan outputs, error messages and exit codes, device faults."""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import cv2
+import numpy as np
+import plyfile
+import pytest
+
+from drivers.sim import SimCamera
+from rig.cli import main
+from rig.config import RigConfig
+from rig.errors import ScanError
+from rig.rig import open_rig
+from rig.scan import run_scan
+from tests.conftest import REPO, default_config_data, write_config
+
+
+def test_scan_writes_a_complete_scan_directory(
+    tmp_path: Path, small_config_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    out = tmp_path / "scan1"
+    assert main(["scan", "--config", str(small_config_path), "--out", str(out), "--json"]) == 0
+    summary = json.loads(capsys.readouterr().out)
+    assert summary["path"] == str(out)
+    assert sorted(p.name for p in out.iterdir()) == ["cloud.ply", "depth_camera0.png", "manifest.json", "preview.png"]
+    assert not out.with_name("scan1.partial").exists()
+
+    vertex = plyfile.PlyData.read(out / "cloud.ply")["vertex"]
+    names = {p.name for p in vertex.properties}
+    assert {"x", "y", "z", "nx", "ny", "nz", "red", "green", "blue", "quality", "source"} <= names
+    assert vertex.count == summary["points"] > 50_000
+    normals = np.column_stack([vertex["nx"], vertex["ny"], vertex["nz"]])
+    np.testing.assert_allclose(np.linalg.norm(normals, axis=1), 1.0, atol=1e-4)
+    assert np.ptp(vertex["red"]) > 50  # the lit frame's texture, not a constant
+
+    depth = cv2.imread(str(out / "depth_camera0.png"), cv2.IMREAD_UNCHANGED)
+    assert depth.dtype == np.uint16 and depth.shape == (256, 320)
+    seen = depth[depth > 0]
+    assert seen.min() > 450 and seen.max() < 700  # the plane is about 600 mm away, the sphere nearer
+
+    manifest = json.loads((out / "manifest.json").read_text())
+    assert manifest["status"] == "done"
+    assert manifest["codec"]["name"] == "phase"
+    assert manifest["economy"]["frames_projected"] == 2 + 6 + 2 * 6  # 64 half periods: 6 Gray bits
+    assert manifest["economy"]["points"] == summary["points"]
+    assert manifest["metrics"]["projector0/camera0"]["rms_mm"] < 0.5
+    assert manifest["config"]["cameras"][0]["resolution"] == [320, 256]
+    preview = cv2.imread(str(out / "preview.png"))
+    assert preview is not None and preview.std() > 10
+
+
+def test_scan_refuses_an_existing_output(
+    tmp_path: Path, small_config_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    out = tmp_path / "kept"
+    out.mkdir()
+    (out / "precious.txt").write_text("keep me")
+    assert main(["scan", "--config", str(small_config_path), "--out", str(out)]) == 2
+    assert "already exists" in capsys.readouterr().err
+    assert [p.name for p in out.iterdir()] == ["precious.txt"]
+
+
+def test_save_frames_keeps_the_raw_captures(tmp_path: Path) -> None:
+    from tests.conftest import small_config_data
+
+    data = small_config_data()
+    data["scan"]["save_frames"] = True
+    data["scan"]["codec"] = "gray"
+    out = tmp_path / "with-frames"
+    assert main(["scan", "--config", str(write_config(tmp_path, data)), "--out", str(out)]) == 0
+    frames = sorted((out / "frames" / "projector0_camera0").iterdir())
+    assert len(frames) == 2 + 2 * 8  # white, black, 8 Gray bits with inverses for 256 columns
+    assert cv2.imread(str(frames[0]), cv2.IMREAD_UNCHANGED).shape == (256, 320)
+
+
+@pytest.mark.parametrize(
+    ("mutate", "message"),
+    [
+        (lambda d: d["cameras"][0].update(resolution=[1280]), "cameras[0].resolution"),
+        (lambda d: d["simulation"].update(scene={"kind": "mesh", "path": "missing.stl"}), "mesh file not found"),
+        (lambda d: d["scan"].update(codec="nope"), "scan.codec"),
+    ],
+)
+def test_bad_input_exits_2_with_one_clear_message(tmp_path: Path, mutate, message: str) -> None:  # type: ignore[no-untyped-def]
+    data = default_config_data()
+    mutate(data)
+    path = write_config(tmp_path, data)
+    result = subprocess.run(
+        [sys.executable, "-m", "rig.cli", "scan", "--config", str(path)],
+        capture_output=True,
+        text=True,
+        timeout=120,
+        cwd=tmp_path,
+        env={**os.environ, "PYTHONPATH": str(REPO)},
+    )
+    assert result.returncode == 2
+    assert message in result.stderr
+    assert "Traceback" not in result.stderr
+    assert result.stdout == ""
+
+
+def test_unknown_codec_option_exits_2(capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["eval", "--codec", "moire"]) == 2
+    err = capsys.readouterr().err
+    assert "moire" in err and "gray, phase" in err
+
+
+def test_unknown_scene_option_exits_2(capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["eval", "--scene", "teapot"]) == 2
+    assert "neither a scene name" in capsys.readouterr().err
+
+
+def test_camera_fault_fails_the_scan_and_leaves_the_projector_dark(small_config: RigConfig) -> None:
+    the_rig = open_rig(small_config)
+    try:
+        assert the_rig.sim is not None
+        the_rig.cameras[0] = SimCamera("camera0", the_rig.sim, 0, disconnect_after=5)
+        the_rig.cameras[0].open()
+        with pytest.raises(ScanError, match="disconnected"):
+            run_scan(the_rig)
+        assert all(p.is_dark for p in the_rig.projectors)  # type: ignore[attr-defined]
+    finally:
+        the_rig.close()

@@ -1,0 +1,120 @@
+"""Codecs, noise-free: encode -> decode recovers projector coordinates."""
+
+from __future__ import annotations
+
+import cv2
+import numpy as np
+import pytest
+
+from rig.errors import DecodeError, UnknownCodecError
+from rig.patterns import codec_class, codec_names
+from rig.patterns.gray import GrayParams
+from rig.patterns.phase import PhaseParams
+
+
+def _grid(width: int, height: int) -> tuple[np.ndarray, np.ndarray]:
+    v, u = np.mgrid[0:height, 0:width]
+    return u.astype(float), v.astype(float)
+
+
+@pytest.mark.parametrize("size", [(1024, 768), (912, 1140), (100, 37)])
+@pytest.mark.parametrize("directions", ["columns", "rows", "both"])
+def test_gray_roundtrip_is_exact(size: tuple[int, int], directions: str) -> None:
+    codec = codec_class("gray")(size, GrayParams(directions=directions))
+    corr = codec.decode(codec.patterns(), 255)
+    u, v = _grid(*size)
+    assert corr.valid.all()
+    if directions in ("columns", "both"):
+        np.testing.assert_array_equal(corr.u, u)
+    if directions in ("rows", "both"):
+        np.testing.assert_array_equal(corr.v, v)
+    if directions == "columns":
+        assert corr.v is None
+    if directions == "rows":
+        assert corr.u is None
+
+
+@pytest.mark.parametrize("size", [(1024, 768), (912, 1140)])
+def test_phase_roundtrip_within_a_hundredth_pixel(size: tuple[int, int]) -> None:
+    codec = codec_class("phase")(size, PhaseParams(directions="both"))  # default: 8 steps, 16 px
+    corr = codec.decode(codec.patterns(), 255)
+    u, v = _grid(*size)
+    assert corr.valid.all()
+    assert np.max(np.abs(corr.u - u)) <= 0.01
+    assert np.max(np.abs(corr.v - v)) <= 0.01
+
+
+@pytest.mark.parametrize(("steps", "period"), [(4, 32), (3, 12), (12, 64), (6, 8)])
+def test_phase_roundtrip_other_steps_and_periods(steps: int, period: int) -> None:
+    """8-bit patterns limit the phase to a few milliradians whatever N and P are."""
+    codec = codec_class("phase")((912, 300), PhaseParams(steps=steps, period_px=period))
+    corr = codec.decode(codec.patterns(), 255)
+    assert corr.valid.all()
+    phase_error = np.max(np.abs(corr.u - _grid(912, 300)[0])) * 2 * np.pi / period
+    assert phase_error <= 0.005
+
+
+def test_phase_unwrapping_does_not_break_at_period_edges() -> None:
+    """A camera that sees the projector shifted by a fraction of a pixel and blurred puts the Gray
+    edges and the phase wraps at slightly different places; no pixel may jump by a period."""
+    size = (512, 64)
+    codec = codec_class("phase")(size, PhaseParams(steps=8, period_px=16))
+    for shift in (-0.45, -0.2, 0.13, 0.37, 0.5):
+        map_x = (np.arange(size[0] - 2, dtype=np.float32) + 1 + shift)[None, :].repeat(size[1], 0)
+        map_y = np.arange(size[1], dtype=np.float32)[:, None].repeat(size[0] - 2, 1)
+        frames = []
+        for pattern in codec.patterns():
+            image = cv2.remap(pattern.astype(np.float32), map_x, map_y, cv2.INTER_LINEAR)
+            frames.append(np.rint(cv2.GaussianBlur(image, (0, 0), 0.8)).astype(np.uint8))
+        corr = codec.decode(frames, 255)
+        inner = corr.valid.copy()
+        inner[:, :3] = inner[:, -3:] = False  # the blur's image border is not the codec's concern
+        error = corr.u[inner] - map_x[inner]
+        assert corr.valid.mean() > 0.98
+        assert np.max(np.abs(error)) < 0.25, f"shift {shift}: max error {np.max(np.abs(error))}"
+
+
+def test_phase_sign_convention() -> None:
+    """Pattern n is 0.5 + 0.5 cos(2 pi x / P - 2 pi n / N): check one column by hand."""
+    codec = codec_class("phase")((64, 4), PhaseParams(steps=4, period_px=16))
+    coded = codec.patterns()[2:6]
+    x = 5
+    expected = [0.5 + 0.5 * np.cos(2 * np.pi * x / 16 - 2 * np.pi * n / 4) for n in range(4)]
+    np.testing.assert_allclose([p[0, x] / 255 for p in coded], expected, atol=0.5 / 255)
+
+
+def test_phase_rejects_odd_period() -> None:
+    with pytest.raises(ValueError, match="even"):
+        codec_class("phase")((64, 64), PhaseParams(period_px=15))
+
+
+def test_decode_masks_unlit_pixels() -> None:
+    size = (128, 32)
+    codec = codec_class("gray")(size)
+    frames = [p.copy() for p in codec.patterns()]
+    for f in frames:
+        f[:, :40] = 3  # a shadow: the same dim value in every frame
+    corr = codec.decode(frames, 255)
+    assert not corr.valid[:, :40].any()
+    assert corr.valid[:, 40:].all()
+    assert np.isnan(corr.u[:, :40]).all()
+
+
+def test_wrong_frame_count_is_a_decode_error() -> None:
+    codec = codec_class("gray")((64, 64))
+    with pytest.raises(DecodeError, match="expected"):
+        codec.decode(codec.patterns()[:-1], 255)
+
+
+def test_unknown_codec_names_the_known_ones() -> None:
+    with pytest.raises(UnknownCodecError, match="gray, phase"):
+        codec_class("moire")
+    assert {"gray", "phase"} <= set(codec_names())
+
+
+def test_colour_frames_decode_like_mono() -> None:
+    codec = codec_class("gray")((64, 16))
+    frames = [cv2.cvtColor(p, cv2.COLOR_GRAY2BGR) for p in codec.patterns()]
+    corr = codec.decode(frames, 255)
+    np.testing.assert_array_equal(corr.u, _grid(64, 16)[0])
+    assert corr.texture.ndim == 3

@@ -1,0 +1,157 @@
+"""The simulated bench: ground truth, shadows, photometry, noise, timing and faults."""
+
+from __future__ import annotations
+
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+import trimesh
+
+from drivers.errors import DeviceDisconnectedError, DeviceTimeoutError
+from drivers.sim import SimBench, SimCamera, SimCameraParams, SimProjector, SimProjectorParams
+from drivers.sim import scene as sc
+from rig.geometry import CameraModel, look_at_rotation
+
+
+def _device(
+    width: int,
+    height: int,
+    f: float,
+    position: tuple[float, float, float],
+    target: tuple[float, float, float] = (0.0, 0.0, 0.0),
+) -> CameraModel:
+    pos = np.array(position, float)
+    R = look_at_rotation(pos, np.array(target, float), np.array([0.0, 1.0, 0.0]))
+    K = np.array([[f, 0, width / 2 - 0.5], [0, f, height / 2 - 0.5], [0, 0, 1]])
+    return CameraModel(width, height, K, R, -R @ pos)
+
+
+CAMERA = _device(320, 256, 450.0, (-100.0, 0.0, 600.0), (0.0, 0.0, 30.0))
+PROJECTOR = _device(256, 192, 375.0, (100.0, 0.0, 620.0), (0.0, 0.0, 30.0))
+
+
+def _bench(objects: list[sc.SceneObject], **kwargs: object) -> SimBench:
+    return SimBench(sc.build_scene(objects), [CAMERA], [PROJECTOR], **kwargs)  # type: ignore[arg-type]
+
+
+def test_plane_ground_truth_is_exact() -> None:
+    truth = _bench([sc.plane(2000.0)]).ground_truth(0, 0)
+    assert truth.hit.all()
+    assert np.max(np.abs(truth.points[..., 2])) < 1e-9
+    np.testing.assert_allclose(truth.normals.reshape(-1, 3), np.tile([0, 0, 1.0], (truth.hit.size, 1)))
+    _, z = CAMERA.project(truth.points.reshape(-1, 3))
+    np.testing.assert_allclose(truth.depth.ravel(), z)
+
+
+def test_sphere_points_lie_on_the_sphere() -> None:
+    truth = _bench([sc.sphere(60.0, (0.0, 0.0, 60.0))]).ground_truth(0, 0)
+    radius = np.linalg.norm(truth.points[truth.hit] - [0.0, 0.0, 60.0], axis=1)
+    assert truth.hit.sum() > 5000
+    assert np.max(np.abs(radius - 60.0)) < 0.01  # the icosphere's facets lie within 0.01 mm
+
+
+def test_shadows_are_where_the_sphere_blocks_the_projector() -> None:
+    center, r = np.array([0.0, 0.0, 60.0]), 60.0
+    truth = _bench([sc.plane(600.0), sc.sphere(r, tuple(center))]).ground_truth(0, 0)  # type: ignore[arg-type]
+    uv = truth.projector_uv
+    in_frame = truth.hit & (uv[..., 0] > 1) & (uv[..., 0] < 254) & (uv[..., 1] > 1) & (uv[..., 1] < 190)
+    on_plane = in_frame & (np.abs(truth.points[..., 2]) < 1e-6)
+    points = truth.points[on_plane]
+    to_proj = PROJECTOR.center - points
+    length = np.linalg.norm(to_proj, axis=1)
+    d = to_proj / length[:, None]
+    # Does the segment from the plane point to the projector pass through the sphere?
+    oc = points - center
+    b = np.einsum("ij,ij->i", oc, d)
+    disc = b * b - (np.einsum("ij,ij->i", oc, oc) - r * r)
+    blocked = (disc > 0) & (-b - np.sqrt(np.maximum(disc, 0)) > 0)
+    lit = truth.lit[on_plane]
+    margin = np.abs(disc) > 40.0  # stay off the shadow's edge, where the facets decide
+    assert blocked[margin].sum() > 1000
+    np.testing.assert_array_equal(lit[margin], ~blocked[margin])
+
+
+def test_photometry_follows_lambert_falloff_and_exposure() -> None:
+    params = SimCameraParams(exposure_us=6000.0, read_noise_e=0.0, blur_px=0.0, full_well_e=1e6, bit_depth=16)
+    bench = _bench(
+        [sc.plane(2000.0, albedo=0.5)],
+        camera_params=[params],
+        projector_params=[SimProjectorParams(black_level=0.0, blur_px=0.0)],
+        ambient=0.0,
+    )
+    bench.set_pattern(0, np.full((192, 256), 255, np.uint8))
+    image = bench.render(0).astype(float) / 65535
+    truth = bench.ground_truth(0, 0)
+    to_light = PROJECTOR.center - truth.points
+    dist = np.linalg.norm(to_light, axis=2)
+    cos_i = to_light[..., 2] / dist
+    expected = 0.5 * cos_i * (600.0 / dist) ** 2 * 6000.0 / 12000.0
+    uv = truth.projector_uv  # away from the edge of the projected image, which is soft
+    inner = truth.lit & (uv[..., 0] > 1) & (uv[..., 0] < 254) & (uv[..., 1] > 1) & (uv[..., 1] < 190)
+    np.testing.assert_allclose(image[inner], expected[inner], rtol=0.01)
+    bench.set_pattern(0, None)
+    assert bench.render(0).max() == 0  # no ambient, no black level: darkness
+
+
+def test_noise_matches_the_sensor_model() -> None:
+    params = SimCameraParams(full_well_e=5000.0, read_noise_e=15.0, blur_px=0.0, bit_depth=16)
+    bench = _bench([sc.plane(2000.0)], camera_params=[params])
+    bench.set_pattern(0, np.full((192, 256), 128, np.uint8))
+    a = bench.render(0).astype(float) / 65535
+    b = bench.render(0).astype(float) / 65535
+    lit = bench.ground_truth(0, 0).lit
+    signal = 0.5 * (a + b)[lit]
+    predicted = np.sqrt(2 * (signal * 5000.0 + 15.0**2)) / 5000.0
+    measured = (a - b)[lit]
+    ratio = np.std(measured) / np.sqrt(np.mean(predicted**2))
+    assert 0.95 < ratio < 1.05
+
+
+def test_devices_timestamps_sequences_and_pattern_checks() -> None:
+    bench = _bench([sc.plane(1000.0)])
+    projector, camera = SimProjector("p", bench, 0), SimCamera("c", bench, 0)
+    projector.open()
+    camera.open()
+    projector.show(np.full((192, 256), 255, np.uint8))
+    frames = [camera.capture() for _ in range(3)]
+    assert [f.sequence for f in frames] == [1, 2, 3]
+    assert frames[0].timestamp_s < frames[1].timestamp_s < frames[2].timestamp_s
+    with pytest.raises(ValueError, match="pattern must be uint8"):
+        projector.show(np.zeros((10, 10), np.uint8))
+    with pytest.raises(ValueError):
+        camera.capture(timeout_s=0)
+    projector.close()
+    assert projector.is_dark
+
+
+def test_camera_faults_fail_cleanly_and_finitely() -> None:
+    bench = _bench([sc.plane(1000.0)])
+    camera = SimCamera("c", bench, 0, disconnect_after=1)
+    camera.open()
+    camera.capture()
+    with pytest.raises(DeviceDisconnectedError):
+        camera.capture()
+    stalled = SimCamera("s", bench, 0, stall_after=0)
+    stalled.open()
+    start = time.monotonic()
+    with pytest.raises(DeviceTimeoutError):
+        stalled.capture(timeout_s=0.2)
+    assert 0.15 < time.monotonic() - start < 2.0
+
+
+def test_mesh_file_is_scaled_and_placed_on_its_base(tmp_path: Path) -> None:
+    path = tmp_path / "capsule.obj"
+    trimesh.creation.capsule(height=2.0, radius=1.0).export(path)
+    obj = sc.mesh_file(path, position_mm=(10.0, -5.0, 0.0), fit_size_mm=80.0)
+    extents = obj.vertices.max(axis=0) - obj.vertices.min(axis=0)
+    assert max(extents) == pytest.approx(80.0)
+    assert obj.vertices[:, 2].min() == pytest.approx(0.0, abs=1e-9)
+    center = 0.5 * (obj.vertices.max(axis=0) + obj.vertices.min(axis=0))
+    np.testing.assert_allclose(center[:2], [10.0, -5.0], atol=1e-9)
+    with pytest.raises(FileNotFoundError):
+        sc.mesh_file(tmp_path / "absent.ply")
+    (tmp_path / "junk.ply").write_text("not a mesh")
+    with pytest.raises(ValueError):
+        sc.mesh_file(tmp_path / "junk.ply")
