@@ -1,0 +1,124 @@
+"""Speed and memory of the simulated bench and the reconstruction; prints one JSON object.
+
+- simulated frame time at 1280x1024 after the first ray cast (median of 30 random patterns);
+- decode + triangulate of one 1280x1024 scan per codec (median of 7), and the PointSet step
+  (normals, colours) separately;
+- peak resident memory of a whole `slrig scan` per codec, each in a fresh process.
+
+    python bench/speed.py            # JSON
+    python bench/speed.py --readme   # also rewrite the speed table in README.md
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import platform
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+from _readme import markdown_table, replace_block  # noqa: E402
+
+from rig.config import load_config  # noqa: E402
+from rig.patterns import codec_names  # noqa: E402
+from rig.progress import ProgressTracker  # noqa: E402
+from rig.reconstruct import pair_pointset  # noqa: E402
+from rig.rig import open_rig  # noqa: E402
+from rig.scan import capture, make_codec  # noqa: E402
+
+_PEAK_SNIPPET = """
+import json, resource, sys
+from rig.cli import main
+code = main(["scan", "--codec", sys.argv[1], "--out", sys.argv[2], "--json"])
+print(json.dumps({"exit": code, "peak_rss_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024}))
+"""
+
+
+def frame_time() -> dict[str, float]:
+    config = load_config()
+    with open_rig(config) as rig:
+        projector, camera = rig.projectors[0], rig.cameras[0]
+        width, height = projector.resolution
+        projector.show(np.full((height, width), 255, np.uint8))
+        t = time.perf_counter()
+        camera.capture()
+        first = time.perf_counter() - t
+        rng = np.random.default_rng(0)
+        patterns = [rng.integers(0, 256, (height, width), dtype=np.uint8) for _ in range(30)]
+        times = []
+        for pattern in patterns:
+            t = time.perf_counter()
+            projector.show(pattern)
+            camera.capture()
+            times.append(time.perf_counter() - t)
+    return {"first_frame_s": round(first, 3), "frame_ms_median": round(statistics.median(times) * 1e3, 1),
+            "frame_ms_p90": round(float(np.percentile(times, 90)) * 1e3, 1)}
+
+
+def reconstruction(codec_name: str, repeats: int = 7) -> dict[str, float]:
+    config = load_config().with_codec(codec_name)
+    with open_rig(config) as rig:
+        codec = make_codec(rig, 0)
+        frames = capture(rig, [codec], ProgressTracker(None))[(0, 0)]
+        triangulator = rig.triangulator(0, 0)
+        triangulator.triangulate(codec.decode(frames, 255))  # per-calibration terms, computed once
+        decode, tri, pointset = [], [], []
+        for _ in range(repeats):
+            t0 = time.perf_counter()
+            corr = codec.decode(frames, 255)
+            t1 = time.perf_counter()
+            grid, valid = triangulator.triangulate(corr)
+            t2 = time.perf_counter()
+            pair_pointset(grid, valid, rig.camera_models[0], corr, 0)
+            t3 = time.perf_counter()
+            decode.append(t1 - t0)
+            tri.append(t2 - t1)
+            pointset.append(t3 - t2)
+    d, t, p = (statistics.median(x) * 1e3 for x in (decode, tri, pointset))
+    return {"frames": len(frames), "decode_ms": round(d, 1), "triangulate_ms": round(t, 1),
+            "decode_triangulate_ms": round(d + t, 1), "pointset_ms": round(p, 1)}
+
+
+def peak_memory(codec_name: str) -> float:
+    with tempfile.TemporaryDirectory() as tmp:
+        out = subprocess.run([sys.executable, "-c", _PEAK_SNIPPET, codec_name, os.path.join(tmp, "scan")],
+                             capture_output=True, text=True, check=True, timeout=600)
+    return round(json.loads(out.stdout.strip().splitlines()[-1])["peak_rss_mb"], 1)
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__)
+    parser.add_argument("--readme", action="store_true", help="rewrite the speed table in README.md")
+    args = parser.parse_args()
+    result = {
+        "benchmark": "speed",
+        "cpus": os.cpu_count(),
+        "machine": platform.machine(),
+        "python": platform.python_version(),
+        "simulated_frame_1280x1024": frame_time(),
+        "codecs": {name: {**reconstruction(name), "scan_peak_rss_mb": peak_memory(name)} for name in codec_names()},
+    }
+    print(json.dumps(result))
+    if args.readme:
+        f = result["simulated_frame_1280x1024"]
+        rows = [[name, c["frames"], c["decode_ms"], c["triangulate_ms"], c["decode_triangulate_ms"], c["pointset_ms"],
+                 c["scan_peak_rss_mb"]] for name, c in result["codecs"].items()]  # type: ignore[union-attr]
+        table = markdown_table(["codec", "frames", "decode ms", "triangulate ms", "decode+triangulate ms",
+                                "normals+colour ms", "whole scan peak RSS MB"], rows)
+        text = (f"Simulated 1280x1024 frame: {f['frame_ms_median']} ms median ({f['frame_ms_p90']} ms p90) after "  # type: ignore[index]
+                f"the first, which casts the rays: {f['first_frame_s']} s.\n\n{table}\n\n"  # type: ignore[index]
+                f"Measured on {result['cpus']} cores by `python bench/speed.py --readme`.")
+        replace_block("speed-table", text)
+
+
+if __name__ == "__main__":
+    main()
