@@ -1,7 +1,7 @@
 """Accuracy of every codec on several simulated scenes; prints one JSON object.
 
-    python bench/accuracy.py            # JSON
-    python bench/accuracy.py --readme   # also rewrite the accuracy table in README.md
+python bench/accuracy.py            # JSON
+python bench/accuracy.py --readme   # also rewrite the accuracy table in README.md
 """
 
 from __future__ import annotations
@@ -14,13 +14,13 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-from _readme import markdown_table, replace_block  # noqa: E402
+from _readme import markdown_table, replace_block
 
-from rig.config import RigConfig, load_config  # noqa: E402
-from rig.evaluate import evaluate_pair  # noqa: E402
-from rig.patterns import codec_names  # noqa: E402
-from rig.rig import open_rig  # noqa: E402
-from rig.scan import run_scan  # noqa: E402
+from rig.config import RigConfig, load_config
+from rig.evaluate import evaluate_pair
+from rig.patterns import codec_names
+from rig.rig import open_rig
+from rig.scan import run_scan
 
 REPO = Path(__file__).resolve().parent.parent
 SCENES: dict[str, dict[str, object]] = {
@@ -55,16 +55,43 @@ def main() -> None:
         config = base.with_scene(spec)
         for codec in codec_names():
             results.append({"scene": scene, "codec": codec, **measure(config, codec)})
-    out = {"benchmark": "accuracy", "machine": platform.machine(), "python": platform.python_version(),
-           "bench": "config/sim.yaml (1280x1024 camera, 1024x768 projector, 600 mm, 200 mm baseline)",
-           "results": results}
+    out = {
+        "benchmark": "accuracy",
+        "machine": platform.machine(),
+        "python": platform.python_version(),
+        "bench": "config/sim.yaml (1280x1024 camera, 1024x768 projector, 600 mm, 200 mm baseline)",
+        "results": results,
+    }
     print(json.dumps(out))
     if args.readme:
-        rows = [[r["scene"], r["codec"], r["frames"], r["mb_captured"], r["points"], f"{r['rms_mm']:.3f}",
-                 f"{r['p95_mm']:.3f}", f"{r['completeness']:.4f}", r["decode_triangulate_ms"]] for r in results]
-        header = ["scene", "codec", "frames", "MB captured", "points", "rms mm", "p95 mm", "completeness",
-                  "decode+triangulate ms (first scan)"]
-        replace_block("accuracy-table", markdown_table(header, rows) + "\n\nProduced by `python bench/accuracy.py --readme`.")
+        rows = [
+            [
+                r["scene"],
+                r["codec"],
+                r["frames"],
+                r["mb_captured"],
+                r["points"],
+                f"{r['rms_mm']:.3f}",
+                f"{r['p95_mm']:.3f}",
+                f"{r['completeness']:.4f}",
+                r["decode_triangulate_ms"],
+            ]
+            for r in results
+        ]
+        header = [
+            "scene",
+            "codec",
+            "frames",
+            "MB captured",
+            "points",
+            "rms mm",
+            "p95 mm",
+            "completeness",
+            "decode+triangulate ms (first scan)",
+        ]
+        replace_block(
+            "accuracy-table", markdown_table(header, rows) + "\n\nProduced by `python bench/accuracy.py --readme`."
+        )
 
 
 if __name__ == "__main__":

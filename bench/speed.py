@@ -26,14 +26,14 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-from _readme import markdown_table, replace_block  # noqa: E402
+from _readme import markdown_table, replace_block
 
-from rig.config import load_config  # noqa: E402
-from rig.patterns import codec_names  # noqa: E402
-from rig.progress import ProgressTracker  # noqa: E402
-from rig.reconstruct import pair_pointset  # noqa: E402
-from rig.rig import open_rig  # noqa: E402
-from rig.scan import capture, make_codec  # noqa: E402
+from rig.config import load_config
+from rig.patterns import codec_names
+from rig.progress import ProgressTracker
+from rig.reconstruct import pair_pointset
+from rig.rig import open_rig
+from rig.scan import capture, make_codec
 
 _PEAK_SNIPPET = """
 import json, resource, sys
@@ -60,8 +60,11 @@ def frame_time() -> dict[str, float]:
             projector.show(pattern)
             camera.capture()
             times.append(time.perf_counter() - t)
-    return {"first_frame_s": round(first, 3), "frame_ms_median": round(statistics.median(times) * 1e3, 1),
-            "frame_ms_p90": round(float(np.percentile(times, 90)) * 1e3, 1)}
+    return {
+        "first_frame_s": round(first, 3),
+        "frame_ms_median": round(statistics.median(times) * 1e3, 1),
+        "frame_ms_p90": round(float(np.percentile(times, 90)) * 1e3, 1),
+    }
 
 
 def reconstruction(codec_name: str, repeats: int = 7) -> dict[str, float]:
@@ -84,14 +87,24 @@ def reconstruction(codec_name: str, repeats: int = 7) -> dict[str, float]:
             tri.append(t2 - t1)
             pointset.append(t3 - t2)
     d, t, p = (statistics.median(x) * 1e3 for x in (decode, tri, pointset))
-    return {"frames": len(frames), "decode_ms": round(d, 1), "triangulate_ms": round(t, 1),
-            "decode_triangulate_ms": round(d + t, 1), "pointset_ms": round(p, 1)}
+    return {
+        "frames": len(frames),
+        "decode_ms": round(d, 1),
+        "triangulate_ms": round(t, 1),
+        "decode_triangulate_ms": round(d + t, 1),
+        "pointset_ms": round(p, 1),
+    }
 
 
 def peak_memory(codec_name: str) -> float:
     with tempfile.TemporaryDirectory() as tmp:
-        out = subprocess.run([sys.executable, "-c", _PEAK_SNIPPET, codec_name, os.path.join(tmp, "scan")],
-                             capture_output=True, text=True, check=True, timeout=600)
+        out = subprocess.run(
+            [sys.executable, "-c", _PEAK_SNIPPET, codec_name, os.path.join(tmp, "scan")],
+            capture_output=True,
+            text=True,
+            check=True,
+            timeout=600,
+        )
     return round(json.loads(out.stdout.strip().splitlines()[-1])["peak_rss_mb"], 1)
 
 
@@ -110,13 +123,35 @@ def main() -> None:
     print(json.dumps(result))
     if args.readme:
         f = result["simulated_frame_1280x1024"]
-        rows = [[name, c["frames"], c["decode_ms"], c["triangulate_ms"], c["decode_triangulate_ms"], c["pointset_ms"],
-                 c["scan_peak_rss_mb"]] for name, c in result["codecs"].items()]  # type: ignore[union-attr]
-        table = markdown_table(["codec", "frames", "decode ms", "triangulate ms", "decode+triangulate ms",
-                                "normals+colour ms", "whole scan peak RSS MB"], rows)
-        text = (f"Simulated 1280x1024 frame: {f['frame_ms_median']} ms median ({f['frame_ms_p90']} ms p90) after "  # type: ignore[index]
-                f"the first, which casts the rays: {f['first_frame_s']} s.\n\n{table}\n\n"  # type: ignore[index]
-                f"Measured on {result['cpus']} cores by `python bench/speed.py --readme`.")
+        rows = [
+            [
+                name,
+                c["frames"],
+                c["decode_ms"],
+                c["triangulate_ms"],
+                c["decode_triangulate_ms"],
+                c["pointset_ms"],
+                c["scan_peak_rss_mb"],
+            ]
+            for name, c in result["codecs"].items()
+        ]  # type: ignore[union-attr]
+        table = markdown_table(
+            [
+                "codec",
+                "frames",
+                "decode ms",
+                "triangulate ms",
+                "decode+triangulate ms",
+                "normals+colour ms",
+                "whole scan peak RSS MB",
+            ],
+            rows,
+        )
+        text = (
+            f"Simulated 1280x1024 frame: {f['frame_ms_median']} ms median ({f['frame_ms_p90']} ms p90) after "  # type: ignore[index]
+            f"the first, which casts the rays: {f['first_frame_s']} s.\n\n{table}\n\n"  # type: ignore[index]
+            f"Measured on {result['cpus']} cores by `python bench/speed.py --readme`."
+        )
         replace_block("speed-table", text)
 
 

@@ -1,6 +1,6 @@
 """Make the README's pictures from a scan of the default simulated bench.
 
-    python docs/make_images.py
+python docs/make_images.py
 """
 
 from __future__ import annotations
@@ -35,8 +35,9 @@ def main() -> None:
             frame = rig.cameras[0].capture().image
             _save(f"frame_{codec_name}.png", frame)
             result = run_scan(rig)
-            preview = cv2.imdecode(np.frombuffer(preview_png(result.cloud, rig.camera_models[0]), np.uint8),
-                                   cv2.IMREAD_COLOR)
+            preview = cv2.imdecode(
+                np.frombuffer(preview_png(result.cloud, rig.camera_models[0]), np.uint8), cv2.IMREAD_COLOR
+            )
             _save(f"preview_{codec_name}.png", preview)
 
 
