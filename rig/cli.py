@@ -16,6 +16,7 @@ from rig import __version__
 from rig.config import SCENE_KINDS, RigConfig, load_config
 from rig.errors import ConfigError, ScanError, SlrigError
 from rig.evaluate import evaluate_pair
+from rig.patterns import codec_class
 from rig.progress import TerminalBar
 from rig.rig import Rig, open_rig
 from rig.scan import ScanResult, run_scan
@@ -61,6 +62,8 @@ def _parser() -> argparse.ArgumentParser:
 
 
 def _load(args: argparse.Namespace) -> RigConfig:
+    if args.codec:
+        codec_class(args.codec)  # an unknown name fails here, naming the known ones
     config = load_config(args.config)
     if args.codec:
         config = config.with_codec(args.codec)

@@ -243,7 +243,7 @@ def _validate(data: object, source: str) -> RigConfig:
     try:
         return RigConfig.model_validate(data)
     except ValidationError as exc:
-        problems = [f"{_location(e['loc'])}: {e['msg']}" for e in exc.errors()]
+        problems = [f"{_location(e['loc'])}: {e['msg'].removeprefix('Value error, ')}" for e in exc.errors()]
         raise ConfigError(source, problems) from None
 
 

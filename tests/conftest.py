@@ -6,12 +6,30 @@ import copy
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 import pytest
 import yaml
 
 from rig.config import DEFAULT_CONFIG, RigConfig, load_config
+from rig.geometry import CameraModel, look_at_rotation
 
 REPO = Path(__file__).resolve().parent.parent
+
+
+def make_device(
+    width: int,
+    height: int,
+    f: float,
+    position: tuple[float, float, float],
+    target: tuple[float, float, float] = (0.0, 0.0, 0.0),
+    dist: tuple[float, ...] = (),
+    projection: str = "pinhole",
+) -> CameraModel:
+    """A camera or projector at `position` looking at `target`, principal point at the centre."""
+    pos = np.array(position, float)
+    R = look_at_rotation(pos, np.array(target, float), np.array([0.0, 1.0, 0.0]))
+    K = np.array([[f, 0.0, width / 2 - 0.5], [0.0, f, height / 2 - 0.5], [0.0, 0.0, 1.0]])
+    return CameraModel(width, height, K, R, -R @ pos, dist=np.array(dist), projection=projection)  # type: ignore[arg-type]
 
 
 def default_config_data() -> dict[str, Any]:

@@ -8,22 +8,7 @@ import pytest
 from rig.geometry import CameraModel, look_at_rotation, ray_plane, ray_ray_midpoint
 from rig.patterns import Correspondence
 from rig.reconstruct import PairTriangulator
-
-
-def _device(
-    width: int,
-    height: int,
-    f: float,
-    position: tuple[float, float, float],
-    target: tuple[float, float, float] = (0.0, 0.0, 0.0),
-    dist: tuple[float, ...] = (),
-    projection: str = "pinhole",
-    skew: float = 0.0,
-) -> CameraModel:
-    pos = np.array(position, float)
-    R = look_at_rotation(pos, np.array(target, float), np.array([0.0, 1.0, 0.0]))
-    K = np.array([[f, skew, width / 2 - 0.5], [0, f, height / 2 - 0.5], [0, 0, 1]])
-    return CameraModel(width, height, K, R, -R @ pos, dist=np.array(dist), projection=projection)  # type: ignore[arg-type]
+from tests.conftest import make_device
 
 
 def test_look_at_is_a_right_handed_rotation_looking_at_the_target() -> None:
@@ -37,7 +22,7 @@ def test_look_at_is_a_right_handed_rotation_looking_at_the_target() -> None:
 
 @pytest.mark.parametrize("dist", [(), (-0.06, 0.04), (-0.2, 0.1, 0.002, -0.001, 0.01)])
 def test_project_then_rays_returns_to_the_point(dist: tuple[float, ...]) -> None:
-    cam = _device(1280, 1024, 1800.0, (-100.0, 20.0, 600.0), dist=dist)
+    cam = make_device(1280, 1024, 1800.0, (-100.0, 20.0, 600.0), dist=dist)
     rng = np.random.default_rng(3)
     points = rng.uniform([-150, -150, -20], [150, 150, 120], (500, 3))
     uv, _ = cam.project(points)
@@ -49,7 +34,7 @@ def test_project_then_rays_returns_to_the_point(dist: tuple[float, ...]) -> None
 
 
 def test_orthographic_rays_are_parallel_and_project_back() -> None:
-    proj = _device(1024, 768, 2.0, (0.0, 0.0, 600.0), projection="orthographic")  # 2 px per mm
+    proj = make_device(1024, 768, 2.0, (0.0, 0.0, 600.0), projection="orthographic")  # 2 px per mm
     uv = np.array([[0.0, 0.0], [511.5, 383.5], [1000.0, 700.0]])
     origins, directions = proj.rays(uv)
     np.testing.assert_allclose(directions, np.tile([0.0, 0.0, -1.0], (3, 1)), atol=1e-12)
@@ -106,8 +91,8 @@ def _analytic_correspondence(
 @pytest.mark.parametrize("projector_dist", [(), (0.05, -0.02)])
 @pytest.mark.parametrize("both", [False, True])
 def test_pair_triangulation_returns_the_analytic_point(projector_dist: tuple[float, ...], both: bool) -> None:
-    camera = _device(320, 256, 450.0, (-100.0, 0.0, 600.0), dist=(-0.06, 0.04))
-    projector = _device(256, 192, 375.0, (100.0, 0.0, 620.0), dist=projector_dist)
+    camera = make_device(320, 256, 450.0, (-100.0, 0.0, 600.0), dist=(-0.06, 0.04))
+    projector = make_device(256, 192, 375.0, (100.0, 0.0, 620.0), dist=projector_dist)
     corr, truth = _analytic_correspondence(camera, projector, 17.0, both)
     points, valid = PairTriangulator(camera, projector).triangulate(corr)
     assert valid.sum() > 0.5 * valid.size
@@ -116,8 +101,8 @@ def test_pair_triangulation_returns_the_analytic_point(projector_dist: tuple[flo
 
 
 def test_pair_triangulation_with_orthographic_projector() -> None:
-    camera = _device(320, 256, 450.0, (-150.0, 0.0, 600.0))
-    projector = _device(256, 192, 0.8, (0.0, 0.0, 600.0), projection="orthographic")
+    camera = make_device(320, 256, 450.0, (-150.0, 0.0, 600.0))
+    projector = make_device(256, 192, 0.8, (0.0, 0.0, 600.0), projection="orthographic")
     corr, truth = _analytic_correspondence(camera, projector, -5.0, both=False)
     points, valid = PairTriangulator(camera, projector).triangulate(corr)
     assert valid.any()

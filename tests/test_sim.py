@@ -12,24 +12,10 @@ import trimesh
 from drivers.errors import DeviceDisconnectedError, DeviceTimeoutError
 from drivers.sim import SimBench, SimCamera, SimCameraParams, SimProjector, SimProjectorParams
 from drivers.sim import scene as sc
-from rig.geometry import CameraModel, look_at_rotation
+from tests.conftest import make_device
 
-
-def _device(
-    width: int,
-    height: int,
-    f: float,
-    position: tuple[float, float, float],
-    target: tuple[float, float, float] = (0.0, 0.0, 0.0),
-) -> CameraModel:
-    pos = np.array(position, float)
-    R = look_at_rotation(pos, np.array(target, float), np.array([0.0, 1.0, 0.0]))
-    K = np.array([[f, 0, width / 2 - 0.5], [0, f, height / 2 - 0.5], [0, 0, 1]])
-    return CameraModel(width, height, K, R, -R @ pos)
-
-
-CAMERA = _device(320, 256, 450.0, (-100.0, 0.0, 600.0), (0.0, 0.0, 30.0))
-PROJECTOR = _device(256, 192, 375.0, (100.0, 0.0, 620.0), (0.0, 0.0, 30.0))
+CAMERA = make_device(320, 256, 450.0, (-100.0, 0.0, 600.0), (0.0, 0.0, 30.0))
+PROJECTOR = make_device(256, 192, 375.0, (100.0, 0.0, 620.0), (0.0, 0.0, 30.0))
 
 
 def _bench(objects: list[sc.SceneObject], **kwargs: object) -> SimBench:

@@ -16,16 +16,15 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from pydantic import Field
+from pydantic import Field, field_validator
 
-from rig.patterns.base import Codec, CodecParams, Correspondence
-from rig.patterns.gray import Directions, _axes
+from rig.patterns.base import Correspondence
 from rig.patterns.graycode import bit_count, decode_gray, gray_planes, planes_with_inverses
+from rig.patterns.lines import LineCodec, LineParams
 from rig.patterns.registry import register
 
 
-class PhaseParams(CodecParams):
-    directions: Directions = Field("columns", description="which projector coordinates to code")
+class PhaseParams(LineParams):
     steps: int = Field(8, ge=3, le=64, description="phase steps N per period")
     period_px: int = Field(16, ge=4, le=4096, description="fringe period P in projector pixels (even)")
     min_modulation: float = Field(
@@ -34,48 +33,36 @@ class PhaseParams(CodecParams):
         le=1.0,
         description="minimum fringe amplitude B (fraction of full scale)",
     )
-    white_threshold: float = Field(
-        0.02,
-        ge=0.0,
-        le=1.0,
-        description="minimum |pattern - inverse| for the unwrapping Gray code",
-    )
+
+    @field_validator("period_px")
+    @classmethod
+    def _even(cls, value: int) -> int:
+        if value % 2:
+            raise ValueError(f"must be even (the unwrapping code works in half periods), got {value}")
+        return value
 
 
 @register
-class PhaseCodec(Codec):
+class PhaseCodec(LineCodec):
     name = "phase"
     Params = PhaseParams
     params: PhaseParams
 
-    def __init__(self, projector_size: tuple[int, int], params: PhaseParams | None = None) -> None:
-        super().__init__(projector_size, params)
-        if self.params.period_px % 2:
-            raise ValueError(f"phase: period_px must be even, got {self.params.period_px}")
-
-    def _extent(self, axis: str) -> int:
-        return self.width if axis == "u" else self.height
-
     def _gray_bits(self, axis: str) -> int:
-        halves = math.ceil(self._extent(axis) / (self.params.period_px // 2))
+        halves = math.ceil(self.extent(axis) / (self.params.period_px // 2))
         return bit_count(halves)
-
-    def _stretch(self, line: np.ndarray, axis: str) -> np.ndarray:
-        if axis == "u":
-            return np.ascontiguousarray(np.broadcast_to(line, (self.height, self.width)))
-        return np.ascontiguousarray(np.broadcast_to(line[:, None], (self.height, self.width)))
 
     def _coded_patterns(self) -> list[np.ndarray]:
         n_steps, period = self.params.steps, self.params.period_px
         out: list[np.ndarray] = []
-        for axis in _axes(self.params.directions):
-            x = np.arange(self._extent(axis))
+        for axis in self.axes():
+            x = np.arange(self.extent(axis))
             for n in range(n_steps):
                 value = 0.5 + 0.5 * np.cos(2 * np.pi * x / period - 2 * np.pi * n / n_steps)
-                out.append(self._stretch(np.rint(value * 255).astype(np.uint8), axis))
+                out.append(self.stretch(np.rint(value * 255).astype(np.uint8), axis))
             half_index = x // (period // 2)
             for img in planes_with_inverses(gray_planes(half_index, self._gray_bits(axis))):
-                out.append(self._stretch(img, axis))
+                out.append(self.stretch(img, axis))
         return out
 
     def _decode(self, frames, white, black, lit, texture) -> Correspondence:  # type: ignore[no-untyped-def]
@@ -87,7 +74,7 @@ class PhaseCodec(Codec):
         coords: dict[str, np.ndarray] = {}
         counts = {"lit": int(lit.sum())}
         offset = 0
-        for axis in _axes(self.params.directions):
+        for axis in self.axes():
             s = np.zeros(lit.shape, dtype=np.float32)
             c = np.zeros(lit.shape, dtype=np.float32)
             for n in range(n_steps):
@@ -104,14 +91,9 @@ class PhaseCodec(Codec):
             k = np.where(phi < np.pi / 2, k2, np.where(phi > 1.5 * np.pi, k2 - 1, k1))
             x = (k + phi / (2 * np.pi)) * period
             ok = (modulation >= self.params.min_modulation) & (strength >= self.params.white_threshold)
-            ok &= (x > -0.5) & (x < self._extent(axis) - 0.5)
+            ok &= (x > -0.5) & (x < self.extent(axis) - 0.5)
             counts[f"low_modulation_{axis}"] = int((lit & (modulation < self.params.min_modulation)).sum())
             valid &= ok
             quality = np.minimum(quality, modulation)
             coords[axis] = x.astype(np.float32)
-        for axis in coords:
-            coords[axis][~valid] = np.nan
-        counts["decoded"] = int(valid.sum())
-        return Correspondence(
-            valid=valid, quality=quality, texture=texture, u=coords.get("u"), v=coords.get("v"), counts=counts
-        )
+        return self.correspondence(coords, valid, quality, texture, counts)

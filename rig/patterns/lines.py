@@ -1,0 +1,52 @@
+"""Shared parts of codecs whose patterns are stripes along projector columns and/or rows."""
+
+from __future__ import annotations
+
+from typing import Literal
+
+import numpy as np
+from pydantic import Field
+
+from rig.patterns.base import Codec, CodecParams, Correspondence
+
+Directions = Literal["columns", "rows", "both"]
+
+
+class LineParams(CodecParams):
+    directions: Directions = Field("columns", description="which projector coordinates to code")
+    white_threshold: float = Field(
+        0.02, ge=0.0, le=1.0, description="minimum |pattern - inverse| of the Gray-code bits (fraction of full scale)"
+    )
+
+
+class LineCodec(Codec):
+    """Patterns that vary along one projector axis: `u` (columns) and/or `v` (rows)."""
+
+    params: LineParams
+
+    def axes(self) -> list[str]:
+        return {"columns": ["u"], "rows": ["v"], "both": ["u", "v"]}[self.params.directions]
+
+    def extent(self, axis: str) -> int:
+        return self.width if axis == "u" else self.height
+
+    def stretch(self, line: np.ndarray, axis: str) -> np.ndarray:
+        """A 1-D profile along `axis` as a full projector image."""
+        if axis == "u":
+            return np.ascontiguousarray(np.broadcast_to(line, (self.height, self.width)))
+        return np.ascontiguousarray(np.broadcast_to(line[:, None], (self.height, self.width)))
+
+    @staticmethod
+    def correspondence(
+        coords: dict[str, np.ndarray],
+        valid: np.ndarray,
+        quality: np.ndarray,
+        texture: np.ndarray,
+        counts: dict[str, int],
+    ) -> Correspondence:
+        for axis in coords:
+            coords[axis][~valid] = np.nan
+        counts["decoded"] = int(valid.sum())
+        return Correspondence(
+            valid=valid, quality=quality, texture=texture, u=coords.get("u"), v=coords.get("v"), counts=counts
+        )
