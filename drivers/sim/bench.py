@@ -19,6 +19,7 @@ from drivers.sim.raycast import RayCaster
 from drivers.sim.scene import Scene
 
 _SHADOW_EPS_MM = 0.02
+_LIGHTING_CHUNK = 1 << 18
 
 
 class ViewModel(Protocol):
@@ -153,9 +154,7 @@ class SimBench:
             albedo = np.zeros(len(hit), dtype=np.float32)
             albedo[hit] = self.scene.face_albedo[faces[hit]]
             depth = np.zeros(len(hit))
-            if hit.any():
-                _, z = model.project(points[hit])
-                depth[hit] = z
+            depth[hit] = points[hit] @ model.axis - model.axis @ model.center  # device-frame z
             self._views[camera] = _CameraView(hit, points, normals, albedo.reshape(model.height, model.width), depth)
         return self._views[camera]
 
@@ -168,17 +167,26 @@ class SimBench:
     def _compute_lighting(self, camera: int, projector: int) -> _Illumination:
         view = self._view(camera)
         cam = self.cameras[camera]
-        proj = self.projectors[projector]
-        params = self.projector_params[projector]
         n_px = cam.width * cam.height
         uv = np.full((n_px, 2), np.nan)
         lit = np.zeros(n_px, dtype=bool)
         gain = np.zeros(n_px, dtype=np.float32)
         idx = np.flatnonzero(view.hit)
-        points = view.points[idx]
-        normals = view.normals[idx]
+        for start in range(0, len(idx), _LIGHTING_CHUNK):  # chunks bound the temporaries
+            part = idx[start : start + _LIGHTING_CHUNK]
+            uv[part], lit[part], gain[part] = self._light_points(projector, view.points[part], view.normals[part])
+        map_x = np.where(lit, uv[:, 0], -1e4).astype(np.float32)
+        map_y = np.where(lit, uv[:, 1], -1e4).astype(np.float32)
+        shape = (cam.height, cam.width)
+        return _Illumination(map_x.reshape(shape), map_y.reshape(shape), gain.reshape(shape), uv, lit)
+
+    def _light_points(
+        self, projector: int, points: np.ndarray, normals: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Projector pixel, lit flag and irradiance gain of surface points."""
+        proj = self.projectors[projector]
+        params = self.projector_params[projector]
         puv, pz = proj.project(points)
-        uv[idx] = puv
         inside = (
             (pz > 0)
             & (puv[:, 0] >= -0.5)
@@ -187,7 +195,7 @@ class SimBench:
             & (puv[:, 1] < proj.height - 0.5)
         )
         if proj.projection == "orthographic":
-            to_light = np.broadcast_to(-proj.axis, points.shape).copy()
+            to_light = np.broadcast_to(-proj.axis, points.shape)
             distance = np.full(len(points), np.inf)
             falloff = np.ones(len(points))
         else:
@@ -196,20 +204,12 @@ class SimBench:
             to_light /= distance[:, None]
             falloff = (params.reference_distance_mm / distance) ** 2
         cos_i = np.einsum("ij,ij->i", normals, to_light)
-        candidates = inside & (cos_i > 0)
-        c_idx = np.flatnonzero(candidates)
+        c_idx = np.flatnonzero(inside & (cos_i > 0))
         blocker, _ = self._caster.first_hit(points[c_idx] + _SHADOW_EPS_MM * normals[c_idx], to_light[c_idx])
-        unshadowed = blocker >= distance[c_idx] - 2 * _SHADOW_EPS_MM
-        lit_local = np.zeros(len(points), dtype=bool)
-        lit_local[c_idx[unshadowed]] = True
-        lit[idx] = lit_local
-        gain[idx] = np.where(lit_local, cos_i * falloff * params.brightness, 0.0)
-        map_x = np.full(n_px, -1e4, dtype=np.float32)
-        map_y = np.full(n_px, -1e4, dtype=np.float32)
-        map_x[idx[lit_local]] = puv[lit_local, 0]
-        map_y[idx[lit_local]] = puv[lit_local, 1]
-        shape = (cam.height, cam.width)
-        return _Illumination(map_x.reshape(shape), map_y.reshape(shape), gain.reshape(shape), uv, lit)
+        lit = np.zeros(len(points), dtype=bool)
+        lit[c_idx[blocker >= distance[c_idx] - 2 * _SHADOW_EPS_MM]] = True
+        gain = np.where(lit, cos_i * falloff * params.brightness, 0.0)
+        return puv, lit, gain
 
     # --- rendering -------------------------------------------------------------------------
     def irradiance(self, camera: int) -> np.ndarray:

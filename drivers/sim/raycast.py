@@ -13,7 +13,7 @@ import numpy as np
 from embreex import rtcore_scene
 from embreex.mesh_construction import TriangleMesh
 
-_CHUNK = 1 << 20
+_CHUNK = 1 << 18  # rays per call: bounds the temporaries (about 100 bytes a ray)
 
 
 class RayCaster:
@@ -23,6 +23,8 @@ class RayCaster:
         self.vertices = np.asarray(vertices, dtype=np.float64)
         self.faces = np.asarray(faces, dtype=np.int64)
         self._triangles = self.vertices[self.faces]
+        normals = np.cross(self._triangles[:, 1] - self._triangles[:, 0], self._triangles[:, 2] - self._triangles[:, 0])
+        self._face_normals = normals / np.linalg.norm(normals, axis=1, keepdims=True)
         self._scene = rtcore_scene.EmbreeScene()
         TriangleMesh(self._scene, self._triangles.astype(np.float32))
 
@@ -40,8 +42,10 @@ class RayCaster:
             faces[start:stop] = result["primID"]
         faces[faces < 0] = -1
         distance = np.full(n, np.inf)
-        hit = faces >= 0
-        distance[hit] = self._exact_distance(origins[hit], directions[hit], faces[hit])
+        hit = np.flatnonzero(faces >= 0)
+        for start in range(0, len(hit), _CHUNK):
+            part = hit[start : start + _CHUNK]
+            distance[part] = self._exact_distance(origins[part], directions[part], faces[part])
         return distance, faces
 
     def _exact_distance(self, origins: np.ndarray, directions: np.ndarray, faces: np.ndarray) -> np.ndarray:
@@ -56,6 +60,5 @@ class RayCaster:
             return np.einsum("ij,ij->i", e2, q) / det
 
     def face_normals(self, faces: np.ndarray) -> np.ndarray:
-        tri = self._triangles[faces]
-        n = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
-        return n / np.linalg.norm(n, axis=1, keepdims=True)
+        """Unit geometric normals (right-hand winding) of the given faces."""
+        return self._face_normals[faces]

@@ -73,7 +73,7 @@ class CameraModel:
         return self.R[2].copy()
 
     def to_device(self, points: np.ndarray) -> np.ndarray:
-        return points @ self.R.T + self.t
+        return np.einsum("ij,kj->ik", points, self.R) + self.t  # faster than @ for (N, 3) x (3, 3)
 
     def project(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """World points (N, 3) -> pixels (N, 2) and device-frame depth z (N,)."""
@@ -133,23 +133,33 @@ class CameraModel:
         return xy
 
     def rays(self, uv: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Pixels (N, 2) -> world ray origins (N, 3) and unit directions (N, 3)."""
+        """Pixels (N, 2) -> world ray origins (N, 3) and unit directions (N, 3). Arrays that are
+        the same for every ray (pinhole origins, orthographic directions) are read-only broadcasts."""
         xy = self.normalized(uv)
         n = len(xy)
         if self.projection == "orthographic":
             dev_origin = np.column_stack([xy, np.zeros(n)])
             origins = (dev_origin - self.t) @ self.R
-            directions = np.broadcast_to(self.axis, (n, 3)).copy()
-            return origins, directions
+            return origins, np.broadcast_to(self.axis, (n, 3))
         dev_dir = np.column_stack([xy, np.ones(n)])
         dev_dir /= np.linalg.norm(dev_dir, axis=1, keepdims=True)
-        return np.broadcast_to(self.center, (n, 3)).copy(), dev_dir @ self.R
+        return np.broadcast_to(self.center, (n, 3)), dev_dir @ self.R
 
     @cached_property
     def pixel_rays(self) -> tuple[np.ndarray, np.ndarray]:
-        """Rays through every pixel centre, each (H*W, 3), row-major; computed once."""
-        v, u = np.mgrid[0 : self.height, 0 : self.width]
-        return self.rays(np.column_stack([u.ravel(), v.ravel()]).astype(np.float64))
+        """Rays through every pixel centre, each (H*W, 3), row-major; computed once, a band of rows
+        at a time to bound the temporaries of undistortion."""
+        columns = np.arange(self.width, dtype=np.float64)
+        origins, directions = [], []
+        for top in range(0, self.height, 64):
+            rows = np.arange(top, min(self.height, top + 64), dtype=np.float64)
+            uv = np.column_stack([np.tile(columns, len(rows)), np.repeat(rows, self.width)])
+            o, d = self.rays(uv)
+            origins.append(o)
+            directions.append(d)
+        if self.projection == "orthographic":
+            return np.concatenate(origins), np.concatenate(directions)
+        return np.broadcast_to(self.center, (self.width * self.height, 3)), np.concatenate(directions)
 
     def plane_through_column(self, x_normalized: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """World planes n . X = d of constant normalized x (a projector column), per element."""

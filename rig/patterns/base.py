@@ -4,8 +4,9 @@ frames into a Correspondence. Triangulation depends only on the Correspondence."
 from __future__ import annotations
 
 import abc
+from collections.abc import Sequence
 from dataclasses import dataclass, field
-from typing import ClassVar
+from typing import ClassVar, overload
 
 import cv2
 import numpy as np
@@ -46,6 +47,32 @@ class Correspondence:
     counts: dict[str, int] = field(default_factory=dict)
 
 
+class NormalizedFrames(Sequence[np.ndarray]):
+    """Captured frames as float32 luminance in [0, 1], converted when read (not all at once, which
+    would hold a float copy of every frame). Slicing gives another NormalizedFrames."""
+
+    def __init__(self, frames: list[np.ndarray], full_scale: int) -> None:
+        self._frames = frames
+        self._full_scale = full_scale
+
+    def __len__(self) -> int:
+        return len(self._frames)
+
+    @overload
+    def __getitem__(self, index: int) -> np.ndarray: ...
+
+    @overload
+    def __getitem__(self, index: slice) -> NormalizedFrames: ...
+
+    def __getitem__(self, index: int | slice) -> np.ndarray | NormalizedFrames:
+        if isinstance(index, slice):
+            return NormalizedFrames(self._frames[index], self._full_scale)
+        frame = self._frames[index]
+        if frame.ndim == 3:
+            frame = cv2.cvtColor(frame, cv2.COLOR_BGR2GRAY)
+        return frame.astype(np.float32) * np.float32(1.0 / self._full_scale)
+
+
 class Codec(abc.ABC):
     """Encoder and decoder for one pattern family.
 
@@ -80,24 +107,16 @@ class Codec(abc.ABC):
         shapes = {f.shape[:2] for f in frames}
         if len(shapes) != 1:
             raise DecodeError(f"{self.name}: frames differ in size: {sorted(shapes)}")
-        texture = frames[0]
-        scale = np.float32(1.0 / full_scale)
-        gray = [self._luminance(f) * scale for f in frames]
-        white, black = gray[0], gray[1]
+        normalized = NormalizedFrames(frames, full_scale)
+        white, black = normalized[0], normalized[1]
         lit = (white - black) >= self.params.black_threshold
-        return self._decode(gray[2:], white, black, lit, texture)
-
-    @staticmethod
-    def _luminance(frame: np.ndarray) -> np.ndarray:
-        if frame.ndim == 3:
-            frame = cv2.cvtColor(frame, cv2.COLOR_BGR2GRAY)
-        return frame.astype(np.float32)
+        return self._decode(NormalizedFrames(frames[2:], full_scale), white, black, lit, frames[0])
 
     @abc.abstractmethod
     def _coded_patterns(self) -> list[np.ndarray]: ...
 
     @abc.abstractmethod
     def _decode(
-        self, frames: list[np.ndarray], white: np.ndarray, black: np.ndarray, lit: np.ndarray, texture: np.ndarray
+        self, frames: NormalizedFrames, white: np.ndarray, black: np.ndarray, lit: np.ndarray, texture: np.ndarray
     ) -> Correspondence:
         """`frames` are the coded frames as float32 in [0, 1]."""

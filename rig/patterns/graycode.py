@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 
 import numpy as np
 
@@ -27,7 +28,7 @@ def planes_with_inverses(planes: list[np.ndarray]) -> list[np.ndarray]:
     return out
 
 
-def decode_gray(frames: list[np.ndarray], bits: int) -> tuple[np.ndarray, np.ndarray]:
+def decode_gray(frames: Sequence[np.ndarray], bits: int) -> tuple[np.ndarray, np.ndarray]:
     """Decode `bits` (pattern, inverse) frame pairs, MSB first.
 
     Returns the binary value (int32) and the smallest |pattern - inverse| over the bits for each
