@@ -24,7 +24,8 @@ Coord = Annotated[float, Field(ge=-100_000.0, le=100_000.0)]
 Vec3 = tuple[Coord, Coord, Coord]
 Name = Annotated[str, Field(pattern=r"^[A-Za-z0-9_-]{1,32}$")]
 Resolution = tuple[Annotated[int, Field(ge=16, le=16384)], Annotated[int, Field(ge=16, le=16384)]]
-Albedo = Annotated[float, Field(ge=0.0, le=1.0)]
+Fraction = Annotated[float, Field(ge=0.0, le=1.0)]
+Albedo = Fraction | tuple[Fraction, Fraction, Fraction]  # grey, or linear [red, green, blue]
 
 
 class Strict(BaseModel):
@@ -101,6 +102,7 @@ class CameraConfig(Strict):
     exposure_us: float = Field(10000.0, ge=1.0, le=1e7)
     gain: float = Field(1.0, ge=0.0, le=64.0)
     bit_depth: Literal[8, 10, 12, 16] = 8
+    color: bool = Field(False, description="colour sensor (BGR frames); decoding uses their luminance")
     sim: SimCameraOptions = SimCameraOptions()
 
 
@@ -137,7 +139,7 @@ class SphereOnPlaneScene(Strict):
     radius_mm: float = Field(60.0, gt=0, le=5_000)
     position_mm: tuple[Coord, Coord] = (0.0, 0.0)
     plane_size_mm: float = Field(600.0, gt=0, le=10_000)
-    sphere_albedo: Albedo = 0.8
+    sphere_albedo: Albedo = (0.85, 0.75, 0.6)
     plane_albedo: Albedo = 0.6
 
 

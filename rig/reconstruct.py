@@ -150,9 +150,9 @@ def pair_pointset(
     idx = np.flatnonzero(valid.ravel())
     texture = corr.texture
     if texture.ndim == 2:
-        rgb = cv2.cvtColor(_to_uint8(texture), cv2.COLOR_GRAY2RGB)
+        rgb = cv2.cvtColor(_to_uint8(texture, corr.full_scale), cv2.COLOR_GRAY2RGB)
     else:
-        rgb = cv2.cvtColor(_to_uint8(texture), cv2.COLOR_BGR2RGB)
+        rgb = cv2.cvtColor(_to_uint8(texture, corr.full_scale), cv2.COLOR_BGR2RGB)
     points = PointSet(
         points=grid.reshape(-1, 3)[idx],
         normals=normals.reshape(-1, 3)[idx],
@@ -164,7 +164,7 @@ def pair_pointset(
     return points
 
 
-def _to_uint8(image: np.ndarray) -> np.ndarray:
-    if image.dtype == np.uint8:
+def _to_uint8(image: np.ndarray, full_scale: int) -> np.ndarray:
+    if image.dtype == np.uint8 and full_scale == 255:
         return image
-    return (image.astype(np.float32) * (255.0 / max(1, int(image.max())))).astype(np.uint8)
+    return np.clip(image.astype(np.float32) * (255.0 / full_scale), 0, 255).astype(np.uint8)

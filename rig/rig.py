@@ -135,6 +135,7 @@ def _sim_camera_params(c: CameraConfig) -> SimCameraParams:
         blur_px=c.sim.blur_px,
         bit_depth=c.bit_depth,
         frame_period_s=c.sim.frame_period_s,
+        color=c.color,
     )
 
 

@@ -128,3 +128,37 @@ def test_camera_fault_fails_the_scan_and_leaves_the_projector_dark(small_config:
         assert all(p.is_dark for p in the_rig.projectors)  # type: ignore[attr-defined]
     finally:
         the_rig.close()
+
+
+def test_colour_camera_gives_a_coloured_cloud(tmp_path: Path) -> None:
+    from tests.conftest import small_config_data
+
+    data = small_config_data()
+    data["cameras"][0]["color"] = True
+    data["simulation"]["scene"] = {"kind": "sphere_on_plane", "sphere_albedo": [0.9, 0.3, 0.1], "plane_albedo": 0.6}
+    out = tmp_path / "colour"
+    assert main(["scan", "--config", str(write_config(tmp_path, data)), "--out", str(out)]) == 0
+    vertex = plyfile.PlyData.read(out / "cloud.ply")["vertex"]
+    rgb = np.column_stack([vertex["red"], vertex["green"], vertex["blue"]]).astype(float)
+    on_sphere = vertex["z"] > 20.0
+    assert on_sphere.sum() > 1000
+    red, green, blue = rgb[on_sphere].mean(axis=0)
+    assert red > 2 * green > 2 * blue  # the sphere's albedo, seen through the lit frame
+    plane = rgb[~on_sphere]
+    assert np.abs(plane[:, 0] - plane[:, 2]).mean() < 6  # the grey plane stays grey
+    manifest = json.loads((out / "manifest.json").read_text())
+    assert manifest["metrics"]["projector0/camera0"]["rms_mm"] < 0.5
+
+
+def test_progress_events_advance_through_the_stages(small_config: RigConfig) -> None:
+    from rig.progress import ProgressEvent
+
+    events: list[ProgressEvent] = []
+    with open_rig(small_config) as the_rig:
+        run_scan(the_rig, progress=events.append)
+    fractions = [e.fraction for e in events]
+    assert fractions == sorted(fractions) and fractions[-1] >= 0.9
+    stages = [e.stage for e in events]
+    assert stages.index("capture") < stages.index("decode") < stages.index("triangulate")
+    assert all(e.elapsed_s >= 0 for e in events)
+    assert events[-1].remaining_s is not None and events[-1].remaining_s < events[-1].elapsed_s

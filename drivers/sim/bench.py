@@ -65,6 +65,7 @@ class SimCameraParams:
     blur_px: float = 0.6  # optical blur, Gaussian sigma in camera pixels
     bit_depth: int = 8
     frame_period_s: float = 1 / 30
+    color: bool = False  # a colour sensor gives BGR frames; a mono one sees the albedo's luminance
 
 
 @dataclass(frozen=True, eq=False)
@@ -84,7 +85,8 @@ class _CameraView:
     hit: np.ndarray  # (N,) over pixels, row-major
     points: np.ndarray  # (N, 3)
     normals: np.ndarray
-    albedo: np.ndarray  # (H, W) float32
+    albedo: np.ndarray  # (H, W, 3) float32, BGR
+    albedo_mono: np.ndarray  # (H, W) float32 luminance
     depth: np.ndarray  # (N,)
 
 
@@ -151,11 +153,13 @@ class SimBench:
             flip = np.einsum("ij,ij->i", n, directions[hit]) > 0
             n[flip] *= -1
             normals[hit] = n
-            albedo = np.zeros(len(hit), dtype=np.float32)
-            albedo[hit] = self.scene.face_albedo[faces[hit]]
+            albedo = np.zeros((len(hit), 3), dtype=np.float32)
+            albedo[hit] = self.scene.face_albedo[faces[hit]][:, ::-1]
+            albedo = albedo.reshape(model.height, model.width, 3)
+            mono = albedo @ np.array([0.114, 0.587, 0.299], dtype=np.float32)  # BGR luminance weights
             depth = np.zeros(len(hit))
             depth[hit] = points[hit] @ model.axis - model.axis @ model.center  # device-frame z
-            self._views[camera] = _CameraView(hit, points, normals, albedo.reshape(model.height, model.width), depth)
+            self._views[camera] = _CameraView(hit, points, normals, albedo, mono, depth)
         return self._views[camera]
 
     def _lighting(self, camera: int, projector: int) -> _Illumination:
@@ -234,7 +238,8 @@ class SimBench:
         exposure = params.exposure_us if exposure_us is None else exposure_us
         gain = params.gain if gain is None else gain
         view = self._view(camera)
-        radiance = self.irradiance(camera) * view.albedo
+        irradiance = self.irradiance(camera)
+        radiance = irradiance[..., None] * view.albedo if params.color else irradiance * view.albedo_mono
         if params.blur_px > 0:
             radiance = cv2.GaussianBlur(radiance, (0, 0), params.blur_px, borderType=cv2.BORDER_REPLICATE)
         electrons = radiance * np.float32(exposure / params.full_scale_exposure_us * params.full_well_e)

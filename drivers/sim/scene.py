@@ -11,20 +11,22 @@ from pathlib import Path
 import numpy as np
 import trimesh
 
+Albedo = float | tuple[float, float, float]  # grey, or linear RGB, each in [0, 1]
+
 
 @dataclass(frozen=True, eq=False)
 class SceneObject:
-    """One mesh with a uniform diffuse albedo in [0, 1]."""
+    """One mesh with a uniform diffuse albedo (grey or RGB) in [0, 1]."""
 
     name: str
     vertices: np.ndarray
     faces: np.ndarray
-    albedo: float
+    albedo: Albedo
 
 
 @dataclass(frozen=True, eq=False)
 class Scene:
-    """All objects merged into one mesh, with a per-face albedo."""
+    """All objects merged into one mesh, with a per-face RGB albedo (F, 3)."""
 
     vertices: np.ndarray
     faces: np.ndarray
@@ -40,16 +42,17 @@ def build_scene(objects: list[SceneObject]) -> Scene:
     for obj in objects:
         vertices.append(obj.vertices)
         faces.append(obj.faces + offset)
-        albedo.append(np.full(len(obj.faces), obj.albedo, dtype=np.float32))
+        rgb = np.broadcast_to(np.asarray(obj.albedo, dtype=np.float32), (3,))
+        albedo.append(np.tile(rgb, (len(obj.faces), 1)))
         offset += len(obj.vertices)
     return Scene(np.vstack(vertices), np.vstack(faces), np.concatenate(albedo), tuple(objects))
 
 
-def _object(name: str, mesh: trimesh.Trimesh, albedo: float) -> SceneObject:
+def _object(name: str, mesh: trimesh.Trimesh, albedo: Albedo) -> SceneObject:
     return SceneObject(name, np.asarray(mesh.vertices, float), np.asarray(mesh.faces, np.int64), albedo)
 
 
-def plane(size_mm: float = 600.0, albedo: float = 0.7, height_mm: float = 0.0) -> SceneObject:
+def plane(size_mm: float = 600.0, albedo: Albedo = 0.7, height_mm: float = 0.0) -> SceneObject:
     """A square of side `size_mm` in the plane z = height_mm, facing up."""
     h = size_mm / 2
     vertices = np.array([[-h, -h, height_mm], [h, -h, height_mm], [h, h, height_mm], [-h, h, height_mm]])
@@ -58,7 +61,7 @@ def plane(size_mm: float = 600.0, albedo: float = 0.7, height_mm: float = 0.0) -
 
 
 def sphere(
-    radius_mm: float, center_mm: tuple[float, float, float], albedo: float = 0.8, subdivisions: int = 6
+    radius_mm: float, center_mm: tuple[float, float, float], albedo: Albedo = 0.8, subdivisions: int = 6
 ) -> SceneObject:
     mesh = trimesh.creation.icosphere(subdivisions=subdivisions, radius=radius_mm)
     mesh.apply_translation(center_mm)
@@ -69,7 +72,7 @@ def box(
     extents_mm: tuple[float, float, float],
     center_mm: tuple[float, float, float],
     rotation_deg: tuple[float, float, float] = (0.0, 0.0, 0.0),
-    albedo: float = 0.8,
+    albedo: Albedo = 0.8,
 ) -> SceneObject:
     mesh = trimesh.creation.box(extents=extents_mm)
     _pose(mesh, 1.0, center_mm, rotation_deg)
@@ -77,7 +80,7 @@ def box(
 
 
 def terrain(
-    size_mm: float = 400.0, amplitude_mm: float = 30.0, grid: int = 257, seed: int = 7, albedo: float = 0.75
+    size_mm: float = 400.0, amplitude_mm: float = 30.0, grid: int = 257, seed: int = 7, albedo: Albedo = 0.75
 ) -> SceneObject:
     """A smooth height field z = f(x, y) >= 0: a sum of seeded Gaussian hills and a gentle wave."""
     rng = np.random.default_rng(seed)
@@ -102,7 +105,7 @@ def mesh_file(
     scale: float = 1.0,
     position_mm: tuple[float, float, float] = (0, 0, 0),
     rotation_deg: tuple[float, float, float] = (0.0, 0.0, 0.0),
-    albedo: float = 0.8,
+    albedo: Albedo = 0.8,
     fit_size_mm: float | None = None,
 ) -> SceneObject:
     """A PLY, OBJ or STL file, scaled about its bounding-box centre (by `scale`, or so that its

@@ -4,6 +4,7 @@ frames into a Correspondence. Triangulation depends only on the Correspondence."
 from __future__ import annotations
 
 import abc
+import dataclasses
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import ClassVar, overload
@@ -45,6 +46,7 @@ class Correspondence:
     v: np.ndarray | None = None
     extra: dict[str, np.ndarray] = field(default_factory=dict)
     counts: dict[str, int] = field(default_factory=dict)
+    full_scale: int = 255  # of `texture`
 
 
 class NormalizedFrames(Sequence[np.ndarray]):
@@ -110,7 +112,8 @@ class Codec(abc.ABC):
         normalized = NormalizedFrames(frames, full_scale)
         white, black = normalized[0], normalized[1]
         lit = (white - black) >= self.params.black_threshold
-        return self._decode(NormalizedFrames(frames[2:], full_scale), white, black, lit, frames[0])
+        corr = self._decode(NormalizedFrames(frames[2:], full_scale), white, black, lit, frames[0])
+        return dataclasses.replace(corr, full_scale=full_scale)
 
     @abc.abstractmethod
     def _coded_patterns(self) -> list[np.ndarray]: ...
