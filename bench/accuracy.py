@@ -41,7 +41,6 @@ def measure(config: RigConfig, codec: str) -> dict[str, object]:
         "frames": result.frames_projected,
         "mb_captured": round(result.bytes_captured / 1e6, 1),
         **{k: (round(v, 4) if isinstance(v, float) else v) for k, v in metrics.items()},
-        "decode_triangulate_ms": round(result.timings_ms["decode_ms"] + result.timings_ms["triangulate_ms"], 1),
     }
 
 
@@ -74,7 +73,6 @@ def main() -> None:
                 f"{r['rms_mm']:.3f}",
                 f"{r['p95_mm']:.3f}",
                 f"{r['completeness']:.4f}",
-                r["decode_triangulate_ms"],
             ]
             for r in results
         ]
@@ -87,7 +85,6 @@ def main() -> None:
             "rms mm",
             "p95 mm",
             "completeness",
-            "decode+triangulate ms (first scan)",
         ]
         replace_block(
             "accuracy-table", markdown_table(header, rows) + "\n\nProduced by `python bench/accuracy.py --readme`."

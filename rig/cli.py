@@ -17,7 +17,7 @@ from rig.config import SCENE_KINDS, RigConfig, load_config
 from rig.errors import ConfigError, ScanError, SlrigError
 from rig.evaluate import evaluate_pair
 from rig.patterns import codec_class
-from rig.progress import TerminalBar
+from rig.progress import ProgressTracker, TerminalBar
 from rig.rig import Rig, open_rig
 from rig.scan import ScanResult, run_scan
 from rig.store.scandir import new_scan_id, write_scan
@@ -101,10 +101,14 @@ def cmd_scan(args: argparse.Namespace) -> int:
     target = args.out if args.out is not None else config.output.data_dir / "scans" / scan_id
     if target.exists():
         raise ConfigError("--out", [f"--out: {target} already exists; choose a new directory"])
+    bar = _progress(args)
+    tracker = ProgressTracker(bar)
     with open_rig(config) as the_rig:
-        result = run_scan(the_rig, progress=_progress(args), keep_frames=config.scan.save_frames)
+        result = run_scan(the_rig, progress=bar, keep_frames=config.scan.save_frames)
+        tracker.report("store", 0.95)
         metrics = _metrics(the_rig, result)
         path = write_scan(the_rig, result, target, scan_id, metrics)
+        tracker.report("done", 1.0)
     summary = {
         "scan_id": scan_id,
         "path": str(path),

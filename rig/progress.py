@@ -33,7 +33,7 @@ class ProgressTracker:
             return
         elapsed = time.monotonic() - self._start
         remaining = elapsed * (1 - fraction) / fraction if fraction > 0.02 else None
-        self._callback(ProgressEvent(stage, min(1.0, fraction), elapsed, remaining, message))
+        self._callback(ProgressEvent(stage, round(min(1.0, fraction), 6), elapsed, remaining, message))
 
 
 class TerminalBar:
