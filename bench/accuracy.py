@@ -36,7 +36,7 @@ def measure(config: RigConfig, codec: str) -> dict[str, object]:
     with open_rig(config) as rig:
         result = run_scan(rig, codec)
         pair = result.pairs[0]
-        metrics = evaluate_pair(pair, rig.sim.ground_truth(0, 0))  # type: ignore[union-attr]
+        metrics = evaluate_pair(pair, rig.sim.ground_truth(0, 0), rig.sim)  # type: ignore[union-attr]
     return {
         "frames": result.frames_projected,
         "mb_captured": round(result.bytes_captured / 1e6, 1),

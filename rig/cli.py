@@ -87,7 +87,7 @@ def _metrics(the_rig: Rig, result: ScanResult) -> dict[str, Any]:
     per_pair = {}
     for pair in result.pairs:
         key = f"{the_rig.config.projectors[pair.projector].name}/{the_rig.config.cameras[pair.camera].name}"
-        per_pair[key] = evaluate_pair(pair, the_rig.sim.ground_truth(pair.camera, pair.projector))
+        per_pair[key] = evaluate_pair(pair, the_rig.sim.ground_truth(pair.camera, pair.projector), the_rig.sim)
     return per_pair
 
 
@@ -136,7 +136,7 @@ def cmd_eval(args: argparse.Namespace) -> int:
     with open_rig(config) as the_rig:
         result = run_scan(the_rig, progress=_progress(args))
         pair = result.pairs[0]
-        metrics = evaluate_pair(pair, the_rig.sim.ground_truth(pair.camera, pair.projector))  # type: ignore[union-attr]
+        metrics = evaluate_pair(pair, the_rig.sim.ground_truth(pair.camera, pair.projector), the_rig.sim)  # type: ignore[union-attr]
     scene = config.simulation.scene
     report = {
         "codec": result.codec,

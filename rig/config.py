@@ -17,6 +17,8 @@ from rig.errors import ConfigError
 from rig.patterns import codec_names
 from rig.patterns.gray import GrayParams
 from rig.patterns.phase import PhaseParams
+from rig.patterns.radial import RadialParams
+from rig.patterns.rings import RingsParams
 
 DEFAULT_CONFIG = Path(__file__).resolve().parent.parent / "config" / "sim.yaml"
 
@@ -181,7 +183,16 @@ class ScanConfig(Strict):
     codec: str = "phase"
     gray: GrayParams = GrayParams()
     phase: PhaseParams = PhaseParams()
+    rings: RingsParams = RingsParams()
+    radial: RadialParams = RadialParams()
     capture_timeout_s: float = Field(5.0, gt=0.0, le=120.0)
+    max_depth_jump_mm: float | None = Field(
+        2.0,
+        gt=0.0,
+        le=1000.0,
+        description="drop a point whose depth differs from its 3x3 neighbourhood's median by more than this "
+        "(mixed pixels on depth edges, isolated decoding errors); null keeps every point",
+    )
     save_frames: bool = Field(False, description="keep raw captures in the scan directory")
 
     @field_validator("codec")

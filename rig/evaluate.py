@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial import cKDTree
 
-from drivers.sim import GroundTruth
+from drivers.sim import GroundTruth, SimBench
 from rig.scan import PairResult
 
 # Within this distance of the pixel's own true point the surface is treated as its tangent plane;
@@ -37,18 +37,42 @@ def surface_distances(grid: np.ndarray, valid: np.ndarray, truth: GroundTruth) -
     return dist
 
 
-def evaluate_pair(pair: PairResult, truth: GroundTruth) -> dict[str, float | int]:
+def ring_distances(pair: PairResult, bench: SimBench, truth: GroundTruth) -> np.ndarray:
+    """Distance (mm) of each kept ring point to the true surface along its own (sub-pixel) ray."""
+    assert pair.rings is not None
+    keep = pair.rings.kept
+    rec = pair.rings.points[keep]
+    true, normal = bench.cast(pair.rings.origins[keep], pair.rings.directions[keep])
+    offset = rec - true
+    local = np.isfinite(true).all(axis=1) & (np.linalg.norm(np.nan_to_num(offset, nan=np.inf), axis=1) <= _LOCAL_MM)
+    dist = np.empty(len(rec))
+    dist[local] = np.abs(np.einsum("ij,ij->i", offset[local], normal[local]))
+    if (~local).any():
+        samples = truth.points.reshape(-1, 3)[truth.hit.ravel()]
+        dist[~local], _ = cKDTree(samples).query(rec[~local])
+    return dist
+
+
+def evaluate_pair(pair: PairResult, truth: GroundTruth, bench: SimBench | None = None) -> dict[str, float | int]:
     """rms/mean/p95 distance to the true surface, and completeness: the fraction of camera pixels
-    that see a lit, unshadowed true surface and got a point within 1 mm of it."""
+    that see a lit, unshadowed true surface and got a point within 1 mm of it. Sparse (ring) points
+    are measured along their own rays, which needs the `bench`."""
     valid = np.isfinite(pair.grid).all(axis=2)
-    dist = surface_distances(pair.grid, valid, truth)
+    if pair.rings is not None:
+        if bench is None:
+            raise ValueError("measuring ring points needs the simulated bench")
+        dist = ring_distances(pair, bench, truth)
+        pixels = pair.points.pixel
+    else:
+        dist = surface_distances(pair.grid, valid, truth)
+        pixels = np.flatnonzero(valid.ravel())
     target = truth.hit & truth.lit
     good = np.zeros(valid.size, dtype=bool)
-    good[np.flatnonzero(valid.ravel())] = dist <= COMPLETE_WITHIN_MM
+    good[pixels[dist <= COMPLETE_WITHIN_MM]] = True
     covered = good.reshape(valid.shape) & target
     n = max(1, len(dist))
     return {
-        "points": int(valid.sum()),
+        "points": len(dist),
         "rms_mm": float(np.sqrt(np.mean(dist**2))) if len(dist) else float("nan"),
         "mean_abs_mm": float(np.mean(dist)) if len(dist) else float("nan"),
         "p95_mm": float(np.percentile(dist, 95)) if len(dist) else float("nan"),

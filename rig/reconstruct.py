@@ -148,11 +148,7 @@ def pair_pointset(
     directions = camera.pixel_rays[1].reshape(camera.height, camera.width, 3).astype(np.float32)
     normals = grid_normals(grid, directions)
     idx = np.flatnonzero(valid.ravel())
-    texture = corr.texture
-    if texture.ndim == 2:
-        rgb = cv2.cvtColor(_to_uint8(texture, corr.full_scale), cv2.COLOR_GRAY2RGB)
-    else:
-        rgb = cv2.cvtColor(_to_uint8(texture, corr.full_scale), cv2.COLOR_BGR2RGB)
+    rgb = texture_rgb(corr)
     points = PointSet(
         points=grid.reshape(-1, 3)[idx],
         normals=normals.reshape(-1, 3)[idx],
@@ -164,7 +160,36 @@ def pair_pointset(
     return points
 
 
+def texture_rgb(corr: Correspondence) -> np.ndarray:
+    """The lit frame as 8-bit RGB (H, W, 3)."""
+    image = _to_uint8(corr.texture, corr.full_scale)
+    return cv2.cvtColor(image, cv2.COLOR_GRAY2RGB if image.ndim == 2 else cv2.COLOR_BGR2RGB)
+
+
 def _to_uint8(image: np.ndarray, full_scale: int) -> np.ndarray:
     if image.dtype == np.uint8 and full_scale == 255:
         return image
     return np.clip(image.astype(np.float32) * (255.0 / full_scale), 0, 255).astype(np.uint8)
+
+
+def reject_isolated(
+    grid: np.ndarray, valid: np.ndarray, camera: CameraModel, max_jump_mm: float, min_support: int = 2
+) -> np.ndarray:
+    """Mask of points to keep: those with at least `min_support` of their 8 neighbours within
+    `max_jump_mm` in depth.
+
+    A mixed pixel on a depth edge decodes to neither surface and so agrees with no neighbour; an
+    isolated decoding error neither. A smooth surface keeps its points unless it is so steep that
+    neighbouring pixels differ by more than the limit (grazing views, whose points are the least
+    accurate anyway).
+    """
+    h, w = valid.shape
+    depth = np.where(valid, (grid - camera.center) @ camera.axis, np.nan).astype(np.float32)
+    padded = np.pad(depth, 1, constant_values=np.nan)
+    support = np.zeros((h, w), dtype=np.uint8)
+    with np.errstate(invalid="ignore"):
+        for dy in (-1, 0, 1):
+            for dx in (-1, 0, 1):
+                if dy or dx:
+                    support += np.abs(padded[1 + dy : 1 + dy + h, 1 + dx : 1 + dx + w] - depth) <= max_jump_mm
+    return valid & (support >= min_support)

@@ -12,7 +12,8 @@ from rig.errors import ScanError
 from rig.patterns import Codec, Correspondence, codec_class
 from rig.pointset import PointSet
 from rig.progress import ProgressCallback, ProgressTracker
-from rig.reconstruct import pair_pointset
+from rig.reconstruct import pair_pointset, reject_isolated
+from rig.reconstruct_sparse import RingPoints, ring_pointset, triangulate_rings
 from rig.rig import Rig
 
 
@@ -25,6 +26,8 @@ class PairResult:
     correspondence: Correspondence
     grid: np.ndarray  # (H, W, 3) organised points, NaN where none
     points: PointSet
+    rings: RingPoints | None = None  # sparse ring codecs: every triangulated sample, with diagnostics
+    counts: dict[str, int] = field(default_factory=dict)
 
 
 @dataclass(eq=False)
@@ -100,11 +103,27 @@ def run_scan(
         corr = codecs[p].decode(images, full_scale)
         t, elapsed["decode"] = time.perf_counter(), elapsed["decode"] + time.perf_counter() - t
         tracker.report("decode", 0.6 + 0.3 * (i + 0.5) / n_pairs)
-        grid, valid = rig.triangulator(p, c).triangulate(corr)
+        camera = rig.camera_models[c]
+        rings, counts = None, dict(corr.counts)
+        if corr.samples is not None:
+            rings, ring_counts = triangulate_rings(camera, rig.projector_models[p], corr.samples)
+            counts.update(ring_counts)
+        else:
+            grid, valid = rig.triangulator(p, c).triangulate(corr)
+            limit = rig.config.scan.max_depth_jump_mm
+            if limit is not None:
+                keep = reject_isolated(grid, valid, camera, limit)
+                counts["rejected_depth_jump"] = int((valid & ~keep).sum())
+                grid[valid & ~keep] = np.nan
+                valid = keep
         t, elapsed["triangulate"] = time.perf_counter(), elapsed["triangulate"] + time.perf_counter() - t
-        points = pair_pointset(grid, valid, rig.camera_models[c], corr, source=i)
+        if rings is not None:
+            points, grid, valid = ring_pointset(rings, camera, corr, source=i)
+        else:
+            points = pair_pointset(grid, valid, camera, corr, source=i)
+        counts["points"] = len(points)
         elapsed["pointset"] += time.perf_counter() - t
-        pairs.append(PairResult(p, c, corr, grid, points))
+        pairs.append(PairResult(p, c, corr, grid, points, rings, counts))
         tracker.report("triangulate", 0.6 + 0.3 * (i + 1) / n_pairs)
     timings.update({f"{stage}_ms": seconds * 1e3 for stage, seconds in elapsed.items()})
     cloud = PointSet.concatenate([pair.points for pair in pairs])

@@ -118,3 +118,11 @@ def test_colour_frames_decode_like_mono() -> None:
     corr = codec.decode(frames, 255)
     np.testing.assert_array_equal(corr.u, _grid(64, 16)[0])
     assert corr.texture.ndim == 3
+
+
+@pytest.mark.parametrize("name", ["gray", "phase", "rings", "radial"])
+def test_frame_count_matches_the_patterns(name: str) -> None:
+    codec = codec_class(name)((320, 200))
+    patterns = codec.patterns()
+    assert codec.frame_count == len(patterns)
+    assert all(p.shape == (200, 320) and p.dtype == np.uint8 for p in patterns)

@@ -254,6 +254,17 @@ class SimBench:
         return np.rint(signal * np.float32(full_scale)).astype(dtype)
 
     # --- ground truth ----------------------------------------------------------------------
+    def cast(self, origins: np.ndarray, directions: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """True surface points (N, 3; NaN on a miss) and unit normals along arbitrary rays, for
+        measuring reconstructions at sub-pixel positions."""
+        distance, faces = self._caster.first_hit(np.asarray(origins, float), np.asarray(directions, float))
+        hit = faces >= 0
+        points = np.full((len(faces), 3), np.nan)
+        points[hit] = origins[hit] + distance[hit, None] * directions[hit]
+        normals = np.full((len(faces), 3), np.nan)
+        normals[hit] = self._caster.face_normals(faces[hit])
+        return points, normals
+
     def ground_truth(self, camera: int, projector: int) -> GroundTruth:
         view = self._view(camera)
         light = self._lighting(camera, projector)

@@ -30,13 +30,34 @@ class CodecParams(BaseModel):
 
 
 @dataclass(frozen=True, eq=False)
+class RingSamples:
+    """Sparse correspondences on projected rings: sub-pixel camera positions where a ring was
+    found, with the ring's index and radius and the decoded projector polar angle there."""
+
+    camera_xy: np.ndarray  # (M, 2) float64, pixel centres at integers
+    ring: np.ndarray  # (M,) int
+    radius_px: np.ndarray  # (M,) float64, the ring's radius in the projector image
+    theta: np.ndarray  # (M,) float64, projector polar angle about the centre, radians
+    contrast: np.ndarray  # (M,) float32, |pattern - inverse| step across the ring edge
+    center_px: tuple[float, float]  # the rings' centre in the projector image
+    # How triangulation treats the samples (the codec's parameters):
+    min_cos_beta: float = 0.3
+    min_radius_px: float = 0.0
+    radius_sigma_px: float = 0.05
+
+    def __len__(self) -> int:
+        return len(self.ring)
+
+
+@dataclass(frozen=True, eq=False)
 class Correspondence:
     """What one camera saw of one projector, per camera pixel (arrays (H, W)).
 
     `u`, `v`: projector column and row (pixel centres at integers), NaN where not decoded; a codec
     that codes one direction leaves the other None. `extra` holds codec-specific coordinates
     (ring radius, angle, index). `quality` is the codec's confidence (modulation or contrast, in
-    fractions of full scale). `texture` is the fully lit frame as captured.
+    fractions of full scale). `texture` is the fully lit frame as captured. Sparse codecs give
+    `samples` at sub-pixel camera positions instead of per-pixel coordinates.
     """
 
     valid: np.ndarray
@@ -47,6 +68,7 @@ class Correspondence:
     extra: dict[str, np.ndarray] = field(default_factory=dict)
     counts: dict[str, int] = field(default_factory=dict)
     full_scale: int = 255  # of `texture`
+    samples: RingSamples | None = None
 
 
 class NormalizedFrames(Sequence[np.ndarray]):
@@ -99,7 +121,8 @@ class Codec(abc.ABC):
 
     @property
     def frame_count(self) -> int:
-        return len(self.patterns())
+        """Patterns per scan, without making them."""
+        return 2 + self._coded_frame_count()
 
     def decode(self, frames: list[np.ndarray], full_scale: int) -> Correspondence:
         """Decode captured frames (one per pattern, same order) taken at `full_scale` counts."""
@@ -117,6 +140,9 @@ class Codec(abc.ABC):
 
     @abc.abstractmethod
     def _coded_patterns(self) -> list[np.ndarray]: ...
+
+    @abc.abstractmethod
+    def _coded_frame_count(self) -> int: ...
 
     @abc.abstractmethod
     def _decode(

@@ -20,6 +20,9 @@ class GrayCodec(LineCodec):
     Params = GrayParams
     params: GrayParams
 
+    def _coded_frame_count(self) -> int:
+        return sum(2 * bit_count(self.extent(axis)) for axis in self.axes())
+
     def _coded_patterns(self) -> list[np.ndarray]:
         out: list[np.ndarray] = []
         for axis in self.axes():

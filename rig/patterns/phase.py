@@ -52,6 +52,9 @@ class PhaseCodec(LineCodec):
         halves = math.ceil(self.extent(axis) / (self.params.period_px // 2))
         return bit_count(halves)
 
+    def _coded_frame_count(self) -> int:
+        return sum(self.params.steps + 2 * self._gray_bits(axis) for axis in self.axes())
+
     def _coded_patterns(self) -> list[np.ndarray]:
         n_steps, period = self.params.steps, self.params.period_px
         out: list[np.ndarray] = []

@@ -86,7 +86,7 @@ def build_manifest(
                 "projector": config.projectors[p.projector].name,
                 "camera": config.cameras[p.camera].name,
                 "points": len(p.points),
-                "decode_counts": p.correspondence.counts,
+                "counts": p.counts,
             }
             for p in result.pairs
         ],

@@ -1,0 +1,103 @@
+"""Camera rays against the cone of a projector ring (a cylinder for an orthographic projector).
+
+A ring of radius R about (u0, v0) in the projector image is the conic
+    (x0 - u0 x2)^2 + (x1 - v0 x2)^2 - R^2 x2^2 = 0
+of the projector's homogeneous image point x. Along a camera ray X = o + s d, x is affine in s
+(pinhole: x = K (R_p X + t_p); orthographic: x = (fx X + cx, fy Y + cy, 1) in the device frame), so
+the ray meets the ring in the roots of a quadratic in s: usually two, in front of the projector.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from rig.geometry.camera import CameraModel
+
+
+@dataclass(frozen=True, eq=False)
+class ConeHits:
+    """Both intersections of each ray with its ring's cone; arrays (M, 2[, 3])."""
+
+    s: np.ndarray  # ray parameters, NaN where there is no valid root
+    points: np.ndarray  # world points
+    theta: np.ndarray  # projector polar angle of each root about the ring centre
+    ds_dradius: np.ndarray  # change of s per pixel of ring radius (conditioning)
+    cos_beta: np.ndarray  # |cos| of the angle between the ring's radial direction and the epipolar line
+
+
+def _affine_image(projector: CameraModel, origins: np.ndarray, directions: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Homogeneous projector image point x(s) = alpha + s beta of the rays (each (M, 3))."""
+    dev_o = projector.to_device(origins)
+    dev_d = directions @ projector.R.T
+    K = projector.K
+    if projector.projection == "orthographic":  # x = (fx X + skew Y + cx, fy Y + cy, 1)
+        M = K[:2, :2]
+        alpha = np.column_stack([dev_o[:, :2] @ M.T + K[:2, 2], np.ones(len(dev_o))])
+        beta = np.column_stack([dev_d[:, :2] @ M.T, np.zeros(len(dev_d))])
+        return alpha, beta
+    return dev_o @ K.T, dev_d @ K.T
+
+
+def ray_cone(
+    projector: CameraModel, origins: np.ndarray, directions: np.ndarray, radius: np.ndarray, center: tuple[float, float]
+) -> ConeHits:
+    """Intersect rays (M, 3) with the cones of rings of `radius` (M,) about `center` (pixels)."""
+    u0, v0 = center
+    alpha, beta = _affine_image(projector, origins, directions)
+    a0, a1, a2 = alpha[:, 0] - u0 * alpha[:, 2], alpha[:, 1] - v0 * alpha[:, 2], alpha[:, 2]
+    b0, b1, b2 = beta[:, 0] - u0 * beta[:, 2], beta[:, 1] - v0 * beta[:, 2], beta[:, 2]
+    r2 = radius * radius
+    qa = b0 * b0 + b1 * b1 - r2 * b2 * b2
+    qb = a0 * b0 + a1 * b1 - r2 * a2 * b2
+    qc = a0 * a0 + a1 * a1 - r2 * a2 * a2
+    disc = qb * qb - qa * qc
+    with np.errstate(invalid="ignore", divide="ignore"):
+        root = np.sqrt(np.where(disc >= 0, disc, np.nan))
+        linear = np.abs(qa) < 1e-12 * (np.abs(qb) + 1e-300)
+        s = np.stack([(-qb - root) / qa, (-qb + root) / qa], axis=1)
+        s[linear] = (-qc[linear] / (2 * qb[linear]))[:, None]
+        x2 = a2[:, None] + s * b2[:, None]
+        s[(s <= 0) | (x2 <= 0) | ~np.isfinite(s)] = np.nan
+        if (linear).any():
+            s[linear, 1] = np.nan
+        x0 = a0[:, None] + s * b0[:, None]
+        x1 = a1[:, None] + s * b1[:, None]
+        theta = np.arctan2(x1 / x2, x0 / x2)
+        ds_dradius = radius[:, None] * x2 * x2 / (qa[:, None] * s + qb[:, None])
+        # Image of the camera ray near the root (the epipolar direction) against the radial direction.
+        du = beta[:, 0:1] * (alpha[:, 2:3] + s * beta[:, 2:3]) - (alpha[:, 0:1] + s * beta[:, 0:1]) * beta[:, 2:3]
+        dv = beta[:, 1:2] * (alpha[:, 2:3] + s * beta[:, 2:3]) - (alpha[:, 1:2] + s * beta[:, 1:2]) * beta[:, 2:3]
+        cos_beta = np.abs(x0 * du + x1 * dv) / (np.hypot(x0, x1) * np.hypot(du, dv))
+    points = origins[:, None, :] + s[..., None] * directions[:, None, :]
+    return ConeHits(s=s, points=points, theta=theta, ds_dradius=ds_dradius, cos_beta=cos_beta)
+
+
+def refine_on_distorted_ring(
+    projector: CameraModel,
+    origins: np.ndarray,
+    directions: np.ndarray,
+    s: np.ndarray,
+    radius: np.ndarray,
+    center: tuple[float, float],
+    iterations: int = 4,
+) -> np.ndarray:
+    """Newton steps on |project(o + s d) - center| = radius with the full (distorted) projection,
+    from the undistorted solution `s` (M,)."""
+    c = np.asarray(center, dtype=np.float64)
+    h = 1e-3
+    s = s.copy()
+    ok = np.isfinite(s)
+    o, d, r = origins[ok], directions[ok], radius[ok]
+
+    def residual(t: np.ndarray) -> np.ndarray:
+        uv, _ = projector.project(o + t[:, None] * d)
+        return np.linalg.norm(uv - c, axis=1) - r
+
+    t = s[ok]
+    for _ in range(iterations):
+        slope = (residual(t + h) - residual(t - h)) / (2 * h)
+        t = t - residual(t) / np.where(np.abs(slope) > 1e-12, slope, np.nan)
+    s[ok] = t
+    return s

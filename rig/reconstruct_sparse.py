@@ -1,0 +1,144 @@
+"""Ring samples -> points: ray-cone triangulation, root choice by angle, conditioning masks, and
+normals from a triangulation of the samples."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.spatial import Delaunay
+
+from rig.geometry import CameraModel
+from rig.geometry.cone import ray_cone, refine_on_distorted_ring
+from rig.patterns import Correspondence, RingSamples
+from rig.pointset import PointSet
+from rig.reconstruct import texture_rgb
+
+# Triangles of the sample mesh longer than this (camera pixels) bridge gaps, not neighbouring rings.
+_MAX_TRIANGLE_EDGE_PX = 80.0
+
+# A root whose projector angle is further than this from the decoded angle is not the ring point:
+# when neither root is this close, the sample is rejected.
+MAX_ANGLE_ERROR_RAD = 0.6
+
+
+@dataclass(frozen=True, eq=False)
+class RingPoints:
+    """Triangulated ring samples. `kept` marks the points that pass the conditioning masks; the
+    other arrays cover every sample that had a valid root."""
+
+    points: np.ndarray  # (M, 3) chosen root
+    other_root: np.ndarray  # (M, 3) the rejected root, NaN if there was one root only
+    origins: np.ndarray  # (M, 3) camera ray of each sample
+    directions: np.ndarray  # (M, 3)
+    camera_xy: np.ndarray  # (M, 2)
+    ring: np.ndarray  # (M,)
+    sigma_mm: np.ndarray  # (M,) displacement for the codec's assumed radius error
+    cos_beta: np.ndarray  # (M,)
+    kept: np.ndarray  # (M,) bool
+    contrast: np.ndarray  # (M,)
+
+
+def triangulate_rings(
+    camera: CameraModel, projector: CameraModel, samples: RingSamples
+) -> tuple[RingPoints, dict[str, int]]:
+    origins, directions = camera.rays(samples.camera_xy)
+    origins = np.ascontiguousarray(origins)
+    hits = ray_cone(projector, origins, directions, samples.radius_px, samples.center_px)
+    s = hits.s
+    if projector.has_distortion:
+        s = np.column_stack(
+            [
+                refine_on_distorted_ring(projector, origins, directions, s[:, k], samples.radius_px, samples.center_px)
+                for k in range(2)
+            ]
+        )
+    # Choose the root whose projector angle matches the decoded angular code.
+    angle_error = np.abs(np.angle(np.exp(1j * (hits.theta - samples.theta[:, None]))))
+    angle_error[~np.isfinite(s)] = np.inf
+    choice = np.argmin(angle_error, axis=1)
+    rows = np.arange(len(choice))
+    chosen_error = angle_error[rows, choice]
+    found = chosen_error <= MAX_ANGLE_ERROR_RAD
+    s_chosen = s[rows, choice]
+    s_other = s[rows, 1 - choice]
+    points = origins + s_chosen[:, None] * directions
+    other = origins + s_other[:, None] * directions
+    sigma = np.abs(hits.ds_dradius[rows, choice]) * samples.radius_sigma_px
+    cos_beta = hits.cos_beta[rows, choice]
+    near_centre = samples.radius_px < samples.min_radius_px
+    ill_conditioned = cos_beta < samples.min_cos_beta
+    kept = found & ~near_centre & ~ill_conditioned
+    counts = {
+        "ring_samples": len(samples),
+        "rejected_no_root": int((~found).sum()),
+        "masked_near_centre": int((found & near_centre).sum()),
+        "masked_ill_conditioned": int((found & ~near_centre & ill_conditioned).sum()),
+        "ring_points": int(kept.sum()),
+    }
+    keep = found
+    result = RingPoints(
+        points=points[keep],
+        other_root=other[keep],
+        origins=origins[keep],
+        directions=directions[keep],
+        camera_xy=samples.camera_xy[keep],
+        ring=samples.ring[keep],
+        sigma_mm=sigma[keep],
+        cos_beta=cos_beta[keep],
+        kept=kept[keep],
+        contrast=samples.contrast[keep],
+    )
+    return result, counts
+
+
+def sample_normals(points: np.ndarray, camera_xy: np.ndarray, directions: np.ndarray, max_edge_px: float) -> np.ndarray:
+    """Unit normals of scattered surface samples, from a Delaunay triangulation of their camera
+    positions (which links neighbouring rings); triangles with an image edge longer than
+    `max_edge_px` are dropped. Oriented toward the camera; samples in no triangle face the camera."""
+    normals = np.zeros_like(points)
+    if len(points) >= 3:
+        tri = Delaunay(camera_xy).simplices
+        xy = camera_xy[tri]
+        longest = np.max(np.linalg.norm(xy - np.roll(xy, 1, axis=1), axis=2), axis=1)
+        tri = tri[longest <= max_edge_px]
+        p = points[tri]
+        face = np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])  # area-weighted
+        facing = np.einsum("ij,ij->i", face, directions[tri[:, 0]]) > 0
+        face[facing] *= -1
+        for k in range(3):
+            np.add.at(normals, tri[:, k], face)
+    norm = np.linalg.norm(normals, axis=1)
+    missing = norm < 1e-12
+    normals[~missing] /= norm[~missing, None]
+    normals[missing] = -directions[missing]
+    return normals
+
+
+def ring_pointset(
+    rings: RingPoints, camera: CameraModel, corr: Correspondence, source: int
+) -> tuple[PointSet, np.ndarray, np.ndarray]:
+    """The PointSet of the kept ring points (normals from their triangulation, colour of the lit
+    frame at the nearest pixel), and the organised grid (H, W, 3) and mask with each point at its
+    nearest pixel, for depth maps."""
+    keep = np.flatnonzero(rings.kept)
+    points = rings.points[keep]
+    xy = rings.camera_xy[keep]
+    normals = sample_normals(points, xy, rings.directions[keep], max_edge_px=_MAX_TRIANGLE_EDGE_PX)
+    col = np.clip(np.rint(xy[:, 0]).astype(np.int64), 0, camera.width - 1)
+    row = np.clip(np.rint(xy[:, 1]).astype(np.int64), 0, camera.height - 1)
+    pixel = row * camera.width + col
+    rgb = texture_rgb(corr).reshape(-1, 3)
+    cloud = PointSet(
+        points=points,
+        normals=normals.astype(np.float32),
+        colors=rgb[pixel],
+        quality=rings.cos_beta[keep].astype(np.float32),
+        source=np.full(len(keep), source, np.uint8),
+        pixel=pixel,
+    )
+    grid = np.full((camera.height * camera.width, 3), np.nan)
+    grid[pixel] = points
+    valid = np.zeros(camera.height * camera.width, dtype=bool)
+    valid[pixel] = True
+    return cloud, grid.reshape(camera.height, camera.width, 3), valid.reshape(camera.height, camera.width)
