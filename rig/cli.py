@@ -148,6 +148,7 @@ def cmd_eval(args: argparse.Namespace) -> int:
         "decode_ms": round(result.timings_ms["decode_ms"], 1),
         "triangulate_ms": round(result.timings_ms["triangulate_ms"], 1),
         "pointset_ms": round(result.timings_ms["pointset_ms"], 1),
+        "counts": pair.counts,
     }
     if args.json:
         print(json.dumps(report))

@@ -1,0 +1,189 @@
+"""Concentric rings and radial fringes: decoding, localisation, ray-cone, and measured accuracy."""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Iterator
+
+import cv2
+import numpy as np
+import pytest
+
+from rig.cli import main
+from rig.config import load_config
+from rig.geometry.cone import ray_cone
+from rig.patterns import codec_class
+from rig.patterns.radial import RadialParams
+from rig.patterns.rings import RingsParams
+from rig.rig import Rig, open_rig
+from rig.scan import PairResult, make_codec, run_scan
+from tests.conftest import make_device
+
+SIZE = (1024, 768)
+
+
+def _radial_distance(xy: np.ndarray, center: tuple[float, float]) -> np.ndarray:
+    return np.hypot(xy[:, 0] - center[0], xy[:, 1] - center[1])
+
+
+@pytest.mark.parametrize(
+    "params",
+    [RingsParams(), RingsParams(rings=7, radii_px=[20, 45, 80, 130, 200, 290, 400], center_px=(300.0, 500.0))],
+)
+def test_ring_index_and_position_noise_free(params: RingsParams) -> None:
+    codec = codec_class("rings")(SIZE, params)
+    samples = codec.decode(codec.patterns(), 255).samples
+    assert samples is not None
+    radius = _radial_distance(samples.camera_xy, samples.center_px)
+    nearest_ring = np.argmin(np.abs(radius[:, None] - codec.radii[None, :]), axis=1)
+    np.testing.assert_array_equal(samples.ring, nearest_ring)
+    assert np.max(np.abs(radius - samples.radius_px)) <= 0.05
+    theta = np.arctan2(samples.camera_xy[:, 1] - samples.center_px[1], samples.camera_xy[:, 0] - samples.center_px[0])
+    assert np.max(np.abs(np.angle(np.exp(1j * (samples.theta - theta))))) < 0.02
+    # every ring that fits in the image is found
+    cu, cv = samples.center_px
+    inside = [
+        k
+        for k, r in enumerate(codec.radii)
+        if cu - r > 2 and cu + r < SIZE[0] - 3 and cv - r > 2 and cv + r < SIZE[1] - 3
+    ]
+    assert set(inside) <= set(samples.ring.tolist())
+
+
+@pytest.mark.parametrize("shift", [0.0, 0.31, -0.43])
+def test_ring_localisation_through_blur_and_subpixel_shift(shift: float) -> None:
+    """The camera sees the projector shifted by a fraction of a pixel and blurred; the zero crossing
+    of pattern - inverse still lands on the circle within 0.05 px. The innermost ring (16 px) is left
+    out: blur pulls a curved edge inward by about sigma^2 / 2R (0.015 px there), which with this
+    test's own bilinear resampling adds up to just over 0.05."""
+    codec = codec_class("rings")(SIZE)
+    h, w = SIZE[1], SIZE[0]
+    map_x, map_y = np.meshgrid(np.arange(w, dtype=np.float32) + shift, np.arange(h, dtype=np.float32) + shift / 2)
+    frames = []
+    for pattern in codec.patterns():
+        image = cv2.remap(pattern.astype(np.float32), map_x, map_y, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
+        frames.append(np.rint(cv2.GaussianBlur(image, (0, 0), 0.7)).astype(np.uint8))
+    samples = codec.decode(frames, 255).samples
+    assert samples is not None and len(samples) > 10000
+    projector_xy = samples.camera_xy + np.array([shift, shift / 2])
+    error = _radial_distance(projector_xy, samples.center_px) - samples.radius_px
+    xy = samples.camera_xy  # the blur's image border is the test harness's, not the codec's
+    inner = (xy[:, 0] > 3) & (xy[:, 0] < w - 4) & (xy[:, 1] > 3) & (xy[:, 1] < h - 4) & (samples.ring > 0)
+    assert np.max(np.abs(error[inner])) <= 0.05
+
+
+def test_ray_cone_against_analytic_cones() -> None:
+    camera = make_device(320, 256, 450.0, (-100.0, 0.0, 600.0), (0.0, 0.0, 30.0))
+    for projector in (
+        make_device(256, 192, 375.0, (100.0, 0.0, 620.0), (0.0, 0.0, 30.0)),
+        make_device(256, 192, 0.8, (0.0, 0.0, 600.0), projection="orthographic"),
+    ):
+        points = np.random.default_rng(5).uniform([-60, -60, 0], [60, 60, 80], (3000, 3))
+        uv, _ = camera.project(points)
+        origins, directions = camera.rays(uv)
+        center = (120.0, 90.0)
+        puv, _ = projector.project(points)
+        radius = np.hypot(puv[:, 0] - center[0], puv[:, 1] - center[1])
+        hits = ray_cone(projector, np.ascontiguousarray(origins), directions, radius, center)
+        error = np.linalg.norm(hits.points - points[:, None, :], axis=2)
+        assert np.all(np.nanmin(error, axis=1) < 1e-6)  # one root is the point
+        for k in range(2):  # and every root lies on the ring's cone
+            ok = np.isfinite(hits.s[:, k])
+            ruv, _ = projector.project(hits.points[ok, k])
+            np.testing.assert_allclose(np.hypot(ruv[:, 0] - center[0], ruv[:, 1] - center[1]), radius[ok], atol=1e-6)
+
+
+def test_radial_decodes_radius_and_angle_noise_free() -> None:
+    codec = codec_class("radial")(SIZE, RadialParams())
+    corr = codec.decode(codec.patterns(), 255)
+    v, u = np.mgrid[0 : SIZE[1], 0 : SIZE[0]]
+    cu, cv = codec.center
+    assert corr.valid.mean() > 0.99
+    ok = corr.valid
+    radius = np.hypot(u - cu, v - cv)
+    assert np.max(np.abs(corr.extra["radius"][ok] - radius[ok])) <= 0.05
+    tangential = np.angle(np.exp(1j * (corr.extra["theta"] - np.arctan2(v - cv, u - cu)))) * radius
+    assert np.max(np.abs(tangential[ok])) <= 0.05
+    assert np.max(np.abs(corr.u[ok] - u[ok])) <= 0.05 and np.max(np.abs(corr.v[ok] - v[ok])) <= 0.05
+
+
+@pytest.fixture(scope="module")
+def ring_scan() -> Iterator[tuple[Rig, PairResult, np.ndarray]]:
+    config = load_config().with_codec("rings")
+    with open_rig(config) as the_rig:
+        result = run_scan(the_rig)
+        radii = make_codec(the_rig, 0).radii
+        yield the_rig, result.pairs[0], radii
+
+
+def test_rings_every_ring_on_the_object_yields_points(ring_scan: tuple[Rig, PairResult, np.ndarray]) -> None:
+    the_rig, pair, radii = ring_scan
+    assert the_rig.sim is not None and pair.rings is not None
+    assert len(radii) == 32
+    truth = the_rig.sim.ground_truth(0, 0)
+    center = np.array([0.0, 0.0, 60.0])  # the default scene's sphere
+    on_sphere = truth.hit & truth.lit & (np.abs(np.linalg.norm(truth.points - center, axis=2) - 60.0) < 0.01)
+    on_sphere &= truth.points[..., 2] > 5.0
+    rho = np.hypot(*(truth.projector_uv[on_sphere] - [511.5, 383.5]).T)
+    crossing = {k for k, r in enumerate(radii) if np.any(np.abs(rho - r) < 0.5)}
+    assert len(crossing) >= 5
+    rp = pair.rings
+    kept_on_sphere = rp.kept & (np.abs(np.linalg.norm(rp.points - center, axis=1) - 60.0) < 1.0)
+    assert crossing <= set(rp.ring[kept_on_sphere].tolist())
+
+
+def test_rings_never_choose_the_wrong_root(ring_scan: tuple[Rig, PairResult, np.ndarray]) -> None:
+    the_rig, pair, _ = ring_scan
+    rp = pair.rings
+    assert the_rig.sim is not None and rp is not None
+    true, _ = the_rig.sim.cast(rp.origins, rp.directions)
+    chosen = np.linalg.norm(rp.points - true, axis=1)
+    other = np.linalg.norm(rp.other_root - true, axis=1)
+    two_roots = np.isfinite(other)
+    assert two_roots[rp.kept].mean() > 0.5  # the layout is off-axis: most rays meet the cone twice
+    checked = rp.kept & two_roots
+    assert np.all(chosen[checked] < other[checked])
+    # The only wrong choices are masked near-tangent rays, where both roots have the same angle.
+    wrong = two_roots & (chosen >= other)
+    assert np.all(rp.cos_beta[wrong] < 0.05)
+
+
+def test_rings_masking_removes_the_ill_conditioned_points(ring_scan: tuple[Rig, PairResult, np.ndarray]) -> None:
+    the_rig, pair, _ = ring_scan
+    rp = pair.rings
+    assert the_rig.sim is not None and rp is not None
+    true, normal = the_rig.sim.cast(rp.origins, rp.directions)
+    error = np.abs(np.einsum("ij,ij->i", rp.points - true, normal))
+    masked = ~rp.kept
+    assert pair.counts["masked_ill_conditioned"] == int((masked & (rp.cos_beta < 0.3)).sum()) > 1000
+    assert np.median(error[masked]) > 3 * np.median(error[rp.kept])
+    # the per-point uncertainty ranks the errors
+    sigma = rp.sigma_mm[rp.kept]
+    low, high = np.quantile(sigma, [0.25, 0.75])
+    assert np.median(error[rp.kept][sigma >= high]) > 1.5 * np.median(error[rp.kept][sigma <= low])
+
+
+def test_rings_accuracy_and_manifest_counts(capsys: pytest.CaptureFixture[str], tmp_path) -> None:  # type: ignore[no-untyped-def]
+    assert main(["eval", "--codec", "rings", "--json"]) == 0
+    report = json.loads(capsys.readouterr().out)
+    assert report["rms_mm"] <= 0.20
+    assert report["counts"]["masked_ill_conditioned"] > 0
+    assert report["points"] == report["counts"]["ring_points"]
+
+
+def test_radial_against_phase_at_the_same_frame_count(capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["eval", "--codec", "radial", "--json"]) == 0
+    radial = json.loads(capsys.readouterr().out)
+    config = load_config().with_codec("phase")
+    phase_codec = codec_class("phase")(SIZE, config.scan.phase)
+    data = config.model_dump(mode="json")
+    data["scan"]["phase"]["steps"] = radial["frames"] - (phase_codec.frame_count - config.scan.phase.steps)
+    config = type(config).model_validate(data)
+    with open_rig(config) as the_rig:
+        result = run_scan(the_rig)
+        assert result.frames_projected == radial["frames"]
+        from rig.evaluate import evaluate_pair
+
+        phase = evaluate_pair(result.pairs[0], the_rig.sim.ground_truth(0, 0), the_rig.sim)  # type: ignore[union-attr]
+    assert radial["completeness"] >= 0.90
+    assert radial["rms_mm"] <= 2 * phase["rms_mm"]
