@@ -20,7 +20,8 @@ from rig.patterns.phase import PhaseParams
 from rig.patterns.radial import RadialParams
 from rig.patterns.rings import RingsParams
 
-DEFAULT_CONFIG = Path(__file__).resolve().parent.parent / "config" / "sim.yaml"
+REPO_CONFIG_DIR = Path(__file__).resolve().parent.parent / "config"
+DEFAULT_CONFIG = REPO_CONFIG_DIR / "sim.yaml"
 
 Coord = Annotated[float, Field(ge=-100_000.0, le=100_000.0)]
 Vec3 = tuple[Coord, Coord, Coord]
@@ -221,6 +222,16 @@ class RigConfig(Strict):
         duplicates = sorted({n for n in names if names.count(n) > 1})
         if duplicates:
             raise ValueError(f"device names must be unique; repeated: {', '.join(duplicates)}")
+        model = self.scan.rings.model
+        if model != "cone":
+            needs = {"parallel": ("orthographic", "orthographic"), "radius_ratio": ("orthographic", "pinhole")}[model]
+            if any(p.geometry.projection != needs[0] for p in self.projectors) or any(
+                c.geometry.projection != needs[1] for c in self.cameras
+            ):
+                raise ValueError(
+                    f"scan.rings.model {model!r} needs {needs[0]} projectors and {needs[1]} cameras "
+                    "(geometry.projection); the 'cone' model works with any"
+                )
         uses_sim = any(d.driver == "sim" for d in (*self.projectors, *self.cameras))
         if uses_sim and self.simulation is None:
             raise ValueError("simulated devices need a 'simulation' section with a scene")

@@ -10,6 +10,7 @@ from scipy.spatial import Delaunay
 
 from rig.geometry import CameraModel
 from rig.geometry.cone import ray_cone, refine_on_distorted_ring
+from rig.geometry.ring_models import parallel_projection, radius_ratio
 from rig.patterns import Correspondence, RingSamples
 from rig.pointset import PointSet
 from rig.reconstruct import texture_rgb
@@ -64,8 +65,12 @@ def triangulate_rings(
     s_other = s[rows, 1 - choice]
     points = origins + s_chosen[:, None] * directions
     other = origins + s_other[:, None] * directions
+    if samples.model != "cone":  # the dissertation's closed forms; the cone still gives conditioning
+        points = _closed_form(samples.model, camera, projector, samples)
+        other = np.full_like(points, np.nan)
+        found &= np.isfinite(points).all(axis=1)
     sigma = np.abs(hits.ds_dradius[rows, choice]) * samples.radius_sigma_px
-    cos_beta = hits.cos_beta[rows, choice]
+    cos_beta = np.nan_to_num(hits.cos_beta[rows, choice], nan=0.0)
     near_centre = samples.radius_px < samples.min_radius_px
     ill_conditioned = cos_beta < samples.min_cos_beta
     kept = found & ~near_centre & ~ill_conditioned
@@ -90,6 +95,16 @@ def triangulate_rings(
         contrast=samples.contrast[keep],
     )
     return result, counts
+
+
+def _closed_form(model: str, camera: CameraModel, projector: CameraModel, samples: RingSamples) -> np.ndarray:
+    if model == "parallel":
+        return parallel_projection(
+            camera, projector, samples.camera_xy, samples.radius_px, samples.theta, samples.center_px
+        )
+    if model == "radius_ratio":
+        return radius_ratio(camera, projector, samples.camera_xy, samples.radius_px, samples.center_px)
+    raise ValueError(f"unknown ring model {model!r}")
 
 
 def sample_normals(points: np.ndarray, camera_xy: np.ndarray, directions: np.ndarray, max_edge_px: float) -> np.ndarray:

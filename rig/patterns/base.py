@@ -44,6 +44,7 @@ class RingSamples:
     min_cos_beta: float = 0.3
     min_radius_px: float = 0.0
     radius_sigma_px: float = 0.05
+    model: str = "cone"  # see rig.patterns.rings.RingsParams.model
 
     def __len__(self) -> int:
         return len(self.ring)

@@ -20,6 +20,7 @@ camera pixels that read the same ring index: its position is the linear zero cro
 from __future__ import annotations
 
 import math
+from typing import Literal
 
 import numpy as np
 from pydantic import Field, model_validator
@@ -56,6 +57,12 @@ class RingsParams(CodecParams):
         "epipolar line is below this: there a radius error moves the point by 1/|cos| times more",
     )
     min_radius_px: float = Field(8.0, ge=0.0, le=16384, description="mask rings smaller than this")
+    model: Literal["cone", "parallel", "radius_ratio"] = Field(
+        "cone",
+        description="cone: calibrated ray-cone intersection (any layout); parallel: the dissertation's ch.2 "
+        "closed form (orthographic projector and camera); radius_ratio: its ch.7 model (orthographic "
+        "projector, pinhole camera on the rings' axis)",
+    )
     radius_sigma_px: float = Field(
         0.05, gt=0, le=10, description="assumed ring localisation error, for the per-point uncertainty"
     )
@@ -178,6 +185,7 @@ class RingsCodec(Codec):
             min_cos_beta=p.min_cos_beta,
             min_radius_px=p.min_radius_px,
             radius_sigma_px=p.radius_sigma_px,
+            model=p.model,
         )
         valid = np.zeros(lit.shape, dtype=bool)
         nearest = np.rint(samples_xy).astype(np.int64)
