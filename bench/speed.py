@@ -31,9 +31,8 @@ from _readme import markdown_table, replace_block
 from rig.config import load_config
 from rig.patterns import codec_names
 from rig.progress import ProgressTracker
-from rig.reconstruct import pair_pointset
 from rig.rig import open_rig
-from rig.scan import capture, make_codec
+from rig.scan import capture, make_codec, reconstruct_pair
 
 _PEAK_SNIPPET = """
 import json, resource, sys
@@ -68,24 +67,22 @@ def frame_time() -> dict[str, float]:
 
 
 def reconstruction(codec_name: str, repeats: int = 7) -> dict[str, float]:
+    """Median decode, triangulate and PointSet times of one capture, after a first untimed pass
+    (which computes the per-calibration terms)."""
     config = load_config().with_codec(codec_name)
     with open_rig(config) as rig:
         codec = make_codec(rig, 0)
         frames = capture(rig, [codec], ProgressTracker(None))[(0, 0)]
-        triangulator = rig.triangulator(0, 0)
-        triangulator.triangulate(codec.decode(frames, 255))  # per-calibration terms, computed once
+        reconstruct_pair(rig, 0, 0, codec.decode(frames, 255), source=0)
         decode, tri, pointset = [], [], []
         for _ in range(repeats):
+            elapsed: dict[str, float] = {}
             t0 = time.perf_counter()
             corr = codec.decode(frames, 255)
-            t1 = time.perf_counter()
-            grid, valid = triangulator.triangulate(corr)
-            t2 = time.perf_counter()
-            pair_pointset(grid, valid, rig.camera_models[0], corr, 0)
-            t3 = time.perf_counter()
-            decode.append(t1 - t0)
-            tri.append(t2 - t1)
-            pointset.append(t3 - t2)
+            decode.append(time.perf_counter() - t0)
+            reconstruct_pair(rig, 0, 0, corr, source=0, elapsed=elapsed)
+            tri.append(elapsed["triangulate"])
+            pointset.append(elapsed["pointset"])
     d, t, p = (statistics.median(x) * 1e3 for x in (decode, tri, pointset))
     return {
         "frames": len(frames),

@@ -173,23 +173,27 @@ def _to_uint8(image: np.ndarray, full_scale: int) -> np.ndarray:
 
 
 def reject_isolated(
-    grid: np.ndarray, valid: np.ndarray, camera: CameraModel, max_jump_mm: float, min_support: int = 2
+    grid: np.ndarray, valid: np.ndarray, camera: CameraModel, max_jump_mm: float, min_support: int = 3
 ) -> np.ndarray:
     """Mask of points to keep: those with at least `min_support` of their 8 neighbours within
     `max_jump_mm` in depth.
 
-    A mixed pixel on a depth edge decodes to neither surface and so agrees with no neighbour; an
-    isolated decoding error neither. A smooth surface keeps its points unless it is so steep that
-    neighbouring pixels differ by more than the limit (grazing views, whose points are the least
-    accurate anyway).
+    A mixed pixel on a depth edge decodes to neither surface; it can agree with the mixed pixels
+    above and below it along the edge (two neighbours) but not with a third, while a point of a
+    surface, even on its border or at a corner, has three. Isolated decoding errors go too. A smooth
+    surface keeps its points unless it is so steep that neighbouring pixels differ by more than the
+    limit (grazing views, whose points are the least accurate anyway).
     """
+    depth = (grid @ camera.axis - camera.center @ camera.axis).astype(np.float32)  # NaN where invalid
+    support = np.zeros(valid.shape, dtype=np.uint8)
     h, w = valid.shape
-    depth = np.where(valid, (grid - camera.center) @ camera.axis, np.nan).astype(np.float32)
-    padded = np.pad(depth, 1, constant_values=np.nan)
-    support = np.zeros((h, w), dtype=np.uint8)
     with np.errstate(invalid="ignore"):
-        for dy in (-1, 0, 1):
-            for dx in (-1, 0, 1):
-                if dy or dx:
-                    support += np.abs(padded[1 + dy : 1 + dy + h, 1 + dx : 1 + dx + w] - depth) <= max_jump_mm
+        # Each neighbour pair is compared once and counts for both of its pixels.
+        for dy, dx in ((0, 1), (1, 0), (1, 1), (1, -1)):
+            rows_p, rows_q = slice(0, h - dy), slice(dy, h)
+            cols_p = slice(0, w - dx) if dx >= 0 else slice(-dx, w)
+            cols_q = slice(dx, w) if dx >= 0 else slice(0, w + dx)
+            close = np.abs(depth[rows_p, cols_p] - depth[rows_q, cols_q]) <= max_jump_mm
+            support[rows_p, cols_p] += close
+            support[rows_q, cols_q] += close
     return valid & (support >= min_support)

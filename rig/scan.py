@@ -84,6 +84,37 @@ def capture(rig: Rig, codecs: list[Codec], tracker: ProgressTracker) -> dict[tup
     return frames
 
 
+def reconstruct_pair(
+    rig: Rig, projector: int, camera: int, corr: Correspondence, source: int, elapsed: dict[str, float] | None = None
+) -> PairResult:
+    """Triangulate one pair's correspondence and build its PointSet; adds the seconds spent to
+    `elapsed["triangulate"]` and `elapsed["pointset"]` when given."""
+    t = time.perf_counter()
+    model = rig.camera_models[camera]
+    rings, counts = None, dict(corr.counts)
+    if corr.samples is not None:
+        rings, ring_counts = triangulate_rings(model, rig.projector_models[projector], corr.samples)
+        counts.update(ring_counts)
+    else:
+        grid, valid = rig.triangulator(projector, camera).triangulate(corr)
+        limit = rig.config.scan.max_depth_jump_mm
+        if limit is not None:
+            keep = reject_isolated(grid, valid, model, limit)
+            counts["rejected_depth_jump"] = int((valid & ~keep).sum())
+            grid[valid & ~keep] = np.nan
+            valid = keep
+    t_mid = time.perf_counter()
+    if rings is not None:
+        points, grid, valid = ring_pointset(rings, model, corr, source=source)
+    else:
+        points = pair_pointset(grid, valid, model, corr, source=source)
+    counts["points"] = len(points)
+    if elapsed is not None:
+        elapsed["triangulate"] = elapsed.get("triangulate", 0.0) + t_mid - t
+        elapsed["pointset"] = elapsed.get("pointset", 0.0) + time.perf_counter() - t_mid
+    return PairResult(projector, camera, corr, grid, points, rings, counts)
+
+
 def run_scan(
     rig: Rig, codec_name: str | None = None, progress: ProgressCallback | None = None, keep_frames: bool = False
 ) -> ScanResult:
@@ -99,31 +130,10 @@ def run_scan(
     n_pairs = len(frames)
     for i, ((p, c), images) in enumerate(sorted(frames.items())):
         t = time.perf_counter()
-        full_scale = (1 << rig.config.cameras[c].bit_depth) - 1
-        corr = codecs[p].decode(images, full_scale)
-        t, elapsed["decode"] = time.perf_counter(), elapsed["decode"] + time.perf_counter() - t
+        corr = codecs[p].decode(images, (1 << rig.config.cameras[c].bit_depth) - 1)
+        elapsed["decode"] += time.perf_counter() - t
         tracker.report("decode", 0.6 + 0.3 * (i + 0.5) / n_pairs)
-        camera = rig.camera_models[c]
-        rings, counts = None, dict(corr.counts)
-        if corr.samples is not None:
-            rings, ring_counts = triangulate_rings(camera, rig.projector_models[p], corr.samples)
-            counts.update(ring_counts)
-        else:
-            grid, valid = rig.triangulator(p, c).triangulate(corr)
-            limit = rig.config.scan.max_depth_jump_mm
-            if limit is not None:
-                keep = reject_isolated(grid, valid, camera, limit)
-                counts["rejected_depth_jump"] = int((valid & ~keep).sum())
-                grid[valid & ~keep] = np.nan
-                valid = keep
-        t, elapsed["triangulate"] = time.perf_counter(), elapsed["triangulate"] + time.perf_counter() - t
-        if rings is not None:
-            points, grid, valid = ring_pointset(rings, camera, corr, source=i)
-        else:
-            points = pair_pointset(grid, valid, camera, corr, source=i)
-        counts["points"] = len(points)
-        elapsed["pointset"] += time.perf_counter() - t
-        pairs.append(PairResult(p, c, corr, grid, points, rings, counts))
+        pairs.append(reconstruct_pair(rig, p, c, corr, source=i, elapsed=elapsed))
         tracker.report("triangulate", 0.6 + 0.3 * (i + 1) / n_pairs)
     timings.update({f"{stage}_ms": seconds * 1e3 for stage, seconds in elapsed.items()})
     cloud = PointSet.concatenate([pair.points for pair in pairs])

@@ -107,3 +107,22 @@ def test_pair_triangulation_with_orthographic_projector() -> None:
     points, valid = PairTriangulator(camera, projector).triangulate(corr)
     assert valid.any()
     assert np.max(np.abs(points[valid] - truth[valid])) < 1e-6
+
+
+def test_reject_isolated_drops_mixed_pixels_and_keeps_steep_smooth_surfaces() -> None:
+    from rig.reconstruct import reject_isolated
+
+    camera = make_device(64, 48, 60.0, (0.0, 0.0, 600.0))
+    origins, directions = camera.pixel_rays
+    depth = np.full((48, 64), 500.0)
+    depth[:, :31] = 600.0 + 1.5 * np.arange(31)  # steep but smooth: 1.5 mm per pixel
+    depth[:, 31] = 560.0  # a column of mixed pixels on the edge between the two surfaces
+    depth[40, 5] = 620.0  # an isolated error
+    s = depth.ravel() / (directions @ camera.axis)
+    grid = (origins + s[:, None] * directions).reshape(48, 64, 3)
+    valid = np.ones((48, 64), dtype=bool)
+    keep = reject_isolated(grid, valid, camera, max_jump_mm=2.0)
+    assert not keep[:, 31].any()
+    assert not keep[40, 5]
+    assert keep[:, :31].sum() == 31 * 48 - 1  # every ramp point but the error
+    assert keep[:, 32:].all()
