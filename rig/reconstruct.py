@@ -5,7 +5,8 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
-from rig.geometry import CameraModel, ray_ray_midpoint
+from rig.geometry import CameraModel
+from rig.geometry.triangulate import closest_on_first_ray
 from rig.patterns import Correspondence
 from rig.pointset import PointSet
 
@@ -71,13 +72,45 @@ class PairTriangulator:
         return points.reshape(*shape, 3), ok.reshape(shape)
 
     def _ray_ray(self, corr: Correspondence, shape: tuple[int, int]) -> tuple[np.ndarray, np.ndarray]:
+        """Both coordinates decoded: the point of the camera ray closest to the projector ray."""
         assert corr.u is not None and corr.v is not None
+        projector = self.projector
+        if projector.projection == "pinhole" and not projector.has_distortion and self.camera.projection == "pinhole":
+            return self._ray_ray_fast(corr, shape)
         idx = np.flatnonzero(corr.valid.ravel())
         uv = np.column_stack([corr.u.ravel()[idx], corr.v.ravel()[idx]]).astype(np.float64)
-        po, pd = self.projector.rays(uv)
+        po, pd = projector.rays(uv)
         origins, directions = self.camera.pixel_rays
-        points, _, ok = ray_ray_midpoint(origins[idx], directions[idx], po, pd)
+        points, ok = closest_on_first_ray(origins[idx], directions[idx], po, pd)
         return self._scatter(idx, points, ok, shape)
+
+    def _ray_ray_fast(self, corr: Correspondence, shape: tuple[int, int]) -> tuple[np.ndarray, np.ndarray]:
+        """Whole-grid closest approach for pinhole devices without projector distortion. The
+        projector ray of (u, v) is A (u, v, 1) with A = R_p^T K_p^-1, so every dot product the
+        solution needs is affine or quadratic in (u, v) with per-pixel coefficients computed once."""
+        if "ray_ray" not in self._terms:
+            A = self.projector.R.T @ np.linalg.inv(self.projector.K)
+            _, directions = self.camera.pixel_rays
+            w = self.camera.center - self.projector.center
+            self._terms["ray_ray"] = (directions @ A, directions @ w, A.T @ A, A.T @ w)
+        d1_a, d1_w, gram, a_w = self._terms["ray_ray"]
+        assert corr.u is not None and corr.v is not None
+        u = np.where(corr.valid, corr.u, np.nan).ravel().astype(np.float64)
+        v = corr.v.ravel().astype(np.float64)
+        b = u * d1_a[:, 0] + v * d1_a[:, 1] + d1_a[:, 2]  # d1 . d2
+        c = gram[0, 0] * u * u + gram[1, 1] * v * v + 2 * (gram[0, 1] * u * v + gram[0, 2] * u + gram[1, 2] * v)
+        c += gram[2, 2]  # |d2|^2
+        e = a_w[0] * u + a_w[1] * v + a_w[2]  # d2 . w
+        denom = c - b * b
+        with np.errstate(invalid="ignore", divide="ignore"):
+            ok = denom >= 1e-6 * c
+            s1 = (b * e - c * d1_w) / denom
+            s2 = (e - b * d1_w) / denom
+            ok &= (s1 > 0) & (s2 > 0)
+        s1[~ok] = np.nan
+        origins, directions = self.camera.pixel_rays
+        points = origins + s1[:, None] * directions
+        return points.reshape(*shape, 3), ok.reshape(shape)
 
     def _ray_plane_iterative(
         self, corr: Correspondence, axis: str, coded_grid: np.ndarray, shape: tuple[int, int]

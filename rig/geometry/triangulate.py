@@ -51,3 +51,24 @@ def ray_ray_midpoint(
     p2 = o2 + s2[:, None] * d2
     valid &= (s1 > 0) & (s2 > 0)
     return 0.5 * (p1 + p2), np.linalg.norm(p1 - p2, axis=1), valid
+
+
+def closest_on_first_ray(
+    o1: np.ndarray, d1: np.ndarray, o2: np.ndarray, d2: np.ndarray, min_sin: float = 1e-3
+) -> tuple[np.ndarray, np.ndarray]:
+    """The point of ray 1 closest to ray 2 (unit directions), and a validity mask.
+
+    For a camera (ray 1) and a decoded projector point (ray 2) this is the better estimate than the
+    midpoint: the camera pixel is exact, the decoded projector coordinate carries the noise.
+    """
+    w = o1 - o2
+    b = np.einsum("ij,ij->i", d1, d2)
+    d = np.einsum("ij,ij->i", d1, w)
+    e = np.einsum("ij,ij->i", d2, w)
+    denom = 1.0 - b * b
+    valid = denom >= min_sin * min_sin
+    safe = np.where(valid, denom, 1.0)
+    s1 = (b * e - d) / safe
+    s2 = (e - b * d) / safe
+    valid &= (s1 > 0) & (s2 > 0)
+    return o1 + s1[:, None] * d1, valid
