@@ -10,11 +10,12 @@ import abc
 import contextlib
 import enum
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
 
-from drivers.errors import DeviceError
+from drivers.errors import DeviceStateError
 
 
 class ProjectorMode(enum.Enum):
@@ -71,7 +72,7 @@ class Device(abc.ABC):
 
     def _require_open(self) -> None:
         if not self._open:
-            raise DeviceError(f"{self.name}: device is not open")
+            raise DeviceStateError(f"{self.name}: device is not open")
 
     def __enter__(self) -> Device:
         self.open()
@@ -113,7 +114,7 @@ class Projector(Device):
         if self._open:
             self._do_dark()
 
-    def _guarded(self, action, *args: object) -> None:  # type: ignore[no-untyped-def]
+    def _guarded(self, action: Callable[..., None], *args: object) -> None:
         try:
             action(*args)
         except Exception:

@@ -12,11 +12,17 @@ class DeviceNotFoundError(DeviceError):
     """Raised when opening a device whose port, USB id, serial number or index does not exist."""
 
 
-class DeviceTimeoutError(DeviceError):
+class DeviceStateError(DeviceError):
+    """Raised when an operation does not fit the device's state: used before open() or after
+    close(), or a software trigger on a device set to wait for hardware triggers. A caller error,
+    not a fault of the device."""
+
+
+class DeviceTimeoutError(DeviceError, TimeoutError):
     """Raised when a device does not answer, or a frame does not arrive, within its named timeout."""
 
 
-class DeviceDisconnectedError(DeviceError):
+class DeviceDisconnectedError(DeviceError, ConnectionError):
     """Raised when a device that was open disappears (cable pulled, USB reset, port closed)."""
 
 

@@ -16,7 +16,7 @@ from rig import __version__
 from rig.config import SCENE_KINDS, RigConfig, load_config
 from rig.errors import ConfigError, ScanError, SlrigError
 from rig.evaluate import evaluate_pair
-from rig.patterns import codec_class
+from rig.patterns import codec_class, codec_names
 from rig.progress import ProgressTracker, TerminalBar
 from rig.rig import Rig, open_rig
 from rig.scan import ScanResult, run_scan
@@ -39,7 +39,9 @@ def _parser() -> argparse.ArgumentParser:
             default=None,
             help="rig description (YAML); default: the simulated bench, config/sim.yaml",
         )
-        p.add_argument("--codec", default=None, help="pattern codec: gray, phase (default: the config's)")
+        p.add_argument(
+            "--codec", default=None, help=f"pattern codec: {', '.join(codec_names())} (default: the config's)"
+        )
         p.add_argument("--json", action="store_true", help="print one JSON object instead of text")
 
     scan = sub.add_parser("scan", help="scan and write a scan directory (cloud.ply, depth, preview)")
@@ -118,7 +120,7 @@ def cmd_scan(args: argparse.Namespace) -> int:
         "timings_ms": {k: round(v, 1) for k, v in result.timings_ms.items()},
     }
     if args.json:
-        print(json.dumps(summary))
+        print(json.dumps(summary, allow_nan=False))
     else:
         print(
             f"scan {scan_id}: {len(result.cloud)} points with {result.codec} "
@@ -151,7 +153,7 @@ def cmd_eval(args: argparse.Namespace) -> int:
         "counts": pair.counts,
     }
     if args.json:
-        print(json.dumps(report))
+        print(json.dumps(report, allow_nan=False))
     else:
         width = max(len(k) for k in report)
         for key, value in report.items():

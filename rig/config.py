@@ -14,7 +14,7 @@ import yaml
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
 
 from rig.errors import ConfigError
-from rig.patterns import codec_names
+from rig.patterns import codec_class, codec_names
 from rig.patterns.gray import GrayParams
 from rig.patterns.phase import PhaseParams
 from rig.patterns.radial import RadialParams
@@ -27,12 +27,13 @@ Coord = Annotated[float, Field(ge=-100_000.0, le=100_000.0)]
 Vec3 = tuple[Coord, Coord, Coord]
 Name = Annotated[str, Field(pattern=r"^[A-Za-z0-9_-]{1,32}$")]
 Resolution = tuple[Annotated[int, Field(ge=16, le=16384)], Annotated[int, Field(ge=16, le=16384)]]
+Extent = Annotated[float, Field(gt=0.0, le=10_000.0)]
 Fraction = Annotated[float, Field(ge=0.0, le=1.0)]
 Albedo = Fraction | tuple[Fraction, Fraction, Fraction]  # grey, or linear [red, green, blue]
 
 
 class Strict(BaseModel):
-    model_config = ConfigDict(extra="forbid", frozen=True)
+    model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
 
 
 class Intrinsics(Strict):
@@ -80,6 +81,14 @@ class SimProjectorOptions(Strict):
     blur_px: float = Field(0.5, ge=0.0, le=20.0)
 
 
+class SimFaults(Strict):
+    """Faults to inject, for testing what a rig does when a camera fails (counted in frames)."""
+
+    disconnect_after_frames: int | None = Field(None, ge=0, le=10_000_000)
+    stall_after_frames: int | None = Field(None, ge=0, le=10_000_000)
+    repeat_frame_at: int | None = Field(None, ge=1, le=10_000_000, description="this capture is a stale repeat")
+
+
 class SimCameraOptions(Strict):
     full_scale_exposure_us: float = Field(12000.0, gt=0.0, le=1e7)
     full_well_e: float = Field(10000.0, ge=10.0, le=1e7)
@@ -87,6 +96,7 @@ class SimCameraOptions(Strict):
     gamma: float = Field(1.0, ge=0.2, le=5.0)
     blur_px: float = Field(0.6, ge=0.0, le=20.0)
     frame_period_s: float = Field(1 / 30, gt=0.0, le=10.0)
+    faults: SimFaults = SimFaults()
 
 
 class ProjectorConfig(Strict):
@@ -124,17 +134,10 @@ class SphereScene(Strict):
 
 class BoxScene(Strict):
     kind: Literal["box"]
-    extents_mm: tuple[float, float, float] = (120.0, 80.0, 60.0)
+    extents_mm: tuple[Extent, Extent, Extent] = (120.0, 80.0, 60.0)
     rotation_deg: Vec3 = (0.0, 0.0, 25.0)
     albedo: Albedo = 0.8
     plane: bool = Field(True, description="put the box on the bench plane")
-
-    @field_validator("extents_mm")
-    @classmethod
-    def _positive(cls, v: tuple[float, float, float]) -> tuple[float, float, float]:
-        if min(v) <= 0 or max(v) > 10_000:
-            raise ValueError("every extent must be in (0, 10000] mm")
-        return v
 
 
 class SphereOnPlaneScene(Strict):
@@ -191,8 +194,8 @@ class ScanConfig(Strict):
         2.0,
         gt=0.0,
         le=1000.0,
-        description="drop a point whose depth differs from its 3x3 neighbourhood's median by more than this "
-        "(mixed pixels on depth edges, isolated decoding errors); null keeps every point",
+        description="dense codecs drop a point unless 3 of its 8 neighbours are within this depth of it "
+        "(removes mixed pixels on depth edges and isolated decoding errors); null keeps every point",
     )
     save_frames: bool = Field(False, description="keep raw captures in the scan directory")
 
@@ -221,7 +224,9 @@ class RigConfig(Strict):
         names = [d.name for d in (*self.projectors, *self.cameras)]
         duplicates = sorted({n for n in names if names.count(n) > 1})
         if duplicates:
-            raise ValueError(f"device names must be unique; repeated: {', '.join(duplicates)}")
+            raise ValueError(
+                f"cameras/projectors[].name: device names must be unique; repeated: {', '.join(duplicates)}"
+            )
         model = self.scan.rings.model
         if model != "cone":
             needs = {"parallel": ("orthographic", "orthographic"), "radius_ratio": ("orthographic", "pinhole")}[model]
@@ -229,12 +234,18 @@ class RigConfig(Strict):
                 c.geometry.projection != needs[1] for c in self.cameras
             ):
                 raise ValueError(
-                    f"scan.rings.model {model!r} needs {needs[0]} projectors and {needs[1]} cameras "
+                    f"scan.rings.model: {model!r} needs {needs[0]} projectors and {needs[1]} cameras "
                     "(geometry.projection); the 'cone' model works with any"
                 )
         uses_sim = any(d.driver == "sim" for d in (*self.projectors, *self.cameras))
         if uses_sim and self.simulation is None:
-            raise ValueError("simulated devices need a 'simulation' section with a scene")
+            raise ValueError("simulation: simulated devices need a 'simulation' section with a scene")
+        params = getattr(self.scan, self.scan.codec, None)
+        for i, projector in enumerate(self.projectors):
+            try:  # codec parameters that only fail against a projector's size (e.g. ring spacing)
+                codec_class(self.scan.codec)(projector.resolution, params)
+            except ValueError as exc:
+                raise ValueError(f"scan.{self.scan.codec} (for projectors[{i}]): {exc}") from None
         return self
 
     def with_codec(self, codec: str) -> RigConfig:
@@ -258,17 +269,36 @@ def _location(loc: tuple[int | str, ...]) -> str:
             out += f"[{item}]"
         elif i > 0 and loc[i - 1] == "scene" and item in SCENE_KINDS:
             continue  # the discriminator's tag adds nothing for the reader
+        elif not str(item).isidentifier():
+            continue  # a union member's tag, e.g. 'tuple[constrained-float, ...]'
         else:
             out += ("." if out else "") + str(item)
-    return out or "(top level)"
+    return out
+
+
+def _problems(exc: ValidationError) -> list[str]:
+    """One line per problem, each starting with the field it is about. Of the errors a union
+    field gets (one per member it failed), the most specific is kept."""
+    by_field: dict[str, tuple[int, str]] = {}
+    for error in exc.errors():
+        message = error["msg"].removeprefix("Value error, ")
+        where = _location(error["loc"])
+        if not where:  # a check across fields: its message names the field
+            by_field.setdefault(message, (0, message))
+            continue
+        loc = error["loc"]
+        tags = [i for i, item in enumerate(loc) if isinstance(item, str) and not item.isidentifier()]
+        key = _location(loc[: tags[0]]) if tags else where  # the union field, whatever member failed
+        if key not in by_field or len(loc) > by_field[key][0]:
+            by_field[key] = (len(loc), f"{where}: {message}")
+    return [line for _, line in by_field.values()]
 
 
 def _validate(data: object, source: str) -> RigConfig:
     try:
         return RigConfig.model_validate(data)
     except ValidationError as exc:
-        problems = [f"{_location(e['loc'])}: {e['msg'].removeprefix('Value error, ')}" for e in exc.errors()]
-        raise ConfigError(source, problems) from None
+        raise ConfigError(source, _problems(exc)) from None
 
 
 def load_config(path: str | Path | None = None) -> RigConfig:

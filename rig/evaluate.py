@@ -53,7 +53,7 @@ def ring_distances(pair: PairResult, bench: SimBench, truth: GroundTruth) -> np.
     return dist
 
 
-def evaluate_pair(pair: PairResult, truth: GroundTruth, bench: SimBench | None = None) -> dict[str, float | int]:
+def evaluate_pair(pair: PairResult, truth: GroundTruth, bench: SimBench | None = None) -> dict[str, float | int | None]:
     """rms/mean/p95 distance to the true surface, and completeness: the fraction of camera pixels
     that see a lit, unshadowed true surface and got a point within 1 mm of it. Sparse (ring) points
     are measured along their own rays, which needs the `bench`."""
@@ -71,12 +71,13 @@ def evaluate_pair(pair: PairResult, truth: GroundTruth, bench: SimBench | None =
     good[pixels[dist <= COMPLETE_WITHIN_MM]] = True
     covered = good.reshape(valid.shape) & target
     n = max(1, len(dist))
+    empty = len(dist) == 0  # no points: no distances (None, which JSON can carry; NaN it cannot)
     return {
         "points": len(dist),
-        "rms_mm": float(np.sqrt(np.mean(dist**2))) if len(dist) else float("nan"),
-        "mean_abs_mm": float(np.mean(dist)) if len(dist) else float("nan"),
-        "p95_mm": float(np.percentile(dist, 95)) if len(dist) else float("nan"),
-        "max_mm": float(np.max(dist)) if len(dist) else float("nan"),
+        "rms_mm": None if empty else float(np.sqrt(np.mean(dist**2))),
+        "mean_abs_mm": None if empty else float(np.mean(dist)),
+        "p95_mm": None if empty else float(np.percentile(dist, 95)),
+        "max_mm": None if empty else float(np.max(dist)),
         "outliers_over_5mm": int((dist > 5.0).sum()),
         "outlier_fraction": float((dist > 5.0).sum() / n),
         "completeness": float(covered.sum() / max(1, target.sum())),

@@ -6,7 +6,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.spatial import Delaunay
+from scipy.spatial import Delaunay, QhullError
 
 from rig.geometry import CameraModel
 from rig.geometry.cone import ray_cone, refine_on_distorted_ring
@@ -112,8 +112,11 @@ def sample_normals(points: np.ndarray, camera_xy: np.ndarray, directions: np.nda
     positions (which links neighbouring rings); triangles with an image edge longer than
     `max_edge_px` are dropped. Oriented toward the camera; samples in no triangle face the camera."""
     normals = np.zeros_like(points)
-    if len(points) >= 3:
-        tri = Delaunay(camera_xy).simplices
+    try:
+        tri = Delaunay(camera_xy).simplices if len(points) >= 3 else np.zeros((0, 3), dtype=np.int64)
+    except QhullError:  # all samples on one line: no surface to take a normal from
+        tri = np.zeros((0, 3), dtype=np.int64)
+    if len(tri):
         xy = camera_xy[tri]
         longest = np.max(np.linalg.norm(xy - np.roll(xy, 1, axis=1), axis=2), axis=1)
         tri = tri[longest <= max_edge_px]

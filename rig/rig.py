@@ -8,7 +8,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from drivers.base import Camera, Projector
-from drivers.sim import SimBench, SimCamera, SimCameraParams, SimProjector, SimProjectorParams
+from drivers.sim import SimBench, SimCamera, SimCameraFaults, SimCameraParams, SimProjector, SimProjectorParams
 from drivers.sim import scene as sim_scene
 from rig.config import (
     BoxScene,
@@ -23,7 +23,7 @@ from rig.config import (
     SphereScene,
     TerrainScene,
 )
-from rig.errors import SceneError
+from rig.errors import ConfigError, SceneError
 from rig.geometry import CameraModel, look_at_rotation
 from rig.reconstruct import PairTriangulator
 
@@ -139,11 +139,17 @@ def _sim_camera_params(c: CameraConfig) -> SimCameraParams:
     )
 
 
+def _faults(c: CameraConfig) -> SimCameraFaults:
+    f = c.sim.faults
+    return SimCameraFaults(f.disconnect_after_frames, f.stall_after_frames, f.repeat_frame_at)
+
+
 def open_rig(config: RigConfig) -> Rig:
     """Open every device of `config` (today: the simulated bench)."""
     projector_models = [geometry_model(p.geometry, p.resolution) for p in config.projectors]
     camera_models = [geometry_model(c.geometry, c.resolution) for c in config.cameras]
-    assert config.simulation is not None  # validated: simulated devices need a scene
+    if config.simulation is None:  # every driver is simulated today, and config validation requires a scene
+        raise ConfigError("config", ["simulation: this rig has no simulated scene to open"])
     bench = SimBench(
         build_scene(config.simulation),
         camera_models,
@@ -154,7 +160,7 @@ def open_rig(config: RigConfig) -> Rig:
         seed=config.simulation.seed,
     )
     projectors: list[Projector] = [SimProjector(p.name, bench, i) for i, p in enumerate(config.projectors)]
-    cameras: list[Camera] = [SimCamera(c.name, bench, i) for i, c in enumerate(config.cameras)]
+    cameras: list[Camera] = [SimCamera(c.name, bench, i, _faults(c)) for i, c in enumerate(config.cameras)]
     rig = Rig(config, projectors, cameras, projector_models, camera_models, sim=bench)
     try:
         for device in (*projectors, *cameras):

@@ -8,7 +8,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from drivers.errors import DeviceError
-from rig.errors import ScanError
+from rig.errors import DecodeError, ScanError
 from rig.patterns import Codec, Correspondence, codec_class
 from rig.pointset import PointSet
 from rig.progress import ProgressCallback, ProgressTracker
@@ -58,12 +58,12 @@ def capture(rig: Rig, codecs: list[Codec], tracker: ProgressTracker) -> dict[tup
     total = sum(c.frame_count for c in codecs)
     done = 0
     frames: dict[tuple[int, int], list[np.ndarray]] = {}
+    last_sequence = [-1] * len(rig.cameras)  # across projectors: a frame repeated at a switch is stale too
     try:
         rig.all_dark()
         for p, (projector, codec) in enumerate(zip(rig.projectors, codecs, strict=True)):
             for c in range(len(rig.cameras)):
                 frames[(p, c)] = []
-            last_sequence = [-1] * len(rig.cameras)
             for pattern in codec.patterns():
                 projector.show(pattern)
                 for c, camera in enumerate(rig.cameras):
@@ -130,7 +130,10 @@ def run_scan(
     n_pairs = len(frames)
     for i, ((p, c), images) in enumerate(sorted(frames.items())):
         t = time.perf_counter()
-        corr = codecs[p].decode(images, (1 << rig.config.cameras[c].bit_depth) - 1)
+        try:
+            corr = codecs[p].decode(images, (1 << rig.config.cameras[c].bit_depth) - 1)
+        except DecodeError as exc:  # the frames the devices delivered do not fit: a failed scan
+            raise ScanError(f"{rig.config.cameras[c].name}: {exc}") from exc
         elapsed["decode"] += time.perf_counter() - t
         tracker.report("decode", 0.6 + 0.3 * (i + 0.5) / n_pairs)
         pairs.append(reconstruct_pair(rig, p, c, corr, source=i, elapsed=elapsed))

@@ -13,7 +13,7 @@ import numpy as np
 import plyfile
 import pytest
 
-from drivers.sim import SimCamera
+from drivers.sim import SimCamera, SimCameraFaults
 from rig.cli import main
 from rig.config import RigConfig
 from rig.errors import ScanError
@@ -121,7 +121,7 @@ def test_camera_fault_fails_the_scan_and_leaves_the_projector_dark(small_config:
     the_rig = open_rig(small_config)
     try:
         assert the_rig.sim is not None
-        the_rig.cameras[0] = SimCamera("camera0", the_rig.sim, 0, disconnect_after=5)
+        the_rig.cameras[0] = SimCamera("camera0", the_rig.sim, 0, SimCameraFaults(disconnect_after=5))
         the_rig.cameras[0].open()
         with pytest.raises(ScanError, match="disconnected"):
             run_scan(the_rig)
@@ -162,3 +162,20 @@ def test_progress_events_advance_through_the_stages(small_config: RigConfig) -> 
     assert stages.index("capture") < stages.index("decode") < stages.index("triangulate")
     assert all(e.elapsed_s >= 0 for e in events)
     assert events[-1].remaining_s is not None and events[-1].remaining_s < events[-1].elapsed_s
+
+
+def test_terminal_bar_draws_the_stages_to_done(
+    tmp_path: Path, small_config_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    import io
+
+    import rig.cli as cli
+    from rig.progress import TerminalBar
+
+    stream = io.StringIO()
+    monkeypatch.setattr(cli, "_progress", lambda args: TerminalBar(stream))
+    assert main(["scan", "--config", str(small_config_path), "--out", str(tmp_path / "bar")]) == 0
+    lines = stream.getvalue().replace("\r", "\n").split()
+    drawn = stream.getvalue()
+    assert "capture" in drawn and "store" in drawn and "100.0% done" in drawn
+    assert drawn.endswith("\n") and len(lines) > 10

@@ -120,9 +120,22 @@ def test_colour_frames_decode_like_mono() -> None:
     assert corr.texture.ndim == 3
 
 
-@pytest.mark.parametrize("name", ["gray", "phase", "rings", "radial"])
-def test_frame_count_matches_the_patterns(name: str) -> None:
-    codec = codec_class(name)((320, 200))
+@pytest.mark.parametrize(
+    ("name", "params"),
+    [
+        ("gray", {}),
+        ("gray", {"directions": "both"}),
+        ("phase", {}),
+        ("phase", {"directions": "rows", "steps": 5, "period_px": 10}),
+        ("rings", {}),
+        ("rings", {"rings": 5, "angle_steps": 6}),
+        ("radial", {}),
+        ("radial", {"angle_periods": 64, "mid_periods": 8, "steps": 4}),
+    ],
+)
+def test_frame_count_matches_the_patterns(name: str, params: dict) -> None:  # type: ignore[type-arg]
+    cls = codec_class(name)
+    codec = cls((320, 200), cls.Params(**params))
     patterns = codec.patterns()
     assert codec.frame_count == len(patterns)
     assert all(p.shape == (200, 320) and p.dtype == np.uint8 for p in patterns)

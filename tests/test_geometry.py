@@ -126,3 +126,15 @@ def test_reject_isolated_drops_mixed_pixels_and_keeps_steep_smooth_surfaces() ->
     assert not keep[40, 5]
     assert keep[:, :31].sum() == 31 * 48 - 1  # every ramp point but the error
     assert keep[:, 32:].all()
+
+
+def test_closest_on_first_ray_lies_on_the_first_ray() -> None:
+    from rig.geometry.triangulate import closest_on_first_ray
+
+    o1 = np.zeros((2, 3))
+    d1 = np.array([[1.0, 0.0, 0.0], [1.0, 0.0, 0.0]])
+    o2 = np.array([[5.0, -5.0, 3.0], [5.0, -5.0, 3.0]])
+    d2 = np.array([[0.0, 1.0, 0.0], [1.0, 0.0, 0.0]])  # crossing above x = 5; parallel
+    points, ok = closest_on_first_ray(o1, d1, o2, d2)
+    np.testing.assert_allclose(points[0], [5.0, 0.0, 0.0])
+    assert ok.tolist() == [True, False]

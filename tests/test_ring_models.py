@@ -5,6 +5,7 @@ from __future__ import annotations
 
 from typing import Any
 
+import numpy as np
 import pytest
 import yaml
 
@@ -26,13 +27,18 @@ def _bench(name: str, scene: str, camera_position: list[float] | None = None) ->
     return data
 
 
-def _rms(config: RigConfig) -> float:
+def _scan(config: RigConfig) -> tuple[float, np.ndarray]:
+    """rms (mm) of a scan and its kept ring points."""
     with open_rig(config) as the_rig:
         pair = run_scan(the_rig).pairs[0]
-        assert the_rig.sim is not None
+        assert the_rig.sim is not None and pair.rings is not None
         report = evaluate_pair(pair, the_rig.sim.ground_truth(0, 0), the_rig.sim)
     assert report["points"] > 1000
-    return float(report["rms_mm"])
+    return float(report["rms_mm"]), pair.rings.points[pair.rings.kept]
+
+
+def _rms(config: RigConfig) -> float:
+    return _scan(config)[0]
 
 
 def _config(tmp_path, data: dict[str, Any]) -> RigConfig:  # type: ignore[no-untyped-def]
@@ -47,10 +53,11 @@ def test_models_reconstruct_plane_and_sphere(tmp_path, bench: str, scene: str) -
 
 def test_parallel_model_agrees_with_the_general_cone_when_its_assumption_holds(tmp_path) -> None:  # type: ignore[no-untyped-def]
     data = _bench("sim-parallel.yaml", "plane")
-    model = _rms(_config(tmp_path, data))
+    _, model = _scan(_config(tmp_path, data))
     data["scan"]["rings"]["model"] = "cone"
-    cone = _rms(_config(tmp_path, data))
-    assert model == pytest.approx(cone, rel=1e-3)
+    _, cone = _scan(_config(tmp_path, data))
+    assert model.shape == cone.shape  # the same seed: the same samples
+    assert np.max(np.linalg.norm(model - cone, axis=1)) < 1e-6
 
 
 def test_parallel_model_breaks_when_the_camera_also_rolls(tmp_path) -> None:  # type: ignore[no-untyped-def]
@@ -58,8 +65,8 @@ def test_parallel_model_breaks_when_the_camera_also_rolls(tmp_path) -> None:  # 
     plane (about 0.1 and 0.4 degrees of tilt) puts the depth off by about Z * tilt."""
     small = _rms(_config(tmp_path, _bench("sim-parallel.yaml", "plane", [-300.0, 1.0, 520.0])))
     large = _rms(_config(tmp_path, _bench("sim-parallel.yaml", "plane", [-300.0, 4.0, 520.0])))
-    assert 0.20 < small < large
-    assert large == pytest.approx(4 * small, rel=0.35)  # error grows with the violation
+    assert 1.0 < small < 2.0  # measured 1.55 mm
+    assert large == pytest.approx(4 * small, rel=0.2)  # error grows in proportion to the violation
     data = _bench("sim-parallel.yaml", "plane", [-300.0, 4.0, 520.0])
     data["scan"]["rings"]["model"] = "cone"
     assert _rms(_config(tmp_path, data)) <= 0.20  # the calibrated general model does not care
@@ -68,7 +75,8 @@ def test_parallel_model_breaks_when_the_camera_also_rolls(tmp_path) -> None:  # 
 def test_radius_ratio_breaks_when_the_camera_leaves_the_axis(tmp_path) -> None:  # type: ignore[no-untyped-def]
     small = _rms(_config(tmp_path, _bench("sim-coaxial.yaml", "plane", [1.0, 0.0, 450.0])))
     large = _rms(_config(tmp_path, _bench("sim-coaxial.yaml", "plane", [5.0, 0.0, 450.0])))
-    assert 0.20 < small < large
+    assert 4.0 < small < 8.0  # measured 6.1 mm: the model is very sensitive to the camera's position
+    assert large > 4 * small
 
 
 def test_models_refuse_a_rig_they_cannot_describe(tmp_path) -> None:  # type: ignore[no-untyped-def]

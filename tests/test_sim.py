@@ -10,7 +10,7 @@ import pytest
 import trimesh
 
 from drivers.errors import DeviceDisconnectedError, DeviceTimeoutError
-from drivers.sim import SimBench, SimCamera, SimCameraParams, SimProjector, SimProjectorParams
+from drivers.sim import SimBench, SimCamera, SimCameraFaults, SimCameraParams, SimProjector, SimProjectorParams
 from drivers.sim import scene as sc
 from tests.conftest import make_device
 
@@ -114,12 +114,12 @@ def test_devices_timestamps_sequences_and_pattern_checks() -> None:
 
 def test_camera_faults_fail_cleanly_and_finitely() -> None:
     bench = _bench([sc.plane(1000.0)])
-    camera = SimCamera("c", bench, 0, disconnect_after=1)
+    camera = SimCamera("c", bench, 0, SimCameraFaults(disconnect_after=1))
     camera.open()
     camera.capture()
     with pytest.raises(DeviceDisconnectedError):
         camera.capture()
-    stalled = SimCamera("s", bench, 0, stall_after=0)
+    stalled = SimCamera("s", bench, 0, SimCameraFaults(stall_after=0))
     stalled.open()
     start = time.monotonic()
     with pytest.raises(DeviceTimeoutError):

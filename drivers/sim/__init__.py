@@ -6,7 +6,7 @@ interfaces as real devices. Device geometry is given as objects with the `ViewMo
 """
 
 from drivers.sim.bench import GroundTruth, SimBench, SimCameraParams, SimProjectorParams, ViewModel
-from drivers.sim.devices import SimCamera, SimProjector
+from drivers.sim.devices import SimCamera, SimCameraFaults, SimProjector
 from drivers.sim.scene import SceneObject, build_scene
 
 __all__ = [
@@ -14,6 +14,7 @@ __all__ = [
     "SceneObject",
     "SimBench",
     "SimCamera",
+    "SimCameraFaults",
     "SimCameraParams",
     "SimProjector",
     "SimProjectorParams",

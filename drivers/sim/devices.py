@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import time
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -42,21 +43,19 @@ class SimProjector(Projector):
         self._bench.set_pattern(self._index, None)
 
 
+@dataclass(frozen=True)
+class SimCameraFaults:
+    """Faults a simulated camera can inject, counted in frames delivered since open."""
+
+    disconnect_after: int | None = None  # then DeviceDisconnectedError
+    stall_after: int | None = None  # then no frame arrives: DeviceTimeoutError at the deadline
+    repeat_at: int | None = None  # this capture hands back the previous frame again (stale)
+
+
 class SimCamera(Camera):
-    """A camera that renders the simulated scene under the projectors' current light.
+    """A camera that renders the simulated scene under the projectors' current light."""
 
-    Fault injection for tests: `disconnect_after` frames, then DeviceDisconnectedError;
-    `stall_after` frames, then no frame arrives (DeviceTimeoutError at the deadline).
-    """
-
-    def __init__(
-        self,
-        name: str,
-        bench: SimBench,
-        index: int,
-        disconnect_after: int | None = None,
-        stall_after: int | None = None,
-    ) -> None:
+    def __init__(self, name: str, bench: SimBench, index: int, faults: SimCameraFaults | None = None) -> None:
         super().__init__(name)
         self._bench = bench
         self._index = index
@@ -64,8 +63,9 @@ class SimCamera(Camera):
         self._exposure_us = self._params.exposure_us
         self._gain = self._params.gain
         self._sequence = 0
-        self._disconnect_after = disconnect_after
-        self._stall_after = stall_after
+        self._captures = 0
+        self._faults = faults or SimCameraFaults()
+        self._last: Frame | None = None
 
     @property
     def resolution(self) -> tuple[int, int]:
@@ -83,19 +83,25 @@ class SimCamera(Camera):
 
     def _do_open(self) -> None:
         self._sequence = 0
+        self._captures = 0
+        self._last = None
 
     def _do_close(self) -> None:
         pass
 
     def _do_capture(self, deadline: float) -> Frame:
-        if self._disconnect_after is not None and self._sequence >= self._disconnect_after:
+        faults = self._faults
+        self._captures += 1
+        if faults.disconnect_after is not None and self._sequence >= faults.disconnect_after:
             raise DeviceDisconnectedError(f"{self.name}: simulated camera disconnected")
-        if self._stall_after is not None and self._sequence >= self._stall_after:
+        if faults.stall_after is not None and self._sequence >= faults.stall_after:
             time.sleep(max(0.0, deadline - time.monotonic()))
             raise DeviceTimeoutError(f"{self.name}: no frame before the capture deadline")
+        if faults.repeat_at is not None and self._captures == faults.repeat_at and self._last is not None:
+            return self._last
         image = self._bench.render(self._index, self._exposure_us, self._gain)
         self._sequence += 1
-        return Frame(
+        self._last = Frame(
             image=image,
             timestamp_s=self._bench.clock_s,
             sequence=self._sequence,
@@ -103,3 +109,4 @@ class SimCamera(Camera):
             gain=self._gain,
             bit_depth=self._params.bit_depth,
         )
+        return self._last

@@ -118,7 +118,7 @@ class CameraModel:
         xy = distorted.copy()
         for _ in range(iterations):
             residual = self._distort(xy) - distorted
-            if np.max(np.abs(residual)) < 1e-12:
+            if residual.size == 0 or np.nanmax(np.abs(residual), initial=0.0) < 1e-12:
                 break
             x, y = xy[:, 0], xy[:, 1]
             r2 = x * x + y * y

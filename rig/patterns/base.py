@@ -7,7 +7,7 @@ import abc
 import dataclasses
 from collections.abc import Sequence
 from dataclasses import dataclass, field
-from typing import ClassVar, overload
+from typing import Annotated, ClassVar, overload
 
 import cv2
 import numpy as np
@@ -15,11 +15,13 @@ from pydantic import BaseModel, ConfigDict, Field
 
 from rig.errors import DecodeError
 
+PixelCoord = Annotated[float, Field(ge=-1e5, le=1e5)]  # a position in a projector image, pixels
+
 
 class CodecParams(BaseModel):
     """Parameters every codec has. Thresholds are fractions of the camera's full scale."""
 
-    model_config = ConfigDict(extra="forbid", frozen=True)
+    model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
 
     black_threshold: float = Field(
         0.03,

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from rig.patterns.base import Correspondence
+from rig.patterns.base import Correspondence, NormalizedFrames
 from rig.patterns.graycode import bit_count, decode_gray, gray_planes, planes_with_inverses
 from rig.patterns.lines import LineCodec, LineParams
 from rig.patterns.registry import register
@@ -31,7 +31,9 @@ class GrayCodec(LineCodec):
                 out.append(self.stretch(img, axis))
         return out
 
-    def _decode(self, frames, white, black, lit, texture) -> Correspondence:  # type: ignore[no-untyped-def]
+    def _decode(
+        self, frames: NormalizedFrames, white: np.ndarray, black: np.ndarray, lit: np.ndarray, texture: np.ndarray
+    ) -> Correspondence:
         coords: dict[str, np.ndarray] = {}
         valid = lit.copy()
         counts = {"lit": int(lit.sum())}

@@ -18,7 +18,7 @@ import math
 import numpy as np
 from pydantic import Field, field_validator
 
-from rig.patterns.base import Correspondence
+from rig.patterns.base import Correspondence, NormalizedFrames
 from rig.patterns.graycode import bit_count, decode_gray, gray_planes, planes_with_inverses
 from rig.patterns.lines import LineCodec, LineParams
 from rig.patterns.registry import register
@@ -68,7 +68,9 @@ class PhaseCodec(LineCodec):
                 out.append(self.stretch(img, axis))
         return out
 
-    def _decode(self, frames, white, black, lit, texture) -> Correspondence:  # type: ignore[no-untyped-def]
+    def _decode(
+        self, frames: NormalizedFrames, white: np.ndarray, black: np.ndarray, lit: np.ndarray, texture: np.ndarray
+    ) -> Correspondence:
         n_steps, period = self.params.steps, self.params.period_px
         delta = 2 * np.pi * np.arange(n_steps) / n_steps
         sin_d, cos_d = np.sin(delta).astype(np.float32), np.cos(delta).astype(np.float32)

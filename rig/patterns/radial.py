@@ -21,13 +21,15 @@ import math
 import numpy as np
 from pydantic import Field, field_validator
 
-from rig.patterns.base import Codec, CodecParams, Correspondence
+from rig.patterns.base import Codec, CodecParams, Correspondence, NormalizedFrames, PixelCoord
 from rig.patterns.graycode import bit_count, decode_gray, gray_planes, planes_with_inverses
 from rig.patterns.registry import register
 
 
 class RadialParams(CodecParams):
-    center_px: tuple[float, float] | None = Field(None, description="fringe centre; default: the image centre")
+    center_px: tuple[PixelCoord, PixelCoord] | None = Field(
+        None, description="fringe centre; default: the image centre"
+    )
     steps: int = Field(8, ge=3, le=64, description="radial phase steps")
     period_px: int = Field(16, ge=4, le=4096, description="radial fringe period P in projector pixels (even)")
     angle_periods: int = Field(128, ge=1, le=4096, description="angular fringe periods per revolution (fine level)")
@@ -59,14 +61,15 @@ class RadialParams(CodecParams):
         return value
 
 
-def _phase(frames, first: int, steps: int) -> tuple[np.ndarray, np.ndarray]:  # type: ignore[no-untyped-def]
+def _phase(frames: NormalizedFrames, first: int, steps: int) -> tuple[np.ndarray, np.ndarray]:
     """Wrapped phase in [0, 2 pi) and modulation of `steps` frames from index `first`."""
-    s = c = None
+    s = np.zeros(frames[first].shape, dtype=np.float32)
+    c = np.zeros_like(s)
     for n in range(steps):
         delta = 2 * np.pi * n / steps
         frame = frames[first + n]
-        s = frame * np.float32(math.sin(delta)) + (0 if s is None else s)
-        c = frame * np.float32(math.cos(delta)) + (0 if c is None else c)
+        s += frame * np.float32(math.sin(delta))
+        c += frame * np.float32(math.cos(delta))
     return np.mod(np.arctan2(s, c), 2 * np.pi), (2.0 / steps) * np.sqrt(s * s + c * c)
 
 
@@ -123,7 +126,9 @@ class RadialCodec(Codec):
             out += fringes(periods * theta, steps)
         return out
 
-    def _decode(self, frames, white, black, lit, texture) -> Correspondence:  # type: ignore[no-untyped-def]
+    def _decode(
+        self, frames: NormalizedFrames, white: np.ndarray, black: np.ndarray, lit: np.ndarray, texture: np.ndarray
+    ) -> Correspondence:
         p = self.params
         phi, radial_mod = _phase(frames, 0, p.steps)
         bits = self._gray_bits()

@@ -19,13 +19,14 @@ camera pixels that read the same ring index: its position is the linear zero cro
 
 from __future__ import annotations
 
+import functools
 import math
-from typing import Literal
+from typing import Annotated, Literal
 
 import numpy as np
 from pydantic import Field, model_validator
 
-from rig.patterns.base import Codec, CodecParams, Correspondence, RingSamples
+from rig.patterns.base import Codec, CodecParams, Correspondence, NormalizedFrames, PixelCoord, RingSamples
 from rig.patterns.graycode import bit_count, decode_gray, gray_planes, planes_with_inverses
 from rig.patterns.registry import register
 
@@ -43,8 +44,10 @@ class RingsParams(CodecParams):
         le=16384,
         description="ring spacing; default: the K rings reach the farthest image corner",
     )
-    radii_px: list[float] | None = Field(None, description="explicit radii, increasing (overrides the above)")
-    center_px: tuple[float, float] | None = Field(None, description="ring centre; default: the image centre")
+    radii_px: list[Annotated[float, Field(gt=0, le=1e5)]] | None = Field(
+        None, max_length=1024, description="explicit radii, increasing (instead of rings/first_radius_px/spacing_px)"
+    )
+    center_px: tuple[PixelCoord, PixelCoord] | None = Field(None, description="ring centre; default: the image centre")
     angle_steps: int = Field(4, ge=3, le=32, description="phase steps of the angular code")
     min_edge_contrast: float = Field(
         0.03, ge=0.0, le=2.0, description="minimum |step| of pattern - inverse across a ring edge"
@@ -73,6 +76,8 @@ class RingsParams(CodecParams):
             r = np.asarray(self.radii_px)
             if len(r) == 0 or np.any(r <= 0) or np.any(np.diff(r) <= 2 * _EDGE_RAMP_PX):
                 raise ValueError(f"radii_px must be positive and increase by more than {2 * _EDGE_RAMP_PX:g} px")
+            if "rings" in self.model_fields_set and self.rings != len(r):
+                raise ValueError(f"rings is {self.rings} but radii_px lists {len(r)} radii; give one of them")
         return self
 
 
@@ -88,8 +93,19 @@ class RingsCodec(Codec):
             return self.params.center_px
         return ((self.width - 1) / 2, (self.height - 1) / 2)
 
-    @property
+    def __init__(self, projector_size: tuple[int, int], params: RingsParams | None = None) -> None:
+        super().__init__(projector_size, params)
+        steps = np.diff(self.radii)
+        if self.radii[0] <= 0 or (steps <= 2 * _EDGE_RAMP_PX).any():
+            raise ValueError(
+                f"rings: radii {self.radii[0]:.1f}..{self.radii[-1]:.1f} px must be positive and at least "
+                f"{2 * _EDGE_RAMP_PX:g} px apart in a {self.width}x{self.height} projector image "
+                "(fewer rings, a smaller first_radius_px or an explicit spacing_px)"
+            )
+
+    @functools.cached_property
     def radii(self) -> np.ndarray:
+        """Ring radii in projector pixels; `radii_px` when given, else `rings` evenly spaced."""
         p = self.params
         if p.radii_px is not None:
             return np.asarray(p.radii_px, dtype=np.float64)
@@ -112,7 +128,7 @@ class RingsCodec(Codec):
         return np.searchsorted(midpoints, rho, side="right")
 
     def _zone_bits(self) -> int:
-        return bit_count(max(2, self.params.rings))
+        return bit_count(max(2, len(self.radii)))
 
     def _coded_frame_count(self) -> int:
         return 2 + 2 * self._zone_bits() + self.params.angle_steps
@@ -136,12 +152,14 @@ class RingsCodec(Codec):
             out.append(np.rint(value * 255).astype(np.uint8))
         return out
 
-    def _decode(self, frames, white, black, lit, texture) -> Correspondence:  # type: ignore[no-untyped-def]
+    def _decode(
+        self, frames: NormalizedFrames, white: np.ndarray, black: np.ndarray, lit: np.ndarray, texture: np.ndarray
+    ) -> Correspondence:
         p = self.params
         edge = frames[0] - frames[1]
         bits = self._zone_bits()
         zone, strength = decode_gray(frames[2 : 2 + 2 * bits], bits)
-        zone_ok = lit & (strength >= p.min_edge_contrast * 0.5) & (zone < p.rings)
+        zone_ok = lit & (strength >= p.min_edge_contrast * 0.5) & (zone < len(self.radii))
         s = np.zeros(lit.shape, dtype=np.float32)
         c = np.zeros(lit.shape, dtype=np.float32)
         for n in range(p.angle_steps):
@@ -157,9 +175,10 @@ class RingsCodec(Codec):
             b = (slice(1, None), slice(None)) if axis == 0 else (slice(None), slice(1, None))
             d1, d2 = edge[a], edge[b]
             step = d1 - d2
-            found = (
-                (d1 * d2 < 0) & zone_ok[a] & zone_ok[b] & (zone[a] == zone[b]) & (np.abs(step) >= p.min_edge_contrast)
-            )
+            # A sign change, counting 0 as positive: a pixel exactly on the ring (common in 8-bit
+            # captures) still yields its crossing, and each crossing is found once.
+            found = ((d1 >= 0) != (d2 >= 0)) & zone_ok[a] & zone_ok[b] & (zone[a] == zone[b])
+            found &= np.abs(step) >= p.min_edge_contrast
             # Search across the edge, not along it: each point once, from the better-conditioned pair.
             found &= steep[a] if axis == 0 else ~steep[a]
             rows, cols = np.nonzero(found)

@@ -22,7 +22,7 @@ import rig
 from rig.errors import StoreError
 from rig.rig import Rig
 from rig.scan import ScanResult
-from rig.store.atomic import fsync_dir, write_atomic
+from rig.store.atomic import fsync_dir, rename_no_replace, write_atomic
 from rig.store.images import depth_png, preview_png
 from rig.store.ply import ply_bytes
 
@@ -135,9 +135,12 @@ def write_scan(
         if result.frames:
             files["frames"] = _write_frames(the_rig, result, partial)
         manifest = build_manifest(the_rig, result, scan_id, files, metrics)
-        write_atomic(partial / "manifest.json", json.dumps(manifest, indent=2).encode())
-        partial.rename(target)
+        write_atomic(partial / "manifest.json", json.dumps(manifest, indent=2, allow_nan=False).encode())
+        fsync_dir(partial)
+        rename_no_replace(partial, target)
         fsync_dir(target.parent)
+    except FileExistsError:
+        raise StoreError(f"output directory already exists, not overwriting: {target}") from None
     except OSError as exc:
         raise StoreError(f"cannot write scan to {target}: {exc}") from exc
     return target
@@ -149,6 +152,7 @@ def _write_frames(the_rig: Rig, result: ScanResult, partial: Path) -> dict[str, 
         key = f"{the_rig.config.projectors[p].name}_{the_rig.config.cameras[c].name}"
         folder = partial / "frames" / key
         folder.mkdir(parents=True)
+        fsync_dir(folder.parent)  # the new entry in frames/ (and frames/ in the scan) must survive
         names = []
         for k, image in enumerate(images):
             _, buf = cv2.imencode(".png", image)
@@ -156,4 +160,6 @@ def _write_frames(the_rig: Rig, result: ScanResult, partial: Path) -> dict[str, 
             write_atomic(partial / name, buf.tobytes())
             names.append(name)
         out[key] = names
+    if out:
+        fsync_dir(partial / "frames")
     return out
