@@ -26,18 +26,11 @@ def ray_plane(
     return origins + s[:, None] * directions, valid
 
 
-def ray_ray_midpoint(
-    o1: np.ndarray,
-    d1: np.ndarray,
-    o2: np.ndarray,
-    d2: np.ndarray,
-    min_sin: float = 1e-3,
+def _closest_approach(
+    o1: np.ndarray, d1: np.ndarray, o2: np.ndarray, d2: np.ndarray, min_sin: float
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Closest-approach midpoint of ray pairs (unit directions).
-
-    Returns the points (N, 3), the gap between the rays at closest approach (N,), and a validity
-    mask: False for nearly parallel rays or points behind either origin.
-    """
+    """Ray parameters s1, s2 of the closest approach of ray pairs (unit directions), and validity:
+    False for nearly parallel rays or points behind either origin."""
     w = o1 - o2
     b = np.einsum("ij,ij->i", d1, d2)
     d = np.einsum("ij,ij->i", d1, w)
@@ -47,9 +40,21 @@ def ray_ray_midpoint(
     safe = np.where(valid, denom, 1.0)
     s1 = (b * e - d) / safe
     s2 = (e - b * d) / safe
+    valid &= (s1 > 0) & (s2 > 0)
+    return s1, s2, valid
+
+
+def ray_ray_midpoint(
+    o1: np.ndarray, d1: np.ndarray, o2: np.ndarray, d2: np.ndarray, min_sin: float = 1e-3
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Closest-approach midpoint of ray pairs (unit directions).
+
+    Returns the points (N, 3), the gap between the rays at closest approach (N,), and a validity
+    mask: False for nearly parallel rays or points behind either origin.
+    """
+    s1, s2, valid = _closest_approach(o1, d1, o2, d2, min_sin)
     p1 = o1 + s1[:, None] * d1
     p2 = o2 + s2[:, None] * d2
-    valid &= (s1 > 0) & (s2 > 0)
     return 0.5 * (p1 + p2), np.linalg.norm(p1 - p2, axis=1), valid
 
 
@@ -61,14 +66,5 @@ def closest_on_first_ray(
     For a camera (ray 1) and a decoded projector point (ray 2) this is the better estimate than the
     midpoint: the camera pixel is exact, the decoded projector coordinate carries the noise.
     """
-    w = o1 - o2
-    b = np.einsum("ij,ij->i", d1, d2)
-    d = np.einsum("ij,ij->i", d1, w)
-    e = np.einsum("ij,ij->i", d2, w)
-    denom = 1.0 - b * b
-    valid = denom >= min_sin * min_sin
-    safe = np.where(valid, denom, 1.0)
-    s1 = (b * e - d) / safe
-    s2 = (e - b * d) / safe
-    valid &= (s1 > 0) & (s2 > 0)
+    s1, _, valid = _closest_approach(o1, d1, o2, d2, min_sin)
     return o1 + s1[:, None] * d1, valid

@@ -18,6 +18,13 @@ from rig.errors import DecodeError
 PixelCoord = Annotated[float, Field(ge=-1e5, le=1e5)]  # a position in a projector image, pixels
 
 
+def even_period(value: int) -> int:
+    """Validator for fringe periods unwrapped by a half-period Gray code."""
+    if value % 2:
+        raise ValueError(f"must be even (the unwrapping code works in half periods), got {value}")
+    return value
+
+
 class CodecParams(BaseModel):
     """Parameters every codec has. Thresholds are fractions of the camera's full scale."""
 

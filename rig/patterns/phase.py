@@ -18,7 +18,7 @@ import math
 import numpy as np
 from pydantic import Field, field_validator
 
-from rig.patterns.base import Correspondence, NormalizedFrames
+from rig.patterns.base import Correspondence, NormalizedFrames, even_period
 from rig.patterns.graycode import bit_count, decode_gray, gray_planes, planes_with_inverses
 from rig.patterns.lines import LineCodec, LineParams
 from rig.patterns.registry import register
@@ -34,12 +34,7 @@ class PhaseParams(LineParams):
         description="minimum fringe amplitude B (fraction of full scale)",
     )
 
-    @field_validator("period_px")
-    @classmethod
-    def _even(cls, value: int) -> int:
-        if value % 2:
-            raise ValueError(f"must be even (the unwrapping code works in half periods), got {value}")
-        return value
+    _even_period = field_validator("period_px")(even_period)
 
 
 @register

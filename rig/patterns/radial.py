@@ -21,7 +21,8 @@ import math
 import numpy as np
 from pydantic import Field, field_validator
 
-from rig.patterns.base import Codec, CodecParams, Correspondence, NormalizedFrames, PixelCoord
+from rig.patterns.base import CodecParams, Correspondence, NormalizedFrames, PixelCoord, even_period
+from rig.patterns.circular import CircularCodec
 from rig.patterns.graycode import bit_count, decode_gray, gray_planes, planes_with_inverses
 from rig.patterns.registry import register
 
@@ -53,12 +54,7 @@ class RadialParams(CodecParams):
         "many periods (mixed pixels on depth edges): its period count would be a guess",
     )
 
-    @field_validator("period_px")
-    @classmethod
-    def _even(cls, value: int) -> int:
-        if value % 2:
-            raise ValueError(f"must be even (the unwrapping code works in half periods), got {value}")
-        return value
+    _even_period = field_validator("period_px")(even_period)
 
 
 def _phase(frames: NormalizedFrames, first: int, steps: int) -> tuple[np.ndarray, np.ndarray]:
@@ -82,26 +78,13 @@ def _unwrap(wrapped: np.ndarray, reference: np.ndarray) -> tuple[np.ndarray, np.
 
 
 @register
-class RadialCodec(Codec):
+class RadialCodec(CircularCodec):
     name = "radial"
     Params = RadialParams
     params: RadialParams
 
-    @property
-    def center(self) -> tuple[float, float]:
-        if self.params.center_px is not None:
-            return self.params.center_px
-        return ((self.width - 1) / 2, (self.height - 1) / 2)
-
-    def _polar(self) -> tuple[np.ndarray, np.ndarray]:
-        cu, cv = self.center
-        v, u = np.mgrid[0 : self.height, 0 : self.width]
-        return np.hypot(u - cu, v - cv), np.arctan2(v - cv, u - cu)
-
     def _gray_bits(self) -> int:
-        cu, cv = self.center
-        reach = max(math.hypot(x - cu, y - cv) for x in (0, self.width - 1) for y in (0, self.height - 1))
-        return bit_count(math.ceil((reach + 1) / (self.params.period_px // 2)))
+        return bit_count(math.ceil((self.reach + 1) / (self.params.period_px // 2)))
 
     def _angular_levels(self) -> list[tuple[int, int]]:
         p = self.params
@@ -112,7 +95,7 @@ class RadialCodec(Codec):
 
     def _coded_patterns(self) -> list[np.ndarray]:
         p = self.params
-        rho, theta = self._polar()
+        rho, theta = self.polar()
 
         def fringes(phase: np.ndarray, steps: int) -> list[np.ndarray]:
             return [

@@ -26,7 +26,8 @@ from typing import Annotated, Literal
 import numpy as np
 from pydantic import Field, model_validator
 
-from rig.patterns.base import Codec, CodecParams, Correspondence, NormalizedFrames, PixelCoord, RingSamples
+from rig.patterns.base import CodecParams, Correspondence, NormalizedFrames, PixelCoord, RingSamples
+from rig.patterns.circular import CircularCodec
 from rig.patterns.graycode import bit_count, decode_gray, gray_planes, planes_with_inverses
 from rig.patterns.registry import register
 
@@ -82,16 +83,10 @@ class RingsParams(CodecParams):
 
 
 @register
-class RingsCodec(Codec):
+class RingsCodec(CircularCodec):
     name = "rings"
     Params = RingsParams
     params: RingsParams
-
-    @property
-    def center(self) -> tuple[float, float]:
-        if self.params.center_px is not None:
-            return self.params.center_px
-        return ((self.width - 1) / 2, (self.height - 1) / 2)
 
     def __init__(self, projector_size: tuple[int, int], params: RingsParams | None = None) -> None:
         super().__init__(projector_size, params)
@@ -112,15 +107,8 @@ class RingsCodec(Codec):
         if p.spacing_px is not None:
             spacing = p.spacing_px
         else:
-            cu, cv = self.center
-            reach = max(math.hypot(x - cu, y - cv) for x in (0, self.width - 1) for y in (0, self.height - 1))
-            spacing = (reach - p.first_radius_px) / max(1, p.rings - 1) if p.rings > 1 else 1.0
+            spacing = (self.reach - p.first_radius_px) / max(1, p.rings - 1) if p.rings > 1 else 1.0
         return p.first_radius_px + spacing * np.arange(p.rings)
-
-    def _polar(self) -> tuple[np.ndarray, np.ndarray]:
-        cu, cv = self.center
-        v, u = np.mgrid[0 : self.height, 0 : self.width]
-        return np.hypot(u - cu, v - cv), np.arctan2(v - cv, u - cu)
 
     def _zone(self, rho: np.ndarray) -> np.ndarray:
         radii = self.radii
@@ -134,7 +122,7 @@ class RingsCodec(Codec):
         return 2 + 2 * self._zone_bits() + self.params.angle_steps
 
     def _coded_patterns(self) -> list[np.ndarray]:
-        rho, theta = self._polar()
+        rho, theta = self.polar()
         radii = self.radii
         nearest = np.clip(np.searchsorted(radii, rho), 1, len(radii) - 1) if len(radii) > 1 else np.zeros_like(rho, int)
         if len(radii) > 1:

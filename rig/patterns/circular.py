@@ -1,0 +1,33 @@
+"""Shared parts of codecs whose patterns are circles about a centre in the projector image."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from rig.patterns.base import Codec
+
+
+class CircularCodec(Codec):
+    """Patterns in polar coordinates (rho, theta) about `center` (params.center_px, or the image
+    centre)."""
+
+    @property
+    def center(self) -> tuple[float, float]:
+        center = getattr(self.params, "center_px", None)
+        if center is not None:
+            return center
+        return ((self.width - 1) / 2, (self.height - 1) / 2)
+
+    @property
+    def reach(self) -> float:
+        """Distance from the centre to the farthest image corner, pixels."""
+        cu, cv = self.center
+        return max(math.hypot(x - cu, y - cv) for x in (0, self.width - 1) for y in (0, self.height - 1))
+
+    def polar(self) -> tuple[np.ndarray, np.ndarray]:
+        """rho and theta of every projector pixel (H, W)."""
+        cu, cv = self.center
+        v, u = np.mgrid[0 : self.height, 0 : self.width]
+        return np.hypot(u - cu, v - cv), np.arctan2(v - cv, u - cu)
