@@ -26,12 +26,13 @@ def _save(name: str, image: np.ndarray, width: int = 640) -> None:
 
 def main() -> None:
     OUT.mkdir(parents=True, exist_ok=True)
-    for codec_name in ("phase", "gray"):
+    shown = {"phase": 4, "gray": 4, "rings": 2}  # a fringe, a Gray-code bit, the ring edge pattern
+    for codec_name in ("phase", "gray", "rings"):
         config = load_config().with_codec(codec_name)
         with open_rig(config) as rig:
             codec = make_codec(rig, 0)
             patterns = codec.patterns()
-            rig.projectors[0].show(patterns[4])  # a fringe (phase) or a Gray-code bit (gray)
+            rig.projectors[0].show(patterns[shown[codec_name]])
             frame = rig.cameras[0].capture().image
             _save(f"frame_{codec_name}.png", frame)
             result = run_scan(rig)
