@@ -156,11 +156,46 @@ class SimBench:
             albedo = np.zeros((len(hit), 3), dtype=np.float32)
             albedo[hit] = self.scene.face_albedo[faces[hit]][:, ::-1]
             albedo = albedo.reshape(model.height, model.width, 3)
+            self._paint_textures(albedo, points, faces, model)
             mono = albedo @ np.array([0.114, 0.587, 0.299], dtype=np.float32)  # BGR luminance weights
             depth = np.zeros(len(hit))
             depth[hit] = points[hit] @ model.axis - model.axis @ model.center  # device-frame z
             self._views[camera] = _CameraView(hit, points, normals, albedo, mono, depth)
         return self._views[camera]
+
+    def _paint_textures(self, albedo: np.ndarray, points: np.ndarray, faces: np.ndarray, model: ViewModel) -> None:
+        """Albedo of printed planes, averaged over 4x4 samples per pixel: the sub-pixel positions on
+        the plane come from the local derivatives of the plane coordinates across the pixel grid."""
+        shape = albedo.shape[:2]
+        for index, obj in enumerate(self.scene.objects):
+            if obj.texture is None:
+                continue
+            mine = (faces >= 0) & (self.scene.face_object[np.maximum(faces, 0)] == index)
+            if not mine.any():
+                continue
+            tex = obj.texture
+            local = (points - tex.origin) @ tex.axes[:, :2] / tex.mm_per_px - 0.5  # texture pixel coords
+            local[~mine] = np.nan
+            grid = local.reshape(*shape, 2).astype(np.float32)
+            d_row, d_col = np.gradient(grid, axis=(0, 1))
+            for axis_grad in (d_row, d_col):  # at the edge of the plane, extend the derivative
+                bad = ~np.isfinite(axis_grad)
+                axis_grad[bad] = 0.0
+            total = np.zeros(shape, dtype=np.float32)
+            offsets = (np.arange(4) + 0.5) / 4 - 0.5
+            for dy in offsets:
+                for dx in offsets:
+                    sample = np.nan_to_num(grid + dx * d_col + dy * d_row, nan=-1.0).astype(np.float32)
+                    total += cv2.remap(tex.image, sample, None, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
+            value = total / 16.0
+            albedo[mine.reshape(shape)] = value[mine.reshape(shape), None]
+
+    def set_scene(self, scene: Scene) -> None:
+        """Replace the scene (a calibration board moved to its next pose); geometry is recomputed."""
+        self.scene = scene
+        self._caster = RayCaster(scene.vertices, scene.faces)
+        self._views.clear()
+        self._illumination.clear()
 
     def _lighting(self, camera: int, projector: int) -> _Illumination:
         key = (camera, projector)

@@ -15,13 +15,26 @@ Albedo = float | tuple[float, float, float]  # grey, or linear RGB, each in [0, 
 
 
 @dataclass(frozen=True, eq=False)
+class PlanarTexture:
+    """A printed image on a planar object: albedo image (H, W) float32 in [0, 1], `mm_per_px` of
+    it, and the plane's frame in the world: point = origin + x * axes[:, 0] + y * axes[:, 1], with
+    image pixel (col, row) at (x, y) = ((col + 0.5) * mm_per_px, (row + 0.5) * mm_per_px)."""
+
+    image: np.ndarray
+    mm_per_px: float
+    origin: np.ndarray
+    axes: np.ndarray  # (3, 3) columns: the plane's x, y and normal in world coordinates
+
+
+@dataclass(frozen=True, eq=False)
 class SceneObject:
-    """One mesh with a uniform diffuse albedo (grey or RGB) in [0, 1]."""
+    """One mesh with a uniform diffuse albedo (grey or RGB) in [0, 1], or a planar texture."""
 
     name: str
     vertices: np.ndarray
     faces: np.ndarray
     albedo: Albedo
+    texture: PlanarTexture | None = None
 
 
 @dataclass(frozen=True, eq=False)
@@ -32,20 +45,34 @@ class Scene:
     faces: np.ndarray
     face_albedo: np.ndarray
     objects: tuple[SceneObject, ...]
+    face_object: np.ndarray  # (F,) index into objects
 
 
 def build_scene(objects: list[SceneObject]) -> Scene:
     if not objects:
         raise ValueError("a scene needs at least one object")
-    vertices, faces, albedo = [], [], []
+    vertices, faces, albedo, owner = [], [], [], []
     offset = 0
-    for obj in objects:
+    for i, obj in enumerate(objects):
         vertices.append(obj.vertices)
         faces.append(obj.faces + offset)
         rgb = np.broadcast_to(np.asarray(obj.albedo, dtype=np.float32), (3,))
         albedo.append(np.tile(rgb, (len(obj.faces), 1)))
+        owner.append(np.full(len(obj.faces), i, dtype=np.int32))
         offset += len(obj.vertices)
-    return Scene(np.vstack(vertices), np.vstack(faces), np.concatenate(albedo), tuple(objects))
+    return Scene(np.vstack(vertices), np.vstack(faces), np.concatenate(albedo), tuple(objects), np.concatenate(owner))
+
+
+def printed_plane(name: str, image: np.ndarray, mm_per_px: float, rotation: np.ndarray,
+                  translation: np.ndarray) -> SceneObject:
+    """A flat card printed with `image` (albedo, float in [0, 1]): its top-left corner at
+    `translation`, its x and y axes (image columns and rows) and normal the columns of `rotation`."""
+    h, w = image.shape
+    corners = np.array([[0, 0, 0], [w, 0, 0], [w, h, 0], [0, h, 0]], dtype=float) * mm_per_px
+    vertices = corners @ rotation.T + translation
+    faces = np.array([[0, 1, 2], [0, 2, 3]])
+    texture = PlanarTexture(image.astype(np.float32), mm_per_px, np.asarray(translation, float), rotation)
+    return SceneObject(name, vertices, faces, float(image.mean()), texture)
 
 
 def _object(name: str, mesh: trimesh.Trimesh, albedo: Albedo) -> SceneObject:
