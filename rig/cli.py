@@ -13,9 +13,10 @@ from typing import Any
 
 from drivers.errors import DeviceError
 from rig import __version__
+from rig.calibrate.session import calibrate
 from rig.config import SCENE_KINDS, RigConfig, load_config
 from rig.errors import ConfigError, ScanError, SlrigError
-from rig.evaluate import evaluate_pair
+from rig.evaluate import evaluate_on_bench
 from rig.patterns import codec_class, codec_names
 from rig.progress import ProgressTracker, TerminalBar
 from rig.rig import Rig, open_rig
@@ -60,6 +61,29 @@ def _parser() -> argparse.ArgumentParser:
         help=f"scene name ({', '.join(k for k in SCENE_KINDS if k != 'mesh')}) or a "
         f"PLY/OBJ/STL file (scaled to {MESH_FIT_SIZE_MM:.0f} mm)",
     )
+    cal = sub.add_parser("calibrate", help="calibrate cameras, projectors, or the whole rig into one world frame")
+    cal.add_argument(
+        "what",
+        choices=["camera", "projector", "rig"],
+        help="camera: the cameras; projector or rig: cameras and projectors (a projector is "
+        "calibrated against a camera)",
+    )
+    cal.add_argument("--config", type=Path, default=None, help="rig description (YAML); default: config/sim.yaml")
+    cal.add_argument("--views", type=int, default=None, help="board poses to capture on the simulated bench")
+    cal.add_argument(
+        "--images",
+        type=Path,
+        default=None,
+        help="read the views from this folder (view_NN/<camera>.png, view_NN/<projector>_<camera>/)",
+    )
+    cal.add_argument("--save-views", type=Path, default=None, help="also write the captured views to this folder")
+    cal.add_argument(
+        "--out",
+        type=Path,
+        default=None,
+        help="folder for calibration.json/.yaml and coverage pictures; default <data_dir>/calibration",
+    )
+    cal.add_argument("--json", action="store_true", help="print one JSON object instead of text")
     return parser
 
 
@@ -89,7 +113,7 @@ def _metrics(the_rig: Rig, result: ScanResult) -> dict[str, Any]:
     per_pair = {}
     for pair in result.pairs:
         key = f"{the_rig.config.projectors[pair.projector].name}/{the_rig.config.cameras[pair.camera].name}"
-        per_pair[key] = evaluate_pair(pair, the_rig.sim.ground_truth(pair.camera, pair.projector), the_rig.sim)
+        per_pair[key] = evaluate_on_bench(the_rig, pair)
     return per_pair
 
 
@@ -138,7 +162,7 @@ def cmd_eval(args: argparse.Namespace) -> int:
     with open_rig(config) as the_rig:
         result = run_scan(the_rig, progress=_progress(args))
         pair = result.pairs[0]
-        metrics = evaluate_pair(pair, the_rig.sim.ground_truth(pair.camera, pair.projector), the_rig.sim)  # type: ignore[union-attr]
+        metrics = evaluate_on_bench(the_rig, pair)
     scene = config.simulation.scene
     report = {
         "codec": result.codec,
@@ -162,9 +186,33 @@ def cmd_eval(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_calibrate(args: argparse.Namespace) -> int:
+    config = load_config(args.config)
+    if args.views is not None and not 3 <= args.views <= 200:
+        raise ConfigError("--views", [f"--views: {args.views} is outside 3..200"])
+    out = args.out if args.out is not None else config.output.data_dir / "calibration"
+    with open_rig(config) as the_rig:
+        outcome = calibrate(the_rig, args.what, out, args.views, args.images, args.save_views)
+    summary = {"path": str(outcome.folder), "sha256": outcome.sha256, "views": outcome.views, **outcome.report}
+    if args.json:
+        print(json.dumps(summary, allow_nan=False))
+        return 0
+    print(f"calibration {outcome.sha256} from {outcome.views} views -> {outcome.folder}/calibration.json")
+    for name, d in outcome.report["devices"].items():
+        stereo = f", stereo {d['stereo_rms_px']:.3f} px" if d["stereo_rms_px"] is not None else ""
+        rejected = f", rejected views {d['rejected_views']}" if d["rejected_views"] else ""
+        print(
+            f"  {name} ({d['kind']}): rms {d['rms_px']:.3f} px{stereo}, {len(d['views_used'])} views, "
+            f"coverage {d['coverage']:.0%}{rejected}"
+        )
+    for warning in outcome.report["warnings"]:
+        print(f"  warning: {warning}")
+    return 0
+
+
 def main(argv: list[str] | None = None) -> int:
     args = _parser().parse_args(argv)
-    handler = {"scan": cmd_scan, "eval": cmd_eval}[args.command]
+    handler = {"scan": cmd_scan, "eval": cmd_eval, "calibrate": cmd_calibrate}[args.command]
     try:
         return handler(args)
     except ScanError as exc:

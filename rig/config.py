@@ -13,6 +13,7 @@ import numpy as np
 import yaml
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
 
+from rig.calibrate.boards import BoardConfig
 from rig.errors import ConfigError
 from rig.patterns import codec_class, codec_names
 from rig.patterns.gray import GrayParams
@@ -207,6 +208,16 @@ class ScanConfig(Strict):
         return v
 
 
+class CalibrationConfig(Strict):
+    board: BoardConfig = BoardConfig()
+    views: int = Field(12, ge=3, le=200, description="board poses a simulated calibration session captures")
+    file: Path | None = Field(
+        None,
+        description="calibration.json (or its folder) that reconstruction uses instead of the devices' geometry; "
+        "relative paths are relative to the config file",
+    )
+
+
 class OutputConfig(Strict):
     data_dir: Path = Path("scans")
 
@@ -217,6 +228,7 @@ class RigConfig(Strict):
     cameras: list[CameraConfig] = Field(min_length=1, max_length=16)
     simulation: SimulationConfig | None = None
     scan: ScanConfig = ScanConfig()
+    calibration: CalibrationConfig = CalibrationConfig()
     output: OutputConfig = OutputConfig()
 
     @model_validator(mode="after")
@@ -322,13 +334,22 @@ def load_config(path: str | Path | None = None) -> RigConfig:
 
 
 def _resolve_paths(data: dict, base: Path) -> None:  # type: ignore[type-arg]
-    scene = (data.get("simulation") or {}).get("scene") if isinstance(data.get("simulation"), dict) else None
-    if isinstance(scene, dict) and isinstance(scene.get("path"), str):
-        p = Path(scene["path"]).expanduser()
-        scene["path"] = str(p if p.is_absolute() else (base / p).resolve())
+    """Paths in the file are relative to the file's folder."""
+
+    def resolve(section: object, key: str) -> None:
+        if isinstance(section, dict) and isinstance(section.get(key), str):
+            p = Path(section[key]).expanduser()
+            section[key] = str(p if p.is_absolute() else (base / p).resolve())
+
+    simulation = data.get("simulation")
+    resolve(simulation.get("scene") if isinstance(simulation, dict) else None, "path")
+    resolve(data.get("calibration"), "file")
 
 
 def _check_files(config: RigConfig, source: str) -> None:
     scene = config.simulation.scene if config.simulation else None
     if isinstance(scene, MeshScene) and not scene.path.is_file():
         raise ConfigError(source, [f"simulation.scene.path: mesh file not found: {scene.path}"])
+    file = config.calibration.file
+    if file is not None and not (file.is_file() or (file / "calibration.json").is_file()):
+        raise ConfigError(source, [f"calibration.file: no calibration at {file}"])

@@ -35,3 +35,8 @@ class ScanError(SlrigError):
 
 class StoreError(SlrigError):
     """Raised when a scan cannot be stored: the target exists already, or the disk refuses."""
+
+
+class CalibrationError(SlrigError):
+    """Raised when calibration cannot produce a result: no board found, too few views, images that
+    do not fit the rig. Nothing is written when it is raised."""

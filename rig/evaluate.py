@@ -2,10 +2,14 @@
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 from scipy.spatial import cKDTree
 
 from drivers.sim import GroundTruth, SimBench
+from rig.geometry import CameraModel
+from rig.rig import Rig
 from rig.scan import PairResult
 
 # Within this distance of the pixel's own true point the surface is treated as its tangent plane;
@@ -83,3 +87,36 @@ def evaluate_pair(pair: PairResult, truth: GroundTruth, bench: SimBench | None =
         "completeness": float(covered.sum() / max(1, target.sum())),
         "target_pixels": int(target.sum()),
     }
+
+
+def in_truth_frame(pair: PairResult, estimated: CameraModel, truth: CameraModel) -> PairResult:
+    """The pair's points moved from the world frame of an estimated calibration to the true world
+    frame through the camera (the estimated camera frame taken as the true one). What remains of
+    the error is the shape the calibration gives, not where its world frame landed."""
+    if estimated is truth:
+        return pair
+    rotation = truth.R.T @ estimated.R
+    shift = truth.R.T @ (estimated.t - truth.t)
+
+    def move(points: np.ndarray) -> np.ndarray:
+        return points @ rotation.T + shift
+
+    rings = pair.rings
+    if rings is not None:
+        rings = dataclasses.replace(
+            rings,
+            points=move(rings.points),
+            other_root=move(rings.other_root),
+            origins=move(rings.origins),
+            directions=rings.directions @ rotation.T,
+        )
+    return dataclasses.replace(pair, grid=move(pair.grid), rings=rings)
+
+
+def evaluate_on_bench(rig: Rig, pair: PairResult) -> dict[str, float | int | None]:
+    """Accuracy of one pair of a simulated scan, in the true world frame (through the camera when
+    reconstruction used an estimated calibration)."""
+    if rig.sim is None:
+        raise ValueError("accuracy against ground truth needs the simulated bench")
+    aligned = in_truth_frame(pair, rig.camera_models[pair.camera], rig.sim.cameras[pair.camera])
+    return evaluate_pair(aligned, rig.sim.ground_truth(pair.camera, pair.projector), rig.sim)

@@ -87,8 +87,13 @@ class Rig:
     projector_models: list[CameraModel]
     camera_models: list[CameraModel]
     sim: SimBench | None = None
+    calibration_sha256: str | None = None  # of calibration.file when reconstruction uses one
     _closed: bool = field(default=False, repr=False)
     _triangulators: dict[tuple[int, int], PairTriangulator] = field(default_factory=dict, repr=False)
+
+    def triangulator_cache_clear(self) -> None:
+        """Forget the per-pair triangulation terms (after the geometry changed)."""
+        self._triangulators.clear()
 
     def triangulator(self, projector: int, camera: int) -> PairTriangulator:
         """The pair's triangulator; its per-pixel terms are computed on first use and kept."""
@@ -139,6 +144,17 @@ def _sim_camera_params(c: CameraConfig) -> SimCameraParams:
     )
 
 
+def _calibrated_models(config: RigConfig) -> tuple[list[CameraModel], list[CameraModel], str]:
+    from rig.calibrate.files import load_calibration  # calibration imports the rig: import late
+
+    assert config.calibration.file is not None
+    models, digest = load_calibration(config.calibration.file)
+    missing = [d.name for d in (*config.cameras, *config.projectors) if d.name not in models]
+    if missing:
+        raise ConfigError("calibration.file", [f"calibration.file: has no calibration for {', '.join(missing)}"])
+    return [models[c.name] for c in config.cameras], [models[p.name] for p in config.projectors], digest
+
+
 def _faults(c: CameraConfig) -> SimCameraFaults:
     f = c.sim.faults
     return SimCameraFaults(f.disconnect_after_frames, f.stall_after_frames, f.repeat_frame_at)
@@ -148,12 +164,16 @@ def open_rig(config: RigConfig) -> Rig:
     """Open every device of `config` (today: the simulated bench)."""
     projector_models = [geometry_model(p.geometry, p.resolution) for p in config.projectors]
     camera_models = [geometry_model(c.geometry, c.resolution) for c in config.cameras]
+    truth = (camera_models, projector_models)  # the simulator's geometry, whatever reconstruction uses
+    digest = None
+    if config.calibration.file is not None:
+        camera_models, projector_models, digest = _calibrated_models(config)
     if config.simulation is None:  # every driver is simulated today, and config validation requires a scene
         raise ConfigError("config", ["simulation: this rig has no simulated scene to open"])
     bench = SimBench(
         build_scene(config.simulation),
-        camera_models,
-        projector_models,
+        truth[0],
+        truth[1],
         camera_params=[_sim_camera_params(c) for c in config.cameras],
         projector_params=[_sim_projector_params(p) for p in config.projectors],
         ambient=config.simulation.ambient,
@@ -161,7 +181,7 @@ def open_rig(config: RigConfig) -> Rig:
     )
     projectors: list[Projector] = [SimProjector(p.name, bench, i) for i, p in enumerate(config.projectors)]
     cameras: list[Camera] = [SimCamera(c.name, bench, i, _faults(c)) for i, c in enumerate(config.cameras)]
-    rig = Rig(config, projectors, cameras, projector_models, camera_models, sim=bench)
+    rig = Rig(config, projectors, cameras, projector_models, camera_models, sim=bench, calibration_sha256=digest)
     try:
         for device in (*projectors, *cameras):
             device.open()

@@ -63,8 +63,9 @@ def build_scene(objects: list[SceneObject]) -> Scene:
     return Scene(np.vstack(vertices), np.vstack(faces), np.concatenate(albedo), tuple(objects), np.concatenate(owner))
 
 
-def printed_plane(name: str, image: np.ndarray, mm_per_px: float, rotation: np.ndarray,
-                  translation: np.ndarray) -> SceneObject:
+def printed_plane(
+    name: str, image: np.ndarray, mm_per_px: float, rotation: np.ndarray, translation: np.ndarray
+) -> SceneObject:
     """A flat card printed with `image` (albedo, float in [0, 1]): its top-left corner at
     `translation`, its x and y axes (image columns and rows) and normal the columns of `rotation`."""
     h, w = image.shape

@@ -45,8 +45,10 @@ class Board:
         self.config = config
         cols, rows = config.squares
         if min(cols, rows) < 3 or (config.kind == "checker" and cols % 2 == rows % 2):
-            raise ValueError("a checkerboard needs at least 3x3 squares, one count even and one odd "
-                             "(so its orientation is unambiguous)")
+            raise ValueError(
+                "a checkerboard needs at least 3x3 squares, one count even and one odd "
+                "(so its orientation is unambiguous)"
+            )
         if config.kind == "charuco" and config.marker_mm >= config.square_mm:
             raise ValueError("marker_mm must be smaller than square_mm")
         self.inner = (cols - 1, rows - 1)

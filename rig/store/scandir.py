@@ -33,6 +33,10 @@ def new_scan_id() -> str:
 
 
 def calibration_hashes(the_rig: Rig) -> dict[str, str]:
+    """The calibration file's hash for every device when reconstruction used one, else a hash of
+    each device's geometry in the config."""
+    if the_rig.calibration_sha256 is not None:
+        return {d.name: the_rig.calibration_sha256 for d in (*the_rig.config.projectors, *the_rig.config.cameras)}
     out = {}
     for device in (*the_rig.config.projectors, *the_rig.config.cameras):
         blob = json.dumps(device.geometry.model_dump(mode="json"), sort_keys=True).encode()

@@ -1,0 +1,73 @@
+"""One calibration run, from views to files: the library call behind `slrig calibrate`."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Literal
+
+import numpy as np
+
+from rig.calibrate.boards import Board
+from rig.calibrate.files import write_calibration
+from rig.calibrate.report import coverage_png, report
+from rig.calibrate.solve import DeviceCalibration, calibrate_cameras, calibrate_projectors
+from rig.calibrate.views import View, capture_sim_views, default_poses, load_folder_views
+from rig.errors import CalibrationError
+from rig.rig import Rig
+from rig.store.atomic import write_atomic
+
+Mode = Literal["camera", "projector", "rig"]
+
+
+@dataclass
+class CalibrationOutcome:
+    devices: list[DeviceCalibration]
+    report: dict[str, Any]
+    sha256: str
+    folder: Path
+    views: int
+
+
+def collect_views(
+    rig: Rig, board: Board, mode: Mode, views: int, images: Path | None = None, save_views: Path | None = None
+) -> list[View]:
+    with_projectors = mode != "camera"
+    if images is not None:
+        return load_folder_views(rig, board, images, with_projectors)
+    centre = np.mean([c.geometry.pose.look_at_mm for c in rig.config.cameras], axis=0)
+    return capture_sim_views(rig, board, default_poses(views, centre), with_projectors, save_views)
+
+
+def calibrate(
+    rig: Rig,
+    mode: Mode,
+    out: Path,
+    views: int | None = None,
+    images: Path | None = None,
+    save_views: Path | None = None,
+) -> CalibrationOutcome:
+    """Capture (or read) views, calibrate, and write the files into `out`. `camera` calibrates the
+    cameras; `projector` and `rig` also the projectors (which need the cameras). Raises
+    CalibrationError, having written nothing, when the views cannot give a calibration."""
+    board = Board(rig.config.calibration.board)
+    collected = collect_views(rig, board, mode, views or rig.config.calibration.views, images, save_views)
+    if not any(v.camera for v in collected):
+        cols, rows = board.config.squares
+        raise CalibrationError(
+            f"no view shows the {cols}x{rows}-square {board.config.kind} board that the config "
+            "describes (calibration.board): wrong board, or not in view"
+        )
+    config = rig.config
+    devices = calibrate_cameras(
+        collected, board, [c.name for c in config.cameras], [c.resolution for c in config.cameras]
+    )
+    if mode != "camera":
+        devices += calibrate_projectors(
+            collected, board, devices, [p.name for p in config.projectors], [p.resolution for p in config.projectors]
+        )
+    summary = report(devices)
+    digest = write_calibration(out, devices, summary, board.config.model_dump(mode="json"))
+    for device in devices:
+        write_atomic(out / f"coverage_{device.name}.png", coverage_png(device))
+    return CalibrationOutcome(devices, summary, digest, out, len(collected))
