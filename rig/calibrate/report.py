@@ -95,5 +95,5 @@ def coverage_png(device: DeviceCalibration, max_width: int = 640) -> bytes:
         1,
         cv2.LINE_AA,
     )
-    ok, buf = cv2.imencode(".png", image)
+    _ok, buf = cv2.imencode(".png", image)
     return buf.tobytes()

@@ -122,7 +122,7 @@ def calibrate_projectors(
                 f"{name}: no view gave projector coordinates at the board's corners "
                 "(is the board lit by the projector, and inside its image?)"
             )
-        rms, K, dist, poses, per_view, rejected = _intrinsics(name, size, detections, board)
+        rms, K, dist, _poses, per_view, rejected = _intrinsics(name, size, detections, board)
         common = [v for v in views if v.index in per_view and v.index not in rejected and c in v.camera]
         obj, cam_pts, proj_pts = [], [], []
         for v in common:
