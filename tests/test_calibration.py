@@ -1,0 +1,164 @@
+"""Calibration on the simulated bench: accuracy against the simulator's geometry, the quality
+report, the files, and bad inputs."""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Any
+
+import cv2
+import numpy as np
+import pytest
+
+from rig.calibrate.files import load_calibration
+from rig.calibrate.session import CalibrationOutcome, calibrate
+from rig.cli import main
+from rig.config import load_config
+from rig.rig import geometry_model, open_rig
+from tests.conftest import default_config_data, small_config_data, write_config
+
+
+def _pose_error(estimated: Any, truth: Any) -> tuple[float, float]:
+    """Rotation (degrees) and position (mm) of an estimated device pose against the truth."""
+    relative = estimated.R @ truth.R.T
+    angle = np.degrees(np.arccos(np.clip((np.trace(relative) - 1) / 2, -1, 1)))
+    return float(angle), float(np.linalg.norm(estimated.center - truth.center))
+
+
+@pytest.fixture(scope="module")
+def full_calibration(tmp_path_factory: pytest.TempPathFactory) -> Iterator[tuple[CalibrationOutcome, Path]]:
+    folder = tmp_path_factory.mktemp("cal")
+    with open_rig(load_config()) as the_rig:
+        outcome = calibrate(the_rig, "rig", folder, views=10)
+    yield outcome, folder
+
+
+def test_intrinsics_and_extrinsics_match_the_simulator(full_calibration: tuple[CalibrationOutcome, Path]) -> None:
+    outcome, folder = full_calibration
+    models, digest = load_calibration(folder)
+    assert digest == outcome.sha256
+    config = load_config()
+    truth = {d.name: geometry_model(d.geometry, d.resolution) for d in (*config.cameras, *config.projectors)}
+    for name, model in models.items():
+        true = truth[name]
+        assert model.K[0, 0] == pytest.approx(true.K[0, 0], rel=0.005)
+        assert model.K[1, 1] == pytest.approx(true.K[1, 1], rel=0.005)
+        assert abs(model.K[0, 2] - true.K[0, 2]) <= 2.0 and abs(model.K[1, 2] - true.K[1, 2]) <= 2.0
+        angle, shift = _pose_error(model, true)
+        assert angle <= 0.1 and shift <= 0.5, name
+    # the rig's own extrinsics: camera -> projector
+    cam, proj = models["camera0"], models["projector0"]
+    true_cam, true_proj = truth["camera0"], truth["projector0"]
+    relative = proj.R @ cam.R.T
+    true_relative = true_proj.R @ true_cam.R.T
+    angle = np.degrees(np.arccos(np.clip((np.trace(relative @ true_relative.T) - 1) / 2, -1, 1)))
+    baseline = proj.t - relative @ cam.t
+    true_baseline = true_proj.t - true_relative @ true_cam.t
+    assert angle <= 0.1 and np.linalg.norm(baseline - true_baseline) <= 0.5
+    report = outcome.report["devices"]
+    assert report["camera0"]["rms_px"] <= 0.3 and report["projector0"]["rms_px"] <= 0.5
+
+
+def test_a_scan_with_the_estimated_calibration(full_calibration: tuple[CalibrationOutcome, Path], tmp_path: Path,
+                                               capsys: pytest.CaptureFixture[str]) -> None:
+    _, folder = full_calibration
+    assert main(["eval", "--json"]) == 0
+    truth = json.loads(capsys.readouterr().out)
+    data = default_config_data()
+    data["calibration"] = {"file": str(folder)}
+    config_path = write_config(tmp_path, data)
+    assert main(["eval", "--config", str(config_path), "--json"]) == 0
+    estimated = json.loads(capsys.readouterr().out)
+    assert estimated["rms_mm"] <= 1.5 * truth["rms_mm"]
+    assert main(["scan", "--config", str(config_path), "--out", str(tmp_path / "scan")]) == 0
+    manifest = json.loads((tmp_path / "scan" / "manifest.json").read_text())
+    assert set(manifest["calibration_sha256"].values()) == {load_calibration(folder)[1]}
+
+
+def test_files_and_report(full_calibration: tuple[CalibrationOutcome, Path]) -> None:
+    outcome, folder = full_calibration
+    storage = cv2.FileStorage(str(folder / "calibration.yaml"), cv2.FILE_STORAGE_READ)
+    camera_matrix = storage.getNode("camera0").getNode("camera_matrix").mat()
+    np.testing.assert_allclose(camera_matrix, outcome.devices[0].K, rtol=1e-9)
+    assert storage.getNode("sha256").string() == outcome.sha256
+    for name in ("camera0", "projector0"):
+        picture = cv2.imread(str(folder / f"coverage_{name}.png"))
+        assert picture is not None and picture.std() > 5
+        device = outcome.report["devices"][name]
+        assert len(device["per_view_rms_px"]) >= 8 and 0.2 < device["coverage"] <= 1.0
+
+
+def _small(tmp_path: Path, **calibration: Any) -> Path:
+    data = small_config_data()
+    data["calibration"] = calibration
+    return write_config(tmp_path, data)
+
+
+def test_charuco_and_a_folder_of_views_give_the_same_calibration(tmp_path: Path) -> None:
+    path = _small(tmp_path, board={"kind": "charuco", "squares": [8, 6], "square_mm": 25.0, "marker_mm": 18.0},
+                  views=12)
+    assert main(["calibrate", "camera", "--config", str(path), "--out", str(tmp_path / "a"),
+                 "--save-views", str(tmp_path / "views")]) == 0
+    assert main(["calibrate", "camera", "--config", str(path), "--out", str(tmp_path / "b"),
+                 "--images", str(tmp_path / "views")]) == 0
+    a, _ = load_calibration(tmp_path / "a")
+    b, _ = load_calibration(tmp_path / "b")
+    np.testing.assert_allclose(a["camera0"].K, b["camera0"].K, rtol=1e-6)
+    truth = geometry_model(load_config(path).cameras[0].geometry, (320, 256))
+    assert a["camera0"].K[0, 0] == pytest.approx(truth.K[0, 0], rel=0.02)  # a quarter-resolution camera
+
+
+def test_few_views_are_reported(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["calibrate", "camera", "--config", str(_small(tmp_path)), "--views", "4", "--json",
+                 "--out", str(tmp_path / "cal")]) == 0
+    report = json.loads(capsys.readouterr().out)
+    assert any("only 4 views" in w for w in report["warnings"])
+
+
+def _existing_calibration(folder: Path) -> bytes:
+    folder.mkdir(parents=True)
+    (folder / "calibration.json").write_text('{"kept": true}')
+    return (folder / "calibration.json").read_bytes()
+
+
+@pytest.mark.parametrize(
+    ("case", "message"),
+    [
+        ("no board", "no view shows"),
+        ("wrong board", "no view shows the 9x6"),
+        ("two views", "at least 3"),
+    ],
+)
+def test_bad_calibration_inputs_exit_2_and_keep_the_old_calibration(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], case: str, message: str
+) -> None:
+    out = tmp_path / "cal"
+    before = _existing_calibration(out)
+    views = tmp_path / "views"
+    args = ["calibrate", "camera", "--out", str(out)]
+    if case == "no board":
+        for k in range(4):
+            (views / f"view_{k:02d}").mkdir(parents=True)
+            cv2.imwrite(str(views / f"view_{k:02d}" / "camera0.png"), np.full((256, 320), 40, np.uint8))
+        args += ["--config", str(_small(tmp_path)), "--images", str(views)]
+    elif case == "wrong board":  # the views show a 10x7 board; the config says 9x6
+        assert main(["calibrate", "camera", "--config", str(_small(tmp_path, views=3)), "--out",
+                     str(tmp_path / "first"), "--save-views", str(views)]) == 0
+        args += ["--config", str(_small(tmp_path, board={"squares": [9, 6]})), "--images", str(views)]
+    else:
+        assert main(["calibrate", "camera", "--config", str(_small(tmp_path, views=3)), "--out",
+                     str(tmp_path / "first"), "--save-views", str(views)]) == 0
+        for extra in sorted(views.iterdir())[2:]:
+            for f in extra.iterdir():
+                f.unlink()
+            extra.rmdir()
+        args += ["--config", str(_small(tmp_path)), "--images", str(views)]
+    capsys.readouterr()
+    assert main(args) == 2
+    err = capsys.readouterr().err
+    assert message in err and "Traceback" not in err
+    assert (out / "calibration.json").read_bytes() == before
+    assert main(["calibrate", "camera", "--config", str(_small(tmp_path)), "--views", "2", "--out", str(out)]) == 2
+    assert "--views" in capsys.readouterr().err
