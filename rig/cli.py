@@ -13,6 +13,7 @@ from typing import Any
 
 from drivers.errors import DeviceError
 from rig import __version__
+from rig.calibrate.response import RESPONSE_NAME, calibrate_response
 from rig.calibrate.session import calibrate
 from rig.config import SCENE_KINDS, RigConfig, load_config
 from rig.errors import ConfigError, ScanError, SlrigError
@@ -64,9 +65,9 @@ def _parser() -> argparse.ArgumentParser:
     cal = sub.add_parser("calibrate", help="calibrate cameras, projectors, or the whole rig into one world frame")
     cal.add_argument(
         "what",
-        choices=["camera", "projector", "rig"],
+        choices=["camera", "projector", "rig", "response"],
         help="camera: the cameras; projector or rig: cameras and projectors (a projector is "
-        "calibrated against a camera)",
+        "calibrated against a camera); response: each projector's response (gamma)",
     )
     cal.add_argument("--config", type=Path, default=None, help="rig description (YAML); default: config/sim.yaml")
     cal.add_argument("--views", type=int, default=None, help="board poses to capture on the simulated bench")
@@ -191,6 +192,15 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
     if args.views is not None and not 3 <= args.views <= 200:
         raise ConfigError("--views", [f"--views: {args.views} is outside 3..200"])
     out = args.out if args.out is not None else config.output.data_dir / "calibration"
+    if args.what == "response":
+        with open_rig(config) as the_rig:
+            document = calibrate_response(the_rig, out)
+        if args.json:
+            print(json.dumps({"path": str(out / RESPONSE_NAME), **document}, allow_nan=False))
+        else:
+            for name, p in document["projectors"].items():
+                print(f"{name}: response fits gamma {p['gamma']:.3f} -> {out / RESPONSE_NAME}")
+        return 0
     with open_rig(config) as the_rig:
         outcome = calibrate(the_rig, args.what, out, args.views, args.images, args.save_views)
     summary = {"path": str(outcome.folder), "sha256": outcome.sha256, "views": outcome.views, **outcome.report}

@@ -351,5 +351,7 @@ def _check_files(config: RigConfig, source: str) -> None:
     if isinstance(scene, MeshScene) and not scene.path.is_file():
         raise ConfigError(source, [f"simulation.scene.path: mesh file not found: {scene.path}"])
     file = config.calibration.file
-    if file is not None and not (file.is_file() or (file / "calibration.json").is_file()):
-        raise ConfigError(source, [f"calibration.file: no calibration at {file}"])
+    if file is not None and not (
+        file.is_file() or (file / "calibration.json").is_file() or (file / "response.json").is_file()
+    ):
+        raise ConfigError(source, [f"calibration.file: no calibration.json or response.json at {file}"])

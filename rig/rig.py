@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import contextlib
 from dataclasses import dataclass, field
+from pathlib import Path
 
 import numpy as np
 
@@ -88,6 +89,8 @@ class Rig:
     camera_models: list[CameraModel]
     sim: SimBench | None = None
     calibration_sha256: str | None = None  # of calibration.file when reconstruction uses one
+    response_luts: list[np.ndarray | None] = field(default_factory=list)  # per projector, from response.json
+    response_sha256: str | None = None
     _closed: bool = field(default=False, repr=False)
     _triangulators: dict[tuple[int, int], PairTriangulator] = field(default_factory=dict, repr=False)
 
@@ -144,15 +147,37 @@ def _sim_camera_params(c: CameraConfig) -> SimCameraParams:
     )
 
 
-def _calibrated_models(config: RigConfig) -> tuple[list[CameraModel], list[CameraModel], str]:
-    from rig.calibrate.files import load_calibration  # calibration imports the rig: import late
+def _calibration_folder(config: RigConfig) -> Path:
+    file = config.calibration.file
+    if file is None:
+        raise ConfigError("calibration.file", ["calibration.file: not set"])
+    return file if file.is_dir() else file.parent
 
-    assert config.calibration.file is not None
-    models, digest = load_calibration(config.calibration.file)
+
+def _calibrated_models(
+    config: RigConfig, cameras: list[CameraModel], projectors: list[CameraModel]
+) -> tuple[list[CameraModel], list[CameraModel], str | None]:
+    """Models from calibration.json when the calibration folder has one, else the config's."""
+    from rig.calibrate.files import JSON_NAME, load_calibration  # calibration imports the rig: import late
+
+    folder = _calibration_folder(config)
+    if not (folder / JSON_NAME).is_file():
+        return cameras, projectors, None
+    models, digest = load_calibration(folder)
     missing = [d.name for d in (*config.cameras, *config.projectors) if d.name not in models]
     if missing:
         raise ConfigError("calibration.file", [f"calibration.file: has no calibration for {', '.join(missing)}"])
     return [models[c.name] for c in config.cameras], [models[p.name] for p in config.projectors], digest
+
+
+def _response_luts(config: RigConfig) -> tuple[list[np.ndarray | None], str | None]:
+    from rig.calibrate.response import load_response_luts  # calibration imports the rig: import late
+
+    loaded = load_response_luts(_calibration_folder(config))
+    if loaded is None:
+        return [None] * len(config.projectors), None
+    luts, digest = loaded
+    return [luts.get(p.name) for p in config.projectors], digest
 
 
 def _faults(c: CameraConfig) -> SimCameraFaults:
@@ -166,8 +191,11 @@ def open_rig(config: RigConfig) -> Rig:
     camera_models = [geometry_model(c.geometry, c.resolution) for c in config.cameras]
     truth = (camera_models, projector_models)  # the simulator's geometry, whatever reconstruction uses
     digest = None
+    luts: list[np.ndarray | None] = [None] * len(config.projectors)
+    response_digest = None
     if config.calibration.file is not None:
-        camera_models, projector_models, digest = _calibrated_models(config)
+        camera_models, projector_models, digest = _calibrated_models(config, camera_models, projector_models)
+        luts, response_digest = _response_luts(config)
     if config.simulation is None:  # every driver is simulated today, and config validation requires a scene
         raise ConfigError("config", ["simulation: this rig has no simulated scene to open"])
     bench = SimBench(
@@ -181,7 +209,17 @@ def open_rig(config: RigConfig) -> Rig:
     )
     projectors: list[Projector] = [SimProjector(p.name, bench, i) for i, p in enumerate(config.projectors)]
     cameras: list[Camera] = [SimCamera(c.name, bench, i, _faults(c)) for i, c in enumerate(config.cameras)]
-    rig = Rig(config, projectors, cameras, projector_models, camera_models, sim=bench, calibration_sha256=digest)
+    rig = Rig(
+        config,
+        projectors,
+        cameras,
+        projector_models,
+        camera_models,
+        sim=bench,
+        calibration_sha256=digest,
+        response_luts=luts,
+        response_sha256=response_digest,
+    )
     try:
         for device in (*projectors, *cameras):
             device.open()

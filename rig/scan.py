@@ -46,7 +46,8 @@ def make_codec(rig: Rig, projector: int, name: str | None = None) -> Codec:
     name = name or rig.config.scan.codec
     cls = codec_class(name)
     params = getattr(rig.config.scan, name, None)
-    return cls(rig.projectors[projector].resolution, params)
+    lut = rig.response_luts[projector] if rig.response_luts else None
+    return cls(rig.projectors[projector].resolution, params, lut)
 
 
 def capture(rig: Rig, codecs: list[Codec], tracker: ProgressTracker) -> dict[tuple[int, int], list[np.ndarray]]:

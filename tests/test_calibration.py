@@ -61,8 +61,9 @@ def test_intrinsics_and_extrinsics_match_the_simulator(full_calibration: tuple[C
     assert report["camera0"]["rms_px"] <= 0.3 and report["projector0"]["rms_px"] <= 0.5
 
 
-def test_a_scan_with_the_estimated_calibration(full_calibration: tuple[CalibrationOutcome, Path], tmp_path: Path,
-                                               capsys: pytest.CaptureFixture[str]) -> None:
+def test_a_scan_with_the_estimated_calibration(
+    full_calibration: tuple[CalibrationOutcome, Path], tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
     _, folder = full_calibration
     assert main(["eval", "--json"]) == 0
     truth = json.loads(capsys.readouterr().out)
@@ -97,12 +98,39 @@ def _small(tmp_path: Path, **calibration: Any) -> Path:
 
 
 def test_charuco_and_a_folder_of_views_give_the_same_calibration(tmp_path: Path) -> None:
-    path = _small(tmp_path, board={"kind": "charuco", "squares": [8, 6], "square_mm": 25.0, "marker_mm": 18.0},
-                  views=12)
-    assert main(["calibrate", "camera", "--config", str(path), "--out", str(tmp_path / "a"),
-                 "--save-views", str(tmp_path / "views")]) == 0
-    assert main(["calibrate", "camera", "--config", str(path), "--out", str(tmp_path / "b"),
-                 "--images", str(tmp_path / "views")]) == 0
+    path = _small(
+        tmp_path, board={"kind": "charuco", "squares": [8, 6], "square_mm": 25.0, "marker_mm": 18.0}, views=12
+    )
+    assert (
+        main(
+            [
+                "calibrate",
+                "camera",
+                "--config",
+                str(path),
+                "--out",
+                str(tmp_path / "a"),
+                "--save-views",
+                str(tmp_path / "views"),
+            ]
+        )
+        == 0
+    )
+    assert (
+        main(
+            [
+                "calibrate",
+                "camera",
+                "--config",
+                str(path),
+                "--out",
+                str(tmp_path / "b"),
+                "--images",
+                str(tmp_path / "views"),
+            ]
+        )
+        == 0
+    )
     a, _ = load_calibration(tmp_path / "a")
     b, _ = load_calibration(tmp_path / "b")
     np.testing.assert_allclose(a["camera0"].K, b["camera0"].K, rtol=1e-6)
@@ -111,8 +139,22 @@ def test_charuco_and_a_folder_of_views_give_the_same_calibration(tmp_path: Path)
 
 
 def test_few_views_are_reported(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
-    assert main(["calibrate", "camera", "--config", str(_small(tmp_path)), "--views", "4", "--json",
-                 "--out", str(tmp_path / "cal")]) == 0
+    assert (
+        main(
+            [
+                "calibrate",
+                "camera",
+                "--config",
+                str(_small(tmp_path)),
+                "--views",
+                "4",
+                "--json",
+                "--out",
+                str(tmp_path / "cal"),
+            ]
+        )
+        == 0
+    )
     report = json.loads(capsys.readouterr().out)
     assert any("only 4 views" in w for w in report["warnings"])
 
@@ -144,12 +186,38 @@ def test_bad_calibration_inputs_exit_2_and_keep_the_old_calibration(
             cv2.imwrite(str(views / f"view_{k:02d}" / "camera0.png"), np.full((256, 320), 40, np.uint8))
         args += ["--config", str(_small(tmp_path)), "--images", str(views)]
     elif case == "wrong board":  # the views show a 10x7 board; the config says 9x6
-        assert main(["calibrate", "camera", "--config", str(_small(tmp_path, views=3)), "--out",
-                     str(tmp_path / "first"), "--save-views", str(views)]) == 0
+        assert (
+            main(
+                [
+                    "calibrate",
+                    "camera",
+                    "--config",
+                    str(_small(tmp_path, views=3)),
+                    "--out",
+                    str(tmp_path / "first"),
+                    "--save-views",
+                    str(views),
+                ]
+            )
+            == 0
+        )
         args += ["--config", str(_small(tmp_path, board={"squares": [9, 6]})), "--images", str(views)]
     else:
-        assert main(["calibrate", "camera", "--config", str(_small(tmp_path, views=3)), "--out",
-                     str(tmp_path / "first"), "--save-views", str(views)]) == 0
+        assert (
+            main(
+                [
+                    "calibrate",
+                    "camera",
+                    "--config",
+                    str(_small(tmp_path, views=3)),
+                    "--out",
+                    str(tmp_path / "first"),
+                    "--save-views",
+                    str(views),
+                ]
+            )
+            == 0
+        )
         for extra in sorted(views.iterdir())[2:]:
             for f in extra.iterdir():
                 f.unlink()

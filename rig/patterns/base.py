@@ -117,9 +117,14 @@ class Codec(abc.ABC):
     name: ClassVar[str]
     Params: ClassVar[type[CodecParams]] = CodecParams
 
-    def __init__(self, projector_size: tuple[int, int], params: CodecParams | None = None) -> None:
+    def __init__(
+        self, projector_size: tuple[int, int], params: CodecParams | None = None, output_lut: np.ndarray | None = None
+    ) -> None:
+        """`output_lut` (256 uint8) maps the light a pattern means to the level to send: the
+        inverse of the projector's calibrated response (rig.calibrate.response)."""
         self.width, self.height = projector_size
         self.params = params if params is not None else self.Params()
+        self.output_lut = output_lut
         if not isinstance(self.params, self.Params):
             raise TypeError(f"{self.name} codec takes {self.Params.__name__}, got {type(self.params).__name__}")
 
@@ -127,7 +132,10 @@ class Codec(abc.ABC):
         """All pattern images (uint8, projector resolution) in projection order."""
         white = np.full((self.height, self.width), 255, dtype=np.uint8)
         black = np.zeros_like(white)
-        return [white, black, *self._coded_patterns()]
+        coded = self._coded_patterns()
+        if self.output_lut is not None:
+            coded = [self.output_lut[p] for p in coded]
+        return [white, black, *coded]
 
     @property
     def frame_count(self) -> int:

@@ -88,8 +88,10 @@ class RingsCodec(CircularCodec):
     Params = RingsParams
     params: RingsParams
 
-    def __init__(self, projector_size: tuple[int, int], params: RingsParams | None = None) -> None:
-        super().__init__(projector_size, params)
+    def __init__(
+        self, projector_size: tuple[int, int], params: RingsParams | None = None, output_lut: np.ndarray | None = None
+    ) -> None:
+        super().__init__(projector_size, params, output_lut)
         steps = np.diff(self.radii)
         if self.radii[0] <= 0 or (steps <= 2 * _EDGE_RAMP_PX).any():
             raise ValueError(

@@ -79,6 +79,7 @@ def build_manifest(
             ],
         },
         "calibration_sha256": calibration_hashes(the_rig),
+        "response_sha256": the_rig.response_sha256,
         "economy": {
             "frames_projected": result.frames_projected,
             "frames_captured": result.frames_projected * len(config.cameras),
