@@ -208,9 +208,28 @@ class ScanConfig(Strict):
         return v
 
 
+class BoardPose(Strict):
+    """Where the operator puts the board: its centre and its rotation (x, y, z Euler angles, degrees;
+    all zero is flat, face up, columns along world x)."""
+
+    center_mm: Vec3
+    rotation_deg: tuple[
+        Annotated[float, Field(ge=-180, le=180)],
+        Annotated[float, Field(ge=-180, le=180)],
+        Annotated[float, Field(ge=-180, le=180)],
+    ] = (0.0, 0.0, 0.0)
+
+
 class CalibrationConfig(Strict):
     board: BoardConfig = BoardConfig()
     views: int = Field(12, ge=3, le=200, description="board poses a simulated calibration session captures")
+    poses: list[BoardPose] | None = Field(
+        None,
+        min_length=3,
+        max_length=200,
+        description="board poses for the simulated session instead of its own choice; the first defines "
+        "the world frame",
+    )
     file: Path | None = Field(
         None,
         description="calibration.json (or its folder) that reconstruction uses instead of the devices' geometry; "

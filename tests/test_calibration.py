@@ -230,3 +230,15 @@ def test_bad_calibration_inputs_exit_2_and_keep_the_old_calibration(
     assert (out / "calibration.json").read_bytes() == before
     assert main(["calibrate", "camera", "--config", str(_small(tmp_path)), "--views", "2", "--out", str(out)]) == 2
     assert "--views" in capsys.readouterr().err
+
+
+def test_operator_supplied_poses(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    poses = [{"center_mm": [0.0, 0.0, 0.0]}] + [
+        {"center_mm": [x, y, 30.0], "rotation_deg": [rx, ry, 5.0]}
+        for x, y, rx, ry in [(-40, -30, 20, 0), (40, -30, 0, 20), (40, 30, -20, 0), (-40, 30, 0, -20), (0, 0, 15, 15)]
+    ]
+    path = _small(tmp_path, poses=poses)
+    assert main(["calibrate", "camera", "--config", str(path), "--out", str(tmp_path / "cal"), "--json"]) == 0
+    report = json.loads(capsys.readouterr().out)
+    assert report["views"] == 6
+    assert report["devices"]["camera0"]["views_used"] == [0, 1, 2, 3, 4, 5]

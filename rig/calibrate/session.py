@@ -35,8 +35,22 @@ def collect_views(
     with_projectors = mode != "camera"
     if images is not None:
         return load_folder_views(rig, board, images, with_projectors)
-    centre = np.mean([c.geometry.pose.look_at_mm for c in rig.config.cameras], axis=0)
-    return capture_sim_views(rig, board, default_poses(views, centre), with_projectors, save_views)
+    given = rig.config.calibration.poses
+    if given is not None:
+        poses = [(_euler(p.rotation_deg), np.array(p.center_mm, float)) for p in given]
+    else:
+        centre = np.mean([c.geometry.pose.look_at_mm for c in rig.config.cameras], axis=0)
+        poses = default_poses(views, centre)
+    return capture_sim_views(rig, board, poses, with_projectors, save_views)
+
+
+def _euler(degrees: tuple[float, float, float]) -> np.ndarray:
+    rx, ry, rz = np.radians(degrees)
+    cx, sx, cy, sy, cz, sz = np.cos(rx), np.sin(rx), np.cos(ry), np.sin(ry), np.cos(rz), np.sin(rz)
+    x = np.array([[1, 0, 0], [0, cx, -sx], [0, sx, cx]])
+    y = np.array([[cy, 0, sy], [0, 1, 0], [-sy, 0, cy]])
+    z = np.array([[cz, -sz, 0], [sz, cz, 0], [0, 0, 1]])
+    return z @ y @ x
 
 
 def calibrate(
