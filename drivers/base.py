@@ -47,6 +47,36 @@ class Frame:
         return (1 << self.bit_depth) - 1
 
 
+class TriggerMode(enum.Enum):
+    """What advances a preloaded pattern sequence."""
+
+    INTERNAL = "internal"  # the projector's own clock (exposure and period)
+    EXTERNAL = "external"  # a pulse on its trigger input
+    VSYNC = "vsync"  # each frame of the video input
+
+
+@dataclass(frozen=True)
+class SequenceEntry:
+    """One pattern of a preloaded sequence: which bit-plane group of the source, its bit depth."""
+
+    pattern: int  # bit-plane group (0-24 on a DLPC350)
+    bit_depth: int = 8
+    invert: bool = False
+
+
+@dataclass(frozen=True)
+class PatternSequence:
+    """A sequence a SEQUENCE projector plays on its own; each pattern is lit for `exposure_us` of
+    every `period_us` and (where wired) raises the trigger output for the cameras."""
+
+    entries: tuple[SequenceEntry, ...]
+    exposure_us: int
+    period_us: int
+    trigger: TriggerMode = TriggerMode.INTERNAL
+    source: str = "video"  # "video": bit-planes of the video input; "flash": stored images
+    repeat: bool = False
+
+
 class Device(abc.ABC):
     """Lifecycle shared by all devices: open, use, close. `close()` is idempotent."""
 
@@ -101,6 +131,8 @@ class Projector(Device):
     def show(self, pattern: np.ndarray) -> None:
         """Show one pattern now (streaming projectors). Goes dark if the device fails."""
         self._require_open()
+        if self.mode is not ProjectorMode.STREAMING:
+            raise DeviceStateError(f"{self.name}: plays preloaded sequences (load_sequence, start_sequence)")
         width, height = self.resolution
         if pattern.shape != (height, width) or pattern.dtype != np.uint8:
             raise ValueError(
@@ -122,11 +154,39 @@ class Projector(Device):
                 self._do_dark()
             raise
 
+    def load_sequence(self, sequence: PatternSequence) -> None:
+        """Preload a sequence (SEQUENCE projectors). Goes dark if the device fails."""
+        self._require_open()
+        if self.mode is not ProjectorMode.SEQUENCE:
+            raise DeviceStateError(f"{self.name}: a streaming projector shows patterns one by one (show)")
+        if not sequence.entries:
+            raise ValueError(f"{self.name}: a sequence needs at least one pattern")
+        self._guarded(self._do_load_sequence, sequence)
+
+    def start_sequence(self) -> None:
+        self._require_open()
+        if self.mode is not ProjectorMode.SEQUENCE:
+            raise DeviceStateError(f"{self.name}: not a sequence projector")
+        self._guarded(self._do_start_sequence)
+
+    def stop_sequence(self) -> None:
+        if self._open and self.mode is ProjectorMode.SEQUENCE:
+            self._guarded(self._do_stop_sequence)
+
     @abc.abstractmethod
     def _do_show(self, pattern: np.ndarray) -> None: ...
 
     @abc.abstractmethod
     def _do_dark(self) -> None: ...
+
+    def _do_load_sequence(self, sequence: PatternSequence) -> None:
+        raise DeviceStateError(f"{self.name}: sequences are not supported")
+
+    def _do_start_sequence(self) -> None:
+        raise DeviceStateError(f"{self.name}: sequences are not supported")
+
+    def _do_stop_sequence(self) -> None:
+        raise DeviceStateError(f"{self.name}: sequences are not supported")
 
     def _do_close(self) -> None:
         self._do_dark()

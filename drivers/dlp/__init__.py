@@ -1,0 +1,1 @@
+"""TI DLP projector controllers."""

@@ -1,0 +1,238 @@
+"""TI DLP LightCrafter 4500 (DLPC350) over USB HID: video mode, pattern-sequence mode, status.
+
+Written from TI's published DLPC350 command set (command ids and layouts in
+../shared/reference/hardware.md section 2.1). It never enters programming mode and never writes the
+flash. "Dark" is the LEDs switched off under manual control: whatever the input shows, no light.
+"""
+
+from __future__ import annotations
+
+import struct
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+
+from drivers.base import PatternSequence, Projector, ProjectorMode, TriggerMode
+from drivers.dlp.protocol import DlpcProtocol
+from drivers.errors import DeviceError, DeviceProtocolError, DeviceStateError, DeviceTimeoutError
+from drivers.usbhid import HidTransport, PyUsbHidTransport
+
+VENDOR_ID, PRODUCT_ID = 0x0451, 0x6401
+RESOLUTION = (912, 1140)
+MIN_DARK_GAP_US = 230  # exposure must equal the period or leave this much dark time
+
+CMD_POWER = 0x0200
+CMD_VERSION = 0x0205
+CMD_STATUS_HW, CMD_STATUS_SYS, CMD_STATUS_MAIN = 0x1A0A, 0x1A0B, 0x1A0C
+CMD_LED_ENABLE = 0x1A07
+CMD_LUT_VALID = 0x1A1A
+CMD_DISPLAY_MODE = 0x1A1B
+CMD_TRIG_OUT1 = 0x1A1D
+CMD_PATTERN_SOURCE = 0x1A22
+CMD_TRIGGER_MODE = 0x1A23
+CMD_START_STOP = 0x1A24
+CMD_EXPOSURE_PERIOD = 0x1A29
+CMD_PATTERN_CONFIG = 0x1A31
+CMD_MBOX_ADDRESS, CMD_MBOX_CONTROL, CMD_MBOX_DATA = 0x1A32, 0x1A33, 0x1A34
+
+START, PAUSE, STOP = 2, 1, 0
+LED_MANUAL, LED_RED, LED_GREEN, LED_BLUE = 0x08, 0x01, 0x02, 0x04
+VALIDATE_BUSY = 0x80
+VALIDATE_ERRORS = {
+    0x01: "exposure or frame period invalid",
+    0x02: "pattern number invalid",
+    0x04: "TRIG_OUT1 continuous or overlapping black",
+    0x08: "post-vector warning",
+    0x10: "frame period minus exposure under 230 us",
+}
+TRIGGER_CODES = {TriggerMode.VSYNC: 0, TriggerMode.INTERNAL: 1, TriggerMode.EXTERNAL: 1}
+SOURCE_CODES = {"video": 0, "flash": 3}
+
+
+@dataclass(frozen=True)
+class Status:
+    hardware: int
+    system: int
+    main: int
+
+    @property
+    def sequencer_running(self) -> bool:
+        return bool(self.main & 0x02)
+
+
+def lut_entry(pattern: int, bit_depth: int, trigger: int, invert: bool = False, led: int = 0b111) -> bytes:
+    """The 24-bit pattern LUT word (little-endian): trigger 1:0, pattern 7:2, bit depth 11:8,
+    LEDs 14:12, invert 16."""
+    if not 0 <= pattern <= 24:
+        raise ValueError(f"pattern number {pattern} is outside 0..24")
+    if not 1 <= bit_depth <= 8:
+        raise ValueError(f"bit depth {bit_depth} is outside 1..8")
+    word = trigger | (pattern << 2) | (bit_depth << 8) | (led << 12) | (int(invert) << 16)
+    return word.to_bytes(3, "little")
+
+
+class Lcr4500Projector(Projector):
+    """A LightCrafter 4500 that plays preloaded pattern sequences (SEQUENCE mode).
+
+    `transport_factory` opens the HID transport (by default pyusb on 0451:6401); tests give it a
+    fake USB device that speaks the DLPC350 protocol.
+    """
+
+    mode = ProjectorMode.SEQUENCE
+
+    def __init__(
+        self,
+        name: str,
+        serial_number: str | None = None,
+        timeout_s: float = 2.0,
+        transport_factory: Callable[[], HidTransport] | None = None,
+        validate_timeout_s: float = 2.0,
+    ) -> None:
+        super().__init__(name)
+        self._factory = transport_factory or (lambda: PyUsbHidTransport(VENDOR_ID, PRODUCT_ID, serial_number))
+        self._timeout_s = timeout_s
+        self._validate_timeout_s = validate_timeout_s
+        self._transport: HidTransport | None = None
+        self._protocol: DlpcProtocol | None = None
+        self.version: tuple[int, int, int, int] | None = None
+
+    @property
+    def resolution(self) -> tuple[int, int]:
+        return RESOLUTION
+
+    @property
+    def _p(self) -> DlpcProtocol:
+        if self._protocol is None:
+            raise DeviceStateError(f"{self.name}: device is not open")
+        return self._protocol
+
+    # --- lifecycle -------------------------------------------------------------------------
+    def _do_open(self) -> None:
+        self._transport = self._factory()
+        self._protocol = DlpcProtocol(self._transport, self.name, self._timeout_s)
+        try:
+            self.version = struct.unpack("<4I", self._p.read(CMD_VERSION, 16))
+            self._do_dark()
+        except Exception:
+            self._transport.close()
+            self._transport = self._protocol = None
+            raise
+
+    def _do_close(self) -> None:
+        try:
+            self._do_dark()
+        except DeviceError:
+            pass  # a device that is gone is dark
+        finally:
+            if self._transport is not None:
+                self._transport.close()
+            self._transport = self._protocol = None
+
+    # --- light -----------------------------------------------------------------------------
+    def _do_dark(self) -> None:
+        self._p.write(CMD_LED_ENABLE, bytes([LED_MANUAL]))  # manual control, every LED off
+
+    def _lights_on(self) -> None:
+        self._p.write(CMD_LED_ENABLE, bytes([0]))  # the sequencer drives the LEDs again
+
+    def _do_show(self, pattern: np.ndarray) -> None:
+        raise DeviceStateError(f"{self.name}: plays preloaded sequences; use load_sequence and start_sequence")
+
+    # --- status and modes ------------------------------------------------------------------
+    def status(self) -> Status:
+        self._require_open()
+        return Status(
+            self._p.read(CMD_STATUS_HW, 1)[0], self._p.read(CMD_STATUS_SYS, 1)[0], self._p.read(CMD_STATUS_MAIN, 1)[0]
+        )
+
+    def display_mode(self) -> str:
+        return "pattern" if self._p.read(CMD_DISPLAY_MODE, 1)[0] else "video"
+
+    def set_display_mode(self, pattern: bool, polls: int = 6, interval_s: float = 0.1) -> None:
+        """Switch between video and pattern mode and wait for the controller to report it."""
+        self._p.write(CMD_DISPLAY_MODE, bytes([int(pattern)]))
+        for _ in range(polls):
+            if self._p.read(CMD_DISPLAY_MODE, 1)[0] == int(pattern):
+                return
+            time.sleep(interval_s)
+        raise DeviceTimeoutError(f"{self.name}: display mode did not change within {polls * interval_s:g} s")
+
+    def video_mode(self) -> None:
+        """Stop any sequence and show the video input (the projector as a plain HDMI display)."""
+        self._require_open()
+        self._guarded(self._to_video)
+
+    def _to_video(self) -> None:
+        self._p.write(CMD_START_STOP, bytes([STOP]))
+        self.set_display_mode(False)
+        self._lights_on()
+
+    # --- sequences -------------------------------------------------------------------------
+    def _do_load_sequence(self, sequence: PatternSequence) -> None:
+        exposure, period = sequence.exposure_us, sequence.period_us
+        if not (exposure == period or exposure <= period - MIN_DARK_GAP_US):
+            raise ValueError(
+                f"{self.name}: exposure {exposure} us must equal the period {period} us or leave "
+                f"{MIN_DARK_GAP_US} us dark"
+            )
+        if sequence.source not in SOURCE_CODES:
+            raise ValueError(f"{self.name}: source must be one of {sorted(SOURCE_CODES)}")
+        count = len(sequence.entries)
+        if count > 128:
+            raise ValueError(f"{self.name}: at most 128 LUT entries, got {count}")
+        trigger_bits = 1 if sequence.trigger is TriggerMode.EXTERNAL else 0
+        p = self._p
+        p.write(CMD_START_STOP, bytes([STOP]))
+        self.set_display_mode(True)
+        p.write(CMD_PATTERN_SOURCE, bytes([SOURCE_CODES[sequence.source]]))
+        p.write(CMD_PATTERN_CONFIG, bytes([count - 1, int(sequence.repeat), count - 1, 0]))
+        p.write(CMD_TRIGGER_MODE, bytes([TRIGGER_CODES[sequence.trigger]]))
+        p.write(CMD_EXPOSURE_PERIOD, struct.pack("<II", exposure, period))
+        p.write(CMD_MBOX_CONTROL, bytes([2]))  # open the pattern LUT
+        try:
+            for index, entry in enumerate(sequence.entries):
+                p.write(CMD_MBOX_ADDRESS, bytes([index]))
+                p.write(CMD_MBOX_DATA, lut_entry(entry.pattern, entry.bit_depth, trigger_bits, entry.invert))
+        finally:
+            p.write(CMD_MBOX_CONTROL, bytes([0]))
+        self._validate()
+
+    def _validate(self) -> None:
+        self._p.write(CMD_LUT_VALID)
+        deadline = time.monotonic() + self._validate_timeout_s
+        while True:
+            status = self._p.read(CMD_LUT_VALID, 1)[0]
+            if not status & VALIDATE_BUSY:
+                break
+            if time.monotonic() > deadline:
+                raise DeviceTimeoutError(
+                    f"{self.name}: sequence validation still busy after {self._validate_timeout_s:g} s"
+                )
+            time.sleep(0.01)
+        problems = [text for bit, text in VALIDATE_ERRORS.items() if status & bit and bit in (0x01, 0x02, 0x10)]
+        if problems:
+            raise DeviceProtocolError(f"{self.name}: the controller rejected the sequence: {'; '.join(problems)}")
+
+    def _do_start_sequence(self) -> None:
+        self._lights_on()
+        self._p.write(CMD_START_STOP, bytes([START]))
+
+    def _do_stop_sequence(self) -> None:
+        self._p.write(CMD_START_STOP, bytes([STOP]))
+        self._do_dark()
+
+    def configure_trigger_out(
+        self, invert: bool = False, rising_delay_ns: float = 0.0, falling_delay_ns: float = 0.0
+    ) -> None:
+        """TRIG_OUT_1 around each pattern's exposure; delays in steps of 107.2 ns about 0xBB = 0."""
+
+        def code(delay_ns: float) -> int:
+            value = round(0xBB + delay_ns / 107.2)
+            if not 0 <= value <= 0xFF:
+                raise ValueError(f"trigger delay {delay_ns} ns is outside -20.05..+7.3 us")
+            return value
+
+        self._require_open()
+        self._p.write(CMD_TRIG_OUT1, bytes([int(invert), code(rising_delay_ns), code(falling_delay_ns)]))

@@ -1,0 +1,244 @@
+"""A protocol fake of the LightCrafter 4500: a pyusb-style USB device that speaks DLPC350 HID
+reports, keeps the controller's registers, validates sequences, and injects faults. The real
+driver (drivers.dlp.lcr4500 over drivers.usbhid) runs against it unchanged."""
+
+from __future__ import annotations
+
+import errno
+import struct
+from collections import deque
+from dataclasses import dataclass, field
+from typing import Any
+
+from drivers.dlp import lcr4500 as lcr
+
+_READ_LENGTHS = {
+    lcr.CMD_VERSION: 16,
+    lcr.CMD_STATUS_HW: 1,
+    lcr.CMD_STATUS_SYS: 1,
+    lcr.CMD_STATUS_MAIN: 1,
+    lcr.CMD_DISPLAY_MODE: 1,
+    lcr.CMD_LUT_VALID: 1,
+    lcr.CMD_START_STOP: 1,
+    lcr.CMD_LED_ENABLE: 1,
+}
+
+
+def _usb_error(code: int, text: str) -> Exception:
+    import usb.core
+
+    return usb.core.USBError(text, -1, code)
+
+
+@dataclass
+class Faults:
+    busy_at_open: bool = False  # claiming the interface fails with EBUSY (usbhid or another program has it)
+    silent_after: int | None = None  # after this many commands no reply comes (read timeout)
+    unplug_after: int | None = None  # after this many commands the device is gone (ENODEV)
+    error_commands: set[int] = field(default_factory=set)  # these commands reply with the error bit
+    late_reply_before: int | None = None  # before answering this command, first send a stale reply
+    validate_busy_forever: bool = False
+    mode_lag_reads: int = 0  # the display-mode read-back lags this many reads behind a write
+
+
+class _Context:
+    """The part of pyusb's device context that usb.util's claim/release/dispose calls."""
+
+    def __init__(self, device: FakeLcr4500) -> None:
+        self._device = device
+
+    def managed_claim_interface(self, device: Any, interface: int) -> None:
+        self._device._check_plugged()
+        if self._device.faults.busy_at_open:
+            raise _usb_error(errno.EBUSY, "Resource busy")
+        self._device.claimed = True
+
+    def managed_release_interface(self, device: Any, interface: int) -> None:
+        self._device.claimed = False
+
+    def dispose(self, device: Any) -> None:
+        self._device.disposed = True
+
+
+class FakeLcr4500:
+    """The USB device: `write`/`read` on endpoints 0x01/0x81, 64-byte reports."""
+
+    def __init__(self, faults: Faults | None = None) -> None:
+        self.faults = faults or Faults()
+        self._ctx = _Context(self)
+        self.kernel_driver_active = True
+        self.claimed = False
+        self.disposed = False
+        self.plugged = True
+        self.commands = 0
+        self.log: list[tuple[str, int, bytes]] = []  # ("w"/"r", command, data)
+        self._replies: deque[bytes] = deque()
+        self._pending_stale: bytes | None = None
+        # controller registers
+        self.display_mode = 0
+        self._reported_mode = 0
+        self._mode_lag = 0
+        self.led_enable = 0
+        self.source = 0
+        self.trigger_mode = 1
+        self.exposure_us, self.period_us = 0, 0
+        self.pattern_config = bytes(4)
+        self.mailbox = 0
+        self.mailbox_address = 0
+        self.lut: dict[int, bytes] = {}
+        self.running = False
+        self.validated = False
+        self._validate_reads = 0
+        self.trig_out1 = bytes(3)
+
+    # --- what pyusb and usb.util call ---------------------------------------------------
+    def is_kernel_driver_active(self, interface: int) -> bool:
+        self._check_plugged()
+        return self.kernel_driver_active
+
+    def detach_kernel_driver(self, interface: int) -> None:
+        self.kernel_driver_active = False
+
+    def attach_kernel_driver(self, interface: int) -> None:
+        self.kernel_driver_active = True
+
+    def set_configuration(self) -> None:
+        self._check_plugged()
+
+    def write(self, endpoint: int, data: bytes, timeout: int) -> int:
+        self._check_plugged()
+        if endpoint != 0x01 or len(data) != 64:
+            raise _usb_error(errno.EINVAL, "bad write")
+        self._handle(bytes(data))
+        return len(data)
+
+    def read(self, endpoint: int, size: int, timeout: int) -> bytes:
+        self._check_plugged()
+        if not self._replies:
+            raise _usb_error(errno.ETIMEDOUT, "Operation timed out")
+        return self._replies.popleft()
+
+    # --- the controller ------------------------------------------------------------------
+    @property
+    def dark(self) -> bool:
+        """No light: LEDs under manual control with none enabled."""
+        return bool(self.led_enable & lcr.LED_MANUAL) and not self.led_enable & 0x07
+
+    @property
+    def lut_entries(self) -> list[int]:
+        count = self.pattern_config[0] + 1
+        return [int.from_bytes(self.lut.get(i, bytes(3)), "little") for i in range(count)]
+
+    def _check_plugged(self) -> None:
+        if not self.plugged:
+            raise _usb_error(errno.ENODEV, "No such device (it may have been disconnected)")
+
+    def _handle(self, report: bytes) -> None:
+        flags, sequence, length, command = struct.unpack_from("<BBHH", report)
+        data = report[6 : 4 + length]
+        self.commands += 1
+        f = self.faults
+        if f.unplug_after is not None and self.commands > f.unplug_after:
+            self.plugged = False
+            raise _usb_error(errno.ENODEV, "No such device (it may have been disconnected)")
+        if f.silent_after is not None and self.commands > f.silent_after:
+            return
+        read = bool(flags & 0x80)
+        self.log.append(("r" if read else "w", command, data))
+        if f.late_reply_before is not None and self.commands == f.late_reply_before:
+            self._replies.append(self._reply((sequence - 1) & 0xFF, b"\x00"))  # the previous command's, late
+        try:
+            payload = self._read(command) if read else self._write(command, data)
+            error = command in f.error_commands
+        except KeyError:
+            payload, error = b"", True  # unknown command: the error bit
+        if flags & 0x40:
+            self._replies.append(self._reply(sequence, payload, error))
+
+    def _reply(self, sequence: int, payload: bytes, error: bool = False) -> bytes:
+        flags = 0x20 if error else 0
+        return struct.pack("<BBH", flags, sequence, len(payload)).__add__(payload).ljust(64, b"\0")
+
+    def _read(self, command: int) -> bytes:
+        if command == lcr.CMD_VERSION:
+            return struct.pack("<4I", 0x0303_0000, 0x0001_0000, 0, 0)
+        if command == lcr.CMD_STATUS_MAIN:
+            return bytes([0x01 | (0x02 if self.running else 0)])
+        if command in (lcr.CMD_STATUS_HW, lcr.CMD_STATUS_SYS):
+            return bytes([0x01])
+        if command == lcr.CMD_DISPLAY_MODE:
+            if self._mode_lag > 0:
+                self._mode_lag -= 1
+            else:
+                self._reported_mode = self.display_mode
+            return bytes([self._reported_mode])
+        if command == lcr.CMD_LUT_VALID:
+            self._validate_reads += 1
+            if self.faults.validate_busy_forever or self._validate_reads < 3:
+                return bytes([lcr.VALIDATE_BUSY])
+            return bytes([self._validation_errors()])
+        if command == lcr.CMD_START_STOP:
+            return bytes([lcr.START if self.running else lcr.STOP])
+        if command == lcr.CMD_LED_ENABLE:
+            return bytes([self.led_enable])
+        raise KeyError(command)
+
+    def _validation_errors(self) -> int:
+        bits = 0
+        e, p = self.exposure_us, self.period_us
+        if e <= 0 or p <= 0 or e > p:
+            bits |= 0x01
+        elif e != p and p - e < lcr.MIN_DARK_GAP_US:
+            bits |= 0x10
+        if any(((word >> 2) & 0x3F) > 24 for word in self.lut_entries):
+            bits |= 0x02
+        return bits
+
+    def _write(self, command: int, data: bytes) -> bytes:
+        if command == lcr.CMD_DISPLAY_MODE:
+            self.display_mode = data[0]
+            self._mode_lag = self.faults.mode_lag_reads
+            self.running = False
+        elif command == lcr.CMD_LED_ENABLE:
+            self.led_enable = data[0]
+        elif command == lcr.CMD_PATTERN_SOURCE:
+            self.source = data[0]
+        elif command == lcr.CMD_TRIGGER_MODE:
+            self.trigger_mode = data[0]
+        elif command == lcr.CMD_EXPOSURE_PERIOD:
+            self.exposure_us, self.period_us = struct.unpack("<II", data[:8])
+        elif command == lcr.CMD_PATTERN_CONFIG:
+            self.pattern_config = bytes(data[:4])
+        elif command == lcr.CMD_MBOX_CONTROL:
+            self.mailbox = data[0]
+        elif command == lcr.CMD_MBOX_ADDRESS:
+            self.mailbox_address = data[0]
+        elif command == lcr.CMD_MBOX_DATA:
+            if self.mailbox != 2:
+                raise KeyError(command)  # writing a LUT entry with the mailbox closed fails
+            self.lut[self.mailbox_address] = bytes(data[:3])
+        elif command == lcr.CMD_LUT_VALID:
+            self._validate_reads = 0
+            self.validated = True
+        elif command == lcr.CMD_START_STOP:
+            if data[0] == lcr.START and (not self.validated or self.display_mode != 1):
+                raise KeyError(command)  # starting an unvalidated sequence fails
+            self.running = data[0] == lcr.START
+        elif command in (lcr.CMD_TRIG_OUT1, lcr.CMD_POWER):
+            self.trig_out1 = bytes(data[:3]) if command == lcr.CMD_TRIG_OUT1 else self.trig_out1
+        else:
+            raise KeyError(command)
+        return b""
+
+
+def finder_for(device: FakeLcr4500 | None):  # type: ignore[no-untyped-def]
+    """A stand-in for usb.core.find that finds `device` (None: nothing attached)."""
+
+    def find(**kwargs: Any) -> FakeLcr4500 | None:
+        if device is None or not device.plugged:
+            return None
+        if kwargs.get("idVendor") != lcr.VENDOR_ID or kwargs.get("idProduct") != lcr.PRODUCT_ID:
+            return None
+        return device
+
+    return find

@@ -1,0 +1,217 @@
+"""Projector drivers: one contract suite for every projector (the simulated one, and the real
+LightCrafter 4500 driver on its USB protocol fake), golden packets, and faults."""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Iterator
+
+import numpy as np
+import pytest
+
+from drivers.base import PatternSequence, Projector, ProjectorMode, SequenceEntry, TriggerMode
+from drivers.dlp.lcr4500 import PRODUCT_ID, VENDOR_ID, Lcr4500Projector, lut_entry
+from drivers.dlp.protocol import encode
+from drivers.errors import (
+    DeviceDisconnectedError,
+    DeviceError,
+    DeviceNotFoundError,
+    DeviceProtocolError,
+    DeviceStateError,
+    DeviceTimeoutError,
+)
+from drivers.sim import SimBench, SimProjector
+from drivers.sim import scene as sc
+from drivers.sim.fake_dlpc350 import FakeLcr4500, Faults, finder_for
+from drivers.usbhid import PyUsbHidTransport
+from tests.conftest import make_device
+
+SEQUENCE = PatternSequence(tuple(SequenceEntry(i % 3, 8) for i in range(6)), 8333, 8333, TriggerMode.EXTERNAL)
+
+
+def _lcr(device: FakeLcr4500 | None, timeout_s: float = 0.5) -> Lcr4500Projector:
+    return Lcr4500Projector(
+        "lcr",
+        timeout_s=timeout_s,
+        validate_timeout_s=0.3,
+        transport_factory=lambda: PyUsbHidTransport(VENDOR_ID, PRODUCT_ID, finder=finder_for(device)),
+    )
+
+
+class _Sim:
+    def __init__(self) -> None:
+        camera = make_device(64, 48, 90.0, (0.0, 0.0, 600.0))
+        projector = make_device(32, 24, 45.0, (100.0, 0.0, 600.0))
+        self.bench = SimBench(sc.build_scene([sc.plane(1000.0)]), [camera], [projector])
+        self.projector = SimProjector("sim", self.bench, 0)
+
+    def is_dark(self) -> bool:
+        return self.projector.is_dark
+
+
+class _Lcr:
+    def __init__(self) -> None:
+        self.fake = FakeLcr4500()
+        self.projector = _lcr(self.fake)
+
+    def is_dark(self) -> bool:
+        return self.fake.dark
+
+
+@pytest.fixture(params=["sim", "lcr4500-on-usb-fake"])
+def kit(request: pytest.FixtureRequest) -> Iterator[_Sim | _Lcr]:
+    k = _Sim() if request.param == "sim" else _Lcr()
+    yield k
+    k.projector.close()
+
+
+# --- the contract: what every projector does -------------------------------------------------
+def test_open_is_dark_and_close_is_idempotent(kit: _Sim | _Lcr) -> None:
+    projector: Projector = kit.projector
+    projector.open()
+    assert projector.is_open and kit.is_dark()
+    projector.close()
+    projector.close()
+    assert not projector.is_open
+
+
+def test_a_closed_projector_refuses_work_but_can_always_go_dark(kit: _Sim | _Lcr) -> None:
+    projector: Projector = kit.projector
+    projector.dark()  # never raises, even closed
+    with pytest.raises(DeviceStateError):
+        if projector.mode is ProjectorMode.STREAMING:
+            projector.show(np.zeros((projector.resolution[1], projector.resolution[0]), np.uint8))
+        else:
+            projector.load_sequence(SEQUENCE)
+
+
+def test_patterns_light_it_and_dark_stops_the_light(kit: _Sim | _Lcr) -> None:
+    projector: Projector = kit.projector
+    projector.open()
+    width, height = projector.resolution
+    if projector.mode is ProjectorMode.STREAMING:
+        projector.show(np.full((height, width), 255, np.uint8))
+        with pytest.raises(DeviceStateError):
+            projector.load_sequence(SEQUENCE)
+    else:
+        projector.load_sequence(SEQUENCE)
+        projector.start_sequence()
+        with pytest.raises(DeviceStateError):
+            projector.show(np.zeros((height, width), np.uint8))
+    assert not kit.is_dark()
+    projector.dark()
+    assert kit.is_dark()
+
+
+# --- the LightCrafter 4500 driver on its protocol fake ---------------------------------------
+def test_golden_packets() -> None:
+    assert encode(0x1A1B, b"\x01", 0x2A, read=False, reply=True)[:7] == bytes(
+        [0x40, 0x2A, 0x03, 0x00, 0x1B, 0x1A, 0x01]
+    )
+    assert encode(0x1A1B, b"\x01", 0x2A, read=False, reply=True)[7:] == bytes(57)
+    assert encode(0x1A0C, b"", 7, read=True, reply=True)[:6] == bytes([0xC0, 0x07, 0x02, 0x00, 0x0C, 0x1A])
+    # LUT word: external positive trigger, pattern 2, 8 bits, white, no invert
+    assert lut_entry(2, 8, 1) == (1 | (2 << 2) | (8 << 8) | (0b111 << 12)).to_bytes(3, "little")
+    with pytest.raises(ValueError):
+        lut_entry(25, 8, 0)
+
+
+def test_sequence_reaches_the_controller() -> None:
+    fake = FakeLcr4500()
+    projector = _lcr(fake)
+    projector.open()
+    assert not fake.kernel_driver_active and fake.claimed  # usbhid detached, interface claimed
+    projector.configure_trigger_out(rising_delay_ns=0.0)
+    projector.load_sequence(SEQUENCE)
+    assert fake.display_mode == 1 and fake.source == 0 and fake.trigger_mode == 1
+    assert (fake.exposure_us, fake.period_us) == (8333, 8333)
+    assert [(w >> 2) & 0x3F for w in fake.lut_entries] == [0, 1, 2, 0, 1, 2]
+    assert all(w & 0x3 == 1 for w in fake.lut_entries)  # external trigger
+    assert fake.trig_out1 == bytes([0, 0xBB, 0xBB])
+    projector.start_sequence()
+    assert fake.running and projector.status().sequencer_running
+    projector.video_mode()
+    assert fake.display_mode == 0 and not fake.running
+    projector.close()
+    assert fake.kernel_driver_active and not fake.claimed  # handed back to usbhid
+
+
+def test_not_attached() -> None:
+    with pytest.raises(DeviceNotFoundError, match="not attached"):
+        _lcr(None).open()
+
+
+def test_busy_at_open() -> None:
+    with pytest.raises(DeviceError, match="busy"):
+        _lcr(FakeLcr4500(Faults(busy_at_open=True))).open()
+
+
+def _assert_within(start: float, limit_s: float) -> None:
+    assert time.monotonic() - start < limit_s + 0.5
+
+
+def test_read_timeout_fails_within_its_timeout_and_goes_dark() -> None:
+    fake = FakeLcr4500(Faults(silent_after=6))
+    projector = _lcr(fake)
+    projector.open()
+    start = time.monotonic()
+    with pytest.raises(DeviceTimeoutError):
+        projector.load_sequence(SEQUENCE)
+    _assert_within(start, 0.5)
+    fake.faults.silent_after = None
+    projector.dark()
+    assert fake.dark
+
+
+def test_error_bit_is_a_protocol_error_and_the_projector_goes_dark() -> None:
+    fake = FakeLcr4500(Faults(error_commands={0x1A29}))
+    projector = _lcr(fake)
+    projector.open()
+    with pytest.raises(DeviceProtocolError, match="0x1a29 failed"):
+        projector.load_sequence(SEQUENCE)
+    assert fake.dark
+
+
+def test_unplug_mid_sequence() -> None:
+    fake = FakeLcr4500(Faults(unplug_after=12))
+    projector = _lcr(fake)
+    projector.open()
+    with pytest.raises(DeviceDisconnectedError):
+        projector.load_sequence(SEQUENCE)
+    projector.close()  # closing a device that is gone does not raise
+    assert not projector.is_open
+
+
+def test_a_late_reply_is_not_taken_for_the_next_answer() -> None:
+    fake = FakeLcr4500(Faults(late_reply_before=3))
+    projector = _lcr(fake)
+    projector.open()
+    assert projector.display_mode() == "video"  # command 3: a stale reply (payload 0x00) comes first
+    fake.display_mode = 1
+    assert projector.display_mode() == "pattern"
+
+
+def test_validation_that_never_finishes_times_out() -> None:
+    fake = FakeLcr4500(Faults(validate_busy_forever=True))
+    projector = _lcr(fake)
+    projector.open()
+    start = time.monotonic()
+    with pytest.raises(DeviceTimeoutError, match="validation"):
+        projector.load_sequence(SEQUENCE)
+    _assert_within(start, 0.3)
+    assert fake.dark
+
+
+def test_the_controller_rejects_a_bad_exposure_and_the_driver_says_why() -> None:
+    projector = _lcr(FakeLcr4500())
+    projector.open()
+    with pytest.raises(ValueError, match="230 us"):
+        projector.load_sequence(PatternSequence(SEQUENCE.entries, 8200, 8333))
+
+
+def test_mode_read_back_lag_is_waited_for() -> None:
+    fake = FakeLcr4500(Faults(mode_lag_reads=3))
+    projector = _lcr(fake)
+    projector.open()
+    projector.load_sequence(SEQUENCE)
+    assert fake.display_mode == 1
