@@ -29,3 +29,8 @@ class DeviceDisconnectedError(DeviceError, ConnectionError):
 class DeviceProtocolError(DeviceError):
     """Raised when a reply is malformed or does not match the command sent (wrong echo, bad
     checksum, unexpected length)."""
+
+
+class DeviceAuthenticationError(DeviceError):
+    """Raised when a device refuses the credentials it was given, or asks for some and none were
+    configured (a PJLink password)."""

@@ -1,0 +1,188 @@
+"""Projector housekeeping drivers on their protocol fakes: RS-232 (BenQ, Epson, Optoma) through a
+pyserial URL handler, and PJLink over a loopback TCP server. One contract for all, then faults."""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Iterator
+from typing import Any
+
+import pytest
+
+from drivers.errors import (
+    DeviceAuthenticationError,
+    DeviceDisconnectedError,
+    DeviceError,
+    DeviceNotFoundError,
+    DeviceProtocolError,
+    DeviceTimeoutError,
+)
+from drivers.pjlink import PJLinkProjector
+from drivers.serial_projector import SerialProjectorControl
+from drivers.sim.fake_pjlink import FakePJLinkProjector
+
+TIMEOUT_S = 0.3
+
+
+class _SerialKit:
+    def __init__(self, vendor: str, query: str = "") -> None:
+        self.device = SerialProjectorControl(vendor, f"simprojector://{vendor}{query}", vendor, timeout_s=TIMEOUT_S)
+        self.hdmi = "hdmi"
+
+    @property
+    def fake(self) -> Any:
+        return self.device._port
+
+    def blanked(self) -> bool:
+        return bool(self.fake.blanked)
+
+    def close(self) -> None:
+        self.device.close()
+
+
+class _PJLinkKit:
+    def __init__(self) -> None:
+        self.server = FakePJLinkProjector(password="bench")
+        self.device = PJLinkProjector("pjlink", "127.0.0.1", self.server.port, password="bench", timeout_s=TIMEOUT_S)
+        self.hdmi = "31"
+
+    def blanked(self) -> bool:
+        return self.server.muted
+
+    def close(self) -> None:
+        self.device.close()
+        self.server.close()
+
+
+@pytest.fixture(params=["benq", "epson", "optoma", "pjlink"])
+def kit(request: pytest.FixtureRequest) -> Iterator[_SerialKit | _PJLinkKit]:
+    k: _SerialKit | _PJLinkKit = _PJLinkKit() if request.param == "pjlink" else _SerialKit(request.param)
+    yield k
+    k.close()
+
+
+def test_power_input_and_blank(kit: _SerialKit | _PJLinkKit) -> None:
+    device = kit.device
+    device.open()
+    assert device.power_state() == "off"
+    device.power(True)
+    assert device.power_state() == "on"
+    device.select_input(kit.hdmi)
+    device.blank(True)
+    assert kit.blanked()
+    device.blank(False)
+    assert not kit.blanked()
+
+
+def test_use_after_close_is_refused(kit: _SerialKit | _PJLinkKit) -> None:
+    from drivers.errors import DeviceStateError
+
+    with pytest.raises(DeviceStateError):
+        kit.device.power_state()
+
+
+# --- serial faults ------------------------------------------------------------------------------
+def _serial(vendor: str, fault: str, power: str = "on") -> SerialProjectorControl:
+    device = SerialProjectorControl(
+        vendor, f"simprojector://{vendor}?fault={fault}&power={power}", vendor, timeout_s=TIMEOUT_S
+    )
+    device.open()
+    return device
+
+
+@pytest.mark.parametrize("vendor", ["benq", "epson", "optoma"])
+def test_serial_silence_times_out_within_the_timeout(vendor: str) -> None:
+    device = _serial(vendor, "silence")
+    start = time.monotonic()
+    with pytest.raises(DeviceTimeoutError):
+        device.power_state()
+    assert time.monotonic() - start < TIMEOUT_S + 0.3
+
+
+@pytest.mark.parametrize("vendor", ["benq", "epson", "optoma"])
+def test_serial_garbage_is_a_protocol_error(vendor: str) -> None:
+    with pytest.raises(DeviceProtocolError, match="garbled"):
+        _serial(vendor, "garbage").power_state()
+
+
+@pytest.mark.parametrize("vendor", ["benq", "epson", "optoma"])
+def test_a_late_reply_is_not_taken_for_the_next_commands_answer(vendor: str) -> None:
+    device = _serial(vendor, "late", power="on")
+    with pytest.raises(DeviceTimeoutError):
+        device.power_state()  # its reply comes late ...
+    device._port.fault = ""  # ... and from now on replies are on time
+    device.power(False)  # ... so the late "on" is flushed, not read as this command's answer
+    assert device.power_state() == "off"
+
+
+@pytest.mark.parametrize("vendor", ["benq", "epson", "optoma"])
+def test_serial_unplug_and_refusals(vendor: str) -> None:
+    with pytest.raises(DeviceDisconnectedError):
+        _serial(vendor, "unplug").power(True)
+    with pytest.raises(DeviceProtocolError, match=r"refused|Illegal"):
+        _serial(vendor, "refuse").power(True)
+    with pytest.raises(DeviceTimeoutError, match="incomplete"):
+        _serial(vendor, "partial").power_state()
+
+
+def test_benq_refuses_blank_while_off() -> None:
+    with pytest.raises(DeviceProtocolError, match="Block item"):
+        _serial("benq", "", power="off").blank(True)
+
+
+def test_missing_port_and_unknown_vendor() -> None:
+    with pytest.raises(DeviceNotFoundError):
+        SerialProjectorControl("p", "/dev/does-not-exist", "epson").open()
+    with pytest.raises(ValueError, match="known: benq, epson, optoma"):
+        SerialProjectorControl("p", "loop://", "sony")
+
+
+# --- PJLink faults -------------------------------------------------------------------------------
+def test_pjlink_wrong_or_missing_password() -> None:
+    with (
+        FakePJLinkProjector(password="bench") as server,
+        PJLinkProjector("pj", "127.0.0.1", server.port, password="guess", timeout_s=TIMEOUT_S) as device,
+        pytest.raises(DeviceAuthenticationError, match="refused"),
+    ):
+        device.power_state()
+    with (
+        FakePJLinkProjector(password="bench") as server,
+        pytest.raises(DeviceAuthenticationError, match="asks for a PJLink password"),
+    ):
+        PJLinkProjector("pj", "127.0.0.1", server.port, timeout_s=TIMEOUT_S).open()
+
+
+def test_pjlink_warm_up_is_err3() -> None:
+    with (
+        FakePJLinkProjector(warmup_s=5.0) as server,
+        PJLinkProjector("pj", "127.0.0.1", server.port, timeout_s=TIMEOUT_S) as device,
+    ):
+        device.power(True)
+        assert device.power_state() == "warming"
+        with pytest.raises(DeviceError, match="ERR3"):
+            device.select_input("31")
+
+
+@pytest.mark.parametrize(
+    ("fault", "error"),
+    [("no-greeting", DeviceTimeoutError), ("silence", DeviceTimeoutError), ("drop", DeviceDisconnectedError)],
+)
+def test_pjlink_silence_and_dropped_connections(fault: str, error: type[Exception]) -> None:
+    with FakePJLinkProjector(fault=fault) as server:
+        device = PJLinkProjector("pj", "127.0.0.1", server.port, timeout_s=TIMEOUT_S)
+        start = time.monotonic()
+        try:
+            with pytest.raises(error):
+                device.open()
+                device.power_state()
+        finally:
+            device.close()
+        assert time.monotonic() - start < TIMEOUT_S + 0.5
+
+
+def test_pjlink_nobody_listening() -> None:
+    server = FakePJLinkProjector()
+    port = server.port
+    server.close()
+    with pytest.raises(DeviceNotFoundError):
+        PJLinkProjector("pj", "127.0.0.1", port, timeout_s=TIMEOUT_S).open()
