@@ -207,6 +207,14 @@ class Camera(Device):
     @abc.abstractmethod
     def set_exposure_us(self, exposure_us: float) -> None: ...
 
+    def flush(self) -> None:
+        """Drop frames the driver already holds, so the next capture is exposed after this call."""
+        self._require_open()
+        self._do_flush()
+
+    def _do_flush(self) -> None:
+        """Drivers that buffer frames drop them here."""
+
     def capture(self, timeout_s: float = 2.0) -> Frame:
         """Capture one frame, taken after this call began; raise DeviceTimeoutError past
         `timeout_s`."""

@@ -80,6 +80,7 @@ class SimProjectorOptions(Strict):
     brightness: float = Field(1.0, gt=0.0, le=100.0, description="white irradiance at 600 mm, relative")
     black_level: float = Field(0.004, ge=0.0, le=0.5)
     blur_px: float = Field(0.5, ge=0.0, le=20.0)
+    latency_s: float = Field(0.0, ge=0.0, le=2.0, description="the simulated projector's true display latency")
 
 
 class SimFaults(Strict):
@@ -97,6 +98,7 @@ class SimCameraOptions(Strict):
     gamma: float = Field(1.0, ge=0.2, le=5.0)
     blur_px: float = Field(0.6, ge=0.0, le=20.0)
     frame_period_s: float = Field(1 / 30, gt=0.0, le=10.0)
+    buffered_frames: int = Field(0, ge=0, le=16, description="frames the simulated driver holds (stale on capture)")
     faults: SimFaults = SimFaults()
 
 
@@ -105,6 +107,13 @@ class ProjectorConfig(Strict):
     driver: Literal["sim"] = "sim"
     resolution: Resolution
     geometry: Geometry
+    latency_s: float = Field(
+        0.0,
+        ge=0.0,
+        le=2.0,
+        description="time from show() to the pattern's light on the scene, waited after every pattern "
+        "(measure it with `slrig doctor --latency`)",
+    )
     sim: SimProjectorOptions = SimProjectorOptions()
 
 

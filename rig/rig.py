@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import contextlib
+import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -105,6 +106,13 @@ class Rig:
             self._triangulators[key] = PairTriangulator(self.camera_models[camera], self.projector_models[projector])
         return self._triangulators[key]
 
+    def wait(self, seconds: float) -> None:
+        """Let time pass: bench time on the simulated bench, real time on real devices."""
+        if self.sim is not None:
+            self.sim.advance(seconds)
+        elif seconds > 0:
+            time.sleep(seconds)
+
     def all_dark(self) -> None:
         for projector in self.projectors:
             with contextlib.suppress(Exception):  # darkening the others matters more than this error
@@ -128,7 +136,11 @@ class Rig:
 
 def _sim_projector_params(p: ProjectorConfig) -> SimProjectorParams:
     return SimProjectorParams(
-        gamma=p.sim.gamma, brightness=p.sim.brightness, black_level=p.sim.black_level, blur_px=p.sim.blur_px
+        gamma=p.sim.gamma,
+        brightness=p.sim.brightness,
+        black_level=p.sim.black_level,
+        blur_px=p.sim.blur_px,
+        latency_s=p.sim.latency_s,
     )
 
 
@@ -143,6 +155,7 @@ def _sim_camera_params(c: CameraConfig) -> SimCameraParams:
         blur_px=c.sim.blur_px,
         bit_depth=c.bit_depth,
         frame_period_s=c.sim.frame_period_s,
+        buffered_frames=c.sim.buffered_frames,
         color=c.color,
     )
 

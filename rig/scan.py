@@ -65,8 +65,14 @@ def capture(rig: Rig, codecs: list[Codec], tracker: ProgressTracker) -> dict[tup
         for p, (projector, codec) in enumerate(zip(rig.projectors, codecs, strict=True)):
             for c in range(len(rig.cameras)):
                 frames[(p, c)] = []
+            latency = rig.config.projectors[p].latency_s
             for pattern in codec.patterns():
+                # Software sync: show, wait until the light is on the scene, drop frames exposed
+                # before that, then capture.
                 projector.show(pattern)
+                rig.wait(latency)
+                for camera in rig.cameras:
+                    camera.flush()
                 for c, camera in enumerate(rig.cameras):
                     frame = camera.capture(timeout_s=timeout)
                     if frame.sequence <= last_sequence[c]:

@@ -50,6 +50,7 @@ class SimProjectorParams:
     black_level: float = 0.004  # light leaked at black, as a fraction of white (250:1 contrast)
     blur_px: float = 0.5  # defocus, Gaussian sigma in projector pixels
     reference_distance_mm: float = 600.0
+    latency_s: float = 0.0  # from show() to light on the scene (HDMI input lag, a frame or two)
 
 
 @dataclass(frozen=True)
@@ -65,6 +66,7 @@ class SimCameraParams:
     blur_px: float = 0.6  # optical blur, Gaussian sigma in camera pixels
     bit_depth: int = 8
     frame_period_s: float = 1 / 30
+    buffered_frames: int = 0  # frames the driver holds: a capture returns the oldest unless flushed
     color: bool = False  # a colour sensor gives BGR frames; a mono one sees the albedo's luminance
 
 
@@ -122,22 +124,41 @@ class SimBench:
         self._caster = RayCaster(scene.vertices, scene.faces)
         self._views: dict[int, _CameraView] = {}
         self._illumination: dict[tuple[int, int], _Illumination] = {}
-        self._emitted: list[np.ndarray | None] = [None] * len(projectors)
+        # what each projector emits from when: (bench time, light or None for dark), oldest first
+        self._history: list[list[tuple[float, np.ndarray | None]]] = [[(0.0, None)] for _ in projectors]
         self.clock_s = 0.0
 
     # --- projector state -------------------------------------------------------------------
     def set_pattern(self, projector: int, pattern: np.ndarray | None) -> None:
-        """Make projector `projector` emit `pattern` (uint8, its resolution), or black for None."""
-        if pattern is None:
-            self._emitted[projector] = None
-            return
+        """Make projector `projector` emit `pattern` (uint8, its resolution), or black for None,
+        from its latency after now on the bench clock."""
+        params = self.projector_params[projector]
+        history = self._history[projector]
+        history.append(
+            (self.clock_s + params.latency_s, None if pattern is None else self._emission(projector, pattern))
+        )
+        del history[:-8]
+
+    def emitted_at(self, projector: int, time_s: float) -> np.ndarray | None:
+        """The light a projector gives at bench time `time_s` (None: dark)."""
+        current = None
+        for start, light in self._history[projector]:
+            if start <= time_s:
+                current = light
+        return current
+
+    def advance(self, seconds: float) -> None:
+        """Let bench time pass (the simulated equivalent of waiting)."""
+        self.clock_s += max(0.0, seconds)
+
+    def _emission(self, projector: int, pattern: np.ndarray) -> np.ndarray:
         params = self.projector_params[projector]
         lut = (np.arange(256, dtype=np.float64) / 255.0) ** params.gamma
         lut = params.black_level + (1.0 - params.black_level) * lut
         emitted = lut.astype(np.float32)[pattern]
         if params.blur_px > 0:
             emitted = cv2.GaussianBlur(emitted, (0, 0), params.blur_px, borderType=cv2.BORDER_REPLICATE)
-        self._emitted[projector] = emitted
+        return emitted
 
     # --- geometry, computed once per pose --------------------------------------------------
     def _view(self, camera: int) -> _CameraView:
@@ -251,11 +272,14 @@ class SimBench:
         return puv, lit, gain
 
     # --- rendering -------------------------------------------------------------------------
-    def irradiance(self, camera: int) -> np.ndarray:
-        """Light falling on the surface seen by each camera pixel, before albedo (float32)."""
+    def irradiance(self, camera: int, time_s: float | None = None) -> np.ndarray:
+        """Light falling on the surface seen by each camera pixel at bench time `time_s` (default
+        now), before albedo (float32)."""
         cam = self.cameras[camera]
+        when = self.clock_s if time_s is None else time_s
         total = np.full((cam.height, cam.width), self.ambient, dtype=np.float32)
-        for p, emitted in enumerate(self._emitted):
+        for p in range(len(self.projectors)):
+            emitted = self.emitted_at(p, when)
             light = self._lighting(camera, p)
             black = self.projector_params[p].black_level
             if emitted is None:
@@ -267,13 +291,16 @@ class SimBench:
             total += sampled * light.irradiance_gain
         return total
 
-    def render(self, camera: int, exposure_us: float | None = None, gain: float | None = None) -> np.ndarray:
-        """One camera image of the current light, with sensor noise, as uint8 or uint16."""
+    def render(
+        self, camera: int, exposure_us: float | None = None, gain: float | None = None, time_s: float | None = None
+    ) -> np.ndarray:
+        """One camera image of the light at bench time `time_s` (default now), with sensor noise,
+        as uint8 or uint16; the bench clock moves on by a frame period."""
         params = self.camera_params[camera]
         exposure = params.exposure_us if exposure_us is None else exposure_us
         gain = params.gain if gain is None else gain
         view = self._view(camera)
-        irradiance = self.irradiance(camera)
+        irradiance = self.irradiance(camera, time_s)
         radiance = irradiance[..., None] * view.albedo if params.color else irradiance * view.albedo_mono
         if params.blur_px > 0:
             radiance = cv2.GaussianBlur(radiance, (0, 0), params.blur_px, borderType=cv2.BORDER_REPLICATE)

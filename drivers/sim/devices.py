@@ -30,7 +30,8 @@ class SimProjector(Projector):
 
     @property
     def is_dark(self) -> bool:
-        return self._bench._emitted[self._index] is None
+        """Dark once its latency has passed: no light is on its way."""
+        return self._bench._history[self._index][-1][1] is None
 
     def _do_open(self) -> None:
         self._bench.set_pattern(self._index, None)
@@ -89,6 +90,12 @@ class SimCamera(Camera):
     def _do_close(self) -> None:
         pass
 
+    def _do_flush(self) -> None:
+        """Drop the buffered frames: the camera runs on for that many frame periods."""
+        skipped = self._params.buffered_frames
+        self._bench.advance(skipped * self._params.frame_period_s)
+        self._sequence += skipped
+
     def _do_capture(self, deadline: float) -> Frame:
         faults = self._faults
         self._captures += 1
@@ -99,7 +106,9 @@ class SimCamera(Camera):
             raise DeviceTimeoutError(f"{self.name}: no frame before the capture deadline")
         if faults.repeat_at is not None and self._captures == faults.repeat_at and self._last is not None:
             return self._last
-        image = self._bench.render(self._index, self._exposure_us, self._gain)
+        # A driver holding `buffered_frames` hands out the oldest: exposed that many periods ago.
+        stale_by = self._params.buffered_frames * self._params.frame_period_s
+        image = self._bench.render(self._index, self._exposure_us, self._gain, self._bench.clock_s - stale_by)
         self._sequence += 1
         self._last = Frame(
             image=image,

@@ -1,0 +1,55 @@
+"""Projector-camera sync on the simulated bench's timing model: a projector that lights the scene
+some time after show(), and a camera driver that hands out buffered (older) frames."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+
+from rig.cli import main
+from rig.config import load_config
+from rig.rig import open_rig
+from tests.conftest import small_config_data, write_config
+
+LATENCY_S = 0.05  # a frame and a half at 30 frames per second
+BUFFERED = 2
+
+
+def _timed(configured_latency_s: float) -> dict[str, Any]:
+    data = small_config_data()
+    data["projectors"][0]["sim"]["latency_s"] = LATENCY_S
+    data["projectors"][0]["latency_s"] = configured_latency_s
+    data["cameras"][0]["sim"]["buffered_frames"] = BUFFERED
+    return data
+
+
+def test_a_naive_capture_loop_records_the_previous_pattern(tmp_path: Path) -> None:
+    with open_rig(load_config(write_config(tmp_path, _timed(LATENCY_S)))) as the_rig:
+        projector, camera = the_rig.projectors[0], the_rig.cameras[0]
+        width, height = projector.resolution
+        lit = camera.capture().image.mean()
+        projector.show(np.full((height, width), 255, np.uint8))
+        naive = camera.capture().image.mean()  # show, then capture at once: a frame from before
+        the_rig.wait(LATENCY_S)
+        camera.flush()
+        synced = camera.capture().image.mean()  # slrig's order: show, wait the latency, flush, capture
+    assert naive < lit + 2  # still dark
+    assert synced > 5 * max(naive, 1.0)
+
+
+def _eval(tmp_path: Path, data: dict[str, Any], capsys: pytest.CaptureFixture[str], name: str) -> dict[str, Any]:
+    assert main(["eval", "--config", str(write_config(tmp_path, data, name)), "--codec", "gray", "--json"]) == 0
+    return json.loads(capsys.readouterr().out)
+
+
+def test_software_sync_gives_the_cloud_of_an_ideal_bench(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    ideal = _eval(tmp_path, small_config_data(), capsys, "ideal.yaml")
+    synced = _eval(tmp_path, _timed(LATENCY_S), capsys, "synced.yaml")
+    unsynced = _eval(tmp_path, _timed(0.0), capsys, "unsynced.yaml")  # latency not measured
+    assert synced["points"] == ideal["points"]
+    assert synced["rms_mm"] == pytest.approx(ideal["rms_mm"], rel=1e-9)  # the same frames, so the same cloud
+    assert unsynced["completeness"] < 0.5 * ideal["completeness"]  # every frame one pattern behind
