@@ -21,6 +21,7 @@ class FakePJLinkProjector:
         self.muted = False
         self.received: list[str] = []
         self._server = socket.create_server(("127.0.0.1", 0))
+        self._server.settimeout(0.1)  # so the accept loop notices close()
         self.port = self._server.getsockname()[1]
         self._stop = threading.Event()
         self._thread = threading.Thread(target=self._serve, daemon=True)
@@ -38,7 +39,6 @@ class FakePJLinkProjector:
         self.close()
 
     def _serve(self) -> None:
-        self._server.settimeout(0.1)
         while not self._stop.is_set():
             try:
                 conn, _ = self._server.accept()
