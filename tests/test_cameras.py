@@ -1,0 +1,130 @@
+"""Camera drivers: one contract suite for the simulated camera and the real V4L2 driver on its
+VideoCapture protocol fake, then the V4L2 driver's own faults."""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Iterator
+
+import cv2
+import numpy as np
+import pytest
+
+from drivers.base import Camera
+from drivers.errors import DeviceError, DeviceNotFoundError, DeviceProtocolError, DeviceStateError, DeviceTimeoutError
+from drivers.sim import SimBench, SimCamera, SimCameraFaults, SimCameraParams, SimProjector
+from drivers.sim import scene as sc
+from drivers.sim.fake_v4l2 import FakeVideoCapture, V4l2Faults
+from drivers.v4l2 import V4l2Camera
+from tests.conftest import make_device
+
+SIZE = (320, 256)
+
+
+def _sim(faults: SimCameraFaults | None = None) -> Camera:
+    camera = make_device(*SIZE, 450.0, (0.0, 0.0, 600.0))
+    projector = make_device(64, 48, 90.0, (100.0, 0.0, 600.0))
+    bench = SimBench(
+        sc.build_scene([sc.plane(1000.0)]), [camera], [projector], camera_params=[SimCameraParams(buffered_frames=2)]
+    )
+    SimProjector("p", bench, 0).open()
+    return SimCamera("sim", bench, 0, faults)
+
+
+def _v4l2(faults: V4l2Faults | None = None, **kwargs: object) -> V4l2Camera:
+    fake = FakeVideoCapture(faults)
+    return V4l2Camera("v4l2", "fake-video0", SIZE, capture_factory=lambda device: fake, **kwargs)  # type: ignore[arg-type]
+
+
+@pytest.fixture(params=["sim", "v4l2-on-fake"])
+def kind(request: pytest.FixtureRequest) -> str:
+    return str(request.param)
+
+
+@pytest.fixture
+def camera(kind: str) -> Iterator[Camera]:
+    device = _sim() if kind == "sim" else _v4l2()
+    yield device
+    device.close()
+
+
+# --- the contract ------------------------------------------------------------------------------
+def test_frames_are_numbered_timestamped_and_sized(camera: Camera) -> None:
+    camera.open()
+    frames = [camera.capture(timeout_s=1.0) for _ in range(3)]
+    assert [f.sequence for f in frames] == [1, 2, 3]
+    assert frames[0].timestamp_s < frames[1].timestamp_s < frames[2].timestamp_s
+    assert all(f.image.shape[:2] == (SIZE[1], SIZE[0]) and f.image.dtype == np.uint8 for f in frames)
+    assert camera.resolution == SIZE
+
+
+def test_flush_drops_what_the_driver_holds(camera: Camera) -> None:
+    camera.open()
+    first = camera.capture(timeout_s=1.0)
+    camera.flush()
+    after = camera.capture(timeout_s=1.0)
+    assert after.sequence == first.sequence + 2 + 1  # two buffered frames skipped
+
+
+def test_exposure_is_validated_and_kept(camera: Camera) -> None:
+    camera.open()
+    camera.set_exposure_us(5000.0)
+    assert camera.exposure_us == 5000.0
+    with pytest.raises(ValueError):
+        camera.set_exposure_us(0.0)
+
+
+def test_closed_cameras_refuse_and_close_twice(camera: Camera) -> None:
+    with pytest.raises(DeviceStateError):
+        camera.capture()
+    camera.open()
+    camera.close()
+    camera.close()
+    with pytest.raises(DeviceStateError):
+        camera.capture()
+
+
+def test_a_silent_camera_times_out_within_the_timeout(kind: str) -> None:
+    device = _sim(SimCameraFaults(stall_after=1)) if kind == "sim" else _v4l2(V4l2Faults(stall_after=1))
+    with device:
+        device.capture(timeout_s=0.3)
+        start = time.monotonic()
+        with pytest.raises(DeviceTimeoutError):
+            device.capture(timeout_s=0.3)
+        assert time.monotonic() - start < 0.8
+
+
+# --- V4L2 specifics ------------------------------------------------------------------------------
+def test_v4l2_settings_reach_the_device_in_its_units() -> None:
+    fake = FakeVideoCapture()
+    camera = V4l2Camera(
+        "v4l2", "fake", SIZE, pixel_format="YUYV", exposure_us=12300.0, gain=4.0, capture_factory=lambda device: fake
+    )
+    with camera:
+        assert fake.props[cv2.CAP_PROP_EXPOSURE] == 123  # 100 us units
+        assert fake.props[cv2.CAP_PROP_AUTO_EXPOSURE] == 1  # manual
+        assert fake.props[cv2.CAP_PROP_GAIN] == 4.0
+        assert fake.props[cv2.CAP_PROP_FOURCC] == cv2.VideoWriter_fourcc(*"YUYV")
+    assert fake.released
+
+
+def test_v4l2_refuses_what_the_camera_clamps() -> None:
+    with pytest.raises(DeviceError, match=r"exposure .* was not taken"):
+        _v4l2(V4l2Faults(max_exposure=50), exposure_us=20000.0).open()
+    with pytest.raises(DeviceError, match="width"):
+        V4l2Camera("v4l2", "fake", (1000, 700), capture_factory=lambda d: FakeVideoCapture()).open()
+    with pytest.raises(DeviceNotFoundError):
+        _v4l2(V4l2Faults(absent=True)).open()
+    with pytest.raises(DeviceNotFoundError, match="does not exist"):
+        V4l2Camera("v4l2", "/dev/video-that-is-not-there", SIZE).open()
+
+
+def test_v4l2_stale_and_dropped_frames() -> None:
+    with _v4l2(V4l2Faults(repeat_at=3)) as camera:
+        camera.capture()
+        camera.capture()
+        with pytest.raises(DeviceProtocolError, match="stale"):
+            camera.capture()
+    with _v4l2(V4l2Faults(drop_at=3)) as camera:
+        frames = [camera.capture() for _ in range(4)]
+        assert frames[-1].meta["dropped_before"] == 1
