@@ -75,6 +75,7 @@ class PatternSequence:
     trigger: TriggerMode = TriggerMode.INTERNAL
     source: str = "video"  # "video": bit-planes of the video input; "flash": stored images
     repeat: bool = False
+    images: tuple[np.ndarray, ...] | None = None  # full images, for projectors that take them
 
 
 class Device(abc.ABC):
@@ -199,6 +200,21 @@ class Camera(Device):
     @abc.abstractmethod
     def resolution(self) -> tuple[int, int]:
         """(width, height) in pixels."""
+
+    trigger: TriggerMode = TriggerMode.INTERNAL
+
+    def set_trigger(self, mode: TriggerMode) -> None:
+        """INTERNAL: free-running, capture() takes the next frame; EXTERNAL: one exposure per pulse
+        on the trigger input (a projector's trigger out)."""
+        self._require_open()
+        if mode is TriggerMode.VSYNC:
+            raise ValueError(f"{self.name}: cameras trigger internally or externally")
+        self._do_set_trigger(mode)
+        self.trigger = mode
+
+    def _do_set_trigger(self, mode: TriggerMode) -> None:
+        if mode is not TriggerMode.INTERNAL:
+            raise DeviceStateError(f"{self.name}: this camera has no trigger input")
 
     @property
     @abc.abstractmethod

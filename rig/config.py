@@ -114,6 +114,12 @@ class ProjectorConfig(Strict):
         description="time from show() to the pattern's light on the scene, waited after every pattern "
         "(measure it with `slrig doctor --latency`)",
     )
+    sync: Literal["software", "hardware"] = Field(
+        "software",
+        description="software: show each pattern, wait latency_s, flush, capture; hardware: the projector "
+        "plays the whole sequence and its trigger output starts every camera exposure",
+    )
+    pattern_period_us: int = Field(33334, ge=1000, le=10_000_000, description="pattern period (hardware sync)")
     sim: SimProjectorOptions = SimProjectorOptions()
 
 

@@ -220,7 +220,9 @@ def open_rig(config: RigConfig) -> Rig:
         ambient=config.simulation.ambient,
         seed=config.simulation.seed,
     )
-    projectors: list[Projector] = [SimProjector(p.name, bench, i) for i, p in enumerate(config.projectors)]
+    projectors: list[Projector] = [
+        SimProjector(p.name, bench, i, sequence=p.sync == "hardware") for i, p in enumerate(config.projectors)
+    ]
     cameras: list[Camera] = [SimCamera(c.name, bench, i, _faults(c)) for i, c in enumerate(config.cameras)]
     rig = Rig(
         config,

@@ -7,7 +7,6 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from drivers.errors import DeviceError
 from rig.errors import DecodeError, ScanError
 from rig.patterns import Codec, Correspondence, codec_class
 from rig.pointset import PointSet
@@ -15,6 +14,7 @@ from rig.progress import ProgressCallback, ProgressTracker
 from rig.reconstruct import pair_pointset, reject_isolated
 from rig.reconstruct_sparse import RingPoints, ring_pointset, triangulate_rings
 from rig.rig import Rig
+from rig.sequencer import capture
 
 
 @dataclass(eq=False)
@@ -48,47 +48,6 @@ def make_codec(rig: Rig, projector: int, name: str | None = None) -> Codec:
     params = getattr(rig.config.scan, name, None)
     lut = rig.response_luts[projector] if rig.response_luts else None
     return cls(rig.projectors[projector].resolution, params, lut)
-
-
-def capture(rig: Rig, codecs: list[Codec], tracker: ProgressTracker) -> dict[tuple[int, int], list[np.ndarray]]:
-    """Frames per (projector, camera); every projector is dark while another one projects.
-
-    Any device fault darkens every projector and raises ScanError.
-    """
-    timeout = rig.config.scan.capture_timeout_s
-    total = sum(c.frame_count for c in codecs)
-    done = 0
-    frames: dict[tuple[int, int], list[np.ndarray]] = {}
-    last_sequence = [-1] * len(rig.cameras)  # across projectors: a frame repeated at a switch is stale too
-    try:
-        rig.all_dark()
-        for p, (projector, codec) in enumerate(zip(rig.projectors, codecs, strict=True)):
-            for c in range(len(rig.cameras)):
-                frames[(p, c)] = []
-            latency = rig.config.projectors[p].latency_s
-            for pattern in codec.patterns():
-                # Software sync: show, wait until the light is on the scene, drop frames exposed
-                # before that, then capture.
-                projector.show(pattern)
-                rig.wait(latency)
-                for camera in rig.cameras:
-                    camera.flush()
-                for c, camera in enumerate(rig.cameras):
-                    frame = camera.capture(timeout_s=timeout)
-                    if frame.sequence <= last_sequence[c]:
-                        raise ScanError(f"{camera.name}: stale frame (sequence {frame.sequence})")
-                    last_sequence[c] = frame.sequence
-                    frames[(p, c)].append(frame.image)
-                done += 1
-                tracker.report("capture", 0.6 * done / total)
-            projector.dark()
-    except DeviceError as exc:
-        rig.all_dark()
-        raise ScanError(f"capture failed: {exc}") from exc
-    except BaseException:
-        rig.all_dark()
-        raise
-    return frames
 
 
 def reconstruct_pair(

@@ -53,3 +53,36 @@ def test_software_sync_gives_the_cloud_of_an_ideal_bench(tmp_path: Path, capsys:
     assert synced["points"] == ideal["points"]
     assert synced["rms_mm"] == pytest.approx(ideal["rms_mm"], rel=1e-9)  # the same frames, so the same cloud
     assert unsynced["completeness"] < 0.5 * ideal["completeness"]  # every frame one pattern behind
+
+
+def test_hardware_trigger_path_gives_the_same_cloud(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    software = _eval(tmp_path, small_config_data(), capsys, "software.yaml")
+    data = small_config_data()
+    data["projectors"][0]["sync"] = "hardware"
+    data["projectors"][0]["sim"]["latency_s"] = LATENCY_S  # the sequence starts late; triggers follow the light
+    data["cameras"][0]["sim"]["buffered_frames"] = BUFFERED  # nothing buffered in triggered mode
+    hardware = _eval(tmp_path, data, capsys, "hardware.yaml")
+    assert hardware["points"] == software["points"]
+    assert hardware["rms_mm"] == pytest.approx(software["rms_mm"], rel=1e-9)
+
+
+def test_a_missed_trigger_fails_the_scan(tmp_path: Path) -> None:
+    from drivers.base import TriggerMode
+    from rig.errors import ScanError
+    from rig.scan import run_scan
+
+    data = small_config_data()
+    data["projectors"][0]["sync"] = "hardware"
+    with open_rig(load_config(write_config(tmp_path, data))) as the_rig:
+        camera = the_rig.cameras[0]
+        original = camera.capture
+
+        def skip_one(timeout_s: float = 2.0):  # type: ignore[no-untyped-def]
+            if camera.trigger is TriggerMode.EXTERNAL and original.__self__._captures == 4:  # type: ignore[attr-defined]
+                original(timeout_s)  # this pulse's frame is lost
+            return original(timeout_s)
+
+        camera.capture = skip_one  # type: ignore[method-assign]
+        with pytest.raises(ScanError, match=r"trigger was missed|dropped"):
+            run_scan(the_rig)
+        assert all(p.is_dark for p in the_rig.projectors)  # type: ignore[attr-defined]

@@ -127,6 +127,7 @@ class SimBench:
         # what each projector emits from when: (bench time, light or None for dark), oldest first
         self._history: list[list[tuple[float, np.ndarray | None]]] = [[(0.0, None)] for _ in projectors]
         self.clock_s = 0.0
+        self.trigger_times: list[float] = []  # pulses on the projectors' trigger outputs, bench time
 
     # --- projector state -------------------------------------------------------------------
     def set_pattern(self, projector: int, pattern: np.ndarray | None) -> None:
@@ -138,6 +139,19 @@ class SimBench:
             (self.clock_s + params.latency_s, None if pattern is None else self._emission(projector, pattern))
         )
         del history[:-8]
+
+    def play(self, projector: int, patterns: list[np.ndarray], period_s: float) -> float:
+        """Play `patterns` back to back, one per `period_s`, from now plus the projector's latency,
+        then dark; each pattern's start pulses the trigger output. Returns when the last ends."""
+        start = self.clock_s + self.projector_params[projector].latency_s
+        history = self._history[projector]
+        for k, pattern in enumerate(patterns):
+            history.append((start + k * period_s, self._emission(projector, pattern)))
+            self.trigger_times.append(start + k * period_s)
+        end = start + len(patterns) * period_s
+        history.append((end, None))
+        del history[: -(len(patterns) + 8)]
+        return end
 
     def emitted_at(self, projector: int, time_s: float) -> np.ndarray | None:
         """The light a projector gives at bench time `time_s` (None: dark)."""

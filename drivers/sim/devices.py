@@ -7,21 +7,23 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from drivers.base import Camera, Frame, Projector, ProjectorMode
-from drivers.errors import DeviceDisconnectedError, DeviceTimeoutError
+from drivers.base import Camera, Frame, PatternSequence, Projector, ProjectorMode, TriggerMode
+from drivers.errors import DeviceDisconnectedError, DeviceStateError, DeviceTimeoutError
 from drivers.sim.bench import SimBench
 
 
 class SimProjector(Projector):
-    """A streaming projector whose light falls on the simulated scene."""
+    """A projector whose light falls on the simulated scene: streaming (each show() is lit after its
+    latency) or, with `sequence=True`, one that plays a preloaded sequence on its own clock and
+    pulses its trigger output at each pattern, like a LightCrafter in pattern mode."""
 
-    mode = ProjectorMode.STREAMING
-
-    def __init__(self, name: str, bench: SimBench, index: int) -> None:
+    def __init__(self, name: str, bench: SimBench, index: int, sequence: bool = False) -> None:
         super().__init__(name)
         self._bench = bench
         self._index = index
+        self.mode = ProjectorMode.SEQUENCE if sequence else ProjectorMode.STREAMING
         self.shown = 0  # patterns shown since open, for tests
+        self._loaded: PatternSequence | None = None
 
     @property
     def resolution(self) -> tuple[int, int]:
@@ -41,6 +43,23 @@ class SimProjector(Projector):
         self.shown += 1
 
     def _do_dark(self) -> None:
+        self._bench.set_pattern(self._index, None)
+
+    def _do_load_sequence(self, sequence: PatternSequence) -> None:
+        if sequence.images is None:
+            raise DeviceStateError(f"{self.name}: the simulated projector plays images; give sequence.images")
+        width, height = self.resolution
+        if any(i.shape != (height, width) or i.dtype != np.uint8 for i in sequence.images):
+            raise ValueError(f"{self.name}: sequence images must be uint8 of shape {(height, width)}")
+        self._loaded = sequence
+
+    def _do_start_sequence(self) -> None:
+        if self._loaded is None or self._loaded.images is None:
+            raise DeviceStateError(f"{self.name}: no sequence loaded")
+        self._bench.play(self._index, list(self._loaded.images), self._loaded.period_us * 1e-6)
+        self.shown += len(self._loaded.images)
+
+    def _do_stop_sequence(self) -> None:
         self._bench.set_pattern(self._index, None)
 
 
@@ -86,6 +105,20 @@ class SimCamera(Camera):
         self._sequence = 0
         self._captures = 0
         self._last = None
+        self._next_trigger = len(self._bench.trigger_times)
+
+    def _do_set_trigger(self, mode: TriggerMode) -> None:
+        self._next_trigger = len(self._bench.trigger_times)  # pulses from now on
+
+    def _triggered_time(self, deadline: float) -> float:
+        """Bench time of the next trigger pulse; the camera waits (in bench time) until then."""
+        if self._next_trigger >= len(self._bench.trigger_times):
+            time.sleep(max(0.0, min(0.05, deadline - time.monotonic())))
+            raise DeviceTimeoutError(f"{self.name}: no trigger pulse before the capture deadline")
+        when = self._bench.trigger_times[self._next_trigger]
+        self._next_trigger += 1
+        self._bench.clock_s = max(self._bench.clock_s, when)
+        return when
 
     def _do_close(self) -> None:
         pass
@@ -106,13 +139,17 @@ class SimCamera(Camera):
             raise DeviceTimeoutError(f"{self.name}: no frame before the capture deadline")
         if faults.repeat_at is not None and self._captures == faults.repeat_at and self._last is not None:
             return self._last
-        # A driver holding `buffered_frames` hands out the oldest: exposed that many periods ago.
-        stale_by = self._params.buffered_frames * self._params.frame_period_s
-        image = self._bench.render(self._index, self._exposure_us, self._gain, self._bench.clock_s - stale_by)
+        if self.trigger is TriggerMode.EXTERNAL:
+            exposed = self._triggered_time(deadline)  # one exposure per pulse, nothing buffered
+        else:
+            # A driver holding `buffered_frames` hands out the oldest: exposed that many periods ago.
+            exposed = self._bench.clock_s - self._params.buffered_frames * self._params.frame_period_s
+        stamp = exposed + self._exposure_us * 1e-6
+        image = self._bench.render(self._index, self._exposure_us, self._gain, exposed)
         self._sequence += 1
         self._last = Frame(
             image=image,
-            timestamp_s=self._bench.clock_s,
+            timestamp_s=stamp,
             sequence=self._sequence,
             exposure_us=self._exposure_us,
             gain=self._gain,

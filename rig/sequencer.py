@@ -1,0 +1,122 @@
+"""Capture: every pattern of every projector, seen by every camera, in sync.
+
+Streaming projectors use software sync (show, wait the measured latency, drop frames exposed
+before it, capture); sequence projectors use hardware sync (the projector plays the sequence and its
+trigger output starts each camera exposure; frames are matched to patterns by sequence number and
+timestamp). A device fault darkens every projector and fails the scan.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from drivers.base import Frame, PatternSequence, ProjectorMode, SequenceEntry, TriggerMode
+from drivers.errors import DeviceError
+from rig.errors import ScanError
+from rig.patterns import Codec
+from rig.progress import ProgressTracker
+from rig.rig import Rig
+
+Frames = dict[tuple[int, int], list[np.ndarray]]
+
+
+class _Progress:
+    def __init__(self, tracker: ProgressTracker, total: int) -> None:
+        self.tracker, self.total, self.done = tracker, total, 0
+
+    def step(self) -> None:
+        self.done += 1
+        self.tracker.report("capture", 0.6 * self.done / self.total)
+
+
+def capture(rig: Rig, codecs: list[Codec], tracker: ProgressTracker) -> Frames:
+    """Frames per (projector, camera); every projector is dark while another one projects."""
+    progress = _Progress(tracker, sum(c.frame_count for c in codecs))
+    frames: Frames = {}
+    last_sequence = [-1] * len(rig.cameras)  # across projectors: a frame repeated at a switch is stale too
+    try:
+        rig.all_dark()
+        for p, (projector, codec) in enumerate(zip(rig.projectors, codecs, strict=True)):
+            for c in range(len(rig.cameras)):
+                frames[(p, c)] = []
+            if projector.mode is ProjectorMode.SEQUENCE:
+                _capture_sequence(rig, p, codec.patterns(), frames, last_sequence, progress)
+            else:
+                _capture_streaming(rig, p, codec.patterns(), frames, last_sequence, progress)
+            projector.dark()
+    except DeviceError as exc:
+        rig.all_dark()
+        raise ScanError(f"capture failed: {exc}") from exc
+    except BaseException:
+        rig.all_dark()
+        raise
+    return frames
+
+
+def _take(rig: Rig, c: int, timeout_s: float, last_sequence: list[int]) -> Frame:
+    camera = rig.cameras[c]
+    frame = camera.capture(timeout_s=timeout_s)
+    if frame.sequence <= last_sequence[c]:
+        raise ScanError(f"{camera.name}: stale frame (sequence {frame.sequence})")
+    last_sequence[c] = frame.sequence
+    return frame
+
+
+def _capture_streaming(
+    rig: Rig, p: int, patterns: list[np.ndarray], frames: Frames, last_sequence: list[int], progress: _Progress
+) -> None:
+    projector = rig.projectors[p]
+    latency = rig.config.projectors[p].latency_s
+    timeout = rig.config.scan.capture_timeout_s
+    for pattern in patterns:
+        projector.show(pattern)
+        rig.wait(latency)  # until the light is on the scene
+        for camera in rig.cameras:
+            camera.flush()  # frames exposed before that are the previous pattern
+        for c in range(len(rig.cameras)):
+            frames[(p, c)].append(_take(rig, c, timeout, last_sequence).image)
+        progress.step()
+
+
+def _capture_sequence(
+    rig: Rig, p: int, patterns: list[np.ndarray], frames: Frames, last_sequence: list[int], progress: _Progress
+) -> None:
+    """Frame k belongs to pattern k: sequence numbers must follow one another and timestamps be one
+    pattern period apart, or a trigger was missed and the scan fails."""
+    projector = rig.projectors[p]
+    config = rig.config.projectors[p]
+    period_s = config.pattern_period_us * 1e-6
+    timeout = rig.config.scan.capture_timeout_s + config.latency_s + period_s
+    sequence = PatternSequence(
+        entries=tuple(SequenceEntry(k % 25, 8) for k in range(len(patterns))),
+        exposure_us=config.pattern_period_us,
+        period_us=config.pattern_period_us,
+        trigger=TriggerMode.INTERNAL,
+        images=tuple(patterns),
+    )
+    for camera in rig.cameras:
+        camera.set_trigger(TriggerMode.EXTERNAL)
+    try:
+        projector.load_sequence(sequence)
+        projector.start_sequence()
+        previous: list[Frame | None] = [None] * len(rig.cameras)
+        for _ in patterns:
+            for c in range(len(rig.cameras)):
+                frame = _take(rig, c, timeout, last_sequence)
+                before = previous[c]
+                if before is not None:
+                    gap = frame.timestamp_s - before.timestamp_s
+                    if frame.sequence != before.sequence + 1:
+                        raise ScanError(f"{rig.cameras[c].name}: dropped frames during the sequence")
+                    if abs(gap - period_s) > 0.5 * period_s:
+                        raise ScanError(
+                            f"{rig.cameras[c].name}: a trigger was missed ({gap:.4f} s between "
+                            f"frames, pattern period {period_s:.4f} s)"
+                        )
+                previous[c] = frame
+                frames[(p, c)].append(frame.image)
+            progress.step()
+        projector.stop_sequence()
+    finally:
+        for camera in rig.cameras:
+            camera.set_trigger(TriggerMode.INTERNAL)
