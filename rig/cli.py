@@ -16,6 +16,7 @@ from rig import __version__
 from rig.calibrate.response import RESPONSE_NAME, calibrate_response
 from rig.calibrate.session import calibrate
 from rig.config import SCENE_KINDS, RigConfig, load_config
+from rig.devices import describe, inventory
 from rig.errors import ConfigError, ScanError, SlrigError
 from rig.evaluate import evaluate_on_bench
 from rig.patterns import codec_class, codec_names
@@ -62,6 +63,8 @@ def _parser() -> argparse.ArgumentParser:
         help=f"scene name ({', '.join(k for k in SCENE_KINDS if k != 'mesh')}) or a "
         f"PLY/OBJ/STL file (scaled to {MESH_FIT_SIZE_MM:.0f} mm)",
     )
+    devices = sub.add_parser("devices", help="list attached USB devices, video nodes, serial ports and OAK cameras")
+    devices.add_argument("--json", action="store_true", help="print one JSON object instead of text")
     cal = sub.add_parser("calibrate", help="calibrate cameras, projectors, or the whole rig into one world frame")
     cal.add_argument(
         "what",
@@ -220,9 +223,18 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_devices(args: argparse.Namespace) -> int:
+    found = inventory()
+    if args.json:
+        print(json.dumps(found, allow_nan=False))
+    else:
+        print("\n".join(describe(found)))
+    return 0
+
+
 def main(argv: list[str] | None = None) -> int:
     args = _parser().parse_args(argv)
-    handler = {"scan": cmd_scan, "eval": cmd_eval, "calibrate": cmd_calibrate}[args.command]
+    handler = {"scan": cmd_scan, "eval": cmd_eval, "calibrate": cmd_calibrate, "devices": cmd_devices}[args.command]
     try:
         return handler(args)
     except ScanError as exc:
