@@ -20,6 +20,7 @@ from drivers.errors import (
     DeviceStateError,
     DeviceTimeoutError,
 )
+from drivers.hdmi.projector import HdmiProjector
 from drivers.sim import SimBench, SimProjector
 from drivers.sim import scene as sc
 from drivers.sim.fake_dlpc350 import FakeLcr4500, Faults, finder_for
@@ -58,15 +59,26 @@ class _Lcr:
         return self.fake.dark
 
 
-@pytest.fixture(params=["sim", "lcr4500-on-usb-fake"])
-def kit(request: pytest.FixtureRequest) -> Iterator[_Sim | _Lcr]:
-    k = _Sim() if request.param == "sim" else _Lcr()
+class _Hdmi:
+    """The real HDMI driver and its worker process, on SDL's offscreen video driver."""
+
+    def __init__(self) -> None:
+        self.projector = HdmiProjector("hdmi", (64, 48), video_driver="offscreen", timeout_s=2.0)
+
+    def is_dark(self) -> bool:
+        return self.projector.last_checksum in (None, 0)
+
+
+@pytest.fixture(params=["sim", "lcr4500-on-usb-fake", "hdmi-worker-offscreen"])
+def kit(request: pytest.FixtureRequest) -> Iterator[_Sim | _Lcr | _Hdmi]:
+    kinds = {"sim": _Sim, "lcr4500-on-usb-fake": _Lcr, "hdmi-worker-offscreen": _Hdmi}
+    k = kinds[request.param]()
     yield k
     k.projector.close()
 
 
 # --- the contract: what every projector does -------------------------------------------------
-def test_open_is_dark_and_close_is_idempotent(kit: _Sim | _Lcr) -> None:
+def test_open_is_dark_and_close_is_idempotent(kit: _Sim | _Lcr | _Hdmi) -> None:
     projector: Projector = kit.projector
     projector.open()
     assert projector.is_open and kit.is_dark()
@@ -75,7 +87,7 @@ def test_open_is_dark_and_close_is_idempotent(kit: _Sim | _Lcr) -> None:
     assert not projector.is_open
 
 
-def test_a_closed_projector_refuses_work_but_can_always_go_dark(kit: _Sim | _Lcr) -> None:
+def test_a_closed_projector_refuses_work_but_can_always_go_dark(kit: _Sim | _Lcr | _Hdmi) -> None:
     projector: Projector = kit.projector
     projector.dark()  # never raises, even closed
     with pytest.raises(DeviceStateError):
@@ -85,7 +97,7 @@ def test_a_closed_projector_refuses_work_but_can_always_go_dark(kit: _Sim | _Lcr
             projector.load_sequence(SEQUENCE)
 
 
-def test_patterns_light_it_and_dark_stops_the_light(kit: _Sim | _Lcr) -> None:
+def test_patterns_light_it_and_dark_stops_the_light(kit: _Sim | _Lcr | _Hdmi) -> None:
     projector: Projector = kit.projector
     projector.open()
     width, height = projector.resolution
@@ -215,3 +227,35 @@ def test_mode_read_back_lag_is_waited_for() -> None:
     projector.open()
     projector.load_sequence(SEQUENCE)
     assert fake.display_mode == 1
+
+
+# --- the HDMI display worker -------------------------------------------------------------------
+def test_hdmi_worker_reports_each_presentation() -> None:
+    with HdmiProjector("hdmi", (64, 48), video_driver="offscreen") as projector:
+        times = []
+        for value in (40, 120, 250):
+            projector.show(np.full((48, 64), value, np.uint8))  # the driver checks the displayed checksum
+            times.append(projector.last_present_s)
+        assert times == sorted(times) and len(set(times)) == 3
+
+
+def test_hdmi_worker_killed_mid_scan_is_a_disconnect() -> None:
+    import os
+    import signal
+
+    projector = HdmiProjector("hdmi", (64, 48), video_driver="offscreen", timeout_s=1.0)
+    with projector:
+        projector.show(np.full((48, 64), 200, np.uint8))
+        assert projector.worker_pid is not None
+        os.kill(projector.worker_pid, signal.SIGKILL)
+        start = time.monotonic()
+        with pytest.raises(DeviceDisconnectedError):
+            for _ in range(3):  # the pipe may take a write to notice
+                projector.show(np.full((48, 64), 10, np.uint8))
+        assert time.monotonic() - start < 3.0
+    assert projector.worker_pid is None
+
+
+def test_hdmi_without_a_display_says_so() -> None:
+    with pytest.raises(DeviceNotFoundError, match="no display"):
+        HdmiProjector("hdmi", (64, 48), video_driver="no-such-driver", start_timeout_s=5.0).open()

@@ -1,0 +1,81 @@
+"""The display worker: a process that owns one display output and shows full-screen patterns.
+
+Run as `python -m drivers.hdmi.worker WIDTH HEIGHT DISPLAY`; SDL_VIDEODRIVER chooses the output
+(kmsdrm on a bench with no desktop, x11/wayland under one, offscreen in CI). It reads commands on
+stdin and answers each on stdout:
+
+    S <length>\\n<length bytes: uint8 pattern, HEIGHT x WIDTH>   show it      -> P <monotonic s> <checksum>\\n
+    D\\n                                                          dark         -> P <monotonic s> 0\\n
+    Q\\n                                                          dark, exit
+
+The presentation time is taken right after the buffer flip. On end of input (the parent died), on
+SIGTERM, and on any error the screen is made black before the worker exits. Kept free of slrig's
+other modules so it starts fast and can run under its own systemd unit.
+"""
+
+from __future__ import annotations
+
+import os
+import signal
+import sys
+import time
+import zlib
+
+os.environ.setdefault("PYGAME_HIDE_SUPPORT_PROMPT", "1")
+
+
+def main(argv: list[str]) -> int:
+    import numpy as np
+    import pygame
+
+    width, height, display = int(argv[0]), int(argv[1]), int(argv[2]) if len(argv) > 2 else 0
+    pygame.display.init()
+    flags = 0 if os.environ.get("SDL_VIDEODRIVER") == "offscreen" else pygame.FULLSCREEN | pygame.NOFRAME
+    screen = pygame.display.set_mode((width, height), flags, display=display)
+    pygame.mouse.set_visible(False)
+
+    def black() -> None:
+        screen.fill((0, 0, 0))
+        pygame.display.flip()
+
+    def stop(*_: object) -> None:
+        black()
+        pygame.display.quit()
+        sys.exit(0)
+
+    signal.signal(signal.SIGTERM, stop)
+    black()
+    out = sys.stdout.buffer
+    stdin = sys.stdin.buffer
+    out.write(b"R\n")  # ready
+    out.flush()
+    try:
+        while True:
+            line = stdin.readline()
+            if not line or line.startswith(b"Q"):
+                break
+            if line.startswith(b"S"):
+                size = int(line.split()[1])
+                data = stdin.read(size)
+                if len(data) != size or size != width * height:
+                    break
+                pattern = np.frombuffer(data, dtype=np.uint8).reshape(height, width)
+                rgb = np.repeat(pattern.T[:, :, None], 3, axis=2)  # surfarray is (x, y)
+                pygame.surfarray.blit_array(screen, rgb)
+                pygame.display.flip()
+                shown = time.monotonic()
+                checksum = zlib.crc32(pygame.surfarray.array_red(screen).T.tobytes())
+                out.write(f"P {shown:.6f} {checksum}\n".encode())
+            elif line.startswith(b"D"):
+                black()
+                out.write(f"P {time.monotonic():.6f} 0\n".encode())
+            out.flush()
+            pygame.event.pump()  # keep the window responsive
+    finally:
+        black()
+        pygame.display.quit()
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main(sys.argv[1:]))
