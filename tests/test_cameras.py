@@ -12,6 +12,7 @@ import pytest
 
 from drivers.base import Camera
 from drivers.errors import DeviceError, DeviceNotFoundError, DeviceProtocolError, DeviceStateError, DeviceTimeoutError
+from drivers.oak.camera import OakCamera
 from drivers.sim import SimBench, SimCamera, SimCameraFaults, SimCameraParams, SimProjector
 from drivers.sim import scene as sc
 from drivers.sim.fake_v4l2 import FakeVideoCapture, V4l2Faults
@@ -36,14 +37,19 @@ def _v4l2(faults: V4l2Faults | None = None, **kwargs: object) -> V4l2Camera:
     return V4l2Camera("v4l2", "fake-video0", SIZE, capture_factory=lambda device: fake, **kwargs)  # type: ignore[arg-type]
 
 
-@pytest.fixture(params=["sim", "v4l2-on-fake"])
+def _oak(faults: str = "") -> OakCamera:
+    """The real OAK driver and worker process, on the worker's fake depthai backend."""
+    return OakCamera("oak", SIZE, backend="fake", env={"SLRIG_FAKE_OAK": faults})
+
+
+@pytest.fixture(params=["sim", "v4l2-on-fake", "oak-worker-on-fake"])
 def kind(request: pytest.FixtureRequest) -> str:
     return str(request.param)
 
 
 @pytest.fixture
 def camera(kind: str) -> Iterator[Camera]:
-    device = _sim() if kind == "sim" else _v4l2()
+    device = {"sim": _sim, "v4l2-on-fake": _v4l2, "oak-worker-on-fake": _oak}[kind]()
     yield device
     device.close()
 
@@ -58,12 +64,13 @@ def test_frames_are_numbered_timestamped_and_sized(camera: Camera) -> None:
     assert camera.resolution == SIZE
 
 
-def test_flush_drops_what_the_driver_holds(camera: Camera) -> None:
+def test_flush_drops_what_the_driver_holds(camera: Camera, kind: str) -> None:
     camera.open()
     first = camera.capture(timeout_s=1.0)
     camera.flush()
     after = camera.capture(timeout_s=1.0)
-    assert after.sequence == first.sequence + 2 + 1  # two buffered frames skipped
+    held = 0 if kind == "oak-worker-on-fake" else 2  # the fake OAK queue holds nothing
+    assert after.sequence == first.sequence + held + 1
 
 
 def test_exposure_is_validated_and_kept(camera: Camera) -> None:
@@ -85,7 +92,11 @@ def test_closed_cameras_refuse_and_close_twice(camera: Camera) -> None:
 
 
 def test_a_silent_camera_times_out_within_the_timeout(kind: str) -> None:
-    device = _sim(SimCameraFaults(stall_after=1)) if kind == "sim" else _v4l2(V4l2Faults(stall_after=1))
+    device = {
+        "sim": lambda: _sim(SimCameraFaults(stall_after=1)),
+        "v4l2-on-fake": lambda: _v4l2(V4l2Faults(stall_after=1)),
+        "oak-worker-on-fake": lambda: _oak("stall_after=1"),
+    }[kind]()
     with device:
         device.capture(timeout_s=0.3)
         start = time.monotonic()
@@ -128,3 +139,34 @@ def test_v4l2_stale_and_dropped_frames() -> None:
     with _v4l2(V4l2Faults(drop_at=3)) as camera:
         frames = [camera.capture() for _ in range(4)]
         assert frames[-1].meta["dropped_before"] == 1
+
+
+# --- OAK specifics -------------------------------------------------------------------------------
+def test_oak_worker_faults_become_device_errors() -> None:
+    import os
+    import signal
+
+    from drivers.errors import DeviceDisconnectedError
+
+    with pytest.raises(DeviceNotFoundError, match="no OAK"):
+        _oak("absent").open()
+    for faults in ("xlink_after=1", "abort_after=1"):  # a link error; a native abort of the worker
+        with _oak(faults) as camera:
+            camera.capture(timeout_s=1.0)
+            with pytest.raises(DeviceDisconnectedError):
+                camera.capture(timeout_s=1.0)
+    with _oak() as camera:
+        camera.capture(timeout_s=1.0)
+        assert camera.worker_pid is not None
+        os.kill(camera.worker_pid, signal.SIGKILL)
+        start = time.monotonic()
+        with pytest.raises(DeviceDisconnectedError, match=r"exited|not running"):
+            camera.capture(timeout_s=1.0)
+        assert time.monotonic() - start < 1.5
+
+
+def test_oak_with_the_real_depthai_and_no_device_is_not_found() -> None:
+    pytest.importorskip("depthai", reason="depthai (96 MB) is optional; install it to pin its no-device behaviour")
+    camera = OakCamera("oak", SIZE, backend="depthai", env={"DEPTHAI_SEARCH_TIMEOUT": "1000"})
+    with pytest.raises(DeviceNotFoundError):
+        camera.open()

@@ -95,3 +95,31 @@ def test_a_scan_that_sees_nothing_succeeds_with_no_points(
     assert main(["scan", "--config", str(path), "--codec", codec, "--out", str(out)]) == 0
     manifest = json.loads((out / "manifest.json").read_text())
     assert manifest["economy"]["points"] == 0
+
+
+def test_oak_worker_killed_mid_scan_fails_the_scan_not_the_process(tmp_path: Path) -> None:
+    import os
+    import signal
+
+    from drivers.oak.camera import OakCamera
+
+    with open_rig(load_config(write_config(tmp_path, small_config_data()))) as the_rig:
+        oak = OakCamera("camera0", (320, 256), backend="fake")
+        oak.open()
+        the_rig.cameras[0] = oak
+        original = oak.capture
+        taken = 0
+
+        def capture_then_die(timeout_s: float = 2.0):  # type: ignore[no-untyped-def]
+            nonlocal taken
+            taken += 1
+            if taken == 5 and oak.worker_pid is not None:
+                os.kill(oak.worker_pid, signal.SIGKILL)  # what a native abort or OOM kill looks like
+            return original(timeout_s)
+
+        oak.capture = capture_then_die  # type: ignore[method-assign]
+        with pytest.raises(ScanError, match=r"exited|not running"):
+            run_scan(the_rig)
+        assert all(p.is_dark for p in the_rig.projectors)  # type: ignore[attr-defined]
+        oak.close()
+    assert taken == 5  # the scan stopped at the fault; this process goes on

@@ -45,7 +45,9 @@ def main(argv: list[str]) -> int:
 
     signal.signal(signal.SIGTERM, stop)
     black()
-    out = sys.stdout.buffer
+    sys.stdout.flush()
+    out = os.fdopen(os.dup(1), "wb")  # the answers' channel; anything else printed goes to stderr
+    os.dup2(2, 1)
     stdin = sys.stdin.buffer
     out.write(b"R\n")  # ready
     out.flush()

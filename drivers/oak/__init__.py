@@ -1,0 +1,1 @@
+"""Luxonis OAK cameras through depthai 3.x, in a supervised child process."""

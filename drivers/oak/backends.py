@@ -1,0 +1,145 @@
+"""What the OAK worker process drives: depthai 3.x (the only module that imports it), or a fake
+that behaves like it, including its failures, for tests."""
+
+from __future__ import annotations
+
+import datetime as dt
+import os
+import time
+from typing import Any
+
+import numpy as np
+
+
+class BackendError(Exception):
+    """A backend failure; `kind` is notfound, timeout, disconnected or protocol."""
+
+    def __init__(self, kind: str, message: str) -> None:
+        super().__init__(message)
+        self.kind = kind
+
+
+class DepthaiBackend:
+    """One camera socket of an OAK as a mono stream with manual exposure (depthai 3.x API:
+    Pipeline, node.Camera.build(socket).requestOutput, output and input queues)."""
+
+    def __init__(
+        self,
+        device_id: str | None,
+        socket: str,
+        width: int,
+        height: int,
+        fps: float,
+        exposure_us: int,
+        iso: int,
+        focus: int | None,
+        external_trigger: bool,
+    ) -> None:
+        os.environ.setdefault("DEPTHAI_SEARCH_TIMEOUT", "3000")  # the default search takes 11 s
+        import depthai as dai  # type: ignore[import-not-found]
+
+        self._dai = dai
+        available = dai.Device.getAllAvailableDevices()
+        if not available or (device_id and all(d.getDeviceId() != device_id for d in available)):
+            raise BackendError(
+                "notfound", f"no OAK{' ' + device_id if device_id else ''} attached ({len(available)} found)"
+            )
+        try:
+            device = dai.Device(dai.DeviceInfo(device_id)) if device_id else dai.Device()
+            self._pipeline = dai.Pipeline(device)
+            camera = self._pipeline.create(dai.node.Camera).build(getattr(dai.CameraBoardSocket, socket))
+            camera.initialControl.setManualExposure(exposure_us, iso)
+            if focus is not None:
+                camera.initialControl.setManualFocus(focus)
+            if external_trigger:
+                camera.initialControl.setFrameSyncMode(dai.CameraControl.FrameSyncMode.INPUT)
+                camera.initialControl.setExternalTrigger(1, 0)
+            output = camera.requestOutput((width, height), dai.ImgFrame.Type.GRAY8, fps=fps)
+            self._frames = output.createOutputQueue(maxSize=4, blocking=False)
+            self._control = camera.inputControl.createInputQueue()
+            self._pipeline.start()
+        except RuntimeError as exc:
+            raise BackendError("notfound", f"cannot start the OAK: {exc}") from exc
+
+    def set_exposure(self, exposure_us: int, iso: int) -> None:
+        control = self._dai.CameraControl()
+        control.setManualExposure(exposure_us, iso)
+        self._control.send(control)
+
+    def frame(self, timeout_s: float) -> tuple[np.ndarray, int, float, float]:
+        """Image, sequence number, timestamp (the host's monotonic clock), exposure in us."""
+        try:
+            message = self._frames.get(dt.timedelta(seconds=timeout_s))
+        except RuntimeError as exc:  # XLinkReadError and friends: the device went away
+            raise BackendError("disconnected", f"OAK link failed: {exc}") from exc
+        except Exception as exc:  # dai.MessageQueue.QueueException (not a RuntimeError)
+            raise BackendError("disconnected", f"OAK queue closed: {exc}") from exc
+        if message is None:
+            raise BackendError("timeout", f"no frame within {timeout_s:g} s")
+        stamp = message.getTimestamp().total_seconds()
+        return (
+            message.getFrame(),
+            int(message.getSequenceNum()),
+            stamp,
+            float(message.getExposureTime().total_seconds() * 1e6),
+        )
+
+    def drain(self) -> int:
+        return len(self._frames.tryGetAll() or [])
+
+    def close(self) -> None:
+        self._pipeline.stop()
+
+
+class FakeBackend:
+    """Behaves like DepthaiBackend on a free-running camera, with depthai's failures on request
+    (SLRIG_FAKE_OAK: comma-separated absent, stall_after=N, xlink_after=N, abort_after=N)."""
+
+    def __init__(
+        self,
+        device_id: str | None,
+        socket: str,
+        width: int,
+        height: int,
+        fps: float,
+        exposure_us: int,
+        iso: int,
+        focus: int | None,
+        external_trigger: bool,
+    ) -> None:
+        self.faults: dict[str, Any] = {}
+        for item in filter(None, os.environ.get("SLRIG_FAKE_OAK", "").split(",")):
+            key, _, value = item.partition("=")
+            self.faults[key] = int(value) if value else True
+        if self.faults.get("absent"):
+            raise BackendError("notfound", "no OAK attached (0 found)")
+        self.width, self.height, self.period = width, height, 1.0 / fps
+        self.exposure_us = exposure_us
+        self.sequence = 0
+        self.next_stamp = time.monotonic()
+
+    def set_exposure(self, exposure_us: int, iso: int) -> None:
+        self.exposure_us = exposure_us
+
+    def frame(self, timeout_s: float) -> tuple[np.ndarray, int, float, float]:
+        f = self.faults
+        if "stall_after" in f and self.sequence >= f["stall_after"]:
+            time.sleep(timeout_s)
+            raise BackendError("timeout", f"no frame within {timeout_s:g} s")
+        if "xlink_after" in f and self.sequence >= f["xlink_after"]:
+            raise BackendError("disconnected", "OAK link failed: X_LINK_ERROR (XLinkReadError)")
+        if "abort_after" in f and self.sequence >= f["abort_after"]:
+            os.abort()  # what a native X_LINK_ERROR does to a depthai process (exit -6)
+        self.sequence += 1
+        self.next_stamp = max(self.next_stamp + self.period, time.monotonic())
+        image = np.full((self.height, self.width), (self.sequence * 37) % 256, np.uint8)
+        return image, self.sequence, self.next_stamp, float(self.exposure_us)
+
+    def drain(self) -> int:
+        return 0
+
+    def close(self) -> None:
+        pass
+
+
+BACKENDS = {"depthai": DepthaiBackend, "fake": FakeBackend}
