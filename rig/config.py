@@ -14,6 +14,7 @@ import yaml
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
 
 from rig.calibrate.boards import BoardConfig
+from rig.driver_config import HdmiOptions, OakOptions, PowerOptions, V4l2Options
 from rig.errors import ConfigError
 from rig.patterns import codec_class, codec_names
 from rig.patterns.gray import GrayParams
@@ -104,7 +105,7 @@ class SimCameraOptions(Strict):
 
 class ProjectorConfig(Strict):
     name: Name
-    driver: Literal["sim"] = "sim"
+    driver: Literal["sim", "hdmi"] = "sim"
     resolution: Resolution
     geometry: Geometry
     latency_s: float = Field(
@@ -121,11 +122,19 @@ class ProjectorConfig(Strict):
     )
     pattern_period_us: int = Field(33334, ge=1000, le=10_000_000, description="pattern period (hardware sync)")
     sim: SimProjectorOptions = SimProjectorOptions()
+    hdmi: HdmiOptions = HdmiOptions()
+    power: PowerOptions | None = None
+
+    @model_validator(mode="after")
+    def _driver_fits(self) -> ProjectorConfig:
+        if self.driver == "hdmi" and self.sync == "hardware":
+            raise ValueError("sync: an HDMI display cannot play a sequence on its own; use software sync")
+        return self
 
 
 class CameraConfig(Strict):
     name: Name
-    driver: Literal["sim"] = "sim"
+    driver: Literal["sim", "v4l2", "oak"] = "sim"
     resolution: Resolution
     geometry: Geometry
     exposure_us: float = Field(10000.0, ge=1.0, le=1e7)
@@ -133,6 +142,14 @@ class CameraConfig(Strict):
     bit_depth: Literal[8, 10, 12, 16] = 8
     color: bool = Field(False, description="colour sensor (BGR frames); decoding uses their luminance")
     sim: SimCameraOptions = SimCameraOptions()
+    v4l2: V4l2Options | None = None
+    oak: OakOptions = OakOptions()
+
+    @model_validator(mode="after")
+    def _driver_fits(self) -> CameraConfig:
+        if self.driver == "v4l2" and self.v4l2 is None:
+            raise ValueError("v4l2: the v4l2 driver needs its section (at least device: /dev/video0)")
+        return self
 
 
 class PlaneScene(Strict):
@@ -283,7 +300,13 @@ class RigConfig(Strict):
                     f"scan.rings.model: {model!r} needs {needs[0]} projectors and {needs[1]} cameras "
                     "(geometry.projection); the 'cone' model works with any"
                 )
-        uses_sim = any(d.driver == "sim" for d in (*self.projectors, *self.cameras))
+        drivers = {d.driver == "sim" for d in (*self.projectors, *self.cameras)}
+        if len(drivers) > 1:
+            raise ValueError(
+                "projectors/cameras[].driver: simulated and real devices cannot share a rig "
+                "(the simulator lights and sees only its own devices)"
+            )
+        uses_sim = drivers == {True}
         if uses_sim and self.simulation is None:
             raise ValueError("simulation: simulated devices need a 'simulation' section with a scene")
         params = getattr(self.scan, self.scan.codec, None)

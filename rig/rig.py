@@ -9,7 +9,7 @@ from pathlib import Path
 
 import numpy as np
 
-from drivers.base import Camera, Projector
+from drivers.base import Camera, Device, Projector
 from drivers.sim import SimBench, SimCamera, SimCameraFaults, SimCameraParams, SimProjector, SimProjectorParams
 from drivers.sim import scene as sim_scene
 from rig.config import (
@@ -92,6 +92,7 @@ class Rig:
     calibration_sha256: str | None = None  # of calibration.file when reconstruction uses one
     response_luts: list[np.ndarray | None] = field(default_factory=list)  # per projector, from response.json
     response_sha256: str | None = None
+    extras: list[Device] = field(default_factory=list)  # housekeeping (projector power), opened first
     _closed: bool = field(default=False, repr=False)
     _triangulators: dict[tuple[int, int], PairTriangulator] = field(default_factory=dict, repr=False)
 
@@ -123,7 +124,7 @@ class Rig:
             return
         self._closed = True
         self.all_dark()
-        for device in (*self.projectors, *self.cameras):
+        for device in (*self.projectors, *self.cameras, *self.extras):
             with contextlib.suppress(Exception):  # close every device even if one fails
                 device.close()
 
@@ -193,13 +194,22 @@ def _response_luts(config: RigConfig) -> tuple[list[np.ndarray | None], str | No
     return [luts.get(p.name) for p in config.projectors], digest
 
 
+def _open_all(rig: Rig, devices: tuple[Device, ...]) -> None:
+    try:
+        for device in devices:
+            device.open()
+    except Exception:
+        rig.close()
+        raise
+
+
 def _faults(c: CameraConfig) -> SimCameraFaults:
     f = c.sim.faults
     return SimCameraFaults(f.disconnect_after_frames, f.stall_after_frames, f.repeat_frame_at)
 
 
 def open_rig(config: RigConfig) -> Rig:
-    """Open every device of `config` (today: the simulated bench)."""
+    """Open every device of `config`: the simulated bench, or the real devices."""
     projector_models = [geometry_model(p.geometry, p.resolution) for p in config.projectors]
     camera_models = [geometry_model(c.geometry, c.resolution) for c in config.cameras]
     truth = (camera_models, projector_models)  # the simulator's geometry, whatever reconstruction uses
@@ -209,8 +219,23 @@ def open_rig(config: RigConfig) -> Rig:
     if config.calibration.file is not None:
         camera_models, projector_models, digest = _calibrated_models(config, camera_models, projector_models)
         luts, response_digest = _response_luts(config)
-    if config.simulation is None:  # every driver is simulated today, and config validation requires a scene
-        raise ConfigError("config", ["simulation: this rig has no simulated scene to open"])
+    if config.simulation is None:  # a real rig
+        from rig import hardware  # drivers of real devices, only when a rig has them
+
+        extras, projectors, cameras = hardware.devices(config)
+        rig = Rig(
+            config,
+            projectors,
+            cameras,
+            projector_models,
+            camera_models,
+            calibration_sha256=digest,
+            response_luts=luts,
+            response_sha256=response_digest,
+            extras=extras,
+        )
+        _open_all(rig, (*extras, *projectors, *cameras))
+        return rig
     bench = SimBench(
         build_scene(config.simulation),
         truth[0],
@@ -235,10 +260,5 @@ def open_rig(config: RigConfig) -> Rig:
         response_luts=luts,
         response_sha256=response_digest,
     )
-    try:
-        for device in (*projectors, *cameras):
-            device.open()
-    except Exception:
-        rig.close()
-        raise
+    _open_all(rig, (*projectors, *cameras))
     return rig
