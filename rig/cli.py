@@ -17,6 +17,7 @@ from rig.calibrate.response import RESPONSE_NAME, calibrate_response
 from rig.calibrate.session import calibrate
 from rig.config import SCENE_KINDS, RigConfig, load_config
 from rig.devices import describe, inventory
+from rig.doctor import check, measure_latency, store_latencies
 from rig.errors import ConfigError, ScanError, SlrigError
 from rig.evaluate import evaluate_on_bench
 from rig.patterns import codec_class, codec_names
@@ -65,6 +66,14 @@ def _parser() -> argparse.ArgumentParser:
     )
     devices = sub.add_parser("devices", help="list attached USB devices, video nodes, serial ports and OAK cameras")
     devices.add_argument("--json", action="store_true", help="print one JSON object instead of text")
+    doctor = sub.add_parser("doctor", help="check a rig config against this machine; --latency measures displays")
+    doctor.add_argument("--config", type=Path, default=None, help="rig description (YAML); default: config/sim.yaml")
+    doctor.add_argument(
+        "--latency",
+        action="store_true",
+        help="measure each projector's display-to-capture latency and store it in <data_dir>",
+    )
+    doctor.add_argument("--json", action="store_true", help="print one JSON object instead of text")
     cal = sub.add_parser("calibrate", help="calibrate cameras, projectors, or the whole rig into one world frame")
     cal.add_argument(
         "what",
@@ -223,6 +232,30 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_doctor(args: argparse.Namespace) -> int:
+    config = load_config(args.config)
+    problems = check(config)
+    report: dict[str, Any] = {"config": str(args.config or "config/sim.yaml"), "problems": problems}
+    if args.latency and not problems:
+        with open_rig(config) as the_rig:
+            values = {p.name: measure_latency(the_rig, i) for i, p in enumerate(config.projectors)}
+        report["latency_s"] = {k: round(v, 4) for k, v in values.items()}
+        report["latency_file"] = str(store_latencies(config.output.data_dir, values))
+    if args.json:
+        print(json.dumps(report, allow_nan=False))
+    else:
+        for p in problems:
+            print(f"{p['device']}: {p['problem']}")
+        for name, value in report.get("latency_s", {}).items():
+            print(
+                f"{name}: display-to-capture latency {value * 1000:.1f} ms (stored in {report['latency_file']}; "
+                f"set latency_s: measured)"
+            )
+        if not problems:
+            print("no problems found")
+    return 1 if problems else 0
+
+
 def cmd_devices(args: argparse.Namespace) -> int:
     found = inventory()
     if args.json:
@@ -234,7 +267,14 @@ def cmd_devices(args: argparse.Namespace) -> int:
 
 def main(argv: list[str] | None = None) -> int:
     args = _parser().parse_args(argv)
-    handler = {"scan": cmd_scan, "eval": cmd_eval, "calibrate": cmd_calibrate, "devices": cmd_devices}[args.command]
+    handlers = {
+        "scan": cmd_scan,
+        "eval": cmd_eval,
+        "calibrate": cmd_calibrate,
+        "devices": cmd_devices,
+        "doctor": cmd_doctor,
+    }
+    handler = handlers[args.command]
     try:
         return handler(args)
     except ScanError as exc:

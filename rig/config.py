@@ -108,12 +108,10 @@ class ProjectorConfig(Strict):
     driver: Literal["sim", "hdmi"] = "sim"
     resolution: Resolution
     geometry: Geometry
-    latency_s: float = Field(
+    latency_s: Annotated[float, Field(ge=0.0, le=2.0)] | Literal["measured"] = Field(
         0.0,
-        ge=0.0,
-        le=2.0,
-        description="time from show() to the pattern's light on the scene, waited after every pattern "
-        "(measure it with `slrig doctor --latency`)",
+        description="time from show() to the pattern's light on the scene, waited after every pattern; "
+        "'measured': the value `slrig doctor --latency` stored in <data_dir>/latency.json",
     )
     sync: Literal["software", "hardware"] = Field(
         "software",

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import contextlib
+import json
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -106,6 +107,23 @@ class Rig:
         if key not in self._triangulators:
             self._triangulators[key] = PairTriangulator(self.camera_models[camera], self.projector_models[projector])
         return self._triangulators[key]
+
+    def latency_s(self, projector: int) -> float:
+        """The display latency to wait after showing a pattern on `projector`."""
+        value = self.config.projectors[projector].latency_s
+        if value != "measured":
+            return float(value)
+        path = self.config.output.data_dir / "latency.json"
+        try:
+            return float(json.loads(path.read_text())[self.config.projectors[projector].name])
+        except (OSError, ValueError, KeyError) as exc:
+            raise ConfigError(
+                "config",
+                [
+                    f"projectors[{projector}].latency_s: 'measured', but {path} has no "
+                    f"measurement ({exc}); run `slrig doctor --latency`"
+                ],
+            ) from None
 
     def wait(self, seconds: float) -> None:
         """Let time pass: bench time on the simulated bench, real time on real devices."""

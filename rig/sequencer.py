@@ -66,7 +66,7 @@ def _capture_streaming(
     rig: Rig, p: int, patterns: list[np.ndarray], frames: Frames, last_sequence: list[int], progress: _Progress
 ) -> None:
     projector = rig.projectors[p]
-    latency = rig.config.projectors[p].latency_s
+    latency = rig.latency_s(p)
     timeout = rig.config.scan.capture_timeout_s
     for pattern in patterns:
         projector.show(pattern)
@@ -86,7 +86,7 @@ def _capture_sequence(
     projector = rig.projectors[p]
     config = rig.config.projectors[p]
     period_s = config.pattern_period_us * 1e-6
-    timeout = rig.config.scan.capture_timeout_s + config.latency_s + period_s
+    timeout = rig.config.scan.capture_timeout_s + rig.latency_s(p) + period_s
     sequence = PatternSequence(
         entries=tuple(SequenceEntry(k % 25, 8) for k in range(len(patterns))),
         exposure_us=config.pattern_period_us,

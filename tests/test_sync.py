@@ -86,3 +86,29 @@ def test_a_missed_trigger_fails_the_scan(tmp_path: Path) -> None:
         with pytest.raises(ScanError, match=r"trigger was missed|dropped"):
             run_scan(the_rig)
         assert all(p.is_dark for p in the_rig.projectors)  # type: ignore[attr-defined]
+
+
+def test_doctor_measures_the_latency_and_scans_use_it(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    data = _timed("measured")
+    data["output"] = {"data_dir": str(tmp_path / "data")}
+    path = write_config(tmp_path, data, "measured.yaml")
+    assert main(["scan", "--config", str(path), "--out", str(tmp_path / "early")]) == 2  # nothing measured yet
+    assert "slrig doctor --latency" in capsys.readouterr().err
+    assert main(["doctor", "--config", str(path), "--latency", "--json"]) == 0
+    report = json.loads(capsys.readouterr().out)
+    measured = report["latency_s"]["projector0"]
+    frame_period = 1 / 30
+    assert LATENCY_S <= measured < LATENCY_S + frame_period + 0.011  # one frame's resolution, plus exposure
+    assert json.loads(Path(report["latency_file"]).read_text()) == {"projector0": measured}
+    synced = _eval(tmp_path, data, capsys, "measured-eval.yaml")
+    ideal = _eval(tmp_path, small_config_data(), capsys, "ideal2.yaml")
+    assert synced["rms_mm"] == pytest.approx(ideal["rms_mm"], rel=1e-9)
+
+
+def test_doctor_names_what_a_real_bench_lacks(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    from rig.config import REPO_CONFIG_DIR
+
+    assert main(["doctor", "--config", str(REPO_CONFIG_DIR / "bench-hdmi-uvc.yaml"), "--json"]) == 1
+    problems = {p["device"]: p["problem"] for p in json.loads(capsys.readouterr().out)["problems"]}
+    assert "/dev/slrig-cam0 does not exist" in problems["camera0"]
+    assert "calibration" in problems["rig"]
