@@ -249,10 +249,14 @@ def test_hdmi_worker_killed_mid_scan_is_a_disconnect() -> None:
         assert projector.worker_pid is not None
         os.kill(projector.worker_pid, signal.SIGKILL)
         start = time.monotonic()
+        killed = projector.worker_pid
         with pytest.raises(DeviceDisconnectedError):
             for _ in range(3):  # the pipe may take a write to notice
                 projector.show(np.full((48, 64), 10, np.uint8))
         assert time.monotonic() - start < 3.0
+        # the fault left the output to a new worker holding it black
+        assert projector.worker_pid not in (None, killed) and projector.last_checksum == 0
+        projector.show(np.full((48, 64), 77, np.uint8))  # and the projector works again
     assert projector.worker_pid is None
 
 

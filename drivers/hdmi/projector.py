@@ -46,6 +46,10 @@ class HdmiProjector(Projector):
         return None if self._worker is None else self._worker.pid
 
     def _do_open(self) -> None:
+        self._start_worker()
+
+    def _start_worker(self) -> None:
+        """A new worker owns the output; it starts black."""
         width, height = self._resolution
         self._worker = WorkerProcess(
             self.name,
@@ -87,3 +91,11 @@ class HdmiProjector(Projector):
     def _do_dark(self) -> None:
         if self._worker is not None and self._worker.alive:
             self._send(b"D\n")
+            return
+        # The worker died (killed, crashed): whatever the output shows now is not under control.
+        # A new worker takes the output and holds it black, the safe state.
+        if self._worker is not None:
+            self._worker.stop(None, self.timeout_s)
+            self._worker = None
+        self._start_worker()
+        self.last_checksum = 0
