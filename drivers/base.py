@@ -216,12 +216,22 @@ class Camera(Device):
         if mode is not TriggerMode.INTERNAL:
             raise DeviceStateError(f"{self.name}: this camera has no trigger input")
 
-    @property
-    @abc.abstractmethod
-    def exposure_us(self) -> float: ...
+    _exposure_us: float = 10000.0
 
-    @abc.abstractmethod
-    def set_exposure_us(self, exposure_us: float) -> None: ...
+    @property
+    def exposure_us(self) -> float:
+        return self._exposure_us
+
+    def set_exposure_us(self, exposure_us: float) -> None:
+        """Manual exposure in microseconds (1 us to 10 s); sent to the device when it is open."""
+        if not 1.0 <= exposure_us <= 10_000_000.0:
+            raise ValueError(f"{self.name}: exposure_us must be in [1, 1e7], got {exposure_us}")
+        if self._open:
+            self._do_set_exposure_us(float(exposure_us))
+        self._exposure_us = float(exposure_us)
+
+    def _do_set_exposure_us(self, exposure_us: float) -> None:
+        """Drivers send the exposure to an open device here (default: nothing to send)."""
 
     def flush(self) -> None:
         """Drop frames the driver already holds, so the next capture is exposed after this call."""

@@ -87,10 +87,6 @@ class V4l2Camera(Camera):
     def resolution(self) -> tuple[int, int]:
         return self._resolution
 
-    @property
-    def exposure_us(self) -> float:
-        return self._exposure_us
-
     def _set_checked(self, prop: int, value: float, what: str, tolerance: float = 0.5) -> None:
         assert self._cap is not None
         self._cap.set(prop, value)
@@ -101,12 +97,8 @@ class V4l2Camera(Camera):
                 "it may be outside the camera's range"
             )
 
-    def set_exposure_us(self, exposure_us: float) -> None:
-        if not 1.0 <= exposure_us <= 10_000_000.0:
-            raise ValueError(f"{self.name}: exposure_us must be in [1, 1e7], got {exposure_us}")
-        if self._cap is not None:
-            self._set_checked(cv2.CAP_PROP_EXPOSURE, round(exposure_us / V4L2_EXPOSURE_UNIT_US), "exposure (100 us)")
-        self._exposure_us = float(exposure_us)
+    def _do_set_exposure_us(self, exposure_us: float) -> None:
+        self._set_checked(cv2.CAP_PROP_EXPOSURE, round(exposure_us / V4L2_EXPOSURE_UNIT_US), "exposure (100 us)")
 
     def _do_open(self) -> None:
         if self.device.startswith("/dev/") and not os.path.exists(self.device):
@@ -127,7 +119,7 @@ class V4l2Camera(Camera):
             cap.set(cv2.CAP_PROP_BUFFERSIZE, self.buffer_frames)
             cap.set(cv2.CAP_PROP_READ_TIMEOUT_MSEC, 2000)
             self._set_checked(cv2.CAP_PROP_AUTO_EXPOSURE, V4L2_MANUAL_EXPOSURE, "manual exposure mode")
-            self.set_exposure_us(self._exposure_us)
+            self._do_set_exposure_us(self._exposure_us)
             if self._gain is not None:
                 self._set_checked(cv2.CAP_PROP_GAIN, self._gain, "gain")
         except Exception:

@@ -237,36 +237,26 @@ def open_rig(config: RigConfig) -> Rig:
     if config.calibration.file is not None:
         camera_models, projector_models, digest = _calibrated_models(config, camera_models, projector_models)
         luts, response_digest = _response_luts(config)
+    bench: SimBench | None = None
+    extras: list[Device] = []
     if config.simulation is None:  # a real rig
         from rig import hardware  # drivers of real devices, only when a rig has them
 
         extras, projectors, cameras = hardware.devices(config)
-        rig = Rig(
-            config,
-            projectors,
-            cameras,
-            projector_models,
-            camera_models,
-            calibration_sha256=digest,
-            response_luts=luts,
-            response_sha256=response_digest,
-            extras=extras,
+    else:
+        bench = SimBench(
+            build_scene(config.simulation),
+            truth[0],
+            truth[1],
+            camera_params=[_sim_camera_params(c) for c in config.cameras],
+            projector_params=[_sim_projector_params(p) for p in config.projectors],
+            ambient=config.simulation.ambient,
+            seed=config.simulation.seed,
         )
-        _open_all(rig, (*extras, *projectors, *cameras))
-        return rig
-    bench = SimBench(
-        build_scene(config.simulation),
-        truth[0],
-        truth[1],
-        camera_params=[_sim_camera_params(c) for c in config.cameras],
-        projector_params=[_sim_projector_params(p) for p in config.projectors],
-        ambient=config.simulation.ambient,
-        seed=config.simulation.seed,
-    )
-    projectors: list[Projector] = [
-        SimProjector(p.name, bench, i, sequence=p.sync == "hardware") for i, p in enumerate(config.projectors)
-    ]
-    cameras: list[Camera] = [SimCamera(c.name, bench, i, _faults(c)) for i, c in enumerate(config.cameras)]
+        projectors = [
+            SimProjector(p.name, bench, i, sequence=p.sync == "hardware") for i, p in enumerate(config.projectors)
+        ]
+        cameras = [SimCamera(c.name, bench, i, _faults(c)) for i, c in enumerate(config.cameras)]
     rig = Rig(
         config,
         projectors,
@@ -277,6 +267,7 @@ def open_rig(config: RigConfig) -> Rig:
         calibration_sha256=digest,
         response_luts=luts,
         response_sha256=response_digest,
+        extras=extras,
     )
-    _open_all(rig, (*projectors, *cameras))
+    _open_all(rig, (*extras, *projectors, *cameras))
     return rig

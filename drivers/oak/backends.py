@@ -6,6 +6,7 @@ from __future__ import annotations
 import datetime as dt
 import os
 import time
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -19,23 +20,26 @@ class BackendError(Exception):
         self.kind = kind
 
 
+@dataclass(frozen=True)
+class OakSettings:
+    device_id: str | None
+    socket: str
+    width: int
+    height: int
+    fps: float
+    exposure_us: int
+    iso: int
+    focus: int | None
+    external_trigger: bool
+
+
 class DepthaiBackend:
     """One camera socket of an OAK as a mono stream with manual exposure (depthai 3.x API:
     Pipeline, node.Camera.build(socket).requestOutput, output and input queues)."""
 
-    def __init__(
-        self,
-        device_id: str | None,
-        socket: str,
-        width: int,
-        height: int,
-        fps: float,
-        exposure_us: int,
-        iso: int,
-        focus: int | None,
-        external_trigger: bool,
-    ) -> None:
+    def __init__(self, s: OakSettings) -> None:
         os.environ.setdefault("DEPTHAI_SEARCH_TIMEOUT", "3000")  # the default search takes 11 s
+        device_id = s.device_id
         import depthai as dai  # type: ignore[import-not-found]
 
         self._dai = dai
@@ -47,14 +51,14 @@ class DepthaiBackend:
         try:
             device = dai.Device(dai.DeviceInfo(device_id)) if device_id else dai.Device()
             self._pipeline = dai.Pipeline(device)
-            camera = self._pipeline.create(dai.node.Camera).build(getattr(dai.CameraBoardSocket, socket))
-            camera.initialControl.setManualExposure(exposure_us, iso)
-            if focus is not None:
-                camera.initialControl.setManualFocus(focus)
-            if external_trigger:
+            camera = self._pipeline.create(dai.node.Camera).build(getattr(dai.CameraBoardSocket, s.socket))
+            camera.initialControl.setManualExposure(s.exposure_us, s.iso)
+            if s.focus is not None:
+                camera.initialControl.setManualFocus(s.focus)
+            if s.external_trigger:
                 camera.initialControl.setFrameSyncMode(dai.CameraControl.FrameSyncMode.INPUT)
                 camera.initialControl.setExternalTrigger(1, 0)
-            output = camera.requestOutput((width, height), dai.ImgFrame.Type.GRAY8, fps=fps)
+            output = camera.requestOutput((s.width, s.height), dai.ImgFrame.Type.GRAY8, fps=s.fps)
             self._frames = output.createOutputQueue(maxSize=4, blocking=False)
             self._control = camera.inputControl.createInputQueue()
             self._pipeline.start()
@@ -95,26 +99,15 @@ class FakeBackend:
     """Behaves like DepthaiBackend on a free-running camera, with depthai's failures on request
     (SLRIG_FAKE_OAK: comma-separated absent, stall_after=N, xlink_after=N, abort_after=N)."""
 
-    def __init__(
-        self,
-        device_id: str | None,
-        socket: str,
-        width: int,
-        height: int,
-        fps: float,
-        exposure_us: int,
-        iso: int,
-        focus: int | None,
-        external_trigger: bool,
-    ) -> None:
+    def __init__(self, s: OakSettings) -> None:
         self.faults: dict[str, Any] = {}
         for item in filter(None, os.environ.get("SLRIG_FAKE_OAK", "").split(",")):
             key, _, value = item.partition("=")
             self.faults[key] = int(value) if value else True
         if self.faults.get("absent"):
             raise BackendError("notfound", "no OAK attached (0 found)")
-        self.width, self.height, self.period = width, height, 1.0 / fps
-        self.exposure_us = exposure_us
+        self.width, self.height, self.period = s.width, s.height, 1.0 / s.fps
+        self.exposure_us = s.exposure_us
         self.sequence = 0
         self.next_stamp = time.monotonic()
 

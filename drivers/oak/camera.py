@@ -60,10 +60,6 @@ class OakCamera(Camera):
         return self._resolution
 
     @property
-    def exposure_us(self) -> float:
-        return self._exposure_us
-
-    @property
     def worker_pid(self) -> int | None:
         return None if self._worker is None else self._worker.pid
 
@@ -114,12 +110,8 @@ class OakCamera(Camera):
         self._stop()
         self._start(external_trigger=mode is TriggerMode.EXTERNAL)
 
-    def set_exposure_us(self, exposure_us: float) -> None:
-        if not 1.0 <= exposure_us <= 10_000_000.0:
-            raise ValueError(f"{self.name}: exposure_us must be in [1, 1e7], got {exposure_us}")
-        if self._worker is not None:
-            self._request(5.0, cmd="exposure", exposure_us=round(exposure_us), iso=self.iso)
-        self._exposure_us = float(exposure_us)
+    def _do_set_exposure_us(self, exposure_us: float) -> None:
+        self._request(5.0, cmd="exposure", exposure_us=round(exposure_us), iso=self.iso)
 
     def _do_flush(self) -> None:
         self._request(5.0, cmd="drain")

@@ -17,7 +17,7 @@ import os
 import sys
 from typing import Any
 
-from drivers.oak.backends import BACKENDS, BackendError
+from drivers.oak.backends import BACKENDS, BackendError, OakSettings
 
 
 def _answer(out: Any, message: dict[str, Any], payload: bytes = b"") -> None:
@@ -42,7 +42,7 @@ def main() -> int:
         command = request.pop("cmd")
         try:
             if command == "open":
-                backend = BACKENDS[request.pop("backend")](**request)
+                backend = BACKENDS[request.pop("backend")](OakSettings(**request))
                 _answer(out, {"ok": True})
             elif backend is None:
                 _answer(out, {"ok": False, "kind": "protocol", "error": "not open"})

@@ -92,15 +92,6 @@ class SimCamera(Camera):
         model = self._bench.cameras[self._index]
         return model.width, model.height
 
-    @property
-    def exposure_us(self) -> float:
-        return self._exposure_us
-
-    def set_exposure_us(self, exposure_us: float) -> None:
-        if not 1.0 <= exposure_us <= 10_000_000.0:
-            raise ValueError(f"{self.name}: exposure_us must be in [1, 1e7], got {exposure_us}")
-        self._exposure_us = float(exposure_us)
-
     def _do_open(self) -> None:
         self._sequence = 0
         self._captures = 0
