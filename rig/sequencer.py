@@ -88,7 +88,7 @@ def _capture_sequence(
     period_s = config.pattern_period_us * 1e-6
     timeout = rig.config.scan.capture_timeout_s + rig.latency_s(p) + period_s
     sequence = PatternSequence(
-        entries=tuple(SequenceEntry(k % 25, 8) for k in range(len(patterns))),
+        entries=tuple(SequenceEntry(k % 3, 8) for k in range(len(patterns))),  # 8-bit: 3 per video frame
         exposure_us=config.pattern_period_us,
         period_us=config.pattern_period_us,
         trigger=TriggerMode.INTERNAL,
@@ -116,7 +116,7 @@ def _capture_sequence(
                 previous[c] = frame
                 frames[(p, c)].append(frame.image)
             progress.step()
-        projector.stop_sequence()
     finally:
+        projector.stop_sequence()
         for camera in rig.cameras:
             camera.set_trigger(TriggerMode.INTERNAL)

@@ -30,6 +30,20 @@ from tests.conftest import make_device
 SEQUENCE = PatternSequence(tuple(SequenceEntry(i % 3, 8) for i in range(6)), 8333, 8333, TriggerMode.EXTERNAL)
 
 
+def test_dark_and_lit_are_tis_led_enable_bytes() -> None:
+    """TI DLPC350_SetLedEnables: bit 3 = sequencer control (it lights the LEDs), bits 0-2 = R, G, B
+    under manual control. Dark is manual with all off: 0x00; playing a sequence hands over: 0x08."""
+    fake = FakeLcr4500()
+    projector = _lcr(fake)
+    projector.open()
+    led_writes = [data for kind, command, data in fake.log if kind == "w" and command == 0x1A07]
+    assert led_writes[-1] == bytes([0x00]) and fake.dark
+    projector.load_sequence(SEQUENCE)
+    projector.start_sequence()
+    led_writes = [data for kind, command, data in fake.log if kind == "w" and command == 0x1A07]
+    assert led_writes[-1] == bytes([0x08]) and not fake.dark
+
+
 def _lcr(device: FakeLcr4500 | None, timeout_s: float = 0.5) -> Lcr4500Projector:
     return Lcr4500Projector(
         "lcr",
@@ -125,7 +139,8 @@ def test_golden_packets() -> None:
     # LUT word: external positive trigger, pattern 2, 8 bits, white, no invert
     assert lut_entry(2, 8, 1) == (1 | (2 << 2) | (8 << 8) | (0b111 << 12)).to_bytes(3, "little")
     with pytest.raises(ValueError):
-        lut_entry(25, 8, 0)
+        lut_entry(3, 8, 0)  # a 24-bit frame holds three 8-bit patterns: 0, 1, 2
+    assert lut_entry(23, 1, 0)[0] == 23 << 2  # and 24 one-bit planes
 
 
 def test_sequence_reaches_the_controller() -> None:
@@ -163,16 +178,18 @@ def _assert_within(start: float, limit_s: float) -> None:
 
 
 def test_read_timeout_fails_within_its_timeout_and_goes_dark() -> None:
-    fake = FakeLcr4500(Faults(silent_after=6))
+    fake = FakeLcr4500()
     projector = _lcr(fake)
     projector.open()
+    projector.load_sequence(SEQUENCE)
+    projector.start_sequence()
+    assert not fake.dark
+    fake.faults.silent_after = fake.commands  # from here on the device's replies are lost
     start = time.monotonic()
     with pytest.raises(DeviceTimeoutError):
         projector.load_sequence(SEQUENCE)
-    _assert_within(start, 0.5)
-    fake.faults.silent_after = None
-    projector.dark()
-    assert fake.dark
+    _assert_within(start, 1.0)  # the failed command's timeout, then the dark command's
+    assert fake.dark  # the driver's own dark command reached the device, though its reply was lost
 
 
 def test_error_bit_is_a_protocol_error_and_the_projector_goes_dark() -> None:

@@ -2,7 +2,8 @@
 
 Written from TI's published DLPC350 command set (command ids and layouts in
 ../shared/reference/hardware.md section 2.1). It never enters programming mode and never writes the
-flash. "Dark" is the LEDs switched off under manual control: whatever the input shows, no light.
+flash. "Dark" is the LEDs switched off under manual control (LED_ENABLE bit 3 clear, R/G/B clear):
+whatever the input shows, no light. Bit 3 set hands the LEDs to the sequencer, which lights them.
 """
 
 from __future__ import annotations
@@ -38,7 +39,7 @@ CMD_PATTERN_CONFIG = 0x1A31
 CMD_MBOX_ADDRESS, CMD_MBOX_CONTROL, CMD_MBOX_DATA = 0x1A32, 0x1A33, 0x1A34
 
 START, PAUSE, STOP = 2, 1, 0
-LED_MANUAL, LED_RED, LED_GREEN, LED_BLUE = 0x08, 0x01, 0x02, 0x04
+LED_SEQUENCER, LED_RED, LED_GREEN, LED_BLUE = 0x08, 0x01, 0x02, 0x04  # LED_ENABLE bits (TI SetLedEnables)
 VALIDATE_BUSY = 0x80
 VALIDATE_ERRORS = {
     0x01: "exposure or frame period invalid",
@@ -64,11 +65,12 @@ class Status:
 
 def lut_entry(pattern: int, bit_depth: int, trigger: int, invert: bool = False, led: int = 0b111) -> bytes:
     """The 24-bit pattern LUT word (little-endian): trigger 1:0, pattern 7:2, bit depth 11:8,
-    LEDs 14:12, invert 16."""
-    if not 0 <= pattern <= 24:
-        raise ValueError(f"pattern number {pattern} is outside 0..24")
+    LEDs 14:12, invert 16. A 24-bit frame holds 24 // bit_depth patterns (8-bit: 0 green, 1 red,
+    2 blue; 1-bit: planes 0..23)."""
     if not 1 <= bit_depth <= 8:
         raise ValueError(f"bit depth {bit_depth} is outside 1..8")
+    if not 0 <= pattern < 24 // bit_depth:
+        raise ValueError(f"pattern number {pattern} is outside 0..{24 // bit_depth - 1} for {bit_depth}-bit patterns")
     word = trigger | (pattern << 2) | (bit_depth << 8) | (led << 12) | (int(invert) << 16)
     return word.to_bytes(3, "little")
 
@@ -132,10 +134,10 @@ class Lcr4500Projector(Projector):
 
     # --- light -----------------------------------------------------------------------------
     def _do_dark(self) -> None:
-        self._p.write(CMD_LED_ENABLE, bytes([LED_MANUAL]))  # manual control, every LED off
+        self._p.write(CMD_LED_ENABLE, bytes([0]))  # manual control (bit 3 clear), every LED off
 
     def _lights_on(self) -> None:
-        self._p.write(CMD_LED_ENABLE, bytes([0]))  # the sequencer drives the LEDs again
+        self._p.write(CMD_LED_ENABLE, bytes([LED_SEQUENCER]))  # the sequencer drives the LEDs again
 
     def _do_show(self, pattern: np.ndarray) -> None:
         raise DeviceStateError(f"{self.name}: plays preloaded sequences; use load_sequence and start_sequence")
@@ -171,6 +173,9 @@ class Lcr4500Projector(Projector):
 
     # --- sequences -------------------------------------------------------------------------
     def _do_load_sequence(self, sequence: PatternSequence) -> None:
+        if sequence.images is not None:
+            raise DeviceStateError(f"{self.name}: images reach a LightCrafter through its video input (HDMI) or "
+                                   "its flash; this driver plays bit-planes of what the input shows")
         exposure, period = sequence.exposure_us, sequence.period_us
         if not (exposure == period or exposure <= period - MIN_DARK_GAP_US):
             raise ValueError(

@@ -33,7 +33,7 @@ def _usb_error(code: int, text: str) -> Exception:
 @dataclass
 class Faults:
     busy_at_open: bool = False  # claiming the interface fails with EBUSY (usbhid or another program has it)
-    silent_after: int | None = None  # after this many commands no reply comes (read timeout)
+    silent_after: int | None = None  # after this many commands replies are lost (read timeout); writes still act
     unplug_after: int | None = None  # after this many commands the device is gone (ENODEV)
     error_commands: set[int] = field(default_factory=set)  # these commands reply with the error bit
     late_reply_before: int | None = None  # before answering this command, first send a stale reply
@@ -121,8 +121,9 @@ class FakeLcr4500:
     # --- the controller ------------------------------------------------------------------
     @property
     def dark(self) -> bool:
-        """No light: LEDs under manual control with none enabled."""
-        return bool(self.led_enable & lcr.LED_MANUAL) and not self.led_enable & 0x07
+        """No light: LEDs under manual control (bit 3 clear, as TI's SetLedEnables documents) with
+        none of red, green, blue enabled. Bit 3 set gives them to the sequencer, which lights them."""
+        return not self.led_enable & lcr.LED_SEQUENCER and not self.led_enable & 0x07
 
     @property
     def lut_entries(self) -> list[int]:
@@ -141,8 +142,7 @@ class FakeLcr4500:
         if f.unplug_after is not None and self.commands > f.unplug_after:
             self.plugged = False
             raise _usb_error(errno.ENODEV, "No such device (it may have been disconnected)")
-        if f.silent_after is not None and self.commands > f.silent_after:
-            return
+        silent = f.silent_after is not None and self.commands > f.silent_after
         read = bool(flags & 0x80)
         self.log.append(("r" if read else "w", command, data))
         if f.late_reply_before is not None and self.commands == f.late_reply_before:
@@ -152,7 +152,7 @@ class FakeLcr4500:
             error = command in f.error_commands
         except KeyError:
             payload, error = b"", True  # unknown command: the error bit
-        if flags & 0x40:
+        if flags & 0x40 and not silent:
             self._replies.append(self._reply(sequence, payload, error))
 
     def _reply(self, sequence: int, payload: bytes, error: bool = False) -> bytes:
@@ -190,8 +190,10 @@ class FakeLcr4500:
             bits |= 0x01
         elif e != p and p - e < lcr.MIN_DARK_GAP_US:
             bits |= 0x10
-        if any(((word >> 2) & 0x3F) > 24 for word in self.lut_entries):
-            bits |= 0x02
+        for word in self.lut_entries:
+            depth = max(1, (word >> 8) & 0xF)
+            if ((word >> 2) & 0x3F) >= 24 // depth:  # e.g. an 8-bit pattern other than 0, 1, 2
+                bits |= 0x02
         return bits
 
     def _write(self, command: int, data: bytes) -> bytes:
