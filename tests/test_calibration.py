@@ -242,3 +242,17 @@ def test_operator_supplied_poses(tmp_path: Path, capsys: pytest.CaptureFixture[s
     report = json.loads(capsys.readouterr().out)
     assert report["views"] == 6
     assert report["devices"]["camera0"]["views_used"] == [0, 1, 2, 3, 4, 5]
+
+
+def test_calibration_captures_in_sync_on_a_bench_with_latency(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    data = small_config_data()
+    data["projectors"][0]["sim"]["latency_s"] = 0.05
+    data["projectors"][0]["latency_s"] = 0.05
+    data["cameras"][0]["sim"]["buffered_frames"] = 2
+    data["calibration"] = {"views": 6}
+    path = write_config(tmp_path, data)
+    assert main(["calibrate", "rig", "--config", str(path), "--out", str(tmp_path / "cal"), "--json"]) == 0
+    report = json.loads(capsys.readouterr().out)["devices"]
+    assert report["camera0"]["rms_px"] < 0.3 and report["projector0"]["rms_px"] < 0.5

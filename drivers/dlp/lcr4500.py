@@ -174,8 +174,10 @@ class Lcr4500Projector(Projector):
     # --- sequences -------------------------------------------------------------------------
     def _do_load_sequence(self, sequence: PatternSequence) -> None:
         if sequence.images is not None:
-            raise DeviceStateError(f"{self.name}: images reach a LightCrafter through its video input (HDMI) or "
-                                   "its flash; this driver plays bit-planes of what the input shows")
+            raise DeviceStateError(
+                f"{self.name}: images reach a LightCrafter through its video input (HDMI) or "
+                "its flash; this driver plays bit-planes of what the input shows"
+            )
         exposure, period = sequence.exposure_us, sequence.period_us
         if not (exposure == period or exposure <= period - MIN_DARK_GAP_US):
             raise ValueError(

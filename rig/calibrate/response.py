@@ -37,7 +37,9 @@ def measure_response(rig: Rig, projector: int) -> tuple[np.ndarray, np.ndarray]:
     try:
         for level in LEVELS:
             device.show(np.full((height, width), level, np.uint8))
+            rig.wait(rig.latency_s(projector))
             for c, camera in enumerate(rig.cameras):
+                camera.flush()
                 captures[c].append(camera.capture(timeout).image.astype(np.float32))
     finally:
         rig.all_dark()
