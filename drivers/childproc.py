@@ -1,15 +1,18 @@
-"""A supervised worker process spoken to over pipes, with a deadline on every answer.
+"""A supervised worker process spoken to over pipes, with a deadline on every write and answer.
 
 Device code that can crash or hang its process (DepthAI's native aborts, a display server) runs in
-a worker; a dead or silent worker fails the operation with a DeviceError, not the daemon.
+a worker; a dead or silent worker fails the operation with a DeviceError, not the daemon. After a
+timeout the exchange is out of step (a late answer may still come), so callers abandon the worker.
 """
 
 from __future__ import annotations
 
+import contextlib
 import os
 import select
 import subprocess
 import sys
+import tempfile
 import time
 
 from drivers.errors import DeviceDisconnectedError, DeviceTimeoutError
@@ -18,13 +21,17 @@ from drivers.errors import DeviceDisconnectedError, DeviceTimeoutError
 class WorkerProcess:
     def __init__(self, name: str, module: str, args: list[str], env: dict[str, str] | None = None) -> None:
         self.name = name
+        # A file, not a pipe: the worker's logging can never block it. Closed in stop().
+        self._stderr = tempfile.TemporaryFile()  # noqa: SIM115
         self._process = subprocess.Popen(
             [sys.executable, "-m", module, *args],
             stdin=subprocess.PIPE,
             stdout=subprocess.PIPE,
-            stderr=subprocess.PIPE,
+            stderr=self._stderr,
             env={**os.environ, **(env or {})},
         )
+        assert self._process.stdin is not None
+        os.set_blocking(self._process.stdin.fileno(), False)
         self._buffer = bytearray()  # read from the pipe unbuffered (os.read), kept here
 
     @property
@@ -35,31 +42,40 @@ class WorkerProcess:
     def alive(self) -> bool:
         return self._process.poll() is None
 
-    def send(self, data: bytes) -> None:
+    def _gone(self, what: str) -> DeviceDisconnectedError:
+        return DeviceDisconnectedError(
+            f"{self.name}: the worker process {what} (exit code {self._process.poll()}){self._last_error()}"
+        )
+
+    def send(self, data: bytes, timeout_s: float = 5.0) -> None:
+        """Write `data`, all of it before the deadline, or fail (a worker that stops reading)."""
         stdin = self._process.stdin
         if not self.alive or stdin is None:
-            raise DeviceDisconnectedError(
-                f"{self.name}: the worker process is not running (exit code {self._process.poll()})"
-            )
-        try:
-            stdin.write(data)
-            stdin.flush()
-        except (BrokenPipeError, OSError) as exc:
-            raise DeviceDisconnectedError(f"{self.name}: the worker process is gone ({exc})") from exc
+            raise self._gone("is not running")
+        fd, view, deadline = stdin.fileno(), memoryview(data), time.monotonic() + timeout_s
+        while view:
+            _, writable, _ = select.select([], [fd], [], max(0.0, deadline - time.monotonic()))
+            if not writable:
+                raise DeviceTimeoutError(f"{self.name}: the worker took no input within {timeout_s:g} s")
+            try:
+                view = view[os.write(fd, view) :]
+            except BlockingIOError:
+                continue
+            except (BrokenPipeError, OSError) as exc:
+                raise self._gone(f"is gone ({exc})") from exc
 
     def _fill(self, deadline: float) -> None:
         """Read what the worker has written so far into the buffer, waiting until `deadline`."""
         assert self._process.stdout is not None
         fd = self._process.stdout.fileno()
-        remaining = deadline - time.monotonic()
-        ready, _, _ = select.select([fd], [], [], max(0.0, remaining))
+        ready, _, _ = select.select([fd], [], [], max(0.0, deadline - time.monotonic()))
         if not ready:
             raise DeviceTimeoutError(f"{self.name}: no answer from the worker in time")
         chunk = os.read(fd, 1 << 20)
         if not chunk:
-            raise DeviceDisconnectedError(
-                f"{self.name}: the worker process exited (code {self._process.wait(timeout=1)}){self._last_error()}"
-            )
+            with contextlib.suppress(subprocess.TimeoutExpired):
+                self._process.wait(timeout=1)
+            raise self._gone("exited")
         self._buffer += chunk
 
     def read_line(self, timeout_s: float) -> bytes:
@@ -79,24 +95,30 @@ class WorkerProcess:
         return data
 
     def _last_error(self) -> str:
-        if self.alive or self._process.stderr is None:
+        if self.alive:
             return ""
-        lines = self._process.stderr.read().decode(errors="replace").strip().splitlines()
+        try:
+            self._stderr.seek(0)
+            lines = self._stderr.read().decode(errors="replace").strip().splitlines()
+        except (OSError, ValueError):
+            return ""
         return f": {lines[-1]}" if lines else ""
 
     def stop(self, goodbye: bytes | None, timeout_s: float) -> str:
         """Say `goodbye` (if alive), wait, kill if it lingers; returns its last error line."""
         process = self._process
+        if goodbye is not None and self.alive:
+            with contextlib.suppress(DeviceTimeoutError, DeviceDisconnectedError):
+                self.send(goodbye, timeout_s)
         try:
-            if goodbye is not None and self.alive and process.stdin is not None:
-                process.stdin.write(goodbye)
-                process.stdin.flush()
-            process.wait(timeout=timeout_s)
-        except (OSError, subprocess.TimeoutExpired):
+            process.wait(timeout=timeout_s if goodbye is not None else 0.05)
+        except subprocess.TimeoutExpired:
             process.kill()
-            process.wait(timeout=timeout_s)
+            with contextlib.suppress(subprocess.TimeoutExpired):
+                process.wait(timeout=timeout_s)
         error = self._last_error()
-        for stream in (process.stdin, process.stdout, process.stderr):
+        for stream in (process.stdin, process.stdout, self._stderr):
             if stream is not None:
-                stream.close()
+                with contextlib.suppress(OSError):
+                    stream.close()
         return error.removeprefix(": ")

@@ -89,8 +89,11 @@ class PJLinkProjector(Device):
             raise DeviceProtocolError(f"{self.name}: garbled reply {bytes(data)!r}") from None
 
     def command(self, body: str, parameter: str) -> str:
-        """Send `%1<body> <parameter>` and return the reply's value (after `=`)."""
+        """Send `%1<body> <parameter>` and return the reply's value (after `=`). After a timeout the
+        connection is dropped (a late reply would answer the next command) and made again."""
         self._require_open()
+        if self._socket is None:
+            self._do_open()  # greeting and authentication are per connection
         assert self._socket is not None
         line = f"{self._prefix}%1{body} {parameter}\r"
         self._prefix = ""  # the digest goes with the first command of a connection only
@@ -98,7 +101,11 @@ class PJLinkProjector(Device):
             self._socket.sendall(line.encode("ascii"))
         except OSError as exc:
             raise DeviceDisconnectedError(f"{self.name}: connection failed: {exc}") from exc
-        reply = self._read_line()
+        try:
+            reply = self._read_line()
+        except (DeviceTimeoutError, DeviceDisconnectedError):
+            self._disconnect()
+            raise
         if reply == "PJLINK ERRA":
             raise DeviceAuthenticationError(f"{self.name}: PJLink password refused")
         expected = f"%1{body}="

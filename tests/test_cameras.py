@@ -170,3 +170,14 @@ def test_oak_with_the_real_depthai_and_no_device_is_not_found() -> None:
     camera = OakCamera("oak", SIZE, backend="depthai", env={"DEPTHAI_SEARCH_TIMEOUT": "1000"})
     with pytest.raises(DeviceNotFoundError):
         camera.open()
+
+
+def test_oak_late_answer_is_never_taken_for_the_next_frame() -> None:
+    from drivers.errors import DeviceDisconnectedError
+
+    with _oak("slow_after=1") as camera:
+        camera.capture(timeout_s=1.0)
+        with pytest.raises(DeviceTimeoutError):
+            camera.capture(timeout_s=0.3)  # its answer comes late ...
+        with pytest.raises(DeviceDisconnectedError, match="not running"):
+            camera.capture(timeout_s=0.3)  # ... so the worker was abandoned, not read out of step

@@ -186,3 +186,13 @@ def test_pjlink_nobody_listening() -> None:
     server.close()
     with pytest.raises(DeviceNotFoundError):
         PJLinkProjector("pj", "127.0.0.1", port, timeout_s=TIMEOUT_S).open()
+
+
+def test_pjlink_reconnects_after_a_timeout_instead_of_reading_a_late_reply() -> None:
+    with (
+        FakePJLinkProjector(fault="late-once") as server,
+        PJLinkProjector("pj", "127.0.0.1", server.port, timeout_s=TIMEOUT_S) as device,
+    ):
+        with pytest.raises(DeviceTimeoutError):
+            device.power(True)  # its "OK" comes after the timeout, on a connection now closed
+        assert device.power_state() == "on"  # a new connection, the real answer

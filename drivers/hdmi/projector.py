@@ -75,10 +75,16 @@ class HdmiProjector(Projector):
     def _send(self, header: bytes, payload: bytes = b"") -> None:
         if self._worker is None:
             raise DeviceDisconnectedError(f"{self.name}: the display worker is not running")
-        self._worker.send(header + payload)
-        reply = self._worker.read_line(self.timeout_s).decode().split()
-        if len(reply) != 3 or reply[0] != "P":
-            raise DeviceProtocolError(f"{self.name}: unexpected answer from the display worker: {reply}")
+        try:
+            self._worker.send(header + payload, self.timeout_s)
+            reply = self._worker.read_line(self.timeout_s).decode(errors="replace").split()
+            if len(reply) != 3 or reply[0] != "P":
+                raise DeviceProtocolError(f"{self.name}: unexpected answer from the display worker: {reply}")
+        except (DeviceTimeoutError, DeviceProtocolError):
+            # Out of step (a late answer may still come): abandon this worker; dark() starts a new one.
+            worker, self._worker = self._worker, None
+            worker.stop(None, self.timeout_s)
+            raise
         self.last_present_s = float(reply[1])
         self.last_checksum = int(reply[2])
 
@@ -92,6 +98,8 @@ class HdmiProjector(Projector):
         if self._worker is not None and self._worker.alive:
             self._send(b"D\n")
             return
+        if not self._open and self._worker is None:
+            return  # closed: nothing to hold
         # The worker died (killed, crashed): whatever the output shows now is not under control.
         # A new worker takes the output and holds it black, the safe state.
         if self._worker is not None:

@@ -97,7 +97,8 @@ class DepthaiBackend:
 
 class FakeBackend:
     """Behaves like DepthaiBackend on a free-running camera, with depthai's failures on request
-    (SLRIG_FAKE_OAK: comma-separated absent, stall_after=N, xlink_after=N, abort_after=N)."""
+    (SLRIG_FAKE_OAK: comma-separated absent, stall_after=N, xlink_after=N, abort_after=N,
+    slow_after=N: from then on each frame comes 2.5 s late)."""
 
     def __init__(self, s: OakSettings) -> None:
         self.faults: dict[str, Any] = {}
@@ -121,6 +122,8 @@ class FakeBackend:
             raise BackendError("timeout", f"no frame within {timeout_s:g} s")
         if "xlink_after" in f and self.sequence >= f["xlink_after"]:
             raise BackendError("disconnected", "OAK link failed: X_LINK_ERROR (XLinkReadError)")
+        if "slow_after" in f and self.sequence >= f["slow_after"]:
+            time.sleep(timeout_s + 2.5)  # answers, but after the caller (who allows 2 s more) gave up
         if "abort_after" in f and self.sequence >= f["abort_after"]:
             os.abort()  # what a native X_LINK_ERROR does to a depthai process (exit -6)
         self.sequence += 1

@@ -66,11 +66,25 @@ class OakCamera(Camera):
     def _request(self, answer_within_s: float, **request: Any) -> dict[str, Any]:
         if self._worker is None:
             raise DeviceDisconnectedError(f"{self.name}: the OAK worker is not running")
-        self._worker.send(json.dumps(request).encode() + b"\n")
-        answer = json.loads(self._worker.read_line(answer_within_s))
+        try:
+            self._worker.send(json.dumps(request).encode() + b"\n")
+            line = self._worker.read_line(answer_within_s)
+            try:
+                answer = json.loads(line)
+            except ValueError as exc:  # JSONDecodeError, UnicodeDecodeError
+                raise DeviceProtocolError(f"{self.name}: garbled answer from the OAK worker") from exc
+        except (DeviceTimeoutError, DeviceProtocolError):
+            self._abandon()
+            raise
         if not answer.get("ok"):
             raise _ERRORS.get(answer.get("kind"), DeviceError)(f"{self.name}: {answer.get('error')}")
         return answer
+
+    def _abandon(self) -> None:
+        """After a timeout the channel is out of step (the late answer may still come): end it."""
+        worker, self._worker = self._worker, None
+        if worker is not None:
+            worker.stop(None, 2.0)
 
     def _start(self, external_trigger: bool) -> None:
         self._worker = WorkerProcess(self.name, "drivers.oak.worker", [], self._env)
@@ -121,7 +135,11 @@ class OakCamera(Camera):
         # The worker waits up to `remaining` for a frame; give its answer a little longer to arrive.
         answer = self._request(remaining + 2.0, cmd="frame", timeout_s=remaining)
         assert self._worker is not None
-        data = self._worker.read_exact(int(answer["size"]), 5.0)
+        try:
+            data = self._worker.read_exact(int(answer["size"]), 5.0)
+        except DeviceTimeoutError:
+            self._abandon()
+            raise
         image = np.frombuffer(data, dtype=np.uint8).reshape(answer["shape"])
         return Frame(
             image=image,

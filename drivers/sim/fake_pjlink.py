@@ -14,7 +14,7 @@ class FakePJLinkProjector:
     def __init__(self, password: str | None = None, warmup_s: float = 0.0, fault: str = "") -> None:
         self.password = password
         self.warmup_s = warmup_s
-        self.fault = fault  # "", "no-greeting", "silence", "drop"
+        self.fault = fault  # "", "no-greeting", "silence", "drop", "late-once" (first reply comes 0.4 s late)
         self.power = "0"
         self.warm_until = 0.0
         self.input = "31"
@@ -79,7 +79,13 @@ class FakePJLinkProjector:
                     continue
                 if self.fault == "drop":
                     return
-                conn.sendall(self._answer(line).encode() + b"\r")
+                if self.fault == "late-once":
+                    self.fault = ""
+                    time.sleep(0.4)
+                try:
+                    conn.sendall(self._answer(line).encode() + b"\r")
+                except OSError:
+                    return  # the client gave up on this connection
 
     def _answer(self, line: str) -> str:
         if not line.startswith("%1") or " " not in line:
