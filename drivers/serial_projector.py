@@ -12,6 +12,7 @@ from __future__ import annotations
 import abc
 import contextlib
 import re
+import time
 from typing import ClassVar
 
 from drivers.base import Device
@@ -51,6 +52,10 @@ class CommandSet(abc.ABC):
         """Whether `line` is the projector echoing the command back (its answer follows)."""
         return False
 
+    @abc.abstractmethod
+    def answers(self, command: bytes, reply: str) -> bool:
+        """Whether `reply` (accepted by check) is the answer to `command`, not to an earlier one."""
+
 
 class BenQ(CommandSet):
     """`\\r*cmd=value#\\r`; replies echo the command, then `*CMD=VALUE#`; errors `*Illegal format#`,
@@ -78,7 +83,15 @@ class BenQ(CommandSet):
         return f"\r*blank={'on' if on else 'off'}#\r".encode()
 
     def is_echo(self, command: bytes, line: bytes) -> bool:
-        return line.strip().lower() == command.strip().lower()
+        # verbatim (the answer to a set repeats it in capitals); a serial prompt may lead
+        return line.strip().lstrip(b">") == command.strip()
+
+    def answers(self, command: bytes, reply: str) -> bool:
+        key, _, value = command.decode().strip().lstrip("*").rstrip("#").partition("=")
+        match = re.search(r"\*([A-Za-z0-9]+)=([^#]*)#", reply)
+        if not match or match.group(1).lower() != key.lower():
+            return False
+        return value == "?" or match.group(2).lower() == value.lower()
 
     def check(self, command: bytes, reply: str) -> None:
         for error in ("Illegal format", "Unsupported item", "Block item"):
@@ -120,6 +133,12 @@ class Epson(CommandSet):
     def blank(self, on: bool) -> bytes:
         return b"MUTE ON\r" if on else b"MUTE OFF\r"
 
+    def answers(self, command: bytes, reply: str) -> bool:
+        text = command.decode().strip()
+        if text.endswith("?"):  # a query answers KEY=value, then the prompt
+            return reply.strip().startswith(text[:-1] + "=")
+        return reply.strip() == ":"  # a set answers the bare prompt
+
     def check(self, command: bytes, reply: str) -> None:
         if "ERR" in reply:
             raise DeviceProtocolError(f"epson: {command.strip()!r} refused (ERR)")
@@ -152,6 +171,11 @@ class Optoma(CommandSet):
     def blank(self, on: bool) -> bytes:
         return f"~0002 {int(on)}\r".encode()
 
+    def answers(self, command: bytes, reply: str) -> bool:
+        if command.strip() == self.power_query().strip():
+            return reply.strip().startswith("OK")
+        return reply.strip() == "P"
+
     def check(self, command: bytes, reply: str) -> None:
         if reply.strip().startswith("F"):
             raise DeviceProtocolError(f"optoma: {command.strip()!r} refused (F)")
@@ -175,6 +199,8 @@ class SerialProjectorControl(Device):
         self.timeout_s = timeout_s
         self.baudrate = baudrate or self.commands.baudrate
         self._port = None
+        self._stale = False  # a reply may still be on its way from a command that timed out
+        self.last_reply = ""
 
     def _do_open(self) -> None:
         import serial
@@ -195,29 +221,64 @@ class SerialProjectorControl(Device):
             self._port.close()
             self._port = None
 
+    def _drain(self) -> None:
+        """After a timeout a reply may still be on its way: let it arrive and throw it away."""
+        assert self._port is not None
+        quiet_s = min(0.5, self.timeout_s)
+        previous = self._port.timeout
+        self._port.timeout = quiet_s
+        try:
+            while self._port.read(4096):
+                pass
+        finally:
+            self._port.timeout = previous
+        self._stale = False
+
     def _exchange(self, command: bytes) -> str:
+        """Send `command` and return its reply: the first complete reply that answers this command
+        (a late reply to an earlier one does not), before the timeout."""
         import serial
 
         self._require_open()
         assert self._port is not None
         try:
-            self._port.reset_input_buffer()  # a late reply to an earlier command is not this one's answer
+            if self._stale:
+                self._drain()
+            deadline = time.monotonic() + self.timeout_s
+            self._port.reset_input_buffer()
             self._port.write(command)
-            reply = self._port.read_until(self.commands.terminator)
-            if reply and self.commands.is_echo(command, reply):  # serial BenQs echo; LAN ones do not
+            while True:
                 reply = self._port.read_until(self.commands.terminator)
+                if not reply or not reply.endswith(self.commands.terminator):
+                    break
+                text = self._text(reply)
+                if self.commands.is_echo(command, reply):  # serial BenQs echo the command first
+                    continue
+                self.commands.check(command, text)  # an error reply is for this command: raise
+                if self.commands.answers(command, text):
+                    self.last_reply = text
+                    return text
+                if time.monotonic() > deadline:
+                    break
         except serial.SerialException as exc:
             raise DeviceDisconnectedError(f"{self.name}: serial port failed: {exc}") from exc
+        self._stale = True
         if not reply:
             raise DeviceTimeoutError(f"{self.name}: no reply to {command.strip()!r} within {self.timeout_s:g} s")
-        try:
-            text = reply.decode("ascii")
-        except UnicodeDecodeError:
-            raise DeviceProtocolError(f"{self.name}: garbled reply {reply!r} (wrong baud rate?)") from None
+        text = self._text(reply)
         if not reply.endswith(self.commands.terminator):
             raise DeviceTimeoutError(f"{self.name}: incomplete reply {text!r} within {self.timeout_s:g} s")
-        self.commands.check(command, text)
-        return text
+        raise DeviceTimeoutError(
+            f"{self.name}: no reply to {command.strip()!r} within {self.timeout_s:g} s "
+            f"(only {text!r}, which answers something else)"
+        )
+
+    def _text(self, reply: bytes) -> str:
+        try:
+            return reply.decode("ascii")
+        except UnicodeDecodeError:
+            self._stale = True
+            raise DeviceProtocolError(f"{self.name}: garbled reply {reply!r} (wrong baud rate?)") from None
 
     def power(self, on: bool) -> None:
         self._exchange(self.commands.power(on))

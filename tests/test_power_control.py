@@ -109,9 +109,11 @@ def test_serial_garbage_is_a_protocol_error(vendor: str) -> None:
 def test_a_late_reply_is_not_taken_for_the_next_commands_answer(vendor: str) -> None:
     device = _serial(vendor, "late", power="on")
     with pytest.raises(DeviceTimeoutError):
-        device.power_state()  # its reply comes late ...
-    device._port.fault = ""  # ... and from now on replies are on time
-    device.power(False)  # ... so the late "on" is flushed, not read as this command's answer
+        device.power_state()  # its reply ("on") comes late, when the next command is sent ...
+    device._port.fault = ""  # ... and from then on replies are on time
+    device.power(False)  # ... so power(False) must not take the late "on" for its own answer
+    own = {"benq": "*POW=OFF#", "epson": ":", "optoma": "P"}[vendor]
+    assert device.last_reply.strip().endswith(own) and "ON" not in device.last_reply.upper().replace("POW=OFF", "")
     assert device.power_state() == "off"
 
 
