@@ -1,8 +1,9 @@
 """V4L2 / UVC cameras through OpenCV's V4L2 backend.
 
 Manual exposure is set in microseconds and sent in V4L2's units (exposure_time_absolute counts
-100 us); every setting is read back and a camera that clamps it says so. A read has a finite
-timeout (CAP_PROP_READ_TIMEOUT_MSEC). Frames are numbered as they arrive and carry the driver's
+100 us); every setting is read back and a camera that clamps it says so. A read waits at most
+OPENCV_VIDEOIO_V4L_SELECT_TIMEOUT seconds (2, set by the `drivers` package before cv2 loads; the
+backend ignores CAP_PROP_READ_TIMEOUT_MSEC). Frames are numbered as they arrive and carry the driver's
 buffer timestamp; a buffer whose timestamp does not advance is stale, a gap of more than 1.5
 frame periods counts dropped frames.
 """
@@ -117,7 +118,6 @@ class V4l2Camera(Camera):
             self._set_checked(cv2.CAP_PROP_FRAME_WIDTH, width, "width")
             self._set_checked(cv2.CAP_PROP_FRAME_HEIGHT, height, "height")
             cap.set(cv2.CAP_PROP_BUFFERSIZE, self.buffer_frames)
-            cap.set(cv2.CAP_PROP_READ_TIMEOUT_MSEC, 2000)
             self._set_checked(cv2.CAP_PROP_AUTO_EXPOSURE, V4L2_MANUAL_EXPOSURE, "manual exposure mode")
             self._do_set_exposure_us(self._exposure_us)
             if self._gain is not None:
@@ -137,9 +137,9 @@ class V4l2Camera(Camera):
     def _grab(self, deadline: float) -> float:
         """Grab the next buffer before `deadline`; returns its timestamp (ms)."""
         assert self._cap is not None
-        remaining_ms = max(1.0, (deadline - time.monotonic()) * 1000.0)
-        self._cap.set(cv2.CAP_PROP_READ_TIMEOUT_MSEC, remaining_ms)
-        if not self._cap.grab():
+        if time.monotonic() > deadline:
+            raise DeviceTimeoutError(f"{self.name}: no frame within the capture timeout")
+        if not self._cap.grab():  # bounded by OPENCV_VIDEOIO_V4L_SELECT_TIMEOUT
             if self.device.startswith("/dev/") and not os.path.exists(self.device):
                 raise DeviceDisconnectedError(f"{self.name}: {self.device} is gone (unplugged?)")
             raise DeviceTimeoutError(f"{self.name}: no frame within the capture timeout")
