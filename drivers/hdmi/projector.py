@@ -35,7 +35,13 @@ class HdmiProjector(Projector):
         self.start_timeout_s = start_timeout_s
         self._worker: WorkerProcess | None = None
         self.last_present_s: float | None = None
-        self.last_checksum: int | None = None
+        self.last_checksum: int | None = None  # of the displayed image, as the worker read it back
+        self._black_checksum = zlib.crc32(bytes(resolution[0] * resolution[1]))
+
+    @property
+    def is_dark(self) -> bool:
+        """Whether the worker last read back a black screen."""
+        return self.last_checksum == self._black_checksum
 
     @property
     def resolution(self) -> tuple[int, int]:
@@ -47,6 +53,7 @@ class HdmiProjector(Projector):
 
     def _do_open(self) -> None:
         self._start_worker()
+        self._do_dark()  # confirm the new output is black
 
     def _start_worker(self) -> None:
         """A new worker owns the output; it starts black."""
@@ -97,6 +104,8 @@ class HdmiProjector(Projector):
     def _do_dark(self) -> None:
         if self._worker is not None and self._worker.alive:
             self._send(b"D\n")
+            if self.last_checksum != self._black_checksum:
+                raise DeviceProtocolError(f"{self.name}: the display is not black after dark")
             return
         if not self._open and self._worker is None:
             return  # closed: nothing to hold
@@ -106,4 +115,4 @@ class HdmiProjector(Projector):
             self._worker.stop(None, self.timeout_s)
             self._worker = None
         self._start_worker()
-        self.last_checksum = 0
+        self._send(b"D\n")  # and confirm it is black

@@ -5,7 +5,7 @@ Run as `python -m drivers.hdmi.worker WIDTH HEIGHT DISPLAY`; SDL_VIDEODRIVER cho
 stdin and answers each on stdout:
 
     S <length>\\n<length bytes: uint8 pattern, HEIGHT x WIDTH>   show it      -> P <monotonic s> <checksum>\\n
-    D\\n                                                          dark         -> P <monotonic s> 0\\n
+    D\\n                                                          dark         -> P <monotonic s> <checksum>\\n
     Q\\n                                                          dark, exit
 
 The presentation time is taken right after the buffer flip. On end of input (the parent died), on
@@ -70,7 +70,8 @@ def main(argv: list[str]) -> int:
                 out.write(f"P {shown:.6f} {checksum}\n".encode())
             elif line.startswith(b"D"):
                 black()
-                out.write(f"P {time.monotonic():.6f} 0\n".encode())
+                checksum = zlib.crc32(pygame.surfarray.array_red(screen).T.tobytes())
+                out.write(f"P {time.monotonic():.6f} {checksum}\n".encode())
             out.flush()
             pygame.event.pump()  # keep the window responsive
     finally:
