@@ -118,7 +118,7 @@ def test_oak_worker_killed_mid_scan_fails_the_scan_not_the_process(tmp_path: Pat
             return original(timeout_s)
 
         oak.capture = capture_then_die  # type: ignore[method-assign]
-        with pytest.raises(ScanError, match=r"exited|not running"):
+        with pytest.raises(ScanError, match=r"exited|not running|gone"):
             run_scan(the_rig)
         assert all(p.is_dark for p in the_rig.projectors)  # type: ignore[attr-defined]
         oak.close()
