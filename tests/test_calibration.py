@@ -159,6 +159,15 @@ def test_few_views_are_reported(tmp_path: Path, capsys: pytest.CaptureFixture[st
     assert any("only 4 views" in w for w in report["warnings"])
 
 
+def _save_views(tmp_path: Path, views: Path) -> None:
+    """Three views of the small bench's 10x7 board, written as a folder of images."""
+    config = str(_small(tmp_path, views=3))
+    assert (
+        main(["calibrate", "camera", "--config", config, "--out", str(tmp_path / "first"), "--save-views", str(views)])
+        == 0
+    )
+
+
 def _existing_calibration(folder: Path) -> bytes:
     folder.mkdir(parents=True)
     (folder / "calibration.json").write_text('{"kept": true}')
@@ -186,38 +195,10 @@ def test_bad_calibration_inputs_exit_2_and_keep_the_old_calibration(
             cv2.imwrite(str(views / f"view_{k:02d}" / "camera0.png"), np.full((256, 320), 40, np.uint8))
         args += ["--config", str(_small(tmp_path)), "--images", str(views)]
     elif case == "wrong board":  # the views show a 10x7 board; the config says 9x6
-        assert (
-            main(
-                [
-                    "calibrate",
-                    "camera",
-                    "--config",
-                    str(_small(tmp_path, views=3)),
-                    "--out",
-                    str(tmp_path / "first"),
-                    "--save-views",
-                    str(views),
-                ]
-            )
-            == 0
-        )
+        _save_views(tmp_path, views)
         args += ["--config", str(_small(tmp_path, board={"squares": [9, 6]})), "--images", str(views)]
     else:
-        assert (
-            main(
-                [
-                    "calibrate",
-                    "camera",
-                    "--config",
-                    str(_small(tmp_path, views=3)),
-                    "--out",
-                    str(tmp_path / "first"),
-                    "--save-views",
-                    str(views),
-                ]
-            )
-            == 0
-        )
+        _save_views(tmp_path, views)
         for extra in sorted(views.iterdir())[2:]:
             for f in extra.iterdir():
                 f.unlink()
