@@ -71,9 +71,11 @@ def check(config: RigConfig) -> list[dict[str, str]]:
     return problems
 
 
-def measure_latency(rig: Rig, projector: int, camera: int = 0, max_wait_s: float = 2.0) -> float:
-    """Seconds from show() of a white frame (after black) to the first camera frame exposed in its
-    light: frames are taken as they come, and the first one clearly brighter than black counts."""
+def measure_latency(rig: Rig, projector: int, camera: int = 0, max_frames: int = 120) -> float:
+    """Seconds from show() of a white frame (after black) to the light on the scene, erring long:
+    frames are taken as they come until their brightness stops rising, and the first one lit to
+    within 3 % of that plateau was exposed entirely after the light arrived; its exposure start,
+    less the time of show(), is the latency (at most one frame period too long, never too short)."""
     device, cam = rig.projectors[projector], rig.cameras[camera]
     width, height = device.resolution
     rig.all_dark()
@@ -82,15 +84,16 @@ def measure_latency(rig: Rig, projector: int, camera: int = 0, max_wait_s: float
     dark = float(cam.capture().image.mean())
     device.show(np.full((height, width), 255, np.uint8))
     shown = rig.sim.clock_s if rig.sim is not None else time.monotonic()
+    seen: list[tuple[float, float]] = []  # (exposure start, brightness)
     try:
-        waited = 0.0
-        while waited < max_wait_s:
+        for _ in range(max_frames):
             frame = cam.capture()
-            if float(frame.image.mean()) > dark + 0.5 * max(dark, 8.0):
-                exposure_s = frame.exposure_us * 1e-6
-                return max(0.0, frame.timestamp_s - exposure_s - shown)
-            waited = (frame.timestamp_s - shown) if frame.timestamp_s > shown else waited + 0.05
-        raise TimeoutError(f"no light from {rig.config.projectors[projector].name} seen within {max_wait_s:g} s")
+            seen.append((frame.timestamp_s - frame.exposure_us * 1e-6, float(frame.image.mean())))
+            if len(seen) >= 3 and seen[-1][1] > dark + 10 and abs(seen[-1][1] - seen[-2][1]) <= 0.01 * seen[-1][1]:
+                plateau = seen[-1][1]
+                first = next(start for start, level in seen if level >= dark + 0.97 * (plateau - dark))
+                return max(0.0, first - shown)
+        raise TimeoutError(f"no steady light from {rig.config.projectors[projector].name} within {max_frames} frames")
     finally:
         rig.all_dark()
 

@@ -141,3 +141,19 @@ def test_mesh_file_is_scaled_and_placed_on_its_base(tmp_path: Path) -> None:
     (tmp_path / "junk.ply").write_text("not a mesh")
     with pytest.raises(ValueError):
         sc.mesh_file(tmp_path / "junk.ply")
+
+
+def test_a_frame_exposed_across_a_pattern_change_sees_both() -> None:
+    params = SimCameraParams(exposure_us=10000.0, read_noise_e=0.0, full_well_e=1e7, blur_px=0.0, bit_depth=16)
+    bench = _bench(
+        [sc.plane(2000.0)],
+        camera_params=[params],
+        projector_params=[SimProjectorParams(latency_s=0.05, black_level=0.0)],
+        ambient=0.0,
+    )
+    bench.set_pattern(0, np.full((192, 256), 255, np.uint8))  # lit from bench time 0.05
+    before = bench.render(0, time_s=0.03).mean()  # exposed 0.030-0.040: dark
+    across = bench.render(0, time_s=0.045).mean()  # 0.045-0.055: half dark, half lit
+    after = bench.render(0, time_s=0.06).mean()  # 0.060-0.070: lit
+    assert before == 0 and after > 0
+    assert across == pytest.approx(after / 2, rel=0.01)

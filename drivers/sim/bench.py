@@ -9,6 +9,7 @@ curve and quantisation.
 
 from __future__ import annotations
 
+import itertools
 from dataclasses import dataclass
 from typing import Protocol
 
@@ -286,23 +287,40 @@ class SimBench:
         return puv, lit, gain
 
     # --- rendering -------------------------------------------------------------------------
-    def irradiance(self, camera: int, time_s: float | None = None) -> np.ndarray:
-        """Light falling on the surface seen by each camera pixel at bench time `time_s` (default
-        now), before albedo (float32)."""
+    def _segments(self, projector: int, start: float, duration: float) -> list[tuple[float, np.ndarray | None]]:
+        """(weight, light) of what a projector emits during [start, start + duration]: a frame
+        exposed across a pattern change sees both patterns, each for its share of the exposure."""
+        end = start + duration
+        changes = [t for t, _ in self._history[projector] if start < t < end]
+        bounds = [start, *changes, end]
+        if duration <= 0 or len(bounds) == 2:
+            return [(1.0, self.emitted_at(projector, start))]
+        return [
+            (float((b - a) / duration), self.emitted_at(projector, a)) for a, b in itertools.pairwise(bounds) if b > a
+        ]
+
+    def irradiance(self, camera: int, time_s: float | None = None, duration_s: float = 0.0) -> np.ndarray:
+        """Light falling on the surface seen by each camera pixel, averaged over
+        [time_s, time_s + duration_s] of bench time (default: now, an instant), before albedo (float32)."""
         cam = self.cameras[camera]
         when = self.clock_s if time_s is None else time_s
         total = np.full((cam.height, cam.width), self.ambient, dtype=np.float32)
         for p in range(len(self.projectors)):
-            emitted = self.emitted_at(p, when)
             light = self._lighting(camera, p)
             black = self.projector_params[p].black_level
-            if emitted is None:
-                total += black * light.irradiance_gain
-                continue
-            sampled = cv2.remap(
-                emitted, light.map_x, light.map_y, cv2.INTER_LINEAR, borderMode=cv2.BORDER_CONSTANT, borderValue=0
-            )
-            total += sampled * light.irradiance_gain
+            for weight, emitted in self._segments(p, when, duration_s):
+                if emitted is None:
+                    total += np.float32(weight * black) * light.irradiance_gain
+                    continue
+                sampled = cv2.remap(
+                    emitted,
+                    light.map_x,
+                    light.map_y,
+                    cv2.INTER_LINEAR,
+                    borderMode=cv2.BORDER_CONSTANT,
+                    borderValue=0,
+                )
+                total += np.float32(weight) * sampled * light.irradiance_gain
         return total
 
     def render(
@@ -314,7 +332,7 @@ class SimBench:
         exposure = params.exposure_us if exposure_us is None else exposure_us
         gain = params.gain if gain is None else gain
         view = self._view(camera)
-        irradiance = self.irradiance(camera, time_s)
+        irradiance = self.irradiance(camera, time_s, exposure * 1e-6 if time_s is not None else 0.0)
         radiance = irradiance[..., None] * view.albedo if params.color else irradiance * view.albedo_mono
         if params.blur_px > 0:
             radiance = cv2.GaussianBlur(radiance, (0, 0), params.blur_px, borderType=cv2.BORDER_REPLICATE)
