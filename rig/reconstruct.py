@@ -152,11 +152,6 @@ class PairTriangulator:
         return (coded - K[1, 2]) / K[1, 1]
 
 
-def triangulate(camera: CameraModel, projector: CameraModel, corr: Correspondence) -> tuple[np.ndarray, np.ndarray]:
-    """One-off triangulation (see PairTriangulator for repeated scans)."""
-    return PairTriangulator(camera, projector).triangulate(corr)
-
-
 def grid_normals(points: np.ndarray, toward: np.ndarray, step: int = 2) -> np.ndarray:
     """Unit normals (float32) of an organised point grid (H, W, 3) from neighbours `step` pixels
     away, oriented against `toward` (H, W, 3: the camera ray directions). Where a neighbour is

@@ -97,10 +97,6 @@ class Rig:
     _closed: bool = field(default=False, repr=False)
     _triangulators: dict[tuple[int, int], PairTriangulator] = field(default_factory=dict, repr=False)
 
-    def triangulator_cache_clear(self) -> None:
-        """Forget the per-pair triangulation terms (after the geometry changed)."""
-        self._triangulators.clear()
-
     def triangulator(self, projector: int, camera: int) -> PairTriangulator:
         """The pair's triangulator; its per-pixel terms are computed on first use and kept."""
         key = (projector, camera)

@@ -97,40 +97,17 @@ def _small(tmp_path: Path, **calibration: Any) -> Path:
     return write_config(tmp_path, data)
 
 
+def _calibrate(what: str, config: Path | str, out: Path, *options: str) -> int:
+    """`slrig calibrate <what>` on a config, writing to `out`; the CLI's exit code."""
+    return main(["calibrate", what, "--config", str(config), "--out", str(out), *options])
+
+
 def test_charuco_and_a_folder_of_views_give_the_same_calibration(tmp_path: Path) -> None:
     path = _small(
         tmp_path, board={"kind": "charuco", "squares": [8, 6], "square_mm": 25.0, "marker_mm": 18.0}, views=12
     )
-    assert (
-        main(
-            [
-                "calibrate",
-                "camera",
-                "--config",
-                str(path),
-                "--out",
-                str(tmp_path / "a"),
-                "--save-views",
-                str(tmp_path / "views"),
-            ]
-        )
-        == 0
-    )
-    assert (
-        main(
-            [
-                "calibrate",
-                "camera",
-                "--config",
-                str(path),
-                "--out",
-                str(tmp_path / "b"),
-                "--images",
-                str(tmp_path / "views"),
-            ]
-        )
-        == 0
-    )
+    assert _calibrate("camera", path, tmp_path / "a", "--save-views", str(tmp_path / "views")) == 0
+    assert _calibrate("camera", path, tmp_path / "b", "--images", str(tmp_path / "views")) == 0
     a, _ = load_calibration(tmp_path / "a")
     b, _ = load_calibration(tmp_path / "b")
     np.testing.assert_allclose(a["camera0"].K, b["camera0"].K, rtol=1e-6)
@@ -139,33 +116,14 @@ def test_charuco_and_a_folder_of_views_give_the_same_calibration(tmp_path: Path)
 
 
 def test_few_views_are_reported(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
-    assert (
-        main(
-            [
-                "calibrate",
-                "camera",
-                "--config",
-                str(_small(tmp_path)),
-                "--views",
-                "4",
-                "--json",
-                "--out",
-                str(tmp_path / "cal"),
-            ]
-        )
-        == 0
-    )
+    assert _calibrate("camera", _small(tmp_path), tmp_path / "cal", "--views", "4", "--json") == 0
     report = json.loads(capsys.readouterr().out)
     assert any("only 4 views" in w for w in report["warnings"])
 
 
 def _save_views(tmp_path: Path, views: Path) -> None:
     """Three views of the small bench's 10x7 board, written as a folder of images."""
-    config = str(_small(tmp_path, views=3))
-    assert (
-        main(["calibrate", "camera", "--config", config, "--out", str(tmp_path / "first"), "--save-views", str(views)])
-        == 0
-    )
+    assert _calibrate("camera", _small(tmp_path, views=3), tmp_path / "first", "--save-views", str(views)) == 0
 
 
 def _existing_calibration(folder: Path) -> bytes:
@@ -209,7 +167,7 @@ def test_bad_calibration_inputs_exit_2_and_keep_the_old_calibration(
     err = capsys.readouterr().err
     assert message in err and "Traceback" not in err
     assert (out / "calibration.json").read_bytes() == before
-    assert main(["calibrate", "camera", "--config", str(_small(tmp_path)), "--views", "2", "--out", str(out)]) == 2
+    assert _calibrate("camera", _small(tmp_path), out, "--views", "2") == 2
     assert "--views" in capsys.readouterr().err
 
 
@@ -219,7 +177,7 @@ def test_operator_supplied_poses(tmp_path: Path, capsys: pytest.CaptureFixture[s
         for x, y, rx, ry in [(-40, -30, 20, 0), (40, -30, 0, 20), (40, 30, -20, 0), (-40, 30, 0, -20), (0, 0, 15, 15)]
     ]
     path = _small(tmp_path, poses=poses)
-    assert main(["calibrate", "camera", "--config", str(path), "--out", str(tmp_path / "cal"), "--json"]) == 0
+    assert _calibrate("camera", path, tmp_path / "cal", "--json") == 0
     report = json.loads(capsys.readouterr().out)
     assert report["views"] == 6
     assert report["devices"]["camera0"]["views_used"] == [0, 1, 2, 3, 4, 5]
@@ -234,6 +192,6 @@ def test_calibration_captures_in_sync_on_a_bench_with_latency(
     data["cameras"][0]["sim"]["buffered_frames"] = 2
     data["calibration"] = {"views": 6}
     path = write_config(tmp_path, data)
-    assert main(["calibrate", "rig", "--config", str(path), "--out", str(tmp_path / "cal"), "--json"]) == 0
+    assert _calibrate("rig", path, tmp_path / "cal", "--json") == 0
     report = json.loads(capsys.readouterr().out)["devices"]
     assert report["camera0"]["rms_px"] < 0.3 and report["projector0"]["rms_px"] < 0.5
