@@ -30,7 +30,9 @@ class Frame:
     """One captured image.
 
     `image` is uint8 or uint16, shape (H, W) for mono or (H, W, 3) for colour (BGR).
-    `timestamp_s` is monotonic; `sequence` counts frames the camera delivered, so gaps show drops.
+    `timestamp_s` is the end of the exposure on the host's monotonic clock (bench time on the
+    simulated bench; V4L2 buffer and DepthAI frame stamps are taken there too), so it compares with
+    a projector's `last_present_s`. `sequence` counts frames the camera delivered, so gaps show drops.
     `bit_depth` is the sensor's (a 12-bit image is stored in uint16 with values up to 4095).
     """
 
@@ -45,6 +47,10 @@ class Frame:
     @property
     def full_scale(self) -> int:
         return (1 << self.bit_depth) - 1
+
+    @property
+    def exposure_start_s(self) -> float:
+        return self.timestamp_s - self.exposure_us * 1e-6
 
 
 class TriggerMode(enum.Enum):
@@ -123,6 +129,9 @@ class Projector(Device):
     """A projector shows 8-bit grayscale patterns of its native resolution."""
 
     mode: ProjectorMode = ProjectorMode.STREAMING
+    # When the last pattern reached the output, on the clock of Frame.timestamp_s; None if the
+    # driver cannot tell. Light is on the scene from here plus the display latency.
+    last_present_s: float | None = None
 
     @property
     @abc.abstractmethod

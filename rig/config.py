@@ -90,6 +90,9 @@ class SimFaults(Strict):
     disconnect_after_frames: int | None = Field(None, ge=0, le=10_000_000)
     stall_after_frames: int | None = Field(None, ge=0, le=10_000_000)
     repeat_frame_at: int | None = Field(None, ge=1, le=10_000_000, description="this capture is a stale repeat")
+    early_frame_at: int | None = Field(
+        None, ge=1, le=10_000_000, description="this capture was exposed before the last flush (a frame too many held)"
+    )
 
 
 class SimCameraOptions(Strict):

@@ -219,7 +219,7 @@ def _open_all(rig: Rig, devices: tuple[Device, ...]) -> None:
 
 def _faults(c: CameraConfig) -> SimCameraFaults:
     f = c.sim.faults
-    return SimCameraFaults(f.disconnect_after_frames, f.stall_after_frames, f.repeat_frame_at)
+    return SimCameraFaults(f.disconnect_after_frames, f.stall_after_frames, f.repeat_frame_at, f.early_frame_at)
 
 
 def open_rig(config: RigConfig) -> Rig:

@@ -8,6 +8,8 @@ timestamp). A device fault darkens every projector and fails the scan.
 
 from __future__ import annotations
 
+import logging
+
 import numpy as np
 
 from drivers.base import Frame, PatternSequence, ProjectorMode, SequenceEntry, TriggerMode
@@ -18,6 +20,11 @@ from rig.progress import ProgressTracker
 from rig.rig import Rig
 
 Frames = dict[tuple[int, int], list[np.ndarray]]
+
+log = logging.getLogger(__name__)
+STAMP_TOLERANCE_S = 0.0005  # V4L2 stamps reach us in milliseconds
+MAX_EARLY_FRAMES = 8  # frames exposed before the light that one capture may discard
+CLOCKS_APART_S = 5.0  # a frame this far before the light is on another clock: stamps cannot gate
 
 
 class _Progress:
@@ -62,6 +69,22 @@ def _take(rig: Rig, c: int, timeout_s: float, last_sequence: list[int]) -> Frame
     return frame
 
 
+def _take_lit(rig: Rig, c: int, timeout_s: float, last_sequence: list[int], lit_from: float | None) -> Frame:
+    """The first frame whose exposure began once the pattern was lit. A flush cannot drop the frame
+    being exposed while it runs, and a driver may hold more frames than it says; stamps tell."""
+    for _ in range(MAX_EARLY_FRAMES + 1):
+        frame = _take(rig, c, timeout_s, last_sequence)
+        if lit_from is None or frame.exposure_start_s >= lit_from - STAMP_TOLERANCE_S:
+            return frame
+        if lit_from - frame.exposure_start_s > CLOCKS_APART_S:
+            log.warning("%s: frame stamps are not on the projector's clock; cannot gate by time", rig.cameras[c].name)
+            return frame
+        log.debug("%s: frame %d exposed before the light, dropped", rig.cameras[c].name, frame.sequence)
+    raise ScanError(
+        f"{rig.cameras[c].name}: {MAX_EARLY_FRAMES + 1} frames in a row were exposed before the pattern was lit"
+    )
+
+
 def _capture_streaming(
     rig: Rig, p: int, patterns: list[np.ndarray], frames: Frames, last_sequence: list[int], progress: _Progress
 ) -> None:
@@ -70,11 +93,13 @@ def _capture_streaming(
     timeout = rig.config.scan.capture_timeout_s
     for pattern in patterns:
         projector.show(pattern)
+        presented = projector.last_present_s
+        lit_from = None if presented is None else presented + latency
         rig.wait(latency)  # until the light is on the scene
         for camera in rig.cameras:
             camera.flush()  # frames exposed before that are the previous pattern
         for c in range(len(rig.cameras)):
-            frames[(p, c)].append(_take(rig, c, timeout, last_sequence).image)
+            frames[(p, c)].append(_take_lit(rig, c, timeout, last_sequence, lit_from).image)
         progress.step()
 
 

@@ -55,6 +55,35 @@ def test_software_sync_gives_the_cloud_of_an_ideal_bench(tmp_path: Path, capsys:
     assert unsynced["completeness"] < 0.5 * ideal["completeness"]  # every frame one pattern behind
 
 
+def test_a_frame_exposed_before_the_light_is_dropped_by_its_stamp(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """A driver that keeps one frame more than the flush drops: the stamps show that frame was
+    exposed before the pattern was lit, and the next one is taken instead."""
+    ideal = _eval(tmp_path, _timed(LATENCY_S), capsys, "ideal.yaml")
+    data = _timed(LATENCY_S)
+    data["cameras"][0]["sim"]["faults"] = {"early_frame_at": 5}
+    gated = _eval(tmp_path, data, capsys, "early.yaml")
+    # the same patterns; the sensor noise differs (the dropped frame drew its own)
+    assert gated["points"] == pytest.approx(ideal["points"], rel=0.002)
+    assert gated["rms_mm"] == pytest.approx(ideal["rms_mm"], rel=0.01)
+    from rig.evaluate import evaluate_on_bench
+    from rig.scan import run_scan
+
+    with open_rig(load_config(write_config(tmp_path, data, "early.yaml"))) as the_rig:
+        projector = the_rig.projectors[0]
+        show = projector.show
+
+        def show_unstamped(pattern: np.ndarray) -> None:  # a driver that cannot tell when it presented
+            show(pattern)
+            projector.last_present_s = None
+
+        projector.show = show_unstamped  # type: ignore[method-assign]
+        ungated = evaluate_on_bench(the_rig, run_scan(the_rig).pairs[0])
+    # taking the early frame would have given another cloud (one bit plane of the previous pattern)
+    assert abs(ungated["points"] - ideal["points"]) > 0.05 * ideal["points"]
+
+
 def test_hardware_trigger_path_gives_the_same_cloud(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     software = _eval(tmp_path, small_config_data(), capsys, "software.yaml")
     data = small_config_data()

@@ -40,6 +40,7 @@ class SimProjector(Projector):
 
     def _do_show(self, pattern: np.ndarray) -> None:
         self._bench.set_pattern(self._index, pattern)
+        self.last_present_s = self._bench.clock_s
         self.shown += 1
 
     def _do_dark(self) -> None:
@@ -70,6 +71,7 @@ class SimCameraFaults:
     disconnect_after: int | None = None  # then DeviceDisconnectedError
     stall_after: int | None = None  # then no frame arrives: DeviceTimeoutError at the deadline
     repeat_at: int | None = None  # this capture hands back the previous frame again (stale)
+    early_at: int | None = None  # this capture hands out a frame exposed before the last flush
 
 
 class SimCamera(Camera):
@@ -135,6 +137,8 @@ class SimCamera(Camera):
         else:
             # A driver holding `buffered_frames` hands out the oldest: exposed that many periods ago.
             exposed = self._bench.clock_s - self._params.buffered_frames * self._params.frame_period_s
+            if faults.early_at == self._captures:  # a driver that kept one more frame than it said
+                exposed -= self._params.frame_period_s
         stamp = exposed + self._exposure_us * 1e-6
         image = self._bench.render(self._index, self._exposure_us, self._gain, exposed)
         self._sequence += 1
