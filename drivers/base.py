@@ -173,11 +173,17 @@ class Projector(Device):
             raise ValueError(f"{self.name}: a sequence needs at least one pattern")
         self._guarded(self._do_load_sequence, sequence)
 
-    def start_sequence(self) -> None:
+    def sequence_groups(self, count: int) -> list[int]:
+        """How a loaded sequence of `count` patterns plays: one start_sequence(group) per group,
+        each group's patterns back to back at the sequence period, a trigger pulse each. Patterns
+        past `count` (padding) are black. Most projectors play the whole sequence from one start."""
+        return [count]
+
+    def start_sequence(self, group: int = 0) -> None:
         self._require_open()
         if self.mode is not ProjectorMode.SEQUENCE:
             raise DeviceStateError(f"{self.name}: not a sequence projector")
-        self._guarded(self._do_start_sequence)
+        self._guarded(self._do_start_sequence, group)
 
     def stop_sequence(self) -> None:
         if self._open and self.mode is ProjectorMode.SEQUENCE:
@@ -192,7 +198,7 @@ class Projector(Device):
     def _do_load_sequence(self, sequence: PatternSequence) -> None:
         raise DeviceStateError(f"{self.name}: sequences are not supported")
 
-    def _do_start_sequence(self) -> None:
+    def _do_start_sequence(self, group: int = 0) -> None:
         raise DeviceStateError(f"{self.name}: sequences are not supported")
 
     def _do_stop_sequence(self) -> None:

@@ -13,8 +13,10 @@ import numpy as np
 import yaml
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
 
+from drivers.dlp.lcr4500 import MIN_8BIT_PERIOD_US as LCR4500_MIN_8BIT_PERIOD_US
+from drivers.dlp.lcr4500 import RESOLUTION as LCR4500_RESOLUTION
 from rig.calibrate.boards import BoardConfig
-from rig.driver_config import HdmiOptions, OakOptions, PowerOptions, V4l2Options
+from rig.driver_config import HdmiOptions, LightCrafterOptions, OakOptions, PowerOptions, V4l2Options
 from rig.errors import ConfigError
 from rig.patterns import codec_class, codec_names
 from rig.patterns.gray import GrayParams
@@ -108,7 +110,7 @@ class SimCameraOptions(Strict):
 
 class ProjectorConfig(Strict):
     name: Name
-    driver: Literal["sim", "hdmi"] = "sim"
+    driver: Literal["sim", "hdmi", "lightcrafter"] = "sim"
     resolution: Resolution
     geometry: Geometry
     latency_s: Annotated[float, Field(ge=0.0, le=2.0)] | Literal["measured"] = Field(
@@ -124,13 +126,33 @@ class ProjectorConfig(Strict):
     pattern_period_us: int = Field(33334, ge=1000, le=10_000_000, description="pattern period (hardware sync)")
     sim: SimProjectorOptions = SimProjectorOptions()
     hdmi: HdmiOptions = HdmiOptions()
+    lightcrafter: LightCrafterOptions = LightCrafterOptions()
     power: PowerOptions | None = None
 
     @model_validator(mode="after")
     def _driver_fits(self) -> ProjectorConfig:
         if self.driver == "hdmi" and self.sync == "hardware":
             raise ValueError("sync: an HDMI display cannot play a sequence on its own; use software sync")
+        if self.driver == "lightcrafter":
+            if tuple(self.resolution) != LCR4500_RESOLUTION:
+                raise ValueError(f"resolution: a LightCrafter 4500 is {list(LCR4500_RESOLUTION)}")
+            if self.sync == "hardware":
+                _check_lightcrafter_timing(self.lightcrafter, self.pattern_period_us)
         return self
+
+
+def _check_lightcrafter_timing(options: LightCrafterOptions, period_us: int) -> None:
+    """8-bit patterns run at up to 120 Hz (LightCrafter 4500 user guide) and a video frame's
+    patterns must fit in its period."""
+    if period_us < LCR4500_MIN_8BIT_PERIOD_US:
+        raise ValueError(f"pattern_period_us: 8-bit patterns need at least {LCR4500_MIN_8BIT_PERIOD_US} us")
+    frame_us = 1e6 / options.video_rate_hz
+    if options.patterns_per_frame * period_us > frame_us:
+        raise ValueError(
+            f"pattern_period_us: {options.patterns_per_frame} patterns of {period_us} us do not fit in a "
+            f"{options.video_rate_hz:g} Hz video frame ({frame_us:.0f} us); use at most "
+            f"{int(frame_us // options.patterns_per_frame)} us or fewer lightcrafter.patterns_per_frame"
+        )
 
 
 class CameraConfig(Strict):
@@ -301,6 +323,13 @@ class RigConfig(Strict):
                     f"scan.rings.model: {model!r} needs {needs[0]} projectors and {needs[1]} cameras "
                     "(geometry.projection); the 'cone' model works with any"
                 )
+        if any(p.sync == "hardware" for p in self.projectors):
+            for i, camera in enumerate(self.cameras):
+                if camera.driver == "v4l2":
+                    raise ValueError(
+                        f"cameras[{i}].driver: a V4L2 camera has no trigger input here; use sync: software "
+                        "or a camera with one (oak)"
+                    )
         drivers = {d.driver == "sim" for d in (*self.projectors, *self.cameras)}
         if len(drivers) > 1:
             raise ValueError(

@@ -14,6 +14,7 @@ from typing import Any
 import numpy as np
 
 from rig.config import RigConfig
+from rig.devices import usb_devices
 from rig.rig import Rig
 from rig.store.atomic import write_atomic
 
@@ -29,6 +30,20 @@ def _access(path: str, group: str) -> str | None:
     return None
 
 
+def _lightcrafter_usb() -> str | None:
+    listing = usb_devices()
+    if "error" in listing:
+        return str(listing["error"])
+    found = [d for d in listing["devices"] if d["id"] == "0451:6401"]
+    if not found:
+        return "no LightCrafter 4500 (USB 0451:6401) attached: is it powered and its USB cable in?"
+    bus, address = found[0]["bus"], found[0]["address"]
+    node = f"/dev/bus/usb/{bus:03d}/{address:03d}" if bus is not None and address is not None else ""
+    if node and os.path.exists(node) and not os.access(node, os.R_OK | os.W_OK):
+        return f"no access to {node}: install systemd/60-slrig.rules and add the service user to 'plugdev'"
+    return None
+
+
 def check(config: RigConfig) -> list[dict[str, str]]:
     """Problems, each with the device it concerns and how to fix it; empty when all is well."""
     problems: list[dict[str, str]] = []
@@ -37,7 +52,11 @@ def check(config: RigConfig) -> list[dict[str, str]]:
         problems.append({"device": device, "problem": text})
 
     for p in config.projectors:
-        if p.driver == "hdmi" and p.hdmi.video_driver == "kmsdrm":
+        if p.driver == "lightcrafter":
+            issue = _lightcrafter_usb()
+            if issue:
+                problem(p.name, issue)
+        if p.driver in ("hdmi", "lightcrafter") and p.hdmi.video_driver == "kmsdrm":
             cards = glob.glob("/dev/dri/card*")
             if not cards:
                 problem(p.name, "no /dev/dri/card*: no display output (kmsdrm needs a GPU with a connected output)")

@@ -21,6 +21,22 @@ class HdmiOptions(_Strict):
     start_timeout_s: float = Field(10.0, gt=0, le=120)
 
 
+class LightCrafterOptions(_Strict):
+    """A DLP LightCrafter 4500: USB control plus its HDMI video input (the `hdmi` section's output).
+
+    sync software: video mode, a display whose LEDs go off for dark. sync hardware: video-pattern
+    mode, `patterns_per_frame` 8-bit patterns per RGB frame played at `pattern_period_us` each,
+    TRIG_OUT_1 starting each camera exposure."""
+
+    serial_number: str | None = Field(None, description="USB serial number, when several are attached")
+    patterns_per_frame: int = Field(2, ge=1, le=3, description="8-bit patterns per video frame (green, red, blue)")
+    video_rate_hz: float = Field(60.0, ge=10, le=120, description="frame rate of the HDMI mode it is fed")
+    input_latency_s: float = Field(
+        0.05, ge=0.0, le=1.0, description="from a frame presented on HDMI to the controller holding it"
+    )
+    usb_timeout_s: float = Field(2.0, gt=0, le=30)
+
+
 class PowerOptions(_Strict):
     """Housekeeping of the projector: switched on with this input at open, blanked at close."""
 

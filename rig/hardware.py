@@ -1,9 +1,11 @@
 """The real devices of a rig config: HDMI projectors (with optional power control over PJLink or
-RS-232), V4L2 and OAK cameras."""
+RS-232), LightCrafter 4500s (USB control and HDMI input), V4L2 and OAK cameras."""
 
 from __future__ import annotations
 
 from drivers.base import Camera, Device, Projector
+from drivers.dlp.hdmi_patterns import LightCrafterHdmiProjector
+from drivers.dlp.lcr4500 import Lcr4500Projector
 from drivers.hdmi.projector import HdmiProjector
 from drivers.oak.camera import OakCamera
 from drivers.pjlink import PJLinkProjector
@@ -39,10 +41,17 @@ class PowerControl(Device):
 
 
 def projector(config: ProjectorConfig) -> Projector:
-    if config.driver != "hdmi":
+    if config.driver not in ("hdmi", "lightcrafter"):
         raise ConfigError("config", [f"projectors: driver {config.driver!r} has no hardware driver"])
     h = config.hdmi
-    return HdmiProjector(config.name, config.resolution, h.display, h.video_driver, start_timeout_s=h.start_timeout_s)
+    video = HdmiProjector(config.name, config.resolution, h.display, h.video_driver, start_timeout_s=h.start_timeout_s)
+    if config.driver == "hdmi":
+        return video
+    lc = config.lightcrafter
+    control = Lcr4500Projector(f"{config.name}-usb", lc.serial_number, lc.usb_timeout_s)
+    return LightCrafterHdmiProjector(
+        config.name, control, video, config.sync == "hardware", lc.patterns_per_frame, lc.input_latency_s
+    )
 
 
 def power_control(config: ProjectorConfig) -> PowerControl | None:

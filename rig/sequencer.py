@@ -103,6 +103,17 @@ def _capture_streaming(
         progress.step()
 
 
+def _check_follows(name: str, before: Frame | None, frame: Frame, period_s: float) -> None:
+    """Within a group, frames follow one another one pattern period apart."""
+    if before is None:
+        return
+    gap = frame.timestamp_s - before.timestamp_s
+    if frame.sequence != before.sequence + 1:
+        raise ScanError(f"{name}: dropped frames during the sequence")
+    if abs(gap - period_s) > 0.5 * period_s:
+        raise ScanError(f"{name}: a trigger was missed ({gap:.4f} s between frames, pattern period {period_s:.4f} s)")
+
+
 def _capture_sequence(
     rig: Rig, p: int, patterns: list[np.ndarray], frames: Frames, last_sequence: list[int], progress: _Progress
 ) -> None:
@@ -123,24 +134,20 @@ def _capture_sequence(
         camera.set_trigger(TriggerMode.EXTERNAL)
     try:
         projector.load_sequence(sequence)
-        projector.start_sequence()
-        previous: list[Frame | None] = [None] * len(rig.cameras)
-        for _ in patterns:
-            for c in range(len(rig.cameras)):
-                frame = _take(rig, c, timeout, last_sequence)
-                before = previous[c]
-                if before is not None:
-                    gap = frame.timestamp_s - before.timestamp_s
-                    if frame.sequence != before.sequence + 1:
-                        raise ScanError(f"{rig.cameras[c].name}: dropped frames during the sequence")
-                    if abs(gap - period_s) > 0.5 * period_s:
-                        raise ScanError(
-                            f"{rig.cameras[c].name}: a trigger was missed ({gap:.4f} s between "
-                            f"frames, pattern period {period_s:.4f} s)"
-                        )
-                previous[c] = frame
-                frames[(p, c)].append(frame.image)
-            progress.step()
+        taken = 0
+        for group, count in enumerate(projector.sequence_groups(len(patterns))):
+            projector.start_sequence(group)
+            previous: list[Frame | None] = [None] * len(rig.cameras)
+            for _ in range(count):
+                for c in range(len(rig.cameras)):
+                    frame = _take(rig, c, timeout, last_sequence)
+                    _check_follows(rig.cameras[c].name, previous[c], frame, period_s)
+                    previous[c] = frame
+                    if taken < len(patterns):  # later ones are the projector's padding
+                        frames[(p, c)].append(frame.image)
+                if taken < len(patterns):
+                    progress.step()
+                taken += 1
     finally:
         projector.stop_sequence()
         for camera in rig.cameras:

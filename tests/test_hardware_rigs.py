@@ -34,10 +34,13 @@ def _children() -> list[int]:
     return found
 
 
-@pytest.mark.parametrize("name", ["bench-hdmi-uvc.yaml", "bench-hdmi-oak.yaml"])
+@pytest.mark.parametrize(
+    "name", ["bench-hdmi-uvc.yaml", "bench-hdmi-oak.yaml", "bench-lightcrafter-uvc.yaml", "bench-lightcrafter-oak.yaml"]
+)
 def test_example_benches_validate(name: str) -> None:
     config = load_config(REPO_CONFIG_DIR / name)
-    assert config.simulation is None and config.projectors[0].driver == "hdmi"
+    assert config.simulation is None
+    assert config.projectors[0].driver == name.split("-")[1]
 
 
 def _offscreen_oak_rig() -> dict[str, Any]:

@@ -141,3 +141,21 @@ def test_doctor_names_what_a_real_bench_lacks(tmp_path: Path, capsys: pytest.Cap
     problems = {p["device"]: p["problem"] for p in json.loads(capsys.readouterr().out)["problems"]}
     assert "/dev/slrig-cam0 does not exist" in problems["camera0"]
     assert "calibration" in problems["rig"]
+
+
+def test_doctor_looks_for_the_lightcrafter_on_usb(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    from rig import doctor
+    from rig.config import REPO_CONFIG_DIR
+
+    config = str(REPO_CONFIG_DIR / "bench-lightcrafter-uvc.yaml")
+    monkeypatch.setattr(doctor, "usb_devices", lambda: {"devices": [{"id": "1d6b:0002", "bus": 1, "address": 1}]})
+    assert main(["doctor", "--config", config, "--json"]) == 1
+    problems = " | ".join(p["problem"] for p in json.loads(capsys.readouterr().out)["problems"])
+    assert "no LightCrafter 4500 (USB 0451:6401) attached" in problems
+    attached = {"devices": [{"id": "0451:6401", "bus": None, "address": None}]}
+    monkeypatch.setattr(doctor, "usb_devices", lambda: attached)
+    assert main(["doctor", "--config", config, "--json"]) == 1
+    problems = " | ".join(p["problem"] for p in json.loads(capsys.readouterr().out)["problems"])
+    assert "0451:6401" not in problems

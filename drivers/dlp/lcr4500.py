@@ -23,6 +23,7 @@ from drivers.usbhid import HidTransport, PyUsbHidTransport
 VENDOR_ID, PRODUCT_ID = 0x0451, 0x6401
 RESOLUTION = (912, 1140)
 MIN_DARK_GAP_US = 230  # exposure must equal the period or leave this much dark time
+MIN_8BIT_PERIOD_US = 8333  # 8-bit patterns at up to 120 Hz (LightCrafter 4500 user guide, DLPU011)
 
 CMD_POWER = 0x0200
 CMD_VERSION = 0x0205
@@ -49,6 +50,7 @@ VALIDATE_ERRORS = {
     0x10: "frame period minus exposure under 230 us",
 }
 TRIGGER_CODES = {TriggerMode.VSYNC: 0, TriggerMode.INTERNAL: 1, TriggerMode.EXTERNAL: 1}
+LUT_TRIGGER_INTERNAL, LUT_TRIGGER_EXTERNAL, LUT_TRIGGER_CONTINUE = 0, 1, 3  # LUT bits 1:0 (0 is VSYNC in VSYNC mode)
 SOURCE_CODES = {"video": 0, "flash": 3}
 
 
@@ -63,16 +65,36 @@ class Status:
         return bool(self.main & 0x02)
 
 
-def lut_entry(pattern: int, bit_depth: int, trigger: int, invert: bool = False, led: int = 0b111) -> bytes:
+def lut_entry(
+    pattern: int, bit_depth: int, trigger: int, invert: bool = False, led: int = 0b111, buffer_swap: bool = False
+) -> bytes:
     """The 24-bit pattern LUT word (little-endian): trigger 1:0, pattern 7:2, bit depth 11:8,
-    LEDs 14:12, invert 16. A 24-bit frame holds 24 // bit_depth patterns (8-bit: 0 green, 1 red,
-    2 blue; 1-bit: planes 0..23)."""
+    LEDs 14:12, invert 16, buffer swap 18. A 24-bit frame holds 24 // bit_depth patterns (8-bit:
+    0 green, 1 red, 2 blue; 1-bit: planes 0..23)."""
     if not 1 <= bit_depth <= 8:
         raise ValueError(f"bit depth {bit_depth} is outside 1..8")
     if not 0 <= pattern < 24 // bit_depth:
         raise ValueError(f"pattern number {pattern} is outside 0..{24 // bit_depth - 1} for {bit_depth}-bit patterns")
-    word = trigger | (pattern << 2) | (bit_depth << 8) | (led << 12) | (int(invert) << 16)
+    word = trigger | (pattern << 2) | (bit_depth << 8) | (led << 12) | (int(invert) << 16) | (int(buffer_swap) << 18)
     return word.to_bytes(3, "little")
+
+
+def _lut_words(sequence: PatternSequence) -> list[bytes]:
+    """LUT words of a sequence. Under VSYNC each video frame's first pattern waits for the frame
+    and swaps to its buffer; the frame's other patterns follow it without a trigger. A pattern
+    number not above the previous one's starts the next frame (8-bit: green, red, blue)."""
+    words, previous = [], -1
+    for entry in sequence.entries:
+        if sequence.trigger is TriggerMode.VSYNC:
+            starts_frame = entry.pattern <= previous
+            previous = entry.pattern
+            trigger = LUT_TRIGGER_INTERNAL if starts_frame or not words else LUT_TRIGGER_CONTINUE
+            swap = starts_frame or not words
+        else:
+            trigger = LUT_TRIGGER_EXTERNAL if sequence.trigger is TriggerMode.EXTERNAL else LUT_TRIGGER_INTERNAL
+            swap = False
+        words.append(lut_entry(entry.pattern, entry.bit_depth, trigger, entry.invert, buffer_swap=swap))
+    return words
 
 
 class Lcr4500Projector(Projector):
@@ -136,7 +158,8 @@ class Lcr4500Projector(Projector):
     def _do_dark(self) -> None:
         self._p.write(CMD_LED_ENABLE, bytes([0]))  # manual control (bit 3 clear), every LED off
 
-    def _lights_on(self) -> None:
+    def lights_on(self) -> None:
+        """Hand the LEDs back to the sequencer, which lights them (the opposite of dark)."""
         self._p.write(CMD_LED_ENABLE, bytes([LED_SEQUENCER]))  # the sequencer drives the LEDs again
 
     def _do_show(self, pattern: np.ndarray) -> None:
@@ -161,15 +184,17 @@ class Lcr4500Projector(Projector):
             time.sleep(interval_s)
         raise DeviceTimeoutError(f"{self.name}: display mode did not change within {polls * interval_s:g} s")
 
-    def video_mode(self) -> None:
-        """Stop any sequence and show the video input (the projector as a plain HDMI display)."""
+    def video_mode(self, lit: bool = True) -> None:
+        """Stop any sequence and show the video input (the projector as a plain HDMI display),
+        with the LEDs on, or off until lights_on()."""
         self._require_open()
-        self._guarded(self._to_video)
+        self._guarded(self._to_video, lit)
 
-    def _to_video(self) -> None:
+    def _to_video(self, lit: bool) -> None:
         self._p.write(CMD_START_STOP, bytes([STOP]))
         self.set_display_mode(False)
-        self._lights_on()
+        if lit:
+            self.lights_on()
 
     # --- sequences -------------------------------------------------------------------------
     def _do_load_sequence(self, sequence: PatternSequence) -> None:
@@ -189,7 +214,6 @@ class Lcr4500Projector(Projector):
         count = len(sequence.entries)
         if count > 128:
             raise ValueError(f"{self.name}: at most 128 LUT entries, got {count}")
-        trigger_bits = 1 if sequence.trigger is TriggerMode.EXTERNAL else 0
         p = self._p
         p.write(CMD_START_STOP, bytes([STOP]))
         self.set_display_mode(True)
@@ -199,9 +223,9 @@ class Lcr4500Projector(Projector):
         p.write(CMD_EXPOSURE_PERIOD, struct.pack("<II", exposure, period))
         p.write(CMD_MBOX_CONTROL, bytes([2]))  # open the pattern LUT
         try:
-            for index, entry in enumerate(sequence.entries):
+            for index, word in enumerate(_lut_words(sequence)):
                 p.write(CMD_MBOX_ADDRESS, bytes([index]))
-                p.write(CMD_MBOX_DATA, lut_entry(entry.pattern, entry.bit_depth, trigger_bits, entry.invert))
+                p.write(CMD_MBOX_DATA, word)
         finally:
             p.write(CMD_MBOX_CONTROL, bytes([0]))
         self._validate()
@@ -222,8 +246,8 @@ class Lcr4500Projector(Projector):
         if problems:
             raise DeviceProtocolError(f"{self.name}: the controller rejected the sequence: {'; '.join(problems)}")
 
-    def _do_start_sequence(self) -> None:
-        self._lights_on()
+    def _do_start_sequence(self, group: int = 0) -> None:
+        self.lights_on()
         self._p.write(CMD_START_STOP, bytes([START]))
 
     def _do_stop_sequence(self) -> None:

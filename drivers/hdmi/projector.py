@@ -101,6 +101,22 @@ class HdmiProjector(Projector):
         if self.last_checksum != zlib.crc32(data):
             raise DeviceProtocolError(f"{self.name}: the display shows something other than the pattern")
 
+    def show_rgb(self, frame: np.ndarray) -> None:
+        """Show a colour frame (uint8, height x width x 3, RGB): a LightCrafter's video input
+        carries one pattern per colour channel."""
+        self._require_open()
+        width, height = self._resolution
+        if frame.shape != (height, width, 3) or frame.dtype != np.uint8:
+            raise ValueError(f"{self.name}: frame must be uint8 of shape {(height, width, 3)}, got {frame.shape}")
+        data = np.ascontiguousarray(frame).tobytes()
+
+        def show() -> None:
+            self._send(f"C {len(data)}\n".encode(), data)
+            if self.last_checksum != zlib.crc32(data):
+                raise DeviceProtocolError(f"{self.name}: the display shows something other than the frame")
+
+        self._guarded(show)
+
     def _do_dark(self) -> None:
         if self._worker is not None and self._worker.alive:
             self._send(b"D\n")

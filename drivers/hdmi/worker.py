@@ -5,10 +5,12 @@ Run as `python -m drivers.hdmi.worker WIDTH HEIGHT DISPLAY`; SDL_VIDEODRIVER cho
 stdin and answers each on stdout:
 
     S <length>\\n<length bytes: uint8 pattern, HEIGHT x WIDTH>   show it      -> P <monotonic s> <checksum>\\n
+    C <length>\\n<length bytes: uint8 RGB, HEIGHT x WIDTH x 3>   show it      -> P <monotonic s> <checksum>\\n
     D\\n                                                          dark         -> P <monotonic s> <checksum>\\n
     Q\\n                                                          dark, exit
 
-The presentation time is taken right after the buffer flip. On end of input (the parent died), on
+The presentation time is taken right after the buffer flip. The checksum (CRC-32) is of the red
+channel as read back from the screen for S and D, of the whole RGB image for C. On end of input (the parent died), on
 SIGTERM, and on any error the screen is made black before the worker exits. Kept free of slrig's
 other modules so it starts fast and can run under its own systemd unit.
 """
@@ -56,17 +58,24 @@ def main(argv: list[str]) -> int:
             line = stdin.readline()
             if not line or line.startswith(b"Q"):
                 break
-            if line.startswith(b"S"):
+            if line.startswith((b"S", b"C")):
+                colour = line.startswith(b"C")
                 size = int(line.split()[1])
                 data = stdin.read(size)
-                if len(data) != size or size != width * height:
+                if len(data) != size or size != width * height * (3 if colour else 1):
                     break
-                pattern = np.frombuffer(data, dtype=np.uint8).reshape(height, width)
-                rgb = np.repeat(pattern.T[:, :, None], 3, axis=2)  # surfarray is (x, y)
+                if colour:
+                    rgb = np.frombuffer(data, dtype=np.uint8).reshape(height, width, 3).transpose(1, 0, 2)
+                else:
+                    pattern = np.frombuffer(data, dtype=np.uint8).reshape(height, width)
+                    rgb = np.repeat(pattern.T[:, :, None], 3, axis=2)  # surfarray is (x, y)
                 pygame.surfarray.blit_array(screen, rgb)
                 pygame.display.flip()
                 shown = time.monotonic()
-                checksum = zlib.crc32(pygame.surfarray.array_red(screen).T.tobytes())
+                if colour:
+                    checksum = zlib.crc32(pygame.surfarray.array3d(screen).transpose(1, 0, 2).tobytes())
+                else:
+                    checksum = zlib.crc32(pygame.surfarray.array_red(screen).T.tobytes())
                 out.write(f"P {shown:.6f} {checksum}\n".encode())
             elif line.startswith(b"D"):
                 black()

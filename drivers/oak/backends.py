@@ -109,30 +109,49 @@ class FakeBackend:
             raise BackendError("notfound", "no OAK attached (0 found)")
         self.width, self.height, self.period = s.width, s.height, 1.0 / s.fps
         self.exposure_us = s.exposure_us
-        self.sequence = 0
-        self.next_stamp = time.monotonic()
+        self.sequence = 0  # frames the sensor completed
+        self.delivered = 0  # frames handed out; faults count these
+        self.next_stamp = time.monotonic() + self.period  # end of the exposure under way
+        self.queue: list[tuple[int, float]] = []  # like the depthai output queue: maxSize 4, not blocking
 
     def set_exposure(self, exposure_us: int, iso: int) -> None:
         self.exposure_us = exposure_us
 
     def frame(self, timeout_s: float) -> tuple[np.ndarray, int, float, float]:
         f = self.faults
-        if "stall_after" in f and self.sequence >= f["stall_after"]:
+        if "stall_after" in f and self.delivered >= f["stall_after"]:
             time.sleep(timeout_s)
             raise BackendError("timeout", f"no frame within {timeout_s:g} s")
-        if "xlink_after" in f and self.sequence >= f["xlink_after"]:
+        if "xlink_after" in f and self.delivered >= f["xlink_after"]:
             raise BackendError("disconnected", "OAK link failed: X_LINK_ERROR (XLinkReadError)")
-        if "slow_after" in f and self.sequence >= f["slow_after"]:
+        if "slow_after" in f and self.delivered >= f["slow_after"]:
             time.sleep(timeout_s + 2.5)  # answers, but after the caller (who allows 2 s more) gave up
-        if "abort_after" in f and self.sequence >= f["abort_after"]:
+        if "abort_after" in f and self.delivered >= f["abort_after"]:
             os.abort()  # what a native X_LINK_ERROR does to a depthai process (exit -6)
-        self.sequence += 1
-        self.next_stamp = max(self.next_stamp + self.period, time.monotonic())
-        image = np.full((self.height, self.width), (self.sequence * 37) % 256, np.uint8)
-        return image, self.sequence, self.next_stamp, float(self.exposure_us)
+        self._fill()
+        if not self.queue:
+            time.sleep(max(0.0, min(timeout_s, self.next_stamp - time.monotonic())))
+            self._fill()
+            if not self.queue:
+                raise BackendError("timeout", f"no frame within {timeout_s:g} s")
+        sequence, stamp = self.queue.pop(0)
+        self.delivered += 1
+        image = np.full((self.height, self.width), (sequence * 37) % 256, np.uint8)
+        return image, sequence, stamp, float(self.exposure_us)
+
+    def _fill(self) -> None:
+        """Frames completed since the last look enter the queue, which keeps the newest four."""
+        now = time.monotonic()
+        while self.next_stamp <= now:
+            self.sequence += 1
+            self.queue.append((self.sequence, self.next_stamp))
+            self.next_stamp += self.period
+        del self.queue[:-4]
 
     def drain(self) -> int:
-        return 0
+        self._fill()
+        dropped, self.queue = len(self.queue), []
+        return dropped
 
     def close(self) -> None:
         pass

@@ -54,7 +54,7 @@ class SimProjector(Projector):
             raise ValueError(f"{self.name}: sequence images must be uint8 of shape {(height, width)}")
         self._loaded = sequence
 
-    def _do_start_sequence(self) -> None:
+    def _do_start_sequence(self, group: int = 0) -> None:
         if self._loaded is None or self._loaded.images is None:
             raise DeviceStateError(f"{self.name}: no sequence loaded")
         self._bench.play(self._index, list(self._loaded.images), self._loaded.period_us * 1e-6)

@@ -7,6 +7,7 @@ from __future__ import annotations
 import errno
 import struct
 from collections import deque
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -61,10 +62,17 @@ class _Context:
 
 
 class FakeLcr4500:
-    """The USB device: `write`/`read` on endpoints 0x01/0x81, 64-byte reports."""
+    """The USB device: `write`/`read` on endpoints 0x01/0x81, 64-byte reports.
 
-    def __init__(self, faults: Faults | None = None) -> None:
+    `video_period_us` is the frame period of what arrives on the video input; `on_start` is called
+    whenever a sequence starts, so a test can put its light on a simulated scene.
+    """
+
+    def __init__(self, faults: Faults | None = None, video_period_us: int = 16667) -> None:
         self.faults = faults or Faults()
+        self.video_period_us = video_period_us
+        self.on_start: Callable[[FakeLcr4500], None] | None = None
+        self.starts = 0
         self._ctx = _Context(self)
         self.kernel_driver_active = True
         self.claimed = False
@@ -194,7 +202,28 @@ class FakeLcr4500:
             depth = max(1, (word >> 8) & 0xF)
             if ((word >> 2) & 0x3F) >= 24 // depth:  # e.g. an 8-bit pattern other than 0, 1, 2
                 bits |= 0x02
+            if depth == 8 and e < lcr.MIN_8BIT_PERIOD_US:
+                bits |= 0x01
+        if self.trigger_mode == 0 and self.source == 0:  # VSYNC: a video frame's patterns fit in its period
+            frames = self.vsync_frames()
+            if any(len(frame) * p > self.video_period_us for frame in frames):
+                bits |= 0x01
         return bits
+
+    def displayed_patterns(self, frame: Any) -> list[Any]:
+        """What the DMD shows for each LUT entry of a video-port sequence, from the RGB input
+        frame (H x W x 3): an 8-bit pattern's bit-plane group 0 is G7-G0, 1 is R7-R0, 2 is B7-B0."""
+        channel = {0: 1, 1: 0, 2: 2}
+        return [frame[:, :, channel[(word >> 2) & 0x3F]] for word in self.lut_entries]
+
+    def vsync_frames(self) -> list[list[int]]:
+        """The LUT split into video frames: each starts at an entry that waits for VSYNC."""
+        frames: list[list[int]] = []
+        for word in self.lut_entries:
+            if word & 0x3 != lcr.LUT_TRIGGER_CONTINUE or not frames:
+                frames.append([])
+            frames[-1].append(word)
+        return frames
 
     def _write(self, command: int, data: bytes) -> bytes:
         if command == lcr.CMD_DISPLAY_MODE:
@@ -226,6 +255,10 @@ class FakeLcr4500:
             if data[0] == lcr.START and (not self.validated or self.display_mode != 1):
                 raise KeyError(command)  # starting an unvalidated sequence fails
             self.running = data[0] == lcr.START
+            if self.running:
+                self.starts += 1
+                if self.on_start is not None:
+                    self.on_start(self)
         elif command in (lcr.CMD_TRIG_OUT1, lcr.CMD_POWER):
             self.trig_out1 = bytes(data[:3]) if command == lcr.CMD_TRIG_OUT1 else self.trig_out1
         else:

@@ -1,9 +1,16 @@
 """A protocol fake of a V4L2 camera behind OpenCV's VideoCapture API: properties that clamp like
-a UVC camera's controls, a free-running frame clock, and injectable faults. The real
-drivers.v4l2.V4l2Camera runs against it unchanged."""
+a UVC camera's controls, a sensor free-running on the monotonic clock, the driver's queue of
+buffers, and injectable faults. The real drivers.v4l2.V4l2Camera runs against it unchanged.
+
+As in V4L2, a completed frame enters the queue only while a buffer is free: when the application
+does not dequeue, the queue keeps the oldest frames and new ones are lost. Buffer stamps are
+the end of exposure in milliseconds of CLOCK_MONOTONIC, as uvcvideo gives them.
+"""
 
 from __future__ import annotations
 
+import collections
+import time
 from dataclasses import dataclass
 
 import cv2
@@ -32,10 +39,12 @@ class FakeVideoCapture:
             cv2.CAP_PROP_GAIN: 0,
             cv2.CAP_PROP_BUFFERSIZE: 4,
         }
-        self.frames = 0
-        self.stamp_ms = 1000.0
+        self.frames = 0  # grabs answered
+        self.stamp_ms = 0.0  # of the buffer last grabbed
         self.released = False
         self._grabbed: np.ndarray | None = None
+        self._queue: collections.deque[float] = collections.deque()  # stamps of the filled buffers
+        self._next_ms = time.monotonic() * 1000.0 + self.period_ms  # when the sensor completes a frame
 
     def isOpened(self) -> bool:  # noqa: N802 - OpenCV's name
         return not self.faults.absent and not self.released
@@ -66,11 +75,29 @@ class FakeVideoCapture:
         self.frames += 1
         if f.repeat_at is not None and self.frames == f.repeat_at and self._grabbed is not None:
             return True  # the same buffer, the same timestamp
-        self.stamp_ms += self.period_ms * (2 if f.drop_at == self.frames else 1)
+        if f.drop_at == self.frames:
+            self._dequeue()  # this frame is lost: the next one is handed out
+        self.stamp_ms = self._dequeue()
         width, height = int(self.props[cv2.CAP_PROP_FRAME_WIDTH]), int(self.props[cv2.CAP_PROP_FRAME_HEIGHT])
         image = np.full((height, width, 3), self.frames % 256, np.uint8)  # brightness encodes the frame
         self._grabbed = image
         return True
+
+    def _fill(self) -> None:
+        """Frames the sensor completed since the last look go into free buffers; the rest are lost."""
+        now_ms = time.monotonic() * 1000.0
+        while self._next_ms <= now_ms:
+            if len(self._queue) < max(1, int(self.props[cv2.CAP_PROP_BUFFERSIZE])):
+                self._queue.append(self._next_ms)
+            self._next_ms += self.period_ms
+
+    def _dequeue(self) -> float:
+        """The oldest filled buffer's stamp, waiting for the sensor when none is filled (DQBUF)."""
+        self._fill()
+        if not self._queue:
+            time.sleep(max(0.0, self._next_ms / 1000.0 - time.monotonic()))
+            self._fill()
+        return self._queue.popleft()
 
     def retrieve(self) -> tuple[bool, np.ndarray | None]:
         return (self._grabbed is not None), self._grabbed
