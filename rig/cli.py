@@ -21,10 +21,10 @@ from rig.doctor import check, measure_latency, store_latencies
 from rig.errors import ConfigError, ScanError, SlrigError
 from rig.evaluate import evaluate_on_bench
 from rig.patterns import codec_class, codec_names
-from rig.progress import ProgressTracker, TerminalBar
-from rig.rig import Rig, open_rig
-from rig.scan import ScanResult, run_scan
-from rig.store.scandir import new_scan_id, write_scan
+from rig.progress import TerminalBar
+from rig.rig import open_rig
+from rig.scan import run_scan
+from rig.store.scandir import new_scan_id, scan_to_directory
 
 EXIT_FAILED = 1
 EXIT_BAD_INPUT = 2
@@ -64,6 +64,11 @@ def _parser() -> argparse.ArgumentParser:
         help=f"scene name ({', '.join(k for k in SCENE_KINDS if k != 'mesh')}) or a "
         f"PLY/OBJ/STL file (scaled to {MESH_FIT_SIZE_MM:.0f} mm)",
     )
+    serve = sub.add_parser("serve", help="run the daemon: REST API (under /v1) and job queue for this rig")
+    serve.add_argument("--config", type=Path, default=None, help="rig description (YAML); default: config/sim.yaml")
+    serve.add_argument("--host", default="127.0.0.1", help="address to listen on (default 127.0.0.1)")
+    serve.add_argument("--port", type=int, default=8750, help="TCP port (default 8750; 0: any free port)")
+    serve.add_argument("--api-key-file", type=Path, default=None, help="file holding the API key (else $SLRIG_API_KEY)")
     devices = sub.add_parser("devices", help="list attached USB devices, video nodes, serial ports and OAK cameras")
     devices.add_argument("--json", action="store_true", help="print one JSON object instead of text")
     doctor = sub.add_parser("doctor", help="check a rig config against this machine; --latency measures displays")
@@ -119,17 +124,6 @@ def _scene_override(config: RigConfig, scene: str) -> RigConfig:
     raise ConfigError("--scene", [f"--scene: {scene!r} is neither a scene name ({names}) nor a mesh file"])
 
 
-def _metrics(the_rig: Rig, result: ScanResult) -> dict[str, Any]:
-    """Accuracy of each pair against ground truth (simulated rigs only)."""
-    if the_rig.sim is None:
-        return {}
-    per_pair = {}
-    for pair in result.pairs:
-        key = f"{the_rig.config.projectors[pair.projector].name}/{the_rig.config.cameras[pair.camera].name}"
-        per_pair[key] = evaluate_on_bench(the_rig, pair)
-    return per_pair
-
-
 def _progress(args: argparse.Namespace) -> TerminalBar | None:
     return TerminalBar() if sys.stderr.isatty() and not args.json else None
 
@@ -141,13 +135,8 @@ def cmd_scan(args: argparse.Namespace) -> int:
     if target.exists():
         raise ConfigError("--out", [f"--out: {target} already exists; choose a new directory"])
     bar = _progress(args)
-    tracker = ProgressTracker(bar)
     with open_rig(config) as the_rig:
-        result = run_scan(the_rig, progress=bar, keep_frames=config.scan.save_frames)
-        tracker.report("store", 0.95)
-        metrics = _metrics(the_rig, result)
-        path = write_scan(the_rig, result, target, scan_id, metrics)
-        tracker.report("done", 1.0)
+        path, result = scan_to_directory(the_rig, target, scan_id, keep_frames=config.scan.save_frames, progress=bar)
     summary = {
         "scan_id": scan_id,
         "path": str(path),
@@ -256,6 +245,19 @@ def cmd_doctor(args: argparse.Namespace) -> int:
     return 1 if problems else 0
 
 
+def cmd_serve(args: argparse.Namespace) -> int:
+    import logging
+
+    from rig.service.daemon import load_api_key, serve  # the web stack only for the daemon
+
+    if not 0 <= args.port <= 65535:
+        raise ConfigError("--port", [f"--port: {args.port} is outside 0..65535"])
+    config = load_config(args.config)
+    key = load_api_key(args.api_key_file)
+    logging.basicConfig(level=logging.INFO, format="%(levelname)s %(name)s: %(message)s", stream=sys.stderr)
+    return serve(config, args.host, args.port, key)
+
+
 def cmd_devices(args: argparse.Namespace) -> int:
     found = inventory()
     if args.json:
@@ -273,6 +275,7 @@ def main(argv: list[str] | None = None) -> int:
         "calibrate": cmd_calibrate,
         "devices": cmd_devices,
         "doctor": cmd_doctor,
+        "serve": cmd_serve,
     }
     handler = handlers[args.command]
     try:

@@ -296,6 +296,20 @@ class OutputConfig(Strict):
     data_dir: Path = Path("scans")
 
 
+class ServiceConfig(Strict):
+    """`slrig serve`: the job queue and the HTTP surface (host, port and API key are given when it
+    starts, never here: a key does not belong in a config file)."""
+
+    max_queue: int = Field(8, ge=1, le=1000, description="jobs waiting beyond the running one; more get 429")
+    max_body_bytes: int = Field(65536, ge=1024, le=10 * 1024 * 1024)
+    cors_origins: list[str] = Field(default_factory=list, description="browser origins allowed; none: CORS off")
+    allowed_hosts: list[str] = Field(
+        default_factory=list, description="Host headers accepted besides localhost and the bound address"
+    )
+    shutdown_timeout_s: float = Field(8.0, ge=1.0, le=60.0, description="to stop the running job on SIGTERM")
+    health_stale_s: float = Field(120.0, ge=5.0, le=3600.0, description="a running job silent this long is unhealthy")
+
+
 class RigConfig(Strict):
     name: Name = "bench"
     projectors: list[ProjectorConfig] = Field(min_length=1, max_length=16)
@@ -304,6 +318,7 @@ class RigConfig(Strict):
     scan: ScanConfig = ScanConfig()
     calibration: CalibrationConfig = CalibrationConfig()
     output: OutputConfig = OutputConfig()
+    service: ServiceConfig = ServiceConfig()
 
     @model_validator(mode="after")
     def _consistent(self) -> RigConfig:
@@ -391,6 +406,13 @@ def _problems(exc: ValidationError) -> list[str]:
         if key not in by_field or len(loc) > by_field[key][0]:
             by_field[key] = (len(loc), f"{where}: {message}")
     return [line for _, line in by_field.values()]
+
+
+def config_from_dict(data: object, source: str) -> RigConfig:
+    """Validate a config given as data (a stored scan's snapshot, a request) like a file."""
+    config = _validate(data, source)
+    _check_files(config, source)
+    return config
 
 
 def _validate(data: object, source: str) -> RigConfig:

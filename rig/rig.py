@@ -222,8 +222,9 @@ def _faults(c: CameraConfig) -> SimCameraFaults:
     return SimCameraFaults(f.disconnect_after_frames, f.stall_after_frames, f.repeat_frame_at, f.early_frame_at)
 
 
-def open_rig(config: RigConfig) -> Rig:
-    """Open every device of `config`: the simulated bench, or the real devices."""
+def open_rig(config: RigConfig, with_devices: bool = True) -> Rig:
+    """Open every device of `config`: the simulated bench, or the real devices. Without devices,
+    a rig of geometry only (and the simulated bench's ground truth), for reprocessing stored frames."""
     projector_models = [geometry_model(p.geometry, p.resolution) for p in config.projectors]
     camera_models = [geometry_model(c.geometry, c.resolution) for c in config.cameras]
     truth = (camera_models, projector_models)  # the simulator's geometry, whatever reconstruction uses
@@ -235,7 +236,11 @@ def open_rig(config: RigConfig) -> Rig:
         luts, response_digest = _response_luts(config)
     bench: SimBench | None = None
     extras: list[Device] = []
+    projectors: list[Projector] = []
+    cameras: list[Camera] = []
     if config.simulation is None:  # a real rig
+        if not with_devices:
+            return Rig(config, [], [], projector_models, camera_models, None, digest, luts, response_digest)
         from rig import hardware  # drivers of real devices, only when a rig has them
 
         extras, projectors, cameras = hardware.devices(config)
@@ -249,10 +254,11 @@ def open_rig(config: RigConfig) -> Rig:
             ambient=config.simulation.ambient,
             seed=config.simulation.seed,
         )
-        projectors = [
-            SimProjector(p.name, bench, i, sequence=p.sync == "hardware") for i, p in enumerate(config.projectors)
-        ]
-        cameras = [SimCamera(c.name, bench, i, _faults(c)) for i, c in enumerate(config.cameras)]
+        if with_devices:
+            projectors = [
+                SimProjector(p.name, bench, i, sequence=p.sync == "hardware") for i, p in enumerate(config.projectors)
+            ]
+            cameras = [SimCamera(c.name, bench, i, _faults(c)) for i, c in enumerate(config.cameras)]
     rig = Rig(
         config,
         projectors,

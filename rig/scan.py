@@ -47,7 +47,7 @@ def make_codec(rig: Rig, projector: int, name: str | None = None) -> Codec:
     cls = codec_class(name)
     params = getattr(rig.config.scan, name, None)
     lut = rig.response_luts[projector] if rig.response_luts else None
-    return cls(rig.projectors[projector].resolution, params, lut)
+    return cls(tuple(rig.config.projectors[projector].resolution), params, lut)
 
 
 def reconstruct_pair(
@@ -86,11 +86,24 @@ def run_scan(
 ) -> ScanResult:
     tracker = ProgressTracker(progress)
     name = codec_name or rig.config.scan.codec
-    codecs = [make_codec(rig, p, name) for p in range(len(rig.projectors))]
-    timings: dict[str, float] = {}
+    codecs = [make_codec(rig, p, name) for p in range(len(rig.config.projectors))]
     t0 = time.perf_counter()
     frames = capture(rig, codecs, tracker)
-    timings["capture_ms"] = (time.perf_counter() - t0) * 1e3
+    capture_ms = (time.perf_counter() - t0) * 1e3
+    result = reconstruct_frames(rig, name, frames, tracker, keep_frames)
+    result.timings_ms = {"capture_ms": capture_ms, **result.timings_ms}
+    return result
+
+
+def reconstruct_frames(
+    rig: Rig,
+    codec_name: str,
+    frames: dict[tuple[int, int], list[np.ndarray]],
+    tracker: ProgressTracker,
+    keep_frames: bool = False,
+) -> ScanResult:
+    """Decode and triangulate captured frames (fresh from the devices, or stored with a scan)."""
+    codecs = [make_codec(rig, p, codec_name) for p in range(len(rig.config.projectors))]
     pairs: list[PairResult] = []
     elapsed = {"decode": 0.0, "triangulate": 0.0, "pointset": 0.0}
     n_pairs = len(frames)
@@ -104,16 +117,15 @@ def run_scan(
         tracker.report("decode", 0.6 + 0.3 * (i + 0.5) / n_pairs)
         pairs.append(reconstruct_pair(rig, p, c, corr, source=i, elapsed=elapsed))
         tracker.report("triangulate", 0.6 + 0.3 * (i + 1) / n_pairs)
-    timings.update({f"{stage}_ms": seconds * 1e3 for stage, seconds in elapsed.items()})
     cloud = PointSet.concatenate([pair.points for pair in pairs])
     bytes_captured = sum(img.nbytes for images in frames.values() for img in images)
     return ScanResult(
-        codec=name,
+        codec=codec_name,
         codec_params=codecs[0].params.model_dump(),
         pairs=pairs,
         cloud=cloud,
         frames_projected=sum(c.frame_count for c in codecs),
         bytes_captured=bytes_captured,
-        timings_ms=timings,
+        timings_ms={f"{stage}_ms": seconds * 1e3 for stage, seconds in elapsed.items()},
         frames=frames if keep_frames else {},
     )

@@ -20,8 +20,10 @@ import numpy as np
 
 import rig
 from rig.errors import StoreError
+from rig.evaluate import metrics_on_bench
+from rig.progress import ProgressCallback, ProgressTracker
 from rig.rig import Rig
-from rig.scan import ScanResult
+from rig.scan import ScanResult, run_scan
 from rig.store.atomic import fsync_dir, rename_no_replace, write_atomic
 from rig.store.images import depth_png, preview_png
 from rig.store.ply import ply_bytes
@@ -54,11 +56,17 @@ def _software() -> dict[str, str]:
 
 
 def build_manifest(
-    the_rig: Rig, result: ScanResult, scan_id: str, files: dict[str, Any], metrics: dict[str, Any] | None = None
+    the_rig: Rig,
+    result: ScanResult,
+    scan_id: str,
+    files: dict[str, Any],
+    metrics: dict[str, Any] | None = None,
+    origin: dict[str, Any] | None = None,
 ) -> dict[str, Any]:
     config = the_rig.config
     return {
         "scan_id": scan_id,
+        "origin": origin or {"captured": True},
         "status": "done",
         "created_utc": dt.datetime.now(dt.UTC).isoformat(timespec="seconds"),
         "software": _software(),
@@ -118,7 +126,12 @@ def _depth_grid(result: ScanResult, camera: int) -> np.ndarray:
 
 
 def write_scan(
-    the_rig: Rig, result: ScanResult, target: Path, scan_id: str, metrics: dict[str, Any] | None = None
+    the_rig: Rig,
+    result: ScanResult,
+    target: Path,
+    scan_id: str,
+    metrics: dict[str, Any] | None = None,
+    origin: dict[str, Any] | None = None,
 ) -> Path:
     """Write the scan directory at `target` (which must not exist) and return it."""
     target = Path(target)
@@ -139,7 +152,7 @@ def write_scan(
         write_atomic(partial / "preview.png", preview_png(result.cloud, the_rig.camera_models[0]))
         if result.frames:
             files["frames"] = _write_frames(the_rig, result, partial)
-        manifest = build_manifest(the_rig, result, scan_id, files, metrics)
+        manifest = build_manifest(the_rig, result, scan_id, files, metrics, origin)
         write_atomic(partial / "manifest.json", json.dumps(manifest, indent=2, allow_nan=False).encode())
         fsync_dir(partial)
         rename_no_replace(partial, target)
@@ -168,3 +181,39 @@ def _write_frames(the_rig: Rig, result: ScanResult, partial: Path) -> dict[str, 
     if out:
         fsync_dir(partial / "frames")
     return out
+
+
+def scan_to_directory(
+    the_rig: Rig,
+    target: Path,
+    scan_id: str,
+    codec: str | None = None,
+    keep_frames: bool = False,
+    progress: ProgressCallback | None = None,
+) -> tuple[Path, ScanResult]:
+    """Scan, measure against ground truth on a simulated bench, and write the scan directory."""
+    result = run_scan(the_rig, codec, progress=progress, keep_frames=keep_frames)
+    tracker = ProgressTracker(progress)
+    tracker.report("store", 0.95)
+    path = write_scan(the_rig, result, target, scan_id, metrics_on_bench(the_rig, result))
+    tracker.report("done", 1.0)
+    return path, result
+
+
+def read_frames(folder: Path) -> tuple[dict[str, Any], dict[tuple[int, int], list[np.ndarray]]]:
+    """The manifest of a stored scan and its raw frames by (projector, camera) index."""
+    manifest = json.loads((folder / "manifest.json").read_text())
+    stored = manifest["files"].get("frames")
+    if not stored:
+        raise StoreError(f"scan {manifest['scan_id']} kept no frames (scan with save_frames / keep_frames)")
+    projectors = [p["name"] for p in manifest["config"]["projectors"]]
+    cameras = [c["name"] for c in manifest["config"]["cameras"]]
+    frames: dict[tuple[int, int], list[np.ndarray]] = {}
+    for p, projector in enumerate(projectors):
+        for c, camera in enumerate(cameras):
+            names = stored.get(f"{projector}_{camera}", [])
+            images = [cv2.imread(str(folder / name), cv2.IMREAD_UNCHANGED) for name in names]
+            if any(image is None for image in images):
+                raise StoreError(f"scan {manifest['scan_id']}: a frame of {projector}/{camera} cannot be read")
+            frames[(p, c)] = images
+    return manifest, frames

@@ -1,0 +1,1 @@
+"""The REST API of `slrig serve` (FastAPI), versioned under /v1."""

@@ -1,0 +1,235 @@
+"""The FastAPI application of `slrig serve`: create_app(service, settings), no module-level app."""
+
+from __future__ import annotations
+
+import asyncio
+import json
+import logging
+from collections.abc import AsyncIterator, Callable
+from typing import Annotated, Any
+
+from fastapi import APIRouter, FastAPI, Path, Query, Request, Response, status
+from fastapi.middleware.cors import CORSMiddleware
+from fastapi.responses import FileResponse, JSONResponse, StreamingResponse
+from fastapi.routing import APIRoute
+from starlette.middleware.trustedhost import TrustedHostMiddleware
+
+from rig import __version__
+from rig.api.models import (
+    FILE_NAME_PATTERN,
+    JOB_ID_PATTERN,
+    CalibrationRequest,
+    CodecView,
+    Health,
+    JobPage,
+    JobState,
+    JobView,
+    Problem,
+    ReprocessRequest,
+    RigView,
+    ScanRequest,
+)
+from rig.api.security import MUTATING, READING, ApiSettings, BodyLimitMiddleware
+from rig.errors import ConfigError
+from rig.patterns import codec_class, codec_names
+from rig.service.errors import JobConflictError, JobNotFoundError, QueueFullError, ServiceStoppingError
+from rig.service.runner import JobService
+
+log = logging.getLogger(__name__)
+
+JobId = Annotated[str, Path(pattern=JOB_ID_PATTERN, description="a job id, e.g. 20261121-105227-a1b2c3")]
+FileName = Annotated[str, Path(pattern=FILE_NAME_PATTERN, description="a file its result lists")]
+SSE_POLL_S = 0.1
+SSE_PING_S = 15.0
+ERRORS: dict[int | str, dict[str, Any]] = {
+    code: {"model": Problem} for code in (401, 403, 404, 409, 413, 422, 429, 503)
+}
+MEDIA_TYPES = {".ply": "application/octet-stream", ".png": "image/png", ".json": "application/json"}
+
+
+def _operation_id(route: APIRoute) -> str:
+    return f"{route.tags[0] if route.tags else 'v1'}-{route.name}"
+
+
+def create_app(service: JobService, settings: ApiSettings, stopping: Callable[[], bool] | None = None) -> FastAPI:
+    """`stopping` tells event streams to end (the server is shutting down)."""
+    app = FastAPI(
+        title="slrig",
+        version=__version__,
+        description="Structured-light scans on a calibrated projector-camera rig.",
+        generate_unique_id_function=_operation_id,
+    )
+    app.state.api_settings = settings
+    app.state.service = service
+    is_stopping = stopping or (lambda: service.stopping)
+    app.add_middleware(TrustedHostMiddleware, allowed_hosts=list(settings.allowed_hosts))
+    if settings.cors_origins:
+        app.add_middleware(
+            CORSMiddleware, allow_origins=list(settings.cors_origins), allow_credentials=False, allow_methods=["*"]
+        )
+    app.add_middleware(BodyLimitMiddleware, limit=settings.max_body_bytes)
+    _error_handlers(app)
+    app.include_router(_general(service), prefix="/v1")
+    app.include_router(_jobs(service, "scan", "scans", is_stopping), prefix="/v1")
+    app.include_router(_jobs(service, "calibration", "calibrations", is_stopping), prefix="/v1")
+    return app
+
+
+def _error_handlers(app: FastAPI) -> None:
+    def handler(code: int, headers: dict[str, str] | None = None) -> Callable[[Request, Exception], Any]:
+        async def respond(request: Request, exc: Exception) -> JSONResponse:
+            return JSONResponse({"detail": str(exc)}, status_code=code, headers=headers)
+
+        return respond
+
+    app.add_exception_handler(JobNotFoundError, handler(404))
+    app.add_exception_handler(JobConflictError, handler(409))
+    app.add_exception_handler(QueueFullError, handler(429, {"Retry-After": "5"}))
+    app.add_exception_handler(ServiceStoppingError, handler(503))
+
+    async def config_error(request: Request, exc: Exception) -> JSONResponse:
+        assert isinstance(exc, ConfigError)
+        return JSONResponse({"detail": "; ".join(exc.problems)}, status_code=422)
+
+    app.add_exception_handler(ConfigError, config_error)
+
+
+def _general(service: JobService) -> APIRouter:
+    router = APIRouter(tags=["rig"], dependencies=READING, responses=ERRORS)
+
+    @router.get("/health", response_model=Health)
+    def health() -> Health:
+        return Health(status="ok" if service.healthy() else "degraded", version=__version__, rig=service.config.name)
+
+    @router.get("/rig", response_model=RigView)
+    def rig_state() -> RigView:
+        return RigView.model_validate(service.rig_status())
+
+    @router.get("/codecs", response_model=list[CodecView])
+    def codecs() -> list[CodecView]:
+        config = service.config
+        resolution = tuple(config.projectors[0].resolution)
+        out = []
+        for name in codec_names():
+            try:
+                frames = codec_class(name)(resolution, getattr(config.scan, name, None)).frame_count
+            except ValueError:
+                continue  # does not fit this rig's projector
+            out.append(CodecView(name=name, frames=frames, default=name == config.scan.codec))
+        return out
+
+    return router
+
+
+def _jobs(service: JobService, kind: str, collection: str, stopping: Callable[[], bool]) -> APIRouter:
+    """The routes of one job collection (scans, calibrations)."""
+    router = APIRouter(prefix=f"/{collection}", tags=[collection], responses=ERRORS)
+    base = f"/v1/{collection}"
+
+    def created(job_view: JobView, response: Response) -> JobView:
+        response.headers["Location"] = job_view.links["self"]
+        return job_view
+
+    if kind == "scan":
+
+        @router.post("", status_code=status.HTTP_202_ACCEPTED, response_model=JobView, dependencies=MUTATING)
+        def create_scan(body: ScanRequest, response: Response) -> JobView:
+            job = service.submit_scan(body.model_dump(exclude_none=True))
+            return created(JobView.of(job, base), response)
+
+        @router.post(
+            "/{job_id}/reprocess", status_code=status.HTTP_202_ACCEPTED, response_model=JobView, dependencies=MUTATING
+        )
+        def reprocess_scan(job_id: JobId, body: ReprocessRequest, response: Response) -> JobView:
+            job = service.submit_reprocess(job_id, body.model_dump(exclude_none=True))
+            return created(JobView.of(job, base), response)
+
+    else:
+
+        @router.post("", status_code=status.HTTP_202_ACCEPTED, response_model=JobView, dependencies=MUTATING)
+        def create_calibration(body: CalibrationRequest, response: Response) -> JobView:
+            job = service.submit("calibration", body.model_dump(exclude_none=True))
+            return created(JobView.of(job, base), response)
+
+    @router.get("", response_model=JobPage, dependencies=READING)
+    def list_jobs(
+        limit: Annotated[int, Query(ge=1, le=100)] = 20,
+        offset: Annotated[int, Query(ge=0, le=1_000_000)] = 0,
+        state: JobState | None = None,
+    ) -> JobPage:
+        jobs, total = service.store.list(kind, state, limit, offset)
+        return JobPage(items=[JobView.of(j, base) for j in jobs], total=total, limit=limit, offset=offset)
+
+    @router.get("/{job_id}", response_model=JobView, dependencies=READING)
+    def get_job(job_id: JobId) -> JobView:
+        return JobView.of(service.job(job_id, kind), base)
+
+    @router.delete("/{job_id}", status_code=status.HTTP_204_NO_CONTENT, dependencies=MUTATING)
+    def delete_job(job_id: JobId) -> Response:
+        service.delete(job_id, kind)
+        return Response(status_code=status.HTTP_204_NO_CONTENT)
+
+    @router.post("/{job_id}/cancel", response_model=JobView, dependencies=MUTATING)
+    def cancel_job(job_id: JobId) -> JobView:
+        return JobView.of(service.cancel(job_id, kind), base)
+
+    @router.get(
+        "/{job_id}/files/{name}",
+        dependencies=READING,
+        response_class=FileResponse,
+        responses={200: {"content": {"application/octet-stream": {}, "image/png": {}, "application/json": {}}}},
+    )
+    def download(job_id: JobId, name: FileName) -> FileResponse:
+        path = service.file_path(job_id, kind, name)
+        return FileResponse(path, media_type=MEDIA_TYPES.get(path.suffix, "application/octet-stream"), filename=name)
+
+    @router.get(
+        "/{job_id}/events",
+        dependencies=READING,
+        response_class=StreamingResponse,
+        responses={200: {"content": {"text/event-stream": {}}, "description": "state and progress events"}},
+    )
+    async def events(job_id: JobId, request: Request) -> StreamingResponse:
+        service.job(job_id, kind)  # 404 before the stream starts
+        try:
+            last = max(0, int(request.headers.get("last-event-id", "0")))
+        except ValueError:
+            last = 0
+        return StreamingResponse(
+            _event_stream(service, job_id, last, request, stopping),
+            media_type="text/event-stream",
+            headers={"Cache-Control": "no-cache", "X-Accel-Buffering": "no"},
+        )
+
+    return router
+
+
+async def _event_stream(
+    service: JobService, job_id: str, last: int, request: Request, stopping: Callable[[], bool]
+) -> AsyncIterator[bytes]:
+    """Events after `last` until the job ends; a job whose events are gone gets its state."""
+    idle = 0.0
+    sent_terminal = False
+    while not stopping() and not await request.is_disconnected():
+        fresh = service.events.since(job_id, last)
+        for event in fresh:
+            last = event.id
+            sent_terminal = sent_terminal or (
+                event.type == "state" and event.data["state"] not in ("queued", "running")
+            )
+            yield f"id: {event.id}\nevent: {event.type}\ndata: {json.dumps(event.data)}\n\n".encode()
+        if sent_terminal:
+            return
+        if not fresh:
+            job = service.store.get(job_id)
+            if job.terminal:  # ended before this stream saw it (events evicted, or a restart)
+                data = {"id": job.id, "state": job.state, "error": job.error}
+                yield f"event: state\ndata: {json.dumps(data)}\n\n".encode()
+                return
+            idle += SSE_POLL_S
+            if idle >= SSE_PING_S:
+                idle = 0.0
+                yield b": ping\n\n"
+            await asyncio.sleep(SSE_POLL_S)
+        else:
+            idle = 0.0

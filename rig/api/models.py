@@ -1,0 +1,123 @@
+"""Request and response bodies of the REST API (pydantic; unknown fields are errors)."""
+
+from __future__ import annotations
+
+import datetime as dt
+from typing import Any, Literal
+
+from pydantic import BaseModel, ConfigDict, Field
+
+from rig.service.jobs import Job
+
+JOB_ID_PATTERN = r"^[0-9]{8}-[0-9]{6}-[0-9a-f]{6}$"
+FILE_NAME_PATTERN = r"^[A-Za-z0-9][A-Za-z0-9_.-]{0,99}$"
+JobState = Literal["queued", "running", "done", "failed", "cancelled", "interrupted"]
+
+
+class _Request(BaseModel):
+    model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
+
+
+class ScanRequest(_Request):
+    codec: str | None = Field(None, max_length=32, description="a codec name (GET /v1/codecs); default: the config's")
+    keep_frames: bool = Field(False, description="store the raw frames, so the scan can be reprocessed")
+    label: str | None = Field(None, max_length=200, description="free text kept with the scan")
+
+
+class ReprocessRequest(_Request):
+    calibration: str | None = Field(
+        None, pattern=JOB_ID_PATTERN, description="a finished calibration's id; default: the scan's own geometry"
+    )
+    max_depth_jump_mm: float | None = Field(
+        None, gt=0, le=1000, description="depth-jump filter for dense codecs; default: the scan's setting"
+    )
+    label: str | None = Field(None, max_length=200)
+
+
+class CalibrationRequest(_Request):
+    what: Literal["camera", "projector", "rig", "response"] = "rig"
+    views: int | None = Field(None, ge=3, le=200, description="views to capture; default: the config's")
+
+
+class JobView(BaseModel):
+    id: str
+    kind: Literal["scan", "calibration"]
+    state: JobState
+    created: dt.datetime
+    started: dt.datetime | None
+    finished: dt.datetime | None
+    stage: str | None
+    fraction: float
+    error: str | None
+    request: dict[str, Any]
+    result: dict[str, Any] | None
+    links: dict[str, str]
+
+    @classmethod
+    def of(cls, job: Job, base: str) -> JobView:
+        def when(t: float | None) -> dt.datetime | None:
+            return None if t is None else dt.datetime.fromtimestamp(t, dt.UTC)
+
+        links = {"self": f"{base}/{job.id}", "events": f"{base}/{job.id}/events"}
+        if job.state == "done":
+            for name in (job.result or {}).get("files", []):
+                links[name] = f"{base}/{job.id}/files/{name}"
+        return cls(
+            id=job.id,
+            kind=job.kind,  # type: ignore[arg-type]
+            state=job.state,  # type: ignore[arg-type]
+            created=when(job.created),  # type: ignore[arg-type]
+            started=when(job.started),
+            finished=when(job.finished),
+            stage=job.stage,
+            fraction=job.fraction,
+            error=job.error,
+            request=job.request,
+            result=job.result,
+            links=links,
+        )
+
+
+class JobPage(BaseModel):
+    items: list[JobView]
+    total: int
+    limit: int
+    offset: int
+
+
+class Health(BaseModel):
+    status: Literal["ok", "degraded"]
+    version: str
+    rig: str
+
+
+class DeviceView(BaseModel):
+    name: str
+    kind: Literal["projector", "camera"]
+    driver: str
+    resolution: list[int]
+
+
+class QueueView(BaseModel):
+    queued: int
+    max: int
+
+
+class RigView(BaseModel):
+    name: str
+    simulated: bool
+    state: Literal["idle", "busy", "fault"]
+    running: str | None
+    last_error: str | None
+    queue: QueueView
+    devices: list[DeviceView]
+
+
+class CodecView(BaseModel):
+    name: str
+    frames: int
+    default: bool
+
+
+class Problem(BaseModel):
+    detail: str

@@ -1,0 +1,139 @@
+"""API key, Host header and request-size checks of the REST API.
+
+The key comes in `X-API-Key` or `Authorization: Bearer`, never in a query string, and is compared
+in constant time. It is needed for every mutating request, and for every request at all when the
+daemon listens beyond loopback. Missing: 401; wrong: 403. The key is never logged.
+"""
+
+from __future__ import annotations
+
+import hmac
+import ipaddress
+import json
+from dataclasses import dataclass, field
+
+from fastapi import Depends, HTTPException, Request, status
+from starlette.types import ASGIApp, Message, Receive, Scope, Send
+
+MIN_KEY_LENGTH = 16
+PLACEHOLDER_KEYS = frozenset({"changeme", "changethis", "secret", "password", "slrig"})
+
+
+def is_loopback(host: str) -> bool:
+    if host == "localhost":
+        return True
+    try:
+        return ipaddress.ip_address(host.strip("[]")).is_loopback
+    except ValueError:
+        return False
+
+
+def check_key_strength(key: str) -> str | None:
+    """Why a key is unfit to guard the rig, or None."""
+    if key.lower() in PLACEHOLDER_KEYS:
+        return "is a placeholder; generate one, e.g. `openssl rand -hex 32`"
+    if len(key) < MIN_KEY_LENGTH:
+        return f"is shorter than {MIN_KEY_LENGTH} characters"
+    return None
+
+
+@dataclass(frozen=True)
+class ApiSettings:
+    api_key: str | None = field(default=None, repr=False)  # repr=False: never printed with the settings
+    protect_reads: bool = False  # listening beyond loopback: every request needs the key
+    max_body_bytes: int = 65536
+    cors_origins: tuple[str, ...] = ()
+    allowed_hosts: tuple[str, ...] = ("127.0.0.1", "localhost", "::1", "[::1]")
+
+
+def _presented_key(request: Request) -> str | None:
+    key = request.headers.get("x-api-key")
+    if key:
+        return key
+    scheme, _, token = request.headers.get("authorization", "").partition(" ")
+    return token.strip() if scheme.lower() == "bearer" and token.strip() else None
+
+
+def _check(request: Request) -> None:
+    settings: ApiSettings = request.app.state.api_settings
+    if settings.api_key is None:
+        return
+    presented = _presented_key(request)
+    if presented is None:
+        raise HTTPException(
+            status.HTTP_401_UNAUTHORIZED,
+            "an API key is required (header X-API-Key or Authorization: Bearer)",
+            headers={"WWW-Authenticate": "Bearer"},
+        )
+    if not hmac.compare_digest(presented.encode(), settings.api_key.encode()):
+        raise HTTPException(status.HTTP_403_FORBIDDEN, "the API key is not valid")
+
+
+def require_key(request: Request) -> None:
+    """For mutating endpoints."""
+    _check(request)
+
+
+def require_key_for_reads(request: Request) -> None:
+    """For read endpoints: only when the daemon listens beyond loopback."""
+    if request.app.state.api_settings.protect_reads:
+        _check(request)
+
+
+MUTATING = [Depends(require_key)]
+READING = [Depends(require_key_for_reads)]
+
+
+class BodyLimitMiddleware:
+    """413 for a request body over `limit` bytes, declared or streamed."""
+
+    def __init__(self, app: ASGIApp, limit: int) -> None:
+        self.app = app
+        self.limit = limit
+
+    async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
+        if scope["type"] != "http":
+            await self.app(scope, receive, send)
+            return
+        declared = dict(scope["headers"]).get(b"content-length")
+        if declared is not None and (not declared.isdigit() or int(declared) > self.limit):
+            await _too_large(send, self.limit)
+            return
+        received = 0
+        started = False
+
+        async def limited_receive() -> Message:
+            nonlocal received
+            message = await receive()
+            if message["type"] == "http.request":
+                received += len(message.get("body", b""))
+                if received > self.limit:
+                    raise _BodyTooLargeError
+            return message
+
+        async def tracking_send(message: Message) -> None:
+            nonlocal started
+            started = started or message["type"] == "http.response.start"
+            await send(message)
+
+        try:
+            await self.app(scope, limited_receive, tracking_send)
+        except _BodyTooLargeError:
+            if not started:
+                await _too_large(send, self.limit)
+
+
+class _BodyTooLargeError(Exception):
+    """Raised inside the app when a streamed body passes the limit."""
+
+
+async def _too_large(send: Send, limit: int) -> None:
+    body = json.dumps({"detail": f"request body larger than {limit} bytes"}).encode()
+    await send(
+        {
+            "type": "http.response.start",
+            "status": 413,
+            "headers": [(b"content-type", b"application/json"), (b"content-length", str(len(body)).encode())],
+        }
+    )
+    await send({"type": "http.response.body", "body": body})

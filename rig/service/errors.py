@@ -1,0 +1,31 @@
+"""Errors of the job service; the API maps each to an HTTP status."""
+
+from __future__ import annotations
+
+from rig.errors import SlrigError
+
+
+class JobNotFoundError(SlrigError):
+    """Raised when a job id names no job (HTTP 404)."""
+
+
+class QueueFullError(SlrigError):
+    """Raised when a job is submitted while the queue holds its maximum (HTTP 429)."""
+
+
+class JobConflictError(SlrigError):
+    """Raised when an action does not fit the job's state: deleting a running scan, downloading
+    from one not done, reprocessing one without frames (HTTP 409)."""
+
+
+class IllegalTransitionError(SlrigError):
+    """Raised when a job record would move between states the state machine does not allow; a
+    programming error, never the client's."""
+
+
+class JobCancelledError(SlrigError):
+    """Raised inside a running job when it has been cancelled or the daemon is stopping."""
+
+
+class ServiceStoppingError(SlrigError):
+    """Raised when a job is submitted while the daemon shuts down (HTTP 503)."""

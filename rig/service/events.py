@@ -1,0 +1,57 @@
+"""Progress and state events per job, kept in a bounded buffer so a client that reconnects with
+Last-Event-ID resumes where it left off."""
+
+from __future__ import annotations
+
+import threading
+from collections import OrderedDict, deque
+from dataclasses import dataclass
+from typing import Any
+
+EVENTS_PER_JOB = 256
+JOBS_KEPT = 256
+
+
+@dataclass(frozen=True)
+class Event:
+    id: int  # increasing within a job
+    type: str  # state, progress
+    data: dict[str, Any]
+
+
+class EventHub:
+    """Thread-safe: the job worker publishes, API streams wait."""
+
+    def __init__(self) -> None:
+        self._cond = threading.Condition()
+        self._events: OrderedDict[str, deque[Event]] = OrderedDict()
+        self._next_id: dict[str, int] = {}
+
+    def publish(self, job_id: str, kind: str, data: dict[str, Any]) -> None:
+        with self._cond:
+            if job_id not in self._events:
+                self._events[job_id] = deque(maxlen=EVENTS_PER_JOB)
+                while len(self._events) > JOBS_KEPT:
+                    old, _ = self._events.popitem(last=False)
+                    self._next_id.pop(old, None)
+            event_id = self._next_id.get(job_id, 0) + 1
+            self._next_id[job_id] = event_id
+            self._events[job_id].append(Event(event_id, kind, data))
+            self._cond.notify_all()
+
+    def since(self, job_id: str, last_id: int) -> list[Event]:
+        with self._cond:
+            return [e for e in self._events.get(job_id, ()) if e.id > last_id]
+
+    def wait(self, job_id: str, last_id: int, timeout_s: float) -> list[Event]:
+        """Events after `last_id`, waiting up to `timeout_s` for the first."""
+        with self._cond:
+            self._cond.wait_for(lambda: bool(self._newer(job_id, last_id)), timeout=timeout_s)
+            return self._newer(job_id, last_id)
+
+    def _newer(self, job_id: str, last_id: int) -> list[Event]:
+        return [e for e in self._events.get(job_id, ()) if e.id > last_id]
+
+    def wake_all(self) -> None:
+        with self._cond:
+            self._cond.notify_all()

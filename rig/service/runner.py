@@ -1,0 +1,369 @@
+"""The job service: one worker thread runs queued jobs on the rig one at a time.
+
+Scans, reprocessing of stored scans and calibrations share the queue, because they share the rig.
+The rig stays open between jobs (opening cameras takes seconds) and is closed after a job that
+failed or replaced the simulated scene, so the next job starts from a known state. Every job
+ends in a terminal state that names what happened; none is re-run by itself.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import logging
+import shutil
+import threading
+import time
+from collections import deque
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+from drivers.errors import DeviceError
+from rig.calibrate.response import calibrate_response
+from rig.calibrate.session import calibrate
+from rig.config import RigConfig, config_from_dict
+from rig.errors import SlrigError
+from rig.evaluate import metrics_on_bench
+from rig.progress import ProgressCallback, ProgressEvent, ProgressTracker
+from rig.rig import Rig, open_rig
+from rig.scan import reconstruct_frames
+from rig.service.errors import (
+    JobCancelledError,
+    JobConflictError,
+    JobNotFoundError,
+    QueueFullError,
+    ServiceStoppingError,
+)
+from rig.service.events import EventHub
+from rig.service.jobs import Job, JobStore
+from rig.store.scandir import new_scan_id, read_frames, scan_to_directory, write_scan
+
+log = logging.getLogger(__name__)
+
+DB_NAME = "slrig.db"
+PROGRESS_EVERY_S = 0.2  # at most this often per job, plus every stage change
+
+
+class JobService:
+    """Owns the job store, the queue, the worker thread and the open rig."""
+
+    def __init__(self, config: RigConfig, max_queue: int = 8, health_stale_s: float = 120.0) -> None:
+        self.config = config
+        self.data_dir = config.output.data_dir
+        self.scans_dir = self.data_dir / "scans"
+        self.calibrations_dir = self.data_dir / "calibrations"
+        self.max_queue = max_queue
+        self.health_stale_s = health_stale_s
+        self.store = JobStore(self.data_dir / DB_NAME)
+        self.events = EventHub()
+        self._cond = threading.Condition()
+        self._queue: deque[str] = deque()
+        self._current: str | None = None
+        self._cancel = threading.Event()
+        self._stopping = False
+        self._rig: Rig | None = None
+        self._rig_error: str | None = None
+        self._heartbeat = time.monotonic()
+        self._worker: threading.Thread | None = None
+
+    # --- lifecycle -------------------------------------------------------------------------
+    def start(self) -> None:
+        """Recover from a previous run, then start the worker."""
+        for job in self.store.interrupt_unfinished("the daemon stopped before this job finished; not re-run"):
+            self._publish_state(job.id)
+        for partial in self.scans_dir.glob("*.partial"):  # half-written scans of interrupted jobs
+            shutil.rmtree(partial, ignore_errors=True)
+        self._worker = threading.Thread(target=self._work, name="slrig-jobs", daemon=True)
+        self._worker.start()
+
+    @property
+    def stopping(self) -> bool:
+        return self._stopping
+
+    def begin_stop(self) -> None:
+        """Accept no more jobs and cancel the running one (its projectors go dark)."""
+        with self._cond:
+            self._stopping = True
+            self._cancel.set()
+            self._cond.notify_all()
+        self.events.wake_all()
+
+    def shutdown(self, timeout_s: float = 8.0) -> None:
+        """Stop within `timeout_s`: the running job is cancelled and recorded as interrupted,
+        queued ones too; projectors dark, devices closed."""
+        self.begin_stop()
+        if self._worker is not None:
+            self._worker.join(timeout_s)
+            if self._worker.is_alive():
+                log.error("the running job did not stop within %.1f s; recording it interrupted", timeout_s)
+        self.store.interrupt_unfinished("the daemon stopped before this job finished")
+        rig, self._rig = self._rig, None
+        if rig is not None:
+            rig.close()  # dark first, then close
+            log.info("rig closed, projectors dark")
+
+    def healthy(self) -> bool:
+        """The worker is alive and, when running a job, has reported progress recently."""
+        if self._worker is None or not self._worker.is_alive():
+            return False
+        return self._current is None or time.monotonic() - self._heartbeat < self.health_stale_s
+
+    # --- requests --------------------------------------------------------------------------
+    def submit(self, kind: str, request: dict[str, Any]) -> Job:
+        with self._cond:
+            if self._stopping:
+                raise ServiceStoppingError("the daemon is shutting down")
+            if len(self._queue) >= self.max_queue:
+                raise QueueFullError(f"the queue holds {self.max_queue} jobs already; try again later")
+            job = self.store.add(new_scan_id(), kind, request)
+            self._queue.append(job.id)
+            self._cond.notify_all()
+        self._publish_state(job.id)
+        return job
+
+    def submit_scan(self, request: dict[str, Any]) -> Job:
+        if request.get("codec"):
+            self.config.with_codec(request["codec"])  # ConfigError naming the codec field
+        return self.submit("scan", request)
+
+    def submit_reprocess(self, source_id: str, request: dict[str, Any]) -> Job:
+        source = self.job(source_id, "scan")
+        if source.state != "done":
+            raise JobConflictError(f"scan {source_id} is {source.state}; only a finished scan can be reprocessed")
+        if not (self.scans_dir / source_id / "frames").is_dir():
+            raise JobConflictError(f"scan {source_id} kept no frames; scan with keep_frames: true to reprocess")
+        calibration_id = request.get("calibration")
+        if calibration_id:
+            calibration = self.job(calibration_id, "calibration")
+            if calibration.state != "done" or calibration.request.get("what") == "response":
+                raise JobConflictError(f"calibration {calibration_id} is not a finished geometric calibration")
+        return self.submit("scan", {**request, "source": source_id})
+
+    def job(self, job_id: str, kind: str | None = None) -> Job:
+        job = self.store.get(job_id)
+        if kind is not None and job.kind != kind:
+            raise JobNotFoundError(f"no {kind} {job_id}")
+        return job
+
+    def cancel(self, job_id: str, kind: str) -> Job:
+        self.job(job_id, kind)  # it exists and is of this kind
+        with self._cond:
+            if job_id in self._queue:
+                self._queue.remove(job_id)
+                self.store.transition(job_id, "cancelled", error="cancelled before it ran")
+                self._publish_state(job_id)
+            elif self._current == job_id:
+                self._cancel.set()  # the worker records it when the job stops
+        return self.store.get(job_id)
+
+    def delete(self, job_id: str, kind: str) -> None:
+        job = self.job(job_id, kind)
+        if job.state == "running":
+            raise JobConflictError(f"{kind} {job_id} is running; cancel it first")
+        if job.state == "queued":
+            self.cancel(job_id, kind)
+        self.store.delete(job_id)  # first the record: a crash now leaves only an unlisted folder
+        folder = self.job_folder(job)
+        if folder.exists():
+            doomed = folder.with_name(f".{folder.name}.deleting")
+            folder.rename(doomed)
+            shutil.rmtree(doomed, ignore_errors=True)
+
+    def job_folder(self, job: Job) -> Path:
+        return (self.calibrations_dir if job.kind == "calibration" else self.scans_dir) / job.id
+
+    def file_path(self, job_id: str, kind: str, name: str) -> Path:
+        """A result file of a finished job, by a name its result lists (never a path)."""
+        job = self.job(job_id, kind)
+        if job.state != "done":
+            raise JobConflictError(f"{kind} {job_id} is {job.state}; files exist once it is done")
+        files = (job.result or {}).get("files", [])
+        if name not in files:
+            raise JobNotFoundError(f"{kind} {job_id} has no file {name!r}; it has {', '.join(files)}")
+        path = self.job_folder(job) / name
+        if not path.is_file():
+            raise JobNotFoundError(f"{kind} {job_id}: {name} is missing from the store")
+        return path
+
+    def rig_status(self) -> dict[str, Any]:
+        with self._cond:
+            queued, current = len(self._queue), self._current
+        state = "busy" if current else ("fault" if self._rig_error else "idle")
+        return {
+            "name": self.config.name,
+            "simulated": self.config.simulation is not None,
+            "state": state,
+            "running": current,
+            "last_error": self._rig_error,
+            "queue": {"queued": queued, "max": self.max_queue},
+            "devices": [
+                {"name": p.name, "kind": "projector", "driver": p.driver, "resolution": list(p.resolution)}
+                for p in self.config.projectors
+            ]
+            + [
+                {"name": c.name, "kind": "camera", "driver": c.driver, "resolution": list(c.resolution)}
+                for c in self.config.cameras
+            ],
+        }
+
+    # --- the worker ------------------------------------------------------------------------
+    def _work(self) -> None:
+        while True:
+            with self._cond:
+                self._cond.wait_for(lambda: self._stopping or bool(self._queue), timeout=1.0)
+                self._heartbeat = time.monotonic()
+                if self._stopping:
+                    return
+                if not self._queue:
+                    continue
+                job_id = self._queue.popleft()
+                self._current = job_id
+                self._cancel.clear()
+            try:
+                self._run(job_id)
+            finally:
+                with self._cond:
+                    self._current = None
+
+    def _run(self, job_id: str) -> None:
+        job = self.store.transition(job_id, "running", stage="start", fraction=0.0)
+        self._publish_state(job_id)
+        handler: Callable[[Job, ProgressCallback], dict[str, Any]]
+        if job.kind == "calibration":
+            handler = self._calibration
+        else:  # a scan: captured now, or reprocessed from a stored one's frames
+            handler = self._reprocess if "source" in job.request else self._scan
+        try:
+            result = handler(job, self._progress_callback(job_id))
+        except JobCancelledError:
+            self._darken()
+            state = "interrupted" if self._stopping else "cancelled"
+            reason = "the daemon stopped during the job" if self._stopping else "cancelled while running"
+            self._finish(job_id, state, error=reason)
+        except (SlrigError, DeviceError) as exc:
+            if isinstance(exc, DeviceError) or isinstance(exc.__cause__, DeviceError):
+                self._rig_error = str(exc)  # reported by /v1/rig until a job opens the rig again
+            self._drop_rig()
+            self._finish(job_id, "failed", error=str(exc))
+        except Exception as exc:
+            log.exception("%s %s: internal error", job.kind, job_id)
+            self._drop_rig()
+            self._finish(job_id, "failed", error=f"internal error: {type(exc).__name__}: {exc}")
+        else:
+            self._finish(job_id, "done", result=result, stage="done", fraction=1.0)
+
+    def _finish(self, job_id: str, state: str, **fields: Any) -> None:
+        try:
+            self.store.transition(job_id, state, **fields)
+        except SlrigError as exc:  # shutdown() recorded it interrupted meanwhile
+            log.warning("%s", exc)
+        self._publish_state(job_id)
+
+    def _progress_callback(self, job_id: str) -> ProgressCallback:
+        last = {"t": 0.0, "stage": ""}
+
+        def on_progress(event: ProgressEvent) -> None:
+            self._heartbeat = time.monotonic()
+            if self._cancel.is_set():
+                raise JobCancelledError("cancelled")
+            now = time.monotonic()
+            if event.stage != last["stage"] or now - last["t"] >= PROGRESS_EVERY_S or event.fraction >= 1.0:
+                last["t"], last["stage"] = now, event.stage
+                self.store.progress(job_id, event.stage, event.fraction)
+                self.events.publish(
+                    job_id,
+                    "progress",
+                    {
+                        "stage": event.stage,
+                        "fraction": event.fraction,
+                        "elapsed_s": round(event.elapsed_s, 3),
+                        "remaining_s": None if event.remaining_s is None else round(event.remaining_s, 3),
+                    },
+                )
+
+        return on_progress
+
+    def _publish_state(self, job_id: str) -> None:
+        job = self.store.get(job_id)
+        self.events.publish(job_id, "state", {"id": job.id, "state": job.state, "error": job.error})
+
+    def _open(self) -> Rig:
+        if self._rig is None:
+            self._rig = open_rig(self.config)
+            self._rig_error = None
+        return self._rig
+
+    def _darken(self) -> None:
+        if self._rig is not None:
+            self._rig.all_dark()
+
+    def _drop_rig(self) -> None:
+        rig, self._rig = self._rig, None
+        if rig is not None:
+            with contextlib.suppress(Exception):
+                rig.close()
+
+    # --- the jobs --------------------------------------------------------------------------
+    def _scan(self, job: Job, progress: ProgressCallback) -> dict[str, Any]:
+        request = job.request
+        the_rig = self._open()
+        path, result = scan_to_directory(
+            the_rig,
+            self.scans_dir / job.id,
+            job.id,
+            request.get("codec") or self.config.scan.codec,
+            keep_frames=bool(request.get("keep_frames")),
+            progress=progress,
+        )
+        return _scan_summary(path, len(result.cloud), result.frames_projected, result.timings_ms)
+
+    def _reprocess(self, job: Job, progress: ProgressCallback) -> dict[str, Any]:
+        request = job.request
+        tracker = ProgressTracker(progress)
+        source = self.job(request["source"], "scan")
+        manifest, frames = read_frames(self.scans_dir / source.id)
+        data = manifest["config"]
+        if request.get("calibration"):
+            calibration = self.job(request["calibration"], "calibration")
+            data["calibration"]["file"] = str(self.job_folder(calibration))
+        if "max_depth_jump_mm" in request:
+            data["scan"]["max_depth_jump_mm"] = request["max_depth_jump_mm"]
+        config = config_from_dict(data, f"scan {source.id}")
+        tracker.report("decode", 0.6)
+        with open_rig(config, with_devices=False) as geometry:
+            result = reconstruct_frames(geometry, manifest["codec"]["name"], frames, tracker)
+            tracker.report("store", 0.95)
+            origin = {"reprocessed_from": source.id, "calibration": request.get("calibration")}
+            path = write_scan(
+                geometry, result, self.scans_dir / job.id, job.id, metrics_on_bench(geometry, result), origin
+            )
+        return _scan_summary(path, len(result.cloud), result.frames_projected, result.timings_ms)
+
+    def _calibration(self, job: Job, progress: ProgressCallback) -> dict[str, Any]:
+        request = job.request
+        tracker = ProgressTracker(progress)
+        the_rig = self._open()
+        out = self.calibrations_dir / job.id
+        tracker.report("capture", 0.05)
+        try:
+            if request["what"] == "response":
+                document = calibrate_response(the_rig, out)
+                summary: dict[str, Any] = {"projectors": document["projectors"]}
+            else:
+                outcome = calibrate(the_rig, request["what"], out, request.get("views"))
+                summary = {"sha256": outcome.sha256, "views": outcome.views, "report": outcome.report}
+        finally:
+            self._drop_rig()  # the simulated bench showed boards: a fresh rig for the next job
+        tracker.report("done", 1.0)
+        files = sorted(p.name for p in out.iterdir() if p.is_file()) if out.is_dir() else []
+        return {**summary, "files": files}
+
+
+def _scan_summary(path: Path, points: int, frames: int, timings_ms: dict[str, float]) -> dict[str, Any]:
+    files = sorted(p.name for p in path.iterdir() if p.is_file())
+    return {
+        "points": points,
+        "frames_projected": frames,
+        "timings_ms": {k: round(v, 1) for k, v in timings_ms.items()},
+        "files": files,
+    }
