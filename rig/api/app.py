@@ -42,7 +42,7 @@ FileName = Annotated[str, Path(pattern=FILE_NAME_PATTERN, description="a file it
 SSE_POLL_S = 0.1
 SSE_PING_S = 15.0
 ERRORS: dict[int | str, dict[str, Any]] = {
-    code: {"model": Problem} for code in (401, 403, 404, 409, 413, 422, 429, 503)
+    code: {"model": Problem} for code in (400, 401, 403, 404, 409, 413, 429, 503)
 }
 MEDIA_TYPES = {".ply": "application/octet-stream", ".png": "image/png", ".json": "application/json"}
 
@@ -88,8 +88,9 @@ def _error_handlers(app: FastAPI) -> None:
     app.add_exception_handler(ServiceStoppingError, handler(503))
 
     async def config_error(request: Request, exc: Exception) -> JSONResponse:
-        assert isinstance(exc, ConfigError)
-        return JSONResponse({"detail": "; ".join(exc.problems)}, status_code=422)
+        assert isinstance(exc, ConfigError)  # shaped like FastAPI's own 422: one entry per problem
+        detail = [{"loc": [p.split(":")[0]], "msg": p, "type": "config"} for p in exc.problems]
+        return JSONResponse({"detail": detail}, status_code=422)
 
     app.add_exception_handler(ConfigError, config_error)
 

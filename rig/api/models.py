@@ -7,11 +7,13 @@ from typing import Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field
 
+from rig.patterns import codec_names
 from rig.service.jobs import Job
 
 JOB_ID_PATTERN = r"^[0-9]{8}-[0-9]{6}-[0-9a-f]{6}$"
 FILE_NAME_PATTERN = r"^[A-Za-z0-9][A-Za-z0-9_.-]{0,99}$"
 JobState = Literal["queued", "running", "done", "failed", "cancelled", "interrupted"]
+CodecName = Literal[tuple(codec_names())]  # type: ignore[valid-type]
 
 
 class _Request(BaseModel):
@@ -19,7 +21,9 @@ class _Request(BaseModel):
 
 
 class ScanRequest(_Request):
-    codec: str | None = Field(None, max_length=32, description="a codec name (GET /v1/codecs); default: the config's")
+    codec: CodecName | None = Field(
+        None, description="a codec (GET /v1/codecs lists this rig's); default: the config's"
+    )
     keep_frames: bool = Field(False, description="store the raw frames, so the scan can be reprocessed")
     label: str | None = Field(None, max_length=200, description="free text kept with the scan")
 

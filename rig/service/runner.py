@@ -22,7 +22,7 @@ from drivers.errors import DeviceError
 from rig.calibrate.response import calibrate_response
 from rig.calibrate.session import calibrate
 from rig.config import RigConfig, config_from_dict
-from rig.errors import SlrigError
+from rig.errors import ConfigError, SlrigError
 from rig.evaluate import metrics_on_bench
 from rig.progress import ProgressCallback, ProgressEvent, ProgressTracker
 from rig.rig import Rig, open_rig
@@ -123,7 +123,12 @@ class JobService:
 
     def submit_scan(self, request: dict[str, Any]) -> Job:
         if request.get("codec"):
-            self.config.with_codec(request["codec"])  # ConfigError naming the codec field
+            try:
+                self.config.with_codec(request["codec"])
+            except ConfigError as exc:  # a known codec whose parameters do not fit this rig
+                raise JobConflictError(
+                    f"codec {request['codec']} does not fit this rig: {'; '.join(exc.problems)}"
+                ) from None
         return self.submit("scan", request)
 
     def submit_reprocess(self, source_id: str, request: dict[str, Any]) -> Job:

@@ -1,0 +1,289 @@
+"""`slrig serve` as a real process on loopback (uvicorn, the simulated bench): a scan over HTTP equal
+to the CLI's, bounded load, SIGKILL and restart, SIGTERM mid-scan, systemd notification, the
+API key kept out of the logs, and the unit file."""
+
+from __future__ import annotations
+
+import asyncio
+import io
+import json
+import os
+import random
+import shutil
+import signal
+import socket
+import subprocess
+import sys
+import time
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Any
+
+import httpx
+import numpy as np
+import pytest
+from plyfile import PlyData
+
+from rig.cli import main
+from rig.service.jobs import JobStore
+from rig.service.runner import DB_NAME
+from tests.conftest import default_config_data, small_config_data, write_config
+
+REPO = Path(__file__).resolve().parents[1]
+KEY = "0123456789abcdef" * 2
+AUTH = {"X-API-Key": KEY}
+
+
+def _free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return int(s.getsockname()[1])
+
+
+class Daemon:
+    """`python -m rig.cli serve` in its own process; its stderr goes to `log`."""
+
+    def __init__(self, config: Path, log: Path, env: dict[str, str] | None = None) -> None:
+        self.port = _free_port()
+        self.url = f"http://127.0.0.1:{self.port}"
+        self.log = log
+        environment = {**os.environ, "SLRIG_API_KEY": KEY, **(env or {})}
+        with log.open("ab") as err:
+            self.process = subprocess.Popen(
+                [sys.executable, "-m", "rig.cli", "serve", "--config", str(config), "--port", str(self.port)],
+                cwd=REPO,
+                env=environment,
+                stdout=subprocess.DEVNULL,
+                stderr=err,
+            )
+        deadline = time.monotonic() + 60
+        while time.monotonic() < deadline:
+            if self.process.poll() is not None:
+                raise AssertionError(f"the daemon exited: {log.read_text()}")
+            try:
+                if httpx.get(f"{self.url}/v1/health", timeout=1).status_code == 200:
+                    return
+            except httpx.TransportError:
+                time.sleep(0.1)
+        raise AssertionError("the daemon did not come up")
+
+    def stop(self) -> None:
+        if self.process.poll() is None:
+            self.process.kill()
+            self.process.wait(10)
+
+
+def _config(tmp_path: Path, data: dict[str, Any], name: str = "serve.yaml", **service: Any) -> Path:
+    data["output"] = {"data_dir": str(tmp_path / "data")}
+    data["service"] = service
+    return write_config(tmp_path, data, name)
+
+
+@pytest.fixture
+def small(tmp_path: Path) -> Path:
+    return _config(tmp_path, small_config_data(), max_queue=4)
+
+
+@pytest.fixture
+def daemon(small: Path, tmp_path: Path) -> Iterator[Daemon]:
+    d = Daemon(small, tmp_path / "daemon.log")
+    yield d
+    d.stop()
+
+
+def _wait(url: str, job_id: str, timeout_s: float = 120.0) -> dict[str, Any]:
+    deadline = time.monotonic() + timeout_s
+    while time.monotonic() < deadline:
+        job = httpx.get(f"{url}/v1/scans/{job_id}").json()
+        if job["state"] not in ("queued", "running"):
+            return job
+        time.sleep(0.05)
+    raise AssertionError(f"{job_id} did not finish")
+
+
+def _xyz(data: bytes) -> np.ndarray:
+    vertex = PlyData.read(io.BytesIO(data))["vertex"]
+    return np.stack([vertex["x"], vertex["y"], vertex["z"]], axis=1)
+
+
+def test_a_scan_over_http_gives_the_clis_cloud(daemon: Daemon, small: Path, tmp_path: Path) -> None:
+    created = httpx.post(f"{daemon.url}/v1/scans", json={"codec": "phase"}, headers=AUTH)
+    assert created.status_code == 202
+    job_id = created.json()["id"]
+    states = []
+    with httpx.stream("GET", f"{daemon.url}/v1/scans/{job_id}/events", timeout=60) as events:
+        for line in events.iter_lines():
+            if line.startswith("data: ") and '"state"' in line:
+                states.append(json.loads(line[6:])["state"])
+    assert states[-1] == "done" and "running" in states
+    served = httpx.get(f"{daemon.url}/v1/scans/{job_id}/files/cloud.ply")
+    assert served.status_code == 200
+
+    assert main(["scan", "--config", str(small), "--codec", "phase", "--out", str(tmp_path / "cli")]) == 0
+    by_cli = (tmp_path / "cli" / "cloud.ply").read_bytes()
+    assert np.array_equal(_xyz(served.content), _xyz(by_cli))
+
+    assert httpx.post(f"{daemon.url}/v1/scans", json={}, headers={"X-API-Key": "wrong" * 8}).status_code == 403
+    assert httpx.post(f"{daemon.url}/v1/scans", json={}).status_code == 401
+    log = daemon.log.read_text()
+    assert f"scan {job_id}: running -> done" in log  # one journal line per state change, with the id
+    assert KEY not in log and "wrong" * 8 not in log
+
+
+def test_bounded_load_every_request_answered(daemon: Daemon) -> None:
+    """20 clients, 500 requests mixed: no 5xx, the queue bound shows as 429, and every accepted
+    scan is listed once and ends."""
+    rng = random.Random(7)
+    plan = rng.choices(["create", "status", "list", "download"], weights=[3, 3, 3, 1], k=500)
+    accepted: list[str] = []
+    codes: list[int] = []
+
+    async def client(jobs: list[str]) -> None:
+        async with httpx.AsyncClient(base_url=daemon.url, timeout=30) as http:
+            for action in jobs:
+                known = accepted[-1] if accepted else "20261121-000000-000000"
+                if action == "create":
+                    response = await http.post("/v1/scans", json={}, headers=AUTH)
+                    if response.status_code == 202:
+                        accepted.append(response.json()["id"])
+                elif action == "status":
+                    response = await http.get(f"/v1/scans/{known}")
+                elif action == "list":
+                    response = await http.get("/v1/scans", params={"limit": 10})
+                else:
+                    response = await http.get(f"/v1/scans/{known}/files/cloud.ply")
+                codes.append(response.status_code)
+
+    async def run() -> None:
+        await asyncio.gather(*(client(plan[i::20]) for i in range(20)))
+
+    asyncio.run(run())
+    assert len(codes) == 500
+    assert not [c for c in codes if c >= 500]
+    assert 429 in codes  # the queue bound was reached and enforced
+    assert set(codes) <= {200, 202, 404, 409, 429}  # 404/409: a download before a scan was done
+    for job_id in accepted:
+        assert _wait(daemon.url, job_id)["state"] == "done"
+    listed: list[str] = []
+    page = httpx.get(f"{daemon.url}/v1/scans", params={"limit": 100}).json()
+    while True:
+        listed += [j["id"] for j in page["items"]]
+        if len(listed) >= page["total"]:
+            break
+        page = httpx.get(f"{daemon.url}/v1/scans", params={"limit": 100, "offset": len(listed)}).json()
+    assert sorted(listed) == sorted(accepted) and len(set(listed)) == len(listed)
+
+
+def _running(url: str, job_id: str) -> None:
+    deadline = time.monotonic() + 60
+    while time.monotonic() < deadline:
+        job = httpx.get(f"{url}/v1/scans/{job_id}").json()
+        if job["state"] == "running" and job["fraction"] > 0.05:
+            return
+        time.sleep(0.02)
+    raise AssertionError("the scan never ran")
+
+
+def test_sigkill_mid_scan_then_restart(tmp_path: Path) -> None:
+    config = _config(tmp_path, default_config_data())  # a full-size scan: seconds of capture
+    first = Daemon(config, tmp_path / "first.log")
+    try:
+        job_id = httpx.post(f"{first.url}/v1/scans", json={}, headers=AUTH).json()["id"]
+        _running(first.url, job_id)
+        first.process.send_signal(signal.SIGKILL)
+        first.process.wait(10)
+    finally:
+        first.stop()
+    scans = tmp_path / "data" / "scans"
+    assert not (scans / job_id).exists()  # never a finished-looking directory
+
+    second = Daemon(config, tmp_path / "second.log")
+    try:
+        assert JobStore(tmp_path / "data" / DB_NAME).integrity_ok()
+        job = httpx.get(f"{second.url}/v1/scans/{job_id}").json()
+        assert job["state"] == "interrupted" and "not re-run" in job["error"]
+        assert not list(scans.glob("*.partial"))
+        assert [j["id"] for j in httpx.get(f"{second.url}/v1/scans").json()["items"]] == [job_id]
+        nxt = httpx.post(f"{second.url}/v1/scans", json={"codec": "gray"}, headers=AUTH).json()["id"]
+        assert _wait(second.url, nxt)["state"] == "done"
+        assert job["state"] == httpx.get(f"{second.url}/v1/scans/{job_id}").json()["state"]  # not re-run
+    finally:
+        second.stop()
+
+
+def test_sigterm_mid_scan_exits_within_10_s_dark(tmp_path: Path) -> None:
+    config = _config(tmp_path, default_config_data())
+    d = Daemon(config, tmp_path / "daemon.log")
+    try:
+        job_id = httpx.post(f"{d.url}/v1/scans", json={}, headers=AUTH).json()["id"]
+        _running(d.url, job_id)
+        start = time.monotonic()
+        d.process.send_signal(signal.SIGTERM)
+        code = d.process.wait(10)
+        elapsed = time.monotonic() - start
+    finally:
+        d.stop()
+    assert code == 0 and elapsed < 10
+    log = d.log.read_text()
+    assert "projectors dark" in log
+    assert JobStore(tmp_path / "data" / DB_NAME).get(job_id).state in ("cancelled", "interrupted")
+
+
+def test_systemd_hears_ready_watchdog_and_stopping(small: Path, tmp_path: Path) -> None:
+    path = tmp_path / "notify.sock"
+    with socket.socket(socket.AF_UNIX, socket.SOCK_DGRAM) as sock:
+        sock.bind(str(path))
+        sock.settimeout(10)
+        d = Daemon(small, tmp_path / "daemon.log", {"NOTIFY_SOCKET": str(path), "WATCHDOG_USEC": "400000"})
+        try:
+            received: list[str] = []
+            pings: list[float] = []
+            while len(pings) < 4:
+                message = sock.recv(4096).decode()
+                received.append(message)
+                if message == "WATCHDOG=1":
+                    pings.append(time.monotonic())
+            assert received[0].startswith("READY=1\nSTATUS=serving on 127.0.0.1:")
+            gaps = np.diff(pings)
+            assert gaps.max() < 0.4  # at least every half interval (0.2 s), with slack for scheduling
+            d.process.send_signal(signal.SIGTERM)
+            while "STOPPING=1" not in received:
+                received.append(sock.recv(4096).decode())
+            assert d.process.wait(10) == 0
+        finally:
+            d.stop()
+
+
+def test_a_key_that_guards_nothing_is_refused(small: Path, tmp_path: Path) -> None:
+    env = {**os.environ, "SLRIG_API_KEY": "changeme"}
+    run = subprocess.run(
+        [sys.executable, "-m", "rig.cli", "serve", "--config", str(small), "--port", "0"],
+        cwd=REPO,
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
+    assert run.returncode == 2 and "SLRIG_API_KEY: the API key is a placeholder" in run.stderr
+    env.pop("SLRIG_API_KEY")
+    run = subprocess.run(
+        [sys.executable, "-m", "rig.cli", "serve", "--config", str(small), "--host", "0.0.0.0", "--port", "0"],
+        cwd=REPO,
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
+    assert run.returncode == 2 and "beyond loopback) needs an API key" in run.stderr
+
+
+def test_the_unit_file_verifies(tmp_path: Path) -> None:
+    analyze = shutil.which("systemd-analyze")
+    if analyze is None:
+        pytest.skip("systemd-analyze is not installed here (no systemd)")
+    slrig = Path(sys.executable).with_name("slrig")
+    unit = (REPO / "systemd" / "slrig.service").read_text().replace("/opt/slrig/venv/bin/slrig", str(slrig))
+    (tmp_path / "slrig.service").write_text(unit)
+    result = subprocess.run([analyze, "verify", str(tmp_path / "slrig.service")], capture_output=True, text=True)
+    assert result.returncode == 0, result.stderr
+    assert "Type=notify" in unit and "WatchdogSec=" in unit and "PrivateDevices=no" in unit
