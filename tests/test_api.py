@@ -88,6 +88,7 @@ def test_a_scan_from_request_to_download(client: TestClient) -> None:
     assert client.get(f"/v1/scans/{job['id']}/files/preview.png").headers["content-type"] == "image/png"
     rig = client.get("/v1/rig").json()
     assert rig["state"] == "idle" and rig["devices"][0]["kind"] == "projector"
+    assert all(d["open"] for d in rig["devices"])  # kept open between scans
     assert {c["name"] for c in client.get("/v1/codecs").json()} >= {"gray", "phase", "rings"}
 
 

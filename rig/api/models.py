@@ -100,6 +100,7 @@ class DeviceView(BaseModel):
     kind: Literal["projector", "camera"]
     driver: str
     resolution: list[int]
+    open: bool
 
 
 class QueueView(BaseModel):

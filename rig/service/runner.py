@@ -201,15 +201,29 @@ class JobService:
             "running": current,
             "last_error": self._rig_error,
             "queue": {"queued": queued, "max": self.max_queue},
-            "devices": [
-                {"name": p.name, "kind": "projector", "driver": p.driver, "resolution": list(p.resolution)}
-                for p in self.config.projectors
-            ]
-            + [
-                {"name": c.name, "kind": "camera", "driver": c.driver, "resolution": list(c.resolution)}
-                for c in self.config.cameras
-            ],
+            "devices": self._devices(),
         }
+
+    def _devices(self) -> list[dict[str, Any]]:
+        """Each device as configured, and whether it is open now (devices stay open between jobs)."""
+        rig = self._rig
+        out: list[dict[str, Any]] = []
+        for kind, configs, live in (
+            ("projector", self.config.projectors, rig.projectors if rig else []),
+            ("camera", self.config.cameras, rig.cameras if rig else []),
+        ):
+            for i, c in enumerate(configs):
+                device = live[i] if i < len(live) else None
+                out.append(
+                    {
+                        "name": c.name,
+                        "kind": kind,
+                        "driver": c.driver,
+                        "resolution": list(c.resolution),
+                        "open": bool(device is not None and device.is_open),
+                    }
+                )
+        return out
 
     # --- the worker ------------------------------------------------------------------------
     def _work(self) -> None:
