@@ -253,8 +253,8 @@ def cmd_serve(args: argparse.Namespace) -> int:
     if not 0 <= args.port <= 65535:
         raise ConfigError("--port", [f"--port: {args.port} is outside 0..65535"])
     config = load_config(args.config)
-    key = load_api_key(args.api_key_file)
     logging.basicConfig(level=logging.INFO, format="%(levelname)s %(name)s: %(message)s", stream=sys.stderr)
+    key = load_api_key(args.api_key_file, config.output.data_dir)
     return serve(config, args.host, args.port, key)
 
 

@@ -5,6 +5,7 @@ from __future__ import annotations
 import contextlib
 import json
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -94,6 +95,8 @@ class Rig:
     response_luts: list[np.ndarray | None] = field(default_factory=list)  # per projector, from response.json
     response_sha256: str | None = None
     extras: list[Device] = field(default_factory=list)  # housekeeping (projector power), opened first
+    # Called at every wait for light: the daemon's heartbeat and cancel check in long sessions.
+    checkpoint: Callable[[], None] | None = field(default=None, repr=False)
     _closed: bool = field(default=False, repr=False)
     _triangulators: dict[tuple[int, int], PairTriangulator] = field(default_factory=dict, repr=False)
 
@@ -123,6 +126,8 @@ class Rig:
 
     def wait(self, seconds: float) -> None:
         """Let time pass: bench time on the simulated bench, real time on real devices."""
+        if self.checkpoint is not None:
+            self.checkpoint()
         if self.sim is not None:
             self.sim.advance(seconds)
         elif seconds > 0:

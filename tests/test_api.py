@@ -18,9 +18,10 @@ from plyfile import PlyData
 from rig.api.app import create_app
 from rig.api.security import ApiSettings
 from rig.config import load_config
+from rig.service.errors import JobConflictError
 from rig.service.jobs import JobStore
 from rig.service.runner import DB_NAME, JobService
-from tests.conftest import small_config_data, write_config
+from tests.conftest import default_config_data, small_config_data, write_config
 
 KEY = "k" * 32
 AUTH = {"X-API-Key": KEY}
@@ -115,8 +116,12 @@ def test_mutations_need_the_key_and_reads_do_not_on_loopback(client: TestClient)
 
 def test_beyond_loopback_every_request_needs_the_key(service: JobService) -> None:
     with _client(service, protect_reads=True) as c:
-        assert c.get("/v1/health").status_code == 401
+        reads = ["/v1/health", "/v1/rig", "/v1/codecs", "/v1/scans", "/v1/calibrations", "/openapi.json"]
+        reads += ["/v1/scans/20261121-000000-abcdef", "/v1/scans/20261121-000000-abcdef/events"]
+        assert {path: c.get(path).status_code for path in reads} == dict.fromkeys(reads, 401)
+        assert c.get("/docs").status_code == 404  # no unauthenticated docs page
         assert c.get("/v1/scans", headers=AUTH).status_code == 200
+        assert "/v1/scans" in c.get("/openapi.json", headers=AUTH).json()["paths"]
 
 
 def test_bad_input_gets_a_4xx_that_names_the_field(client: TestClient) -> None:
@@ -147,6 +152,15 @@ def test_large_bodies_and_foreign_hosts_are_refused(client: TestClient) -> None:
         "/v1/scans", content=b"{" + b" " * 70_000 + b"}", headers={**AUTH, "content-type": "application/json"}
     )
     assert big.status_code == 413
+
+    def chunks() -> Iterator[bytes]:  # no Content-Length: the body streams in, chunked
+        yield b'{"label": "'
+        for _ in range(100):
+            yield b"x" * 1000
+        yield b'"}'
+
+    chunked = client.post("/v1/scans", content=chunks(), headers={**AUTH, "content-type": "application/json"})
+    assert chunked.status_code == 413
     assert client.get("/v1/health", headers={"host": "evil.example"}).status_code == 400
 
 
@@ -182,20 +196,50 @@ def test_cancel_and_delete(tmp_path: Path) -> None:
         running.shutdown(5.0)
 
 
-def test_a_running_scan_can_be_cancelled_and_the_projector_goes_dark(client: TestClient, service: JobService) -> None:
-    job_id = client.post("/v1/scans", json={"codec": "phase"}, headers=AUTH).json()["id"]
-    deadline = time.monotonic() + 20
-    while client.get(f"/v1/scans/{job_id}").json()["state"] == "queued" and time.monotonic() < deadline:
+def test_a_running_scan_can_be_cancelled_and_the_projector_goes_dark(tmp_path: Path) -> None:
+    data = default_config_data()  # full size: seconds of capture, so the cancel lands mid-scan
+    data["output"] = {"data_dir": str(tmp_path / "data")}
+    config = load_config(write_config(tmp_path, data, "full.yaml"))
+    s = JobService(config)
+    s.start()
+    try:
+        with _client(s) as c:
+            job_id = c.post("/v1/scans", json={}, headers=AUTH).json()["id"]
+            deadline = time.monotonic() + 60
+            while c.get(f"/v1/scans/{job_id}").json()["fraction"] < 0.05 and time.monotonic() < deadline:
+                time.sleep(0.01)
+            assert c.delete(f"/v1/scans/{job_id}", headers=AUTH).status_code == 409  # running
+            answer = c.post(f"/v1/scans/{job_id}/cancel", headers=AUTH)
+            assert answer.status_code == 202 and answer.json()["state"] == "running"  # it stops at its next step
+            job = wait_done(c, job_id)
+            assert job["state"] == "cancelled" and job["error"] == "cancelled while running"
+            assert all(p.is_dark for p in s._rig.projectors)  # type: ignore[union-attr, attr-defined]
+            assert not (s.scans_dir / job_id).exists() and not list(s.scans_dir.glob("*.partial"))
+            assert c.delete(f"/v1/scans/{job_id}", headers=AUTH).status_code == 204
+    finally:
+        s.shutdown(5.0)
+
+
+def test_deleting_a_job_the_worker_is_starting_leaves_the_worker_alive(service: JobService) -> None:
+    transition = service.store.transition
+
+    def slow_start(job_id: str, state: str, **fields: Any) -> Any:
+        if state == "running":
+            time.sleep(0.3)  # widen the window between taking a job and recording it running
+        return transition(job_id, state, **fields)
+
+    service.store.transition = slow_start  # type: ignore[method-assign]
+    job = service.submit_scan({})
+    deadline = time.monotonic() + 10
+    while service._current != job.id and time.monotonic() < deadline:
         time.sleep(0.005)
-    assert client.delete(f"/v1/scans/{job_id}", headers=AUTH).status_code in (409, 204)  # 409 while running
-    client.post(f"/v1/scans/{job_id}/cancel", headers=AUTH)
-    job = wait_done(client, job_id)
-    if job["state"] == "cancelled":  # (it may have finished before the cancel arrived)
-        assert job["error"] == "cancelled while running"
-        assert all(p.is_dark for p in service._rig.projectors)  # type: ignore[union-attr, attr-defined]
-        assert not (service.scans_dir / job_id).exists()
-    else:
-        assert job["state"] == "done"
+    with pytest.raises(JobConflictError):
+        service.delete(job.id, "scan")  # the worker has it: refused, not half-done
+    service.store.transition = transition  # type: ignore[method-assign]
+    with _client(service) as c:
+        assert wait_done(c, job.id)["state"] == "done"
+        again = wait_done(c, c.post("/v1/scans", json={}, headers=AUTH).json()["id"])
+    assert again["state"] == "done" and service.healthy()
 
 
 def test_events_stream_to_the_end_and_resume(client: TestClient) -> None:
@@ -318,3 +362,12 @@ def test_health_turns_degraded_when_a_running_job_goes_silent(service: JobServic
     service._heartbeat = time.monotonic() - service.health_stale_s - 1
     assert not service.healthy()
     service._current = None
+
+
+def test_one_daemon_per_data_directory(tmp_path: Path, service: JobService) -> None:
+    from rig.errors import ConfigError
+
+    second = JobService(service.config)
+    with pytest.raises(ConfigError, match="another slrig daemon is using"):
+        second.start()
+    second.store.close()

@@ -18,7 +18,7 @@ EXAMPLES_PER_OPERATION = 30
 
 
 def test_every_operation_conforms_to_the_schema(tmp_path: Path) -> None:
-    service = _service(tmp_path, max_queue=4)
+    service = _service(tmp_path, start=False, max_queue=4)  # no worker: requests only, no scans running
     app = create_app(service, ApiSettings(api_key=KEY, allowed_hosts=("testserver", "localhost")))
     schema = schemathesis.openapi.from_asgi("/openapi.json", app)
     failures: list[str] = []
@@ -41,6 +41,6 @@ def test_every_operation_conforms_to_the_schema(tmp_path: Path) -> None:
             except Exception as exc:  # collect every operation's failure, then report them all
                 failures.append(f"{operation.method.upper()} {operation.path}: {exc}")
     finally:
-        service.shutdown(5.0)
+        service.store.close()
     assert operations >= 14
     assert not failures, "\n\n".join(failures)

@@ -226,7 +226,7 @@ def test_sigterm_mid_scan_exits_within_10_s_dark(tmp_path: Path) -> None:
     assert code == 0 and elapsed < 10
     log = d.log.read_text()
     assert "projectors dark" in log
-    assert JobStore(tmp_path / "data" / DB_NAME).get(job_id).state in ("cancelled", "interrupted")
+    assert JobStore(tmp_path / "data" / DB_NAME).get(job_id).state == "interrupted"
 
 
 def test_systemd_hears_ready_watchdog_and_stopping(small: Path, tmp_path: Path) -> None:
@@ -254,27 +254,58 @@ def test_systemd_hears_ready_watchdog_and_stopping(small: Path, tmp_path: Path) 
             d.stop()
 
 
-def test_a_key_that_guards_nothing_is_refused(small: Path, tmp_path: Path) -> None:
+def _serve_once(config: Path, env: dict[str, str], *extra: str) -> subprocess.CompletedProcess[str]:
+    command = [sys.executable, "-m", "rig.cli", "serve", "--config", str(config), "--port", "0", *extra]
+    return subprocess.run(command, cwd=REPO, env=env, capture_output=True, text=True, timeout=60)
+
+
+def test_a_key_that_guards_nothing_is_refused(small: Path) -> None:
     env = {**os.environ, "SLRIG_API_KEY": "changeme"}
-    run = subprocess.run(
-        [sys.executable, "-m", "rig.cli", "serve", "--config", str(small), "--port", "0"],
-        cwd=REPO,
-        env=env,
-        capture_output=True,
-        text=True,
-        timeout=60,
-    )
+    run = _serve_once(small, env)
     assert run.returncode == 2 and "SLRIG_API_KEY: the API key is a placeholder" in run.stderr
-    env.pop("SLRIG_API_KEY")
-    run = subprocess.run(
-        [sys.executable, "-m", "rig.cli", "serve", "--config", str(small), "--host", "0.0.0.0", "--port", "0"],
-        cwd=REPO,
-        env=env,
-        capture_output=True,
-        text=True,
-        timeout=60,
-    )
-    assert run.returncode == 2 and "beyond loopback) needs an API key" in run.stderr
+    env["SLRIG_API_KEY"] = KEY
+    run = _serve_once(small, env, "--host", "0.0.0.0")
+    assert run.returncode == 2 and "service.allowed_hosts: listening on all addresses" in run.stderr
+
+
+def test_without_a_key_one_is_generated_and_mutations_still_need_it(small: Path, tmp_path: Path) -> None:
+    d = Daemon(small, tmp_path / "daemon.log", env={"SLRIG_API_KEY": ""})  # no key given
+    try:
+        path = tmp_path / "data" / "api-key"
+        key = path.read_text().strip()
+        assert path.stat().st_mode & 0o777 == 0o600 and len(key) == 64
+        assert httpx.post(f"{d.url}/v1/scans", json={}).status_code == 401
+        assert httpx.post(f"{d.url}/v1/scans", json={}, headers={"X-API-Key": key}).status_code == 202
+        assert key not in d.log.read_text() and str(path) in d.log.read_text()
+    finally:
+        d.stop()
+
+
+def test_the_watchdog_stops_while_a_driver_is_stuck(tmp_path: Path) -> None:
+    """A camera that never delivers (a wedged driver) and a job that reports nothing for longer
+    than health_stale_s: the pings stop and systemd would restart the service."""
+    data = small_config_data()
+    data["cameras"][0]["sim"]["faults"] = {"stall_after_frames": 2}
+    data["scan"]["capture_timeout_s"] = 30.0
+    config = _config(tmp_path, data, "stuck.yaml", health_stale_s=5.0)
+    path = tmp_path / "notify.sock"
+    with socket.socket(socket.AF_UNIX, socket.SOCK_DGRAM) as sock:
+        sock.bind(str(path))
+        sock.settimeout(10)
+        d = Daemon(config, tmp_path / "daemon.log", {"NOTIFY_SOCKET": str(path), "WATCHDOG_USEC": "400000"})
+        try:
+            assert sock.recv(4096).startswith(b"READY=1")
+            assert sock.recv(4096) == b"WATCHDOG=1"
+            httpx.post(f"{d.url}/v1/scans", json={}, headers=AUTH)
+            messages: list[tuple[float, bytes]] = []
+            start = time.monotonic()
+            while time.monotonic() - start < 9:
+                messages.append((time.monotonic() - start, sock.recv(4096)))
+            pings = [t for t, m in messages if m == b"WATCHDOG=1"]
+            assert pings and max(pings) < 6.5  # healthy for health_stale_s, then silent
+            assert any(m == b"STATUS=job worker unhealthy" for _, m in messages)
+        finally:
+            d.stop()
 
 
 def test_the_unit_file_verifies(tmp_path: Path) -> None:

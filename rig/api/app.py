@@ -41,6 +41,7 @@ JobId = Annotated[str, Path(pattern=JOB_ID_PATTERN, description="a job id, e.g. 
 FileName = Annotated[str, Path(pattern=FILE_NAME_PATTERN, description="a file its result lists")]
 SSE_POLL_S = 0.1
 SSE_PING_S = 15.0
+MAX_EVENT_STREAMS = 64  # each holds a connection; uvicorn allows 128
 ERRORS: dict[int | str, dict[str, Any]] = {
     code: {"model": Problem} for code in (400, 401, 403, 404, 409, 413, 429, 503)
 }
@@ -53,14 +54,25 @@ def _operation_id(route: APIRoute) -> str:
 
 def create_app(service: JobService, settings: ApiSettings, stopping: Callable[[], bool] | None = None) -> FastAPI:
     """`stopping` tells event streams to end (the server is shutting down)."""
+    guarded = settings.protect_reads  # beyond loopback the schema and docs need the key too
     app = FastAPI(
         title="slrig",
         version=__version__,
         description="Structured-light scans on a calibrated projector-camera rig.",
         generate_unique_id_function=_operation_id,
+        openapi_url=None if guarded else "/openapi.json",
+        docs_url=None if guarded else "/docs",
+        redoc_url=None,
     )
     app.state.api_settings = settings
     app.state.service = service
+    app.state.event_streams = 0
+    if guarded:
+
+        @app.get("/openapi.json", include_in_schema=False, dependencies=READING)
+        def openapi() -> JSONResponse:
+            return JSONResponse(app.openapi())
+
     is_stopping = stopping or (lambda: service.stopping)
     app.add_middleware(TrustedHostMiddleware, allowed_hosts=list(settings.allowed_hosts))
     if settings.cors_origins:
@@ -88,8 +100,8 @@ def _error_handlers(app: FastAPI) -> None:
     app.add_exception_handler(ServiceStoppingError, handler(503))
 
     async def config_error(request: Request, exc: Exception) -> JSONResponse:
-        assert isinstance(exc, ConfigError)  # shaped like FastAPI's own 422: one entry per problem
-        detail = [{"loc": [p.split(":")[0]], "msg": p, "type": "config"} for p in exc.problems]
+        problems = exc.problems if isinstance(exc, ConfigError) else [str(exc)]
+        detail = [{"loc": [p.split(":")[0]], "msg": p, "type": "config"} for p in problems]  # like FastAPI's 422
         return JSONResponse({"detail": detail}, status_code=422)
 
     app.add_exception_handler(ConfigError, config_error)
@@ -170,9 +182,17 @@ def _jobs(service: JobService, kind: str, collection: str, stopping: Callable[[]
         service.delete(job_id, kind)
         return Response(status_code=status.HTTP_204_NO_CONTENT)
 
-    @router.post("/{job_id}/cancel", response_model=JobView, dependencies=MUTATING)
-    def cancel_job(job_id: JobId) -> JobView:
-        return JobView.of(service.cancel(job_id, kind), base)
+    @router.post(
+        "/{job_id}/cancel",
+        response_model=JobView,
+        dependencies=MUTATING,
+        responses={202: {"model": JobView, "description": "running: it stops at its next step"}},
+    )
+    def cancel_job(job_id: JobId, response: Response) -> JobView:
+        job = service.cancel(job_id, kind)
+        if job.state == "running":
+            response.status_code = status.HTTP_202_ACCEPTED
+        return JobView.of(job, base)
 
     @router.get(
         "/{job_id}/files/{name}",
@@ -191,7 +211,9 @@ def _jobs(service: JobService, kind: str, collection: str, stopping: Callable[[]
         responses={200: {"content": {"text/event-stream": {}}, "description": "state and progress events"}},
     )
     async def events(job_id: JobId, request: Request) -> StreamingResponse:
-        service.job(job_id, kind)  # 404 before the stream starts
+        await asyncio.to_thread(service.job, job_id, kind)  # 404 before the stream starts
+        if request.app.state.event_streams >= MAX_EVENT_STREAMS:
+            raise ServiceStoppingError(f"{MAX_EVENT_STREAMS} event streams are open; poll the job instead")
         try:
             last = max(0, int(request.headers.get("last-event-id", "0")))
         except ValueError:
@@ -209,28 +231,33 @@ async def _event_stream(
     service: JobService, job_id: str, last: int, request: Request, stopping: Callable[[], bool]
 ) -> AsyncIterator[bytes]:
     """Events after `last` until the job ends; a job whose events are gone gets its state."""
-    idle = 0.0
-    sent_terminal = False
-    while not stopping() and not await request.is_disconnected():
-        fresh = service.events.since(job_id, last)
-        for event in fresh:
-            last = event.id
-            sent_terminal = sent_terminal or (
-                event.type == "state" and event.data["state"] not in ("queued", "running")
-            )
-            yield f"id: {event.id}\nevent: {event.type}\ndata: {json.dumps(event.data)}\n\n".encode()
-        if sent_terminal:
-            return
-        if not fresh:
-            job = service.store.get(job_id)
-            if job.terminal:  # ended before this stream saw it (events evicted, or a restart)
-                data = {"id": job.id, "state": job.state, "error": job.error}
-                yield f"event: state\ndata: {json.dumps(data)}\n\n".encode()
-                return
+    request.app.state.event_streams += 1
+    try:
+        idle, polls = 0.0, 0
+        while not stopping() and not await request.is_disconnected():
+            fresh = service.events.since(job_id, last)
+            for event in fresh:
+                last = event.id
+                yield f"id: {event.id}\nevent: {event.type}\ndata: {json.dumps(event.data)}\n\n".encode()
+                if event.type == "state" and event.data["state"] not in ("queued", "running"):
+                    return
+            if fresh:
+                idle = 0.0
+                continue
             idle += SSE_POLL_S
             if idle >= SSE_PING_S:
                 idle = 0.0
                 yield b": ping\n\n"
+            polls += 1
+            if polls % 10 == 1:  # at once, then about every second: did it end unseen (events evicted)?
+                try:
+                    job = await asyncio.to_thread(service.store.get, job_id)
+                except JobNotFoundError:
+                    job = None
+                if job is None or job.terminal:
+                    data = {"id": job_id, "state": job.state if job else "deleted", "error": job.error if job else None}
+                    yield f"event: state\ndata: {json.dumps(data)}\n\n".encode()
+                    return
             await asyncio.sleep(SSE_POLL_S)
-        else:
-            idle = 0.0
+    finally:
+        request.app.state.event_streams -= 1

@@ -39,7 +39,7 @@ def check_key_strength(key: str) -> str | None:
 
 @dataclass(frozen=True)
 class ApiSettings:
-    api_key: str | None = field(default=None, repr=False)  # repr=False: never printed with the settings
+    api_key: str = field(repr=False)  # repr=False: never printed with the settings
     protect_reads: bool = False  # listening beyond loopback: every request needs the key
     max_body_bytes: int = 65536
     cors_origins: tuple[str, ...] = ()
@@ -56,8 +56,6 @@ def _presented_key(request: Request) -> str | None:
 
 def _check(request: Request) -> None:
     settings: ApiSettings = request.app.state.api_settings
-    if settings.api_key is None:
-        return
     presented = _presented_key(request)
     if presented is None:
         raise HTTPException(
@@ -85,7 +83,8 @@ READING = [Depends(require_key_for_reads)]
 
 
 class BodyLimitMiddleware:
-    """413 for a request body over `limit` bytes, declared or streamed."""
+    """413 for a request body over `limit` bytes, declared or streamed (chunked): the body is read
+    here, up to the limit, before the application sees the request."""
 
     def __init__(self, app: ASGIApp, limit: int) -> None:
         self.app = app
@@ -96,43 +95,41 @@ class BodyLimitMiddleware:
             await self.app(scope, receive, send)
             return
         declared = dict(scope["headers"]).get(b"content-length")
-        if declared is not None and (not declared.isdigit() or int(declared) > self.limit):
-            await _too_large(send, self.limit)
+        if declared is not None and not declared.strip().isdigit():
+            await _reply(send, 400, "Content-Length is not a number")
             return
-        received = 0
-        started = False
-
-        async def limited_receive() -> Message:
-            nonlocal received
+        if declared is not None and int(declared) > self.limit:
+            await _reply(send, 413, f"request body larger than {self.limit} bytes")
+            return
+        body = bytearray()
+        while True:
             message = await receive()
-            if message["type"] == "http.request":
-                received += len(message.get("body", b""))
-                if received > self.limit:
-                    raise _BodyTooLargeError
-            return message
+            if message["type"] == "http.disconnect":
+                return  # the client went away
+            body += message.get("body", b"")
+            if len(body) > self.limit:
+                await _reply(send, 413, f"request body larger than {self.limit} bytes")
+                return
+            if not message.get("more_body", False):
+                break
+        replayed = False
 
-        async def tracking_send(message: Message) -> None:
-            nonlocal started
-            started = started or message["type"] == "http.response.start"
-            await send(message)
+        async def replay() -> Message:
+            nonlocal replayed
+            if not replayed:
+                replayed = True
+                return {"type": "http.request", "body": bytes(body), "more_body": False}
+            return await receive()  # then what the server says (a disconnect, for event streams)
 
-        try:
-            await self.app(scope, limited_receive, tracking_send)
-        except _BodyTooLargeError:
-            if not started:
-                await _too_large(send, self.limit)
-
-
-class _BodyTooLargeError(Exception):
-    """Raised inside the app when a streamed body passes the limit."""
+        await self.app(scope, replay, send)
 
 
-async def _too_large(send: Send, limit: int) -> None:
-    body = json.dumps({"detail": f"request body larger than {limit} bytes"}).encode()
+async def _reply(send: Send, status_code: int, detail: str) -> None:
+    body = json.dumps({"detail": detail}).encode()
     await send(
         {
             "type": "http.response.start",
-            "status": 413,
+            "status": status_code,
             "headers": [(b"content-type", b"application/json"), (b"content-length", str(len(body)).encode())],
         }
     )

@@ -12,6 +12,7 @@ import asyncio
 import contextlib
 import logging
 import os
+import secrets
 import signal
 from collections.abc import Iterator
 from pathlib import Path
@@ -29,10 +30,13 @@ log = logging.getLogger(__name__)
 
 KEY_ENV = "SLRIG_API_KEY"
 KEY_CREDENTIAL = "slrig-api-key"  # systemd LoadCredential= name
+GENERATED_KEY = "api-key"
+WILDCARDS = ("0.0.0.0", "::", "[::]")
 
 
-def load_api_key(key_file: Path | None) -> str | None:
-    """From --api-key-file, the systemd credential, or $SLRIG_API_KEY, in that order."""
+def load_api_key(key_file: Path | None, data_dir: Path) -> str:
+    """From --api-key-file, the systemd credential or $SLRIG_API_KEY, in that order; with none of
+    them, the key in <data_dir>/api-key, generated there (mode 0600) on first start."""
     source, key = None, None
     credentials = os.environ.get("CREDENTIALS_DIRECTORY")
     if key_file is not None:
@@ -45,23 +49,44 @@ def load_api_key(key_file: Path | None) -> str | None:
         source, key = "credential", (Path(credentials) / KEY_CREDENTIAL).read_text().strip()
     elif os.environ.get(KEY_ENV):
         source, key = KEY_ENV, os.environ[KEY_ENV].strip()
-    if key is not None:
-        problem = check_key_strength(key)
-        if problem:
-            raise ConfigError(source or "api key", [f"{source}: the API key {problem}"])
+    else:
+        return _generated_key(data_dir / GENERATED_KEY)
+    problem = check_key_strength(key)
+    if problem:
+        raise ConfigError(source, [f"{source}: the API key {problem}"])
     return key
 
 
-def api_settings(config: RigConfig, host: str, api_key: str | None) -> ApiSettings:
+def _generated_key(path: Path) -> str:
+    if not path.is_file():
+        path.parent.mkdir(parents=True, exist_ok=True)
+        fd = os.open(path, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o600)
+        with os.fdopen(fd, "w") as f:
+            f.write(secrets.token_hex(32) + "\n")
+            f.flush()
+            os.fsync(f.fileno())
+        log.info("generated an API key in %s (mode 0600); clients send it as X-API-Key", path)
+    key = path.read_text().strip()
+    if check_key_strength(key):
+        raise ConfigError(str(path), [f"{path}: the stored API key is too weak; delete the file to generate one"])
+    return key
+
+
+def api_settings(config: RigConfig, host: str, api_key: str) -> ApiSettings:
+    """Loopback: reads are open, mutations need the key. Beyond: every request needs it, and Host
+    headers must name this machine as clients reach it."""
     loopback = is_loopback(host)
-    if not loopback and api_key is None:
-        raise ConfigError(
-            "--host",
-            [f"--host: listening on {host} (beyond loopback) needs an API key: set {KEY_ENV} or --api-key-file"],
-        )
     hosts = ["127.0.0.1", "localhost", "::1", "[::1]", *config.service.allowed_hosts]
     if not loopback:
-        hosts = [*hosts, host] if config.service.allowed_hosts else ["*"]  # the key guards every request
+        if host in WILDCARDS and not config.service.allowed_hosts:
+            raise ConfigError(
+                "service.allowed_hosts",
+                [
+                    f"service.allowed_hosts: listening on all addresses ({host}) needs the names or "
+                    "addresses clients use in the Host header, e.g. [scanner.lab.example, 192.0.2.7]"
+                ],
+            )
+        hosts.append(host)
     return ApiSettings(
         api_key=api_key,
         protect_reads=not loopback,
@@ -80,7 +105,7 @@ class _Server(uvicorn.Server):
         yield
 
 
-def serve(config: RigConfig, host: str, port: int, api_key: str | None) -> int:
+def serve(config: RigConfig, host: str, port: int, api_key: str) -> int:
     settings = api_settings(config, host, api_key)
     service = JobService(config, config.service.max_queue, config.service.health_stale_s)
     notifier = Notifier()
@@ -102,14 +127,18 @@ def serve(config: RigConfig, host: str, port: int, api_key: str | None) -> int:
     )
     server = _Server(uv_config)
     service.start()
-    log.info("slrig serving rig %r from %s (key %s)", config.name, config.output.data_dir, "set" if api_key else "off")
+    log.info("slrig serving rig %r from %s", config.name, config.output.data_dir)
     try:
         asyncio.run(_run(server, service, notifier))
+    except KeyboardInterrupt:  # a signal between the event loop's end and here
+        pass
     except SystemExit as exc:  # uvicorn could not start (it logged why: port in use, bad address)
         log.error("could not serve on %s:%d", host, port)
         return 1 if exc.code in (None, 0) else int(exc.code) if isinstance(exc.code, int) else 1
     finally:
         notifier.notify("STOPPING=1")
+        for signum in (signal.SIGTERM, signal.SIGINT):  # a second signal must not cut the shutdown short
+            signal.signal(signum, signal.SIG_IGN)
         service.shutdown(config.service.shutdown_timeout_s)
         log.info("slrig stopped")
     return 0
@@ -141,7 +170,7 @@ async def _run(server: uvicorn.Server, service: JobService, notifier: Notifier) 
         if server.should_exit and not service.stopping:
             log.info("stopping: cancelling the running job")
             service.begin_stop()  # at once, while uvicorn closes connections
-        if interval is not None and loop.time() >= next_ping:
+        if interval is not None and loop.time() >= next_ping and not service.stopping:
             next_ping = loop.time() + interval
             if service.healthy():
                 notifier.notify("WATCHDOG=1")

@@ -14,7 +14,7 @@ JOBS_KEPT = 256
 
 @dataclass(frozen=True)
 class Event:
-    id: int  # increasing within a job
+    id: int  # increasing over all jobs, so never repeated within one
     type: str  # state, progress
     data: dict[str, Any]
 
@@ -25,18 +25,16 @@ class EventHub:
     def __init__(self) -> None:
         self._cond = threading.Condition()
         self._events: OrderedDict[str, deque[Event]] = OrderedDict()
-        self._next_id: dict[str, int] = {}
+        self._last_id = 0
 
     def publish(self, job_id: str, kind: str, data: dict[str, Any]) -> None:
         with self._cond:
             if job_id not in self._events:
                 self._events[job_id] = deque(maxlen=EVENTS_PER_JOB)
                 while len(self._events) > JOBS_KEPT:
-                    old, _ = self._events.popitem(last=False)
-                    self._next_id.pop(old, None)
-            event_id = self._next_id.get(job_id, 0) + 1
-            self._next_id[job_id] = event_id
-            self._events[job_id].append(Event(event_id, kind, data))
+                    self._events.popitem(last=False)
+            self._last_id += 1
+            self._events[job_id].append(Event(self._last_id, kind, data))
             self._cond.notify_all()
 
     def since(self, job_id: str, last_id: int) -> list[Event]:

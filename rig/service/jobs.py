@@ -63,6 +63,11 @@ class Job:
     def terminal(self) -> bool:
         return self.state in TERMINAL
 
+    @classmethod
+    def placeholder(cls, job_id: str, kind: str) -> Job:
+        """A record's identity only (for a job whose record is gone)."""
+        return cls(job_id, kind, "deleted", {}, 0.0, None, None, None, 0.0, None, None)
+
 
 class JobStore:
     """Thread-safe access to the jobs table; each change is committed before it returns."""
@@ -159,12 +164,18 @@ class JobStore:
             ).fetchall()
         return [_job(r) for r in rows]
 
-    def interrupt_unfinished(self, reason: str) -> list[Job]:
-        """Mark every queued or running job interrupted (at start-up and shutdown)."""
-        jobs = self.in_state("queued", "running")
-        for job in jobs:
-            self.transition(job.id, "interrupted", error=reason)
-        return jobs
+    def interrupt_unfinished(self, reason: str) -> list[str]:
+        """Mark every queued or running job interrupted, in one statement (at start-up and
+        shutdown, when a worker may finish a job at the same moment); returns their ids."""
+        with self._lock:
+            rows = self._db.execute(
+                "UPDATE jobs SET state = 'interrupted', error = ?, finished = ? "
+                "WHERE state IN ('queued', 'running') RETURNING id, kind",
+                (reason, time.time()),
+            ).fetchall()
+        for row in rows:
+            log.info("%s %s: -> interrupted (%s)", row["kind"], row["id"], reason)
+        return [row["id"] for row in rows]
 
 
 def _job(row: sqlite3.Row) -> Job:

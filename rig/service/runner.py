@@ -9,14 +9,16 @@ ends in a terminal state that names what happened; none is re-run by itself.
 from __future__ import annotations
 
 import contextlib
+import fcntl
 import logging
+import secrets
 import shutil
 import threading
 import time
 from collections import deque
 from collections.abc import Callable
 from pathlib import Path
-from typing import Any
+from typing import Any, TextIO
 
 from drivers.errors import DeviceError
 from rig.calibrate.response import calibrate_response
@@ -41,6 +43,8 @@ from rig.store.scandir import new_scan_id, read_frames, scan_to_directory, write
 log = logging.getLogger(__name__)
 
 DB_NAME = "slrig.db"
+LOCK_NAME = "slrig.lock"
+STORING = 0.95  # from this fraction on a job is writing its results: too late to cancel
 PROGRESS_EVERY_S = 0.2  # at most this often per job, plus every stage change
 
 
@@ -65,16 +69,30 @@ class JobService:
         self._rig_error: str | None = None
         self._heartbeat = time.monotonic()
         self._worker: threading.Thread | None = None
+        self._lock_file: TextIO | None = None
 
     # --- lifecycle -------------------------------------------------------------------------
     def start(self) -> None:
-        """Recover from a previous run, then start the worker."""
-        for job in self.store.interrupt_unfinished("the daemon stopped before this job finished; not re-run"):
-            self._publish_state(job.id)
+        """Take the data directory, recover from a previous run, then start the worker."""
+        self._lock_data_dir()
+        for job_id in self.store.interrupt_unfinished("the daemon stopped before this job finished; not re-run"):
+            self._publish_state(job_id)
         for partial in self.scans_dir.glob("*.partial"):  # half-written scans of interrupted jobs
             shutil.rmtree(partial, ignore_errors=True)
         self._worker = threading.Thread(target=self._work, name="slrig-jobs", daemon=True)
         self._worker.start()
+
+    def _lock_data_dir(self) -> None:
+        """One daemon per data directory: a second would mark the first one's jobs interrupted."""
+        lock_file = (self.data_dir / LOCK_NAME).open("a")
+        try:
+            fcntl.flock(lock_file, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            lock_file.close()
+            raise ConfigError(
+                "output.data_dir", [f"output.data_dir: another slrig daemon is using {self.data_dir}"]
+            ) from None
+        self._lock_file = lock_file
 
     @property
     def stopping(self) -> bool:
@@ -92,15 +110,20 @@ class JobService:
         """Stop within `timeout_s`: the running job is cancelled and recorded as interrupted,
         queued ones too; projectors dark, devices closed."""
         self.begin_stop()
-        if self._worker is not None:
-            self._worker.join(timeout_s)
-            if self._worker.is_alive():
-                log.error("the running job did not stop within %.1f s; recording it interrupted", timeout_s)
+        try:
+            if self._worker is not None:
+                self._worker.join(timeout_s)
+                if self._worker.is_alive():
+                    log.error("the running job did not stop within %.1f s; recording it interrupted", timeout_s)
+        finally:
+            rig, self._rig = self._rig, None
+            if rig is not None:
+                rig.close()  # dark first, then close; before any bookkeeping that could fail
+                log.info("rig closed, projectors dark")
         self.store.interrupt_unfinished("the daemon stopped before this job finished")
-        rig, self._rig = self._rig, None
-        if rig is not None:
-            rig.close()  # dark first, then close
-            log.info("rig closed, projectors dark")
+        if self._lock_file is not None:
+            self._lock_file.close()  # and with it the lock on the data directory
+            self._lock_file = None
 
     def healthy(self) -> bool:
         """The worker is alive and, when running a job, has reported progress recently."""
@@ -110,6 +133,7 @@ class JobService:
 
     # --- requests --------------------------------------------------------------------------
     def submit(self, kind: str, request: dict[str, Any]) -> Job:
+        """Queue a job; QueueFullError past max_queue, ServiceStoppingError while stopping."""
         with self._cond:
             if self._stopping:
                 raise ServiceStoppingError("the daemon is shutting down")
@@ -162,15 +186,17 @@ class JobService:
         return self.store.get(job_id)
 
     def delete(self, job_id: str, kind: str) -> None:
-        job = self.job(job_id, kind)
-        if job.state == "running":
-            raise JobConflictError(f"{kind} {job_id} is running; cancel it first")
-        if job.state == "queued":
-            self.cancel(job_id, kind)
-        self.store.delete(job_id)  # first the record: a crash now leaves only an unlisted folder
-        folder = self.job_folder(job)
-        if folder.exists():
-            doomed = folder.with_name(f".{folder.name}.deleting")
+        """Delete a job that is not running: its record first, then its folder."""
+        self.job(job_id, kind)
+        with self._cond:  # decided under the lock: the worker may be taking this job right now
+            if self._current == job_id:
+                raise JobConflictError(f"{kind} {job_id} is running; cancel it first")
+            if job_id in self._queue:
+                self._queue.remove(job_id)
+            self.store.delete(job_id)
+        folder = self.job_folder(Job.placeholder(job_id, kind))
+        if folder.exists():  # a crash from here on leaves only an unlisted folder
+            doomed = folder.with_name(f".{folder.name}.{secrets.token_hex(4)}.deleting")
             folder.rename(doomed)
             shutil.rmtree(doomed, ignore_errors=True)
 
@@ -240,18 +266,25 @@ class JobService:
                 self._cancel.clear()
             try:
                 self._run(job_id)
+            except Exception:  # the worker must outlive any job
+                log.exception("job %s: unexpected error in the worker", job_id)
             finally:
                 with self._cond:
                     self._current = None
 
     def _run(self, job_id: str) -> None:
-        job = self.store.transition(job_id, "running", stage="start", fraction=0.0)
+        try:
+            job = self.store.transition(job_id, "running", stage="start", fraction=0.0)
+        except SlrigError as exc:  # deleted or cancelled between the queue and here
+            log.info("job %s not started: %s", job_id, exc)
+            return
         self._publish_state(job_id)
-        handler: Callable[[Job, ProgressCallback], dict[str, Any]]
-        if job.kind == "calibration":
-            handler = self._calibration
-        else:  # a scan: captured now, or reprocessed from a stored one's frames
-            handler = self._reprocess if "source" in job.request else self._scan
+        reprocess = "source" in job.request  # a scan from stored frames: no devices involved
+        handlers: dict[bool, Callable[[Job, ProgressCallback], dict[str, Any]]] = {
+            True: self._reprocess,
+            False: self._scan,
+        }
+        handler = self._calibration if job.kind == "calibration" else handlers[reprocess]
         try:
             result = handler(job, self._progress_callback(job_id))
         except JobCancelledError:
@@ -261,14 +294,18 @@ class JobService:
             self._finish(job_id, state, error=reason)
         except (SlrigError, DeviceError) as exc:
             if isinstance(exc, DeviceError) or isinstance(exc.__cause__, DeviceError):
-                self._rig_error = str(exc)  # reported by /v1/rig until a job opens the rig again
-            self._drop_rig()
+                self._rig_error = str(exc)  # reported by /v1/rig until a job succeeds
+            if not reprocess:
+                self._drop_rig()
             self._finish(job_id, "failed", error=str(exc))
         except Exception as exc:
             log.exception("%s %s: internal error", job.kind, job_id)
-            self._drop_rig()
+            if not reprocess:
+                self._drop_rig()
             self._finish(job_id, "failed", error=f"internal error: {type(exc).__name__}: {exc}")
         else:
+            if not reprocess:
+                self._rig_error = None
             self._finish(job_id, "done", result=result, stage="done", fraction=1.0)
 
     def _finish(self, job_id: str, state: str, **fields: Any) -> None:
@@ -278,13 +315,18 @@ class JobService:
             log.warning("%s", exc)
         self._publish_state(job_id)
 
+    def _checkpoint(self) -> None:
+        """Between steps of a job: alive, and stop here if cancelled."""
+        self._heartbeat = time.monotonic()
+        if self._cancel.is_set():
+            raise JobCancelledError("cancelled")
+
     def _progress_callback(self, job_id: str) -> ProgressCallback:
         last = {"t": 0.0, "stage": ""}
 
         def on_progress(event: ProgressEvent) -> None:
-            self._heartbeat = time.monotonic()
-            if self._cancel.is_set():
-                raise JobCancelledError("cancelled")
+            if event.fraction < STORING:  # storing is never cut short: the folder is complete or absent
+                self._checkpoint()
             now = time.monotonic()
             if event.stage != last["stage"] or now - last["t"] >= PROGRESS_EVERY_S or event.fraction >= 1.0:
                 last["t"], last["stage"] = now, event.stage
@@ -303,13 +345,17 @@ class JobService:
         return on_progress
 
     def _publish_state(self, job_id: str) -> None:
-        job = self.store.get(job_id)
+        try:
+            job = self.store.get(job_id)
+        except JobNotFoundError:
+            self.events.publish(job_id, "state", {"id": job_id, "state": "deleted", "error": None})
+            return
         self.events.publish(job_id, "state", {"id": job.id, "state": job.state, "error": job.error})
 
     def _open(self) -> Rig:
         if self._rig is None:
             self._rig = open_rig(self.config)
-            self._rig_error = None
+            self._rig.checkpoint = self._checkpoint  # calibration and response sessions wait often
         return self._rig
 
     def _darken(self) -> None:
@@ -339,7 +385,7 @@ class JobService:
     def _reprocess(self, job: Job, progress: ProgressCallback) -> dict[str, Any]:
         request = job.request
         tracker = ProgressTracker(progress)
-        source = self.job(request["source"], "scan")
+        source = self.job(request["source"], "scan")  # JobNotFoundError if deleted since
         manifest, frames = read_frames(self.scans_dir / source.id)
         data = manifest["config"]
         if request.get("calibration"):
