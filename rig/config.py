@@ -239,6 +239,28 @@ class SimulationConfig(Strict):
     seed: int = Field(1, ge=0, le=2**31)
 
 
+class MergeConfig(Strict):
+    """How the clouds of several (projector, camera) pairs become one (rigs with more than one pair)."""
+
+    enabled: bool = True
+    radius_mm: float | None = Field(
+        None,
+        gt=0,
+        le=50,
+        description="a point goes if a better one of another pair is this close; null: twice the sampling distance",
+    )
+    voxel_mm: float | None = Field(
+        None, ge=0, le=50, description="thinning grid; null: the coarsest pair's sampling distance; 0: no thinning"
+    )
+    overlap_cue: bool = Field(True, description="capture dark, each projector white, all white: finds the overlap")
+    cue_ratio: float = Field(0.08, gt=0, lt=1, description="overlap: light beyond the brightest projector's share")
+    refine: Literal["none", "icp"] = Field("none", description="icp: realign every pair to the first by ICP")
+    icp_max_distance_mm: float = Field(5.0, gt=0, le=100, description="ICP correspondences farther apart are ignored")
+    pairs: list[tuple[int, int]] | None = Field(
+        None, max_length=256, description="the (projector, camera) pairs to reconstruct; null: all"
+    )
+
+
 class ScanConfig(Strict):
     codec: str = "phase"
     gray: GrayParams = GrayParams()
@@ -254,6 +276,7 @@ class ScanConfig(Strict):
         "(removes mixed pixels on depth edges and isolated decoding errors); null keeps every point",
     )
     save_frames: bool = Field(False, description="keep raw captures in the scan directory")
+    merge: MergeConfig = MergeConfig()
 
     @field_validator("codec")
     @classmethod
@@ -356,6 +379,9 @@ class RigConfig(Strict):
         uses_sim = drivers == {True}
         if uses_sim and self.simulation is None:
             raise ValueError("simulation: simulated devices need a 'simulation' section with a scene")
+        for k, (p, c) in enumerate(self.scan.merge.pairs or []):
+            if not (0 <= p < len(self.projectors) and 0 <= c < len(self.cameras)):
+                raise ValueError(f"scan.merge.pairs[{k}]: ({p}, {c}) names no projector and camera of this rig")
         params = getattr(self.scan, self.scan.codec, None)
         for i, projector in enumerate(self.projectors):
             try:  # codec parameters that only fail against a projector's size (e.g. ring spacing)

@@ -15,6 +15,8 @@ class PointSet:
     came from (row * width + column) or -1.
     """
 
+    FIELDS = ("points", "normals", "colors", "quality", "source", "pixel")
+
     points: np.ndarray  # (N, 3) float64
     normals: np.ndarray  # (N, 3) float32
     colors: np.ndarray  # (N, 3) uint8 RGB
@@ -43,6 +45,6 @@ class PointSet:
         return PointSet(
             *(
                 np.concatenate([getattr(s, f) for s in sets])
-                for f in ("points", "normals", "colors", "quality", "source", "pixel")
+                for f in PointSet.FIELDS
             )
         )

@@ -2,19 +2,23 @@
 
 from __future__ import annotations
 
+import dataclasses
 import time
 from dataclasses import dataclass, field
 
 import numpy as np
 
 from rig.errors import DecodeError, ScanError
+from rig.icp import point_to_plane
+from rig.merge import expected_error_mm, merge
+from rig.overlap import overlap_from_cue
 from rig.patterns import Codec, Correspondence, codec_class
 from rig.pointset import PointSet
 from rig.progress import ProgressCallback, ProgressTracker
 from rig.reconstruct import pair_pointset, reject_isolated
 from rig.reconstruct_sparse import RingPoints, ring_pointset, triangulate_rings
 from rig.rig import Rig
-from rig.sequencer import capture
+from rig.sequencer import CUE, capture
 
 
 @dataclass(eq=False)
@@ -40,6 +44,9 @@ class ScanResult:
     bytes_captured: int
     timings_ms: dict[str, float] = field(default_factory=dict)
     frames: dict[tuple[int, int], list[np.ndarray]] = field(default_factory=dict)
+    merge: dict[str, object] | None = None  # the merge report, when several pairs were merged
+    merged_index: np.ndarray | None = None  # indices of the kept points in the pairs' points, concatenated
+    overlap: dict[int, np.ndarray] = field(default_factory=dict)  # per camera: pixels lit by several projectors
 
 
 def make_codec(rig: Rig, projector: int, name: str | None = None) -> Codec:
@@ -106,26 +113,85 @@ def reconstruct_frames(
     codecs = [make_codec(rig, p, codec_name) for p in range(len(rig.config.projectors))]
     pairs: list[PairResult] = []
     elapsed = {"decode": 0.0, "triangulate": 0.0, "pointset": 0.0}
-    n_pairs = len(frames)
-    for i, ((p, c), images) in enumerate(sorted(frames.items())):
+    chosen = rig.config.scan.merge.pairs
+    selected = sorted(k for k in frames if k[0] != CUE and (chosen is None or list(k) in [list(c) for c in chosen]))
+    for i, (p, c) in enumerate(selected):
         t = time.perf_counter()
         try:
-            corr = codecs[p].decode(images, (1 << rig.config.cameras[c].bit_depth) - 1)
+            corr = codecs[p].decode(frames[(p, c)], (1 << rig.config.cameras[c].bit_depth) - 1)
         except DecodeError as exc:  # the frames the devices delivered do not fit: a failed scan
             raise ScanError(f"{rig.config.cameras[c].name}: {exc}") from exc
         elapsed["decode"] += time.perf_counter() - t
-        tracker.report("decode", 0.6 + 0.3 * (i + 0.5) / n_pairs)
+        tracker.report("decode", 0.6 + 0.3 * (i + 0.5) / len(selected))
         pairs.append(reconstruct_pair(rig, p, c, corr, source=i, elapsed=elapsed))
-        tracker.report("triangulate", 0.6 + 0.3 * (i + 1) / n_pairs)
+        tracker.report("triangulate", 0.6 + 0.3 * (i + 1) / len(selected))
     cloud = PointSet.concatenate([pair.points for pair in pairs])
+    merged_index, report, overlap = None, None, {}
+    merge_config = rig.config.scan.merge
+    if len(pairs) > 1 and merge_config.enabled:
+        t = time.perf_counter()
+        tracker.report("merge", 0.9)
+        overlap = overlap_masks(rig, frames)
+        report = {}
+        if merge_config.refine == "icp":
+            report["alignment"] = align_pairs(rig, pairs, merge_config.icp_max_distance_mm)
+            cloud = PointSet.concatenate([pair.points for pair in pairs])
+        scores = np.concatenate([1.0 / pair_errors(rig, pair) for pair in pairs])
+        cloud, merged_index, merged = merge(cloud, scores, merge_config.radius_mm, merge_config.voxel_mm)
+        report.update(merged.as_dict())
+        report["overlap_cue_pixels"] = {rig.config.cameras[c].name: int(m.sum()) for c, m in overlap.items()}
+        elapsed["merge"] = time.perf_counter() - t
     bytes_captured = sum(img.nbytes for images in frames.values() for img in images)
     return ScanResult(
         codec=codec_name,
         codec_params=codecs[0].params.model_dump(),
         pairs=pairs,
         cloud=cloud,
-        frames_projected=sum(c.frame_count for c in codecs),
+        frames_projected=sum(c.frame_count for c in codecs) + len(frames.get((CUE, 0), [])),
         bytes_captured=bytes_captured,
         timings_ms={f"{stage}_ms": seconds * 1e3 for stage, seconds in elapsed.items()},
         frames=frames if keep_frames else {},
+        merge=report,
+        merged_index=merged_index,
+        overlap=overlap,
     )
+
+
+def pair_errors(rig: Rig, pair: PairResult) -> np.ndarray:
+    """Each point's expected error along the surface normal (for choosing between pairs)."""
+    corr = pair.correspondence
+    coded = "u" if corr.v is None and corr.u is not None else "v" if corr.u is None and corr.v is not None else "both"
+    camera, projector = rig.camera_models[pair.camera], rig.projector_models[pair.projector]
+    return expected_error_mm(pair.points, camera, projector, coded)
+
+
+def overlap_masks(rig: Rig, frames: dict[tuple[int, int], list[np.ndarray]]) -> dict[int, np.ndarray]:
+    """Per camera, the pixels the intensity cue finds lit by several projectors."""
+    ratio = rig.config.scan.merge.cue_ratio
+    return {
+        c: overlap_from_cue(images, (1 << rig.config.cameras[c].bit_depth) - 1, ratio)
+        for (p, c), images in frames.items()
+        if p == CUE
+    }
+
+
+def align_pairs(rig: Rig, pairs: list[PairResult], max_distance_mm: float) -> dict[str, object]:
+    """Realign every pair to those before it (the first stays) by point-to-plane ICP; the pairs'
+    points, normals and grids are moved in place of the old ones."""
+    report: dict[str, object] = {}
+    reference = pairs[0].points
+    for k, pair in enumerate(pairs[1:], start=1):
+        name = f"{rig.config.projectors[pair.projector].name}/{rig.config.cameras[pair.camera].name}"
+        found = point_to_plane(pair.points.points, reference.points, reference.normals, max_distance_mm)
+        if found is None:
+            report[name] = "too little overlap with the pairs before it; left as calibrated"
+            continue
+        pair.points = dataclasses.replace(
+            pair.points,
+            points=found.apply(pair.points.points),
+            normals=(pair.points.normals @ found.rotation.T).astype(np.float32),
+        )
+        pair.grid = found.apply(pair.grid.reshape(-1, 3)).reshape(pair.grid.shape)
+        report[name] = found.as_dict()
+        reference = PointSet.concatenate([p.points for p in pairs[: k + 1]])
+    return report

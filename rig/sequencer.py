@@ -51,6 +51,8 @@ def capture(rig: Rig, codecs: list[Codec], tracker: ProgressTracker) -> Frames:
             else:
                 _capture_streaming(rig, p, codec.patterns(), frames, last_sequence, progress)
             projector.dark()
+        if wants_overlap_cue(rig):
+            _capture_overlap_cue(rig, frames, last_sequence)
     except DeviceError as exc:
         rig.all_dark()
         raise ScanError(f"capture failed: {exc}") from exc
@@ -58,6 +60,46 @@ def capture(rig: Rig, codecs: list[Codec], tracker: ProgressTracker) -> Frames:
         rig.all_dark()
         raise
     return frames
+
+
+CUE = -1  # frames[(CUE, camera)]: dark, each projector white alone, all white together
+
+
+def wants_overlap_cue(rig: Rig) -> bool:
+    merge = rig.config.scan.merge
+    return (
+        len(rig.projectors) > 1
+        and merge.enabled
+        and merge.overlap_cue
+        and all(p.mode is ProjectorMode.STREAMING for p in rig.projectors)
+    )
+
+
+def _capture_overlap_cue(rig: Rig, frames: Frames, last_sequence: list[int]) -> None:
+    """The dissertation's intensity cue: where several projectors light a surface it is brighter
+    than any one of them makes it. Frames: all dark, each projector alone, all together."""
+    timeout = rig.config.scan.capture_timeout_s
+    latency = max(rig.latency_s(p) for p in range(len(rig.projectors)))
+    white = [np.full((p.resolution[1], p.resolution[0]), 255, np.uint8) for p in rig.projectors]
+    steps: list[list[int]] = [[], *([p] for p in range(len(rig.projectors))), list(range(len(rig.projectors)))]
+    for c in range(len(rig.cameras)):
+        frames[(CUE, c)] = []
+    for lit in steps:
+        presented: list[float] = []
+        for p, projector in enumerate(rig.projectors):
+            if p in lit:
+                projector.show(white[p])
+                if projector.last_present_s is not None:
+                    presented.append(projector.last_present_s)
+            else:
+                projector.dark()
+        lit_from = max(presented) + latency if len(presented) == len(lit) and lit else None
+        rig.wait(latency)
+        for camera in rig.cameras:
+            camera.flush()
+        for c in range(len(rig.cameras)):
+            frames[(CUE, c)].append(_take_lit(rig, c, timeout, last_sequence, lit_from).image)
+    rig.all_dark()
 
 
 def _take(rig: Rig, c: int, timeout_s: float, last_sequence: list[int]) -> Frame:

@@ -48,3 +48,8 @@ def _png(image: np.ndarray) -> bytes:
     if not ok:  # pragma: no cover - encoding a valid array does not fail
         raise RuntimeError("PNG encoding failed")
     return buf.tobytes()
+
+
+def mask_png(mask: np.ndarray) -> bytes:
+    """A boolean mask as an 8-bit PNG: white where set."""
+    return _png(np.where(mask, 255, 0).astype(np.uint8))

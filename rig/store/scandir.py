@@ -24,8 +24,9 @@ from rig.evaluate import metrics_on_bench
 from rig.progress import ProgressCallback, ProgressTracker
 from rig.rig import Rig
 from rig.scan import ScanResult, run_scan
+from rig.sequencer import CUE
 from rig.store.atomic import fsync_dir, rename_no_replace, write_atomic
-from rig.store.images import depth_png, preview_png
+from rig.store.images import depth_png, mask_png, preview_png
 from rig.store.ply import ply_bytes
 
 
@@ -104,6 +105,7 @@ def build_manifest(
             for p in result.pairs
         ],
         "timings_ms": {k: round(v, 1) for k, v in result.timings_ms.items()},
+        "merge": result.merge,
         "metrics": metrics or {},
         "files": files,
         "config": config.model_dump(mode="json"),
@@ -150,6 +152,10 @@ def write_scan(
             write_atomic(partial / name, depth_png(_depth_grid(result, c), the_rig.camera_models[c]))
             files["depth"][camera.name] = name
         write_atomic(partial / "preview.png", preview_png(result.cloud, the_rig.camera_models[0]))
+        for c, mask in result.overlap.items():
+            name = f"overlap_{the_rig.config.cameras[c].name}.png"
+            write_atomic(partial / name, mask_png(mask))
+            files.setdefault("overlap", {})[the_rig.config.cameras[c].name] = name
         if result.frames:
             files["frames"] = _write_frames(the_rig, result, partial)
         manifest = build_manifest(the_rig, result, scan_id, files, metrics, origin)
@@ -167,7 +173,8 @@ def write_scan(
 def _write_frames(the_rig: Rig, result: ScanResult, partial: Path) -> dict[str, list[str]]:
     out: dict[str, list[str]] = {}
     for (p, c), images in sorted(result.frames.items()):
-        key = f"{the_rig.config.projectors[p].name}_{the_rig.config.cameras[c].name}"
+        camera = the_rig.config.cameras[c].name
+        key = f"overlap-cue_{camera}" if p < 0 else f"{the_rig.config.projectors[p].name}_{camera}"
         folder = partial / "frames" / key
         folder.mkdir(parents=True)
         fsync_dir(folder.parent)  # the new entry in frames/ (and frames/ in the scan) must survive
@@ -209,11 +216,13 @@ def read_frames(folder: Path) -> tuple[dict[str, Any], dict[tuple[int, int], lis
     projectors = [p["name"] for p in manifest["config"]["projectors"]]
     cameras = [c["name"] for c in manifest["config"]["cameras"]]
     frames: dict[tuple[int, int], list[np.ndarray]] = {}
-    for p, projector in enumerate(projectors):
-        for c, camera in enumerate(cameras):
-            names = stored.get(f"{projector}_{camera}", [])
-            images = [cv2.imread(str(folder / name), cv2.IMREAD_UNCHANGED) for name in names]
-            if any(image is None for image in images):
-                raise StoreError(f"scan {manifest['scan_id']}: a frame of {projector}/{camera} cannot be read")
-            frames[(p, c)] = images
+    keys = [(p, c, f"{name}_{camera}") for p, name in enumerate(projectors) for c, camera in enumerate(cameras)]
+    keys += [(CUE, c, f"overlap-cue_{camera}") for c, camera in enumerate(cameras)]
+    for p, c, key in keys:
+        if key not in stored:
+            continue
+        images = [cv2.imread(str(folder / name), cv2.IMREAD_UNCHANGED) for name in stored[key]]
+        if any(image is None for image in images):
+            raise StoreError(f"scan {manifest['scan_id']}: a frame of {key} cannot be read")
+        frames[(p, c)] = images
     return manifest, frames

@@ -1,0 +1,117 @@
+"""Accuracy of a merged multi-pair scan against the simulated bench's ground truth: error and
+completeness of the merged cloud and of each pair over the object's visible surface, redundancy
+left across pairs, and the intensity cue's overlap against the truth of which projectors light
+each pixel."""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy.spatial import cKDTree
+
+from rig.evaluate import COMPLETE_WITHIN_MM, in_truth_frame, ring_distances, surface_distances
+from rig.merge import sampling_distance
+from rig.overlap import precision_recall
+from rig.pointset import PointSet
+from rig.rig import Rig
+from rig.scan import PairResult, ScanResult
+
+SURFACE_SPACING_MM = 1.0
+
+
+def point_errors(rig: Rig, pair: PairResult) -> np.ndarray:
+    """Distance (mm) of each of the pair's points to the true surface, in PointSet order."""
+    assert rig.sim is not None
+    aligned = in_truth_frame(pair, rig.camera_models[pair.camera], rig.sim.cameras[pair.camera])
+    truth = rig.sim.ground_truth(pair.camera, pair.projector)
+    if aligned.rings is not None:
+        return ring_distances(aligned, rig.sim, truth)
+    return surface_distances(aligned.grid, np.isfinite(aligned.grid).all(axis=2), truth)
+
+
+def visible_surface(rig: Rig, spacing_mm: float = SURFACE_SPACING_MM) -> np.ndarray:
+    """Samples, one per `spacing_mm` cell, of the true surface that some camera sees and some
+    projector lights: what the rig can measure at best."""
+    assert rig.sim is not None
+    found = []
+    for c in range(len(rig.sim.cameras)):
+        lit = np.zeros(rig.sim.cameras[c].height * rig.sim.cameras[c].width, bool)
+        truth = None
+        for p in range(len(rig.sim.projectors)):
+            truth = rig.sim.ground_truth(c, p)
+            lit |= (truth.hit & truth.lit).ravel()
+        assert truth is not None
+        found.append(truth.points.reshape(-1, 3)[lit])
+    points = np.concatenate(found)
+    cells = np.floor(points / spacing_mm).astype(np.int64)
+    _, first = np.unique(cells, axis=0, return_index=True)
+    return points[first]
+
+
+def coverage(samples: np.ndarray, points: np.ndarray, within_mm: float = COMPLETE_WITHIN_MM) -> float:
+    """Fraction of the surface samples with a point within `within_mm`."""
+    if len(points) == 0 or len(samples) == 0:
+        return 0.0
+    distance, _ = cKDTree(points).query(samples, distance_upper_bound=within_mm)
+    return float(np.isfinite(distance).mean())
+
+
+def cross_pair_close_fraction(points: np.ndarray, source: np.ndarray, distance_mm: float) -> float:
+    """Fraction of points with a point of another pair closer than `distance_mm`."""
+    if len(points) < 2:
+        return 0.0
+    pairs = cKDTree(points).query_pairs(distance_mm, output_type="ndarray")
+    close = np.zeros(len(points), bool)
+    if len(pairs):
+        cross = source[pairs[:, 0]] != source[pairs[:, 1]]
+        close[pairs[cross].ravel()] = True
+    return float(close.mean())
+
+
+def overlap_scores(rig: Rig, result: ScanResult) -> dict[str, dict[str, float | int]]:
+    """Precision and recall of the cue's overlap per camera, against the pixels the truth says
+    more than one projector lights (over the pixels that see a surface)."""
+    assert rig.sim is not None
+    out = {}
+    for c, found in result.overlap.items():
+        truths = [rig.sim.ground_truth(c, p) for p in range(len(rig.sim.projectors))]
+        lit_by = np.sum([t.hit & t.lit for t in truths], axis=0)
+        precision, recall = precision_recall(found, lit_by >= 2, truths[0].hit)
+        out[rig.config.cameras[c].name] = {
+            "precision": round(precision, 4),
+            "recall": round(recall, 4),
+            "overlap_pixels_true": int((lit_by >= 2).sum()),
+            "overlap_pixels_found": int(found.sum()),
+        }
+    return out
+
+
+def evaluate_merge(rig: Rig, result: ScanResult) -> dict[str, object]:
+    """The merged cloud and every pair measured on the same visible surface."""
+    if rig.sim is None or result.merged_index is None:
+        raise ValueError("evaluating a merge needs a simulated scan of several pairs")
+    errors = [point_errors(rig, pair) for pair in result.pairs]
+    surface = visible_surface(rig)
+    pairs = {}
+    for pair, err in zip(result.pairs, errors, strict=True):
+        name = f"{rig.config.projectors[pair.projector].name}/{rig.config.cameras[pair.camera].name}"
+        pairs[name] = _summary(err, coverage(surface, pair.points.points))
+    merged_errors = np.concatenate(errors)[result.merged_index]
+    spacing = sampling_distance(PointSet.concatenate([p.points for p in result.pairs]))
+    sampling = max(spacing.values()) if spacing else 0.0
+    merged = _summary(merged_errors, coverage(surface, result.cloud.points))
+    merged["cross_pair_within_half_sampling"] = round(
+        cross_pair_close_fraction(result.cloud.points, result.cloud.source, sampling / 2), 5
+    )
+    merged["sampling_mm"] = round(sampling, 4)
+    return {"merged": merged, "pairs": pairs, "overlap_cue": overlap_scores(rig, result), "surface_samples": len(surface)}
+
+
+def _summary(err: np.ndarray, completeness: float) -> dict[str, float | int | None]:
+    empty = len(err) == 0
+    return {
+        "points": len(err),
+        "rms_mm": None if empty else round(float(np.sqrt(np.mean(err**2))), 5),
+        "p95_mm": None if empty else round(float(np.percentile(err, 95)), 5),
+        "outliers_over_5mm": int((err > 5).sum()),
+        "completeness": round(completeness, 4),
+    }

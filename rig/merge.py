@@ -1,0 +1,197 @@
+"""One cloud from several (projector, camera) pairs: redundancy removed, density made uniform.
+
+Every pair's points are already in the world frame. Where pairs overlap, each surface patch is
+sampled by several pairs; merging keeps, near every point, only the best-conditioned pair's sample
+(it does not average: samples of different pairs carry different calibration errors, and an
+average of two offset surfaces is a third surface that neither measured; keeping one preserves
+each point's provenance). A point is dropped when a point of another pair with a better score lies
+within `radius` (twice the sampling distance); so no two kept points of different pairs are closer
+than that. Then a voxel grid
+of the sampling distance keeps the best point per voxel, giving one density over the object.
+
+The score is the inverse of the expected error along the surface normal: the projector's angular
+noise (one projector pixel, scaled by the decode quality) moved through the triangulation angle
+and seen along the camera ray (`expected_error_mm`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy.spatial import cKDTree
+
+from rig.geometry import CameraModel
+from rig.pointset import PointSet
+
+RADIUS_IN_SAMPLINGS = 2.0
+
+
+@dataclass(frozen=True)
+class MergeReport:
+    points_in: int
+    redundant_removed: int
+    thinned_removed: int
+    points_out: int
+    sampling_mm: float  # the coarsest pair's median spacing
+    radius_mm: float
+    voxel_mm: float | None
+    kept_per_pair: dict[int, int] = field(default_factory=dict)
+    overlap_per_pair: dict[int, int] = field(default_factory=dict)  # points with another pair's within radius
+
+    def as_dict(self) -> dict[str, object]:
+        return {
+            "points_in": self.points_in,
+            "redundant_removed": self.redundant_removed,
+            "thinned_removed": self.thinned_removed,
+            "points_out": self.points_out,
+            "removed_fraction": round(1 - self.points_out / max(1, self.points_in), 4),
+            "sampling_mm": round(self.sampling_mm, 4),
+            "radius_mm": round(self.radius_mm, 4),
+            "voxel_mm": None if self.voxel_mm is None else round(self.voxel_mm, 4),
+            "kept_per_pair": {str(k): v for k, v in self.kept_per_pair.items()},
+            "overlap_per_pair": {str(k): v for k, v in self.overlap_per_pair.items()},
+        }
+
+
+def _ray_directions(model: CameraModel, points: np.ndarray) -> np.ndarray:
+    """Unit directions of the device's rays through `points` (from the device to the point)."""
+    if model.projection == "orthographic":
+        return np.broadcast_to(model.axis, points.shape).copy()
+    d = points - model.center
+    return d / np.linalg.norm(d, axis=1, keepdims=True)
+
+
+def triangulation_angles(points: np.ndarray, camera: CameraModel, projector: CameraModel) -> np.ndarray:
+    """Angle (degrees, float32) between the camera's and the projector's rays at each point."""
+    cos = np.einsum("ij,ij->i", _ray_directions(camera, points), _ray_directions(projector, points))
+    return np.degrees(np.arccos(np.clip(cos, -1.0, 1.0))).astype(np.float32)
+
+
+def expected_error_mm(
+    cloud: PointSet, camera: CameraModel, projector: CameraModel, coded: str = "both"
+) -> np.ndarray:
+    """Expected error along the surface normal of each point of one pair (mm, up to a common scale).
+
+    One projector pixel of decoding noise (more where the decode quality is lower) moves the
+    projector's light by distance / f at the point. A codec of columns only (`coded="u"`) fixes a
+    plane through the projector: the point slides along the camera ray by that shift over the sine of
+    the ray's angle to the plane. Codecs of both coordinates fix the projector ray: the sine of the
+    angle between the two rays. Of the slide, the part along the surface normal counts."""
+    points = cloud.points
+    cam_rays = _ray_directions(camera, points)
+    if coded in ("u", "v"):
+        axis = 0 if coded == "u" else 1
+        if projector.projection == "orthographic":
+            local = np.zeros((len(points), 3))
+            local[:, axis] = 1.0
+        else:
+            device = projector.to_device(points)
+            local = np.zeros((len(points), 3))
+            local[:, axis] = 1.0
+            local[:, 2] = -device[:, axis] / device[:, 2]  # plane through the centre and this column
+        plane_normals = local @ projector.R  # device -> world
+        plane_normals /= np.linalg.norm(plane_normals, axis=1, keepdims=True)
+        sin = np.abs(np.einsum("ij,ij->i", cam_rays, plane_normals))
+    else:
+        proj_rays = _ray_directions(projector, points)
+        sin = np.sqrt(np.clip(1.0 - np.einsum("ij,ij->i", cam_rays, proj_rays) ** 2, 0.0, 1.0))
+    if projector.projection == "orthographic":
+        pixel_mm = np.full(len(points), 1.0 / projector.K[0, 0])
+    else:
+        pixel_mm = np.linalg.norm(points - projector.center, axis=1) / projector.K[0, 0]
+    along_normal = np.abs(np.einsum("ij,ij->i", cam_rays, cloud.normals.astype(np.float64)))
+    quality = np.clip(cloud.quality.astype(np.float64), 1e-3, None)
+    return pixel_mm * np.maximum(along_normal, 0.05) / (np.maximum(sin, 1e-3) * quality)
+
+
+def sampling_distance(cloud: PointSet) -> dict[int, float]:
+    """Median distance to the nearest point of the same pair, per pair (mm)."""
+    out = {}
+    for source in np.unique(cloud.source):
+        points = cloud.points[cloud.source == source]
+        if len(points) < 2:
+            continue
+        distances, _ = cKDTree(points).query(points, k=2)
+        out[int(source)] = float(np.median(distances[:, 1]))
+    return out
+
+
+def remove_redundant(points: np.ndarray, source: np.ndarray, score: np.ndarray, radius: float) -> np.ndarray:
+    """Mask of points to keep: a point goes when a point of another pair with a higher score (ties:
+    the lower index) lies within `radius`."""
+    tree = cKDTree(points)
+    pairs = tree.query_pairs(radius, output_type="ndarray")
+    if len(pairs) == 0:
+        return np.ones(len(points), bool)
+    i, j = pairs[:, 0], pairs[:, 1]
+    cross = source[i] != source[j]
+    i, j = i[cross], j[cross]
+    i_wins = (score[i] > score[j]) | ((score[i] == score[j]) & (i < j))
+    loser = np.where(i_wins, j, i)
+    keep = np.ones(len(points), bool)
+    keep[loser] = False
+    return keep
+
+
+def overlapping(points: np.ndarray, source: np.ndarray, radius: float) -> np.ndarray:
+    """Mask of points with a point of another pair within `radius`: the overlap, by geometry."""
+    tree = cKDTree(points)
+    pairs = tree.query_pairs(radius, output_type="ndarray")
+    mask = np.zeros(len(points), bool)
+    if len(pairs):
+        cross = source[pairs[:, 0]] != source[pairs[:, 1]]
+        mask[pairs[cross].ravel()] = True
+    return mask
+
+
+def thin(points: np.ndarray, score: np.ndarray, voxel: float) -> np.ndarray:
+    """Mask keeping the best-scoring point of every voxel of edge `voxel`."""
+    cells = np.floor((points - points.min(axis=0)) / voxel).astype(np.int64)
+    order = np.lexsort((-score, cells[:, 2], cells[:, 1], cells[:, 0]))  # best first within a cell
+    ordered = cells[order]
+    first = np.ones(len(order), bool)
+    first[1:] = np.any(ordered[1:] != ordered[:-1], axis=1)
+    keep = np.zeros(len(points), bool)
+    keep[order[first]] = True
+    return keep
+
+
+def subset(cloud: PointSet, keep: np.ndarray) -> PointSet:
+    return PointSet(*(getattr(cloud, f)[keep] for f in PointSet.FIELDS))
+
+
+def merge(
+    cloud: PointSet, score: np.ndarray, radius_mm: float | None = None, voxel_mm: float | None = None
+) -> tuple[PointSet, np.ndarray, MergeReport]:
+    """Merge a cloud of several pairs (`source`); `score` is higher for better points. The voxel
+    defaults to the coarsest pair's sampling distance, the radius to twice that: a badly
+    conditioned sample sits off the surface by more than the spacing and must still meet the
+    better neighbour that replaces it. Returns the cloud, the indices kept (into the input) and a
+    report."""
+    spacing = sampling_distance(cloud)
+    sampling = max(spacing.values()) if spacing else 0.0
+    radius = radius_mm if radius_mm is not None else RADIUS_IN_SAMPLINGS * sampling
+    voxel = voxel_mm if voxel_mm is not None else sampling
+    n = len(cloud)
+    index = np.arange(n)
+    overlap = overlapping(cloud.points, cloud.source, radius) if radius > 0 else np.zeros(n, bool)
+    keep = remove_redundant(cloud.points, cloud.source, score, radius) if radius > 0 else np.ones(n, bool)
+    after_redundancy = int(keep.sum())
+    index = index[keep]
+    if voxel > 0 and len(index):
+        index = index[thin(cloud.points[index], score[index], voxel)]
+    merged = subset(cloud, index)
+    sources = np.unique(cloud.source)
+    report = MergeReport(
+        points_in=n,
+        redundant_removed=n - after_redundancy,
+        thinned_removed=after_redundancy - len(index),
+        points_out=len(index),
+        sampling_mm=sampling,
+        radius_mm=radius,
+        voxel_mm=voxel if voxel > 0 else None,
+        kept_per_pair={int(s): int((merged.source == s).sum()) for s in sources},
+        overlap_per_pair={int(s): int((overlap & (cloud.source == s)).sum()) for s in sources},
+    )
+    return merged, index, report
