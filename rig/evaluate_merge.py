@@ -103,7 +103,12 @@ def evaluate_merge(rig: Rig, result: ScanResult) -> dict[str, object]:
         cross_pair_close_fraction(result.cloud.points, result.cloud.source, sampling / 2), 5
     )
     merged["sampling_mm"] = round(sampling, 4)
-    return {"merged": merged, "pairs": pairs, "overlap_cue": overlap_scores(rig, result), "surface_samples": len(surface)}
+    return {
+        "merged": merged,
+        "pairs": pairs,
+        "overlap_cue": overlap_scores(rig, result),
+        "surface_samples": len(surface),
+    }
 
 
 def _summary(err: np.ndarray, completeness: float) -> dict[str, float | int | None]:

@@ -68,9 +68,7 @@ def triangulation_angles(points: np.ndarray, camera: CameraModel, projector: Cam
     return np.degrees(np.arccos(np.clip(cos, -1.0, 1.0))).astype(np.float32)
 
 
-def expected_error_mm(
-    cloud: PointSet, camera: CameraModel, projector: CameraModel, coded: str = "both"
-) -> np.ndarray:
+def expected_error_mm(cloud: PointSet, camera: CameraModel, projector: CameraModel, coded: str = "both") -> np.ndarray:
     """Expected error along the surface normal of each point of one pair (mm, up to a common scale).
 
     One projector pixel of decoding noise (more where the decode quality is lower) moves the

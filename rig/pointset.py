@@ -42,9 +42,4 @@ class PointSet:
     def concatenate(sets: list[PointSet]) -> PointSet:
         if not sets:
             return PointSet.empty()
-        return PointSet(
-            *(
-                np.concatenate([getattr(s, f) for s in sets])
-                for f in PointSet.FIELDS
-            )
-        )
+        return PointSet(*(np.concatenate([getattr(s, f) for s in sets]) for f in PointSet.FIELDS))
