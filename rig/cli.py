@@ -20,6 +20,7 @@ from rig.devices import describe, inventory
 from rig.doctor import check, measure_latency, store_latencies
 from rig.errors import ConfigError, ScanError, SlrigError
 from rig.evaluate import evaluate_on_bench
+from rig.evaluate_merge import evaluate_merge
 from rig.patterns import codec_class, codec_names
 from rig.progress import TerminalBar
 from rig.rig import open_rig
@@ -64,6 +65,18 @@ def _parser() -> argparse.ArgumentParser:
         help=f"scene name ({', '.join(k for k in SCENE_KINDS if k != 'mesh')}) or a "
         f"PLY/OBJ/STL file (scaled to {MESH_FIT_SIZE_MM:.0f} mm)",
     )
+    plan = sub.add_parser("plan", help="plan the fewest projector-camera heads that cover an object")
+    plan.add_argument("what", choices=["views"])
+    plan.add_argument("--config", type=Path, default=None, help="rig description (YAML); default: config/sim.yaml")
+    plan.add_argument("--scene", default=None, help="box, sphere or a mesh file (default: the config's object)")
+    plan.add_argument("--coverage", type=float, default=0.95, help="fraction of the surface to cover (0.95)")
+    plan.add_argument("--candidates", type=int, default=120, help="candidate heads on a sphere (120)")
+    plan.add_argument("--distance", type=float, default=None, help="their distance, mm (4 x the object's radius)")
+    plan.add_argument("--max-angle", type=float, default=65.0, help="steepest view of a surface, degrees (65)")
+    plan.add_argument("--baseline", type=float, default=15.0, help="projector beside camera, degrees (15)")
+    plan.add_argument("--min-elevation", type=float, default=-90.0, help="lowest head, degrees (-90: all round)")
+    plan.add_argument("--confirm", action="store_true", help="render the plan on the simulated bench and measure it")
+    plan.add_argument("--json", action="store_true", help="print one JSON object instead of text")
     serve = sub.add_parser("serve", help="run the daemon: REST API (under /v1) and job queue for this rig")
     serve.add_argument("--config", type=Path, default=None, help="rig description (YAML); default: config/sim.yaml")
     serve.add_argument("--host", default="127.0.0.1", help="address to listen on (default 127.0.0.1)")
@@ -164,7 +177,12 @@ def cmd_eval(args: argparse.Namespace) -> int:
     with open_rig(config) as the_rig:
         result = run_scan(the_rig, progress=_progress(args))
         pair = result.pairs[0]
-        metrics = evaluate_on_bench(the_rig, pair)
+        if result.merged_index is not None:  # several pairs: the merged cloud, and each pair beside it
+            merged = evaluate_merge(the_rig, result)
+            metrics = {**merged["merged"], "pairs": merged["pairs"], "overlap_cue": merged["overlap_cue"]}
+            metrics["merge"] = result.merge
+        else:
+            metrics = evaluate_on_bench(the_rig, pair)
     scene = config.simulation.scene
     report = {
         "codec": result.codec,
@@ -176,8 +194,9 @@ def cmd_eval(args: argparse.Namespace) -> int:
         "decode_ms": round(result.timings_ms["decode_ms"], 1),
         "triangulate_ms": round(result.timings_ms["triangulate_ms"], 1),
         "pointset_ms": round(result.timings_ms["pointset_ms"], 1),
-        "counts": pair.counts,
     }
+    if result.merged_index is None:
+        report["counts"] = pair.counts
     if args.json:
         print(json.dumps(report, allow_nan=False))
     else:
@@ -245,6 +264,49 @@ def cmd_doctor(args: argparse.Namespace) -> int:
     return 1 if problems else 0
 
 
+def cmd_plan(args: argparse.Namespace) -> int:
+    from rig.plan import confirm_on_bench, plan_views
+    from rig.rig import build_scene
+
+    checks = [
+        ("--coverage", 0.05 <= args.coverage <= 1.0, "0.05..1"),
+        ("--candidates", 4 <= args.candidates <= 2000, "4..2000"),
+        ("--max-angle", 5.0 <= args.max_angle <= 89.0, "5..89"),
+        ("--baseline", 0.0 <= args.baseline <= 90.0, "0..90"),
+        ("--min-elevation", -90.0 <= args.min_elevation < 90.0, "-90..90"),
+    ]
+    bad = [f"{flag}: outside {bounds}" for flag, ok, bounds in checks if not ok]
+    if args.distance is not None and not 10.0 <= args.distance <= 100_000.0:
+        bad.append("--distance: outside 10..100000 mm")
+    if bad:
+        raise ConfigError("plan views", bad)
+    config = load_config(args.config)
+    if args.scene:
+        config = _scene_override(config, args.scene)
+    if config.simulation is None:
+        raise ConfigError("--scene", ["--scene: a real rig's config has no object; name one (box, sphere, a mesh)"])
+    scene_config = config.simulation.scene
+    if hasattr(scene_config, "plane") and isinstance(scene_config.plane, bool):  # the object alone
+        config = config.with_scene({**scene_config.model_dump(mode="json"), "plane": False})
+    scene = build_scene(config.simulation)  # type: ignore[arg-type]
+    plan = plan_views(
+        scene, args.coverage, args.candidates, args.distance, args.max_angle, args.baseline, args.min_elevation
+    )
+    report = plan.as_dict()
+    if args.confirm:
+        report["confirmed_coverage"] = round(confirm_on_bench(scene, plan), 4)
+    if args.json:
+        print(json.dumps(report, allow_nan=False))
+        return 0
+    print(f"{len(plan.cameras)} cameras and {len(plan.projectors)} projectors cover {plan.coverage:.1%} of the object")
+    for kind in ("cameras", "projectors"):
+        for pose in report[kind]:  # type: ignore[attr-defined]
+            print(f"  {kind[:-1]} at {pose['position_mm']} looking at {pose['look_at_mm']}")
+    if args.confirm:
+        print(f"the simulated bench confirms {report['confirmed_coverage']:.1%}")
+    return 0
+
+
 def cmd_serve(args: argparse.Namespace) -> int:
     import logging
 
@@ -276,6 +338,7 @@ def main(argv: list[str] | None = None) -> int:
         "devices": cmd_devices,
         "doctor": cmd_doctor,
         "serve": cmd_serve,
+        "plan": cmd_plan,
     }
     handler = handlers[args.command]
     try:

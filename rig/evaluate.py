@@ -10,7 +10,7 @@ from scipy.spatial import cKDTree
 from drivers.sim import GroundTruth, SimBench
 from rig.geometry import CameraModel
 from rig.rig import Rig
-from rig.scan import PairResult, ScanResult
+from rig.scan import PairResult
 
 # Within this distance of the pixel's own true point the surface is treated as its tangent plane;
 # farther points are measured to the nearest true surface sample instead.
@@ -120,15 +120,3 @@ def evaluate_on_bench(rig: Rig, pair: PairResult) -> dict[str, float | int | Non
         raise ValueError("accuracy against ground truth needs the simulated bench")
     aligned = in_truth_frame(pair, rig.camera_models[pair.camera], rig.sim.cameras[pair.camera])
     return evaluate_pair(aligned, rig.sim.ground_truth(pair.camera, pair.projector), rig.sim)
-
-
-def metrics_on_bench(rig: Rig, result: ScanResult) -> dict[str, dict[str, float | int | None]]:
-    """Accuracy of each pair against ground truth, keyed "projector/camera" (simulated rigs only)."""
-    if rig.sim is None:
-        return {}
-    return {
-        f"{rig.config.projectors[pair.projector].name}/{rig.config.cameras[pair.camera].name}": evaluate_on_bench(
-            rig, pair
-        )
-        for pair in result.pairs
-    }

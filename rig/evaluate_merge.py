@@ -8,7 +8,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial import cKDTree
 
-from rig.evaluate import COMPLETE_WITHIN_MM, in_truth_frame, ring_distances, surface_distances
+from rig.evaluate import COMPLETE_WITHIN_MM, evaluate_on_bench, in_truth_frame, ring_distances, surface_distances
 from rig.merge import sampling_distance
 from rig.overlap import precision_recall
 from rig.pointset import PointSet
@@ -120,3 +120,22 @@ def _summary(err: np.ndarray, completeness: float) -> dict[str, float | int | No
         "outliers_over_5mm": int((err > 5).sum()),
         "completeness": round(completeness, 4),
     }
+
+
+def metrics_on_bench(rig: Rig, result: ScanResult) -> dict[str, object]:
+    """Accuracy of each pair against ground truth, keyed "projector/camera", and of the merged
+    cloud when several pairs were merged (simulated rigs only)."""
+    if rig.sim is None:
+        return {}
+    out: dict[str, object] = {
+        f"{rig.config.projectors[pair.projector].name}/{rig.config.cameras[pair.camera].name}": evaluate_on_bench(
+            rig, pair
+        )
+        for pair in result.pairs
+    }
+    if result.merged_index is not None:
+        merged = evaluate_merge(rig, result)
+        out["merged"] = merged["merged"]
+        out["merged_pairs"] = merged["pairs"]
+        out["overlap_cue"] = merged["overlap_cue"]
+    return out

@@ -46,6 +46,7 @@ class Alignment:
 
 def point_to_plane(
     source: np.ndarray,
+    source_normals: np.ndarray,
     target: np.ndarray,
     target_normals: np.ndarray,
     max_distance: float,
@@ -54,9 +55,13 @@ def point_to_plane(
     seed: int = 0,
 ) -> Alignment | None:
     """The rigid motion that brings `source` onto the surface sampled by `target`; None when
-    fewer than MIN_CORRESPONDENCES points overlap."""
+    fewer than MIN_CORRESPONDENCES points overlap. A pairing counts only where the two normals
+    agree (within about 35 degrees) and its residual is not among the largest tenth: points where
+    the clouds do not overlap find a nearest point on the other cloud's border, not their own
+    surface."""
     rng = np.random.default_rng(seed)
-    src = source if len(source) <= sample else source[rng.choice(len(source), sample, replace=False)]
+    chosen = np.arange(len(source)) if len(source) <= sample else rng.choice(len(source), sample, replace=False)
+    src, src_normals = source[chosen], source_normals[chosen].astype(np.float64)
     tree = cKDTree(target)
     rotation, translation = np.eye(3), np.zeros(3)
     rms_before = None
@@ -66,11 +71,14 @@ def point_to_plane(
         moved = src @ rotation.T + translation
         distance, index = tree.query(moved, distance_upper_bound=max_distance)
         ok = np.isfinite(distance)
-        n_used = int(ok.sum())
-        if n_used < MIN_CORRESPONDENCES:
-            return None
+        ok[ok] &= np.einsum("ij,ij->i", src_normals[ok] @ rotation.T, target_normals[index[ok]]) > 0.8
         p, q, n = moved[ok], target[index[ok]], target_normals[index[ok]].astype(np.float64)
         residual = np.einsum("ij,ij->i", q - p, n)
+        inliers = np.abs(residual) <= np.quantile(np.abs(residual), 0.9) if len(residual) else residual > 0
+        p, q, n, residual = p[inliers], q[inliers], n[inliers], residual[inliers]
+        n_used = len(residual)
+        if n_used < MIN_CORRESPONDENCES:
+            return None
         rms = float(np.sqrt(np.mean(residual**2)))
         if rms_before is None:
             rms_before = rms
@@ -79,6 +87,6 @@ def point_to_plane(
         increment = Rotation.from_rotvec(step[:3]).as_matrix()
         rotation = increment @ rotation
         translation = increment @ translation + step[3:]
-        if np.linalg.norm(step[3:]) < 1e-4 and np.linalg.norm(step[:3]) < 1e-7:
+        if np.linalg.norm(step[3:]) < 1e-3 and np.linalg.norm(step[:3]) < 1e-6:  # a micrometre, a microradian
             break
     return Alignment(rotation, translation, n_used, float(rms_before or 0.0), rms, done)

@@ -182,7 +182,9 @@ def align_pairs(rig: Rig, pairs: list[PairResult], max_distance_mm: float) -> di
     reference = pairs[0].points
     for k, pair in enumerate(pairs[1:], start=1):
         name = f"{rig.config.projectors[pair.projector].name}/{rig.config.cameras[pair.camera].name}"
-        found = point_to_plane(pair.points.points, reference.points, reference.normals, max_distance_mm)
+        found = point_to_plane(
+            pair.points.points, pair.points.normals, reference.points, reference.normals, max_distance_mm
+        )
         if found is None:
             report[name] = "too little overlap with the pairs before it; left as calibrated"
             continue

@@ -20,7 +20,7 @@ import numpy as np
 
 import rig
 from rig.errors import StoreError
-from rig.evaluate import metrics_on_bench
+from rig.evaluate_merge import metrics_on_bench
 from rig.progress import ProgressCallback, ProgressTracker
 from rig.rig import Rig
 from rig.scan import ScanResult, run_scan
