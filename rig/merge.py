@@ -115,31 +115,42 @@ def sampling_distance(cloud: PointSet) -> dict[int, float]:
     return out
 
 
+def cross_pairs(points: np.ndarray, source: np.ndarray, radius: float) -> tuple[np.ndarray, np.ndarray]:
+    """Index pairs (i, j) of points of different pairs within `radius` (one tree per pair, so
+    neighbours within a pair, which are most of them, are never listed)."""
+    sources = np.unique(source)
+    members = [np.flatnonzero(source == s) for s in sources]
+    trees = [cKDTree(points[m]) for m in members]
+    found_i, found_j = [], []
+    for a in range(len(sources)):
+        for b in range(a + 1, len(sources)):
+            near = trees[a].sparse_distance_matrix(trees[b], radius, output_type="ndarray")
+            found_i.append(members[a][near["i"]])
+            found_j.append(members[b][near["j"]])
+    if not found_i:
+        return np.zeros(0, np.int64), np.zeros(0, np.int64)
+    return np.concatenate(found_i), np.concatenate(found_j)
+
+
 def remove_redundant(points: np.ndarray, source: np.ndarray, score: np.ndarray, radius: float) -> np.ndarray:
     """Mask of points to keep: a point goes when a point of another pair with a higher score (ties:
     the lower index) lies within `radius`."""
-    tree = cKDTree(points)
-    pairs = tree.query_pairs(radius, output_type="ndarray")
-    if len(pairs) == 0:
-        return np.ones(len(points), bool)
-    i, j = pairs[:, 0], pairs[:, 1]
-    cross = source[i] != source[j]
-    i, j = i[cross], j[cross]
+    return _winners(*cross_pairs(points, source, radius), score)
+
+
+def _winners(i: np.ndarray, j: np.ndarray, score: np.ndarray) -> np.ndarray:
+    """Mask of points that lose no close pairing (i, j) to a higher score (ties: lower index)."""
     i_wins = (score[i] > score[j]) | ((score[i] == score[j]) & (i < j))
-    loser = np.where(i_wins, j, i)
-    keep = np.ones(len(points), bool)
-    keep[loser] = False
+    keep = np.ones(len(score), bool)
+    keep[np.where(i_wins, j, i)] = False
     return keep
 
 
 def overlapping(points: np.ndarray, source: np.ndarray, radius: float) -> np.ndarray:
     """Mask of points with a point of another pair within `radius`: the overlap, by geometry."""
-    tree = cKDTree(points)
-    pairs = tree.query_pairs(radius, output_type="ndarray")
+    i, j = cross_pairs(points, source, radius)
     mask = np.zeros(len(points), bool)
-    if len(pairs):
-        cross = source[pairs[:, 0]] != source[pairs[:, 1]]
-        mask[pairs[cross].ravel()] = True
+    mask[i] = mask[j] = True
     return mask
 
 
@@ -173,8 +184,11 @@ def merge(
     voxel = voxel_mm if voxel_mm is not None else sampling
     n = len(cloud)
     index = np.arange(n)
-    overlap = overlapping(cloud.points, cloud.source, radius) if radius > 0 else np.zeros(n, bool)
-    keep = remove_redundant(cloud.points, cloud.source, score, radius) if radius > 0 else np.ones(n, bool)
+    overlap, keep = np.zeros(n, bool), np.ones(n, bool)
+    if radius > 0:
+        i, j = cross_pairs(cloud.points, cloud.source, radius)  # once, for both uses
+        overlap[i] = overlap[j] = True
+        keep = _winners(i, j, score)
     after_redundancy = int(keep.sum())
     index = index[keep]
     if voxel > 0 and len(index):

@@ -19,9 +19,10 @@ def depth_png(grid: np.ndarray, camera: CameraModel) -> bytes:
     return _png(depth)
 
 
-def preview_png(cloud: PointSet, view: CameraModel, max_width: int = 960) -> bytes:
+def preview_png(cloud: PointSet, view: CameraModel, max_width: int = 960, own_colors: bool = False) -> bytes:
     """A shaded rendering of the cloud from `view` (usually the first camera): each point splatted
-    into a z-buffer and lit by a light above-left of the viewer; background dark grey."""
+    into a z-buffer and lit by a light above-left of the viewer; background dark grey. Plaster
+    white, or the points' own colours."""
     scale = min(1.0, max_width / view.width)
     width, height = int(view.width * scale), int(view.height * scale)
     image = np.full((height, width, 3), 32, dtype=np.uint8)
@@ -37,7 +38,7 @@ def preview_png(cloud: PointSet, view: CameraModel, max_width: int = 960) -> byt
     to_light /= np.linalg.norm(to_light)
     shade = np.clip(cloud.normals.astype(np.float64) @ to_light, 0.0, 1.0)
     intensity = 0.18 + 0.82 * shade
-    tint = np.array([235, 225, 205], dtype=np.float64)  # warm plaster
+    tint = cloud.colors.astype(np.float64) if own_colors else np.array([235, 225, 205], dtype=np.float64)  # plaster
     colors = (intensity[:, None] * tint).astype(np.uint8)
     image[row[order], col[order]] = colors[order]
     return _png(cv2.cvtColor(image, cv2.COLOR_RGB2BGR))
