@@ -171,6 +171,11 @@ class Projector(Device):
             raise DeviceStateError(f"{self.name}: a streaming projector shows patterns one by one (show)")
         if not sequence.entries:
             raise ValueError(f"{self.name}: a sequence needs at least one pattern")
+        width, height = self.resolution
+        if sequence.images is not None and any(
+            i.shape != (height, width) or i.dtype != np.uint8 for i in sequence.images
+        ):
+            raise ValueError(f"{self.name}: sequence images must be uint8 of shape {(height, width)}")
         self._guarded(self._do_load_sequence, sequence)
 
     def sequence_groups(self, count: int) -> list[int]:

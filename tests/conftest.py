@@ -63,3 +63,28 @@ def small_config(tmp_path: Path) -> RigConfig:
 @pytest.fixture
 def small_config_path(tmp_path: Path) -> Path:
     return write_config(tmp_path, small_config_data())
+
+
+def ply_xyz(data: bytes) -> Any:
+    """The x, y, z columns of a PLY file's vertices (N, 3)."""
+    import io
+
+    import numpy as np
+    from plyfile import PlyData
+
+    vertex = PlyData.read(io.BytesIO(data))["vertex"]
+    return np.stack([vertex["x"], vertex["y"], vertex["z"]], axis=1)
+
+
+def wait_done(client: Any, job_id: str, collection: str = "scans", timeout_s: float = 120.0) -> dict[str, Any]:
+    """Poll a job through any HTTP client with .get (TestClient, httpx.Client with a base_url)
+    until it leaves queued and running."""
+    import time
+
+    deadline = time.monotonic() + timeout_s
+    while time.monotonic() < deadline:
+        job: dict[str, Any] = client.get(f"/v1/{collection}/{job_id}").json()
+        if job["state"] not in ("queued", "running"):
+            return job
+        time.sleep(0.05)
+    raise AssertionError(f"{job_id} did not finish")

@@ -13,7 +13,6 @@ from typing import Any
 import numpy as np
 import pytest
 from fastapi.testclient import TestClient
-from plyfile import PlyData
 
 from rig.api.app import create_app
 from rig.api.security import ApiSettings
@@ -21,7 +20,7 @@ from rig.config import load_config
 from rig.service.errors import JobConflictError
 from rig.service.jobs import JobStore
 from rig.service.runner import DB_NAME, JobService
-from tests.conftest import default_config_data, small_config_data, write_config
+from tests.conftest import default_config_data, ply_xyz, small_config_data, wait_done, write_config
 
 KEY = "k" * 32
 AUTH = {"X-API-Key": KEY}
@@ -56,23 +55,6 @@ def client(service: JobService) -> Iterator[TestClient]:
         yield c
 
 
-def wait_done(client: TestClient, job_id: str, collection: str = "scans", timeout_s: float = 60.0) -> dict[str, Any]:
-    deadline = time.monotonic() + timeout_s
-    while time.monotonic() < deadline:
-        job = client.get(f"/v1/{collection}/{job_id}").json()
-        if job["state"] not in ("queued", "running"):
-            return job
-        time.sleep(0.05)
-    raise AssertionError(f"{job_id} did not finish")
-
-
-def _points(data: bytes) -> np.ndarray:
-    import io
-
-    vertex = PlyData.read(io.BytesIO(data))["vertex"]
-    return np.stack([vertex["x"], vertex["y"], vertex["z"]], axis=1)
-
-
 def test_a_scan_from_request_to_download(client: TestClient) -> None:
     created = client.post("/v1/scans", json={"codec": "gray", "label": "first"}, headers=AUTH)
     assert created.status_code == 202
@@ -83,7 +65,7 @@ def test_a_scan_from_request_to_download(client: TestClient) -> None:
     assert done["result"]["points"] > 10_000 and done["request"]["label"] == "first"
     cloud = client.get(done["links"]["cloud.ply"])
     assert cloud.status_code == 200 and cloud.content.startswith(b"ply\n")
-    assert len(_points(cloud.content)) == done["result"]["points"]
+    assert len(ply_xyz(cloud.content)) == done["result"]["points"]
     manifest = client.get(f"/v1/scans/{job['id']}/files/manifest.json").json()
     assert manifest["scan_id"] == job["id"] and manifest["codec"]["name"] == "gray"
     assert client.get(f"/v1/scans/{job['id']}/files/preview.png").headers["content-type"] == "image/png"
@@ -278,8 +260,8 @@ def test_reprocessing_a_stored_scan(client: TestClient) -> None:
     assert again.status_code == 202
     same = wait_done(client, again.json()["id"])
     assert same["state"] == "done", same["error"]
-    original = _points(client.get(kept["links"]["cloud.ply"]).content)
-    assert np.array_equal(_points(client.get(same["links"]["cloud.ply"]).content), original)
+    original = ply_xyz(client.get(kept["links"]["cloud.ply"]).content)
+    assert np.array_equal(ply_xyz(client.get(same["links"]["cloud.ply"]).content), original)
     manifest = client.get(f"/v1/scans/{same['id']}/files/manifest.json").json()
     assert manifest["origin"]["reprocessed_from"] == kept["id"]
     looser = wait_done(

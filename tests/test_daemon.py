@@ -5,7 +5,7 @@ API key kept out of the logs, and the unit file."""
 from __future__ import annotations
 
 import asyncio
-import io
+import contextlib
 import json
 import os
 import random
@@ -22,12 +22,11 @@ from typing import Any
 import httpx
 import numpy as np
 import pytest
-from plyfile import PlyData
 
 from rig.cli import main
 from rig.service.jobs import JobStore
 from rig.service.runner import DB_NAME
-from tests.conftest import default_config_data, small_config_data, write_config
+from tests.conftest import default_config_data, ply_xyz, small_config_data, wait_done, write_config
 
 REPO = Path(__file__).resolve().parents[1]
 KEY = "0123456789abcdef" * 2
@@ -91,21 +90,6 @@ def daemon(small: Path, tmp_path: Path) -> Iterator[Daemon]:
     d.stop()
 
 
-def _wait(url: str, job_id: str, timeout_s: float = 120.0) -> dict[str, Any]:
-    deadline = time.monotonic() + timeout_s
-    while time.monotonic() < deadline:
-        job = httpx.get(f"{url}/v1/scans/{job_id}").json()
-        if job["state"] not in ("queued", "running"):
-            return job
-        time.sleep(0.05)
-    raise AssertionError(f"{job_id} did not finish")
-
-
-def _xyz(data: bytes) -> np.ndarray:
-    vertex = PlyData.read(io.BytesIO(data))["vertex"]
-    return np.stack([vertex["x"], vertex["y"], vertex["z"]], axis=1)
-
-
 def test_a_scan_over_http_gives_the_clis_cloud(daemon: Daemon, small: Path, tmp_path: Path) -> None:
     created = httpx.post(f"{daemon.url}/v1/scans", json={"codec": "phase"}, headers=AUTH)
     assert created.status_code == 202
@@ -121,7 +105,7 @@ def test_a_scan_over_http_gives_the_clis_cloud(daemon: Daemon, small: Path, tmp_
 
     assert main(["scan", "--config", str(small), "--codec", "phase", "--out", str(tmp_path / "cli")]) == 0
     by_cli = (tmp_path / "cli" / "cloud.ply").read_bytes()
-    assert np.array_equal(_xyz(served.content), _xyz(by_cli))
+    assert np.array_equal(ply_xyz(served.content), ply_xyz(by_cli))
 
     assert httpx.post(f"{daemon.url}/v1/scans", json={}, headers={"X-API-Key": "wrong" * 8}).status_code == 403
     assert httpx.post(f"{daemon.url}/v1/scans", json={}).status_code == 401
@@ -162,8 +146,8 @@ def test_bounded_load_every_request_answered(daemon: Daemon) -> None:
     assert not [c for c in codes if c >= 500]
     assert 429 in codes  # the queue bound was reached and enforced
     assert set(codes) <= {200, 202, 404, 409, 429}  # 404/409: a download before a scan was done
-    for job_id in accepted:
-        assert _wait(daemon.url, job_id)["state"] == "done"
+    with httpx.Client(base_url=daemon.url) as http:
+        assert all(wait_done(http, job_id)["state"] == "done" for job_id in accepted)
     listed: list[str] = []
     page = httpx.get(f"{daemon.url}/v1/scans", params={"limit": 100}).json()
     while True:
@@ -205,7 +189,8 @@ def test_sigkill_mid_scan_then_restart(tmp_path: Path) -> None:
         assert not list(scans.glob("*.partial"))
         assert [j["id"] for j in httpx.get(f"{second.url}/v1/scans").json()["items"]] == [job_id]
         nxt = httpx.post(f"{second.url}/v1/scans", json={"codec": "gray"}, headers=AUTH).json()["id"]
-        assert _wait(second.url, nxt)["state"] == "done"
+        with httpx.Client(base_url=second.url) as http:
+            assert wait_done(http, nxt)["state"] == "done"
         assert job["state"] == httpx.get(f"{second.url}/v1/scans/{job_id}").json()["state"]  # not re-run
     finally:
         second.stop()
@@ -229,29 +214,35 @@ def test_sigterm_mid_scan_exits_within_10_s_dark(tmp_path: Path) -> None:
     assert JobStore(tmp_path / "data" / DB_NAME).get(job_id).state == "interrupted"
 
 
-def test_systemd_hears_ready_watchdog_and_stopping(small: Path, tmp_path: Path) -> None:
+@contextlib.contextmanager
+def _systemd(config: Path, tmp_path: Path) -> Iterator[tuple[socket.socket, Daemon]]:
+    """A daemon told to notify a datagram socket (as systemd's), with a 0.4 s watchdog."""
     path = tmp_path / "notify.sock"
     with socket.socket(socket.AF_UNIX, socket.SOCK_DGRAM) as sock:
         sock.bind(str(path))
         sock.settimeout(10)
-        d = Daemon(small, tmp_path / "daemon.log", {"NOTIFY_SOCKET": str(path), "WATCHDOG_USEC": "400000"})
+        d = Daemon(config, tmp_path / "daemon.log", {"NOTIFY_SOCKET": str(path), "WATCHDOG_USEC": "400000"})
         try:
-            received: list[str] = []
-            pings: list[float] = []
-            while len(pings) < 4:
-                message = sock.recv(4096).decode()
-                received.append(message)
-                if message == "WATCHDOG=1":
-                    pings.append(time.monotonic())
-            assert received[0].startswith("READY=1\nSTATUS=serving on 127.0.0.1:")
-            gaps = np.diff(pings)
-            assert gaps.max() < 0.4  # at least every half interval (0.2 s), with slack for scheduling
-            d.process.send_signal(signal.SIGTERM)
-            while "STOPPING=1" not in received:
-                received.append(sock.recv(4096).decode())
-            assert d.process.wait(10) == 0
+            yield sock, d
         finally:
             d.stop()
+
+
+def test_systemd_hears_ready_watchdog_and_stopping(small: Path, tmp_path: Path) -> None:
+    with _systemd(small, tmp_path) as (sock, d):
+        received: list[str] = []
+        pings: list[float] = []
+        while len(pings) < 4:
+            message = sock.recv(4096).decode()
+            received.append(message)
+            if message == "WATCHDOG=1":
+                pings.append(time.monotonic())
+        assert received[0].startswith("READY=1\nSTATUS=serving on 127.0.0.1:")
+        assert np.diff(pings).max() < 0.4  # at least every half interval (0.2 s), with slack for scheduling
+        d.process.send_signal(signal.SIGTERM)
+        while "STOPPING=1" not in received:
+            received.append(sock.recv(4096).decode())
+        assert d.process.wait(10) == 0
 
 
 def _serve_once(config: Path, env: dict[str, str], *extra: str) -> subprocess.CompletedProcess[str]:
@@ -288,24 +279,17 @@ def test_the_watchdog_stops_while_a_driver_is_stuck(tmp_path: Path) -> None:
     data["cameras"][0]["sim"]["faults"] = {"stall_after_frames": 2}
     data["scan"]["capture_timeout_s"] = 30.0
     config = _config(tmp_path, data, "stuck.yaml", health_stale_s=5.0)
-    path = tmp_path / "notify.sock"
-    with socket.socket(socket.AF_UNIX, socket.SOCK_DGRAM) as sock:
-        sock.bind(str(path))
-        sock.settimeout(10)
-        d = Daemon(config, tmp_path / "daemon.log", {"NOTIFY_SOCKET": str(path), "WATCHDOG_USEC": "400000"})
-        try:
-            assert sock.recv(4096).startswith(b"READY=1")
-            assert sock.recv(4096) == b"WATCHDOG=1"
-            httpx.post(f"{d.url}/v1/scans", json={}, headers=AUTH)
-            messages: list[tuple[float, bytes]] = []
-            start = time.monotonic()
-            while time.monotonic() - start < 9:
-                messages.append((time.monotonic() - start, sock.recv(4096)))
-            pings = [t for t, m in messages if m == b"WATCHDOG=1"]
-            assert pings and max(pings) < 6.5  # healthy for health_stale_s, then silent
-            assert any(m == b"STATUS=job worker unhealthy" for _, m in messages)
-        finally:
-            d.stop()
+    with _systemd(config, tmp_path) as (sock, d):
+        assert sock.recv(4096).startswith(b"READY=1")
+        assert sock.recv(4096) == b"WATCHDOG=1"
+        httpx.post(f"{d.url}/v1/scans", json={}, headers=AUTH)
+        messages: list[tuple[float, bytes]] = []
+        start = time.monotonic()
+        while time.monotonic() - start < 9:
+            messages.append((time.monotonic() - start, sock.recv(4096)))
+        pings = [t for t, m in messages if m == b"WATCHDOG=1"]
+        assert pings and max(pings) < 6.5  # healthy for health_stale_s, then silent
+        assert any(m == b"STATUS=job worker unhealthy" for _, m in messages)
 
 
 def test_the_unit_file_verifies(tmp_path: Path) -> None:

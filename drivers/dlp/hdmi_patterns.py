@@ -116,9 +116,6 @@ class LightCrafterHdmiProjector(Projector):
     def _do_load_sequence(self, sequence: PatternSequence) -> None:
         if sequence.images is None:
             raise DeviceStateError(f"{self.name}: patterns reach it over HDMI; give sequence.images")
-        width, height = self.resolution
-        if any(i.shape != (height, width) or i.dtype != np.uint8 for i in sequence.images):
-            raise ValueError(f"{self.name}: sequence images must be uint8 of shape {(height, width)}")
         self._frames = []
         one_frame = PatternSequence(
             entries=tuple(SequenceEntry(k, PATTERN_BIT_DEPTH) for k in range(self.patterns_per_frame)),
