@@ -12,10 +12,11 @@ class PointSet:
     """N points in the world frame (mm) with unit normals, colour, quality and provenance.
 
     `source` is the (projector, camera) pair index, `pixel` the flat camera pixel index the point
-    came from (row * width + column) or -1.
+    came from (row * width + column) or -1, `angle` the triangulation angle in degrees (NaN where
+    not known).
     """
 
-    FIELDS = ("points", "normals", "colors", "quality", "source", "pixel")
+    FIELDS = ("points", "normals", "colors", "quality", "source", "pixel", "angle")
 
     points: np.ndarray  # (N, 3) float64
     normals: np.ndarray  # (N, 3) float32
@@ -23,6 +24,11 @@ class PointSet:
     quality: np.ndarray  # (N,) float32
     source: np.ndarray  # (N,) uint8
     pixel: np.ndarray  # (N,) int64
+    angle: np.ndarray | None = None  # (N,) float32; None: not known (NaN in files)
+
+    def __post_init__(self) -> None:
+        if self.angle is None:
+            object.__setattr__(self, "angle", np.full(len(self.points), np.nan, np.float32))
 
     def __len__(self) -> int:
         return len(self.points)
@@ -36,6 +42,7 @@ class PointSet:
             np.zeros(0, np.float32),
             np.zeros(0, np.uint8),
             np.zeros(0, np.int64),
+            np.zeros(0, np.float32),
         )
 
     @staticmethod

@@ -10,7 +10,7 @@ import numpy as np
 
 from rig.errors import DecodeError, ScanError
 from rig.icp import point_to_plane
-from rig.merge import expected_error_mm, merge
+from rig.merge import expected_error_mm, merge, triangulation_angles
 from rig.overlap import overlap_from_cue
 from rig.patterns import Codec, Correspondence, codec_class
 from rig.pointset import PointSet
@@ -81,6 +81,8 @@ def reconstruct_pair(
         points, grid, valid = ring_pointset(rings, model, corr, source=source)
     else:
         points = pair_pointset(grid, valid, model, corr, source=source)
+    angles = triangulation_angles(points.points, model, rig.projector_models[projector])
+    points = dataclasses.replace(points, angle=angles)
     counts["points"] = len(points)
     if elapsed is not None:
         elapsed["triangulate"] = elapsed.get("triangulate", 0.0) + t_mid - t

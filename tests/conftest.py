@@ -65,14 +65,20 @@ def small_config_path(tmp_path: Path) -> Path:
     return write_config(tmp_path, small_config_data())
 
 
-def ply_xyz(data: bytes) -> Any:
-    """The x, y, z columns of a PLY file's vertices (N, 3)."""
+def ply_vertex(data: bytes) -> Any:
+    """A PLY file's vertex records (a structured array)."""
     import io
 
-    import numpy as np
     from plyfile import PlyData
 
-    vertex = PlyData.read(io.BytesIO(data))["vertex"]
+    return PlyData.read(io.BytesIO(data))["vertex"].data
+
+
+def ply_xyz(data: bytes) -> Any:
+    """The x, y, z columns of a PLY file's vertices (N, 3)."""
+    import numpy as np
+
+    vertex = ply_vertex(data)
     return np.stack([vertex["x"], vertex["y"], vertex["z"]], axis=1)
 
 

@@ -22,6 +22,7 @@ from rig.pointset import PointSet
 from rig.rig import Rig, open_rig
 from rig.scan import ScanResult, run_scan
 from rig.sequencer import CUE
+from rig.store.ply import ply_bytes
 from rig.store.scandir import read_frames, write_scan
 
 
@@ -160,3 +161,20 @@ def test_plan_views_checks_its_arguments(capsys: pytest.CaptureFixture[str]) -> 
     assert main(["plan", "views", "--scene", "box", "--coverage", "1.5", "--max-angle", "95"]) == 2
     err = capsys.readouterr().err
     assert "--coverage: outside 0.05..1" in err and "--max-angle: outside 5..89" in err
+
+
+def test_every_point_carries_its_pair_quality_and_triangulation_angle(multi: tuple[Rig, ScanResult, Any]) -> None:
+    from tests.conftest import ply_vertex
+
+    the_rig, result, _ = multi
+    vertex = ply_vertex(ply_bytes(result.cloud))
+    assert {"source", "quality", "angle"} <= set(vertex.dtype.names)
+    for k, pair in enumerate(result.pairs):
+        mine = vertex["source"] == k
+        assert mine.any()
+        camera, projector = the_rig.camera_models[pair.camera], the_rig.projector_models[pair.projector]
+        point = np.array([vertex["x"][mine][0], vertex["y"][mine][0], vertex["z"][mine][0]], float)
+        rays = [point - camera.center, point - projector.center]
+        expected = np.degrees(np.arccos(np.dot(*rays) / np.linalg.norm(rays[0]) / np.linalg.norm(rays[1])))
+        assert vertex["angle"][mine][0] == pytest.approx(expected, abs=0.01)
+    assert np.isfinite(vertex["angle"]).all() and 5 < float(np.median(vertex["angle"])) < 120

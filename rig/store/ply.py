@@ -1,5 +1,6 @@
 """Binary little-endian PLY: x y z, nx ny nz (float), red green blue (uchar), quality (float),
-source (uchar): the names Open3D, MeshLab and CloudCompare read."""
+source (uchar), angle (float, the triangulation angle in degrees): the names Open3D, MeshLab and
+CloudCompare read (they keep the extra properties as scalar fields)."""
 
 from __future__ import annotations
 
@@ -20,6 +21,7 @@ _VERTEX = np.dtype(
         ("blue", "u1"),
         ("quality", "<f4"),
         ("source", "u1"),
+        ("angle", "<f4"),
     ]
 )
 
@@ -34,6 +36,7 @@ def ply_bytes(cloud: PointSet, comment: str = "slrig") -> bytes:
         vertex[channel] = cloud.colors[:, i]
     vertex["quality"] = cloud.quality
     vertex["source"] = cloud.source
+    vertex["angle"] = cloud.angle
     lines = ["ply", "format binary_little_endian 1.0", f"comment {comment}", f"element vertex {n}"]
     lines += [f"property {'float' if _VERTEX[name].kind == 'f' else 'uchar'} {name}" for name in _VERTEX.names]
     lines.append("end_header")
