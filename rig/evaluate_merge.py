@@ -96,6 +96,11 @@ def evaluate_merge(rig: Rig, result: ScanResult) -> dict[str, object]:
         name = f"{rig.config.projectors[pair.projector].name}/{rig.config.cameras[pair.camera].name}"
         pairs[name] = _summary(err, coverage(surface, pair.points.points))
     merged_errors = np.concatenate(errors)[result.merged_index]
+    for summary, pair in zip(pairs.values(), result.pairs, strict=True):
+        # the merged cloud where this pair measured: compare like with like, whatever else it covers
+        distance, _ = cKDTree(pair.points.points).query(result.cloud.points, distance_upper_bound=COMPLETE_WITHIN_MM)
+        here = merged_errors[np.isfinite(distance)]
+        summary["merged_rms_mm_here"] = round(float(np.sqrt(np.mean(here**2))), 5) if len(here) else None
     spacing = sampling_distance(PointSet.concatenate([p.points for p in result.pairs]))
     sampling = max(spacing.values()) if spacing else 0.0
     merged = _summary(merged_errors, coverage(surface, result.cloud.points))

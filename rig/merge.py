@@ -94,13 +94,30 @@ def expected_error_mm(cloud: PointSet, camera: CameraModel, projector: CameraMod
     else:
         proj_rays = _ray_directions(projector, points)
         sin = np.sqrt(np.clip(1.0 - np.einsum("ij,ij->i", cam_rays, proj_rays) ** 2, 0.0, 1.0))
+    focal = projector.K[1, 1] if coded == "v" else projector.K[0, 0]
     if projector.projection == "orthographic":
-        pixel_mm = np.full(len(points), 1.0 / projector.K[0, 0])
+        pixel_mm = np.full(len(points), 1.0 / focal)
     else:
-        pixel_mm = np.linalg.norm(points - projector.center, axis=1) / projector.K[0, 0]
+        pixel_mm = np.linalg.norm(points - projector.center, axis=1) / focal
     along_normal = np.abs(np.einsum("ij,ij->i", cam_rays, cloud.normals.astype(np.float64)))
     quality = np.clip(cloud.quality.astype(np.float64), 1e-3, None)
     return pixel_mm * np.maximum(along_normal, 0.05) / (np.maximum(sin, 1e-3) * quality)
+
+
+def local_noise_mm(points: np.ndarray, neighbours: int = 12, chunk: int = 100_000) -> np.ndarray:
+    """Spread (mm) of each point's neighbourhood about its best-fitting plane: the noise one pair's
+    samples show on a smooth surface (and more on an edge, where no plane fits)."""
+    if len(points) <= neighbours:
+        return np.zeros(len(points))
+    tree = cKDTree(points)
+    out = np.empty(len(points))
+    for start in range(0, len(points), chunk):
+        _, index = tree.query(points[start : start + chunk], neighbours)
+        near = points[index]
+        centred = near - near.mean(axis=1, keepdims=True)
+        covariance = np.einsum("nki,nkj->nij", centred, centred) / neighbours
+        out[start : start + chunk] = np.sqrt(np.maximum(np.linalg.eigvalsh(covariance)[:, 0], 0.0))
+    return out
 
 
 def sampling_distance(cloud: PointSet) -> dict[int, float]:
@@ -115,43 +132,38 @@ def sampling_distance(cloud: PointSet) -> dict[int, float]:
     return out
 
 
-def cross_pairs(points: np.ndarray, source: np.ndarray, radius: float) -> tuple[np.ndarray, np.ndarray]:
-    """Index pairs (i, j) of points of different pairs within `radius` (one tree per pair, so
-    neighbours within a pair, which are most of them, are never listed)."""
-    sources = np.unique(source)
-    members = [np.flatnonzero(source == s) for s in sources]
-    trees = [cKDTree(points[m]) for m in members]
-    found_i, found_j = [], []
-    for a in range(len(sources)):
-        for b in range(a + 1, len(sources)):
-            near = trees[a].sparse_distance_matrix(trees[b], radius, output_type="ndarray")
-            found_i.append(members[a][near["i"]])
-            found_j.append(members[b][near["j"]])
-    if not found_i:
-        return np.zeros(0, np.int64), np.zeros(0, np.int64)
-    return np.concatenate(found_i), np.concatenate(found_j)
+def compare_across_pairs(
+    points: np.ndarray, source: np.ndarray, score: np.ndarray, radius: float, neighbours: int = 16, chunk: int = 200_000
+) -> tuple[np.ndarray, np.ndarray]:
+    """(keep, overlap) masks: a point is kept unless a point of another pair with a higher score
+    (ties: the lower index) lies within `radius`; it overlaps if any point of another pair does.
+    One tree per pair and chunked queries of the nearest `neighbours`: memory stays bounded by
+    the chunk, not by how many pairs of points lie close."""
+    keep, overlap = np.ones(len(points), bool), np.zeros(len(points), bool)
+    members = {int(s): np.flatnonzero(source == s) for s in np.unique(source)}
+    trees = {s: cKDTree(points[m]) for s, m in members.items()}
+    for a, mine in members.items():
+        for b, theirs in members.items():
+            if a == b:
+                continue
+            k = min(neighbours, len(theirs))
+            for start in range(0, len(mine), chunk):
+                rows = mine[start : start + chunk]
+                distance, found = trees[b].query(points[rows], k, distance_upper_bound=radius)
+                distance, found = distance.reshape(len(rows), k), found.reshape(len(rows), k)
+                near = np.isfinite(distance)
+                other = theirs[np.where(near, found, 0)]
+                better = near & (
+                    (score[other] > score[rows, None]) | ((score[other] == score[rows, None]) & (other < rows[:, None]))
+                )
+                overlap[rows] |= near.any(axis=1)
+                keep[rows] &= ~better.any(axis=1)
+    return keep, overlap
 
 
 def remove_redundant(points: np.ndarray, source: np.ndarray, score: np.ndarray, radius: float) -> np.ndarray:
-    """Mask of points to keep: a point goes when a point of another pair with a higher score (ties:
-    the lower index) lies within `radius`."""
-    return _winners(*cross_pairs(points, source, radius), score)
-
-
-def _winners(i: np.ndarray, j: np.ndarray, score: np.ndarray) -> np.ndarray:
-    """Mask of points that lose no close pairing (i, j) to a higher score (ties: lower index)."""
-    i_wins = (score[i] > score[j]) | ((score[i] == score[j]) & (i < j))
-    keep = np.ones(len(score), bool)
-    keep[np.where(i_wins, j, i)] = False
-    return keep
-
-
-def overlapping(points: np.ndarray, source: np.ndarray, radius: float) -> np.ndarray:
-    """Mask of points with a point of another pair within `radius`: the overlap, by geometry."""
-    i, j = cross_pairs(points, source, radius)
-    mask = np.zeros(len(points), bool)
-    mask[i] = mask[j] = True
-    return mask
+    """Mask of points to keep (see compare_across_pairs)."""
+    return compare_across_pairs(points, source, score, radius)[0]
 
 
 def thin(points: np.ndarray, score: np.ndarray, voxel: float) -> np.ndarray:
@@ -186,9 +198,7 @@ def merge(
     index = np.arange(n)
     overlap, keep = np.zeros(n, bool), np.ones(n, bool)
     if radius > 0:
-        i, j = cross_pairs(cloud.points, cloud.source, radius)  # once, for both uses
-        overlap[i] = overlap[j] = True
-        keep = _winners(i, j, score)
+        keep, overlap = compare_across_pairs(cloud.points, cloud.source, score, radius)
     after_redundancy = int(keep.sum())
     index = index[keep]
     if voxel > 0 and len(index):

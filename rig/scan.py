@@ -10,7 +10,7 @@ import numpy as np
 
 from rig.errors import DecodeError, ScanError
 from rig.icp import point_to_plane
-from rig.merge import expected_error_mm, merge, triangulation_angles
+from rig.merge import expected_error_mm, local_noise_mm, merge, triangulation_angles
 from rig.overlap import overlap_from_cue
 from rig.patterns import Codec, Correspondence, codec_class
 from rig.pointset import PointSet
@@ -138,7 +138,8 @@ def reconstruct_frames(
         if merge_config.refine == "icp":
             report["alignment"] = align_pairs(rig, pairs, merge_config.icp_max_distance_mm)
             cloud = PointSet.concatenate([pair.points for pair in pairs])
-        scores = np.concatenate([1.0 / pair_errors(rig, pair) for pair in pairs])
+        quantized = codecs[0].quantized
+        scores = np.concatenate([1.0 / pair_errors(rig, pair, quantized) for pair in pairs])
         cloud, merged_index, merged = merge(cloud, scores, merge_config.radius_mm, merge_config.voxel_mm)
         report.update(merged.as_dict())
         report["overlap_cue_pixels"] = {rig.config.cameras[c].name: int(m.sum()) for c, m in overlap.items()}
@@ -159,8 +160,12 @@ def reconstruct_frames(
     )
 
 
-def pair_errors(rig: Rig, pair: PairResult) -> np.ndarray:
-    """Each point's expected error along the surface normal (for choosing between pairs)."""
+def pair_errors(rig: Rig, pair: PairResult, quantized: bool = False) -> np.ndarray:
+    """Each point's expected error along the surface normal (for choosing between pairs): from the
+    triangulation geometry and decode quality, or, for quantised codes, the noise the pair's own
+    points show about their local plane."""
+    if quantized:
+        return np.maximum(local_noise_mm(pair.points.points), 1e-6)
     corr = pair.correspondence
     coded = "u" if corr.v is None and corr.u is not None else "v" if corr.u is None and corr.v is not None else "both"
     camera, projector = rig.camera_models[pair.camera], rig.projector_models[pair.projector]

@@ -178,3 +178,15 @@ def test_every_point_carries_its_pair_quality_and_triangulation_angle(multi: tup
         expected = np.degrees(np.arccos(np.dot(*rays) / np.linalg.norm(rays[0]) / np.linalg.norm(rays[1])))
         assert vertex["angle"][mine][0] == pytest.approx(expected, abs=0.01)
     assert np.isfinite(vertex["angle"]).all() and 5 < float(np.median(vertex["angle"])) < 120
+
+
+@pytest.mark.parametrize("codec", ["gray", "radial"])
+def test_where_each_pair_measured_the_merged_cloud_is_no_worse(codec: str) -> None:
+    """Other codecs too: gray (quantised, ranked by measured local noise) and radial (both
+    projector coordinates). Compared where each pair measured, since a pair that sees only the
+    box top has an easier surface than the merged cloud as a whole."""
+    with open_rig(load_config(REPO_CONFIG_DIR / "sim-multi.yaml").with_codec(codec)) as the_rig:
+        report = evaluate_merge(the_rig, run_scan(the_rig))
+    for name, pair in report["pairs"].items():
+        assert pair["merged_rms_mm_here"] <= pair["rms_mm"], (codec, name, pair)
+    assert report["merged"]["completeness"] > max(p["completeness"] for p in report["pairs"].values())

@@ -115,6 +115,9 @@ class Codec(abc.ABC):
     """
 
     name: ClassVar[str]
+    # Whole projector pixels, not a continuous phase: its error is quantisation, which the decode
+    # quality does not predict (merging then ranks points by their measured local noise).
+    quantized: ClassVar[bool] = False
     Params: ClassVar[type[CodecParams]] = CodecParams
 
     def __init__(

@@ -17,6 +17,7 @@ class GrayParams(LineParams):
 @register
 class GrayCodec(LineCodec):
     name = "gray"
+    quantized = True
     Params = GrayParams
     params: GrayParams
 
