@@ -2,15 +2,13 @@
 
 from __future__ import annotations
 
-import dataclasses
-
 import numpy as np
 from scipy.spatial import cKDTree
 
 from drivers.sim import GroundTruth, SimBench
 from rig.geometry import CameraModel
 from rig.rig import Rig
-from rig.scan import PairResult
+from rig.scan import PairResult, moved_pair
 
 # Within this distance of the pixel's own true point the surface is treated as its tangent plane;
 # farther points are measured to the nearest true surface sample instead.
@@ -96,21 +94,7 @@ def in_truth_frame(pair: PairResult, estimated: CameraModel, truth: CameraModel)
     if estimated is truth:
         return pair
     rotation = truth.R.T @ estimated.R
-    shift = truth.R.T @ (estimated.t - truth.t)
-
-    def move(points: np.ndarray) -> np.ndarray:
-        return points @ rotation.T + shift
-
-    rings = pair.rings
-    if rings is not None:
-        rings = dataclasses.replace(
-            rings,
-            points=move(rings.points),
-            other_root=move(rings.other_root),
-            origins=move(rings.origins),
-            directions=rings.directions @ rotation.T,
-        )
-    return dataclasses.replace(pair, grid=move(pair.grid), rings=rings)
+    return moved_pair(pair, rotation, truth.R.T @ (estimated.t - truth.t))
 
 
 def evaluate_on_bench(rig: Rig, pair: PairResult) -> dict[str, float | int | None]:

@@ -9,7 +9,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from rig.errors import DecodeError, ScanError
-from rig.icp import point_to_plane
+from rig.icp import AlignmentRefusedError, point_to_plane
 from rig.merge import expected_error_mm, local_noise_mm, merge, triangulation_angles
 from rig.overlap import overlap_from_cue
 from rig.patterns import Codec, Correspondence, codec_class
@@ -182,25 +182,45 @@ def overlap_masks(rig: Rig, frames: dict[tuple[int, int], list[np.ndarray]]) -> 
     }
 
 
+def moved_pair(pair: PairResult, rotation: np.ndarray, shift: np.ndarray) -> PairResult:
+    """The pair's results moved rigidly by x -> rotation x + shift: grid, points, normals, rings."""
+
+    def move(points: np.ndarray) -> np.ndarray:
+        return points @ rotation.T + shift
+
+    rings = pair.rings
+    if rings is not None:
+        rings = dataclasses.replace(
+            rings,
+            points=move(rings.points),
+            other_root=move(rings.other_root),
+            origins=move(rings.origins),
+            directions=rings.directions @ rotation.T,
+        )
+    points = dataclasses.replace(
+        pair.points,
+        points=move(pair.points.points),
+        normals=(pair.points.normals @ rotation.T).astype(np.float32),
+    )
+    return dataclasses.replace(pair, grid=move(pair.grid), rings=rings, points=points)
+
+
 def align_pairs(rig: Rig, pairs: list[PairResult], max_distance_mm: float) -> dict[str, object]:
-    """Realign every pair to those before it (the first stays) by point-to-plane ICP; the pairs'
-    points, normals and grids are moved in place of the old ones."""
+    """Realign every pair to those before it (the first stays) by point-to-plane ICP, replacing
+    the pairs in the list by their moved results. A pair whose overlap cannot fix the motion (too
+    small, flat, symmetric) stays as calibrated and the report says why."""
     report: dict[str, object] = {}
-    reference = pairs[0].points
-    for k, pair in enumerate(pairs[1:], start=1):
+    for k in range(1, len(pairs)):
+        pair = pairs[k]
         name = f"{rig.config.projectors[pair.projector].name}/{rig.config.cameras[pair.camera].name}"
-        found = point_to_plane(
-            pair.points.points, pair.points.normals, reference.points, reference.normals, max_distance_mm
-        )
-        if found is None:
-            report[name] = "too little overlap with the pairs before it; left as calibrated"
+        reference = PointSet.concatenate([p.points for p in pairs[:k]])
+        try:
+            found = point_to_plane(
+                pair.points.points, pair.points.normals, reference.points, reference.normals, max_distance_mm
+            )
+        except AlignmentRefusedError as exc:
+            report[name] = f"left as calibrated: {exc}"
             continue
-        pair.points = dataclasses.replace(
-            pair.points,
-            points=found.apply(pair.points.points),
-            normals=(pair.points.normals @ found.rotation.T).astype(np.float32),
-        )
-        pair.grid = found.apply(pair.grid.reshape(-1, 3)).reshape(pair.grid.shape)
+        pairs[k] = moved_pair(pair, found.rotation, found.translation)
         report[name] = found.as_dict()
-        reference = PointSet.concatenate([p.points for p in pairs[: k + 1]])
     return report

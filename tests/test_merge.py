@@ -190,3 +190,15 @@ def test_where_each_pair_measured_the_merged_cloud_is_no_worse(codec: str) -> No
     for name, pair in report["pairs"].items():
         assert pair["merged_rms_mm_here"] <= pair["rms_mm"], (codec, name, pair)
     assert report["merged"]["completeness"] > max(p["completeness"] for p in report["pairs"].values())
+
+
+def test_icp_refuses_an_overlap_that_leaves_a_motion_free() -> None:
+    from rig.icp import AlignmentRefusedError, point_to_plane
+
+    rng = np.random.default_rng(2)
+    plane = np.c_[rng.uniform(-50, 50, (5000, 2)), np.zeros(5000)]
+    up = np.tile([0.0, 0.0, 1.0], (5000, 1))
+    with pytest.raises(AlignmentRefusedError, match="leaves a motion free"):
+        point_to_plane(plane[:2500] + [1.0, 0, 0.2], up[:2500], plane[2500:], up[2500:], 5.0)
+    with pytest.raises(AlignmentRefusedError, match="pair up"):
+        point_to_plane(plane[:2500] + [0, 0, 50.0], up[:2500], plane[2500:], up[2500:], 5.0)
