@@ -257,7 +257,7 @@ class MergeConfig(Strict):
     refine: Literal["none", "icp"] = Field("none", description="icp: realign every pair to the first by ICP")
     icp_max_distance_mm: float = Field(5.0, gt=0, le=100, description="ICP correspondences farther apart are ignored")
     pairs: list[tuple[int, int]] | None = Field(
-        None, max_length=256, description="the (projector, camera) pairs to reconstruct; null: all"
+        None, min_length=1, max_length=256, description="the (projector, camera) pairs to reconstruct; null: all"
     )
 
 

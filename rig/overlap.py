@@ -13,6 +13,7 @@ import numpy as np
 
 NOISE_FLOOR = 0.015  # of full scale: below this the excess light is noise
 MIN_LIGHT = 0.03  # of full scale: darker pixels are unlit or shadowed
+SATURATED = 0.98  # of full scale
 
 
 def _mono(image: np.ndarray) -> np.ndarray:
@@ -26,8 +27,11 @@ def overlap_from_cue(frames: list[np.ndarray], full_scale: int, ratio: float) ->
         raise ValueError("the overlap cue needs a dark frame, two or more single frames and a together frame")
     mono = [_mono(f) for f in frames]
     dark, singles, together = mono[0], mono[1:-1], mono[-1]
-    total = together - dark
-    brightest = np.max([s - dark for s in singles], axis=0)
+    lit = [s - dark for s in singles]
+    # Where the frame of all projectors clips, its sum is lost: add the single frames instead.
+    clipped = together >= SATURATED * full_scale
+    total = np.where(clipped, np.sum(lit, axis=0), together - dark)
+    brightest = np.max(lit, axis=0)
     excess = total - brightest
     return (total > MIN_LIGHT * full_scale) & (excess > NOISE_FLOOR * full_scale) & (excess > ratio * total)
 

@@ -199,6 +199,34 @@ def test_icp_refuses_an_overlap_that_leaves_a_motion_free() -> None:
     plane = np.c_[rng.uniform(-50, 50, (5000, 2)), np.zeros(5000)]
     up = np.tile([0.0, 0.0, 1.0], (5000, 1))
     with pytest.raises(AlignmentRefusedError, match="leaves a motion free"):
-        point_to_plane(plane[:2500] + [1.0, 0, 0.2], up[:2500], plane[2500:], up[2500:], 5.0)
+        point_to_plane(plane[:2500] + np.array([1.0, 0, 0.2]), up[:2500], plane[2500:], up[2500:], 5.0)
     with pytest.raises(AlignmentRefusedError, match="pair up"):
-        point_to_plane(plane[:2500] + [0, 0, 50.0], up[:2500], plane[2500:], up[2500:], 5.0)
+        point_to_plane(plane[:2500] + np.array([0, 0, 50.0]), up[:2500], plane[2500:], up[2500:], 5.0)
+
+
+def test_the_cue_sees_overlap_where_the_all_lit_frame_clips() -> None:
+    from rig.overlap import overlap_from_cue
+
+    dark = np.zeros((1, 3), np.uint8)
+    left = np.array([[240, 240, 120]], np.uint8)
+    right = np.array([[240, 0, 0]], np.uint8)
+    both = np.array([[255, 240, 120]], np.uint8)  # the first pixel clips: its sum, 480, is lost
+    assert overlap_from_cue([dark, left, right, both], 255, 0.08).tolist() == [[True, False, False]]
+
+
+def test_pairs_that_leave_a_camera_out_store_without_its_depth(
+    multi: tuple[Rig, ScanResult, Any], tmp_path: Path
+) -> None:
+    import dataclasses
+
+    from rig.errors import ConfigError
+
+    the_rig, result, _ = multi
+    left_only = dataclasses.replace(result, pairs=[p for p in result.pairs if p.camera == 0])
+    folder = write_scan(the_rig, left_only, tmp_path / "scan", "20261121-000000-abcdef")
+    assert set(json.loads((folder / "manifest.json").read_text())["files"]["depth"]) == {"camera-left"}
+    data = yaml.safe_load((REPO_CONFIG_DIR / "sim-multi.yaml").read_text())
+    for pairs, problem in (([], "at least 1 item"), ([[0, 2]], "names no projector and camera")):
+        data["scan"]["merge"] = {"pairs": pairs}
+        with pytest.raises(ConfigError, match=problem):
+            config_from_dict(data, "t")

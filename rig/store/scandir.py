@@ -112,8 +112,8 @@ def build_manifest(
     }
 
 
-def _depth_grid(result: ScanResult, camera: int) -> np.ndarray:
-    """Organised points of a camera, filled from each projector in turn."""
+def _depth_grid(result: ScanResult, camera: int) -> np.ndarray | None:
+    """Organised points of a camera, filled from each projector in turn (None: no pair has it)."""
     grid: np.ndarray | None = None
     for pair in result.pairs:
         if pair.camera != camera:
@@ -123,7 +123,6 @@ def _depth_grid(result: ScanResult, camera: int) -> np.ndarray:
         else:
             missing = ~np.isfinite(grid).all(axis=2)
             grid[missing] = pair.grid[missing]
-    assert grid is not None
     return grid
 
 
@@ -148,8 +147,11 @@ def write_scan(
         files: dict[str, Any] = {"cloud": "cloud.ply", "preview": "preview.png", "depth": {}}
         write_atomic(partial / "cloud.ply", ply_bytes(result.cloud, comment=f"slrig scan {scan_id}"))
         for c, camera in enumerate(the_rig.config.cameras):
+            grid = _depth_grid(result, c)
+            if grid is None:  # scan.merge.pairs left this camera out
+                continue
             name = f"depth_{camera.name}.png"
-            write_atomic(partial / name, depth_png(_depth_grid(result, c), the_rig.camera_models[c]))
+            write_atomic(partial / name, depth_png(grid, the_rig.camera_models[c]))
             files["depth"][camera.name] = name
         write_atomic(partial / "preview.png", preview_png(result.cloud, the_rig.camera_models[0]))
         for c, mask in result.overlap.items():
