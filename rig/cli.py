@@ -71,6 +71,7 @@ def _parser() -> argparse.ArgumentParser:
     plan.add_argument("--scene", default=None, help="box, sphere or a mesh file (default: the config's object)")
     plan.add_argument("--coverage", type=float, default=0.95, help="fraction of the surface to cover (0.95)")
     plan.add_argument("--candidates", type=int, default=120, help="candidate heads on a sphere (120)")
+    plan.add_argument("--poses", type=Path, default=None, help="YAML list of candidate camera positions [x, y, z] mm")
     plan.add_argument("--distance", type=float, default=None, help="their distance, mm (4 x the object's radius)")
     plan.add_argument("--max-angle", type=float, default=65.0, help="steepest view of a surface, degrees (65)")
     plan.add_argument("--baseline", type=float, default=15.0, help="projector beside camera, degrees (15)")
@@ -289,8 +290,16 @@ def cmd_plan(args: argparse.Namespace) -> int:
     if hasattr(scene_config, "plane") and isinstance(scene_config.plane, bool):  # the object alone
         config = config.with_scene({**scene_config.model_dump(mode="json"), "plane": False})
     scene = build_scene(config.simulation)  # type: ignore[arg-type]
+    positions = _candidate_positions(args.poses) if args.poses else None
     plan = plan_views(
-        scene, args.coverage, args.candidates, args.distance, args.max_angle, args.baseline, args.min_elevation
+        scene,
+        args.coverage,
+        args.candidates,
+        args.distance,
+        args.max_angle,
+        args.baseline,
+        args.min_elevation,
+        positions=positions,
     )
     report = plan.as_dict()
     if args.confirm:
@@ -305,6 +314,22 @@ def cmd_plan(args: argparse.Namespace) -> int:
     if args.confirm:
         print(f"the simulated bench confirms {report['confirmed_coverage']:.1%}")
     return 0
+
+
+def _candidate_positions(path: Path) -> Any:
+    import numpy as np
+    import yaml
+
+    try:
+        data = yaml.safe_load(path.read_text())
+        positions = np.asarray(data, dtype=float)
+    except (OSError, yaml.YAMLError, ValueError, TypeError) as exc:
+        raise ConfigError(str(path), [f"--poses: {path} is not a YAML list of [x, y, z] positions ({exc})"]) from None
+    if positions.ndim != 2 or positions.shape[1] != 3 or not 1 <= len(positions) <= 5000:
+        raise ConfigError(str(path), [f"--poses: {path} must list 1 to 5000 positions [x, y, z] (mm)"])
+    if not np.isfinite(positions).all():
+        raise ConfigError(str(path), [f"--poses: {path} has a position that is not a finite number"])
+    return positions
 
 
 def cmd_serve(args: argparse.Namespace) -> int:

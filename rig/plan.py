@@ -1,12 +1,14 @@
-"""Viewpoint planning: the fewest projector-camera heads that cover a chosen fraction of an object.
+"""Viewpoint planning: few projector-camera heads that cover a chosen fraction of an object.
 
-Candidate heads stand on a sphere around the object (a Fibonacci lattice), each a camera looking at
-the centre with its projector beside it (`baseline_deg` around the vertical). A surface sample is
-covered by a head when both see it unoccluded within `max_angle_deg` of its normal (the
-dissertation's visibility rule). Heads are chosen greedily by the area they add (set cover), until
-the coverage target is met; then projectors whose light other heads' projectors already give are
-dropped. `confirm_on_bench` renders the plan on the simulated bench and measures the coverage from
-what its cameras see lit, independently of the planner's ray casts.
+Candidate heads stand on a sphere around the object (a Fibonacci lattice) or where the operator
+lists them, each a camera looking at the centre with its projector beside it (`baseline_deg` about
+the camera's own vertical image axis, so every head triangulates at that angle). A surface sample
+is covered by a head when both see it unoccluded within `max_angle_deg` of its normal (the
+dissertation's visibility rule). Set cover is NP-hard: heads are chosen greedily by the area they
+add until the target is met, then any head the others make redundant is dropped, then projectors
+whose light other heads' projectors already give. `confirm_on_bench` renders the plan on the
+simulated bench and measures the coverage from what its cameras see lit, independently of the
+planner's ray casts.
 """
 
 from __future__ import annotations
@@ -15,6 +17,7 @@ from dataclasses import dataclass
 
 import numpy as np
 from scipy.spatial import cKDTree
+from scipy.spatial.transform import Rotation
 
 from drivers.sim import SimBench
 from drivers.sim import scene as sim_scene
@@ -76,10 +79,20 @@ def sphere_positions(center: np.ndarray, distance: float, count: int, min_elevat
     return center + distance * np.stack([r * np.cos(azimuth), r * np.sin(azimuth), z], axis=1)
 
 
-def _rotate_about_vertical(points: np.ndarray, center: np.ndarray, degrees: float) -> np.ndarray:
-    c, s = np.cos(np.radians(degrees)), np.sin(np.radians(degrees))
-    rotation = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
-    return (points - center) @ rotation.T + center
+def _look_up(position: np.ndarray, center: np.ndarray) -> np.ndarray:
+    """The up vector a device at `position` uses: world z, or world y looking straight up or down."""
+    direction = (center - position) / np.linalg.norm(center - position)
+    return np.array([0.0, 0.0, 1.0]) if abs(direction[2]) < 0.99 else np.array([0.0, 1.0, 0.0])
+
+
+def beside(cameras: np.ndarray, center: np.ndarray, degrees: float) -> np.ndarray:
+    """Projector positions: each camera's position turned about its own vertical image axis
+    through the centre, so the head's baseline runs across the camera's image rows."""
+    out = []
+    for position in cameras:
+        axis = look_at_rotation(position, center, _look_up(position, center))[1]  # image y, in the world
+        out.append(center + Rotation.from_rotvec(np.radians(degrees) * axis).apply(position - center))
+    return np.array(out)
 
 
 def visible(
@@ -108,13 +121,18 @@ def plan_views(
     baseline_deg: float = 15.0,
     min_elevation_deg: float = -90.0,
     spacing_mm: float = 2.0,
+    positions: np.ndarray | None = None,
 ) -> ViewPlan:
+    """`positions`: the operator's candidate camera positions (N, 3), instead of the sphere."""
     points, normals = surface_samples(scene, spacing_mm)
     center = 0.5 * (scene.vertices.min(axis=0) + scene.vertices.max(axis=0))
     radius = float(np.linalg.norm(scene.vertices - center, axis=1).max())
     distance = distance_mm or 4.0 * radius
-    cams = sphere_positions(center, distance, candidates, min_elevation_deg)
-    projs = _rotate_about_vertical(cams, center, baseline_deg)
+    if positions is None:
+        cams = sphere_positions(center, distance, candidates, min_elevation_deg)
+    else:
+        cams = np.asarray(positions, float).reshape(-1, 3)
+    projs = beside(cams, center, baseline_deg)
     caster = RayCaster(scene.vertices, scene.faces)
     seen = np.stack([visible(caster, points, normals, p, max_angle_deg) for p in cams])
     lit = np.stack([visible(caster, points, normals, p, max_angle_deg) for p in projs])
@@ -128,10 +146,15 @@ def plan_views(
             break  # nothing more can be covered from these candidates
         chosen.append(best)
         covered |= heads[best]
+    goal = min(coverage, covered.mean())
+    for head in sorted(chosen, key=lambda h: int(heads[h].sum())):  # greedy picks early ones others replace
+        rest = [h for h in chosen if h != head]
+        if rest and heads[rest].any(axis=0).mean() >= goal:
+            chosen = rest
     cameras, projectors = list(chosen), list(chosen)
     for head in sorted(chosen, key=lambda h: int(lit[h].sum())):  # drop projectors others replace
         rest = [p for p in projectors if p != head]
-        if rest and (seen[cameras].any(axis=0) & lit[rest].any(axis=0)).mean() >= min(coverage, covered.mean()):
+        if rest and (seen[cameras].any(axis=0) & lit[rest].any(axis=0)).mean() >= goal:
             projectors = rest
     final = (seen[cameras].any(axis=0) & lit[projectors].any(axis=0)).mean() if cameras else 0.0
     return ViewPlan(
@@ -140,7 +163,7 @@ def plan_views(
         center=center,
         coverage=float(final),
         samples=len(points),
-        candidates=candidates,
+        candidates=len(cams),
     )
 
 
@@ -149,10 +172,7 @@ def _device(position: np.ndarray, center: np.ndarray, radius: float) -> CameraMo
     distance = float(np.linalg.norm(position - center))
     half_angle = np.arcsin(min(0.99, 1.1 * radius / distance))
     f = 0.5 * min(width, height) / np.tan(half_angle)
-    up = np.array([0.0, 0.0, 1.0])
-    if abs(np.dot((center - position) / distance, up)) > 0.99:
-        up = np.array([0.0, 1.0, 0.0])
-    rotation = look_at_rotation(position, center, up)
+    rotation = look_at_rotation(position, center, _look_up(position, center))
     K = np.array([[f, 0, (width - 1) / 2], [0, f, (height - 1) / 2], [0, 0, 1]])
     return CameraModel(width, height, K, rotation, -rotation @ position)
 

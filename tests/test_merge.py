@@ -230,3 +230,16 @@ def test_pairs_that_leave_a_camera_out_store_without_its_depth(
         data["scan"]["merge"] = {"pairs": pairs}
         with pytest.raises(ConfigError, match=problem):
             config_from_dict(data, "t")
+
+
+def test_plan_views_takes_the_operators_candidate_poses(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    poses = [[300, 0, 100], [-300, 0, 100], [0, 300, 100], [0, -300, 100], [0, 0, 350], [0, 0, -300]]
+    path = tmp_path / "poses.yaml"
+    path.write_text(yaml.safe_dump(poses))
+    assert main(["plan", "views", "--scene", "box", "--poses", str(path), "--json"]) == 0
+    plan = json.loads(capsys.readouterr().out)
+    assert plan["candidates"] == 6 and plan["coverage"] >= 0.95
+    assert all(c["position_mm"] in [[float(x) for x in p] for p in poses] for c in plan["cameras"])
+    path.write_text("- [1, 2]\n")
+    assert main(["plan", "views", "--scene", "box", "--poses", str(path)]) == 2
+    assert "must list 1 to 5000 positions" in capsys.readouterr().err
