@@ -6,7 +6,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.spatial import Delaunay, QhullError
+from scipy.spatial import Delaunay, QhullError, cKDTree
 
 from rig.geometry import CameraModel
 from rig.geometry.cone import ray_cone, refine_on_distorted_ring
@@ -95,6 +95,30 @@ def triangulate_rings(
         contrast=samples.contrast[keep],
     )
     return result, counts
+
+
+def along_ring_support(
+    rings: RingPoints, camera: CameraModel, max_jump_mm: float, reach_px: float = 3.0, min_support: int = 2
+) -> np.ndarray:
+    """Mask of kept ring points with at least `min_support` samples of the same ring within
+    `reach_px` in the image whose depth is within `max_jump_mm`: the sparse codec's counterpart of
+    the dense depth-jump filter. A sample on a depth edge (its ring half on each surface) decodes to
+    neither surface and agrees with no neighbour; a point of a surface has one on each side."""
+    kept = np.flatnonzero(rings.kept)
+    if len(kept) < 2:
+        return rings.kept.copy()
+    depth = (rings.points[kept] - camera.center) @ camera.axis
+    # The ring index as a third coordinate far apart keeps neighbours on their own ring.
+    coords = np.column_stack([rings.camera_xy[kept], rings.ring[kept] * 10.0 * reach_px])
+    pairs = cKDTree(coords).query_pairs(reach_px, output_type="ndarray")
+    support = np.zeros(len(kept), np.int64)
+    if len(pairs):
+        close = np.abs(depth[pairs[:, 0]] - depth[pairs[:, 1]]) <= max_jump_mm
+        np.add.at(support, pairs[close, 0], 1)
+        np.add.at(support, pairs[close, 1], 1)
+    out = np.zeros(len(rings.kept), bool)
+    out[kept[support >= min_support]] = True
+    return out
 
 
 def _closed_form(model: str, camera: CameraModel, projector: CameraModel, samples: RingSamples) -> np.ndarray:

@@ -16,7 +16,7 @@ from rig.patterns import Codec, Correspondence, codec_class
 from rig.pointset import PointSet
 from rig.progress import ProgressCallback, ProgressTracker
 from rig.reconstruct import pair_pointset, reject_isolated
-from rig.reconstruct_sparse import RingPoints, ring_pointset, triangulate_rings
+from rig.reconstruct_sparse import RingPoints, along_ring_support, ring_pointset, triangulate_rings
 from rig.rig import Rig
 from rig.sequencer import CUE, capture
 
@@ -68,6 +68,12 @@ def reconstruct_pair(
     if corr.samples is not None:
         rings, ring_counts = triangulate_rings(model, rig.projector_models[projector], corr.samples)
         counts.update(ring_counts)
+        limit = rig.config.scan.max_depth_jump_mm
+        if limit is not None:
+            supported = along_ring_support(rings, model, limit)
+            counts["rejected_depth_jump"] = int((rings.kept & ~supported).sum())
+            rings = dataclasses.replace(rings, kept=supported)
+            counts["ring_points"] = int(supported.sum())
     else:
         grid, valid = rig.triangulator(projector, camera).triangulate(corr)
         limit = rig.config.scan.max_depth_jump_mm

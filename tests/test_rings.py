@@ -220,3 +220,31 @@ def test_ring_radii_and_count_must_agree() -> None:
         RingsParams(rings=32, radii_px=[10.0, 30.0, 60.0])
     codec = codec_class("rings")(SIZE, RingsParams(radii_px=[10.0, 30.0, 60.0]))
     assert len(codec.radii) == 3 and codec.frame_count == 2 + 2 + 2 * 2 + 4
+
+
+def test_a_ring_sample_off_its_neighbours_depth_is_rejected() -> None:
+    from rig.geometry import CameraModel
+    from rig.reconstruct_sparse import RingPoints, along_ring_support
+
+    camera = CameraModel(640, 480, np.array([[500.0, 0, 320], [0, 500.0, 240], [0, 0, 1]]), np.eye(3), np.zeros(3))
+    n = 40
+    xy = np.column_stack([np.arange(n, dtype=float) + 100, np.full(n, 200.0)])  # one ring, a sample a pixel
+    depth = np.full(n, 600.0)
+    depth[20] += 5.0  # a sample on a depth edge: its depth agrees with neither neighbour
+    depth[30:] += 0.5  # a gentle step the surface itself has: within the 2 mm limit
+    points = np.column_stack([(xy[:, 0] - 320) / 500 * depth, (xy[:, 1] - 240) / 500 * depth, depth])
+    rings = RingPoints(
+        points=points,
+        other_root=np.full_like(points, np.nan),
+        origins=np.zeros_like(points),
+        directions=points / np.linalg.norm(points, axis=1, keepdims=True),
+        camera_xy=xy,
+        ring=np.full(n, 7),
+        sigma_mm=np.full(n, 0.01),
+        cos_beta=np.ones(n),
+        kept=np.ones(n, bool),
+        contrast=np.ones(n),
+    )
+    supported = along_ring_support(rings, camera, max_jump_mm=2.0)
+    assert not supported[20]
+    assert supported[np.r_[0:20, 21:n]].all()  # every other sample, both sides of the gentle step, stays
