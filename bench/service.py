@@ -126,7 +126,7 @@ def table(m: dict[str, object]) -> str:
         f"{', '.join(str(s) for s in scans)} s for three in a row (the first opens the devices), against "  # type: ignore[attr-defined]
         f"{m['scan_in_process_s']} s for the same job (scan, accuracy against the simulator, files) in process "
         "with the rig open. "
-        f"Measured by `python bench/service.py --readme` ({m['machine']})."
+        f"Clients and daemon share the machine. Measured by `python bench/service.py --readme` ({m['machine']})."
     )
 
 

@@ -200,11 +200,32 @@ def cmd_eval(args: argparse.Namespace) -> int:
         report["counts"] = pair.counts
     if args.json:
         print(json.dumps(report, allow_nan=False))
-    else:
-        width = max(len(k) for k in report)
-        for key, value in report.items():
-            shown = f"{value:.4f}" if isinstance(value, float) else str(value)
-            print(f"{key:<{width}}  {shown}")
+        return 0
+    nested = {k: v for k, v in report.items() if isinstance(v, dict)}
+    flat = {k: v for k, v in report.items() if k not in nested}
+    width = max(len(k) for k in flat)
+    for key, value in flat.items():
+        shown = f"{value:.4f}" if isinstance(value, float) else str(value)
+        print(f"{key:<{width}}  {shown}")
+    for key, value in nested.items():
+        if key not in ("pairs", "overlap_cue", "merge"):
+            print(f"{key:<{width}}  {json.dumps(value)}")
+    if "pairs" in nested:  # several pairs: each beside the merged cloud, on the same surface
+        print(f"\n{'pair':<40} {'points':>8} {'rms mm':>8} {'merged here':>11} {'complete':>9}")
+        for name, p in nested["pairs"].items():
+            here = p["merged_rms_mm_here"]
+            print(
+                f"{name:<40} {p['points']:>8} {p['rms_mm']:>8.4f} "
+                f"{'-' if here is None else f'{here:.4f}':>11} {p['completeness']:>9.1%}"
+            )
+        for camera, cue in nested.get("overlap_cue", {}).items():
+            print(f"overlap cue, {camera}: precision {cue['precision']:.3f}, recall {cue['recall']:.3f}")
+        merge = nested.get("merge") or {}
+        if merge:
+            print(
+                f"merge: {merge['points_in']} -> {merge['points_out']} points "
+                f"({merge['redundant_removed']} redundant, {merge['thinned_removed']} thinned)"
+            )
     return 0
 
 
