@@ -112,7 +112,7 @@ def local_noise_mm(points: np.ndarray, neighbours: int = 12, chunk: int = 100_00
     tree = cKDTree(points)
     out = np.empty(len(points))
     for start in range(0, len(points), chunk):
-        _, index = tree.query(points[start : start + chunk], neighbours)
+        _, index = tree.query(points[start : start + chunk], neighbours, workers=-1)
         near = points[index]
         centred = near - near.mean(axis=1, keepdims=True)
         covariance = np.einsum("nki,nkj->nij", centred, centred) / neighbours
@@ -127,7 +127,7 @@ def sampling_distance(cloud: PointSet) -> dict[int, float]:
         points = cloud.points[cloud.source == source]
         if len(points) < 2:
             continue
-        distances, _ = cKDTree(points).query(points, k=2)
+        distances, _ = cKDTree(points).query(points, k=2, workers=-1)
         out[int(source)] = float(np.median(distances[:, 1]))
     return out
 
@@ -137,27 +137,26 @@ def compare_across_pairs(
 ) -> tuple[np.ndarray, np.ndarray]:
     """(keep, overlap) masks: a point is kept unless a point of another pair with a higher score
     (ties: the lower index) lies within `radius`; it overlaps if any point of another pair does.
-    One tree per pair and chunked queries of the nearest `neighbours`: memory stays bounded by
-    the chunk, not by how many pairs of points lie close."""
+    Chunked queries of the nearest `neighbours` among all other pairs' points: memory stays bounded
+    by the chunk, not by how many points lie close."""
     keep, overlap = np.ones(len(points), bool), np.zeros(len(points), bool)
-    members = {int(s): np.flatnonzero(source == s) for s in np.unique(source)}
-    trees = {s: cKDTree(points[m]) for s, m in members.items()}
-    for a, mine in members.items():
-        for b, theirs in members.items():
-            if a == b:
-                continue
-            k = min(neighbours, len(theirs))
-            for start in range(0, len(mine), chunk):
-                rows = mine[start : start + chunk]
-                distance, found = trees[b].query(points[rows], k, distance_upper_bound=radius)
-                distance, found = distance.reshape(len(rows), k), found.reshape(len(rows), k)
-                near = np.isfinite(distance)
-                other = theirs[np.where(near, found, 0)]
-                better = near & (
-                    (score[other] > score[rows, None]) | ((score[other] == score[rows, None]) & (other < rows[:, None]))
-                )
-                overlap[rows] |= near.any(axis=1)
-                keep[rows] &= ~better.any(axis=1)
+    for a in np.unique(source):
+        mine, theirs = np.flatnonzero(source == a), np.flatnonzero(source != a)
+        if len(theirs) == 0:
+            continue
+        tree = cKDTree(points[theirs])  # every other pair at once: one query per point
+        k = min(neighbours, len(theirs))
+        for start in range(0, len(mine), chunk):
+            rows = mine[start : start + chunk]
+            distance, found = tree.query(points[rows], k, distance_upper_bound=radius, workers=-1)
+            distance, found = distance.reshape(len(rows), k), found.reshape(len(rows), k)
+            near = np.isfinite(distance)
+            other = theirs[np.where(near, found, 0)]
+            better = near & (
+                (score[other] > score[rows, None]) | ((score[other] == score[rows, None]) & (other < rows[:, None]))
+            )
+            overlap[rows] |= near.any(axis=1)
+            keep[rows] &= ~better.any(axis=1)
     return keep, overlap
 
 
