@@ -121,6 +121,68 @@ def along_ring_support(
     return out
 
 
+def _plane_agrees(
+    xy: np.ndarray,
+    depth: np.ndarray,
+    index: np.ndarray,
+    use: np.ndarray,
+    max_jump_mm: float,
+    min_count: int,
+    max_scatter_mm: float = np.inf,
+) -> np.ndarray:
+    """For each point, whether a plane (depth over image position) fitted to its neighbours `index`
+    where `use` predicts its depth within `max_jump_mm` or four times the fit's scatter; False
+    where fewer than `min_count` neighbours support it or the fit scatters more than `max_scatter_mm`
+    (it is then no plane: two surfaces, which a plane would interpolate between)."""
+    count = use.sum(axis=1)
+    dx = xy[index] - xy[:, None, :]
+    design = np.concatenate([np.ones((*index.shape, 1)), dx], axis=2) * use[..., None]
+    target = depth[index] * use
+    normal = np.einsum("nki,nkj->nij", design, design) + 1e-6 * np.eye(3)
+    coef = np.linalg.solve(normal, np.einsum("nki,nk->ni", design, target)[..., None])[..., 0]
+    scatter = np.sqrt(
+        np.sum((target - np.einsum("nki,ni->nk", design, coef)) ** 2 * use, axis=1) / np.maximum(count - 3, 1)
+    )
+    allowed = np.maximum(max_jump_mm, 4.0 * scatter)
+    return (count >= min_count) & (scatter <= max_scatter_mm) & (np.abs(depth - coef[:, 0]) <= allowed)
+
+
+def across_ring_support(
+    rings: RingPoints, camera: CameraModel, max_jump_mm: float, neighbours: int = 24, min_count: int = 6
+) -> np.ndarray:
+    """Mask of kept ring points that the neighbouring rings agree with. A stretch of a ring that took
+    a wrong index at a depth edge agrees with itself (so the along-ring test keeps it) but lies
+    between the two surfaces. The nearest samples of other rings are split at the largest gap in
+    their depths (the two sides of an edge, or two halves of one surface), and a plane is fitted to
+    all of them (if they lie on one plane) and to each part: a point no fit predicts is rejected.
+    Points whose neighbours come from one other ring only (a curve: a plane through it
+    extrapolates) are left alone. Run it twice: once the worst are gone, the fits see clearly."""
+    kept = np.flatnonzero(rings.kept)
+    out = rings.kept.copy()
+    if len(kept) <= neighbours:
+        return out
+    xy = rings.camera_xy[kept]
+    depth = (rings.points[kept] - camera.center) @ camera.axis
+    ring = rings.ring[kept]
+    _, index = cKDTree(xy).query(xy, min(len(kept), 3 * neighbours), workers=-1)
+    other = ring[index] != ring[:, None]
+    other &= np.cumsum(other, axis=1) <= neighbours  # the nearest samples of other rings
+    lowest = np.where(other, ring[index], np.iinfo(ring.dtype).max).min(axis=1)
+    highest = np.where(other, ring[index], np.iinfo(ring.dtype).min).max(axis=1)
+    judged = highest > lowest
+    near_depth = np.where(other, depth[index], np.nan)
+    ordered = np.sort(near_depth, axis=1)  # NaN last
+    gaps = np.diff(ordered, axis=1)
+    split_at = np.nanargmax(np.where(np.isfinite(gaps), gaps, -np.inf), axis=1)
+    threshold = 0.5 * (ordered[np.arange(len(kept)), split_at] + ordered[np.arange(len(kept)), split_at + 1])
+    below = other & (depth[index] <= threshold[:, None])
+    whole = _plane_agrees(xy, depth, index, other, max_jump_mm, min_count, max_scatter_mm=0.5 * max_jump_mm)
+    agrees = whole | _plane_agrees(xy, depth, index, below, max_jump_mm, min_count)
+    agrees |= _plane_agrees(xy, depth, index, other & ~below, max_jump_mm, min_count)
+    out[kept[judged & ~agrees & (other.sum(axis=1) >= min_count)]] = False
+    return out
+
+
 def _closed_form(model: str, camera: CameraModel, projector: CameraModel, samples: RingSamples) -> np.ndarray:
     if model == "parallel":
         return parallel_projection(

@@ -16,7 +16,13 @@ from rig.patterns import Codec, Correspondence, codec_class
 from rig.pointset import PointSet
 from rig.progress import ProgressCallback, ProgressTracker
 from rig.reconstruct import pair_pointset, reject_isolated
-from rig.reconstruct_sparse import RingPoints, along_ring_support, ring_pointset, triangulate_rings
+from rig.reconstruct_sparse import (
+    RingPoints,
+    across_ring_support,
+    along_ring_support,
+    ring_pointset,
+    triangulate_rings,
+)
 from rig.rig import Rig
 from rig.sequencer import CUE, capture
 
@@ -71,6 +77,8 @@ def reconstruct_pair(
         limit = rig.config.scan.max_depth_jump_mm
         if limit is not None:
             supported = along_ring_support(rings, model, limit)
+            for _ in range(2):  # a second pass, once the first has removed the worst, sees more clearly
+                supported &= across_ring_support(dataclasses.replace(rings, kept=supported), model, limit)
             counts["rejected_depth_jump"] = int((rings.kept & ~supported).sum())
             rings = dataclasses.replace(rings, kept=supported)
             counts["ring_points"] = int(supported.sum())

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from rig.cli import main
-from rig.config import load_config
+from rig.config import config_from_dict, load_config
 from rig.geometry.cone import ray_cone
 from rig.patterns import codec_class
 from rig.patterns.radial import RadialParams
@@ -248,3 +248,22 @@ def test_a_ring_sample_off_its_neighbours_depth_is_rejected() -> None:
     supported = along_ring_support(rings, camera, max_jump_mm=2.0)
     assert not supported[20]
     assert supported[np.r_[0:20, 21:n]].all()  # every other sample, both sides of the gentle step, stays
+
+
+def test_ring_stretches_that_straddle_a_depth_edge_are_rejected() -> None:
+    """On the box a stretch of one ring decodes between the box top and the floor, agreeing with
+    itself along the ring; the rings around it do not agree, and it goes."""
+    from rig.evaluate import evaluate_on_bench
+    from rig.rig import open_rig
+    from rig.scan import run_scan
+
+    config = load_config().with_codec("rings").with_scene({"kind": "box"})
+    with open_rig(config) as the_rig:
+        filtered = evaluate_on_bench(the_rig, run_scan(the_rig).pairs[0])
+    data = config.model_dump(mode="json")
+    data["scan"]["max_depth_jump_mm"] = None
+    with open_rig(config_from_dict(data, "unfiltered")) as the_rig:
+        unfiltered = evaluate_on_bench(the_rig, run_scan(the_rig).pairs[0])
+    assert unfiltered["max_mm"] > 10 and filtered["max_mm"] < 3  # type: ignore[operator]
+    assert filtered["rms_mm"] < 0.1 < unfiltered["rms_mm"]  # type: ignore[operator]
+    assert filtered["points"] > 0.95 * unfiltered["points"]  # type: ignore[operator]
