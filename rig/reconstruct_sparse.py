@@ -122,29 +122,29 @@ def along_ring_support(
 
 
 def _plane_agrees(
-    xy: np.ndarray,
+    dx: np.ndarray,
+    dy: np.ndarray,
+    z: np.ndarray,
     depth: np.ndarray,
-    index: np.ndarray,
     use: np.ndarray,
     max_jump_mm: float,
     min_count: int,
     max_scatter_mm: float = np.inf,
 ) -> np.ndarray:
-    """For each point, whether a plane (depth over image position) fitted to its neighbours `index`
-    where `use` predicts its depth within `max_jump_mm` or four times the fit's scatter; False
-    where fewer than `min_count` neighbours support it or the fit scatters more than `max_scatter_mm`
-    (it is then no plane: two surfaces, which a plane would interpolate between)."""
-    count = use.sum(axis=1)
-    dx = xy[index] - xy[:, None, :]
-    design = np.concatenate([np.ones((*index.shape, 1)), dx], axis=2) * use[..., None]
-    target = depth[index] * use
-    normal = np.einsum("nki,nkj->nij", design, design) + 1e-6 * np.eye(3)
-    coef = np.linalg.solve(normal, np.einsum("nki,nk->ni", design, target)[..., None])[..., 0]
-    scatter = np.sqrt(
-        np.sum((target - np.einsum("nki,ni->nk", design, coef)) ** 2 * use, axis=1) / np.maximum(count - 3, 1)
-    )
+    """For each point, whether the plane z = a + b dx + c dy fitted to its neighbours (offsets `dx`,
+    `dy` in pixels, depths `z`, (N, K)) where `use` predicts its depth (the plane's `a`) within
+    `max_jump_mm` or four times the fit's scatter; False where fewer than `min_count` neighbours
+    support it or the fit scatters more than `max_scatter_mm` (no plane: two surfaces, which a
+    plane would interpolate between)."""
+    w = use.astype(np.float64)
+    sums = [np.sum(w * term, axis=1) for term in (1.0, dx, dy, dx * dx, dx * dy, dy * dy, z, dx * z, dy * z)]
+    n, sx, sy, sxx, sxy, syy, sz, sxz, syz = sums
+    normal = np.stack([np.stack([n, sx, sy], 1), np.stack([sx, sxx, sxy], 1), np.stack([sy, sxy, syy], 1)], 1)
+    coef = np.linalg.solve(normal + 1e-6 * np.eye(3), np.stack([sz, sxz, syz], 1)[..., None])[..., 0]
+    fitted = coef[:, :1] + coef[:, 1:2] * dx + coef[:, 2:3] * dy
+    scatter = np.sqrt(np.sum(w * (z - fitted) ** 2, axis=1) / np.maximum(n - 3, 1))
     allowed = np.maximum(max_jump_mm, 4.0 * scatter)
-    return (count >= min_count) & (scatter <= max_scatter_mm) & (np.abs(depth - coef[:, 0]) <= allowed)
+    return (n >= min_count) & (scatter <= max_scatter_mm) & (np.abs(depth - coef[:, 0]) <= allowed)
 
 
 def across_ring_support(
@@ -164,22 +164,37 @@ def across_ring_support(
     xy = rings.camera_xy[kept]
     depth = (rings.points[kept] - camera.center) @ camera.axis
     ring = rings.ring[kept]
-    _, index = cKDTree(xy).query(xy, min(len(kept), 3 * neighbours), workers=-1)
+    # Candidates: every 4th sample, so a point's own ring (a sample a pixel) does not crowd out the
+    # other rings among its nearest, and the fits span a wider patch.
+    candidates = np.arange(0, len(kept), 4)
+    k = min(len(candidates), 2 * neighbours)
+    _, nearest = cKDTree(xy[candidates]).query(xy, k, workers=-1)
+    index = candidates[nearest]
     other = ring[index] != ring[:, None]
-    other &= np.cumsum(other, axis=1) <= neighbours  # the nearest samples of other rings
-    lowest = np.where(other, ring[index], np.iinfo(ring.dtype).max).min(axis=1)
-    highest = np.where(other, ring[index], np.iinfo(ring.dtype).min).max(axis=1)
-    judged = highest > lowest
-    near_depth = np.where(other, depth[index], np.nan)
-    ordered = np.sort(near_depth, axis=1)  # NaN last
-    gaps = np.diff(ordered, axis=1)
-    split_at = np.nanargmax(np.where(np.isfinite(gaps), gaps, -np.inf), axis=1)
-    threshold = 0.5 * (ordered[np.arange(len(kept)), split_at] + ordered[np.arange(len(kept)), split_at + 1])
-    below = other & (depth[index] <= threshold[:, None])
-    whole = _plane_agrees(xy, depth, index, other, max_jump_mm, min_count, max_scatter_mm=0.5 * max_jump_mm)
-    agrees = whole | _plane_agrees(xy, depth, index, below, max_jump_mm, min_count)
-    agrees |= _plane_agrees(xy, depth, index, other & ~below, max_jump_mm, min_count)
-    out[kept[judged & ~agrees & (other.sum(axis=1) >= min_count)]] = False
+    # the nearest `neighbours` samples of other rings, packed to the front (stable: nearest first)
+    order = np.argsort(~other, axis=1, kind="stable")[:, :neighbours]
+    index = np.take_along_axis(index, order, axis=1)
+    use = np.take_along_axis(other, order, axis=1)
+    near_ring = ring[index]
+    judged = np.where(use, near_ring, np.iinfo(ring.dtype).max).min(axis=1) < np.where(
+        use, near_ring, np.iinfo(ring.dtype).min
+    ).max(axis=1)
+    dx, dy = xy[index, 0] - xy[:, :1], xy[index, 1] - xy[:, 1:]
+    z = depth[index]
+    agrees = _plane_agrees(dx, dy, z, depth, use, max_jump_mm, min_count, max_scatter_mm=0.5 * max_jump_mm)
+    doubt = np.flatnonzero(judged & ~agrees)  # on a smooth patch the one plane settles it
+    if len(doubt):
+        dx, dy, z, d, u = dx[doubt], dy[doubt], z[doubt], depth[doubt], use[doubt]
+        ordered = np.sort(np.where(u, z, np.nan), axis=1)  # NaN last
+        gaps = np.diff(ordered, axis=1)
+        split_at = np.argmax(np.where(np.isfinite(gaps), gaps, -np.inf), axis=1)
+        rows = np.arange(len(doubt))
+        threshold = 0.5 * (ordered[rows, split_at] + ordered[rows, split_at + 1])
+        below = u & (z <= threshold[:, None])
+        either = _plane_agrees(dx, dy, z, d, below, max_jump_mm, min_count)
+        either |= _plane_agrees(dx, dy, z, d, u & ~below, max_jump_mm, min_count)
+        agrees[doubt] = either
+    out[kept[judged & ~agrees & (use.sum(axis=1) >= min_count)]] = False
     return out
 
 
