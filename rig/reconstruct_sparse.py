@@ -18,6 +18,9 @@ from rig.reconstruct import texture_rgb
 # Triangles of the sample mesh longer than this (camera pixels) bridge gaps, not neighbouring rings.
 _MAX_TRIANGLE_EDGE_PX = 80.0
 
+# The across-ring test rejects only this many times the depth-jump limit off the neighbours' plane.
+ACROSS_RINGS_FACTOR = 5.0
+
 # A root whose projector angle is further than this from the decoded angle is not the ring point:
 # when neither root is this close, the sample is rejected.
 MAX_ANGLE_ERROR_RAD = 0.6
@@ -161,6 +164,10 @@ def across_ring_support(
     out = rings.kept.copy()
     if len(kept) <= neighbours:
         return out
+    # Neighbouring rings lie farther off than a ring's own samples: a plane over them misses a
+    # curved surface by more, so only a gross disagreement (a ring stretch on the wrong surface,
+    # many millimetres off) counts.
+    max_jump_mm = ACROSS_RINGS_FACTOR * max_jump_mm
     xy = rings.camera_xy[kept]
     depth = (rings.points[kept] - camera.center) @ camera.axis
     ring = rings.ring[kept]
