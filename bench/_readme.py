@@ -2,7 +2,11 @@
 
 from __future__ import annotations
 
+import argparse
+import json
+from collections.abc import Callable
 from pathlib import Path
+from typing import Any
 
 README = Path(__file__).resolve().parent.parent / "README.md"
 
@@ -21,3 +25,15 @@ def markdown_table(header: list[str], rows: list[list[object]]) -> str:
     lines = ["| " + " | ".join(header) + " |", "|" + "|".join("---" for _ in header) + "|"]
     lines += ["| " + " | ".join(str(c) for c in row) + " |" for row in rows]
     return "\n".join(lines)
+
+
+def run(doc: str, block: str, measure: Callable[[], dict[str, Any]], table: Callable[[dict[str, Any]], str]) -> None:
+    """A benchmark's command line: measure, print one JSON object, and with --readme rewrite the
+    README block `block` with the table made from the measurement."""
+    parser = argparse.ArgumentParser(description=doc.splitlines()[0])
+    parser.add_argument("--readme", action="store_true", help=f"rewrite the {block} block of README.md")
+    args = parser.parse_args()
+    measured = measure()
+    print(json.dumps(measured))
+    if args.readme:
+        replace_block(block, table(measured))

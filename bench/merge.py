@@ -8,8 +8,6 @@ the time merging takes. Prints one JSON object.
 
 from __future__ import annotations
 
-import argparse
-import json
 import platform
 import sys
 import time
@@ -17,7 +15,7 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-from _readme import markdown_table, replace_block
+from _readme import markdown_table, run
 
 from rig.config import REPO_CONFIG_DIR, load_config
 from rig.evaluate_merge import evaluate_merge
@@ -64,13 +62,7 @@ def table(measured: dict[str, object]) -> str:
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--readme", action="store_true", help="rewrite the merge table in README.md")
-    args = parser.parse_args()
-    measured = measure()
-    print(json.dumps(measured))
-    if args.readme:
-        replace_block("merge-table", table(measured))
+    run(__doc__ or "", "merge-table", measure, table)
 
 
 if __name__ == "__main__":

@@ -7,9 +7,7 @@ scan costs over REST compared with the same scan in process. Prints one JSON obj
 
 from __future__ import annotations
 
-import argparse
 import asyncio
-import json
 import os
 import platform
 import socket
@@ -25,7 +23,7 @@ import yaml
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-from _readme import markdown_table, replace_block
+from _readme import markdown_table, run
 
 from rig.config import REPO_CONFIG_DIR, load_config
 from rig.rig import open_rig
@@ -131,13 +129,7 @@ def table(m: dict[str, object]) -> str:
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--readme", action="store_true", help="rewrite the service table in README.md")
-    args = parser.parse_args()
-    measured = measure()
-    print(json.dumps(measured))
-    if args.readme:
-        replace_block("service-table", table(measured))
+    run(__doc__ or "", "service-table", measure, table)
 
 
 if __name__ == "__main__":
