@@ -63,8 +63,17 @@ def _ray_directions(model: CameraModel, points: np.ndarray) -> np.ndarray:
 
 
 def triangulation_angles(points: np.ndarray, camera: CameraModel, projector: CameraModel) -> np.ndarray:
-    """Angle (degrees, float32) between the camera's and the projector's rays at each point."""
-    cos = np.einsum("ij,ij->i", _ray_directions(camera, points), _ray_directions(projector, points))
+    """Angle (degrees, float32) between the camera's and the projector's rays at each point
+    (float32 throughout: a thousandth of a degree is plenty, and it halves the time)."""
+    p = points.astype(np.float32)
+
+    def unit_rays(model: CameraModel) -> np.ndarray:
+        if model.projection == "orthographic":
+            return np.broadcast_to(model.axis.astype(np.float32), p.shape)
+        d = p - model.center.astype(np.float32)
+        return d / np.sqrt(np.einsum("ij,ij->i", d, d))[:, None]
+
+    cos = np.einsum("ij,ij->i", unit_rays(camera), unit_rays(projector))
     return np.degrees(np.arccos(np.clip(cos, -1.0, 1.0))).astype(np.float32)
 
 

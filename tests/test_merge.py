@@ -4,6 +4,7 @@ the intensity cue's overlap, ICP realignment of a drifted head, and viewpoint pl
 from __future__ import annotations
 
 import json
+import re
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
@@ -243,3 +244,12 @@ def test_plan_views_takes_the_operators_candidate_poses(tmp_path: Path, capsys: 
     path.write_text("- [1, 2]\n")
     assert main(["plan", "views", "--scene", "box", "--poses", str(path)]) == 2
     assert "must list 1 to 5000 positions" in capsys.readouterr().err
+
+
+def test_eval_prints_the_merged_cloud_beside_each_pair(capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["eval", "--config", str(REPO_CONFIG_DIR / "sim-multi.yaml"), "--codec", "gray"]) == 0
+    out = capsys.readouterr().out
+    assert "merged here" in out and "projector-right/camera-left" in out
+    assert "overlap cue, camera-left: precision" in out
+    assert re.search(r"merge: \d+ -> \d+ points \(\d+ redundant, \d+ thinned\)", out)
+    assert "{" not in out  # tables and lines, not Python dictionaries
