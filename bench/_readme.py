@@ -27,6 +27,22 @@ def markdown_table(header: list[str], rows: list[list[object]]) -> str:
     return "\n".join(lines)
 
 
+ACCURACY_HEADER = ["codec", "frames", "MB captured", "points", "rms mm", "p95 mm", "completeness"]
+
+
+def accuracy_cells(r: dict[str, Any], completeness_digits: int) -> list[object]:
+    """The cells under ACCURACY_HEADER for one measured scan."""
+    return [
+        r["codec"],
+        r["frames"],
+        r["mb_captured"],
+        r["points"],
+        f"{r['rms_mm']:.3f}",
+        f"{r['p95_mm']:.3f}",
+        f"{r['completeness']:.{completeness_digits}f}",
+    ]
+
+
 def run(doc: str, block: str, measure: Callable[[], dict[str, Any]], table: Callable[[dict[str, Any]], str]) -> None:
     """A benchmark's command line: measure, print one JSON object, and with --readme rewrite the
     README block `block` with the table made from the measurement."""

@@ -6,15 +6,14 @@ python bench/accuracy.py --readme   # also rewrite the accuracy table in README.
 
 from __future__ import annotations
 
-import argparse
-import json
 import platform
 import sys
 from pathlib import Path
+from typing import Any
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-from _readme import markdown_table, replace_block
+from _readme import ACCURACY_HEADER, accuracy_cells, markdown_table, run
 
 from rig.config import RigConfig, load_config
 from rig.evaluate import evaluate_pair
@@ -44,51 +43,29 @@ def measure(config: RigConfig, codec: str) -> dict[str, object]:
     }
 
 
-def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__)
-    parser.add_argument("--readme", action="store_true", help="rewrite the accuracy table in README.md")
-    args = parser.parse_args()
+def measure_all() -> dict[str, object]:
     base = load_config()
     results = []
     for scene, spec in SCENES.items():
         config = base.with_scene(spec)
         for codec in codec_names():
             results.append({"scene": scene, "codec": codec, **measure(config, codec)})
-    out = {
+    return {
         "benchmark": "accuracy",
         "machine": platform.machine(),
         "python": platform.python_version(),
         "bench": "config/sim.yaml (1280x1024 camera, 1024x768 projector, 600 mm, 200 mm baseline)",
         "results": results,
     }
-    print(json.dumps(out))
-    if args.readme:
-        rows = [
-            [
-                r["scene"],
-                r["codec"],
-                r["frames"],
-                r["mb_captured"],
-                r["points"],
-                f"{r['rms_mm']:.3f}",
-                f"{r['p95_mm']:.3f}",
-                f"{r['completeness']:.4f}",
-            ]
-            for r in results
-        ]
-        header = [
-            "scene",
-            "codec",
-            "frames",
-            "MB captured",
-            "points",
-            "rms mm",
-            "p95 mm",
-            "completeness",
-        ]
-        replace_block(
-            "accuracy-table", markdown_table(header, rows) + "\n\nProduced by `python bench/accuracy.py --readme`."
-        )
+
+
+def table(measured: dict[str, Any]) -> str:
+    rows = [[r["scene"], *accuracy_cells(r, 4)] for r in measured["results"]]
+    return markdown_table(["scene", *ACCURACY_HEADER], rows) + "\n\nProduced by `python bench/accuracy.py --readme`."
+
+
+def main() -> None:
+    run(__doc__ or "", "accuracy-table", measure_all, table)
 
 
 if __name__ == "__main__":

@@ -7,15 +7,14 @@ dissertation compares codecs by data size. Prints one JSON object.
 
 from __future__ import annotations
 
-import argparse
-import json
 import platform
 import sys
 from pathlib import Path
+from typing import Any
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-from _readme import markdown_table, replace_block
+from _readme import ACCURACY_HEADER, accuracy_cells, markdown_table, run
 from speed import reconstruction
 
 from rig.config import load_config
@@ -46,48 +45,23 @@ def measure(codec: str) -> dict[str, object]:
     }
 
 
+def measure_all() -> dict[str, object]:
+    return {
+        "benchmark": "codecs",
+        "scene": "sphere_on_plane (config/sim.yaml)",
+        "python": platform.python_version(),
+        "results": [measure(codec) for codec in CODECS],
+    }
+
+
+def table(measured: dict[str, Any]) -> str:
+    rows = [[*accuracy_cells(r, 3), r["decode_triangulate_ms"]] for r in measured["results"]]
+    header = [*ACCURACY_HEADER, "decode+triangulate ms"]
+    return markdown_table(header, rows) + "\n\nProduced by `python bench/codecs.py --readme`."
+
+
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__)
-    parser.add_argument("--readme", action="store_true", help="rewrite the codec table in README.md")
-    args = parser.parse_args()
-    results = [measure(codec) for codec in CODECS]
-    print(
-        json.dumps(
-            {
-                "benchmark": "codecs",
-                "scene": "sphere_on_plane (config/sim.yaml)",
-                "python": platform.python_version(),
-                "results": results,
-            }
-        )
-    )
-    if args.readme:
-        header = [
-            "codec",
-            "frames",
-            "MB captured",
-            "points",
-            "rms mm",
-            "p95 mm",
-            "completeness",
-            "decode+triangulate ms",
-        ]
-        rows = [
-            [
-                r["codec"],
-                r["frames"],
-                r["mb_captured"],
-                r["points"],
-                f"{r['rms_mm']:.3f}",
-                f"{r['p95_mm']:.3f}",
-                f"{r['completeness']:.3f}",
-                r["decode_triangulate_ms"],
-            ]
-            for r in results
-        ]
-        replace_block(
-            "codec-table", markdown_table(header, rows) + "\n\nProduced by `python bench/codecs.py --readme`."
-        )
+    run(__doc__ or "", "codec-table", measure_all, table)
 
 
 if __name__ == "__main__":

@@ -122,3 +122,19 @@ class WorkerProcess:
                 with contextlib.suppress(OSError):
                     stream.close()
         return error.removeprefix(": ")
+
+
+class WorkerDevice:
+    """What a device run in a worker process shares (mixed in before Projector or Camera): its
+    resolution, and the worker's pid for tests and diagnostics."""
+
+    _resolution: tuple[int, int]
+    _worker: WorkerProcess | None
+
+    @property
+    def resolution(self) -> tuple[int, int]:
+        return self._resolution
+
+    @property
+    def worker_pid(self) -> int | None:
+        return None if self._worker is None else self._worker.pid

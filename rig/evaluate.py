@@ -55,19 +55,26 @@ def ring_distances(pair: PairResult, bench: SimBench, truth: GroundTruth) -> np.
     return dist
 
 
-def evaluate_pair(pair: PairResult, truth: GroundTruth, bench: SimBench | None = None) -> dict[str, float | int | None]:
-    """rms/mean/p95 distance to the true surface, and completeness: the fraction of camera pixels
-    that see a lit, unshadowed true surface and got a point within 1 mm of it. Sparse (ring) points
-    are measured along their own rays, which needs the `bench`."""
-    valid = np.isfinite(pair.grid).all(axis=2)
+def point_distances(pair: PairResult, truth: GroundTruth, bench: SimBench | None = None) -> np.ndarray:
+    """Distance (mm) of each of the pair's points to the true surface, in PointSet order."""
     if pair.rings is not None:
         if bench is None:
             raise ValueError("measuring ring points needs the simulated bench")
-        dist = ring_distances(pair, bench, truth)
-        pixels = pair.points.pixel
-    else:
-        dist = surface_distances(pair.grid, valid, truth)
-        pixels = np.flatnonzero(valid.ravel())
+        return ring_distances(pair, bench, truth)
+    return surface_distances(pair.grid, np.isfinite(pair.grid).all(axis=2), truth)
+
+
+def evaluate_pair(
+    pair: PairResult, truth: GroundTruth, bench: SimBench | None = None, dist: np.ndarray | None = None
+) -> dict[str, float | int | None]:
+    """rms/mean/p95 distance to the true surface, and completeness: the fraction of camera pixels
+    that see a lit, unshadowed true surface and got a point within 1 mm of it. Sparse (ring) points
+    are measured along their own rays, which needs the `bench`. `dist`: the distances of the pair's
+    points, when already measured (point_distances)."""
+    valid = np.isfinite(pair.grid).all(axis=2)
+    if dist is None:
+        dist = point_distances(pair, truth, bench)
+    pixels = pair.points.pixel if pair.rings is not None else np.flatnonzero(valid.ravel())
     target = truth.hit & truth.lit
     good = np.zeros(valid.size, dtype=bool)
     good[pixels[dist <= COMPLETE_WITHIN_MM]] = True
@@ -97,10 +104,18 @@ def in_truth_frame(pair: PairResult, estimated: CameraModel, truth: CameraModel)
     return moved_pair(pair, rotation, truth.R.T @ (estimated.t - truth.t))
 
 
-def evaluate_on_bench(rig: Rig, pair: PairResult) -> dict[str, float | int | None]:
-    """Accuracy of one pair of a simulated scan, in the true world frame (through the camera when
-    reconstruction used an estimated calibration)."""
+def point_errors(rig: Rig, pair: PairResult) -> np.ndarray:
+    """Distance (mm) of each of the pair's points to the true surface, in the true world frame."""
     if rig.sim is None:
         raise ValueError("accuracy against ground truth needs the simulated bench")
     aligned = in_truth_frame(pair, rig.camera_models[pair.camera], rig.sim.cameras[pair.camera])
-    return evaluate_pair(aligned, rig.sim.ground_truth(pair.camera, pair.projector), rig.sim)
+    return point_distances(aligned, rig.sim.ground_truth(pair.camera, pair.projector), rig.sim)
+
+
+def evaluate_on_bench(rig: Rig, pair: PairResult, errors: np.ndarray | None = None) -> dict[str, float | int | None]:
+    """Accuracy of one pair of a simulated scan, in the true world frame (through the camera when
+    reconstruction used an estimated calibration). `errors`: point_errors, when already measured."""
+    if rig.sim is None:
+        raise ValueError("accuracy against ground truth needs the simulated bench")
+    aligned = in_truth_frame(pair, rig.camera_models[pair.camera], rig.sim.cameras[pair.camera])
+    return evaluate_pair(aligned, rig.sim.ground_truth(pair.camera, pair.projector), rig.sim, errors)

@@ -8,24 +8,14 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial import cKDTree
 
-from rig.evaluate import COMPLETE_WITHIN_MM, evaluate_on_bench, in_truth_frame, ring_distances, surface_distances
+from rig.evaluate import COMPLETE_WITHIN_MM, evaluate_on_bench, point_errors
 from rig.merge import sampling_distance
 from rig.overlap import precision_recall
 from rig.pointset import PointSet
 from rig.rig import Rig
-from rig.scan import PairResult, ScanResult
+from rig.scan import ScanResult
 
 SURFACE_SPACING_MM = 1.0
-
-
-def point_errors(rig: Rig, pair: PairResult) -> np.ndarray:
-    """Distance (mm) of each of the pair's points to the true surface, in PointSet order."""
-    assert rig.sim is not None
-    aligned = in_truth_frame(pair, rig.camera_models[pair.camera], rig.sim.cameras[pair.camera])
-    truth = rig.sim.ground_truth(pair.camera, pair.projector)
-    if aligned.rings is not None:
-        return ring_distances(aligned, rig.sim, truth)
-    return surface_distances(aligned.grid, np.isfinite(aligned.grid).all(axis=2), truth)
 
 
 def visible_surface(rig: Rig, spacing_mm: float = SURFACE_SPACING_MM) -> np.ndarray:
@@ -85,11 +75,12 @@ def overlap_scores(rig: Rig, result: ScanResult) -> dict[str, dict[str, float | 
     return out
 
 
-def evaluate_merge(rig: Rig, result: ScanResult) -> dict[str, object]:
-    """The merged cloud and every pair measured on the same visible surface."""
+def evaluate_merge(rig: Rig, result: ScanResult, errors: list[np.ndarray] | None = None) -> dict[str, object]:
+    """The merged cloud and every pair measured on the same visible surface. `errors`: each pair's
+    point_errors, when already measured."""
     if rig.sim is None or result.merged_index is None:
         raise ValueError("evaluating a merge needs a simulated scan of several pairs")
-    errors = [point_errors(rig, pair) for pair in result.pairs]
+    errors = errors if errors is not None else [point_errors(rig, pair) for pair in result.pairs]
     surface = visible_surface(rig)
     pairs = {}
     for pair, err in zip(result.pairs, errors, strict=True):
@@ -132,14 +123,15 @@ def metrics_on_bench(rig: Rig, result: ScanResult) -> dict[str, object]:
     cloud when several pairs were merged (simulated rigs only)."""
     if rig.sim is None:
         return {}
+    errors = [point_errors(rig, pair) for pair in result.pairs]  # once, for the pairs and the merge
     out: dict[str, object] = {
         f"{rig.config.projectors[pair.projector].name}/{rig.config.cameras[pair.camera].name}": evaluate_on_bench(
-            rig, pair
+            rig, pair, err
         )
-        for pair in result.pairs
+        for pair, err in zip(result.pairs, errors, strict=True)
     }
     if result.merged_index is not None:
-        merged = evaluate_merge(rig, result)
+        merged = evaluate_merge(rig, result, errors)
         out["merged"] = merged["merged"]
         out["merged_pairs"] = merged["pairs"]
         out["overlap_cue"] = merged["overlap_cue"]

@@ -36,9 +36,6 @@ class Alignment:
     def angle_deg(self) -> float:
         return float(np.degrees(np.linalg.norm(Rotation.from_matrix(self.rotation).as_rotvec())))
 
-    def apply(self, points: np.ndarray) -> np.ndarray:
-        return points @ self.rotation.T + self.translation
-
     def as_dict(self) -> dict[str, float | int]:
         return {
             "rotation_deg": round(self.angle_deg, 5),

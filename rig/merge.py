@@ -55,25 +55,19 @@ class MergeReport:
 
 
 def _ray_directions(model: CameraModel, points: np.ndarray) -> np.ndarray:
-    """Unit directions of the device's rays through `points` (from the device to the point)."""
+    """Unit directions of the device's rays through `points` (from the device to the point), in
+    the points' own precision."""
     if model.projection == "orthographic":
-        return np.broadcast_to(model.axis, points.shape).copy()
-    d = points - model.center
-    return d / np.linalg.norm(d, axis=1, keepdims=True)
+        return np.broadcast_to(model.axis.astype(points.dtype), points.shape)
+    d = points - model.center.astype(points.dtype)
+    return d / np.sqrt(np.einsum("ij,ij->i", d, d))[:, None]
 
 
 def triangulation_angles(points: np.ndarray, camera: CameraModel, projector: CameraModel) -> np.ndarray:
     """Angle (degrees, float32) between the camera's and the projector's rays at each point
     (float32 throughout: a thousandth of a degree is plenty, and it halves the time)."""
     p = points.astype(np.float32)
-
-    def unit_rays(model: CameraModel) -> np.ndarray:
-        if model.projection == "orthographic":
-            return np.broadcast_to(model.axis.astype(np.float32), p.shape)
-        d = p - model.center.astype(np.float32)
-        return d / np.sqrt(np.einsum("ij,ij->i", d, d))[:, None]
-
-    cos = np.einsum("ij,ij->i", unit_rays(camera), unit_rays(projector))
+    cos = np.einsum("ij,ij->i", _ray_directions(camera, p), _ray_directions(projector, p))
     return np.degrees(np.arccos(np.clip(cos, -1.0, 1.0))).astype(np.float32)
 
 
@@ -167,11 +161,6 @@ def compare_across_pairs(
             overlap[rows] |= near.any(axis=1)
             keep[rows] &= ~better.any(axis=1)
     return keep, overlap
-
-
-def remove_redundant(points: np.ndarray, source: np.ndarray, score: np.ndarray, radius: float) -> np.ndarray:
-    """Mask of points to keep (see compare_across_pairs)."""
-    return compare_across_pairs(points, source, score, radius)[0]
 
 
 def thin(points: np.ndarray, score: np.ndarray, voxel: float) -> np.ndarray:

@@ -130,7 +130,8 @@ def reconstruct_frames(
     pairs: list[PairResult] = []
     elapsed = {"decode": 0.0, "triangulate": 0.0, "pointset": 0.0}
     chosen = rig.config.scan.merge.pairs
-    selected = sorted(k for k in frames if k[0] != CUE and (chosen is None or list(k) in [list(c) for c in chosen]))
+    wanted = None if chosen is None else {tuple(pair) for pair in chosen}
+    selected = sorted(k for k in frames if k[0] != CUE and (wanted is None or k in wanted))
     for i, (p, c) in enumerate(selected):
         t = time.perf_counter()
         try:

@@ -18,7 +18,7 @@ from rig.cli import main
 from rig.config import REPO_CONFIG_DIR, config_from_dict, load_config
 from rig.evaluate_merge import evaluate_merge
 from rig.geometry import CameraModel
-from rig.merge import expected_error_mm, remove_redundant, thin
+from rig.merge import compare_across_pairs, expected_error_mm, thin
 from rig.pointset import PointSet
 from rig.rig import Rig, open_rig
 from rig.scan import ScanResult, run_scan
@@ -119,7 +119,7 @@ def test_redundancy_removal_leaves_no_two_pairs_within_the_radius() -> None:
     points = np.concatenate([np.c_[a, np.zeros(len(a))], np.c_[b, np.zeros(len(b))]])
     source = np.r_[np.zeros(len(a), int), np.ones(len(b), int)]
     score = np.r_[np.ones(len(a)), np.full(len(b), 2.0)]  # the second pair is better conditioned
-    keep = remove_redundant(points, source, score, 0.5)
+    keep, _ = compare_across_pairs(points, source, score, 0.5)
     assert keep[len(a) :].all()  # the better pair keeps all its samples
     assert keep[: len(a)].sum() < len(a) - 500  # the other gives up the shared area
     kept, kept_source = points[keep], source[keep]

@@ -8,11 +8,11 @@ import zlib
 import numpy as np
 
 from drivers.base import Projector, ProjectorMode
-from drivers.childproc import WorkerProcess
+from drivers.childproc import WorkerDevice, WorkerProcess
 from drivers.errors import DeviceDisconnectedError, DeviceNotFoundError, DeviceProtocolError, DeviceTimeoutError
 
 
-class HdmiProjector(Projector):
+class HdmiProjector(WorkerDevice, Projector):
     """`video_driver` is SDL's: kmsdrm (a bench without a desktop), x11, wayland, or offscreen
     (tests). `last_present_s` is the monotonic time the last pattern reached the display buffer."""
 
@@ -42,14 +42,6 @@ class HdmiProjector(Projector):
     def is_dark(self) -> bool:
         """Whether the worker last read back a black screen."""
         return self.last_checksum == self._black_checksum
-
-    @property
-    def resolution(self) -> tuple[int, int]:
-        return self._resolution
-
-    @property
-    def worker_pid(self) -> int | None:
-        return None if self._worker is None else self._worker.pid
 
     def _do_open(self) -> None:
         self._start_worker()

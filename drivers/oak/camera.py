@@ -10,7 +10,7 @@ from typing import Any
 import numpy as np
 
 from drivers.base import Camera, Frame, TriggerMode
-from drivers.childproc import WorkerProcess
+from drivers.childproc import WorkerDevice, WorkerProcess
 from drivers.errors import (
     DeviceDisconnectedError,
     DeviceError,
@@ -27,7 +27,7 @@ _ERRORS: dict[str, type[DeviceError]] = {
 }
 
 
-class OakCamera(Camera):
+class OakCamera(WorkerDevice, Camera):
     """One camera socket of an OAK (CAM_A colour, CAM_B / CAM_C mono on an OAK-D) as a mono stream
     with manual exposure and, for global-shutter sensors, external trigger (FSIN). `backend` is
     "depthai", or "fake" for tests and demos without the device."""
@@ -54,14 +54,6 @@ class OakCamera(Camera):
         self.open_timeout_s = open_timeout_s
         self._env = env or {}
         self._worker: WorkerProcess | None = None
-
-    @property
-    def resolution(self) -> tuple[int, int]:
-        return self._resolution
-
-    @property
-    def worker_pid(self) -> int | None:
-        return None if self._worker is None else self._worker.pid
 
     def _request(self, answer_within_s: float, **request: Any) -> dict[str, Any]:
         if self._worker is None:

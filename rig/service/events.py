@@ -20,36 +20,22 @@ class Event:
 
 
 class EventHub:
-    """Thread-safe: the job worker publishes, API streams wait."""
+    """Thread-safe: the job worker publishes, API streams poll."""
 
     def __init__(self) -> None:
-        self._cond = threading.Condition()
+        self._lock = threading.Lock()
         self._events: OrderedDict[str, deque[Event]] = OrderedDict()
         self._last_id = 0
 
     def publish(self, job_id: str, kind: str, data: dict[str, Any]) -> None:
-        with self._cond:
+        with self._lock:
             if job_id not in self._events:
                 self._events[job_id] = deque(maxlen=EVENTS_PER_JOB)
                 while len(self._events) > JOBS_KEPT:
                     self._events.popitem(last=False)
             self._last_id += 1
             self._events[job_id].append(Event(self._last_id, kind, data))
-            self._cond.notify_all()
 
     def since(self, job_id: str, last_id: int) -> list[Event]:
-        with self._cond:
+        with self._lock:
             return [e for e in self._events.get(job_id, ()) if e.id > last_id]
-
-    def wait(self, job_id: str, last_id: int, timeout_s: float) -> list[Event]:
-        """Events after `last_id`, waiting up to `timeout_s` for the first."""
-        with self._cond:
-            self._cond.wait_for(lambda: bool(self._newer(job_id, last_id)), timeout=timeout_s)
-            return self._newer(job_id, last_id)
-
-    def _newer(self, job_id: str, last_id: int) -> list[Event]:
-        return [e for e in self._events.get(job_id, ()) if e.id > last_id]
-
-    def wake_all(self) -> None:
-        with self._cond:
-            self._cond.notify_all()

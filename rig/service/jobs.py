@@ -25,7 +25,6 @@ TRANSITIONS = {
     "queued": frozenset({"running", "cancelled", "interrupted"}),
     "running": frozenset({"done", "failed", "cancelled", "interrupted"}),
 }
-KINDS = ("scan", "calibration")  # a reprocessed scan is a scan whose request names its source
 
 _SCHEMA = """
 CREATE TABLE IF NOT EXISTS jobs (
@@ -154,15 +153,6 @@ class JobStore:
                 (*args, limit, offset),
             ).fetchall()
         return [_job(r) for r in rows], int(total)
-
-    def in_state(self, *states: str) -> list[Job]:
-        marks = ",".join("?" for _ in states)
-        with self._lock:
-            rows = self._db.execute(
-                f"SELECT * FROM jobs WHERE state IN ({marks}) ORDER BY created, id",
-                states,
-            ).fetchall()
-        return [_job(r) for r in rows]
 
     def interrupt_unfinished(self, reason: str) -> list[str]:
         """Mark every queued or running job interrupted, in one statement (at start-up and

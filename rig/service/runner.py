@@ -104,7 +104,6 @@ class JobService:
             self._stopping = True
             self._cancel.set()
             self._cond.notify_all()
-        self.events.wake_all()
 
     def shutdown(self, timeout_s: float = 8.0) -> None:
         """Stop within `timeout_s`: the running job is cancelled and recorded as interrupted,
@@ -280,11 +279,13 @@ class JobService:
             return
         self._publish_state(job_id)
         reprocess = "source" in job.request  # a scan from stored frames: no devices involved
-        handlers: dict[bool, Callable[[Job, ProgressCallback], dict[str, Any]]] = {
-            True: self._reprocess,
-            False: self._scan,
-        }
-        handler = self._calibration if job.kind == "calibration" else handlers[reprocess]
+        handler: Callable[[Job, ProgressCallback], dict[str, Any]]
+        if job.kind == "calibration":
+            handler = self._calibration
+        elif reprocess:
+            handler = self._reprocess
+        else:
+            handler = self._scan
         try:
             result = handler(job, self._progress_callback(job_id))
         except JobCancelledError:
