@@ -16,10 +16,10 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _readme import ACCURACY_HEADER, accuracy_cells, markdown_table, run
 
 from rig.config import RigConfig, load_config
-from rig.evaluate import evaluate_pair
+from rig.evaluate.pairs import evaluate_pair
 from rig.patterns import codec_names
+from rig.pipeline.scan import run_scan
 from rig.rig import open_rig
-from rig.scan import run_scan
 
 REPO = Path(__file__).resolve().parent.parent
 SCENES: dict[str, dict[str, object]] = {

@@ -18,9 +18,9 @@ from _readme import ACCURACY_HEADER, accuracy_cells, markdown_table, run
 from speed import reconstruction
 
 from rig.config import load_config
-from rig.evaluate import evaluate_pair
+from rig.evaluate.pairs import evaluate_pair
+from rig.pipeline.scan import run_scan
 from rig.rig import open_rig
-from rig.scan import run_scan
 
 CODECS = ("gray", "phase", "rings", "radial")
 

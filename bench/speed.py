@@ -30,9 +30,9 @@ from _readme import markdown_table, replace_block
 
 from rig.config import load_config
 from rig.patterns import codec_names
+from rig.pipeline.scan import capture, make_codec, reconstruct_pair
 from rig.progress import ProgressTracker
 from rig.rig import open_rig
-from rig.scan import capture, make_codec, reconstruct_pair
 
 _PEAK_SNIPPET = """
 import json, resource, sys

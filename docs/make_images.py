@@ -13,9 +13,9 @@ import numpy as np
 
 from rig.config import REPO_CONFIG_DIR, load_config
 from rig.geometry import CameraModel, look_at_rotation
+from rig.pipeline.capture import CUE
+from rig.pipeline.scan import make_codec, run_scan
 from rig.rig import open_rig
-from rig.scan import make_codec, run_scan
-from rig.sequencer import CUE
 from rig.store.images import preview_png
 
 OUT = Path(__file__).resolve().parent / "images"

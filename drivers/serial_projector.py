@@ -18,7 +18,7 @@ from typing import ClassVar
 from drivers.base import Device
 from drivers.errors import DeviceDisconnectedError, DeviceNotFoundError, DeviceProtocolError, DeviceTimeoutError
 
-SIM_HANDLERS = "drivers.sim.serial_handlers"  # `simprojector://<vendor>?fault=...` URLs for tests and demos
+SIM_HANDLERS = "drivers.fakes.serial_handlers"  # `simprojector://<vendor>?fault=...` URLs for tests and demos
 
 
 class CommandSet(abc.ABC):

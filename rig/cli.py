@@ -16,15 +16,15 @@ from rig import __version__
 from rig.calibrate.response import RESPONSE_NAME, calibrate_response
 from rig.calibrate.session import calibrate
 from rig.config import SCENE_KINDS, RigConfig, load_config
-from rig.devices import describe, inventory
-from rig.doctor import check, measure_latency, store_latencies
+from rig.doctor.checks import check, measure_latency, store_latencies
+from rig.doctor.inventory import describe, inventory
 from rig.errors import ConfigError, ScanError, SlrigError
-from rig.evaluate import evaluate_on_bench
-from rig.evaluate_merge import evaluate_merge
+from rig.evaluate.merged import evaluate_merge
+from rig.evaluate.pairs import evaluate_on_bench
 from rig.patterns import codec_class, codec_names
+from rig.pipeline.scan import run_scan
 from rig.progress import TerminalBar
 from rig.rig import open_rig
-from rig.scan import run_scan
 from rig.store.scandir import new_scan_id, scan_to_directory
 
 EXIT_FAILED = 1
@@ -356,7 +356,7 @@ def _candidate_positions(path: Path) -> Any:
 def cmd_serve(args: argparse.Namespace) -> int:
     import logging
 
-    from rig.service.daemon import load_api_key, serve  # the web stack only for the daemon
+    from rig.daemon.server import load_api_key, serve  # the web stack only for the daemon
 
     if not 0 <= args.port <= 65535:
         raise ConfigError("--port", [f"--port: {args.port} is outside 0..65535"])

@@ -15,8 +15,8 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_valida
 
 from drivers.dlp.lcr4500 import MIN_8BIT_PERIOD_US as LCR4500_MIN_8BIT_PERIOD_US
 from drivers.dlp.lcr4500 import RESOLUTION as LCR4500_RESOLUTION
+from drivers.options import HdmiOptions, LightCrafterOptions, OakOptions, PowerOptions, V4l2Options
 from rig.calibrate.boards import BoardConfig
-from rig.driver_config import HdmiOptions, LightCrafterOptions, OakOptions, PowerOptions, V4l2Options
 from rig.errors import ConfigError
 from rig.patterns import codec_class, codec_names
 from rig.patterns.gray import GrayParams

@@ -29,7 +29,7 @@ from rig.config import (
 )
 from rig.errors import ConfigError, SceneError
 from rig.geometry import CameraModel, look_at_rotation
-from rig.reconstruct import PairTriangulator
+from rig.pipeline.dense import PairTriangulator
 
 
 def geometry_model(geometry: Geometry, resolution: tuple[int, int]) -> CameraModel:
@@ -246,7 +246,7 @@ def open_rig(config: RigConfig, with_devices: bool = True) -> Rig:
     if config.simulation is None:  # a real rig
         if not with_devices:
             return Rig(config, [], [], projector_models, camera_models, None, digest, luts, response_digest)
-        from rig import hardware  # drivers of real devices, only when a rig has them
+        from rig.assembly import hardware  # drivers of real devices, only when a rig has them
 
         extras, projectors, cameras = hardware.devices(config)
     else:

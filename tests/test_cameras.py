@@ -12,10 +12,10 @@ import pytest
 
 from drivers.base import Camera
 from drivers.errors import DeviceError, DeviceNotFoundError, DeviceProtocolError, DeviceStateError, DeviceTimeoutError
+from drivers.fakes.v4l2 import FakeVideoCapture, V4l2Faults
 from drivers.oak.camera import OakCamera
 from drivers.sim import SimBench, SimCamera, SimCameraFaults, SimCameraParams, SimProjector
 from drivers.sim import scene as sc
-from drivers.sim.fake_v4l2 import FakeVideoCapture, V4l2Faults
 from drivers.v4l2 import V4l2Camera
 from tests.conftest import make_device
 

@@ -17,8 +17,8 @@ from drivers.sim import SimCamera, SimCameraFaults
 from rig.cli import main
 from rig.config import RigConfig
 from rig.errors import ScanError
+from rig.pipeline.scan import run_scan
 from rig.rig import open_rig
-from rig.scan import run_scan
 from tests.conftest import REPO, default_config_data, write_config
 
 

@@ -9,7 +9,7 @@ from typing import Any
 import pytest
 
 from rig.cli import main
-from rig.devices import describe, usb_devices
+from rig.doctor.inventory import describe, usb_devices
 
 
 def test_known_usb_devices_are_named() -> None:

@@ -14,8 +14,8 @@ from drivers.errors import DeviceError
 from rig.cli import main
 from rig.config import load_config
 from rig.errors import ScanError
+from rig.pipeline.scan import run_scan
 from rig.rig import open_rig
-from rig.scan import run_scan
 from tests.conftest import small_config_data, write_config
 
 

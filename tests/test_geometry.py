@@ -7,7 +7,7 @@ import pytest
 
 from rig.geometry import CameraModel, look_at_rotation, ray_plane, ray_ray_midpoint
 from rig.patterns import Correspondence
-from rig.reconstruct import PairTriangulator
+from rig.pipeline.dense import PairTriangulator
 from tests.conftest import make_device
 
 
@@ -110,7 +110,7 @@ def test_pair_triangulation_with_orthographic_projector() -> None:
 
 
 def test_reject_isolated_drops_mixed_pixels_and_keeps_steep_smooth_surfaces() -> None:
-    from rig.reconstruct import reject_isolated
+    from rig.pipeline.dense import reject_isolated
 
     camera = make_device(64, 48, 60.0, (0.0, 0.0, 600.0))
     origins, directions = camera.pixel_rays

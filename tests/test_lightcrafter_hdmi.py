@@ -16,14 +16,14 @@ from drivers.base import PatternSequence, ProjectorMode, SequenceEntry, TriggerM
 from drivers.dlp.hdmi_patterns import CHANNEL_OF_PATTERN, LightCrafterHdmiProjector, pack_frames
 from drivers.dlp.lcr4500 import PRODUCT_ID, RESOLUTION, VENDOR_ID, Lcr4500Projector
 from drivers.errors import DeviceProtocolError
+from drivers.fakes.dlpc350 import FakeLcr4500, finder_for
 from drivers.hdmi.projector import HdmiProjector
-from drivers.sim.fake_dlpc350 import FakeLcr4500, finder_for
 from drivers.usbhid import PyUsbHidTransport
 from rig.config import load_config
 from rig.errors import ConfigError
-from rig.evaluate import evaluate_on_bench
+from rig.evaluate.pairs import evaluate_on_bench
+from rig.pipeline.scan import run_scan
 from rig.rig import open_rig
-from rig.scan import run_scan
 from tests.conftest import small_config_data, write_config
 
 WIDTH, HEIGHT = RESOLUTION

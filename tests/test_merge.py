@@ -16,13 +16,13 @@ from scipy.spatial.transform import Rotation
 
 from rig.cli import main
 from rig.config import REPO_CONFIG_DIR, config_from_dict, load_config
-from rig.evaluate_merge import evaluate_merge
+from rig.evaluate.merged import evaluate_merge
 from rig.geometry import CameraModel
-from rig.merge import compare_across_pairs, expected_error_mm, thin
-from rig.pointset import PointSet
+from rig.pipeline.capture import CUE
+from rig.pipeline.merge import compare_across_pairs, expected_error_mm, thin
+from rig.pipeline.pointset import PointSet
+from rig.pipeline.scan import ScanResult, run_scan
 from rig.rig import Rig, open_rig
-from rig.scan import ScanResult, run_scan
-from rig.sequencer import CUE
 from rig.store.ply import ply_bytes
 from rig.store.scandir import read_frames, write_scan
 
@@ -58,8 +58,8 @@ def test_the_intensity_cue_finds_the_overlap(multi: tuple[Rig, ScanResult, Any])
 def test_a_merged_scan_is_stored_and_reprocessed_with_its_overlap(
     multi: tuple[Rig, ScanResult, Any], tmp_path: Path
 ) -> None:
+    from rig.pipeline.scan import reconstruct_frames
     from rig.progress import ProgressTracker
-    from rig.scan import reconstruct_frames
 
     the_rig, result, _ = multi
     folder = write_scan(the_rig, result, tmp_path / "scan", "20261121-000000-abcdef")
@@ -194,7 +194,7 @@ def test_where_each_pair_measured_the_merged_cloud_is_no_worse(codec: str) -> No
 
 
 def test_icp_refuses_an_overlap_that_leaves_a_motion_free() -> None:
-    from rig.icp import AlignmentRefusedError, point_to_plane
+    from rig.pipeline.icp import AlignmentRefusedError, point_to_plane
 
     rng = np.random.default_rng(2)
     plane = np.c_[rng.uniform(-50, 50, (5000, 2)), np.zeros(5000)]
@@ -206,7 +206,7 @@ def test_icp_refuses_an_overlap_that_leaves_a_motion_free() -> None:
 
 
 def test_the_cue_sees_overlap_where_the_all_lit_frame_clips() -> None:
-    from rig.overlap import overlap_from_cue
+    from rig.pipeline.overlap import overlap_from_cue
 
     dark = np.zeros((1, 3), np.uint8)
     left = np.array([[240, 240, 120]], np.uint8)

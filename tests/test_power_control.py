@@ -17,9 +17,9 @@ from drivers.errors import (
     DeviceProtocolError,
     DeviceTimeoutError,
 )
+from drivers.fakes.pjlink import FakePJLinkProjector
 from drivers.pjlink import PJLinkProjector
 from drivers.serial_projector import SerialProjectorControl
-from drivers.sim.fake_pjlink import FakePJLinkProjector
 
 TIMEOUT_S = 0.3
 

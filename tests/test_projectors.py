@@ -20,10 +20,10 @@ from drivers.errors import (
     DeviceStateError,
     DeviceTimeoutError,
 )
+from drivers.fakes.dlpc350 import FakeLcr4500, Faults, finder_for
 from drivers.hdmi.projector import HdmiProjector
 from drivers.sim import SimBench, SimProjector
 from drivers.sim import scene as sc
-from drivers.sim.fake_dlpc350 import FakeLcr4500, Faults, finder_for
 from drivers.usbhid import PyUsbHidTransport
 from tests.conftest import make_device
 

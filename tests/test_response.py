@@ -11,9 +11,9 @@ import pytest
 from rig.calibrate.response import fit_gamma, inverse_lut
 from rig.cli import main
 from rig.config import load_config
-from rig.evaluate import evaluate_on_bench
+from rig.evaluate.pairs import evaluate_on_bench
+from rig.pipeline.scan import run_scan
 from rig.rig import open_rig
-from rig.scan import run_scan
 from tests.conftest import default_config_data, write_config
 
 

@@ -11,9 +11,9 @@ import yaml
 
 from rig.config import REPO_CONFIG_DIR, RigConfig, load_config
 from rig.errors import ConfigError
-from rig.evaluate import evaluate_pair
+from rig.evaluate.pairs import evaluate_pair
+from rig.pipeline.scan import run_scan
 from rig.rig import open_rig
-from rig.scan import run_scan
 from tests.conftest import write_config
 
 SCENES = {"plane": {"kind": "plane"}, "sphere": {"kind": "sphere", "radius_mm": 60.0, "center_mm": [0.0, 0.0, 0.0]}}

@@ -15,8 +15,8 @@ from rig.geometry.cone import ray_cone
 from rig.patterns import codec_class
 from rig.patterns.radial import RadialParams
 from rig.patterns.rings import RingsParams
+from rig.pipeline.scan import PairResult, make_codec, run_scan
 from rig.rig import Rig, open_rig
-from rig.scan import PairResult, make_codec, run_scan
 from tests.conftest import make_device
 
 SIZE = (1024, 768)
@@ -187,7 +187,7 @@ def test_radial_against_phase_at_the_same_frame_count(capsys: pytest.CaptureFixt
     with open_rig(config) as the_rig:
         result = run_scan(the_rig)
         assert result.frames_projected == radial["frames"]
-        from rig.evaluate import evaluate_pair
+        from rig.evaluate.pairs import evaluate_pair
 
         phase = evaluate_pair(result.pairs[0], the_rig.sim.ground_truth(0, 0), the_rig.sim)  # type: ignore[union-attr]
     assert radial["completeness"] >= 0.90
@@ -224,7 +224,7 @@ def test_ring_radii_and_count_must_agree() -> None:
 
 def test_a_ring_sample_off_its_neighbours_depth_is_rejected() -> None:
     from rig.geometry import CameraModel
-    from rig.reconstruct_sparse import RingPoints, along_ring_support
+    from rig.pipeline.rings import RingPoints, along_ring_support
 
     camera = CameraModel(640, 480, np.array([[500.0, 0, 320], [0, 500.0, 240], [0, 0, 1]]), np.eye(3), np.zeros(3))
     n = 40
@@ -253,9 +253,9 @@ def test_a_ring_sample_off_its_neighbours_depth_is_rejected() -> None:
 def test_ring_stretches_that_straddle_a_depth_edge_are_rejected() -> None:
     """On the box a stretch of one ring decodes between the box top and the floor, agreeing with
     itself along the ring; the rings around it do not agree, and it goes."""
-    from rig.evaluate import evaluate_on_bench
+    from rig.evaluate.pairs import evaluate_on_bench
+    from rig.pipeline.scan import run_scan
     from rig.rig import open_rig
-    from rig.scan import run_scan
 
     config = load_config().with_codec("rings").with_scene({"kind": "box"})
     with open_rig(config) as the_rig:

@@ -67,8 +67,8 @@ def test_a_frame_exposed_before_the_light_is_dropped_by_its_stamp(
     # the same patterns; the sensor noise differs (the dropped frame drew its own)
     assert gated["points"] == pytest.approx(ideal["points"], rel=0.002)
     assert gated["rms_mm"] == pytest.approx(ideal["rms_mm"], rel=0.01)
-    from rig.evaluate import evaluate_on_bench
-    from rig.scan import run_scan
+    from rig.evaluate.pairs import evaluate_on_bench
+    from rig.pipeline.scan import run_scan
 
     with open_rig(load_config(write_config(tmp_path, data, "early.yaml"))) as the_rig:
         projector = the_rig.projectors[0]
@@ -98,7 +98,7 @@ def test_hardware_trigger_path_gives_the_same_cloud(tmp_path: Path, capsys: pyte
 def test_a_missed_trigger_fails_the_scan(tmp_path: Path) -> None:
     from drivers.base import TriggerMode
     from rig.errors import ScanError
-    from rig.scan import run_scan
+    from rig.pipeline.scan import run_scan
 
     data = small_config_data()
     data["projectors"][0]["sync"] = "hardware"
@@ -146,7 +146,7 @@ def test_doctor_names_what_a_real_bench_lacks(tmp_path: Path, capsys: pytest.Cap
 def test_doctor_looks_for_the_lightcrafter_on_usb(
     tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    from rig import doctor
+    from rig.doctor import checks as doctor
     from rig.config import REPO_CONFIG_DIR
 
     config = str(REPO_CONFIG_DIR / "bench-lightcrafter-uvc.yaml")

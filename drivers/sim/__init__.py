@@ -6,7 +6,8 @@ interfaces as real devices. Device geometry is given as objects with the `ViewMo
 """
 
 from drivers.sim.bench import GroundTruth, SimBench, SimCameraParams, SimProjectorParams, ViewModel
-from drivers.sim.devices import SimCamera, SimCameraFaults, SimProjector
+from drivers.sim.camera import SimCamera, SimCameraFaults
+from drivers.sim.projector import SimProjector
 from drivers.sim.scene import SceneObject, build_scene
 
 __all__ = [

@@ -25,10 +25,10 @@ from rig.calibrate.response import calibrate_response
 from rig.calibrate.session import calibrate
 from rig.config import RigConfig, config_from_dict
 from rig.errors import ConfigError, SlrigError
-from rig.evaluate_merge import metrics_on_bench
+from rig.evaluate.merged import metrics_on_bench
+from rig.pipeline.scan import reconstruct_frames
 from rig.progress import ProgressCallback, ProgressEvent, ProgressTracker
 from rig.rig import Rig, open_rig
-from rig.scan import reconstruct_frames
 from rig.service.errors import (
     JobCancelledError,
     JobConflictError,

@@ -6,7 +6,7 @@ import cv2
 import numpy as np
 
 from rig.geometry import CameraModel
-from rig.pointset import PointSet
+from rig.pipeline.pointset import PointSet
 
 
 def depth_png(grid: np.ndarray, camera: CameraModel) -> bytes:

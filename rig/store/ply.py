@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from rig.pointset import PointSet
+from rig.pipeline.pointset import PointSet
 
 _VERTEX = np.dtype(
     [

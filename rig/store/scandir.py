@@ -20,11 +20,11 @@ import numpy as np
 
 import rig
 from rig.errors import StoreError
-from rig.evaluate_merge import metrics_on_bench
+from rig.evaluate.merged import metrics_on_bench
+from rig.pipeline.capture import CUE
+from rig.pipeline.scan import ScanResult, run_scan
 from rig.progress import ProgressCallback, ProgressTracker
 from rig.rig import Rig
-from rig.scan import ScanResult, run_scan
-from rig.sequencer import CUE
 from rig.store.atomic import fsync_dir, rename_no_replace, write_atomic
 from rig.store.images import depth_png, mask_png, preview_png
 from rig.store.ply import ply_bytes

@@ -8,12 +8,12 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial import cKDTree
 
-from rig.evaluate import COMPLETE_WITHIN_MM, evaluate_on_bench, point_errors
-from rig.merge import sampling_distance
-from rig.overlap import precision_recall
-from rig.pointset import PointSet
+from rig.evaluate.pairs import COMPLETE_WITHIN_MM, evaluate_on_bench, point_errors
+from rig.pipeline.merge import sampling_distance
+from rig.pipeline.overlap import precision_recall
+from rig.pipeline.pointset import PointSet
+from rig.pipeline.scan import ScanResult
 from rig.rig import Rig
-from rig.scan import ScanResult
 
 SURFACE_SPACING_MM = 1.0
 

@@ -14,7 +14,7 @@ from typing import Any
 import numpy as np
 
 from rig.config import RigConfig
-from rig.devices import usb_devices
+from rig.doctor.inventory import usb_devices
 from rig.rig import Rig
 from rig.store.atomic import write_atomic
 

@@ -22,7 +22,7 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from rig.geometry import CameraModel
-from rig.pointset import PointSet
+from rig.pipeline.pointset import PointSet
 
 RADIUS_IN_SAMPLINGS = 2.0
 

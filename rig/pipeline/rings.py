@@ -12,8 +12,8 @@ from rig.geometry import CameraModel
 from rig.geometry.cone import ray_cone, refine_on_distorted_ring
 from rig.geometry.ring_models import parallel_projection, radius_ratio
 from rig.patterns import Correspondence, RingSamples
-from rig.pointset import PointSet
-from rig.reconstruct import texture_rgb
+from rig.pipeline.dense import texture_rgb
+from rig.pipeline.pointset import PointSet
 
 # Triangles of the sample mesh longer than this (camera pixels) bridge gaps, not neighbouring rings.
 _MAX_TRIANGLE_EDGE_PX = 80.0

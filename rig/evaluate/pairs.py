@@ -7,8 +7,8 @@ from scipy.spatial import cKDTree
 
 from drivers.sim import GroundTruth, SimBench
 from rig.geometry import CameraModel
+from rig.pipeline.scan import PairResult, moved_pair
 from rig.rig import Rig
-from rig.scan import PairResult, moved_pair
 
 # Within this distance of the pixel's own true point the surface is treated as its tangent plane;
 # farther points are measured to the nearest true surface sample instead.

@@ -9,22 +9,22 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from rig.errors import DecodeError, ScanError
-from rig.icp import AlignmentRefusedError, point_to_plane
-from rig.merge import expected_error_mm, local_noise_mm, merge, triangulation_angles
-from rig.overlap import overlap_from_cue
 from rig.patterns import Codec, Correspondence, codec_class
-from rig.pointset import PointSet
-from rig.progress import ProgressCallback, ProgressTracker
-from rig.reconstruct import pair_pointset, reject_isolated
-from rig.reconstruct_sparse import (
+from rig.pipeline.capture import CUE, capture
+from rig.pipeline.dense import pair_pointset, reject_isolated
+from rig.pipeline.icp import AlignmentRefusedError, point_to_plane
+from rig.pipeline.merge import expected_error_mm, local_noise_mm, merge, triangulation_angles
+from rig.pipeline.overlap import overlap_from_cue
+from rig.pipeline.pointset import PointSet
+from rig.pipeline.rings import (
     RingPoints,
     across_ring_support,
     along_ring_support,
     ring_pointset,
     triangulate_rings,
 )
+from rig.progress import ProgressCallback, ProgressTracker
 from rig.rig import Rig
-from rig.sequencer import CUE, capture
 
 
 @dataclass(eq=False)

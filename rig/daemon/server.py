@@ -22,9 +22,9 @@ import uvicorn
 from rig.api.app import create_app
 from rig.api.security import ApiSettings, check_key_strength, is_loopback
 from rig.config import RigConfig
+from rig.daemon.sdnotify import Notifier
 from rig.errors import ConfigError
 from rig.service.runner import JobService
-from rig.service.sdnotify import Notifier
 
 log = logging.getLogger(__name__)
 

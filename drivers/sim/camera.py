@@ -1,64 +1,13 @@
-"""Simulated projector and camera: the real device interfaces over the SimBench model."""
+"""The simulated camera: the real Camera interface over the SimBench model."""
 
 from __future__ import annotations
 
 import time
 from dataclasses import dataclass
 
-import numpy as np
-
-from drivers.base import Camera, Frame, PatternSequence, Projector, ProjectorMode, TriggerMode
-from drivers.errors import DeviceDisconnectedError, DeviceStateError, DeviceTimeoutError
+from drivers.base import Camera, Frame, TriggerMode
+from drivers.errors import DeviceDisconnectedError, DeviceTimeoutError
 from drivers.sim.bench import SimBench
-
-
-class SimProjector(Projector):
-    """A projector whose light falls on the simulated scene: streaming (each show() is lit after its
-    latency) or, with `sequence=True`, one that plays a preloaded sequence on its own clock and
-    pulses its trigger output at each pattern, like a LightCrafter in pattern mode."""
-
-    def __init__(self, name: str, bench: SimBench, index: int, sequence: bool = False) -> None:
-        super().__init__(name)
-        self._bench = bench
-        self._index = index
-        self.mode = ProjectorMode.SEQUENCE if sequence else ProjectorMode.STREAMING
-        self.shown = 0  # patterns shown since open, for tests
-        self._loaded: PatternSequence | None = None
-
-    @property
-    def resolution(self) -> tuple[int, int]:
-        model = self._bench.projectors[self._index]
-        return model.width, model.height
-
-    @property
-    def is_dark(self) -> bool:
-        """Dark once its latency has passed: no light is on its way."""
-        return self._bench._history[self._index][-1][1] is None
-
-    def _do_open(self) -> None:
-        self._bench.set_pattern(self._index, None)
-
-    def _do_show(self, pattern: np.ndarray) -> None:
-        self._bench.set_pattern(self._index, pattern)
-        self.last_present_s = self._bench.clock_s
-        self.shown += 1
-
-    def _do_dark(self) -> None:
-        self._bench.set_pattern(self._index, None)
-
-    def _do_load_sequence(self, sequence: PatternSequence) -> None:
-        if sequence.images is None:
-            raise DeviceStateError(f"{self.name}: the simulated projector plays images; give sequence.images")
-        self._loaded = sequence
-
-    def _do_start_sequence(self, group: int = 0) -> None:
-        if self._loaded is None or self._loaded.images is None:
-            raise DeviceStateError(f"{self.name}: no sequence loaded")
-        self._bench.play(self._index, list(self._loaded.images), self._loaded.period_us * 1e-6)
-        self.shown += len(self._loaded.images)
-
-    def _do_stop_sequence(self) -> None:
-        self._bench.set_pattern(self._index, None)
 
 
 @dataclass(frozen=True)

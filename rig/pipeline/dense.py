@@ -8,7 +8,7 @@ import numpy as np
 from rig.geometry import CameraModel
 from rig.geometry.triangulate import closest_on_first_ray
 from rig.patterns import Correspondence
-from rig.pointset import PointSet
+from rig.pipeline.pointset import PointSet
 
 _DISTORTION_ITERATIONS = 3
 
