@@ -15,11 +15,11 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 from _readme import ACCURACY_HEADER, accuracy_cells, markdown_table, run
 
+from rig.assembly import open_rig
 from rig.config import RigConfig, load_config
 from rig.evaluate.pairs import evaluate_pair
 from rig.patterns import codec_names
 from rig.pipeline.scan import run_scan
-from rig.rig import open_rig
 
 REPO = Path(__file__).resolve().parent.parent
 SCENES: dict[str, dict[str, object]] = {
@@ -35,7 +35,7 @@ def measure(config: RigConfig, codec: str) -> dict[str, object]:
     with open_rig(config) as rig:
         result = run_scan(rig, codec)
         pair = result.pairs[0]
-        metrics = evaluate_pair(pair, rig.sim.ground_truth(0, 0), rig.sim)  # type: ignore[union-attr]
+        metrics = evaluate_pair(pair, rig.truth.ground_truth(0, 0), rig.truth)  # type: ignore[union-attr]
     return {
         "frames": result.frames_projected,
         "mb_captured": round(result.bytes_captured / 1e6, 1),

@@ -14,12 +14,12 @@ from pathlib import Path
 
 import numpy as np
 
+from rig.assembly import geometry_model, open_rig
 from rig.calibrate.files import load_calibration
 from rig.calibrate.session import calibrate
 from rig.config import load_config
 from rig.evaluate.pairs import evaluate_on_bench
 from rig.pipeline.scan import run_scan
-from rig.rig import geometry_model, open_rig
 
 
 def main() -> None:

@@ -17,10 +17,10 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _readme import ACCURACY_HEADER, accuracy_cells, markdown_table, run
 from speed import reconstruction
 
+from rig.assembly import open_rig
 from rig.config import load_config
 from rig.evaluate.pairs import evaluate_pair
 from rig.pipeline.scan import run_scan
-from rig.rig import open_rig
 
 CODECS = ("gray", "phase", "rings", "radial")
 
@@ -29,8 +29,8 @@ def measure(codec: str) -> dict[str, object]:
     with open_rig(load_config().with_codec(codec)) as rig:
         result = run_scan(rig)
         pair = result.pairs[0]
-        assert rig.sim is not None
-        metrics = evaluate_pair(pair, rig.sim.ground_truth(0, 0), rig.sim)
+        assert rig.truth is not None
+        metrics = evaluate_pair(pair, rig.truth.ground_truth(0, 0), rig.truth)
     timing = reconstruction(codec)
     return {
         "codec": codec,

@@ -17,10 +17,10 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 from _readme import markdown_table, run
 
+from rig.assembly import open_rig
 from rig.config import REPO_CONFIG_DIR, load_config
 from rig.evaluate.merged import evaluate_merge
 from rig.pipeline.scan import run_scan
-from rig.rig import open_rig
 
 
 def measure() -> dict[str, object]:

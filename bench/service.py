@@ -25,8 +25,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 from _readme import markdown_table, run
 
+from rig.assembly import open_rig
 from rig.config import REPO_CONFIG_DIR, load_config
-from rig.rig import open_rig
 from rig.store.scandir import scan_to_directory
 
 REPO = Path(__file__).resolve().parent.parent

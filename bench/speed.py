@@ -28,11 +28,11 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 from _readme import markdown_table, replace_block
 
+from rig.assembly import open_rig
 from rig.config import load_config
 from rig.patterns import codec_names
 from rig.pipeline.scan import capture, make_codec, reconstruct_pair
 from rig.progress import ProgressTracker
-from rig.rig import open_rig
 
 _PEAK_SNIPPET = """
 import json, resource, sys

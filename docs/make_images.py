@@ -11,11 +11,11 @@ from pathlib import Path
 import cv2
 import numpy as np
 
+from rig.assembly import open_rig
 from rig.config import REPO_CONFIG_DIR, load_config
 from rig.geometry import CameraModel, look_at_rotation
 from rig.pipeline.capture import CUE
 from rig.pipeline.scan import make_codec, run_scan
-from rig.rig import open_rig
 from rig.store.images import preview_png
 
 OUT = Path(__file__).resolve().parent / "images"

@@ -272,3 +272,45 @@ class Camera(Device):
 
     @abc.abstractmethod
     def _do_capture(self, deadline: float) -> Frame: ...
+
+
+POWER_STATES = ("off", "on", "cooling", "warming")
+
+
+class PowerControl(Device):
+    """A projector's housekeeping channel (RS-232, PJLink): power, input selection and blanking.
+    It carries no patterns; a display or LightCrafter driver does. Every call needs an open device
+    and fails within the driver's timeout."""
+
+    def power(self, on: bool) -> None:
+        """Switch the lamp or light source on or off."""
+        self._require_open()
+        self._do_power(on)
+
+    def power_state(self) -> str:
+        """One of POWER_STATES."""
+        self._require_open()
+        return self._do_power_state()
+
+    def select_input(self, name: str) -> None:
+        """Select a video input by the driver's own names (serial: hdmi, hdmi2, vga; PJLink: its
+        two-digit code, e.g. 31). ValueError for a name the driver does not know."""
+        self._require_open()
+        self._do_select_input(name)
+
+    def blank(self, on: bool) -> None:
+        """Blank (mute) the picture, or show the input again."""
+        self._require_open()
+        self._do_blank(on)
+
+    @abc.abstractmethod
+    def _do_power(self, on: bool) -> None: ...
+
+    @abc.abstractmethod
+    def _do_power_state(self) -> str: ...
+
+    @abc.abstractmethod
+    def _do_select_input(self, name: str) -> None: ...
+
+    @abc.abstractmethod
+    def _do_blank(self, on: bool) -> None: ...

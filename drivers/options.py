@@ -1,4 +1,9 @@
-"""Config sections of the real device drivers (each used when the device's `driver` names it)."""
+"""The settings of every driver, as a rig config spells them: one pydantic model per config section.
+
+The drivers take these models themselves (the simulator its `sim` sections, the assembly hands the
+real drivers theirs), so each setting is defined once. Every model forbids unknown keys and bounds
+every number. Nothing here imports a driver: reading a config loads no device code.
+"""
 
 from __future__ import annotations
 
@@ -6,9 +11,21 @@ from typing import Literal
 
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 
+LIGHTCRAFTER_RESOLUTION = (912, 1140)  # DLPC350 native (diamond) resolution
+LIGHTCRAFTER_MIN_8BIT_PERIOD_US = 8333  # 8-bit patterns at up to 120 Hz (LightCrafter 4500 user guide, DLPU011)
+
 
 class _Strict(BaseModel):
     model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
+
+
+class CameraSettings(_Strict):
+    """What every camera is set to, whatever its driver."""
+
+    exposure_us: float = Field(10000.0, ge=1.0, le=1e7)
+    gain: float = Field(1.0, ge=0.0, le=64.0)
+    bit_depth: Literal[8, 10, 12, 16] = 8
+    color: bool = Field(False, description="colour sensor (BGR frames); decoding uses their luminance")
 
 
 class HdmiOptions(_Strict):
@@ -36,11 +53,24 @@ class LightCrafterOptions(_Strict):
     )
     usb_timeout_s: float = Field(2.0, gt=0, le=30)
 
+    def check_timing(self, period_us: int) -> None:
+        """8-bit patterns run at up to 120 Hz (LightCrafter 4500 user guide) and a video frame's
+        patterns must fit in its period; ValueError naming pattern_period_us otherwise."""
+        if period_us < LIGHTCRAFTER_MIN_8BIT_PERIOD_US:
+            raise ValueError(f"pattern_period_us: 8-bit patterns need at least {LIGHTCRAFTER_MIN_8BIT_PERIOD_US} us")
+        frame_us = 1e6 / self.video_rate_hz
+        if self.patterns_per_frame * period_us > frame_us:
+            raise ValueError(
+                f"pattern_period_us: {self.patterns_per_frame} patterns of {period_us} us do not fit in a "
+                f"{self.video_rate_hz:g} Hz video frame ({frame_us:.0f} us); use at most "
+                f"{int(frame_us // self.patterns_per_frame)} us or fewer lightcrafter.patterns_per_frame"
+            )
+
 
 class PowerOptions(_Strict):
     """Housekeeping of the projector: switched on with this input at open, blanked at close."""
 
-    protocol: Literal["pjlink", "benq", "epson", "optoma"]
+    protocol: str = Field(min_length=1, max_length=32, description="the power driver: pjlink, benq, epson, optoma")
     url: str | None = Field(None, description="serial projectors: a pyserial URL, e.g. /dev/slrig-projector")
     host: str | None = Field(None, description="PJLink: the projector's address")
     port: int = Field(4352, ge=1, le=65535)
@@ -71,3 +101,39 @@ class OakOptions(_Strict):
     focus: int | None = Field(None, ge=0, le=255, description="manual lens position (auto-focus modules)")
     fps: float = Field(30.0, gt=0, le=120)
     backend: Literal["depthai", "fake"] = Field("depthai", description="fake: a simulated OAK, for demos and tests")
+
+
+class SimProjectorOptions(_Strict):
+    """Photometry and timing of a simulated projector."""
+
+    gamma: float = Field(2.2, ge=0.2, le=5.0, description="pattern value v in [0, 1] emits v ** gamma")
+    brightness: float = Field(1.0, gt=0.0, le=100.0, description="white irradiance at 600 mm, relative")
+    black_level: float = Field(0.004, ge=0.0, le=0.5, description="light leaked at black, a fraction of white")
+    blur_px: float = Field(0.5, ge=0.0, le=20.0, description="defocus, Gaussian sigma in projector pixels")
+    latency_s: float = Field(0.0, ge=0.0, le=2.0, description="the simulated projector's true display latency")
+
+
+class SimFaults(_Strict):
+    """Faults to inject, for testing what a rig does when a camera fails (counted in frames)."""
+
+    disconnect_after_frames: int | None = Field(None, ge=0, le=10_000_000)
+    stall_after_frames: int | None = Field(None, ge=0, le=10_000_000)
+    repeat_frame_at: int | None = Field(None, ge=1, le=10_000_000, description="this capture is a stale repeat")
+    early_frame_at: int | None = Field(
+        None, ge=1, le=10_000_000, description="this capture was exposed before the last flush (a frame too many held)"
+    )
+
+
+class SimCameraOptions(_Strict):
+    """The sensor model of a simulated camera (exposure, gain and bit depth are the camera's own)."""
+
+    full_scale_exposure_us: float = Field(
+        12000.0, gt=0.0, le=1e7, description="albedo 1 under irradiance 1 fills the well at this exposure"
+    )
+    full_well_e: float = Field(10000.0, ge=10.0, le=1e7)
+    read_noise_e: float = Field(20.0, ge=0.0, le=1e4)
+    gamma: float = Field(1.0, ge=0.2, le=5.0, description="output = signal ** (1 / gamma)")
+    blur_px: float = Field(0.6, ge=0.0, le=20.0, description="optical blur, Gaussian sigma in camera pixels")
+    frame_period_s: float = Field(1 / 30, gt=0.0, le=10.0)
+    buffered_frames: int = Field(0, ge=0, le=16, description="frames the simulated driver holds (stale on capture)")
+    faults: SimFaults = SimFaults()

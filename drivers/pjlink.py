@@ -7,7 +7,7 @@ from __future__ import annotations
 import hashlib
 import socket
 
-from drivers.base import Device
+from drivers.base import PowerControl
 from drivers.errors import (
     DeviceAuthenticationError,
     DeviceDisconnectedError,
@@ -27,7 +27,7 @@ ERRORS = {
 POWER_STATES = {"0": "off", "1": "on", "2": "cooling", "3": "warming"}
 
 
-class PJLinkProjector(Device):
+class PJLinkPowerControl(PowerControl):
     """A networked projector's housekeeping over PJLink class 1."""
 
     def __init__(
@@ -116,20 +116,22 @@ class PJLinkProjector(Device):
             raise DeviceError(f"{self.name}: {body} {parameter}: {value} {ERRORS[value]}")
         return value
 
-    def power(self, on: bool) -> None:
+    def _do_power(self, on: bool) -> None:
         self.command("POWR", "1" if on else "0")
 
-    def power_state(self) -> str:
+    def _do_power_state(self) -> str:
         value = self.command("POWR", "?")
         if value not in POWER_STATES:
             raise DeviceProtocolError(f"{self.name}: unknown power state {value!r}")
         return POWER_STATES[value]
 
-    def select_input(self, code: str) -> None:
-        """`code` is PJLink's two digits: type (1 RGB, 2 video, 3 digital, 4 storage, 5 network) and number."""
-        self.command("INPT", code)
+    def _do_select_input(self, name: str) -> None:
+        """`name` is PJLink's two digits: type (1 RGB, 2 video, 3 digital, 4 storage, 5 network) and number."""
+        if len(name) != 2 or name[0] not in "12345" or not name[1].isalnum():
+            raise ValueError(f"{self.name}: a PJLink input is two characters, type 1-5 and number (31); got {name!r}")
+        self.command("INPT", name)
 
-    def blank(self, on: bool) -> None:
+    def _do_blank(self, on: bool) -> None:
         self.command("AVMT", "31" if on else "30")
 
     def error_status(self) -> dict[str, str]:

@@ -15,7 +15,7 @@ import re
 import time
 from typing import ClassVar
 
-from drivers.base import Device
+from drivers.base import PowerControl
 from drivers.errors import DeviceDisconnectedError, DeviceNotFoundError, DeviceProtocolError, DeviceTimeoutError
 
 SIM_HANDLERS = "drivers.fakes.serial_handlers"  # `simprojector://<vendor>?fault=...` URLs for tests and demos
@@ -186,7 +186,7 @@ class Optoma(CommandSet):
 COMMAND_SETS: dict[str, type[CommandSet]] = {"benq": BenQ, "epson": Epson, "optoma": Optoma}
 
 
-class SerialProjectorControl(Device):
+class SerialPowerControl(PowerControl):
     """Power, input and blank of a projector on a serial port (`url`: /dev/ttyUSB0, socket://...,
     or simprojector://benq for the simulated one)."""
 
@@ -217,7 +217,7 @@ class SerialProjectorControl(Device):
     def _do_close(self) -> None:
         if self._port is not None:
             with contextlib.suppress(Exception):
-                self.blank(True)
+                self._do_blank(True)
             self._port.close()
             self._port = None
 
@@ -280,16 +280,16 @@ class SerialProjectorControl(Device):
             self._stale = True
             raise DeviceProtocolError(f"{self.name}: garbled reply {reply!r} (wrong baud rate?)") from None
 
-    def power(self, on: bool) -> None:
+    def _do_power(self, on: bool) -> None:
         self._exchange(self.commands.power(on))
 
-    def power_state(self) -> str:
+    def _do_power_state(self) -> str:
         return self.commands.parse_power(self._exchange(self.commands.power_query()))
 
-    def select_input(self, name: str) -> None:
+    def _do_select_input(self, name: str) -> None:
         if name not in self.commands.inputs:
             raise ValueError(f"{self.name}: unknown input {name!r}; known: {', '.join(self.commands.inputs)}")
         self._exchange(self.commands.select_input(self.commands.inputs[name]))
 
-    def blank(self, on: bool) -> None:
+    def _do_blank(self, on: bool) -> None:
         self._exchange(self.commands.blank(on))

@@ -13,6 +13,7 @@ from typing import Any
 
 from drivers.errors import DeviceError
 from rig import __version__
+from rig.assembly import open_rig
 from rig.calibrate.response import RESPONSE_NAME, calibrate_response
 from rig.calibrate.session import calibrate
 from rig.config import SCENE_KINDS, RigConfig, load_config
@@ -24,7 +25,6 @@ from rig.evaluate.pairs import evaluate_on_bench
 from rig.patterns import codec_class, codec_names
 from rig.pipeline.scan import run_scan
 from rig.progress import TerminalBar
-from rig.rig import open_rig
 from rig.store.scandir import new_scan_id, scan_to_directory
 
 EXIT_FAILED = 1
@@ -287,8 +287,8 @@ def cmd_doctor(args: argparse.Namespace) -> int:
 
 
 def cmd_plan(args: argparse.Namespace) -> int:
+    from rig.assembly.simulated import build_scene
     from rig.plan import confirm_on_bench, plan_views
-    from rig.rig import build_scene
 
     checks = [
         ("--coverage", 0.05 <= args.coverage <= 1.0, "0.05..1"),

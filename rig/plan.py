@@ -19,8 +19,8 @@ import numpy as np
 from scipy.spatial import cKDTree
 from scipy.spatial.transform import Rotation
 
-from drivers.sim import SimBench
 from drivers.sim import scene as sim_scene
+from drivers.sim.bench import SimBench
 from drivers.sim.raycast import RayCaster
 from rig.geometry import CameraModel, look_at_rotation
 

@@ -1,84 +1,85 @@
-"""A Rig: the opened devices of a RigConfig with their geometry."""
+"""A Rig: the opened devices of a RigConfig, their geometry, and what the rig can do beyond them.
+
+A rig either has or lacks each capability; code asks the rig, never its type:
+- `clock`: the clock of frame stamps and presentations, and the way time passes (real time on real
+  devices, bench time on the simulated bench);
+- `truth`: ground truth of the scene (only a simulated rig has it), for measuring accuracy;
+- `scene`: a way to put a calibration board before the cameras (only a simulated rig; on a real
+  bench the operator does, and calibration reads the views from a folder).
+
+Rigs are built by rig.assembly.open_rig.
+"""
 
 from __future__ import annotations
 
 import contextlib
 import json
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
-from pathlib import Path
+from typing import Any, Protocol
 
 import numpy as np
 
 from drivers.base import Camera, Device, Projector
-from drivers.sim import SimBench, SimCamera, SimCameraFaults, SimCameraParams, SimProjector, SimProjectorParams
-from drivers.sim import scene as sim_scene
-from rig.config import (
-    BoxScene,
-    CameraConfig,
-    Geometry,
-    MeshScene,
-    PlaneScene,
-    ProjectorConfig,
-    RigConfig,
-    SimulationConfig,
-    SphereOnPlaneScene,
-    SphereScene,
-    TerrainScene,
-)
-from rig.errors import ConfigError, SceneError
-from rig.geometry import CameraModel, look_at_rotation
-from rig.pipeline.dense import PairTriangulator
+from rig.config import RigConfig
+from rig.errors import ConfigError
+from rig.geometry import CameraModel
+
+LATENCY_FILE = "latency.json"  # in the data directory: `slrig doctor --latency` writes, `latency_s: measured` reads
 
 
-def geometry_model(geometry: Geometry, resolution: tuple[int, int]) -> CameraModel:
-    """The CameraModel described by a config's geometry section."""
-    i = geometry.intrinsics
-    K = np.array([[i.fx, i.skew, i.cx], [0.0, i.fy, i.cy], [0.0, 0.0, 1.0]])
-    position = np.array(geometry.pose.position_mm, dtype=float)
-    R = look_at_rotation(position, np.array(geometry.pose.look_at_mm, float), np.array(geometry.pose.up, float))
-    return CameraModel(
-        width=resolution[0],
-        height=resolution[1],
-        K=K,
-        R=R,
-        t=-R @ position,
-        dist=np.array(geometry.distortion, dtype=float),
-        projection=geometry.projection,
-    )
+class Clock(Protocol):
+    """The time of Frame.timestamp_s and Projector.last_present_s, and how to let it pass."""
+
+    def now(self) -> float: ...
+
+    def sleep(self, seconds: float) -> None: ...
 
 
-def build_scene(config: SimulationConfig) -> sim_scene.Scene:
-    """The simulated scene of a config; raises SceneError for a missing or unreadable mesh."""
-    s = config.scene
-    objects: list[sim_scene.SceneObject]
-    if isinstance(s, PlaneScene):
-        objects = [sim_scene.plane(s.size_mm, s.albedo)]
-    elif isinstance(s, SphereScene):
-        objects = [sim_scene.sphere(s.radius_mm, s.center_mm, s.albedo)]
-    elif isinstance(s, SphereOnPlaneScene):
-        center = (*s.position_mm, s.radius_mm)
-        objects = [
-            sim_scene.plane(s.plane_size_mm, s.plane_albedo),
-            sim_scene.sphere(s.radius_mm, center, s.sphere_albedo),
-        ]
-    elif isinstance(s, BoxScene):
-        box = sim_scene.box(s.extents_mm, (0.0, 0.0, s.extents_mm[2] / 2), s.rotation_deg, s.albedo)
-        objects = [sim_scene.plane(600.0, 0.6), box] if s.plane else [box]
-    elif isinstance(s, TerrainScene):
-        objects = [sim_scene.terrain(s.size_mm, s.amplitude_mm, seed=s.seed, albedo=s.albedo)]
-    elif isinstance(s, MeshScene):
-        try:
-            mesh = sim_scene.mesh_file(
-                s.path, s.scale, s.position_mm, s.rotation_deg, s.albedo, fit_size_mm=s.fit_size_mm
-            )
-        except (FileNotFoundError, ValueError) as exc:
-            raise SceneError(f"simulation.scene.path: {exc}") from None
-        objects = [sim_scene.plane(600.0, 0.6), mesh] if s.plane else [mesh]
-    else:  # pragma: no cover - the config union is exhaustive
-        raise SceneError(f"unsupported scene kind {s.kind!r}")
-    return sim_scene.build_scene(objects)
+class MonotonicClock:
+    """Real devices: the host's monotonic clock, and real waiting."""
+
+    def now(self) -> float:
+        return time.monotonic()
+
+    def sleep(self, seconds: float) -> None:
+        if seconds > 0:
+            time.sleep(seconds)
+
+
+class PixelTruth(Protocol):
+    """Ground truth per camera pixel for one (camera, projector) pair; arrays are (H, W[, k])."""
+
+    hit: np.ndarray  # a surface is seen
+    points: np.ndarray  # world points, mm (NaN where no hit)
+    normals: np.ndarray  # unit normals facing the camera
+    depth: np.ndarray  # camera-frame z, mm (0 where no hit)
+    projector_uv: np.ndarray  # projector pixel coordinates of the surface point
+    lit: np.ndarray  # inside the projector's image, unshadowed and facing it
+
+
+class GroundTruth(Protocol):
+    """What the scene really is: the devices' true geometry, per-pixel truth, and ray casts."""
+
+    @property
+    def cameras(self) -> Sequence[Any]: ...  # true CameraModels, in the config's order
+
+    @property
+    def projectors(self) -> Sequence[Any]: ...
+
+    def ground_truth(self, camera: int, projector: int) -> PixelTruth: ...
+
+    def cast(self, origins: np.ndarray, directions: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """First surface hit (points, normals) along each ray; NaN where a ray hits nothing."""
+        ...
+
+
+class SceneControl(Protocol):
+    """Puts a printed calibration board (an image, `pixel_mm` per pixel) at a pose before the
+    cameras: `axes` (3, 3) are the print's x, y and normal in the world, `origin` its corner."""
+
+    def show_board(self, image: np.ndarray, pixel_mm: float, axes: np.ndarray, origin: np.ndarray) -> None: ...
 
 
 @dataclass(eq=False)
@@ -90,29 +91,25 @@ class Rig:
     cameras: list[Camera]
     projector_models: list[CameraModel]
     camera_models: list[CameraModel]
-    sim: SimBench | None = None
+    clock: Clock = field(default_factory=MonotonicClock)
+    truth: GroundTruth | None = None
+    scene: SceneControl | None = None
     calibration_sha256: str | None = None  # of calibration.file when reconstruction uses one
     response_luts: list[np.ndarray | None] = field(default_factory=list)  # per projector, from response.json
     response_sha256: str | None = None
     extras: list[Device] = field(default_factory=list)  # housekeeping (projector power), opened first
     # Called at every wait for light: the daemon's heartbeat and cancel check in long sessions.
     checkpoint: Callable[[], None] | None = field(default=None, repr=False)
+    # Terms computed from the geometry once and kept between scans (per-pixel rays of each pair).
+    memo: dict[object, object] = field(default_factory=dict, repr=False)
     _closed: bool = field(default=False, repr=False)
-    _triangulators: dict[tuple[int, int], PairTriangulator] = field(default_factory=dict, repr=False)
-
-    def triangulator(self, projector: int, camera: int) -> PairTriangulator:
-        """The pair's triangulator; its per-pixel terms are computed on first use and kept."""
-        key = (projector, camera)
-        if key not in self._triangulators:
-            self._triangulators[key] = PairTriangulator(self.camera_models[camera], self.projector_models[projector])
-        return self._triangulators[key]
 
     def latency_s(self, projector: int) -> float:
         """The display latency to wait after showing a pattern on `projector`."""
         value = self.config.projectors[projector].latency_s
         if value != "measured":
             return float(value)
-        path = self.config.output.data_dir / "latency.json"
+        path = self.config.output.data_dir / LATENCY_FILE
         try:
             return float(json.loads(path.read_text())[self.config.projectors[projector].name])
         except (OSError, ValueError, KeyError) as exc:
@@ -125,13 +122,10 @@ class Rig:
             ) from None
 
     def wait(self, seconds: float) -> None:
-        """Let time pass: bench time on the simulated bench, real time on real devices."""
+        """Let time pass on the rig's clock, after the checkpoint (which may cancel)."""
         if self.checkpoint is not None:
             self.checkpoint()
-        if self.sim is not None:
-            self.sim.advance(seconds)
-        elif seconds > 0:
-            time.sleep(seconds)
+        self.clock.sleep(seconds)
 
     def all_dark(self) -> None:
         for projector in self.projectors:
@@ -152,129 +146,3 @@ class Rig:
 
     def __exit__(self, *exc: object) -> None:
         self.close()
-
-
-def _sim_projector_params(p: ProjectorConfig) -> SimProjectorParams:
-    return SimProjectorParams(
-        gamma=p.sim.gamma,
-        brightness=p.sim.brightness,
-        black_level=p.sim.black_level,
-        blur_px=p.sim.blur_px,
-        latency_s=p.sim.latency_s,
-    )
-
-
-def _sim_camera_params(c: CameraConfig) -> SimCameraParams:
-    return SimCameraParams(
-        exposure_us=c.exposure_us,
-        gain=c.gain,
-        full_scale_exposure_us=c.sim.full_scale_exposure_us,
-        full_well_e=c.sim.full_well_e,
-        read_noise_e=c.sim.read_noise_e,
-        gamma=c.sim.gamma,
-        blur_px=c.sim.blur_px,
-        bit_depth=c.bit_depth,
-        frame_period_s=c.sim.frame_period_s,
-        buffered_frames=c.sim.buffered_frames,
-        color=c.color,
-    )
-
-
-def _calibration_folder(config: RigConfig) -> Path:
-    file = config.calibration.file
-    if file is None:
-        raise ConfigError("calibration.file", ["calibration.file: not set"])
-    return file if file.is_dir() else file.parent
-
-
-def _calibrated_models(
-    config: RigConfig, cameras: list[CameraModel], projectors: list[CameraModel]
-) -> tuple[list[CameraModel], list[CameraModel], str | None]:
-    """Models from calibration.json when the calibration folder has one, else the config's."""
-    from rig.calibrate.files import JSON_NAME, load_calibration  # calibration imports the rig: import late
-
-    folder = _calibration_folder(config)
-    if not (folder / JSON_NAME).is_file():
-        return cameras, projectors, None
-    models, digest = load_calibration(folder)
-    missing = [d.name for d in (*config.cameras, *config.projectors) if d.name not in models]
-    if missing:
-        raise ConfigError("calibration.file", [f"calibration.file: has no calibration for {', '.join(missing)}"])
-    return [models[c.name] for c in config.cameras], [models[p.name] for p in config.projectors], digest
-
-
-def _response_luts(config: RigConfig) -> tuple[list[np.ndarray | None], str | None]:
-    from rig.calibrate.response import load_response_luts  # calibration imports the rig: import late
-
-    loaded = load_response_luts(_calibration_folder(config))
-    if loaded is None:
-        return [None] * len(config.projectors), None
-    luts, digest = loaded
-    return [luts.get(p.name) for p in config.projectors], digest
-
-
-def _open_all(rig: Rig, devices: tuple[Device, ...]) -> None:
-    try:
-        for device in devices:
-            device.open()
-    except Exception:
-        rig.close()
-        raise
-
-
-def _faults(c: CameraConfig) -> SimCameraFaults:
-    f = c.sim.faults
-    return SimCameraFaults(f.disconnect_after_frames, f.stall_after_frames, f.repeat_frame_at, f.early_frame_at)
-
-
-def open_rig(config: RigConfig, with_devices: bool = True) -> Rig:
-    """Open every device of `config`: the simulated bench, or the real devices. Without devices,
-    a rig of geometry only (and the simulated bench's ground truth), for reprocessing stored frames."""
-    projector_models = [geometry_model(p.geometry, p.resolution) for p in config.projectors]
-    camera_models = [geometry_model(c.geometry, c.resolution) for c in config.cameras]
-    truth = (camera_models, projector_models)  # the simulator's geometry, whatever reconstruction uses
-    digest = None
-    luts: list[np.ndarray | None] = [None] * len(config.projectors)
-    response_digest = None
-    if config.calibration.file is not None:
-        camera_models, projector_models, digest = _calibrated_models(config, camera_models, projector_models)
-        luts, response_digest = _response_luts(config)
-    bench: SimBench | None = None
-    extras: list[Device] = []
-    projectors: list[Projector] = []
-    cameras: list[Camera] = []
-    if config.simulation is None:  # a real rig
-        if not with_devices:
-            return Rig(config, [], [], projector_models, camera_models, None, digest, luts, response_digest)
-        from rig.assembly import hardware  # drivers of real devices, only when a rig has them
-
-        extras, projectors, cameras = hardware.devices(config)
-    else:
-        bench = SimBench(
-            build_scene(config.simulation),
-            truth[0],
-            truth[1],
-            camera_params=[_sim_camera_params(c) for c in config.cameras],
-            projector_params=[_sim_projector_params(p) for p in config.projectors],
-            ambient=config.simulation.ambient,
-            seed=config.simulation.seed,
-        )
-        if with_devices:
-            projectors = [
-                SimProjector(p.name, bench, i, sequence=p.sync == "hardware") for i, p in enumerate(config.projectors)
-            ]
-            cameras = [SimCamera(c.name, bench, i, _faults(c)) for i, c in enumerate(config.cameras)]
-    rig = Rig(
-        config,
-        projectors,
-        cameras,
-        projector_models,
-        camera_models,
-        sim=bench,
-        calibration_sha256=digest,
-        response_luts=luts,
-        response_sha256=response_digest,
-        extras=extras,
-    )
-    _open_all(rig, (*extras, *projectors, *cameras))
-    return rig

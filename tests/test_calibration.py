@@ -12,11 +12,11 @@ import cv2
 import numpy as np
 import pytest
 
+from rig.assembly import geometry_model, open_rig
 from rig.calibrate.files import load_calibration
 from rig.calibrate.session import CalibrationOutcome, calibrate
 from rig.cli import main
 from rig.config import load_config
-from rig.rig import geometry_model, open_rig
 from tests.conftest import default_config_data, small_config_data, write_config
 
 

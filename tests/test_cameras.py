@@ -14,19 +14,22 @@ from drivers.base import Camera
 from drivers.errors import DeviceError, DeviceNotFoundError, DeviceProtocolError, DeviceStateError, DeviceTimeoutError
 from drivers.fakes.v4l2 import FakeVideoCapture, V4l2Faults
 from drivers.oak.camera import OakCamera
-from drivers.sim import SimBench, SimCamera, SimCameraFaults, SimCameraParams, SimProjector
+from drivers.options import SimCameraOptions, SimFaults
 from drivers.sim import scene as sc
+from drivers.sim.bench import SimBench
+from drivers.sim.camera import SimCamera
+from drivers.sim.projector import SimProjector
 from drivers.v4l2 import V4l2Camera
 from tests.conftest import make_device
 
 SIZE = (320, 256)
 
 
-def _sim(faults: SimCameraFaults | None = None) -> Camera:
+def _sim(faults: SimFaults | None = None) -> Camera:
     camera = make_device(*SIZE, 450.0, (0.0, 0.0, 600.0))
     projector = make_device(64, 48, 90.0, (100.0, 0.0, 600.0))
     bench = SimBench(
-        sc.build_scene([sc.plane(1000.0)]), [camera], [projector], camera_params=[SimCameraParams(buffered_frames=2)]
+        sc.build_scene([sc.plane(1000.0)]), [camera], [projector], camera_options=[SimCameraOptions(buffered_frames=2)]
     )
     SimProjector("p", bench, 0).open()
     return SimCamera("sim", bench, 0, faults)
@@ -113,7 +116,7 @@ def test_closed_cameras_refuse_and_close_twice(camera: Camera) -> None:
 
 def test_a_silent_camera_times_out_within_the_timeout(kind: str) -> None:
     device = {
-        "sim": lambda: _sim(SimCameraFaults(stall_after=1)),
+        "sim": lambda: _sim(SimFaults(stall_after_frames=1)),
         "v4l2-on-fake": lambda: _v4l2(V4l2Faults(stall_after=1)),
         "oak-worker-on-fake": lambda: _oak("stall_after=1"),
     }[kind]()

@@ -13,12 +13,11 @@ import numpy as np
 import plyfile
 import pytest
 
-from drivers.sim import SimCamera, SimCameraFaults
+from rig.assembly import open_rig
 from rig.cli import main
-from rig.config import RigConfig
+from rig.config import RigConfig, config_from_dict
 from rig.errors import ScanError
 from rig.pipeline.scan import run_scan
-from rig.rig import open_rig
 from tests.conftest import REPO, default_config_data, write_config
 
 
@@ -118,11 +117,10 @@ def test_unknown_scene_option_exits_2(capsys: pytest.CaptureFixture[str]) -> Non
 
 
 def test_camera_fault_fails_the_scan_and_leaves_the_projector_dark(small_config: RigConfig) -> None:
-    the_rig = open_rig(small_config)
+    data = small_config.model_dump()
+    data["cameras"][0]["sim"]["faults"]["disconnect_after_frames"] = 5
+    the_rig = open_rig(config_from_dict(data, "test"))
     try:
-        assert the_rig.sim is not None
-        the_rig.cameras[0] = SimCamera("camera0", the_rig.sim, 0, SimCameraFaults(disconnect_after=5))
-        the_rig.cameras[0].open()
         with pytest.raises(ScanError, match="disconnected"):
             run_scan(the_rig)
         assert all(p.is_dark for p in the_rig.projectors)  # type: ignore[attr-defined]

@@ -11,11 +11,11 @@ import numpy as np
 import pytest
 
 from drivers.errors import DeviceError
+from rig.assembly import open_rig
 from rig.cli import main
 from rig.config import load_config
 from rig.errors import ScanError
 from rig.pipeline.scan import run_scan
-from rig.rig import open_rig
 from tests.conftest import small_config_data, write_config
 
 

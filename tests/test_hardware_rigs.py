@@ -13,10 +13,10 @@ import pytest
 import yaml
 
 from drivers.errors import DeviceNotFoundError
+from rig.assembly import open_rig
 from rig.cli import main
 from rig.config import REPO_CONFIG_DIR, load_config
 from rig.errors import ConfigError
-from rig.rig import open_rig
 from tests.conftest import write_config
 
 

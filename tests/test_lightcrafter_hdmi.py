@@ -18,12 +18,13 @@ from drivers.dlp.lcr4500 import PRODUCT_ID, RESOLUTION, VENDOR_ID, Lcr4500Projec
 from drivers.errors import DeviceProtocolError
 from drivers.fakes.dlpc350 import FakeLcr4500, finder_for
 from drivers.hdmi.projector import HdmiProjector
+from drivers.sim.bench import SimBench
 from drivers.usbhid import PyUsbHidTransport
+from rig.assembly import open_rig
 from rig.config import load_config
 from rig.errors import ConfigError
 from rig.evaluate.pairs import evaluate_on_bench
 from rig.pipeline.scan import run_scan
-from rig.rig import open_rig
 from tests.conftest import small_config_data, write_config
 
 WIDTH, HEIGHT = RESOLUTION
@@ -148,8 +149,8 @@ def test_a_hardware_synced_scan_through_the_lightcrafter_gives_the_software_sync
     fake = FakeLcr4500()
     k = _Kit(fake=fake)
     with open_rig(load_config(write_config(tmp_path, _bench_config("hardware"), "hardware.yaml"))) as the_rig:
-        bench = the_rig.sim
-        assert bench is not None
+        bench = the_rig.truth  # the simulated bench is its own ground truth
+        assert isinstance(bench, SimBench)
 
         def light_the_scene(device: FakeLcr4500) -> None:  # the DMD: the LUT's channels of the input frame
             bench.play(0, device.displayed_patterns(k.shown[-1]), device.period_us * 1e-6)
@@ -177,5 +178,5 @@ def test_config_checks_the_lightcrafter_timing(tmp_path: Path) -> None:
     load_config(write_config(tmp_path, data))
     data["cameras"][0]["driver"] = "v4l2"
     data["cameras"][0]["v4l2"] = {"device": "/dev/video0"}
-    with pytest.raises(ConfigError, match=r"cameras\[0\].driver: a V4L2 camera has no trigger input"):
+    with pytest.raises(ConfigError, match=r"cameras\[0\].driver: a v4l2 camera has no trigger input"):
         load_config(write_config(tmp_path, data))

@@ -14,6 +14,7 @@ import pytest
 import yaml
 from scipy.spatial.transform import Rotation
 
+from rig.assembly import open_rig
 from rig.cli import main
 from rig.config import REPO_CONFIG_DIR, config_from_dict, load_config
 from rig.evaluate.merged import evaluate_merge
@@ -22,7 +23,7 @@ from rig.pipeline.capture import CUE
 from rig.pipeline.merge import compare_across_pairs, expected_error_mm, thin
 from rig.pipeline.pointset import PointSet
 from rig.pipeline.scan import ScanResult, run_scan
-from rig.rig import Rig, open_rig
+from rig.rig import Rig
 from rig.store.ply import ply_bytes
 from rig.store.scandir import read_frames, write_scan
 

@@ -18,15 +18,15 @@ from drivers.errors import (
     DeviceTimeoutError,
 )
 from drivers.fakes.pjlink import FakePJLinkProjector
-from drivers.pjlink import PJLinkProjector
-from drivers.serial_projector import SerialProjectorControl
+from drivers.pjlink import PJLinkPowerControl
+from drivers.serial_projector import SerialPowerControl
 
 TIMEOUT_S = 0.3
 
 
 class _SerialKit:
     def __init__(self, vendor: str, query: str = "") -> None:
-        self.device = SerialProjectorControl(vendor, f"simprojector://{vendor}{query}", vendor, timeout_s=TIMEOUT_S)
+        self.device = SerialPowerControl(vendor, f"simprojector://{vendor}{query}", vendor, timeout_s=TIMEOUT_S)
         self.hdmi = "hdmi"
 
     @property
@@ -43,7 +43,7 @@ class _SerialKit:
 class _PJLinkKit:
     def __init__(self) -> None:
         self.server = FakePJLinkProjector(password="bench")
-        self.device = PJLinkProjector("pjlink", "127.0.0.1", self.server.port, password="bench", timeout_s=TIMEOUT_S)
+        self.device = PJLinkPowerControl("pjlink", "127.0.0.1", self.server.port, password="bench", timeout_s=TIMEOUT_S)
         self.hdmi = "31"
 
     def blanked(self) -> bool:
@@ -82,8 +82,8 @@ def test_use_after_close_is_refused(kit: _SerialKit | _PJLinkKit) -> None:
 
 
 # --- serial faults ------------------------------------------------------------------------------
-def _serial(vendor: str, fault: str, power: str = "on") -> SerialProjectorControl:
-    device = SerialProjectorControl(
+def _serial(vendor: str, fault: str, power: str = "on") -> SerialPowerControl:
+    device = SerialPowerControl(
         vendor, f"simprojector://{vendor}?fault={fault}&power={power}", vendor, timeout_s=TIMEOUT_S
     )
     device.open()
@@ -134,16 +134,16 @@ def test_benq_refuses_blank_while_off() -> None:
 
 def test_missing_port_and_unknown_vendor() -> None:
     with pytest.raises(DeviceNotFoundError):
-        SerialProjectorControl("p", "/dev/does-not-exist", "epson").open()
+        SerialPowerControl("p", "/dev/does-not-exist", "epson").open()
     with pytest.raises(ValueError, match="known: benq, epson, optoma"):
-        SerialProjectorControl("p", "loop://", "sony")
+        SerialPowerControl("p", "loop://", "sony")
 
 
 # --- PJLink faults -------------------------------------------------------------------------------
 def test_pjlink_wrong_or_missing_password() -> None:
     with (
         FakePJLinkProjector(password="bench") as server,
-        PJLinkProjector("pj", "127.0.0.1", server.port, password="guess", timeout_s=TIMEOUT_S) as device,
+        PJLinkPowerControl("pj", "127.0.0.1", server.port, password="guess", timeout_s=TIMEOUT_S) as device,
         pytest.raises(DeviceAuthenticationError, match="refused"),
     ):
         device.power_state()
@@ -151,13 +151,13 @@ def test_pjlink_wrong_or_missing_password() -> None:
         FakePJLinkProjector(password="bench") as server,
         pytest.raises(DeviceAuthenticationError, match="asks for a PJLink password"),
     ):
-        PJLinkProjector("pj", "127.0.0.1", server.port, timeout_s=TIMEOUT_S).open()
+        PJLinkPowerControl("pj", "127.0.0.1", server.port, timeout_s=TIMEOUT_S).open()
 
 
 def test_pjlink_warm_up_is_err3() -> None:
     with (
         FakePJLinkProjector(warmup_s=5.0) as server,
-        PJLinkProjector("pj", "127.0.0.1", server.port, timeout_s=TIMEOUT_S) as device,
+        PJLinkPowerControl("pj", "127.0.0.1", server.port, timeout_s=TIMEOUT_S) as device,
     ):
         device.power(True)
         assert device.power_state() == "warming"
@@ -171,7 +171,7 @@ def test_pjlink_warm_up_is_err3() -> None:
 )
 def test_pjlink_silence_and_dropped_connections(fault: str, error: type[Exception]) -> None:
     with FakePJLinkProjector(fault=fault) as server:
-        device = PJLinkProjector("pj", "127.0.0.1", server.port, timeout_s=TIMEOUT_S)
+        device = PJLinkPowerControl("pj", "127.0.0.1", server.port, timeout_s=TIMEOUT_S)
         start = time.monotonic()
         try:
             with pytest.raises(error):
@@ -187,13 +187,13 @@ def test_pjlink_nobody_listening() -> None:
     port = server.port
     server.close()
     with pytest.raises(DeviceNotFoundError):
-        PJLinkProjector("pj", "127.0.0.1", port, timeout_s=TIMEOUT_S).open()
+        PJLinkPowerControl("pj", "127.0.0.1", port, timeout_s=TIMEOUT_S).open()
 
 
 def test_pjlink_reconnects_after_a_timeout_instead_of_reading_a_late_reply() -> None:
     with (
         FakePJLinkProjector(fault="late-once") as server,
-        PJLinkProjector("pj", "127.0.0.1", server.port, timeout_s=TIMEOUT_S) as device,
+        PJLinkPowerControl("pj", "127.0.0.1", server.port, timeout_s=TIMEOUT_S) as device,
     ):
         with pytest.raises(DeviceTimeoutError):
             device.power(True)  # its "OK" comes after the timeout, on a connection now closed

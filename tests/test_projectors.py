@@ -22,8 +22,9 @@ from drivers.errors import (
 )
 from drivers.fakes.dlpc350 import FakeLcr4500, Faults, finder_for
 from drivers.hdmi.projector import HdmiProjector
-from drivers.sim import SimBench, SimProjector
 from drivers.sim import scene as sc
+from drivers.sim.bench import SimBench
+from drivers.sim.projector import SimProjector
 from drivers.usbhid import PyUsbHidTransport
 from tests.conftest import make_device
 

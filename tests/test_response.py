@@ -8,12 +8,12 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from rig.assembly import open_rig
 from rig.calibrate.response import fit_gamma, inverse_lut
 from rig.cli import main
 from rig.config import load_config
 from rig.evaluate.pairs import evaluate_on_bench
 from rig.pipeline.scan import run_scan
-from rig.rig import open_rig
 from tests.conftest import default_config_data, write_config
 
 

@@ -9,11 +9,11 @@ import numpy as np
 import pytest
 import yaml
 
+from rig.assembly import open_rig
 from rig.config import REPO_CONFIG_DIR, RigConfig, load_config
 from rig.errors import ConfigError
 from rig.evaluate.pairs import evaluate_pair
 from rig.pipeline.scan import run_scan
-from rig.rig import open_rig
 from tests.conftest import write_config
 
 SCENES = {"plane": {"kind": "plane"}, "sphere": {"kind": "sphere", "radius_mm": 60.0, "center_mm": [0.0, 0.0, 0.0]}}
@@ -33,8 +33,8 @@ def _scan(config: RigConfig) -> tuple[float, np.ndarray]:
     """rms (mm) of a scan and its kept ring points."""
     with open_rig(config) as the_rig:
         pair = run_scan(the_rig).pairs[0]
-        assert the_rig.sim is not None and pair.rings is not None
-        report = evaluate_pair(pair, the_rig.sim.ground_truth(0, 0), the_rig.sim)
+        assert the_rig.truth is not None and pair.rings is not None
+        report = evaluate_pair(pair, the_rig.truth.ground_truth(0, 0), the_rig.truth)
     assert report["points"] > 1000
     return float(report["rms_mm"]), pair.rings.points[pair.rings.kept]
 

@@ -9,6 +9,7 @@ import cv2
 import numpy as np
 import pytest
 
+from rig.assembly import open_rig
 from rig.cli import main
 from rig.config import config_from_dict, load_config
 from rig.geometry.cone import ray_cone
@@ -16,7 +17,7 @@ from rig.patterns import codec_class
 from rig.patterns.radial import RadialParams
 from rig.patterns.rings import RingsParams
 from rig.pipeline.scan import PairResult, make_codec, run_scan
-from rig.rig import Rig, open_rig
+from rig.rig import Rig
 from tests.conftest import make_device
 
 SIZE = (1024, 768)
@@ -118,9 +119,9 @@ def ring_scan() -> Iterator[tuple[Rig, PairResult, np.ndarray]]:
 
 def test_rings_every_ring_on_the_object_yields_points(ring_scan: tuple[Rig, PairResult, np.ndarray]) -> None:
     the_rig, pair, radii = ring_scan
-    assert the_rig.sim is not None and pair.rings is not None
+    assert the_rig.truth is not None and pair.rings is not None
     assert len(radii) == 32
-    truth = the_rig.sim.ground_truth(0, 0)
+    truth = the_rig.truth.ground_truth(0, 0)
     center = np.array([0.0, 0.0, 60.0])  # the default scene's sphere
     on_sphere = truth.hit & truth.lit & (np.abs(np.linalg.norm(truth.points - center, axis=2) - 60.0) < 0.01)
     on_sphere &= truth.points[..., 2] > 5.0
@@ -135,8 +136,8 @@ def test_rings_every_ring_on_the_object_yields_points(ring_scan: tuple[Rig, Pair
 def test_rings_never_choose_the_wrong_root(ring_scan: tuple[Rig, PairResult, np.ndarray]) -> None:
     the_rig, pair, _ = ring_scan
     rp = pair.rings
-    assert the_rig.sim is not None and rp is not None
-    true, _ = the_rig.sim.cast(rp.origins, rp.directions)
+    assert the_rig.truth is not None and rp is not None
+    true, _ = the_rig.truth.cast(rp.origins, rp.directions)
     chosen = np.linalg.norm(rp.points - true, axis=1)
     other = np.linalg.norm(rp.other_root - true, axis=1)
     two_roots = np.isfinite(other)
@@ -151,8 +152,8 @@ def test_rings_never_choose_the_wrong_root(ring_scan: tuple[Rig, PairResult, np.
 def test_rings_masking_removes_the_ill_conditioned_points(ring_scan: tuple[Rig, PairResult, np.ndarray]) -> None:
     the_rig, pair, _ = ring_scan
     rp = pair.rings
-    assert the_rig.sim is not None and rp is not None
-    true, normal = the_rig.sim.cast(rp.origins, rp.directions)
+    assert the_rig.truth is not None and rp is not None
+    true, normal = the_rig.truth.cast(rp.origins, rp.directions)
     error = np.abs(np.einsum("ij,ij->i", rp.points - true, normal))
     masked = ~rp.kept
     assert pair.counts["masked_ill_conditioned"] == int((masked & (rp.cos_beta < 0.3)).sum()) > 1000
@@ -189,7 +190,7 @@ def test_radial_against_phase_at_the_same_frame_count(capsys: pytest.CaptureFixt
         assert result.frames_projected == radial["frames"]
         from rig.evaluate.pairs import evaluate_pair
 
-        phase = evaluate_pair(result.pairs[0], the_rig.sim.ground_truth(0, 0), the_rig.sim)  # type: ignore[union-attr]
+        phase = evaluate_pair(result.pairs[0], the_rig.truth.ground_truth(0, 0), the_rig.truth)  # type: ignore[union-attr]
     assert radial["completeness"] >= 0.90
     assert radial["rms_mm"] <= 2 * phase["rms_mm"]  # the issue's bound
     assert radial["rms_mm"] <= 1.3 * phase["rms_mm"]  # and what it measures: 0.058 against 0.050
@@ -253,9 +254,9 @@ def test_a_ring_sample_off_its_neighbours_depth_is_rejected() -> None:
 def test_ring_stretches_that_straddle_a_depth_edge_are_rejected() -> None:
     """On the box a stretch of one ring decodes between the box top and the floor, agreeing with
     itself along the ring; the rings around it do not agree, and it goes."""
+    from rig.assembly import open_rig
     from rig.evaluate.pairs import evaluate_on_bench
     from rig.pipeline.scan import run_scan
-    from rig.rig import open_rig
 
     config = load_config().with_codec("rings").with_scene({"kind": "box"})
     with open_rig(config) as the_rig:

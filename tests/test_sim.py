@@ -10,8 +10,11 @@ import pytest
 import trimesh
 
 from drivers.errors import DeviceDisconnectedError, DeviceTimeoutError
-from drivers.sim import SimBench, SimCamera, SimCameraFaults, SimCameraParams, SimProjector, SimProjectorParams
+from drivers.options import CameraSettings, SimCameraOptions, SimFaults, SimProjectorOptions
 from drivers.sim import scene as sc
+from drivers.sim.bench import SimBench
+from drivers.sim.camera import SimCamera
+from drivers.sim.projector import SimProjector
 from tests.conftest import make_device
 
 CAMERA = make_device(320, 256, 450.0, (-100.0, 0.0, 600.0), (0.0, 0.0, 30.0))
@@ -60,11 +63,11 @@ def test_shadows_are_where_the_sphere_blocks_the_projector() -> None:
 
 
 def test_photometry_follows_lambert_falloff_and_exposure() -> None:
-    params = SimCameraParams(exposure_us=6000.0, read_noise_e=0.0, blur_px=0.0, full_well_e=1e6, bit_depth=16)
     bench = _bench(
         [sc.plane(2000.0, albedo=0.5)],
-        camera_params=[params],
-        projector_params=[SimProjectorParams(black_level=0.0, blur_px=0.0)],
+        camera_settings=[CameraSettings(exposure_us=6000.0, bit_depth=16)],
+        camera_options=[SimCameraOptions(read_noise_e=0.0, blur_px=0.0, full_well_e=1e6)],
+        projector_options=[SimProjectorOptions(black_level=0.0, blur_px=0.0)],
         ambient=0.0,
     )
     bench.set_pattern(0, np.full((192, 256), 255, np.uint8))
@@ -82,8 +85,11 @@ def test_photometry_follows_lambert_falloff_and_exposure() -> None:
 
 
 def test_noise_matches_the_sensor_model() -> None:
-    params = SimCameraParams(full_well_e=5000.0, read_noise_e=15.0, blur_px=0.0, bit_depth=16)
-    bench = _bench([sc.plane(2000.0)], camera_params=[params])
+    bench = _bench(
+        [sc.plane(2000.0)],
+        camera_settings=[CameraSettings(bit_depth=16)],
+        camera_options=[SimCameraOptions(full_well_e=5000.0, read_noise_e=15.0, blur_px=0.0)],
+    )
     bench.set_pattern(0, np.full((192, 256), 128, np.uint8))
     a = bench.render(0).astype(float) / 65535
     b = bench.render(0).astype(float) / 65535
@@ -114,12 +120,12 @@ def test_devices_timestamps_sequences_and_pattern_checks() -> None:
 
 def test_camera_faults_fail_cleanly_and_finitely() -> None:
     bench = _bench([sc.plane(1000.0)])
-    camera = SimCamera("c", bench, 0, SimCameraFaults(disconnect_after=1))
+    camera = SimCamera("c", bench, 0, SimFaults(disconnect_after_frames=1))
     camera.open()
     camera.capture()
     with pytest.raises(DeviceDisconnectedError):
         camera.capture()
-    stalled = SimCamera("s", bench, 0, SimCameraFaults(stall_after=0))
+    stalled = SimCamera("s", bench, 0, SimFaults(stall_after_frames=0))
     stalled.open()
     start = time.monotonic()
     with pytest.raises(DeviceTimeoutError):
@@ -144,11 +150,11 @@ def test_mesh_file_is_scaled_and_placed_on_its_base(tmp_path: Path) -> None:
 
 
 def test_a_frame_exposed_across_a_pattern_change_sees_both() -> None:
-    params = SimCameraParams(exposure_us=10000.0, read_noise_e=0.0, full_well_e=1e7, blur_px=0.0, bit_depth=16)
     bench = _bench(
         [sc.plane(2000.0)],
-        camera_params=[params],
-        projector_params=[SimProjectorParams(latency_s=0.05, black_level=0.0)],
+        camera_settings=[CameraSettings(exposure_us=10000.0, bit_depth=16)],
+        camera_options=[SimCameraOptions(read_noise_e=0.0, full_well_e=1e7, blur_px=0.0)],
+        projector_options=[SimProjectorOptions(latency_s=0.05, black_level=0.0)],
         ambient=0.0,
     )
     bench.set_pattern(0, np.full((192, 256), 255, np.uint8))  # lit from bench time 0.05

@@ -10,9 +10,9 @@ from typing import Any
 import numpy as np
 import pytest
 
+from rig.assembly import open_rig
 from rig.cli import main
 from rig.config import load_config
-from rig.rig import open_rig
 from tests.conftest import small_config_data, write_config
 
 LATENCY_S = 0.05  # a frame and a half at 30 frames per second
@@ -146,8 +146,8 @@ def test_doctor_names_what_a_real_bench_lacks(tmp_path: Path, capsys: pytest.Cap
 def test_doctor_looks_for_the_lightcrafter_on_usb(
     tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    from rig.doctor import checks as doctor
     from rig.config import REPO_CONFIG_DIR
+    from rig.doctor import checks as doctor
 
     config = str(REPO_CONFIG_DIR / "bench-lightcrafter-uvc.yaml")
     monkeypatch.setattr(doctor, "usb_devices", lambda: {"devices": [{"id": "1d6b:0002", "bus": 1, "address": 1}]})

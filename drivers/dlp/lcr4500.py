@@ -18,12 +18,13 @@ import numpy as np
 from drivers.base import PatternSequence, Projector, ProjectorMode, TriggerMode
 from drivers.dlp.protocol import DlpcProtocol
 from drivers.errors import DeviceError, DeviceProtocolError, DeviceStateError, DeviceTimeoutError
+from drivers.options import LIGHTCRAFTER_MIN_8BIT_PERIOD_US, LIGHTCRAFTER_RESOLUTION
 from drivers.usbhid import HidTransport, PyUsbHidTransport
 
 VENDOR_ID, PRODUCT_ID = 0x0451, 0x6401
-RESOLUTION = (912, 1140)
+RESOLUTION = LIGHTCRAFTER_RESOLUTION
+MIN_8BIT_PERIOD_US = LIGHTCRAFTER_MIN_8BIT_PERIOD_US
 MIN_DARK_GAP_US = 230  # exposure must equal the period or leave this much dark time
-MIN_8BIT_PERIOD_US = 8333  # 8-bit patterns at up to 120 Hz (LightCrafter 4500 user guide, DLPU011)
 
 CMD_POWER = 0x0200
 CMD_VERSION = 0x0205

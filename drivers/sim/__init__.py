@@ -2,23 +2,7 @@
 
 `SimBench` holds the scene and the device geometry; `SimProjector` and `SimCamera` implement the same
 interfaces as real devices. Device geometry is given as objects with the `ViewModel` protocol
-(rig.geometry.CameraModel satisfies it), so this package does not depend on `rig`.
+(rig.geometry.CameraModel satisfies it), and photometry as the config's own `sim` sections
+(drivers.options), so this package does not depend on `rig`. It loads trimesh and Embree: only the
+assembly of a simulated rig imports it.
 """
-
-from drivers.sim.bench import GroundTruth, SimBench, SimCameraParams, SimProjectorParams, ViewModel
-from drivers.sim.camera import SimCamera, SimCameraFaults
-from drivers.sim.projector import SimProjector
-from drivers.sim.scene import SceneObject, build_scene
-
-__all__ = [
-    "GroundTruth",
-    "SceneObject",
-    "SimBench",
-    "SimCamera",
-    "SimCameraFaults",
-    "SimCameraParams",
-    "SimProjector",
-    "SimProjectorParams",
-    "ViewModel",
-    "build_scene",
-]

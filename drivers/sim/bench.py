@@ -16,11 +16,13 @@ from typing import Protocol
 import cv2
 import numpy as np
 
+from drivers.options import CameraSettings, SimCameraOptions, SimProjectorOptions
 from drivers.sim.raycast import RayCaster
 from drivers.sim.scene import Scene
 
 _SHADOW_EPS_MM = 0.02
 _LIGHTING_CHUNK = 1 << 18
+REFERENCE_DISTANCE_MM = 600.0  # where a projector's `brightness` is its irradiance at normal incidence
 
 
 class ViewModel(Protocol):
@@ -42,37 +44,8 @@ class ViewModel(Protocol):
     def project(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]: ...
 
 
-@dataclass(frozen=True)
-class SimProjectorParams:
-    """Photometry of a simulated projector."""
-
-    gamma: float = 2.2  # pattern value v in [0, 1] emits v ** gamma
-    brightness: float = 1.0  # irradiance of full white at the reference distance, normal incidence
-    black_level: float = 0.004  # light leaked at black, as a fraction of white (250:1 contrast)
-    blur_px: float = 0.5  # defocus, Gaussian sigma in projector pixels
-    reference_distance_mm: float = 600.0
-    latency_s: float = 0.0  # from show() to light on the scene (HDMI input lag, a frame or two)
-
-
-@dataclass(frozen=True)
-class SimCameraParams:
-    """Sensor of a simulated camera."""
-
-    exposure_us: float = 10000.0
-    gain: float = 1.0
-    full_scale_exposure_us: float = 12000.0  # albedo 1 under irradiance 1 fills the well at this
-    full_well_e: float = 10000.0
-    read_noise_e: float = 20.0
-    gamma: float = 1.0  # output = signal ** (1 / gamma)
-    blur_px: float = 0.6  # optical blur, Gaussian sigma in camera pixels
-    bit_depth: int = 8
-    frame_period_s: float = 1 / 30
-    buffered_frames: int = 0  # frames the driver holds: a capture returns the oldest unless flushed
-    color: bool = False  # a colour sensor gives BGR frames; a mono one sees the albedo's luminance
-
-
 @dataclass(frozen=True, eq=False)
-class GroundTruth:
+class PixelTruth:
     """Ground truth per camera pixel for one (camera, projector) pair; arrays are (H, W[, k])."""
 
     hit: np.ndarray  # a surface is seen
@@ -110,16 +83,18 @@ class SimBench:
         scene: Scene,
         cameras: list[ViewModel],
         projectors: list[ViewModel],
-        camera_params: list[SimCameraParams] | None = None,
-        projector_params: list[SimProjectorParams] | None = None,
+        camera_settings: list[CameraSettings] | None = None,
+        camera_options: list[SimCameraOptions] | None = None,
+        projector_options: list[SimProjectorOptions] | None = None,
         ambient: float = 0.02,
         seed: int = 0,
     ) -> None:
         self.scene = scene
         self.cameras = list(cameras)
         self.projectors = list(projectors)
-        self.camera_params = camera_params or [SimCameraParams() for _ in cameras]
-        self.projector_params = projector_params or [SimProjectorParams() for _ in projectors]
+        self.camera_settings = camera_settings or [CameraSettings() for _ in cameras]
+        self.camera_options = camera_options or [SimCameraOptions() for _ in cameras]
+        self.projector_options = projector_options or [SimProjectorOptions() for _ in projectors]
         self.ambient = ambient
         self._rng = np.random.default_rng(seed)
         self._caster = RayCaster(scene.vertices, scene.faces)
@@ -134,7 +109,7 @@ class SimBench:
     def set_pattern(self, projector: int, pattern: np.ndarray | None) -> None:
         """Make projector `projector` emit `pattern` (uint8, its resolution), or black for None,
         from its latency after now on the bench clock."""
-        params = self.projector_params[projector]
+        params = self.projector_options[projector]
         history = self._history[projector]
         history.append(
             (self.clock_s + params.latency_s, None if pattern is None else self._emission(projector, pattern))
@@ -144,7 +119,7 @@ class SimBench:
     def play(self, projector: int, patterns: list[np.ndarray], period_s: float) -> float:
         """Play `patterns` back to back, one per `period_s`, from now plus the projector's latency,
         then dark; each pattern's start pulses the trigger output. Returns when the last ends."""
-        start = self.clock_s + self.projector_params[projector].latency_s
+        start = self.clock_s + self.projector_options[projector].latency_s
         history = self._history[projector]
         for k, pattern in enumerate(patterns):
             history.append((start + k * period_s, self._emission(projector, pattern)))
@@ -167,7 +142,7 @@ class SimBench:
         self.clock_s += max(0.0, seconds)
 
     def _emission(self, projector: int, pattern: np.ndarray) -> np.ndarray:
-        params = self.projector_params[projector]
+        params = self.projector_options[projector]
         lut = (np.arange(256, dtype=np.float64) / 255.0) ** params.gamma
         lut = params.black_level + (1.0 - params.black_level) * lut
         emitted = lut.astype(np.float32)[pattern]
@@ -260,7 +235,7 @@ class SimBench:
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Projector pixel, lit flag and irradiance gain of surface points."""
         proj = self.projectors[projector]
-        params = self.projector_params[projector]
+        params = self.projector_options[projector]
         puv, pz = proj.project(points)
         inside = (
             (pz > 0)
@@ -277,7 +252,7 @@ class SimBench:
             to_light = proj.center - points
             distance = np.linalg.norm(to_light, axis=1)
             to_light /= distance[:, None]
-            falloff = (params.reference_distance_mm / distance) ** 2
+            falloff = (REFERENCE_DISTANCE_MM / distance) ** 2
         cos_i = np.einsum("ij,ij->i", normals, to_light)
         c_idx = np.flatnonzero(inside & (cos_i > 0))
         blocker, _ = self._caster.first_hit(points[c_idx] + _SHADOW_EPS_MM * normals[c_idx], to_light[c_idx])
@@ -307,7 +282,7 @@ class SimBench:
         total = np.full((cam.height, cam.width), self.ambient, dtype=np.float32)
         for p in range(len(self.projectors)):
             light = self._lighting(camera, p)
-            black = self.projector_params[p].black_level
+            black = self.projector_options[p].black_level
             for weight, emitted in self._segments(p, when, duration_s):
                 if emitted is None:
                     total += np.float32(weight * black) * light.irradiance_gain
@@ -328,12 +303,12 @@ class SimBench:
     ) -> np.ndarray:
         """One camera image of the light at bench time `time_s` (default now), with sensor noise,
         as uint8 or uint16; the bench clock moves on by a frame period."""
-        params = self.camera_params[camera]
-        exposure = params.exposure_us if exposure_us is None else exposure_us
-        gain = params.gain if gain is None else gain
+        sensor, params = self.camera_settings[camera], self.camera_options[camera]
+        exposure = sensor.exposure_us if exposure_us is None else exposure_us
+        gain = sensor.gain if gain is None else gain
         view = self._view(camera)
         irradiance = self.irradiance(camera, time_s, exposure * 1e-6 if time_s is not None else 0.0)
-        radiance = irradiance[..., None] * view.albedo if params.color else irradiance * view.albedo_mono
+        radiance = irradiance[..., None] * view.albedo if sensor.color else irradiance * view.albedo_mono
         if params.blur_px > 0:
             radiance = cv2.GaussianBlur(radiance, (0, 0), params.blur_px, borderType=cv2.BORDER_REPLICATE)
         electrons = radiance * np.float32(exposure / params.full_scale_exposure_us * params.full_well_e)
@@ -342,8 +317,8 @@ class SimBench:
         signal = np.clip(electrons * np.float32(gain / params.full_well_e), 0.0, 1.0)
         if params.gamma != 1.0:
             signal = signal ** np.float32(1.0 / params.gamma)
-        full_scale = (1 << params.bit_depth) - 1
-        dtype = np.uint8 if params.bit_depth <= 8 else np.uint16
+        full_scale = (1 << sensor.bit_depth) - 1
+        dtype = np.uint8 if sensor.bit_depth <= 8 else np.uint16
         self.clock_s += max(params.frame_period_s, exposure * 1e-6)
         return np.rint(signal * np.float32(full_scale)).astype(dtype)
 
@@ -359,12 +334,12 @@ class SimBench:
         normals[hit] = self._caster.face_normals(faces[hit])
         return points, normals
 
-    def ground_truth(self, camera: int, projector: int) -> GroundTruth:
+    def ground_truth(self, camera: int, projector: int) -> PixelTruth:
         view = self._view(camera)
         light = self._lighting(camera, projector)
         cam = self.cameras[camera]
         shape = (cam.height, cam.width)
-        return GroundTruth(
+        return PixelTruth(
             hit=view.hit.reshape(shape),
             points=view.points.reshape(*shape, 3),
             normals=view.normals.reshape(*shape, 3),

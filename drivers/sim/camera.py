@@ -3,36 +3,27 @@
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass
 
 from drivers.base import Camera, Frame, TriggerMode
 from drivers.errors import DeviceDisconnectedError, DeviceTimeoutError
+from drivers.options import SimFaults
 from drivers.sim.bench import SimBench
-
-
-@dataclass(frozen=True)
-class SimCameraFaults:
-    """Faults a simulated camera can inject, counted in frames delivered since open."""
-
-    disconnect_after: int | None = None  # then DeviceDisconnectedError
-    stall_after: int | None = None  # then no frame arrives: DeviceTimeoutError at the deadline
-    repeat_at: int | None = None  # this capture hands back the previous frame again (stale)
-    early_at: int | None = None  # this capture hands out a frame exposed before the last flush
 
 
 class SimCamera(Camera):
     """A camera that renders the simulated scene under the projectors' current light."""
 
-    def __init__(self, name: str, bench: SimBench, index: int, faults: SimCameraFaults | None = None) -> None:
+    def __init__(self, name: str, bench: SimBench, index: int, faults: SimFaults | None = None) -> None:
         super().__init__(name)
         self._bench = bench
         self._index = index
-        self._params = bench.camera_params[index]
-        self._exposure_us = self._params.exposure_us
-        self._gain = self._params.gain
+        self._params = bench.camera_options[index]
+        self._sensor = bench.camera_settings[index]
+        self._exposure_us = self._sensor.exposure_us
+        self._gain = self._sensor.gain
         self._sequence = 0
         self._captures = 0
-        self._faults = faults or SimCameraFaults()
+        self._faults = faults or bench.camera_options[index].faults
         self._last: Frame | None = None
 
     @property
@@ -71,19 +62,19 @@ class SimCamera(Camera):
     def _do_capture(self, deadline: float) -> Frame:
         faults = self._faults
         self._captures += 1
-        if faults.disconnect_after is not None and self._sequence >= faults.disconnect_after:
+        if faults.disconnect_after_frames is not None and self._sequence >= faults.disconnect_after_frames:
             raise DeviceDisconnectedError(f"{self.name}: simulated camera disconnected")
-        if faults.stall_after is not None and self._sequence >= faults.stall_after:
+        if faults.stall_after_frames is not None and self._sequence >= faults.stall_after_frames:
             time.sleep(max(0.0, deadline - time.monotonic()))
             raise DeviceTimeoutError(f"{self.name}: no frame before the capture deadline")
-        if faults.repeat_at is not None and self._captures == faults.repeat_at and self._last is not None:
+        if faults.repeat_frame_at is not None and self._captures == faults.repeat_frame_at and self._last is not None:
             return self._last
         if self.trigger is TriggerMode.EXTERNAL:
             exposed = self._triggered_time(deadline)  # one exposure per pulse, nothing buffered
         else:
             # A driver holding `buffered_frames` hands out the oldest: exposed that many periods ago.
             exposed = self._bench.clock_s - self._params.buffered_frames * self._params.frame_period_s
-            if faults.early_at == self._captures:  # a driver that kept one more frame than it said
+            if faults.early_frame_at == self._captures:  # a driver that kept one more frame than it said
                 exposed -= self._params.frame_period_s
         stamp = exposed + self._exposure_us * 1e-6
         image = self._bench.render(self._index, self._exposure_us, self._gain, exposed)
@@ -94,6 +85,6 @@ class SimCamera(Camera):
             sequence=self._sequence,
             exposure_us=self._exposure_us,
             gain=self._gain,
-            bit_depth=self._params.bit_depth,
+            bit_depth=self._sensor.bit_depth,
         )
         return self._last

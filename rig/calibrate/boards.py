@@ -3,26 +3,13 @@
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Literal
 
 import cv2
 import numpy as np
-from pydantic import BaseModel, ConfigDict, Field
+
+from rig.config.calibration import BoardConfig
 
 WHITE, BLACK = 0.85, 0.05  # albedo of the printed board
-
-
-class BoardConfig(BaseModel):
-    """A checkerboard or ChArUco board. Squares are counted, not inner corners; lengths in mm."""
-
-    model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
-
-    kind: Literal["checker", "charuco"] = "checker"
-    squares: tuple[int, int] = Field((10, 7), description="squares across (columns) and down (rows)")
-    square_mm: float = Field(20.0, gt=1.0, le=500.0)
-    marker_mm: float = Field(15.0, gt=0.5, le=500.0, description="ChArUco marker side")
-    dictionary: Literal["DICT_4X4_50", "DICT_5X5_100", "DICT_6X6_250"] = "DICT_4X4_50"
-    margin_mm: float = Field(10.0, ge=0.0, le=200.0, description="white border around the squares")
 
 
 @dataclass(frozen=True)

@@ -12,7 +12,7 @@ from rig.calibrate.boards import Board
 from rig.calibrate.files import write_calibration
 from rig.calibrate.report import coverage_png, report
 from rig.calibrate.solve import DeviceCalibration, calibrate_cameras, calibrate_projectors
-from rig.calibrate.views import View, capture_sim_views, default_poses, load_folder_views
+from rig.calibrate.views import View, capture_placed_views, default_poses, load_folder_views
 from rig.errors import CalibrationError
 from rig.rig import Rig
 from rig.store.atomic import write_atomic
@@ -41,7 +41,7 @@ def collect_views(
     else:
         centre = np.mean([c.geometry.pose.look_at_mm for c in rig.config.cameras], axis=0)
         poses = default_poses(views, centre)
-    return capture_sim_views(rig, board, poses, with_projectors, save_views)
+    return capture_placed_views(rig, board, poses, with_projectors, save_views)
 
 
 def _euler(degrees: tuple[float, float, float]) -> np.ndarray:

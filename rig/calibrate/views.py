@@ -15,7 +15,6 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from drivers.sim import scene as sim_scene
 from rig.calibrate.boards import Board, Detection
 from rig.errors import CalibrationError
 from rig.patterns import Codec, Correspondence
@@ -24,6 +23,7 @@ from rig.rig import Rig
 
 HOMOGRAPHY_WINDOW_PX = 15.0  # half-size of the camera window for local homographies
 MIN_DECODED_IN_WINDOW = 30
+BOARD_PX_PER_MM = 10.0  # the board printed for the simulated bench
 
 
 @dataclass
@@ -91,21 +91,24 @@ def projector_corners(corr: Correspondence, detection: Detection) -> Detection:
     return Detection(np.asarray(ids, dtype=int), np.asarray(points, dtype=np.float64).reshape(-1, 2))
 
 
-def capture_sim_views(
+def capture_placed_views(
     rig: Rig,
     board: Board,
     poses: list[tuple[np.ndarray, np.ndarray]],
     with_projectors: bool,
     save_to: Path | None = None,
 ) -> list[View]:
-    """Place the board at each pose on the simulated bench and capture it."""
-    if rig.sim is None:
-        raise CalibrationError("capturing calibration views needs the simulated bench or --images")
-    image = board.image()
+    """Place the board at each pose (the rig's hand on the scene) and capture it."""
+    if rig.scene is None:
+        raise CalibrationError(
+            "this rig cannot place the board itself (only the simulated bench can): capture the views "
+            "on the bench and give their folder with --images"
+        )
+    image = board.image(BOARD_PX_PER_MM)
     views = []
     for index, (rotation, centre) in enumerate(poses):
         axes, origin = board.print_pose(rotation, centre)
-        rig.sim.set_scene(sim_scene.build_scene([sim_scene.printed_plane("board", image, 0.1, axes, origin)]))
+        rig.scene.show_board(image, 1.0 / BOARD_PX_PER_MM, axes, origin)
         frames = _capture_view(rig, with_projectors)
         if save_to is not None:
             _save_view(rig, save_to / f"view_{index:02d}", frames)

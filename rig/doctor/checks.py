@@ -7,7 +7,6 @@ import glob
 import importlib.util
 import json
 import os
-import time
 from pathlib import Path
 from typing import Any
 
@@ -102,7 +101,7 @@ def measure_latency(rig: Rig, projector: int, camera: int = 0, max_frames: int =
     cam.flush()
     dark = float(cam.capture().image.mean())
     device.show(np.full((height, width), 255, np.uint8))
-    shown = rig.sim.clock_s if rig.sim is not None else time.monotonic()
+    shown = rig.clock.now()
     seen: list[tuple[float, float]] = []  # (exposure start, brightness)
     try:
         for _ in range(max_frames):

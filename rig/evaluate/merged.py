@@ -21,13 +21,14 @@ SURFACE_SPACING_MM = 1.0
 def visible_surface(rig: Rig, spacing_mm: float = SURFACE_SPACING_MM) -> np.ndarray:
     """Samples, one per `spacing_mm` cell, of the true surface that some camera sees and some
     projector lights: what the rig can measure at best."""
-    assert rig.sim is not None
+    source = rig.truth
+    assert source is not None
     found = []
-    for c in range(len(rig.sim.cameras)):
-        lit = np.zeros(rig.sim.cameras[c].height * rig.sim.cameras[c].width, bool)
+    for c in range(len(source.cameras)):
+        lit = np.zeros(source.cameras[c].height * source.cameras[c].width, bool)
         truth = None
-        for p in range(len(rig.sim.projectors)):
-            truth = rig.sim.ground_truth(c, p)
+        for p in range(len(source.projectors)):
+            truth = source.ground_truth(c, p)
             lit |= (truth.hit & truth.lit).ravel()
         assert truth is not None
         found.append(truth.points.reshape(-1, 3)[lit])
@@ -60,10 +61,11 @@ def cross_pair_close_fraction(points: np.ndarray, source: np.ndarray, distance_m
 def overlap_scores(rig: Rig, result: ScanResult) -> dict[str, dict[str, float | int]]:
     """Precision and recall of the cue's overlap per camera, against the pixels the truth says
     more than one projector lights (over the pixels that see a surface)."""
-    assert rig.sim is not None
+    source = rig.truth
+    assert source is not None
     out = {}
     for c, found in result.overlap.items():
-        truths = [rig.sim.ground_truth(c, p) for p in range(len(rig.sim.projectors))]
+        truths = [source.ground_truth(c, p) for p in range(len(source.projectors))]
         lit_by = np.sum([t.hit & t.lit for t in truths], axis=0)
         precision, recall = precision_recall(found, lit_by >= 2, truths[0].hit)
         out[rig.config.cameras[c].name] = {
@@ -78,7 +80,7 @@ def overlap_scores(rig: Rig, result: ScanResult) -> dict[str, dict[str, float | 
 def evaluate_merge(rig: Rig, result: ScanResult, errors: list[np.ndarray] | None = None) -> dict[str, object]:
     """The merged cloud and every pair measured on the same visible surface. `errors`: each pair's
     point_errors, when already measured."""
-    if rig.sim is None or result.merged_index is None:
+    if rig.truth is None or result.merged_index is None:
         raise ValueError("evaluating a merge needs a simulated scan of several pairs")
     errors = errors if errors is not None else [point_errors(rig, pair) for pair in result.pairs]
     surface = visible_surface(rig)
@@ -120,8 +122,8 @@ def _summary(err: np.ndarray, completeness: float) -> dict[str, float | int | No
 
 def metrics_on_bench(rig: Rig, result: ScanResult) -> dict[str, object]:
     """Accuracy of each pair against ground truth, keyed "projector/camera", and of the merged
-    cloud when several pairs were merged (simulated rigs only)."""
-    if rig.sim is None:
+    cloud when several pairs were merged (rigs with ground truth only; others: {})."""
+    if rig.truth is None:
         return {}
     errors = [point_errors(rig, pair) for pair in result.pairs]  # once, for the pairs and the merge
     out: dict[str, object] = {

@@ -5,10 +5,9 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial import cKDTree
 
-from drivers.sim import GroundTruth, SimBench
 from rig.geometry import CameraModel
 from rig.pipeline.scan import PairResult, moved_pair
-from rig.rig import Rig
+from rig.rig import GroundTruth, PixelTruth, Rig
 
 # Within this distance of the pixel's own true point the surface is treated as its tangent plane;
 # farther points are measured to the nearest true surface sample instead.
@@ -16,7 +15,7 @@ _LOCAL_MM = 2.0
 COMPLETE_WITHIN_MM = 1.0
 
 
-def surface_distances(grid: np.ndarray, valid: np.ndarray, truth: GroundTruth) -> np.ndarray:
+def surface_distances(grid: np.ndarray, valid: np.ndarray, truth: PixelTruth) -> np.ndarray:
     """Distance (mm) of each valid reconstructed point (H, W, 3) to the true surface, per valid pixel.
 
     A point near its pixel's true point is measured along the true normal (exact for planes, and
@@ -39,12 +38,12 @@ def surface_distances(grid: np.ndarray, valid: np.ndarray, truth: GroundTruth) -
     return dist
 
 
-def ring_distances(pair: PairResult, bench: SimBench, truth: GroundTruth) -> np.ndarray:
+def ring_distances(pair: PairResult, source: GroundTruth, truth: PixelTruth) -> np.ndarray:
     """Distance (mm) of each kept ring point to the true surface along its own (sub-pixel) ray."""
     assert pair.rings is not None
     keep = pair.rings.kept
     rec = pair.rings.points[keep]
-    true, normal = bench.cast(pair.rings.origins[keep], pair.rings.directions[keep])
+    true, normal = source.cast(pair.rings.origins[keep], pair.rings.directions[keep])
     offset = rec - true
     local = np.isfinite(true).all(axis=1) & (np.linalg.norm(np.nan_to_num(offset, nan=np.inf), axis=1) <= _LOCAL_MM)
     dist = np.empty(len(rec))
@@ -55,25 +54,25 @@ def ring_distances(pair: PairResult, bench: SimBench, truth: GroundTruth) -> np.
     return dist
 
 
-def point_distances(pair: PairResult, truth: GroundTruth, bench: SimBench | None = None) -> np.ndarray:
+def point_distances(pair: PairResult, truth: PixelTruth, source: GroundTruth | None = None) -> np.ndarray:
     """Distance (mm) of each of the pair's points to the true surface, in PointSet order."""
     if pair.rings is not None:
-        if bench is None:
-            raise ValueError("measuring ring points needs the simulated bench")
-        return ring_distances(pair, bench, truth)
+        if source is None:
+            raise ValueError("measuring ring points needs the ground truth's ray casts")
+        return ring_distances(pair, source, truth)
     return surface_distances(pair.grid, np.isfinite(pair.grid).all(axis=2), truth)
 
 
 def evaluate_pair(
-    pair: PairResult, truth: GroundTruth, bench: SimBench | None = None, dist: np.ndarray | None = None
+    pair: PairResult, truth: PixelTruth, source: GroundTruth | None = None, dist: np.ndarray | None = None
 ) -> dict[str, float | int | None]:
     """rms/mean/p95 distance to the true surface, and completeness: the fraction of camera pixels
     that see a lit, unshadowed true surface and got a point within 1 mm of it. Sparse (ring) points
-    are measured along their own rays, which needs the `bench`. `dist`: the distances of the pair's
-    points, when already measured (point_distances)."""
+    are measured along their own rays, which needs the truth's `source` (its ray casts). `dist`: the
+    distances of the pair's points, when already measured (point_distances)."""
     valid = np.isfinite(pair.grid).all(axis=2)
     if dist is None:
-        dist = point_distances(pair, truth, bench)
+        dist = point_distances(pair, truth, source)
     pixels = pair.points.pixel if pair.rings is not None else np.flatnonzero(valid.ravel())
     target = truth.hit & truth.lit
     good = np.zeros(valid.size, dtype=bool)
@@ -106,16 +105,20 @@ def in_truth_frame(pair: PairResult, estimated: CameraModel, truth: CameraModel)
 
 def point_errors(rig: Rig, pair: PairResult) -> np.ndarray:
     """Distance (mm) of each of the pair's points to the true surface, in the true world frame."""
-    if rig.sim is None:
-        raise ValueError("accuracy against ground truth needs the simulated bench")
-    aligned = in_truth_frame(pair, rig.camera_models[pair.camera], rig.sim.cameras[pair.camera])
-    return point_distances(aligned, rig.sim.ground_truth(pair.camera, pair.projector), rig.sim)
+    truth = _truth(rig)
+    aligned = in_truth_frame(pair, rig.camera_models[pair.camera], truth.cameras[pair.camera])
+    return point_distances(aligned, truth.ground_truth(pair.camera, pair.projector), truth)
 
 
 def evaluate_on_bench(rig: Rig, pair: PairResult, errors: np.ndarray | None = None) -> dict[str, float | int | None]:
     """Accuracy of one pair of a simulated scan, in the true world frame (through the camera when
     reconstruction used an estimated calibration). `errors`: point_errors, when already measured."""
-    if rig.sim is None:
-        raise ValueError("accuracy against ground truth needs the simulated bench")
-    aligned = in_truth_frame(pair, rig.camera_models[pair.camera], rig.sim.cameras[pair.camera])
-    return evaluate_pair(aligned, rig.sim.ground_truth(pair.camera, pair.projector), rig.sim, errors)
+    truth = _truth(rig)
+    aligned = in_truth_frame(pair, rig.camera_models[pair.camera], truth.cameras[pair.camera])
+    return evaluate_pair(aligned, truth.ground_truth(pair.camera, pair.projector), truth, errors)
+
+
+def _truth(rig: Rig) -> GroundTruth:
+    if rig.truth is None:
+        raise ValueError("accuracy needs a rig with ground truth (the simulated bench)")
+    return rig.truth

@@ -11,7 +11,7 @@ import numpy as np
 from rig.errors import DecodeError, ScanError
 from rig.patterns import Codec, Correspondence, codec_class
 from rig.pipeline.capture import CUE, capture
-from rig.pipeline.dense import pair_pointset, reject_isolated
+from rig.pipeline.dense import PairTriangulator, pair_pointset, reject_isolated
 from rig.pipeline.icp import AlignmentRefusedError, point_to_plane
 from rig.pipeline.merge import expected_error_mm, local_noise_mm, merge, triangulation_angles
 from rig.pipeline.overlap import overlap_from_cue
@@ -83,7 +83,7 @@ def reconstruct_pair(
             rings = dataclasses.replace(rings, kept=supported)
             counts["ring_points"] = int(supported.sum())
     else:
-        grid, valid = rig.triangulator(projector, camera).triangulate(corr)
+        grid, valid = triangulator(rig, projector, camera).triangulate(corr)
         limit = rig.config.scan.max_depth_jump_mm
         if limit is not None:
             keep = reject_isolated(grid, valid, model, limit)
@@ -102,6 +102,16 @@ def reconstruct_pair(
         elapsed["triangulate"] = elapsed.get("triangulate", 0.0) + t_mid - t
         elapsed["pointset"] = elapsed.get("pointset", 0.0) + time.perf_counter() - t_mid
     return PairResult(projector, camera, corr, grid, points, rings, counts)
+
+
+def triangulator(rig: Rig, projector: int, camera: int) -> PairTriangulator:
+    """The pair's triangulator; its per-pixel terms are computed on first use and kept with the rig."""
+    key = ("triangulator", projector, camera)
+    if key not in rig.memo:
+        rig.memo[key] = PairTriangulator(rig.camera_models[camera], rig.projector_models[projector])
+    found = rig.memo[key]
+    assert isinstance(found, PairTriangulator)
+    return found
 
 
 def run_scan(

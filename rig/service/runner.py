@@ -21,6 +21,7 @@ from pathlib import Path
 from typing import Any, TextIO
 
 from drivers.errors import DeviceError
+from rig.assembly import open_rig
 from rig.calibrate.response import calibrate_response
 from rig.calibrate.session import calibrate
 from rig.config import RigConfig, config_from_dict
@@ -28,7 +29,7 @@ from rig.errors import ConfigError, SlrigError
 from rig.evaluate.merged import metrics_on_bench
 from rig.pipeline.scan import reconstruct_frames
 from rig.progress import ProgressCallback, ProgressEvent, ProgressTracker
-from rig.rig import Rig, open_rig
+from rig.rig import Rig
 from rig.service.errors import (
     JobCancelledError,
     JobConflictError,

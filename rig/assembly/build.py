@@ -1,0 +1,134 @@
+"""Opening a rig: every device of a config built through the driver table, in its world, with the
+geometry that reconstruction uses (the config's, or a calibration's) and the projectors' response."""
+
+from __future__ import annotations
+
+import importlib
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from drivers.base import Device
+from rig.assembly.world import World
+from rig.calibrate.files import JSON_NAME, load_calibration
+from rig.calibrate.response import load_response_luts
+from rig.config import DeviceKind, DriverEntry, Geometry, RigConfig, driver
+from rig.errors import ConfigError
+from rig.geometry import CameraModel, look_at_rotation
+from rig.rig import Rig
+
+Factory = Callable[[Any, int, World], Device]
+
+
+def factory_of(entry: DriverEntry) -> Factory:
+    """The function the table names for a driver (imported now: only drivers a rig uses load)."""
+    module, _, name = entry.factory.partition(":")
+    return getattr(importlib.import_module(module), name)  # type: ignore[no-any-return]
+
+
+def geometry_model(geometry: Geometry, resolution: tuple[int, int]) -> CameraModel:
+    """The CameraModel described by a config's geometry section."""
+    i = geometry.intrinsics
+    K = np.array([[i.fx, i.skew, i.cx], [0.0, i.fy, i.cy], [0.0, 0.0, 1.0]])
+    position = np.array(geometry.pose.position_mm, dtype=float)
+    R = look_at_rotation(position, np.array(geometry.pose.look_at_mm, float), np.array(geometry.pose.up, float))
+    return CameraModel(
+        width=resolution[0],
+        height=resolution[1],
+        K=K,
+        R=R,
+        t=-R @ position,
+        dist=np.array(geometry.distortion, dtype=float),
+        projection=geometry.projection,
+    )
+
+
+def _calibration_folder(config: RigConfig) -> Path:
+    file = config.calibration.file
+    if file is None:
+        raise ConfigError("calibration.file", ["calibration.file: not set"])
+    return file if file.is_dir() else file.parent
+
+
+def _calibrated_models(
+    config: RigConfig, cameras: list[CameraModel], projectors: list[CameraModel]
+) -> tuple[list[CameraModel], list[CameraModel], str | None]:
+    """Models from calibration.json when the calibration folder has one, else the config's."""
+    folder = _calibration_folder(config)
+    if not (folder / JSON_NAME).is_file():
+        return cameras, projectors, None
+    models, digest = load_calibration(folder)
+    missing = [d.name for d in (*config.cameras, *config.projectors) if d.name not in models]
+    if missing:
+        raise ConfigError("calibration.file", [f"calibration.file: has no calibration for {', '.join(missing)}"])
+    return [models[c.name] for c in config.cameras], [models[p.name] for p in config.projectors], digest
+
+
+def _response_luts(config: RigConfig) -> tuple[list[np.ndarray | None], str | None]:
+    loaded = load_response_luts(_calibration_folder(config))
+    if loaded is None:
+        return [None] * len(config.projectors), None
+    luts, digest = loaded
+    return [luts.get(p.name) for p in config.projectors], digest
+
+
+def world_of(config: RigConfig, cameras: list[CameraModel], projectors: list[CameraModel]) -> World:
+    """The real world, or the simulated bench with the devices' true geometry."""
+    if not config.simulated:
+        return World()
+    from rig.assembly import simulated  # the simulator (trimesh, Embree) loads for simulated rigs only
+
+    return simulated.world(config, cameras, projectors)
+
+
+def _build_devices(rig: Rig, world: World) -> None:
+    config = rig.config
+    for i, p in enumerate(config.projectors):
+        if p.power is not None:
+            rig.extras.append(factory_of(driver(DeviceKind.POWER, p.power.protocol))(p, i, world))
+    rig.projectors = [
+        factory_of(driver(DeviceKind.PROJECTOR, p.driver))(p, i, world)  # type: ignore[misc]
+        for i, p in enumerate(config.projectors)
+    ]
+    rig.cameras = [
+        factory_of(driver(DeviceKind.CAMERA, c.driver))(c, i, world)  # type: ignore[misc]
+        for i, c in enumerate(config.cameras)
+    ]
+
+
+def open_rig(config: RigConfig, with_devices: bool = True) -> Rig:
+    """Open every device of `config` (housekeeping first, then projectors, then cameras; on any
+    failure everything opened is closed again). Without devices, a rig of geometry only (and the
+    simulated bench's ground truth), for reprocessing stored frames."""
+    projector_models = [geometry_model(p.geometry, p.resolution) for p in config.projectors]
+    camera_models = [geometry_model(c.geometry, c.resolution) for c in config.cameras]
+    world = world_of(config, camera_models, projector_models)  # the true geometry, whatever reconstruction uses
+    digest, response_digest = None, None
+    luts: list[np.ndarray | None] = [None] * len(config.projectors)
+    if config.calibration.file is not None:
+        camera_models, projector_models, digest = _calibrated_models(config, camera_models, projector_models)
+        luts, response_digest = _response_luts(config)
+    rig = Rig(
+        config,
+        [],
+        [],
+        projector_models,
+        camera_models,
+        clock=world.clock,
+        truth=world.truth,
+        scene=world.scene,
+        calibration_sha256=digest,
+        response_luts=luts,
+        response_sha256=response_digest,
+    )
+    if with_devices:
+        try:
+            _build_devices(rig, world)
+            for device in (*rig.extras, *rig.projectors, *rig.cameras):
+                device.open()
+        except BaseException:
+            rig.close()
+            raise
+    return rig

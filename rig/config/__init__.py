@@ -1,0 +1,61 @@
+"""Rig descriptions: YAML loaded into pydantic models, validated before any device opens.
+
+Every model forbids unknown keys and bounds every number; lengths are millimetres (`_mm`),
+times microseconds (`_us`) or seconds (`_s`), image sizes pixels. The drivers a config may name,
+and what each can do, are the table in rig.config.drivers.
+"""
+
+from rig.config.calibration import BoardConfig, BoardPose, CalibrationConfig
+from rig.config.drivers import DRIVERS, Capabilities, DeviceKind, DriverEntry, driver, drivers_of
+from rig.config.equipment import CameraConfig, PowerConfig, ProjectorConfig
+from rig.config.geometry import Geometry, Intrinsics, Pose
+from rig.config.loading import DEFAULT_CONFIG, REPO_CONFIG_DIR, config_from_dict, load_config
+from rig.config.rig import OutputConfig, RigConfig, ServiceConfig
+from rig.config.scan import MergeConfig, ScanConfig
+from rig.config.scenes import (
+    SCENE_KINDS,
+    BoxScene,
+    MeshScene,
+    PlaneScene,
+    SceneConfig,
+    SimulationConfig,
+    SphereOnPlaneScene,
+    SphereScene,
+    TerrainScene,
+)
+
+__all__ = [
+    "DEFAULT_CONFIG",
+    "DRIVERS",
+    "REPO_CONFIG_DIR",
+    "SCENE_KINDS",
+    "BoardConfig",
+    "BoardPose",
+    "BoxScene",
+    "CalibrationConfig",
+    "CameraConfig",
+    "Capabilities",
+    "DeviceKind",
+    "DriverEntry",
+    "Geometry",
+    "Intrinsics",
+    "MergeConfig",
+    "MeshScene",
+    "OutputConfig",
+    "PlaneScene",
+    "Pose",
+    "PowerConfig",
+    "ProjectorConfig",
+    "RigConfig",
+    "ScanConfig",
+    "SceneConfig",
+    "ServiceConfig",
+    "SimulationConfig",
+    "SphereOnPlaneScene",
+    "SphereScene",
+    "TerrainScene",
+    "config_from_dict",
+    "driver",
+    "drivers_of",
+    "load_config",
+]

@@ -1,0 +1,50 @@
+"""Calibration settings of a config: the board, simulated session poses, the file reconstruction uses."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Annotated, Literal
+
+from pydantic import Field
+
+from rig.config.common import Strict, Vec3
+
+
+class BoardConfig(Strict):
+    """A checkerboard or ChArUco board. Squares are counted, not inner corners; lengths in mm."""
+
+    kind: Literal["checker", "charuco"] = "checker"
+    squares: tuple[int, int] = Field((10, 7), description="squares across (columns) and down (rows)")
+    square_mm: float = Field(20.0, gt=1.0, le=500.0)
+    marker_mm: float = Field(15.0, gt=0.5, le=500.0, description="ChArUco marker side")
+    dictionary: Literal["DICT_4X4_50", "DICT_5X5_100", "DICT_6X6_250"] = "DICT_4X4_50"
+    margin_mm: float = Field(10.0, ge=0.0, le=200.0, description="white border around the squares")
+
+
+class BoardPose(Strict):
+    """Where the operator puts the board: its centre and its rotation (x, y, z Euler angles, degrees;
+    all zero is flat, face up, columns along world x)."""
+
+    center_mm: Vec3
+    rotation_deg: tuple[
+        Annotated[float, Field(ge=-180, le=180)],
+        Annotated[float, Field(ge=-180, le=180)],
+        Annotated[float, Field(ge=-180, le=180)],
+    ] = (0.0, 0.0, 0.0)
+
+
+class CalibrationConfig(Strict):
+    board: BoardConfig = BoardConfig()
+    views: int = Field(12, ge=3, le=200, description="board poses a simulated calibration session captures")
+    poses: list[BoardPose] | None = Field(
+        None,
+        min_length=3,
+        max_length=200,
+        description="board poses for the simulated session instead of its own choice; the first defines "
+        "the world frame",
+    )
+    file: Path | None = Field(
+        None,
+        description="calibration.json (or its folder) that reconstruction uses instead of the devices' geometry; "
+        "relative paths are relative to the config file",
+    )

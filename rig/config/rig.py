@@ -1,0 +1,139 @@
+"""The whole rig description: its devices, the simulated scene, and how it scans, calibrates,
+stores and serves."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from pydantic import Field, ValidationError, model_validator
+
+from rig.config.calibration import CalibrationConfig
+from rig.config.common import Name, Strict
+from rig.config.drivers import DeviceKind, driver, drivers_of
+from rig.config.equipment import CameraConfig, ProjectorConfig
+from rig.config.problems import problems
+from rig.config.scan import ScanConfig
+from rig.config.scenes import SimulationConfig
+from rig.errors import ConfigError
+from rig.patterns import codec_class
+
+
+class OutputConfig(Strict):
+    data_dir: Path = Path("scans")
+
+
+class ServiceConfig(Strict):
+    """`slrig serve`: the job queue and the HTTP surface (host, port and API key are given when it
+    starts, never here: a key does not belong in a config file)."""
+
+    max_queue: int = Field(8, ge=1, le=1000, description="jobs waiting beyond the running one; more get 429")
+    max_body_bytes: int = Field(65536, ge=1024, le=10 * 1024 * 1024)
+    cors_origins: list[str] = Field(default_factory=list, description="browser origins allowed; none: CORS off")
+    allowed_hosts: list[str] = Field(
+        default_factory=list, description="Host headers accepted besides localhost and the bound address"
+    )
+    shutdown_timeout_s: float = Field(
+        8.0, ge=1.0, le=10.0, description="to stop the running job on SIGTERM (within systemd's TimeoutStopSec=15)"
+    )
+    health_stale_s: float = Field(120.0, ge=5.0, le=3600.0, description="a running job silent this long is unhealthy")
+
+
+class RigConfig(Strict):
+    name: Name = "bench"
+    projectors: list[ProjectorConfig] = Field(min_length=1, max_length=16)
+    cameras: list[CameraConfig] = Field(min_length=1, max_length=16)
+    simulation: SimulationConfig | None = None
+    scan: ScanConfig = ScanConfig()
+    calibration: CalibrationConfig = CalibrationConfig()
+    output: OutputConfig = OutputConfig()
+    service: ServiceConfig = ServiceConfig()
+
+    @property
+    def simulated(self) -> bool:
+        """Its devices are the simulated bench's (then it has a `simulation` section)."""
+        return self.simulation is not None
+
+    @model_validator(mode="after")
+    def _consistent(self) -> RigConfig:
+        names = [d.name for d in (*self.projectors, *self.cameras)]
+        duplicates = sorted({n for n in names if names.count(n) > 1})
+        if duplicates:
+            raise ValueError(
+                f"cameras/projectors[].name: device names must be unique; repeated: {', '.join(duplicates)}"
+            )
+        _check_ring_model(self)
+        _check_sync(self)
+        _check_simulation(self)
+        for k, (p, c) in enumerate(self.scan.merge.pairs or []):
+            if not (0 <= p < len(self.projectors) and 0 <= c < len(self.cameras)):
+                raise ValueError(f"scan.merge.pairs[{k}]: ({p}, {c}) names no projector and camera of this rig")
+        params = getattr(self.scan, self.scan.codec, None)
+        for i, projector in enumerate(self.projectors):
+            try:  # codec parameters that only fail against a projector's size (e.g. ring spacing)
+                codec_class(self.scan.codec)(projector.resolution, params)
+            except ValueError as exc:
+                raise ValueError(f"scan.{self.scan.codec} (for projectors[{i}]): {exc}") from None
+        return self
+
+    def with_codec(self, codec: str) -> RigConfig:
+        """A copy that scans with `codec`, validated like the file."""
+        data = self.model_dump()
+        data["scan"]["codec"] = codec
+        return validate_rig(data, "--codec")
+
+    def with_scene(self, scene: dict[str, object], source: str = "--scene") -> RigConfig:
+        if self.simulation is None:
+            raise ConfigError(source, ["simulation: this rig has no simulated scene to replace"])
+        data = self.model_dump()
+        data["simulation"]["scene"] = scene
+        return validate_rig(data, source)
+
+
+def validate_rig(data: object, source: str) -> RigConfig:
+    """A RigConfig from data; ConfigError listing every problem, each naming its field."""
+    try:
+        return RigConfig.model_validate(data)
+    except ValidationError as exc:
+        raise ConfigError(source, problems(exc)) from None
+
+
+def _check_ring_model(config: RigConfig) -> None:
+    model = config.scan.rings.model
+    if model == "cone":
+        return
+    needs = {"parallel": ("orthographic", "orthographic"), "radius_ratio": ("orthographic", "pinhole")}[model]
+    if any(p.geometry.projection != needs[0] for p in config.projectors) or any(
+        c.geometry.projection != needs[1] for c in config.cameras
+    ):
+        raise ValueError(
+            f"scan.rings.model: {model!r} needs {needs[0]} projectors and {needs[1]} cameras "
+            "(geometry.projection); the 'cone' model works with any"
+        )
+
+
+def _check_sync(config: RigConfig) -> None:
+    """Hardware sync: every camera's exposures must be started by the projector's trigger out."""
+    if not any(p.sync == "hardware" for p in config.projectors):
+        return
+    for i, camera in enumerate(config.cameras):
+        if not driver(DeviceKind.CAMERA, camera.driver).capabilities.trigger_input:
+            cameras = drivers_of(DeviceKind.CAMERA).values()
+            with_input = [e.name for e in cameras if e.capabilities.trigger_input and not e.simulated]
+            raise ValueError(
+                f"cameras[{i}].driver: a {camera.driver} camera has no trigger input; use sync: software "
+                f"or a camera with one ({', '.join(with_input)})"
+            )
+
+
+def _check_simulation(config: RigConfig) -> None:
+    simulated = {driver(DeviceKind.PROJECTOR, p.driver).simulated for p in config.projectors}
+    simulated |= {driver(DeviceKind.CAMERA, c.driver).simulated for c in config.cameras}
+    if len(simulated) > 1:
+        raise ValueError(
+            "projectors/cameras[].driver: simulated and real devices cannot share a rig "
+            "(the simulator lights and sees only its own devices)"
+        )
+    if simulated == {True} and config.simulation is None:
+        raise ValueError("simulation: simulated devices need a 'simulation' section with a scene")
+    if simulated == {False} and config.simulation is not None:
+        raise ValueError("simulation: a rig of real devices has no simulated scene; remove the section")

@@ -1,0 +1,74 @@
+"""The simulated scene of a config: procedural shapes or a mesh file."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Annotated, Literal
+
+from pydantic import Field
+
+from rig.config.common import Albedo, Coord, Extent, Strict, Vec3
+
+
+class PlaneScene(Strict):
+    kind: Literal["plane"]
+    size_mm: float = Field(600.0, gt=0, le=10_000)
+    albedo: Albedo = 0.7
+
+
+class SphereScene(Strict):
+    kind: Literal["sphere"]
+    radius_mm: float = Field(60.0, gt=0, le=5_000)
+    center_mm: Vec3 = (0.0, 0.0, 60.0)
+    albedo: Albedo = 0.8
+
+
+class BoxScene(Strict):
+    kind: Literal["box"]
+    extents_mm: tuple[Extent, Extent, Extent] = (120.0, 80.0, 60.0)
+    rotation_deg: Vec3 = (0.0, 0.0, 25.0)
+    albedo: Albedo = 0.8
+    plane: bool = Field(True, description="put the box on the bench plane")
+
+
+class SphereOnPlaneScene(Strict):
+    kind: Literal["sphere_on_plane"]
+    radius_mm: float = Field(60.0, gt=0, le=5_000)
+    position_mm: tuple[Coord, Coord] = (0.0, 0.0)
+    plane_size_mm: float = Field(600.0, gt=0, le=10_000)
+    sphere_albedo: Albedo = (0.85, 0.75, 0.6)
+    plane_albedo: Albedo = 0.6
+
+
+class TerrainScene(Strict):
+    kind: Literal["terrain"]
+    size_mm: float = Field(400.0, gt=0, le=10_000)
+    amplitude_mm: float = Field(40.0, ge=0, le=5_000)
+    seed: int = Field(7, ge=0, le=2**31)
+    albedo: Albedo = 0.75
+
+
+class MeshScene(Strict):
+    kind: Literal["mesh"]
+    path: Path = Field(description="PLY, OBJ or STL; relative paths are relative to the config file")
+    scale: float = Field(1.0, gt=0, le=1e6, description="mesh units to millimetres")
+    fit_size_mm: float | None = Field(
+        None, gt=0, le=10_000, description="if set, scale so the largest extent is this (overrides scale)"
+    )
+    position_mm: Vec3 = (0.0, 0.0, 0.0)
+    rotation_deg: Vec3 = (0.0, 0.0, 0.0)
+    albedo: Albedo = 0.8
+    plane: bool = Field(True, description="put the mesh on the bench plane")
+
+
+SceneConfig = Annotated[
+    PlaneScene | SphereScene | BoxScene | SphereOnPlaneScene | TerrainScene | MeshScene,
+    Field(discriminator="kind"),
+]
+SCENE_KINDS = ("plane", "sphere", "box", "sphere_on_plane", "terrain", "mesh")
+
+
+class SimulationConfig(Strict):
+    scene: SceneConfig
+    ambient: float = Field(0.02, ge=0.0, le=10.0, description="ambient irradiance, relative to white")
+    seed: int = Field(1, ge=0, le=2**31)
