@@ -27,7 +27,7 @@ from _readme import markdown_table, run
 
 from rig.assembly import open_rig
 from rig.config import REPO_CONFIG_DIR, load_config
-from rig.store.scandir import scan_to_directory
+from rig.service.tasks import scan_to_directory
 
 REPO = Path(__file__).resolve().parent.parent
 KEY = "bench-key-0123456789abcdef"

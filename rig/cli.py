@@ -25,7 +25,8 @@ from rig.evaluate.pairs import evaluate_on_bench
 from rig.patterns import codec_class, codec_names
 from rig.pipeline.scan import run_scan
 from rig.progress import TerminalBar
-from rig.store.scandir import new_scan_id, scan_to_directory
+from rig.service.tasks import scan_to_directory
+from rig.store.scandir import new_scan_id
 
 EXIT_FAILED = 1
 EXIT_BAD_INPUT = 2

@@ -33,6 +33,7 @@ from rig.api.security import MUTATING, READING, ApiSettings, BodyLimitMiddleware
 from rig.errors import ConfigError
 from rig.patterns import codec_class, codec_names
 from rig.service.errors import JobConflictError, JobNotFoundError, QueueFullError, ServiceStoppingError
+from rig.service.jobs import JobKind
 from rig.service.runner import JobService
 
 log = logging.getLogger(__name__)
@@ -82,8 +83,8 @@ def create_app(service: JobService, settings: ApiSettings, stopping: Callable[[]
     app.add_middleware(BodyLimitMiddleware, limit=settings.max_body_bytes)
     _error_handlers(app)
     app.include_router(_general(service), prefix="/v1")
-    app.include_router(_jobs(service, "scan", "scans", is_stopping), prefix="/v1")
-    app.include_router(_jobs(service, "calibration", "calibrations", is_stopping), prefix="/v1")
+    app.include_router(_jobs(service, JobKind.SCAN, "scans", is_stopping), prefix="/v1")
+    app.include_router(_jobs(service, JobKind.CALIBRATION, "calibrations", is_stopping), prefix="/v1")
     return app
 
 
@@ -134,7 +135,7 @@ def _general(service: JobService) -> APIRouter:
     return router
 
 
-def _jobs(service: JobService, kind: str, collection: str, stopping: Callable[[], bool]) -> APIRouter:
+def _jobs(service: JobService, kind: JobKind, collection: str, stopping: Callable[[], bool]) -> APIRouter:
     """The routes of one job collection (scans, calibrations)."""
     router = APIRouter(prefix=f"/{collection}", tags=[collection], responses=ERRORS)
     base = f"/v1/{collection}"
@@ -143,7 +144,7 @@ def _jobs(service: JobService, kind: str, collection: str, stopping: Callable[[]
         response.headers["Location"] = job_view.links["self"]
         return job_view
 
-    if kind == "scan":
+    if kind is JobKind.SCAN:
 
         @router.post("", status_code=status.HTTP_202_ACCEPTED, response_model=JobView, dependencies=MUTATING)
         def create_scan(body: ScanRequest, response: Response) -> JobView:
@@ -161,7 +162,7 @@ def _jobs(service: JobService, kind: str, collection: str, stopping: Callable[[]
 
         @router.post("", status_code=status.HTTP_202_ACCEPTED, response_model=JobView, dependencies=MUTATING)
         def create_calibration(body: CalibrationRequest, response: Response) -> JobView:
-            job = service.submit("calibration", body.model_dump(exclude_none=True))
+            job = service.submit(JobKind.CALIBRATION, body.model_dump(exclude_none=True))
             return created(JobView.of(job, base), response)
 
     @router.get("", response_model=JobPage, dependencies=READING)
@@ -190,7 +191,7 @@ def _jobs(service: JobService, kind: str, collection: str, stopping: Callable[[]
     )
     def cancel_job(job_id: JobId, response: Response) -> JobView:
         job = service.cancel(job_id, kind)
-        if job.state == "running":
+        if job.state is JobState.RUNNING:
             response.status_code = status.HTTP_202_ACCEPTED
         return JobView.of(job, base)
 
@@ -239,7 +240,7 @@ async def _event_stream(
             for event in fresh:
                 last = event.id
                 yield f"id: {event.id}\nevent: {event.type}\ndata: {json.dumps(event.data)}\n\n".encode()
-                if event.type == "state" and event.data["state"] not in ("queued", "running"):
+                if event.type == "state" and event.data["state"] not in (JobState.QUEUED, JobState.RUNNING):
                     return
             if fresh:
                 idle = 0.0

@@ -7,12 +7,12 @@ from typing import Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field
 
+from rig.config import DeviceKind
 from rig.patterns import codec_names
-from rig.service.jobs import Job
+from rig.service.jobs import Job, JobKind, JobState
 
 JOB_ID_PATTERN = r"^[0-9]{8}-[0-9]{6}-[0-9a-f]{6}$"
 FILE_NAME_PATTERN = r"^[A-Za-z0-9][A-Za-z0-9_.-]{0,99}$"
-JobState = Literal["queued", "running", "done", "failed", "cancelled", "interrupted"]
 CodecName = Literal[tuple(codec_names())]  # type: ignore[valid-type]
 
 
@@ -45,7 +45,7 @@ class CalibrationRequest(_Request):
 
 class JobView(BaseModel):
     id: str
-    kind: Literal["scan", "calibration"]
+    kind: JobKind
     state: JobState
     created: dt.datetime
     started: dt.datetime | None
@@ -63,13 +63,13 @@ class JobView(BaseModel):
             return None if t is None else dt.datetime.fromtimestamp(t, dt.UTC)
 
         links = {"self": f"{base}/{job.id}", "events": f"{base}/{job.id}/events"}
-        if job.state == "done":
+        if job.state is JobState.DONE:
             for name in (job.result or {}).get("files", []):
                 links[name] = f"{base}/{job.id}/files/{name}"
         return cls(
             id=job.id,
-            kind=job.kind,  # type: ignore[arg-type]
-            state=job.state,  # type: ignore[arg-type]
+            kind=job.kind,
+            state=job.state,  # type: ignore[arg-type]  # a listed job has a record
             created=when(job.created),  # type: ignore[arg-type]
             started=when(job.started),
             finished=when(job.finished),
@@ -97,9 +97,9 @@ class Health(BaseModel):
 
 class DeviceView(BaseModel):
     name: str
-    kind: Literal["projector", "camera"]
+    kind: DeviceKind
     driver: str
-    resolution: list[int]
+    resolution: list[int] | None = Field(description="pixels (width, height); none for a power control")
     open: bool
 
 

@@ -7,6 +7,7 @@ marks every job it finds queued or running as interrupted: hardware is never re-
 
 from __future__ import annotations
 
+import enum
 import json
 import logging
 import sqlite3
@@ -20,10 +21,28 @@ from rig.service.errors import IllegalTransitionError, JobNotFoundError
 
 log = logging.getLogger(__name__)
 
-TERMINAL = frozenset({"done", "failed", "cancelled", "interrupted"})
+
+
+class JobState(enum.StrEnum):
+    """Where a job is; shared by the service, its store and the API."""
+
+    QUEUED = "queued"
+    RUNNING = "running"
+    DONE = "done"
+    FAILED = "failed"
+    CANCELLED = "cancelled"
+    INTERRUPTED = "interrupted"
+
+
+class JobKind(enum.StrEnum):
+    SCAN = "scan"
+    CALIBRATION = "calibration"
+
+
+TERMINAL = frozenset({JobState.DONE, JobState.FAILED, JobState.CANCELLED, JobState.INTERRUPTED})
 TRANSITIONS = {
-    "queued": frozenset({"running", "cancelled", "interrupted"}),
-    "running": frozenset({"done", "failed", "cancelled", "interrupted"}),
+    JobState.QUEUED: frozenset({JobState.RUNNING, JobState.CANCELLED, JobState.INTERRUPTED}),
+    JobState.RUNNING: frozenset({JobState.DONE, JobState.FAILED, JobState.CANCELLED, JobState.INTERRUPTED}),
 }
 
 _SCHEMA = """
@@ -47,8 +66,8 @@ CREATE INDEX IF NOT EXISTS jobs_kind_created ON jobs (kind, created);
 @dataclass(frozen=True)
 class Job:
     id: str
-    kind: str
-    state: str
+    kind: JobKind
+    state: JobState | None  # None: a placeholder for a record that is gone
     request: dict[str, Any]
     created: float
     started: float | None
@@ -63,9 +82,9 @@ class Job:
         return self.state in TERMINAL
 
     @classmethod
-    def placeholder(cls, job_id: str, kind: str) -> Job:
+    def placeholder(cls, job_id: str, kind: JobKind) -> Job:
         """A record's identity only (for a job whose record is gone)."""
-        return cls(job_id, kind, "deleted", {}, 0.0, None, None, None, 0.0, None, None)
+        return cls(job_id, kind, None, {}, 0.0, None, None, None, 0.0, None, None)
 
 
 class JobStore:
@@ -88,7 +107,7 @@ class JobStore:
         with self._lock:
             return self._db.execute("PRAGMA integrity_check").fetchone()[0] == "ok"
 
-    def add(self, job_id: str, kind: str, request: dict[str, Any]) -> Job:
+    def add(self, job_id: str, kind: JobKind, request: dict[str, Any]) -> Job:
         with self._lock:
             self._db.execute(
                 "INSERT INTO jobs (id, kind, state, request, created) VALUES (?, ?, 'queued', ?, ?)",
@@ -104,17 +123,17 @@ class JobStore:
             raise JobNotFoundError(f"no job {job_id}")
         return _job(row)
 
-    def transition(self, job_id: str, state: str, **fields: Any) -> Job:
+    def transition(self, job_id: str, state: JobState, **fields: Any) -> Job:
         """Move a job to `state`, setting `error`, `result`, `stage` or `fraction` too."""
         now = time.time()
         with self._lock:
             row = self._db.execute("SELECT kind, state FROM jobs WHERE id = ?", (job_id,)).fetchone()
             if row is None:
                 raise JobNotFoundError(f"no job {job_id}")
-            if state not in TRANSITIONS.get(row["state"], frozenset()):
+            if state not in TRANSITIONS.get(JobState(row["state"]), frozenset()):
                 raise IllegalTransitionError(f"job {job_id}: {row['state']} -> {state} is not allowed")
             updates: dict[str, Any] = {"state": state}
-            if state == "running":
+            if state is JobState.RUNNING:
                 updates["started"] = now
             if state in TERMINAL:
                 updates["finished"] = now
@@ -140,7 +159,7 @@ class JobStore:
             self._db.execute("DELETE FROM jobs WHERE id = ?", (job_id,))
         log.info("job %s: deleted", job_id)
 
-    def list(self, kind: str, state: str | None, limit: int, offset: int) -> tuple[list[Job], int]:
+    def list(self, kind: JobKind, state: JobState | None, limit: int, offset: int) -> tuple[list[Job], int]:
         """Newest first; also the total matching, for paging."""
         where, args = "kind = ?", [kind]
         if state is not None:
@@ -171,8 +190,8 @@ class JobStore:
 def _job(row: sqlite3.Row) -> Job:
     return Job(
         id=row["id"],
-        kind=row["kind"],
-        state=row["state"],
+        kind=JobKind(row["kind"]),
+        state=JobState(row["state"]),
         request=json.loads(row["request"]),
         created=row["created"],
         started=row["started"],

@@ -22,13 +22,9 @@ from typing import Any, TextIO
 
 from drivers.errors import DeviceError
 from rig.assembly import open_rig
-from rig.calibrate.response import calibrate_response
-from rig.calibrate.session import calibrate
-from rig.config import RigConfig, config_from_dict
+from rig.config import RigConfig
 from rig.errors import ConfigError, SlrigError
-from rig.evaluate.merged import metrics_on_bench
-from rig.pipeline.scan import reconstruct_frames
-from rig.progress import ProgressCallback, ProgressEvent, ProgressTracker
+from rig.progress import ProgressCallback, ProgressEvent
 from rig.rig import Rig
 from rig.service.errors import (
     JobCancelledError,
@@ -38,8 +34,10 @@ from rig.service.errors import (
     ServiceStoppingError,
 )
 from rig.service.events import EventHub
-from rig.service.jobs import Job, JobStore
-from rig.store.scandir import new_scan_id, read_frames, scan_to_directory, write_scan
+from rig.service.jobs import Job, JobKind, JobState, JobStore
+from rig.service.status import device_views
+from rig.service.tasks import calibration_to_directory, reprocess_to_directory, scan_summary, scan_to_directory
+from rig.store.scandir import new_scan_id
 
 log = logging.getLogger(__name__)
 
@@ -132,7 +130,7 @@ class JobService:
         return self._current is None or time.monotonic() - self._heartbeat < self.health_stale_s
 
     # --- requests --------------------------------------------------------------------------
-    def submit(self, kind: str, request: dict[str, Any]) -> Job:
+    def submit(self, kind: JobKind, request: dict[str, Any]) -> Job:
         """Queue a job; QueueFullError past max_queue, ServiceStoppingError while stopping."""
         with self._cond:
             if self._stopping:
@@ -153,39 +151,39 @@ class JobService:
                 raise JobConflictError(
                     f"codec {request['codec']} does not fit this rig: {'; '.join(exc.problems)}"
                 ) from None
-        return self.submit("scan", request)
+        return self.submit(JobKind.SCAN, request)
 
     def submit_reprocess(self, source_id: str, request: dict[str, Any]) -> Job:
-        source = self.job(source_id, "scan")
-        if source.state != "done":
+        source = self.job(source_id, JobKind.SCAN)
+        if source.state is not JobState.DONE:
             raise JobConflictError(f"scan {source_id} is {source.state}; only a finished scan can be reprocessed")
         if not (self.scans_dir / source_id / "frames").is_dir():
             raise JobConflictError(f"scan {source_id} kept no frames; scan with keep_frames: true to reprocess")
         calibration_id = request.get("calibration")
         if calibration_id:
-            calibration = self.job(calibration_id, "calibration")
-            if calibration.state != "done" or calibration.request.get("what") == "response":
+            calibration = self.job(calibration_id, JobKind.CALIBRATION)
+            if calibration.state is not JobState.DONE or calibration.request.get("what") == "response":
                 raise JobConflictError(f"calibration {calibration_id} is not a finished geometric calibration")
-        return self.submit("scan", {**request, "source": source_id})
+        return self.submit(JobKind.SCAN, {**request, "source": source_id})
 
-    def job(self, job_id: str, kind: str | None = None) -> Job:
+    def job(self, job_id: str, kind: JobKind | None = None) -> Job:
         job = self.store.get(job_id)
         if kind is not None and job.kind != kind:
             raise JobNotFoundError(f"no {kind} {job_id}")
         return job
 
-    def cancel(self, job_id: str, kind: str) -> Job:
+    def cancel(self, job_id: str, kind: JobKind) -> Job:
         self.job(job_id, kind)  # it exists and is of this kind
         with self._cond:
             if job_id in self._queue:
                 self._queue.remove(job_id)
-                self.store.transition(job_id, "cancelled", error="cancelled before it ran")
+                self.store.transition(job_id, JobState.CANCELLED, error="cancelled before it ran")
                 self._publish_state(job_id)
             elif self._current == job_id:
                 self._cancel.set()  # the worker records it when the job stops
         return self.store.get(job_id)
 
-    def delete(self, job_id: str, kind: str) -> None:
+    def delete(self, job_id: str, kind: JobKind) -> None:
         """Delete a job that is not running: its record first, then its folder."""
         self.job(job_id, kind)
         with self._cond:  # decided under the lock: the worker may be taking this job right now
@@ -201,12 +199,12 @@ class JobService:
             shutil.rmtree(doomed, ignore_errors=True)
 
     def job_folder(self, job: Job) -> Path:
-        return (self.calibrations_dir if job.kind == "calibration" else self.scans_dir) / job.id
+        return (self.calibrations_dir if job.kind is JobKind.CALIBRATION else self.scans_dir) / job.id
 
-    def file_path(self, job_id: str, kind: str, name: str) -> Path:
+    def file_path(self, job_id: str, kind: JobKind, name: str) -> Path:
         """A result file of a finished job, by a name its result lists (never a path)."""
         job = self.job(job_id, kind)
-        if job.state != "done":
+        if job.state is not JobState.DONE:
             raise JobConflictError(f"{kind} {job_id} is {job.state}; files exist once it is done")
         files = (job.result or {}).get("files", [])
         if name not in files:
@@ -227,29 +225,8 @@ class JobService:
             "running": current,
             "last_error": self._rig_error,
             "queue": {"queued": queued, "max": self.max_queue},
-            "devices": self._devices(),
+            "devices": device_views(self.config, self._rig),
         }
-
-    def _devices(self) -> list[dict[str, Any]]:
-        """Each device as configured, and whether it is open now (devices stay open between jobs)."""
-        rig = self._rig
-        out: list[dict[str, Any]] = []
-        for kind, configs, live in (
-            ("projector", self.config.projectors, rig.projectors if rig else []),
-            ("camera", self.config.cameras, rig.cameras if rig else []),
-        ):
-            for i, c in enumerate(configs):
-                device = live[i] if i < len(live) else None
-                out.append(
-                    {
-                        "name": c.name,
-                        "kind": kind,
-                        "driver": c.driver,
-                        "resolution": list(c.resolution),
-                        "open": bool(device is not None and device.is_open),
-                    }
-                )
-        return out
 
     # --- the worker ------------------------------------------------------------------------
     def _work(self) -> None:
@@ -274,14 +251,14 @@ class JobService:
 
     def _run(self, job_id: str) -> None:
         try:
-            job = self.store.transition(job_id, "running", stage="start", fraction=0.0)
+            job = self.store.transition(job_id, JobState.RUNNING, stage="start", fraction=0.0)
         except SlrigError as exc:  # deleted or cancelled between the queue and here
             log.info("job %s not started: %s", job_id, exc)
             return
         self._publish_state(job_id)
         reprocess = "source" in job.request  # a scan from stored frames: no devices involved
         handler: Callable[[Job, ProgressCallback], dict[str, Any]]
-        if job.kind == "calibration":
+        if job.kind is JobKind.CALIBRATION:
             handler = self._calibration
         elif reprocess:
             handler = self._reprocess
@@ -291,7 +268,7 @@ class JobService:
             result = handler(job, self._progress_callback(job_id))
         except JobCancelledError:
             self._darken()
-            state = "interrupted" if self._stopping else "cancelled"
+            state = JobState.INTERRUPTED if self._stopping else JobState.CANCELLED
             reason = "the daemon stopped during the job" if self._stopping else "cancelled while running"
             self._finish(job_id, state, error=reason)
         except (SlrigError, DeviceError) as exc:
@@ -299,18 +276,18 @@ class JobService:
                 self._rig_error = str(exc)  # reported by /v1/rig until a job succeeds
             if not reprocess:
                 self._drop_rig()
-            self._finish(job_id, "failed", error=str(exc))
+            self._finish(job_id, JobState.FAILED, error=str(exc))
         except Exception as exc:
             log.exception("%s %s: internal error", job.kind, job_id)
             if not reprocess:
                 self._drop_rig()
-            self._finish(job_id, "failed", error=f"internal error: {type(exc).__name__}: {exc}")
+            self._finish(job_id, JobState.FAILED, error=f"internal error: {type(exc).__name__}: {exc}")
         else:
             if not reprocess:
                 self._rig_error = None
-            self._finish(job_id, "done", result=result, stage="done", fraction=1.0)
+            self._finish(job_id, JobState.DONE, result=result, stage="done", fraction=1.0)
 
-    def _finish(self, job_id: str, state: str, **fields: Any) -> None:
+    def _finish(self, job_id: str, state: JobState, **fields: Any) -> None:
         try:
             self.store.transition(job_id, state, **fields)
         except SlrigError as exc:  # shutdown() recorded it interrupted meanwhile
@@ -370,67 +347,39 @@ class JobService:
             with contextlib.suppress(Exception):
                 rig.close()
 
-    # --- the jobs --------------------------------------------------------------------------
+    # --- the jobs (rig.service.tasks does the work) ----------------------------------------
     def _scan(self, job: Job, progress: ProgressCallback) -> dict[str, Any]:
         request = job.request
-        the_rig = self._open()
         path, result = scan_to_directory(
-            the_rig,
+            self._open(),
             self.scans_dir / job.id,
             job.id,
             request.get("codec") or self.config.scan.codec,
             keep_frames=bool(request.get("keep_frames")),
             progress=progress,
         )
-        return _scan_summary(path, len(result.cloud), result.frames_projected, result.timings_ms)
+        return scan_summary(path, result)
 
     def _reprocess(self, job: Job, progress: ProgressCallback) -> dict[str, Any]:
         request = job.request
-        tracker = ProgressTracker(progress)
-        source = self.job(request["source"], "scan")  # JobNotFoundError if deleted since
-        manifest, frames = read_frames(self.scans_dir / source.id)
-        data = manifest["config"]
-        if request.get("calibration"):
-            calibration = self.job(request["calibration"], "calibration")
-            data["calibration"]["file"] = str(self.job_folder(calibration))
-        if "max_depth_jump_mm" in request:
-            data["scan"]["max_depth_jump_mm"] = request["max_depth_jump_mm"]
-        config = config_from_dict(data, f"scan {source.id}")
-        tracker.report("decode", 0.6)
-        with open_rig(config, with_devices=False) as geometry:
-            result = reconstruct_frames(geometry, manifest["codec"]["name"], frames, tracker)
-            tracker.report("store", 0.95)
-            origin = {"reprocessed_from": source.id, "calibration": request.get("calibration")}
-            path = write_scan(
-                geometry, result, self.scans_dir / job.id, job.id, metrics_on_bench(geometry, result), origin
-            )
-        return _scan_summary(path, len(result.cloud), result.frames_projected, result.timings_ms)
+        source = self.job(request["source"], JobKind.SCAN)  # JobNotFoundError if deleted since
+        calibration = self.job(request["calibration"], JobKind.CALIBRATION) if request.get("calibration") else None
+        overrides = {"max_depth_jump_mm": request["max_depth_jump_mm"]} if "max_depth_jump_mm" in request else {}
+        path, result = reprocess_to_directory(
+            self.scans_dir / source.id,
+            self.scans_dir / job.id,
+            job.id,
+            calibration=None if calibration is None else self.job_folder(calibration),
+            overrides=overrides,
+            origin={"reprocessed_from": source.id, "calibration": request.get("calibration")},
+            progress=progress,
+        )
+        return scan_summary(path, result)
 
     def _calibration(self, job: Job, progress: ProgressCallback) -> dict[str, Any]:
         request = job.request
-        tracker = ProgressTracker(progress)
-        the_rig = self._open()
-        out = self.calibrations_dir / job.id
-        tracker.report("capture", 0.05)
         try:
-            if request["what"] == "response":
-                document = calibrate_response(the_rig, out)
-                summary: dict[str, Any] = {"projectors": document["projectors"]}
-            else:
-                outcome = calibrate(the_rig, request["what"], out, request.get("views"))
-                summary = {"sha256": outcome.sha256, "views": outcome.views, "report": outcome.report}
+            out = self.calibrations_dir / job.id
+            return calibration_to_directory(self._open(), request["what"], out, request.get("views"), progress)
         finally:
             self._drop_rig()  # the simulated bench showed boards: a fresh rig for the next job
-        tracker.report("done", 1.0)
-        files = sorted(p.name for p in out.iterdir() if p.is_file()) if out.is_dir() else []
-        return {**summary, "files": files}
-
-
-def _scan_summary(path: Path, points: int, frames: int, timings_ms: dict[str, float]) -> dict[str, Any]:
-    files = sorted(p.name for p in path.iterdir() if p.is_file())
-    return {
-        "points": points,
-        "frames_projected": frames,
-        "timings_ms": {k: round(v, 1) for k, v in timings_ms.items()},
-        "files": files,
-    }

@@ -20,10 +20,8 @@ import numpy as np
 
 import rig
 from rig.errors import StoreError
-from rig.evaluate.merged import metrics_on_bench
 from rig.pipeline.capture import CUE
-from rig.pipeline.scan import ScanResult, run_scan
-from rig.progress import ProgressCallback, ProgressTracker
+from rig.pipeline.scan import ScanResult
 from rig.rig import Rig
 from rig.store.atomic import fsync_dir, rename_no_replace, write_atomic
 from rig.store.images import depth_png, mask_png, preview_png
@@ -190,23 +188,6 @@ def _write_frames(the_rig: Rig, result: ScanResult, partial: Path) -> dict[str, 
     if out:
         fsync_dir(partial / "frames")
     return out
-
-
-def scan_to_directory(
-    the_rig: Rig,
-    target: Path,
-    scan_id: str,
-    codec: str | None = None,
-    keep_frames: bool = False,
-    progress: ProgressCallback | None = None,
-) -> tuple[Path, ScanResult]:
-    """Scan, measure against ground truth on a simulated bench, and write the scan directory."""
-    result = run_scan(the_rig, codec, progress=progress, keep_frames=keep_frames)
-    tracker = ProgressTracker(progress)
-    tracker.report("store", 0.95)
-    path = write_scan(the_rig, result, target, scan_id, metrics_on_bench(the_rig, result))
-    tracker.report("done", 1.0)
-    return path, result
 
 
 def read_frames(folder: Path) -> tuple[dict[str, Any], dict[tuple[int, int], list[np.ndarray]]]:

@@ -1,0 +1,88 @@
+"""What one scan, reprocessing or calibration does, from an open rig (or stored frames) to its
+stored result. The CLI runs these directly; the job service runs them in its worker."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+from rig.assembly import open_rig
+from rig.calibrate.response import calibrate_response
+from rig.calibrate.session import calibrate
+from rig.config import config_from_dict
+from rig.evaluate.merged import metrics_on_bench
+from rig.pipeline.scan import ScanResult, reconstruct_frames, run_scan
+from rig.progress import ProgressCallback, ProgressTracker
+from rig.rig import Rig
+from rig.store.scandir import read_frames, write_scan
+
+
+def scan_to_directory(
+    the_rig: Rig,
+    target: Path,
+    scan_id: str,
+    codec: str | None = None,
+    keep_frames: bool = False,
+    progress: ProgressCallback | None = None,
+) -> tuple[Path, ScanResult]:
+    """Scan, measure against ground truth where the rig has it, and write the scan directory."""
+    result = run_scan(the_rig, codec, progress=progress, keep_frames=keep_frames)
+    tracker = ProgressTracker(progress)
+    tracker.report("store", 0.95)
+    path = write_scan(the_rig, result, target, scan_id, metrics_on_bench(the_rig, result))
+    tracker.report("done", 1.0)
+    return path, result
+
+
+def reprocess_to_directory(
+    source: Path,
+    target: Path,
+    scan_id: str,
+    calibration: Path | None = None,
+    overrides: dict[str, Any] | None = None,
+    origin: dict[str, Any] | None = None,
+    progress: ProgressCallback | None = None,
+) -> tuple[Path, ScanResult]:
+    """Decode and triangulate a stored scan's frames again (no devices), with another calibration
+    folder and `overrides` of its scan section, and write a new scan directory."""
+    tracker = ProgressTracker(progress)
+    manifest, frames = read_frames(source)
+    data = manifest["config"]
+    if calibration is not None:
+        data["calibration"]["file"] = str(calibration)
+    data["scan"].update(overrides or {})
+    config = config_from_dict(data, f"scan {manifest['scan_id']}")
+    tracker.report("decode", 0.6)
+    with open_rig(config, with_devices=False) as geometry:
+        result = reconstruct_frames(geometry, manifest["codec"]["name"], frames, tracker)
+        tracker.report("store", 0.95)
+        path = write_scan(geometry, result, target, scan_id, metrics_on_bench(geometry, result), origin)
+    return path, result
+
+
+def calibration_to_directory(
+    the_rig: Rig, what: str, out: Path, views: int | None = None, progress: ProgressCallback | None = None
+) -> dict[str, Any]:
+    """A calibration session (camera, projector, rig) or a response measurement, written into
+    `out`; its summary and the files it wrote."""
+    tracker = ProgressTracker(progress)
+    tracker.report("capture", 0.05)
+    if what == "response":
+        document = calibrate_response(the_rig, out)
+        summary: dict[str, Any] = {"projectors": document["projectors"]}
+    else:
+        outcome = calibrate(the_rig, what, out, views)  # type: ignore[arg-type]
+        summary = {"sha256": outcome.sha256, "views": outcome.views, "report": outcome.report}
+    tracker.report("done", 1.0)
+    files = sorted(p.name for p in out.iterdir() if p.is_file()) if out.is_dir() else []
+    return {**summary, "files": files}
+
+
+def scan_summary(path: Path, result: ScanResult) -> dict[str, Any]:
+    """What a finished scan job reports: counts, timings, and the files it wrote."""
+    return {
+        "points": len(result.cloud),
+        "frames_projected": result.frames_projected,
+        "timings_ms": {k: round(v, 1) for k, v in result.timings_ms.items()},
+        "files": sorted(p.name for p in path.iterdir() if p.is_file()),
+    }
