@@ -22,12 +22,12 @@ import signal
 import sys
 import time
 import zlib
+from typing import Any
 
 os.environ.setdefault("PYGAME_HIDE_SUPPORT_PROMPT", "1")
 
 
 def main(argv: list[str]) -> int:
-    import numpy as np
     import pygame
 
     width, height, display = int(argv[0]), int(argv[1]), int(argv[2]) if len(argv) > 2 else 0
@@ -59,24 +59,10 @@ def main(argv: list[str]) -> int:
             if not line or line.startswith(b"Q"):
                 break
             if line.startswith((b"S", b"C")):
-                colour = line.startswith(b"C")
-                size = int(line.split()[1])
-                data = stdin.read(size)
-                if len(data) != size or size != width * height * (3 if colour else 1):
+                answer = _present(screen, line, stdin, width, height)
+                if answer is None:
                     break
-                if colour:
-                    rgb = np.frombuffer(data, dtype=np.uint8).reshape(height, width, 3).transpose(1, 0, 2)
-                else:
-                    pattern = np.frombuffer(data, dtype=np.uint8).reshape(height, width)
-                    rgb = np.repeat(pattern.T[:, :, None], 3, axis=2)  # surfarray is (x, y)
-                pygame.surfarray.blit_array(screen, rgb)
-                pygame.display.flip()
-                shown = time.monotonic()
-                if colour:
-                    checksum = zlib.crc32(pygame.surfarray.array3d(screen).transpose(1, 0, 2).tobytes())
-                else:
-                    checksum = zlib.crc32(pygame.surfarray.array_red(screen).T.tobytes())
-                out.write(f"P {shown:.6f} {checksum}\n".encode())
+                out.write(answer)
             elif line.startswith(b"D"):
                 black()
                 checksum = zlib.crc32(pygame.surfarray.array_red(screen).T.tobytes())
@@ -87,6 +73,32 @@ def main(argv: list[str]) -> int:
         black()
         pygame.display.quit()
     return 0
+
+
+def _present(screen: Any, line: bytes, stdin: Any, width: int, height: int) -> bytes | None:
+    """Show one image that follows `S <size>` (grey) or `C <size>` (RGB) on stdin; the answer
+    `P <time shown> <crc32 of what the screen holds>`, or None for a malformed request."""
+    import numpy as np
+    import pygame
+
+    colour = line.startswith(b"C")
+    size = int(line.split()[1])
+    data = stdin.read(size)
+    if len(data) != size or size != width * height * (3 if colour else 1):
+        return None
+    if colour:
+        rgb = np.frombuffer(data, dtype=np.uint8).reshape(height, width, 3).transpose(1, 0, 2)
+    else:
+        pattern = np.frombuffer(data, dtype=np.uint8).reshape(height, width)
+        rgb = np.repeat(pattern.T[:, :, None], 3, axis=2)  # surfarray is (x, y)
+    pygame.surfarray.blit_array(screen, rgb)
+    pygame.display.flip()
+    shown = time.monotonic()
+    if colour:
+        checksum = zlib.crc32(pygame.surfarray.array3d(screen).transpose(1, 0, 2).tobytes())
+    else:
+        checksum = zlib.crc32(pygame.surfarray.array_red(screen).T.tobytes())
+    return f"P {shown:.6f} {checksum}\n".encode()
 
 
 if __name__ == "__main__":

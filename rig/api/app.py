@@ -139,6 +139,14 @@ def _jobs(service: JobService, kind: JobKind, collection: str, stopping: Callabl
     """The routes of one job collection (scans, calibrations)."""
     router = APIRouter(prefix=f"/{collection}", tags=[collection], responses=ERRORS)
     base = f"/v1/{collection}"
+    _creating_routes(router, service, kind, base)
+    _record_routes(router, service, kind, base)
+    _result_routes(router, service, kind, stopping)
+    return router
+
+
+def _creating_routes(router: APIRouter, service: JobService, kind: JobKind, base: str) -> None:
+    """POST: a new job of this collection (and, for scans, a reprocessing of a stored one)."""
 
     def created(job_view: JobView, response: Response) -> JobView:
         response.headers["Location"] = job_view.links["self"]
@@ -164,6 +172,10 @@ def _jobs(service: JobService, kind: JobKind, collection: str, stopping: Callabl
         def create_calibration(body: CalibrationRequest, response: Response) -> JobView:
             job = service.submit(JobKind.CALIBRATION, body.model_dump(exclude_none=True))
             return created(JobView.of(job, base), response)
+
+
+def _record_routes(router: APIRouter, service: JobService, kind: JobKind, base: str) -> None:
+    """The job records: list, get, delete, cancel."""
 
     @router.get("", response_model=JobPage, dependencies=READING)
     def list_jobs(
@@ -195,6 +207,10 @@ def _jobs(service: JobService, kind: JobKind, collection: str, stopping: Callabl
             response.status_code = status.HTTP_202_ACCEPTED
         return JobView.of(job, base)
 
+
+def _result_routes(router: APIRouter, service: JobService, kind: JobKind, stopping: Callable[[], bool]) -> None:
+    """What a job gives: its files, and its events as they happen."""
+
     @router.get(
         "/{job_id}/files/{name}",
         dependencies=READING,
@@ -224,8 +240,6 @@ def _jobs(service: JobService, kind: JobKind, collection: str, stopping: Callabl
             media_type="text/event-stream",
             headers={"Cache-Control": "no-cache", "X-Accel-Buffering": "no"},
         )
-
-    return router
 
 
 async def _event_stream(

@@ -1,0 +1,124 @@
+"""The `slrig` command line: its arguments, one builder per command."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+from rig import __version__
+from rig.config import SCENE_KINDS
+from rig.patterns import codec_names
+
+MESH_FIT_SIZE_MM = 150.0
+
+
+def _common(p: argparse.ArgumentParser) -> None:
+    p.add_argument(
+        "--config",
+        type=Path,
+        default=None,
+        help="rig description (YAML); default: the simulated bench, config/sim.yaml",
+    )
+    p.add_argument(
+        "--codec", default=None, help=f"pattern codec: {', '.join(codec_names())} (default: the config's)"
+    )
+    p.add_argument("--json", action="store_true", help="print one JSON object instead of text")
+
+
+
+def _scan_command(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
+    scan = sub.add_parser("scan", help="scan and write a scan directory (cloud.ply, depth, preview)")
+    _common(scan)
+    scan.add_argument(
+        "--out",
+        type=Path,
+        default=None,
+        help="scan directory to create (must not exist); default <data_dir>/scans/<id>",
+    )
+
+
+def _evaluate_command(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
+    evaluate = sub.add_parser("eval", help="scan the simulated bench and measure it against ground truth")
+    _common(evaluate)
+    evaluate.add_argument(
+        "--scene",
+        default=None,
+        help=f"scene name ({', '.join(k for k in SCENE_KINDS if k != 'mesh')}) or a "
+        f"PLY/OBJ/STL file (scaled to {MESH_FIT_SIZE_MM:.0f} mm)",
+    )
+
+
+def _plan_command(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
+    plan = sub.add_parser("plan", help="plan the fewest projector-camera heads that cover an object")
+    plan.add_argument("what", choices=["views"])
+    plan.add_argument("--config", type=Path, default=None, help="rig description (YAML); default: config/sim.yaml")
+    plan.add_argument("--scene", default=None, help="box, sphere or a mesh file (default: the config's object)")
+    plan.add_argument("--coverage", type=float, default=0.95, help="fraction of the surface to cover (0.95)")
+    plan.add_argument("--candidates", type=int, default=120, help="candidate heads on a sphere (120)")
+    plan.add_argument("--poses", type=Path, default=None, help="YAML list of candidate camera positions [x, y, z] mm")
+    plan.add_argument("--distance", type=float, default=None, help="their distance, mm (4 x the object's radius)")
+    plan.add_argument("--max-angle", type=float, default=65.0, help="steepest view of a surface, degrees (65)")
+    plan.add_argument("--baseline", type=float, default=15.0, help="projector beside camera, degrees (15)")
+    plan.add_argument("--min-elevation", type=float, default=-90.0, help="lowest head, degrees (-90: all round)")
+    plan.add_argument("--confirm", action="store_true", help="render the plan on the simulated bench and measure it")
+    plan.add_argument("--json", action="store_true", help="print one JSON object instead of text")
+
+
+def _serve_command(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
+    serve = sub.add_parser("serve", help="run the daemon: REST API (under /v1) and job queue for this rig")
+    serve.add_argument("--config", type=Path, default=None, help="rig description (YAML); default: config/sim.yaml")
+    serve.add_argument("--host", default="127.0.0.1", help="address to listen on (default 127.0.0.1)")
+    serve.add_argument("--port", type=int, default=8750, help="TCP port (default 8750; 0: any free port)")
+    serve.add_argument("--api-key-file", type=Path, default=None, help="file holding the API key (else $SLRIG_API_KEY)")
+
+
+def _devices_command(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
+    devices = sub.add_parser("devices", help="list attached USB devices, video nodes, serial ports and OAK cameras")
+    devices.add_argument("--json", action="store_true", help="print one JSON object instead of text")
+
+
+def _doctor_command(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
+    doctor = sub.add_parser("doctor", help="check a rig config against this machine; --latency measures displays")
+    doctor.add_argument("--config", type=Path, default=None, help="rig description (YAML); default: config/sim.yaml")
+    doctor.add_argument(
+        "--latency",
+        action="store_true",
+        help="measure each projector's display-to-capture latency and store it in <data_dir>",
+    )
+    doctor.add_argument("--json", action="store_true", help="print one JSON object instead of text")
+
+
+def _cal_command(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
+    cal = sub.add_parser("calibrate", help="calibrate cameras, projectors, or the whole rig into one world frame")
+    cal.add_argument(
+        "what",
+        choices=["camera", "projector", "rig", "response"],
+        help="camera: the cameras; projector or rig: cameras and projectors (a projector is "
+        "calibrated against a camera); response: each projector's response (gamma)",
+    )
+    cal.add_argument("--config", type=Path, default=None, help="rig description (YAML); default: config/sim.yaml")
+    cal.add_argument("--views", type=int, default=None, help="board poses to capture on the simulated bench")
+    cal.add_argument(
+        "--images",
+        type=Path,
+        default=None,
+        help="read the views from this folder (view_NN/<camera>.png, view_NN/<projector>_<camera>/)",
+    )
+    cal.add_argument("--save-views", type=Path, default=None, help="also write the captured views to this folder")
+    cal.add_argument(
+        "--out",
+        type=Path,
+        default=None,
+        help="folder for calibration.json/.yaml and coverage pictures; default <data_dir>/calibration",
+    )
+    cal.add_argument("--json", action="store_true", help="print one JSON object instead of text")
+
+
+def parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(prog="slrig", description="Structured-light 3D scanning rig.")
+    parser.add_argument("--version", action="version", version=f"slrig {__version__}")
+    sub = parser.add_subparsers(dest="command", required=True)
+    commands = (_scan_command, _evaluate_command, _plan_command, _serve_command, _devices_command, _doctor_command)
+    for add in (*commands, _cal_command):
+        add(sub)
+    return parser

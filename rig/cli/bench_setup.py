@@ -1,0 +1,93 @@
+"""`slrig calibrate`, `slrig doctor`, `slrig devices` and `slrig serve`: setting a bench up and running it."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import logging
+import sys
+from typing import Any
+
+from rig.assembly import open_rig
+from rig.calibrate.response import RESPONSE_NAME, calibrate_response
+from rig.calibrate.session import calibrate
+from rig.config import load_config
+from rig.daemon.server import load_api_key, serve
+from rig.doctor.checks import check, measure_latency, store_latencies
+from rig.doctor.inventory import describe, inventory
+from rig.errors import ConfigError
+
+
+def cmd_calibrate(args: argparse.Namespace) -> int:
+    config = load_config(args.config)
+    if args.views is not None and not 3 <= args.views <= 200:
+        raise ConfigError("--views", [f"--views: {args.views} is outside 3..200"])
+    out = args.out if args.out is not None else config.output.data_dir / "calibration"
+    if args.what == "response":
+        with open_rig(config) as the_rig:
+            document = calibrate_response(the_rig, out)
+        if args.json:
+            print(json.dumps({"path": str(out / RESPONSE_NAME), **document}, allow_nan=False))
+        else:
+            for name, p in document["projectors"].items():
+                print(f"{name}: response fits gamma {p['gamma']:.3f} -> {out / RESPONSE_NAME}")
+        return 0
+    with open_rig(config) as the_rig:
+        outcome = calibrate(the_rig, args.what, out, args.views, args.images, args.save_views)
+    summary = {"path": str(outcome.folder), "sha256": outcome.sha256, "views": outcome.views, **outcome.report}
+    if args.json:
+        print(json.dumps(summary, allow_nan=False))
+        return 0
+    print(f"calibration {outcome.sha256} from {outcome.views} views -> {outcome.folder}/calibration.json")
+    for name, d in outcome.report["devices"].items():
+        stereo = f", stereo {d['stereo_rms_px']:.3f} px" if d["stereo_rms_px"] is not None else ""
+        rejected = f", rejected views {d['rejected_views']}" if d["rejected_views"] else ""
+        print(
+            f"  {name} ({d['kind']}): rms {d['rms_px']:.3f} px{stereo}, {len(d['views_used'])} views, "
+            f"coverage {d['coverage']:.0%}{rejected}"
+        )
+    for warning in outcome.report["warnings"]:
+        print(f"  warning: {warning}")
+    return 0
+
+
+def cmd_doctor(args: argparse.Namespace) -> int:
+    config = load_config(args.config)
+    problems = check(config)
+    report: dict[str, Any] = {"config": str(args.config or "config/sim.yaml"), "problems": problems}
+    if args.latency and not problems:
+        with open_rig(config) as the_rig:
+            values = {p.name: measure_latency(the_rig, i) for i, p in enumerate(config.projectors)}
+        report["latency_s"] = {k: round(v, 4) for k, v in values.items()}
+        report["latency_file"] = str(store_latencies(config.output.data_dir, values))
+    if args.json:
+        print(json.dumps(report, allow_nan=False))
+    else:
+        for p in problems:
+            print(f"{p['device']}: {p['problem']}")
+        for name, value in report.get("latency_s", {}).items():
+            print(
+                f"{name}: display-to-capture latency {value * 1000:.1f} ms (stored in {report['latency_file']}; "
+                f"set latency_s: measured)"
+            )
+        if not problems:
+            print("no problems found")
+    return 1 if problems else 0
+
+
+def cmd_serve(args: argparse.Namespace) -> int:
+    if not 0 <= args.port <= 65535:
+        raise ConfigError("--port", [f"--port: {args.port} is outside 0..65535"])
+    config = load_config(args.config)
+    logging.basicConfig(level=logging.INFO, format="%(levelname)s %(name)s: %(message)s", stream=sys.stderr)
+    key = load_api_key(args.api_key_file, config.output.data_dir)
+    return serve(config, args.host, args.port, key)
+
+
+def cmd_devices(args: argparse.Namespace) -> int:
+    found = inventory()
+    if args.json:
+        print(json.dumps(found, allow_nan=False))
+    else:
+        print("\n".join(describe(found)))
+    return 0

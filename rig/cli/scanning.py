@@ -1,0 +1,103 @@
+"""`slrig scan` and `slrig eval`."""
+
+from __future__ import annotations
+
+import argparse
+import json
+from pathlib import Path
+
+from rig.assembly import open_rig
+from rig.cli.common import load, progress_bar, scene_override
+from rig.errors import ConfigError
+from rig.evaluate.merged import evaluate_merge
+from rig.evaluate.pairs import evaluate_on_bench
+from rig.pipeline.scan import run_scan
+from rig.service.tasks import scan_to_directory
+from rig.store.scandir import new_scan_id
+
+
+def cmd_scan(args: argparse.Namespace) -> int:
+    config = load(args)
+    scan_id = new_scan_id()
+    target = args.out if args.out is not None else config.output.data_dir / "scans" / scan_id
+    if target.exists():
+        raise ConfigError("--out", [f"--out: {target} already exists; choose a new directory"])
+    bar = progress_bar(args)
+    with open_rig(config) as the_rig:
+        path, result = scan_to_directory(the_rig, target, scan_id, keep_frames=config.scan.save_frames, progress=bar)
+    summary = {
+        "scan_id": scan_id,
+        "path": str(path),
+        "codec": result.codec,
+        "points": len(result.cloud),
+        "frames": result.frames_projected,
+        "timings_ms": {k: round(v, 1) for k, v in result.timings_ms.items()},
+    }
+    if args.json:
+        print(json.dumps(summary, allow_nan=False))
+    else:
+        print(
+            f"scan {scan_id}: {len(result.cloud)} points with {result.codec} "
+            f"({result.frames_projected} patterns) -> {path}/cloud.ply"
+        )
+    return 0
+
+
+def cmd_eval(args: argparse.Namespace) -> int:
+    config = load(args)
+    if args.scene:
+        config = scene_override(config, args.scene)
+    if config.simulation is None:
+        raise ConfigError(str(args.config), ["simulation: eval needs a simulated rig"])
+    with open_rig(config) as the_rig:
+        result = run_scan(the_rig, progress=progress_bar(args))
+        pair = result.pairs[0]
+        if result.merged_index is not None:  # several pairs: the merged cloud, and each pair beside it
+            merged = evaluate_merge(the_rig, result)
+            metrics = {**merged["merged"], "pairs": merged["pairs"], "overlap_cue": merged["overlap_cue"]}
+            metrics["merge"] = result.merge
+        else:
+            metrics = evaluate_on_bench(the_rig, pair)
+    scene = config.simulation.scene
+    report = {
+        "codec": result.codec,
+        "scene": (getattr(scene, "path", None) and Path(str(scene.path)).name) or scene.kind,
+        "frames": result.frames_projected,
+        "bytes_captured": result.bytes_captured,
+        **metrics,
+        "capture_ms": round(result.timings_ms["capture_ms"], 1),
+        "decode_ms": round(result.timings_ms["decode_ms"], 1),
+        "triangulate_ms": round(result.timings_ms["triangulate_ms"], 1),
+        "pointset_ms": round(result.timings_ms["pointset_ms"], 1),
+    }
+    if result.merged_index is None:
+        report["counts"] = pair.counts
+    if args.json:
+        print(json.dumps(report, allow_nan=False))
+        return 0
+    nested = {k: v for k, v in report.items() if isinstance(v, dict)}
+    flat = {k: v for k, v in report.items() if k not in nested}
+    width = max(len(k) for k in flat)
+    for key, value in flat.items():
+        shown = f"{value:.4f}" if isinstance(value, float) else str(value)
+        print(f"{key:<{width}}  {shown}")
+    for key, value in nested.items():
+        if key not in ("pairs", "overlap_cue", "merge"):
+            print(f"{key:<{width}}  {json.dumps(value)}")
+    if "pairs" in nested:  # several pairs: each beside the merged cloud, on the same surface
+        print(f"\n{'pair':<40} {'points':>8} {'rms mm':>8} {'merged here':>11} {'complete':>9}")
+        for name, p in nested["pairs"].items():
+            here = p["merged_rms_mm_here"]
+            print(
+                f"{name:<40} {p['points']:>8} {p['rms_mm']:>8.4f} "
+                f"{'-' if here is None else f'{here:.4f}':>11} {p['completeness']:>9.1%}"
+            )
+        for camera, cue in nested.get("overlap_cue", {}).items():
+            print(f"overlap cue, {camera}: precision {cue['precision']:.3f}, recall {cue['recall']:.3f}")
+        merge = nested.get("merge") or {}
+        if merge:
+            print(
+                f"merge: {merge['points_in']} -> {merge['points_out']} points "
+                f"({merge['redundant_removed']} redundant, {merge['thinned_removed']} thinned)"
+            )
+    return 0
