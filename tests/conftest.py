@@ -16,6 +16,15 @@ from rig.geometry import CameraModel, look_at_rotation
 REPO = Path(__file__).resolve().parent.parent
 
 
+def pytest_addoption(parser: pytest.Parser) -> None:
+    parser.addoption(
+        "--rig",
+        default=None,
+        metavar="BENCH_YAML",
+        help="also run the device contracts (tests/test_contracts.py) on this real bench's devices",
+    )
+
+
 def make_device(
     width: int,
     height: int,

@@ -1,17 +1,15 @@
-"""Camera drivers: one contract suite for the simulated camera and the real V4L2 driver on its
-VideoCapture protocol fake, then the V4L2 driver's own faults."""
+"""The contract every camera keeps is in drivers.testing (run by tests/test_contracts.py);
+here, what is particular to each driver."""
 
 from __future__ import annotations
 
 import time
-from collections.abc import Iterator
 
 import cv2
-import numpy as np
 import pytest
 
 from drivers.base import Camera
-from drivers.errors import DeviceError, DeviceNotFoundError, DeviceProtocolError, DeviceStateError, DeviceTimeoutError
+from drivers.errors import DeviceError, DeviceNotFoundError, DeviceProtocolError, DeviceTimeoutError
 from drivers.fakes.v4l2 import FakeVideoCapture, V4l2Faults
 from drivers.oak.camera import OakCamera
 from drivers.options import SimCameraOptions, SimFaults
@@ -43,89 +41,6 @@ def _v4l2(faults: V4l2Faults | None = None, **kwargs: object) -> V4l2Camera:
 def _oak(faults: str = "") -> OakCamera:
     """The real OAK driver and worker process, on the worker's fake depthai backend."""
     return OakCamera("oak", SIZE, backend="fake", env={"SLRIG_FAKE_OAK": faults})
-
-
-@pytest.fixture(params=["sim", "v4l2-on-fake", "oak-worker-on-fake"])
-def kind(request: pytest.FixtureRequest) -> str:
-    return str(request.param)
-
-
-@pytest.fixture
-def camera(kind: str) -> Iterator[Camera]:
-    device = {"sim": _sim, "v4l2-on-fake": _v4l2, "oak-worker-on-fake": _oak}[kind]()
-    yield device
-    device.close()
-
-
-# --- the contract ------------------------------------------------------------------------------
-def test_frames_are_numbered_timestamped_and_sized(camera: Camera) -> None:
-    camera.open()
-    frames = [camera.capture(timeout_s=1.0) for _ in range(3)]
-    assert 1 <= frames[0].sequence < frames[1].sequence < frames[2].sequence
-    assert frames[0].timestamp_s < frames[1].timestamp_s < frames[2].timestamp_s
-    assert all(f.image.shape[:2] == (SIZE[1], SIZE[0]) and f.image.dtype == np.uint8 for f in frames)
-    assert camera.resolution == SIZE
-
-
-def _now(camera: Camera) -> float:
-    """The clock of the camera's stamps: bench time on the simulated bench, monotonic otherwise."""
-    return camera._bench.clock_s if isinstance(camera, SimCamera) else time.monotonic()
-
-
-def _let_frames_pile_up(camera: Camera, seconds: float) -> None:
-    if isinstance(camera, SimCamera):
-        camera._bench.advance(seconds)
-    else:
-        time.sleep(seconds)
-
-
-def test_flush_drops_what_the_driver_holds(camera: Camera) -> None:
-    """Frames held by the driver were exposed earlier; after flush() the next frame is one the
-    sensor completed after the flush began, the contract software sync relies on."""
-    camera.open()
-    camera.capture(timeout_s=1.0)
-    _let_frames_pile_up(camera, 0.2)  # six frame periods: every buffer fills
-    before = _now(camera)
-    held = camera.capture(timeout_s=1.0)
-    assert held.timestamp_s < before  # a naive capture gets an old frame
-    _let_frames_pile_up(camera, 0.2)
-    flushed_at = _now(camera)
-    camera.flush()
-    after = camera.capture(timeout_s=1.0)
-    assert after.timestamp_s >= flushed_at
-    assert after.sequence > held.sequence
-
-
-def test_exposure_is_validated_and_kept(camera: Camera) -> None:
-    camera.open()
-    camera.set_exposure_us(5000.0)
-    assert camera.exposure_us == 5000.0
-    with pytest.raises(ValueError):
-        camera.set_exposure_us(0.0)
-
-
-def test_closed_cameras_refuse_and_close_twice(camera: Camera) -> None:
-    with pytest.raises(DeviceStateError):
-        camera.capture()
-    camera.open()
-    camera.close()
-    camera.close()
-    with pytest.raises(DeviceStateError):
-        camera.capture()
-
-
-def test_a_silent_camera_times_out_within_the_timeout(kind: str) -> None:
-    device = {
-        "sim": lambda: _sim(SimFaults(stall_after_frames=1)),
-        "v4l2-on-fake": lambda: _v4l2(V4l2Faults(stall_after=1)),
-        "oak-worker-on-fake": lambda: _oak("stall_after=1"),
-    }[kind]()
-    with device:
-        device.capture(timeout_s=0.3)
-        start = time.monotonic()
-        with pytest.raises(DeviceTimeoutError):
-            device.capture(timeout_s=0.3)
-        assert time.monotonic() - start < 0.8
 
 
 # --- V4L2 specifics ------------------------------------------------------------------------------

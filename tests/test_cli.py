@@ -167,11 +167,11 @@ def test_terminal_bar_draws_the_stages_to_done(
 ) -> None:
     import io
 
-    import rig.cli as cli
+    import rig.cli.scanning as scanning
     from rig.progress import TerminalBar
 
     stream = io.StringIO()
-    monkeypatch.setattr(cli, "_progress", lambda args: TerminalBar(stream))
+    monkeypatch.setattr(scanning, "progress_bar", lambda args: TerminalBar(stream))
     assert main(["scan", "--config", str(small_config_path), "--out", str(tmp_path / "bar")]) == 0
     lines = stream.getvalue().replace("\r", "\n").split()
     drawn = stream.getvalue()

@@ -1,11 +1,9 @@
-"""Projector housekeeping drivers on their protocol fakes: RS-232 (BenQ, Epson, Optoma) through a
-pyserial URL handler, and PJLink over a loopback TCP server. One contract for all, then faults."""
+"""The contract every power control keeps is in drivers.testing (run by
+tests/test_contracts.py); here, each protocol's own faults."""
 
 from __future__ import annotations
 
 import time
-from collections.abc import Iterator
-from typing import Any
 
 import pytest
 
@@ -24,64 +22,6 @@ from drivers.serial_projector import SerialPowerControl
 TIMEOUT_S = 0.3
 
 
-class _SerialKit:
-    def __init__(self, vendor: str, query: str = "") -> None:
-        self.device = SerialPowerControl(vendor, f"simprojector://{vendor}{query}", vendor, timeout_s=TIMEOUT_S)
-        self.hdmi = "hdmi"
-
-    @property
-    def fake(self) -> Any:
-        return self.device._port
-
-    def blanked(self) -> bool:
-        return bool(self.fake.blanked)
-
-    def close(self) -> None:
-        self.device.close()
-
-
-class _PJLinkKit:
-    def __init__(self) -> None:
-        self.server = FakePJLinkProjector(password="bench")
-        self.device = PJLinkPowerControl("pjlink", "127.0.0.1", self.server.port, password="bench", timeout_s=TIMEOUT_S)
-        self.hdmi = "31"
-
-    def blanked(self) -> bool:
-        return self.server.muted
-
-    def close(self) -> None:
-        self.device.close()
-        self.server.close()
-
-
-@pytest.fixture(params=["benq", "epson", "optoma", "pjlink"])
-def kit(request: pytest.FixtureRequest) -> Iterator[_SerialKit | _PJLinkKit]:
-    k: _SerialKit | _PJLinkKit = _PJLinkKit() if request.param == "pjlink" else _SerialKit(request.param)
-    yield k
-    k.close()
-
-
-def test_power_input_and_blank(kit: _SerialKit | _PJLinkKit) -> None:
-    device = kit.device
-    device.open()
-    assert device.power_state() == "off"
-    device.power(True)
-    assert device.power_state() == "on"
-    device.select_input(kit.hdmi)
-    device.blank(True)
-    assert kit.blanked()
-    device.blank(False)
-    assert not kit.blanked()
-
-
-def test_use_after_close_is_refused(kit: _SerialKit | _PJLinkKit) -> None:
-    from drivers.errors import DeviceStateError
-
-    with pytest.raises(DeviceStateError):
-        kit.device.power_state()
-
-
-# --- serial faults ------------------------------------------------------------------------------
 def _serial(vendor: str, fault: str, power: str = "on") -> SerialPowerControl:
     device = SerialPowerControl(
         vendor, f"simprojector://{vendor}?fault={fault}&power={power}", vendor, timeout_s=TIMEOUT_S

@@ -1,15 +1,14 @@
-"""Projector drivers: one contract suite for every projector (the simulated one, and the real
-LightCrafter 4500 driver on its USB protocol fake), golden packets, and faults."""
+"""The contract every projector keeps is in drivers.testing (run by tests/test_contracts.py);
+here, golden packets and the faults particular to each driver."""
 
 from __future__ import annotations
 
 import time
-from collections.abc import Iterator
 
 import numpy as np
 import pytest
 
-from drivers.base import PatternSequence, Projector, ProjectorMode, SequenceEntry, TriggerMode
+from drivers.base import PatternSequence, SequenceEntry, TriggerMode
 from drivers.dlp.lcr4500 import PRODUCT_ID, VENDOR_ID, Lcr4500Projector, lut_entry
 from drivers.dlp.protocol import encode
 from drivers.errors import (
@@ -17,16 +16,11 @@ from drivers.errors import (
     DeviceError,
     DeviceNotFoundError,
     DeviceProtocolError,
-    DeviceStateError,
     DeviceTimeoutError,
 )
 from drivers.fakes.dlpc350 import FakeLcr4500, Faults, finder_for
 from drivers.hdmi.projector import HdmiProjector
-from drivers.sim import scene as sc
-from drivers.sim.bench import SimBench
-from drivers.sim.projector import SimProjector
 from drivers.usbhid import PyUsbHidTransport
-from tests.conftest import make_device
 
 SEQUENCE = PatternSequence(tuple(SequenceEntry(i % 3, 8) for i in range(6)), 8333, 8333, TriggerMode.EXTERNAL)
 
@@ -52,82 +46,6 @@ def _lcr(device: FakeLcr4500 | None, timeout_s: float = 0.5) -> Lcr4500Projector
         validate_timeout_s=0.3,
         transport_factory=lambda: PyUsbHidTransport(VENDOR_ID, PRODUCT_ID, finder=finder_for(device)),
     )
-
-
-class _Sim:
-    def __init__(self) -> None:
-        camera = make_device(64, 48, 90.0, (0.0, 0.0, 600.0))
-        projector = make_device(32, 24, 45.0, (100.0, 0.0, 600.0))
-        self.bench = SimBench(sc.build_scene([sc.plane(1000.0)]), [camera], [projector])
-        self.projector = SimProjector("sim", self.bench, 0)
-
-    def is_dark(self) -> bool:
-        return self.projector.is_dark
-
-
-class _Lcr:
-    def __init__(self) -> None:
-        self.fake = FakeLcr4500()
-        self.projector = _lcr(self.fake)
-
-    def is_dark(self) -> bool:
-        return self.fake.dark
-
-
-class _Hdmi:
-    """The real HDMI driver and its worker process, on SDL's offscreen video driver."""
-
-    def __init__(self) -> None:
-        self.projector = HdmiProjector("hdmi", (64, 48), video_driver="offscreen", timeout_s=2.0)
-
-    def is_dark(self) -> bool:
-        return self.projector.is_dark  # the worker's read-back of the screen
-
-
-@pytest.fixture(params=["sim", "lcr4500-on-usb-fake", "hdmi-worker-offscreen"])
-def kit(request: pytest.FixtureRequest) -> Iterator[_Sim | _Lcr | _Hdmi]:
-    kinds = {"sim": _Sim, "lcr4500-on-usb-fake": _Lcr, "hdmi-worker-offscreen": _Hdmi}
-    k = kinds[request.param]()
-    yield k
-    k.projector.close()
-
-
-# --- the contract: what every projector does -------------------------------------------------
-def test_open_is_dark_and_close_is_idempotent(kit: _Sim | _Lcr | _Hdmi) -> None:
-    projector: Projector = kit.projector
-    projector.open()
-    assert projector.is_open and kit.is_dark()
-    projector.close()
-    projector.close()
-    assert not projector.is_open
-
-
-def test_a_closed_projector_refuses_work_but_can_always_go_dark(kit: _Sim | _Lcr | _Hdmi) -> None:
-    projector: Projector = kit.projector
-    projector.dark()  # never raises, even closed
-    with pytest.raises(DeviceStateError):
-        if projector.mode is ProjectorMode.STREAMING:
-            projector.show(np.zeros((projector.resolution[1], projector.resolution[0]), np.uint8))
-        else:
-            projector.load_sequence(SEQUENCE)
-
-
-def test_patterns_light_it_and_dark_stops_the_light(kit: _Sim | _Lcr | _Hdmi) -> None:
-    projector: Projector = kit.projector
-    projector.open()
-    width, height = projector.resolution
-    if projector.mode is ProjectorMode.STREAMING:
-        projector.show(np.full((height, width), 255, np.uint8))
-        with pytest.raises(DeviceStateError):
-            projector.load_sequence(SEQUENCE)
-    else:
-        projector.load_sequence(SEQUENCE)
-        projector.start_sequence()
-        with pytest.raises(DeviceStateError):
-            projector.show(np.zeros((height, width), np.uint8))
-    assert not kit.is_dark()
-    projector.dark()
-    assert kit.is_dark()
 
 
 # --- the LightCrafter 4500 driver on its protocol fake ---------------------------------------

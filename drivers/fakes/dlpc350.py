@@ -12,6 +12,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from drivers.dlp import lcr4500 as lcr
+from drivers.fakes.faults import Fault, FaultPlan
 
 _READ_LENGTHS = {
     lcr.CMD_VERSION: 16,
@@ -68,8 +69,15 @@ class FakeLcr4500:
     whenever a sequence starts, so a test can put its light on a simulated scene.
     """
 
-    def __init__(self, faults: Faults | None = None, video_period_us: int = 16667) -> None:
+    def __init__(
+        self, faults: Faults | None = None, video_period_us: int = 16667, plan: FaultPlan | None = None
+    ) -> None:
         self.faults = faults or Faults()
+        if plan is not None:  # counted in commands
+            if plan.fault is Fault.SILENCE:
+                self.faults.silent_after = plan.after
+            else:
+                self.faults.unplug_after = plan.after
         self.video_period_us = video_period_us
         self.on_start: Callable[[FakeLcr4500], None] | None = None
         self.starts = 0

@@ -9,9 +9,15 @@ import socket
 import threading
 import time
 
+from drivers.fakes.faults import Fault, FaultPlan
+
 
 class FakePJLinkProjector:
-    def __init__(self, password: str | None = None, warmup_s: float = 0.0, fault: str = "") -> None:
+    def __init__(
+        self, password: str | None = None, warmup_s: float = 0.0, fault: str = "", plan: FaultPlan | None = None
+    ) -> None:
+        if plan is not None:  # from the first command on
+            fault = "silence" if plan.fault is Fault.SILENCE else "drop"
         self.password = password
         self.warmup_s = warmup_s
         self.fault = fault  # "", "no-greeting", "silence", "drop", "late-once" (first reply comes 0.4 s late)

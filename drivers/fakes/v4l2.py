@@ -16,6 +16,8 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
+from drivers.fakes.faults import Fault, FaultPlan
+
 
 @dataclass
 class V4l2Faults:
@@ -28,8 +30,14 @@ class V4l2Faults:
 
 
 class FakeVideoCapture:
-    def __init__(self, faults: V4l2Faults | None = None, frame_period_s: float = 1 / 30) -> None:
+    def __init__(
+        self, faults: V4l2Faults | None = None, frame_period_s: float = 1 / 30, plan: FaultPlan | None = None
+    ) -> None:
         self.faults = faults or V4l2Faults()
+        if plan is not None:  # counted in frames; a V4L2 node that is gone cannot be faked here
+            if plan.fault is not Fault.SILENCE:
+                raise ValueError(f"the V4L2 fake injects only {Fault.SILENCE}")
+            self.faults.stall_after = plan.after
         self.period_ms = frame_period_s * 1000.0
         self.props: dict[int, float] = {
             cv2.CAP_PROP_FRAME_WIDTH: 640,

@@ -11,6 +11,8 @@ from typing import Any
 
 import numpy as np
 
+from drivers.fakes.faults import Fault, FaultPlan
+
 
 class BackendError(Exception):
     """A backend failure; `kind` is notfound, timeout, disconnected or protocol."""
@@ -98,11 +100,15 @@ class DepthaiBackend:
 class FakeBackend:
     """Behaves like DepthaiBackend on a free-running camera, with depthai's failures on request
     (SLRIG_FAKE_OAK: comma-separated absent, stall_after=N, xlink_after=N, abort_after=N,
-    slow_after=N: from then on each frame comes 2.5 s late)."""
+    slow_after=N: from then on each frame comes 2.5 s late; or a FaultPlan such as silence@1)."""
 
     def __init__(self, s: OakSettings) -> None:
         self.faults: dict[str, Any] = {}
         for item in filter(None, os.environ.get("SLRIG_FAKE_OAK", "").split(",")):
+            if "@" in item:  # a FaultPlan (drivers.fakes.faults), counted in frames
+                plan = FaultPlan.parse(item)
+                self.faults["stall_after" if plan.fault is Fault.SILENCE else "xlink_after"] = plan.after
+                continue
             key, _, value = item.partition("=")
             self.faults[key] = int(value) if value else True
         if self.faults.get("absent"):

@@ -6,6 +6,7 @@ import time
 
 from drivers.base import Camera, Frame, TriggerMode
 from drivers.errors import DeviceDisconnectedError, DeviceTimeoutError
+from drivers.fakes.faults import Fault, FaultPlan
 from drivers.options import SimFaults
 from drivers.sim.bench import SimBench
 
@@ -24,6 +25,13 @@ class SimCamera(Camera):
         self._sequence = 0
         self._captures = 0
         self._faults = faults or bench.camera_options[index].faults
+
+    def inject(self, plan: FaultPlan) -> None:
+        """A fault as the protocol fakes take it (drivers.fakes.faults), counted in frames."""
+        if plan.fault is Fault.SILENCE:
+            self._faults = SimFaults(stall_after_frames=plan.after)
+        else:
+            self._faults = SimFaults(disconnect_after_frames=plan.after)
         self._last: Frame | None = None
 
     @property

@@ -10,7 +10,7 @@ from typing import Any
 
 import numpy as np
 
-from drivers.base import Device
+from drivers.base import Camera, Device, Projector
 from rig.assembly.world import World
 from rig.calibrate.files import JSON_NAME, load_calibration
 from rig.calibrate.response import load_response_luts
@@ -83,19 +83,19 @@ def world_of(config: RigConfig, cameras: list[CameraModel], projectors: list[Cam
     return simulated.world(config, cameras, projectors)
 
 
-def _build_devices(rig: Rig, world: World) -> None:
-    config = rig.config
-    for i, p in enumerate(config.projectors):
-        if p.power is not None:
-            rig.extras.append(factory_of(driver(DeviceKind.POWER, p.power.protocol))(p, i, world))
-    rig.projectors = [
-        factory_of(driver(DeviceKind.PROJECTOR, p.driver))(p, i, world)  # type: ignore[misc]
+def build_devices(config: RigConfig, world: World) -> tuple[list[Device], list[Projector], list[Camera]]:
+    """Housekeeping devices (power controls), projectors and cameras of `config`, each built by
+    its driver's factory in `world`; none is opened yet."""
+    extras = [
+        factory_of(driver(DeviceKind.POWER, p.power.protocol))(p, i, world)
         for i, p in enumerate(config.projectors)
+        if p.power is not None
     ]
-    rig.cameras = [
-        factory_of(driver(DeviceKind.CAMERA, c.driver))(c, i, world)  # type: ignore[misc]
-        for i, c in enumerate(config.cameras)
+    projectors = [
+        factory_of(driver(DeviceKind.PROJECTOR, p.driver))(p, i, world) for i, p in enumerate(config.projectors)
     ]
+    cameras = [factory_of(driver(DeviceKind.CAMERA, c.driver))(c, i, world) for i, c in enumerate(config.cameras)]
+    return extras, projectors, cameras  # type: ignore[return-value]
 
 
 def open_rig(config: RigConfig, with_devices: bool = True) -> Rig:
@@ -125,7 +125,7 @@ def open_rig(config: RigConfig, with_devices: bool = True) -> Rig:
     )
     if with_devices:
         try:
-            _build_devices(rig, world)
+            rig.extras, rig.projectors, rig.cameras = build_devices(config, world)
             for device in (*rig.extras, *rig.projectors, *rig.cameras):
                 device.open()
         except BaseException:

@@ -13,6 +13,8 @@ import urllib.parse
 
 from serial.serialutil import PortNotOpenError, SerialBase, SerialException, Timeout
 
+from drivers.fakes.faults import Fault, FaultPlan
+
 
 class Serial(SerialBase):
     def open(self) -> None:
@@ -24,6 +26,9 @@ class Serial(SerialBase):
         query = urllib.parse.parse_qs(url.query)
         self.vendor = url.netloc
         self.fault = query.get("fault", [""])[0]
+        if "@" in self.fault or self.fault == "disconnect":  # a FaultPlan: from the start, in its own names
+            plan = FaultPlan.parse(self.fault)
+            self.fault = "silence" if plan.fault is Fault.SILENCE else "unplug"
         self.power_on = query.get("power", ["off"])[0] == "on"
         self.blanked = False
         self.source = ""

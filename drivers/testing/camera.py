@@ -1,0 +1,74 @@
+"""What every camera promises: numbered, stamped frames of its size; flush drops what the driver
+holds; state errors when closed; a silent or vanished camera fails within the capture timeout."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from drivers.base import Camera
+from drivers.errors import DeviceDisconnectedError, DeviceError, DeviceStateError, DeviceTimeoutError
+from drivers.fakes.faults import Fault
+from drivers.testing.kit import FAULT_GRACE_S, Contract, Kit, fails_within
+
+CAPTURE_TIMEOUT_S = 1.0
+
+
+class CameraContract(Contract[Camera]):
+    def test_frames_are_numbered_timestamped_and_sized(self, kit: Kit[Camera]) -> None:
+        camera = kit.device
+        camera.open()
+        frames = [camera.capture(timeout_s=CAPTURE_TIMEOUT_S) for _ in range(3)]
+        assert 1 <= frames[0].sequence < frames[1].sequence < frames[2].sequence
+        assert frames[0].timestamp_s < frames[1].timestamp_s < frames[2].timestamp_s
+        width, height = camera.resolution
+        assert all(f.image.shape[:2] == (height, width) and f.image.dtype in (np.uint8, np.uint16) for f in frames)
+
+    def test_flush_drops_what_the_driver_holds(self, kit: Kit[Camera]) -> None:
+        """Frames held by the driver were exposed earlier (stale); after flush() the next frame is
+        one the sensor completed after the flush began, and its sequence number shows the frames
+        dropped: the contract software sync relies on."""
+        camera = kit.device
+        camera.open()
+        camera.capture(timeout_s=CAPTURE_TIMEOUT_S)
+        kit.wait(0.2)  # six frame periods at 30 Hz: every buffer fills
+        held = camera.capture(timeout_s=CAPTURE_TIMEOUT_S)
+        kit.wait(0.2)
+        flushed_at = kit.now()
+        camera.flush()
+        after = camera.capture(timeout_s=CAPTURE_TIMEOUT_S)
+        assert after.timestamp_s >= flushed_at
+        assert after.sequence > held.sequence
+
+    def test_exposure_is_validated_and_kept(self, kit: Kit[Camera]) -> None:
+        camera = kit.device
+        camera.open()
+        camera.set_exposure_us(5000.0)
+        assert camera.exposure_us == 5000.0
+        with pytest.raises(ValueError):
+            camera.set_exposure_us(0.0)
+
+    def test_closed_cameras_refuse_and_close_twice(self, kit: Kit[Camera]) -> None:
+        camera = kit.device
+        with pytest.raises(DeviceStateError):
+            camera.capture()
+        camera.open()
+        camera.close()
+        camera.close()
+        with pytest.raises(DeviceStateError):
+            camera.capture()
+
+    @pytest.mark.parametrize(
+        ("fault", "error"), [(Fault.SILENCE, DeviceTimeoutError), (Fault.DISCONNECT, DeviceDisconnectedError)]
+    )
+    def test_a_fault_fails_within_the_capture_timeout(self, fault: Fault, error: type[DeviceError]) -> None:
+        kit = self.faulty(fault, after=1)
+        try:
+            camera = kit.device
+            camera.open()
+            camera.capture(timeout_s=CAPTURE_TIMEOUT_S)
+            if kit.arm is not None:
+                kit.arm()
+            fails_within(CAPTURE_TIMEOUT_S + FAULT_GRACE_S, lambda: camera.capture(timeout_s=CAPTURE_TIMEOUT_S), error)
+        finally:
+            kit.close()

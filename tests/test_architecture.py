@@ -1,0 +1,115 @@
+"""The architecture of docs/architecture.md, checked: the layer contracts hold, runtime code never
+loads the simulator, the driver table and the config agree, and modules and functions stay small
+enough to read in one sitting."""
+
+from __future__ import annotations
+
+import ast
+import json
+import shutil
+import subprocess
+import sys
+import typing
+from pathlib import Path
+
+import pytest
+import yaml
+
+from rig.assembly.build import factory_of
+from rig.config import DRIVERS, CameraConfig, DeviceKind, PowerConfig, ProjectorConfig, drivers_of
+from rig.config.loading import REPO_CONFIG_DIR
+from tests.conftest import REPO
+
+MAX_MODULE_LINES = 400
+MAX_FUNCTION_LINES = 60
+# (path, function) -> why it may be longer; none today
+LONG_FUNCTIONS: dict[tuple[str, str], str] = {}
+CODE = ("rig", "drivers", "bench", "tests", "docs")
+
+
+def test_the_import_contracts_hold() -> None:
+    linter = shutil.which("lint-imports") or str(Path(sys.executable).parent / "lint-imports")
+    done = subprocess.run([linter], cwd=REPO, capture_output=True, text=True, timeout=120)
+    assert done.returncode == 0, done.stdout[-3000:] + done.stderr[-2000:]
+    assert "3 kept, 0 broken" in done.stdout
+
+
+_PROBE = """
+import json, sys
+from rig.config import load_config
+import rig.cli, rig.cli.bench_setup, rig.daemon.server, rig.service.runner, rig.assembly.hardware
+from rig.assembly import open_rig
+with open_rig(load_config(sys.argv[1])) as the_rig:
+    kinds = [type(d).__name__ for d in (*the_rig.projectors, *the_rig.cameras)]
+heavy = sorted(m for m in sys.modules if m.split(".")[0] in ("trimesh", "embreex") or m.startswith("drivers.sim"))
+print(json.dumps({"devices": kinds, "heavy": heavy}))
+"""
+
+
+def test_a_real_rig_and_the_daemon_never_load_the_simulator(tmp_path: Path) -> None:
+    """The daemon's modules, and a rig of real drivers opened and closed (HDMI worker offscreen,
+    OAK worker on its fake backend), load neither trimesh, Embree nor drivers.sim."""
+    data = yaml.safe_load((REPO_CONFIG_DIR / "bench-hdmi-oak.yaml").read_text())
+    projector = data["projectors"][0]
+    projector.update(hdmi={"video_driver": "offscreen"})
+    del projector["power"]
+    data["cameras"][0]["oak"] = {"backend": "fake"}
+    path = tmp_path / "real.yaml"
+    path.write_text(yaml.safe_dump(data))
+    done = subprocess.run(
+        [sys.executable, "-c", _PROBE, str(path)], cwd=REPO, capture_output=True, text=True, timeout=120
+    )
+    assert done.returncode == 0, done.stderr[-3000:]
+    found = json.loads(done.stdout.strip().splitlines()[-1])
+    assert found["devices"] == ["HdmiProjector", "OakCamera"]
+    assert found["heavy"] == []
+
+
+def test_a_simulated_rig_loads_the_simulator_through_the_assembly() -> None:
+    """The counterpart of the test above, so that it cannot pass by loading nothing at all."""
+    probe = _PROBE.replace("sys.argv[1]", repr(str(REPO_CONFIG_DIR / "sim.yaml")))
+    done = subprocess.run([sys.executable, "-c", probe], cwd=REPO, capture_output=True, text=True, timeout=120)
+    assert done.returncode == 0, done.stderr[-3000:]
+    found = json.loads(done.stdout.strip().splitlines()[-1])
+    assert "trimesh" in found["heavy"] and "drivers.sim.bench" in found["heavy"]
+
+
+@pytest.mark.parametrize("entry", DRIVERS, ids=lambda e: f"{e.kind}:{e.name}")
+def test_every_table_entry_resolves_and_its_sections_are_config_fields(entry: typing.Any) -> None:
+    assert callable(factory_of(entry))
+    model = {DeviceKind.PROJECTOR: ProjectorConfig, DeviceKind.CAMERA: CameraConfig, DeviceKind.POWER: PowerConfig}
+    fields = model[entry.kind].model_fields
+    for section, options in entry.sections.items():
+        if entry.kind is DeviceKind.POWER:  # a power driver's options are the projector's power section
+            assert issubclass(PowerConfig, options)
+            continue
+        assert section in fields, f"{entry.kind} config has no {section!r} section for the {entry.name} driver"
+        annotation = fields[section].annotation
+        assert options in (annotation, *typing.get_args(annotation)), f"{section}: not a {options.__name__}"
+
+
+def test_the_configs_driver_lists_are_the_tables() -> None:
+    for kind, field in ((DeviceKind.PROJECTOR, "driver"), (DeviceKind.CAMERA, "driver")):
+        model = ProjectorConfig if kind is DeviceKind.PROJECTOR else CameraConfig
+        assert set(typing.get_args(model.model_fields[field].annotation)) == set(drivers_of(kind))
+    assert set(typing.get_args(PowerConfig.model_fields["protocol"].annotation)) == set(drivers_of(DeviceKind.POWER))
+
+
+def _sources() -> list[Path]:
+    return [path for folder in CODE for path in sorted((REPO / folder).rglob("*.py")) if ".venv" not in path.parts]
+
+
+def test_modules_and_functions_are_small_enough_to_read_in_one_sitting() -> None:
+    long_modules, long_functions = [], []
+    for path in _sources():
+        text = path.read_text()
+        name = str(path.relative_to(REPO))
+        if len(text.splitlines()) > MAX_MODULE_LINES:
+            long_modules.append(f"{name}: {len(text.splitlines())} lines")
+        for node in ast.walk(ast.parse(text)):
+            if isinstance(node, ast.FunctionDef | ast.AsyncFunctionDef):
+                length = (node.end_lineno or node.lineno) - node.lineno + 1
+                if length > MAX_FUNCTION_LINES and (name, node.name) not in LONG_FUNCTIONS:
+                    long_functions.append(f"{name}:{node.lineno} {node.name}: {length} lines")
+    assert not long_modules, f"modules over {MAX_MODULE_LINES} lines: {long_modules}"
+    assert not long_functions, f"functions over {MAX_FUNCTION_LINES} lines: {long_functions}"
