@@ -1,2 +1,2 @@
-"""Calibration: boards, views (from the simulated bench or a folder), OpenCV solvers, quality report,
-and calibration files. A library API that the CLI (and later the REST service) calls."""
+"""Calibration: boards, views (placed by the rig where it can, or read from a folder), OpenCV
+solvers, quality report, calibration files, and the projector response."""

@@ -47,7 +47,7 @@ def cmd_eval(args: argparse.Namespace) -> int:
     config = load(args)
     if args.scene:
         config = scene_override(config, args.scene)
-    if config.simulation is None:
+    if not config.simulated:
         raise ConfigError(str(args.config), ["simulation: eval needs a simulated rig"])
     with open_rig(config) as the_rig:
         result = run_scan(the_rig, progress=progress_bar(args))

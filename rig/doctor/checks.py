@@ -77,7 +77,7 @@ def check(config: RigConfig) -> list[dict[str, str]]:
                 problem(c.name, "depthai is not installed: pip install depthai")
             if not UDEV_RULES.exists():
                 problem(c.name, f"{UDEV_RULES} is missing: install systemd/60-slrig.rules (OAKs need plugdev access)")
-    real = config.simulation is None
+    real = not config.simulated
     if real and config.calibration.file is None:
         problems.append(
             {

@@ -220,7 +220,7 @@ class JobService:
         state = "busy" if current else ("fault" if self._rig_error else "idle")
         return {
             "name": self.config.name,
-            "simulated": self.config.simulation is not None,
+            "simulated": self.config.simulated,
             "state": state,
             "running": current,
             "last_error": self._rig_error,
