@@ -37,7 +37,7 @@ def test_the_import_contracts_hold() -> None:
 _PROBE = """
 import json, sys
 from rig.config import load_config
-import rig.cli, rig.cli.bench_setup, rig.daemon.server, rig.service.runner, rig.assembly.hardware
+import rig.cli, rig.cli.serving, rig.daemon.server, rig.service.runner, rig.assembly.hardware
 from rig.assembly import open_rig
 with open_rig(load_config(sys.argv[1])) as the_rig:
     kinds = [type(d).__name__ for d in (*the_rig.projectors, *the_rig.cameras)]
@@ -86,6 +86,12 @@ def test_every_table_entry_resolves_and_its_sections_are_config_fields(entry: ty
         assert section in fields, f"{entry.kind} config has no {section!r} section for the {entry.name} driver"
         annotation = fields[section].annotation
         assert options in (annotation, *typing.get_args(annotation)), f"{section}: not a {options.__name__}"
+
+
+def test_the_doctor_knows_what_every_driver_needs() -> None:
+    from rig.doctor.checks import NEEDS
+
+    assert set(NEEDS) == {(entry.kind, entry.name) for entry in DRIVERS}
 
 
 def test_the_configs_driver_lists_are_the_tables() -> None:

@@ -24,7 +24,7 @@ COMMANDS = {
     "calibrate": ("rig.cli.bench_setup", "cmd_calibrate"),
     "devices": ("rig.cli.bench_setup", "cmd_devices"),
     "doctor": ("rig.cli.bench_setup", "cmd_doctor"),
-    "serve": ("rig.cli.bench_setup", "cmd_serve"),
+    "serve": ("rig.cli.serving", "cmd_serve"),
     "plan": ("rig.cli.planning", "cmd_plan"),
 }
 

@@ -1,20 +1,18 @@
-"""`slrig calibrate`, `slrig doctor`, `slrig devices` and `slrig serve`: setting a bench up and running it."""
+"""`slrig calibrate`, `slrig doctor` and `slrig devices`: setting a bench up."""
 
 from __future__ import annotations
 
 import argparse
 import json
-import logging
-import sys
 from typing import Any
 
 from rig.assembly import open_rig
 from rig.calibrate.response import RESPONSE_NAME, calibrate_response
 from rig.calibrate.session import calibrate
 from rig.config import load_config
-from rig.daemon.server import load_api_key, serve
-from rig.doctor.checks import check, measure_latency, store_latencies
+from rig.doctor.checks import check
 from rig.doctor.inventory import describe, inventory
+from rig.doctor.latency import measure_latency, store_latencies
 from rig.errors import ConfigError
 
 
@@ -73,15 +71,6 @@ def cmd_doctor(args: argparse.Namespace) -> int:
         if not problems:
             print("no problems found")
     return 1 if problems else 0
-
-
-def cmd_serve(args: argparse.Namespace) -> int:
-    if not 0 <= args.port <= 65535:
-        raise ConfigError("--port", [f"--port: {args.port} is outside 0..65535"])
-    config = load_config(args.config)
-    logging.basicConfig(level=logging.INFO, format="%(levelname)s %(name)s: %(message)s", stream=sys.stderr)
-    key = load_api_key(args.api_key_file, config.output.data_dir)
-    return serve(config, args.host, args.port, key)
 
 
 def cmd_devices(args: argparse.Namespace) -> int:

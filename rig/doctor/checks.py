@@ -1,23 +1,18 @@
-"""`slrig doctor`: check a rig config against this machine (device nodes, access, libraries), and
-measure each projector's display-to-capture latency."""
+"""`slrig doctor`: a rig config checked against this machine (device nodes, access, libraries), by
+what each driver of the table needs."""
 
 from __future__ import annotations
 
 import glob
 import importlib.util
-import json
 import os
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-
-from rig.config import RigConfig
+from rig.config import CameraConfig, DeviceKind, ProjectorConfig, RigConfig
 from rig.doctor.inventory import usb_devices
-from rig.rig import Rig
-from rig.store.atomic import write_atomic
 
-LATENCY_FILE = "latency.json"
 UDEV_RULES = Path("/etc/udev/rules.d/60-slrig.rules")
 
 
@@ -43,42 +38,76 @@ def _lightcrafter_usb() -> str | None:
     return None
 
 
+def _display(p: ProjectorConfig) -> list[str]:
+    if p.hdmi.video_driver != "kmsdrm":
+        return []
+    found = []
+    cards = glob.glob("/dev/dri/card*")
+    if not cards:
+        found.append("no /dev/dri/card*: no display output (kmsdrm needs a GPU with a connected output)")
+    elif not any(os.access(c, os.R_OK | os.W_OK) for c in cards):
+        found.append("no access to /dev/dri: add the service user to the 'video' group")
+    if importlib.util.find_spec("pygame") is None:
+        found.append("pygame-ce is not installed: pip install 'slrig[hdmi]'")
+    return found
+
+
+def _lightcrafter(p: ProjectorConfig) -> list[str]:
+    return [issue for issue in (_lightcrafter_usb(),) if issue] + _display(p)
+
+
+def _serial_port(p: ProjectorConfig) -> list[str]:
+    url = p.power.url if p.power is not None else None
+    issue = _access(url, "dialout") if url and url.startswith("/dev/") else None
+    return [issue] if issue else []
+
+
+def _v4l2(c: CameraConfig) -> list[str]:
+    issue = _access(c.v4l2.device, "video") if c.v4l2 is not None else None
+    return [issue] if issue else []
+
+
+def _oak(c: CameraConfig) -> list[str]:
+    if c.oak.backend != "depthai":
+        return []
+    found = []
+    if importlib.util.find_spec("depthai") is None:
+        found.append("depthai is not installed: pip install depthai")
+    if not UDEV_RULES.exists():
+        found.append(f"{UDEV_RULES} is missing: install systemd/60-slrig.rules (OAKs need plugdev access)")
+    return found
+
+
+def _nothing(device: Any) -> list[str]:
+    return []
+
+
+# What each driver of the table (rig.config.drivers) needs from this machine.
+NEEDS: dict[tuple[DeviceKind, str], Callable[[Any], list[str]]] = {
+    (DeviceKind.PROJECTOR, "sim"): _nothing,
+    (DeviceKind.PROJECTOR, "hdmi"): _display,
+    (DeviceKind.PROJECTOR, "lightcrafter"): _lightcrafter,
+    (DeviceKind.CAMERA, "sim"): _nothing,
+    (DeviceKind.CAMERA, "v4l2"): _v4l2,
+    (DeviceKind.CAMERA, "oak"): _oak,
+    (DeviceKind.POWER, "pjlink"): _nothing,  # a network address: nothing to check on this machine
+    (DeviceKind.POWER, "benq"): _serial_port,
+    (DeviceKind.POWER, "epson"): _serial_port,
+    (DeviceKind.POWER, "optoma"): _serial_port,
+}
+
+
 def check(config: RigConfig) -> list[dict[str, str]]:
     """Problems, each with the device it concerns and how to fix it; empty when all is well."""
     problems: list[dict[str, str]] = []
-
-    def problem(device: str, text: str) -> None:
-        problems.append({"device": device, "problem": text})
-
     for p in config.projectors:
-        if p.driver == "lightcrafter":
-            issue = _lightcrafter_usb()
-            if issue:
-                problem(p.name, issue)
-        if p.driver in ("hdmi", "lightcrafter") and p.hdmi.video_driver == "kmsdrm":
-            cards = glob.glob("/dev/dri/card*")
-            if not cards:
-                problem(p.name, "no /dev/dri/card*: no display output (kmsdrm needs a GPU with a connected output)")
-            elif not any(os.access(c, os.R_OK | os.W_OK) for c in cards):
-                problem(p.name, "no access to /dev/dri: add the service user to the 'video' group")
-            if importlib.util.find_spec("pygame") is None:
-                problem(p.name, "pygame-ce is not installed: pip install 'slrig[hdmi]'")
-        if p.power is not None and p.power.url and p.power.url.startswith("/dev/"):
-            issue = _access(p.power.url, "dialout")
-            if issue:
-                problem(f"{p.name}-power", issue)
+        problems += [{"device": p.name, "problem": text} for text in NEEDS[(DeviceKind.PROJECTOR, p.driver)](p)]
+        if p.power is not None:
+            found = NEEDS[(DeviceKind.POWER, p.power.protocol)](p)
+            problems += [{"device": f"{p.name}-power", "problem": text} for text in found]
     for c in config.cameras:
-        if c.driver == "v4l2" and c.v4l2 is not None:
-            issue = _access(c.v4l2.device, "video")
-            if issue:
-                problem(c.name, issue)
-        if c.driver == "oak" and c.oak.backend == "depthai":
-            if importlib.util.find_spec("depthai") is None:
-                problem(c.name, "depthai is not installed: pip install depthai")
-            if not UDEV_RULES.exists():
-                problem(c.name, f"{UDEV_RULES} is missing: install systemd/60-slrig.rules (OAKs need plugdev access)")
-    real = not config.simulated
-    if real and config.calibration.file is None:
+        problems += [{"device": c.name, "problem": text} for text in NEEDS[(DeviceKind.CAMERA, c.driver)](c)]
+    if not config.simulated and config.calibration.file is None:
         problems.append(
             {
                 "device": "rig",
@@ -87,39 +116,3 @@ def check(config: RigConfig) -> list[dict[str, str]]:
             }
         )
     return problems
-
-
-def measure_latency(rig: Rig, projector: int, camera: int = 0, max_frames: int = 120) -> float:
-    """Seconds from show() of a white frame (after black) to the light on the scene, erring long:
-    frames are taken as they come until their brightness stops rising, and the first one lit to
-    within 3 % of that plateau was exposed entirely after the light arrived; its exposure start,
-    less the time of show(), is the latency (at most one frame period too long, never too short)."""
-    device, cam = rig.projectors[projector], rig.cameras[camera]
-    width, height = device.resolution
-    rig.all_dark()
-    rig.wait(0.5)
-    cam.flush()
-    dark = float(cam.capture().image.mean())
-    device.show(np.full((height, width), 255, np.uint8))
-    shown = rig.clock.now()
-    seen: list[tuple[float, float]] = []  # (exposure start, brightness)
-    try:
-        for _ in range(max_frames):
-            frame = cam.capture()
-            seen.append((frame.timestamp_s - frame.exposure_us * 1e-6, float(frame.image.mean())))
-            if len(seen) >= 3 and seen[-1][1] > dark + 10 and abs(seen[-1][1] - seen[-2][1]) <= 0.01 * seen[-1][1]:
-                plateau = seen[-1][1]
-                first = next(start for start, level in seen if level >= dark + 0.97 * (plateau - dark))
-                return max(0.0, first - shown)
-        raise TimeoutError(f"no steady light from {rig.config.projectors[projector].name} within {max_frames} frames")
-    finally:
-        rig.all_dark()
-
-
-def store_latencies(folder: Path, values: dict[str, float]) -> Path:
-    folder.mkdir(parents=True, exist_ok=True)
-    path = folder / LATENCY_FILE
-    existing: dict[str, Any] = json.loads(path.read_text()) if path.is_file() else {}
-    existing.update({name: round(v, 4) for name, v in values.items()})
-    write_atomic(path, json.dumps(existing, indent=2).encode())
-    return path
