@@ -17,7 +17,7 @@ from unittest import mock
 import pytest
 import yaml
 
-from drivers.base import Camera, Device, PowerControl, Projector
+from drivers.base import Camera, Device, PowerControl, Projector, ProjectorMode
 from drivers.fakes.dlpc350 import FakeLcr4500, finder_for
 from drivers.fakes.faults import Fault, FaultPlan
 from drivers.fakes.pjlink import FakePJLinkProjector
@@ -70,6 +70,19 @@ class TestSimProjector(ProjectorContract):
         if plan is not None:
             return None  # the simulated projector has no transport to fail
         device, world = _built(small_config_data(), DeviceKind.PROJECTOR)
+        return Kit(device, is_dark=lambda: device.is_dark, now=world.clock.now, wait=world.clock.sleep)  # type: ignore[attr-defined]
+
+
+class TestSimSequenceProjector(ProjectorContract):
+    """The simulated projector with sync: hardware: it plays preloaded sequences."""
+
+    def make_kit(self, plan: FaultPlan | None = None) -> Kit[Projector] | None:
+        if plan is not None:
+            return None  # the simulated projector has no transport to fail
+        data = small_config_data()
+        data["projectors"][0]["sync"] = "hardware"
+        device, world = _built(data, DeviceKind.PROJECTOR)
+        assert device.mode is ProjectorMode.SEQUENCE
         return Kit(device, is_dark=lambda: device.is_dark, now=world.clock.now, wait=world.clock.sleep)  # type: ignore[attr-defined]
 
 
@@ -263,7 +276,9 @@ class _OnTheBench:
         if self.kind is DeviceKind.POWER and not any(p.get("power") for p in data["projectors"]):
             pytest.skip("the bench has no power control")
         device, _ = _built(data, self.kind)
-        return Kit(device)
+        power = next((p["power"] for p in data["projectors"] if p.get("power")), None)
+        # a real bench's frames and inputs: what its config says, nothing assumed
+        return Kit(device, input_name=(power or {}).get("input") or "hdmi", buffers=False)
 
 
 class TestBenchProjector(_OnTheBench, ProjectorContract):

@@ -1,5 +1,6 @@
 """The one way every protocol fake (and the simulated camera) injects a fault: a FaultPlan says
-which fault and after how many exchanges (commands, frames). Its text form, `silence@3`, travels
+which fault and after how many exchanges (commands, frames; the serial and PJLink fakes fail from
+the first command and refuse a count). Its text form, `silence@3`, travels
 where objects cannot: in a pyserial URL (`simprojector://benq?fault=silence@0`) and in the
 environment of a worker process (`SLRIG_FAKE_OAK=disconnect@1`)."""
 

@@ -17,6 +17,8 @@ class FakePJLinkProjector:
         self, password: str | None = None, warmup_s: float = 0.0, fault: str = "", plan: FaultPlan | None = None
     ) -> None:
         if plan is not None:  # from the first command on
+            if plan.after:
+                raise ValueError(f"the PJLink fake's faults start with the first command; got {plan}")
             fault = "silence" if plan.fault is Fault.SILENCE else "drop"
         self.password = password
         self.warmup_s = warmup_s

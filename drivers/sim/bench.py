@@ -108,12 +108,13 @@ class SimBench:
     # --- projector state -------------------------------------------------------------------
     def set_pattern(self, projector: int, pattern: np.ndarray | None) -> None:
         """Make projector `projector` emit `pattern` (uint8, its resolution), or black for None,
-        from its latency after now on the bench clock."""
+        from its latency after now on the bench clock, instead of anything scheduled from then on
+        (the rest of a playing sequence stops)."""
         params = self.projector_options[projector]
+        start = self.clock_s + params.latency_s
         history = self._history[projector]
-        history.append(
-            (self.clock_s + params.latency_s, None if pattern is None else self._emission(projector, pattern))
-        )
+        history[:] = [entry for entry in history if entry[0] < start]  # it replaces what a sequence had scheduled
+        history.append((start, None if pattern is None else self._emission(projector, pattern)))
         del history[:-8]
 
     def play(self, projector: int, patterns: list[np.ndarray], period_s: float) -> float:

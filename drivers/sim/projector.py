@@ -29,8 +29,10 @@ class SimProjector(Projector):
 
     @property
     def is_dark(self) -> bool:
-        """Dark once its latency has passed: no light is on its way."""
-        return self._bench._history[self._index][-1][1] is None
+        """No light now and none on its way (a playing sequence is lit until its last pattern ends)."""
+        now = self._bench.clock_s
+        scheduled = [light for start, light in self._bench._history[self._index] if start > now]
+        return self._bench.emitted_at(self._index, now) is None and all(light is None for light in scheduled)
 
     def _do_open(self) -> None:
         self._bench.set_pattern(self._index, None)

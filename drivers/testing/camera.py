@@ -32,7 +32,10 @@ class CameraContract(Contract[Camera]):
         camera.open()
         camera.capture(timeout_s=CAPTURE_TIMEOUT_S)
         kit.wait(0.2)  # six frame periods at 30 Hz: every buffer fills
+        before = kit.now()
         held = camera.capture(timeout_s=CAPTURE_TIMEOUT_S)
+        if kit.buffers:
+            assert held.timestamp_s < before  # a naive capture gets an old frame: there is something to drop
         kit.wait(0.2)
         flushed_at = kit.now()
         camera.flush()

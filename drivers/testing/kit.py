@@ -24,6 +24,7 @@ class Kit(Generic[D]):
     is_dark: Callable[[], bool] | None = None  # projectors: no light leaves it (None: cannot tell)
     is_blanked: Callable[[], bool] | None = None  # power controls: the picture is muted
     input_name: str = "hdmi"  # power controls: an input the device has
+    buffers: bool = True  # cameras: the driver holds frames, so a capture after a pause is stale
     arm: Callable[[], None] | None = None  # starts the planned fault now (None: planned at build)
     now: Callable[[], float] = time.monotonic  # the clock of the device's stamps
     wait: Callable[[float], None] = time.sleep  # let time pass on that clock

@@ -93,7 +93,7 @@ DRIVERS: tuple[DriverEntry, ...] = (
         "TI DLP LightCrafter 4500: USB control (DLPC350) and its HDMI video input",
         f"{_HARDWARE}:lightcrafter_projector",
         {"hdmi": HdmiOptions, "lightcrafter": LightCrafterOptions},
-        Capabilities(sequence_playback=True),
+        Capabilities(sequence_playback=True, power_control=True),
         check=_lightcrafter_fits,
     ),
     DriverEntry(

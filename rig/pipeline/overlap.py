@@ -22,7 +22,7 @@ def _mono(image: np.ndarray) -> np.ndarray:
 
 def overlap_from_cue(frames: list[np.ndarray], full_scale: int, ratio: float) -> np.ndarray:
     """Mask (H, W) of pixels lit by more than one projector. `frames`: dark, each projector alone,
-    all together (as the sequencer captures them)."""
+    all together (as rig.pipeline.capture captures them)."""
     if len(frames) < 4:
         raise ValueError("the overlap cue needs a dark frame, two or more single frames and a together frame")
     mono = [_mono(f) for f in frames]

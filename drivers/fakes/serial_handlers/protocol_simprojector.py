@@ -28,6 +28,8 @@ class Serial(SerialBase):
         self.fault = query.get("fault", [""])[0]
         if "@" in self.fault or self.fault == "disconnect":  # a FaultPlan: from the start, in its own names
             plan = FaultPlan.parse(self.fault)
+            if plan.after:
+                raise SerialException(f"simprojector: faults start with the first command; got {plan}")
             self.fault = "silence" if plan.fault is Fault.SILENCE else "unplug"
         self.power_on = query.get("power", ["off"])[0] == "on"
         self.blanked = False
