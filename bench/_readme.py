@@ -27,7 +27,7 @@ def markdown_table(header: list[str], rows: list[list[object]]) -> str:
     return "\n".join(lines)
 
 
-ACCURACY_HEADER = ["codec", "frames", "MB captured", "points", "rms mm", "p95 mm", "completeness"]
+ACCURACY_HEADER = ["codec", "frames", "MB captured", "points", "rms mm", "p95 mm", "over 1 mm", "completeness"]
 
 
 def accuracy_cells(r: dict[str, Any], completeness_digits: int) -> list[object]:
@@ -39,6 +39,7 @@ def accuracy_cells(r: dict[str, Any], completeness_digits: int) -> list[object]:
         r["points"],
         f"{r['rms_mm']:.3f}",
         f"{r['p95_mm']:.3f}",
+        f"{100 * r['over_1mm_fraction']:.2f} %",
         f"{r['completeness']:.{completeness_digits}f}",
     ]
 

@@ -27,6 +27,8 @@ SCENES: dict[str, dict[str, object]] = {
     "plane": {"kind": "plane"},
     "box": {"kind": "box"},
     "terrain": {"kind": "terrain"},
+    "steps": {"kind": "steps"},
+    "steps, edges along x": {"kind": "steps", "rotation_deg": [0.0, 0.0, 90.0]},
     "blob.ply": {"kind": "mesh", "path": str(REPO / "config/meshes/blob.ply"), "fit_size_mm": 150.0},
 }
 

@@ -39,6 +39,7 @@ def measure(codec: str) -> dict[str, object]:
         "points": metrics["points"],
         "rms_mm": round(float(metrics["rms_mm"]), 4),
         "p95_mm": round(float(metrics["p95_mm"]), 4),
+        "over_1mm_fraction": round(float(metrics["over_1mm_fraction"]), 6),
         "completeness": round(float(metrics["completeness"]), 4),
         "decode_triangulate_ms": timing["decode_triangulate_ms"],
         "counts": pair.counts,

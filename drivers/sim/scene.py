@@ -107,6 +107,28 @@ def box(
     return _object("box", mesh, albedo)
 
 
+def steps(
+    rises_mm: tuple[float, ...],
+    run_mm: float,
+    width_mm: float,
+    rotation_deg: tuple[float, float, float] = (0.0, 0.0, 0.0),
+    albedo: Albedo = 0.8,
+) -> SceneObject:
+    """A staircase on the plane z = 0, centred on the origin: step k is `run_mm` deep along x,
+    `width_mm` wide along y, and `rises_mm[k]` higher than the one before (sharp depth edges)."""
+    parts = []
+    height = 0.0
+    total = run_mm * len(rises_mm)
+    for k, rise in enumerate(rises_mm):
+        height += rise
+        block = trimesh.creation.box(extents=(run_mm, width_mm, height))
+        block.apply_translation((-total / 2 + (k + 0.5) * run_mm, 0.0, height / 2))
+        parts.append(block)
+    mesh = trimesh.util.concatenate(parts)
+    _pose(mesh, 1.0, (0.0, 0.0, 0.0), rotation_deg)
+    return _object("steps", mesh, albedo)
+
+
 def terrain(
     size_mm: float = 400.0, amplitude_mm: float = 30.0, grid: int = 257, seed: int = 7, albedo: Albedo = 0.75
 ) -> SceneObject:

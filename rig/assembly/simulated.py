@@ -27,6 +27,7 @@ from rig.config import (
     SimulationConfig,
     SphereOnPlaneScene,
     SphereScene,
+    StepsScene,
     TerrainScene,
 )
 from rig.errors import SceneError
@@ -50,6 +51,9 @@ def build_scene(config: SimulationConfig) -> sim_scene.Scene:
     elif isinstance(s, BoxScene):
         box = sim_scene.box(s.extents_mm, (0.0, 0.0, s.extents_mm[2] / 2), s.rotation_deg, s.albedo)
         objects = [sim_scene.plane(600.0, 0.6), box] if s.plane else [box]
+    elif isinstance(s, StepsScene):
+        stairs = sim_scene.steps(s.rises_mm, s.run_mm, s.width_mm, s.rotation_deg, s.albedo)
+        objects = [sim_scene.plane(600.0, 0.6), stairs] if s.plane else [stairs]
     elif isinstance(s, TerrainScene):
         objects = [sim_scene.terrain(s.size_mm, s.amplitude_mm, seed=s.seed, albedo=s.albedo)]
     elif isinstance(s, MeshScene):

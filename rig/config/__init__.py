@@ -21,6 +21,7 @@ from rig.config.scenes import (
     SimulationConfig,
     SphereOnPlaneScene,
     SphereScene,
+    StepsScene,
     TerrainScene,
 )
 
@@ -53,6 +54,7 @@ __all__ = [
     "SimulationConfig",
     "SphereOnPlaneScene",
     "SphereScene",
+    "StepsScene",
     "TerrainScene",
     "config_from_dict",
     "driver",

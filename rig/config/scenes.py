@@ -61,11 +61,25 @@ class MeshScene(Strict):
     plane: bool = Field(True, description="put the mesh on the bench plane")
 
 
+class StepsScene(Strict):
+    """A staircase on the bench plane: sharp depth edges between flat treads."""
+
+    kind: Literal["steps"]
+    rises_mm: tuple[Annotated[float, Field(gt=0.0, le=500.0)], ...] = Field(
+        (10.0, 15.0, 20.0, 15.0), min_length=1, max_length=50, description="each step's rise over the one before"
+    )
+    run_mm: float = Field(30.0, gt=0.0, le=1_000.0, description="each tread's depth")
+    width_mm: float = Field(120.0, gt=0.0, le=2_000.0)
+    rotation_deg: Vec3 = (0.0, 0.0, 25.0)
+    albedo: Albedo = 0.8
+    plane: bool = Field(True, description="put the staircase on the bench plane")
+
+
 SceneConfig = Annotated[
-    PlaneScene | SphereScene | BoxScene | SphereOnPlaneScene | TerrainScene | MeshScene,
+    PlaneScene | SphereScene | BoxScene | SphereOnPlaneScene | TerrainScene | StepsScene | MeshScene,
     Field(discriminator="kind"),
 ]
-SCENE_KINDS = ("plane", "sphere", "box", "sphere_on_plane", "terrain", "mesh")
+SCENE_KINDS = ("plane", "sphere", "box", "sphere_on_plane", "terrain", "steps", "mesh")
 
 
 class SimulationConfig(Strict):

@@ -86,6 +86,7 @@ def evaluate_pair(
         "mean_abs_mm": None if empty else float(np.mean(dist)),
         "p95_mm": None if empty else float(np.percentile(dist, 95)),
         "max_mm": None if empty else float(np.max(dist)),
+        "over_1mm_fraction": float((dist > 1.0).sum() / n),
         "outliers_over_5mm": int((dist > 5.0).sum()),
         "outlier_fraction": float((dist > 5.0).sum() / n),
         "completeness": float(covered.sum() / max(1, target.sum())),
