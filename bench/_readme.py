@@ -27,7 +27,19 @@ def markdown_table(header: list[str], rows: list[list[object]]) -> str:
     return "\n".join(lines)
 
 
-ACCURACY_HEADER = ["codec", "frames", "MB captured", "points", "rms mm", "p95 mm", "over 1 mm", "completeness"]
+ACCURACY_HEADER = [
+    "codec",
+    "frames",
+    "MB captured",
+    "points",
+    "rms mm",
+    "p95 mm",
+    "over 1 mm",
+    "over 5 mm",
+    "rms along ray mm",
+    "over 1 mm along ray",
+    "completeness",
+]
 
 
 def accuracy_cells(r: dict[str, Any], completeness_digits: int) -> list[object]:
@@ -40,6 +52,9 @@ def accuracy_cells(r: dict[str, Any], completeness_digits: int) -> list[object]:
         f"{r['rms_mm']:.3f}",
         f"{r['p95_mm']:.3f}",
         f"{100 * r['over_1mm_fraction']:.2f} %",
+        r["outliers_over_5mm"],
+        f"{r['ray_rms_mm']:.3f}",
+        f"{100 * r['ray_over_1mm_fraction']:.2f} %",
         f"{r['completeness']:.{completeness_digits}f}",
     ]
 

@@ -22,13 +22,20 @@ from rig.patterns import codec_names
 from rig.pipeline.scan import run_scan
 
 REPO = Path(__file__).resolve().parent.parent
+
+
+def _scene_of(config_file: str) -> dict[str, object]:
+    return load_config(REPO / "config" / config_file).model_dump(mode="json")["simulation"]["scene"]
+
+
 SCENES: dict[str, dict[str, object]] = {
     "sphere_on_plane": {"kind": "sphere_on_plane"},
     "plane": {"kind": "plane"},
     "box": {"kind": "box"},
     "terrain": {"kind": "terrain"},
-    "steps": {"kind": "steps"},
-    "steps, edges along x": {"kind": "steps", "rotation_deg": [0.0, 0.0, 90.0]},
+    "steps (config/sim-steps.yaml)": _scene_of("sim-steps.yaml"),
+    "steps, edges along x": {**_scene_of("sim-steps.yaml"), "rotation_deg": [0.0, 0.0, 90.0]},
+    "blocks (config/sim-blocks.yaml)": _scene_of("sim-blocks.yaml"),
     "blob.ply": {"kind": "mesh", "path": str(REPO / "config/meshes/blob.ply"), "fit_size_mm": 150.0},
 }
 

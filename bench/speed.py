@@ -29,7 +29,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _readme import markdown_table, replace_block
 
 from rig.assembly import open_rig
-from rig.config import load_config
+from rig.config import RigConfig, load_config
 from rig.patterns import codec_names
 from rig.pipeline.scan import capture, make_codec, reconstruct_pair
 from rig.progress import ProgressTracker
@@ -66,10 +66,10 @@ def frame_time() -> dict[str, float]:
     }
 
 
-def reconstruction(codec_name: str, repeats: int = 7) -> dict[str, float]:
+def reconstruction(codec_name: str, repeats: int = 7, config: RigConfig | None = None) -> dict[str, float]:
     """Median decode, triangulate and PointSet times of one capture, after a first untimed pass
-    (which computes the per-calibration terms)."""
-    config = load_config().with_codec(codec_name)
+    (which computes the per-calibration terms); `config`: another rig than the default's."""
+    config = (config or load_config()).with_codec(codec_name)
     with open_rig(config) as rig:
         codec = make_codec(rig, 0)
         frames = capture(rig, [codec], ProgressTracker(None))[(0, 0)]

@@ -57,6 +57,7 @@ def test_parallel_model_agrees_with_the_general_cone_when_its_assumption_holds(t
     data = _bench("sim-parallel.yaml", "plane")
     _, model = _scan(_config(tmp_path, data))
     data["scan"]["rings"]["model"] = "cone"
+    data["scan"]["rings"]["tangential_period_px"] = None  # the radius alone, as the closed form reads it
     _, cone = _scan(_config(tmp_path, data))
     assert model.shape == cone.shape  # the same seed: the same samples
     assert np.max(np.linalg.norm(model - cone, axis=1)) < 1e-6

@@ -117,6 +117,15 @@ def ring_scan() -> Iterator[tuple[Rig, PairResult, np.ndarray]]:
         yield the_rig, result.pairs[0], radii
 
 
+@pytest.fixture(scope="module")
+def classic_ring_scan() -> Iterator[tuple[Rig, PairResult]]:
+    """Rings without the fine angular code: the radius alone places the points."""
+    data = load_config().with_codec("rings").model_dump(mode="json")
+    data["scan"]["rings"]["tangential_period_px"] = None
+    with open_rig(config_from_dict(data, "classic rings")) as the_rig:
+        yield the_rig, run_scan(the_rig).pairs[0]
+
+
 def test_rings_every_ring_on_the_object_yields_points(ring_scan: tuple[Rig, PairResult, np.ndarray]) -> None:
     the_rig, pair, radii = ring_scan
     assert the_rig.truth is not None and pair.rings is not None
@@ -149,8 +158,8 @@ def test_rings_never_choose_the_wrong_root(ring_scan: tuple[Rig, PairResult, np.
     assert np.all(rp.cos_beta[wrong] < 0.05)
 
 
-def test_rings_masking_removes_the_ill_conditioned_points(ring_scan: tuple[Rig, PairResult, np.ndarray]) -> None:
-    the_rig, pair, _ = ring_scan
+def test_rings_masking_removes_the_ill_conditioned_points(classic_ring_scan: tuple[Rig, PairResult]) -> None:
+    the_rig, pair = classic_ring_scan
     rp = pair.rings
     assert the_rig.truth is not None and rp is not None
     true, normal = the_rig.truth.cast(rp.origins, rp.directions)
@@ -172,9 +181,12 @@ def test_rings_accuracy_and_manifest_counts(capsys: pytest.CaptureFixture[str], 
     assert main(["scan", "--codec", "rings", "--out", str(tmp_path / "rings"), "--json"]) == 0
     manifest = json.loads((tmp_path / "rings" / "manifest.json").read_text())
     counts = manifest["pairs"][0]["counts"]
-    assert counts["masked_ill_conditioned"] > 1000
+    assert counts["fixed_by_angle"] > 1000  # the samples the radius alone would have masked
     assert counts["ring_points"] == manifest["economy"]["points"] == report["points"]
-    assert manifest["economy"]["frames_projected"] == 18
+    assert manifest["economy"]["frames_projected"] == 22
+    coverage = manifest["pairs"][0]["ring_coverage"]
+    assert coverage["min_ring"] >= 0.9 and coverage["overall"] >= 0.95
+    assert min(coverage["rings"].values()) == coverage["min_ring"] and len(coverage["rings"]) >= 25
 
 
 def test_radial_against_phase_at_the_same_frame_count(capsys: pytest.CaptureFixture[str]) -> None:
@@ -220,7 +232,9 @@ def test_ring_radii_and_count_must_agree() -> None:
     with pytest.raises(ValueError, match="radii_px lists 3"):
         RingsParams(rings=32, radii_px=[10.0, 30.0, 60.0])
     codec = codec_class("rings")(SIZE, RingsParams(radii_px=[10.0, 30.0, 60.0]))
-    assert len(codec.radii) == 3 and codec.frame_count == 2 + 2 + 2 * 2 + 4
+    assert len(codec.radii) == 3 and codec.frame_count == 2 + 2 + 2 * 2 + 4 + 4  # + the fine angular code
+    classic = codec_class("rings")(SIZE, RingsParams(radii_px=[10.0, 30.0, 60.0], tangential_period_px=None))
+    assert classic.frame_count == 2 + 2 + 2 * 2 + 4
 
 
 def test_a_ring_sample_off_its_neighbours_depth_is_rejected() -> None:
@@ -248,7 +262,9 @@ def test_a_ring_sample_off_its_neighbours_depth_is_rejected() -> None:
     )
     supported = along_ring_support(rings, camera, max_jump_mm=2.0)
     assert not supported[20]
-    assert supported[np.r_[0:20, 21:n]].all()  # every other sample, both sides of the gentle step, stays
+    assert supported[np.r_[1:20, 21 : n - 1]].all()  # every other sample, both sides of the gentle step, stays
+    # but for the stretch's two ends: their neighbours lie on one side (an end's pixels straddle a boundary)
+    assert not supported[0] and not supported[n - 1]
 
 
 def test_ring_stretches_that_straddle_a_depth_edge_are_rejected() -> None:
@@ -263,8 +279,9 @@ def test_ring_stretches_that_straddle_a_depth_edge_are_rejected() -> None:
         filtered = evaluate_on_bench(the_rig, run_scan(the_rig).pairs[0])
     data = config.model_dump(mode="json")
     data["scan"]["max_depth_jump_mm"] = None
+    data["scan"]["rings"]["max_edge_step"] = 1.0  # and no ramp test: every sign change is a ring
     with open_rig(config_from_dict(data, "unfiltered")) as the_rig:
         unfiltered = evaluate_on_bench(the_rig, run_scan(the_rig).pairs[0])
-    assert unfiltered["max_mm"] > 10 and filtered["max_mm"] < 3  # type: ignore[operator]
+    assert unfiltered["max_mm"] > 10 and filtered["max_mm"] < 1.5  # type: ignore[operator]
     assert filtered["rms_mm"] < 0.1 < unfiltered["rms_mm"]  # type: ignore[operator]
     assert filtered["points"] > 0.95 * unfiltered["points"]  # type: ignore[operator]

@@ -129,6 +129,31 @@ def steps(
     return _object("steps", mesh, albedo)
 
 
+def blocks(
+    count: int,
+    block_mm: float,
+    heights_mm: tuple[float, float],
+    seed: int,
+    rotation_deg: tuple[float, float, float] = (0.0, 0.0, 0.0),
+    albedo: Albedo = 0.8,
+) -> SceneObject:
+    """A `count` x `count` grid of touching square blocks on the plane z = 0, centred on the origin,
+    each `block_mm` wide and of a seeded height in `heights_mm`: depth edges in both directions,
+    corners where three heights meet."""
+    rng = np.random.default_rng(seed)
+    heights = rng.uniform(heights_mm[0], heights_mm[1], (count, count))
+    parts = []
+    offset = -count * block_mm / 2
+    for i in range(count):
+        for j in range(count):
+            block = trimesh.creation.box(extents=(block_mm, block_mm, heights[i, j]))
+            block.apply_translation((offset + (i + 0.5) * block_mm, offset + (j + 0.5) * block_mm, heights[i, j] / 2))
+            parts.append(block)
+    mesh = trimesh.util.concatenate(parts)
+    _pose(mesh, 1.0, (0.0, 0.0, 0.0), rotation_deg)
+    return _object("blocks", mesh, albedo)
+
+
 def terrain(
     size_mm: float = 400.0, amplitude_mm: float = 30.0, grid: int = 257, seed: int = 7, albedo: Albedo = 0.75
 ) -> SceneObject:

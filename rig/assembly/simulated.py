@@ -18,6 +18,7 @@ from drivers.sim.camera import SimCamera
 from drivers.sim.projector import SimProjector
 from rig.assembly.world import World
 from rig.config import (
+    BlocksScene,
     BoxScene,
     CameraConfig,
     MeshScene,
@@ -54,6 +55,9 @@ def build_scene(config: SimulationConfig) -> sim_scene.Scene:
     elif isinstance(s, StepsScene):
         stairs = sim_scene.steps(s.rises_mm, s.run_mm, s.width_mm, s.rotation_deg, s.albedo)
         objects = [sim_scene.plane(600.0, 0.6), stairs] if s.plane else [stairs]
+    elif isinstance(s, BlocksScene):
+        grid = sim_scene.blocks(s.count, s.block_mm, s.heights_mm, s.seed, s.rotation_deg, s.albedo)
+        objects = [sim_scene.plane(600.0, 0.6), grid] if s.plane else [grid]
     elif isinstance(s, TerrainScene):
         objects = [sim_scene.terrain(s.size_mm, s.amplitude_mm, seed=s.seed, albedo=s.albedo)]
     elif isinstance(s, MeshScene):

@@ -19,11 +19,8 @@ def _common(p: argparse.ArgumentParser) -> None:
         default=None,
         help="rig description (YAML); default: the simulated bench, config/sim.yaml",
     )
-    p.add_argument(
-        "--codec", default=None, help=f"pattern codec: {', '.join(codec_names())} (default: the config's)"
-    )
+    p.add_argument("--codec", default=None, help=f"pattern codec: {', '.join(codec_names())} (default: the config's)")
     p.add_argument("--json", action="store_true", help="print one JSON object instead of text")
-
 
 
 def _scan_command(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]

@@ -14,6 +14,7 @@ from rig.config.rig import OutputConfig, RigConfig, ServiceConfig
 from rig.config.scan import MergeConfig, ScanConfig
 from rig.config.scenes import (
     SCENE_KINDS,
+    BlocksScene,
     BoxScene,
     MeshScene,
     PlaneScene,
@@ -30,6 +31,7 @@ __all__ = [
     "DRIVERS",
     "REPO_CONFIG_DIR",
     "SCENE_KINDS",
+    "BlocksScene",
     "BoardConfig",
     "BoardPose",
     "BoxScene",

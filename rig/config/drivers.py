@@ -159,9 +159,7 @@ def check_device(kind: DeviceKind, device: Any) -> None:
             raise ValueError(f"{section}: the {entry.name} driver needs its {section} section")
     if kind is DeviceKind.PROJECTOR:
         if device.sync == "hardware" and not entry.capabilities.sequence_playback:
-            raise ValueError(
-                f"sync: a {entry.name} projector cannot play a sequence on its own; use software sync"
-            )
+            raise ValueError(f"sync: a {entry.name} projector cannot play a sequence on its own; use software sync")
         if device.power is not None and not entry.capabilities.power_control:
             raise ValueError(f"power: a {entry.name} projector has no power control to configure")
     if entry.check is not None:

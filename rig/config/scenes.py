@@ -5,7 +5,7 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Annotated, Literal
 
-from pydantic import Field
+from pydantic import Field, model_validator
 
 from rig.config.common import Albedo, Coord, Extent, Strict, Vec3
 
@@ -75,11 +75,34 @@ class StepsScene(Strict):
     plane: bool = Field(True, description="put the staircase on the bench plane")
 
 
+class BlocksScene(Strict):
+    """A grid of touching blocks of seeded heights on the bench plane: depth edges in every direction."""
+
+    kind: Literal["blocks"]
+    count: int = Field(4, ge=1, le=20, description="blocks along each side of the grid")
+    block_mm: float = Field(30.0, gt=0.0, le=1_000.0, description="each block's width and depth")
+    heights_mm: tuple[Annotated[float, Field(gt=0.0, le=500.0)], Annotated[float, Field(gt=0.0, le=500.0)]] = Field(
+        (5.0, 45.0), description="the least and greatest block height"
+    )
+    seed: int = Field(3, ge=0, le=2**31)
+    rotation_deg: Vec3 = (0.0, 0.0, 10.0)
+    albedo: Albedo = 0.8
+    plane: bool = Field(True, description="put the blocks on the bench plane")
+
+    @model_validator(mode="after")
+    def _heights_ordered(self) -> BlocksScene:
+        if self.heights_mm[0] > self.heights_mm[1]:
+            raise ValueError(
+                f"heights_mm: the least height {self.heights_mm[0]} exceeds the greatest {self.heights_mm[1]}"
+            )
+        return self
+
+
 SceneConfig = Annotated[
-    PlaneScene | SphereScene | BoxScene | SphereOnPlaneScene | TerrainScene | StepsScene | MeshScene,
+    PlaneScene | SphereScene | BoxScene | SphereOnPlaneScene | TerrainScene | StepsScene | BlocksScene | MeshScene,
     Field(discriminator="kind"),
 ]
-SCENE_KINDS = ("plane", "sphere", "box", "sphere_on_plane", "terrain", "steps", "mesh")
+SCENE_KINDS = ("plane", "sphere", "box", "sphere_on_plane", "terrain", "steps", "blocks", "mesh")
 
 
 class SimulationConfig(Strict):

@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial import cKDTree
 
+from rig.evaluate.rings import ring_coverage_on_bench
 from rig.geometry import CameraModel
 from rig.pipeline.scan import PairResult, moved_pair
 from rig.rig import GroundTruth, PixelTruth, Rig
@@ -63,13 +64,29 @@ def point_distances(pair: PairResult, truth: PixelTruth, source: GroundTruth | N
     return surface_distances(pair.grid, np.isfinite(pair.grid).all(axis=2), truth)
 
 
+def ray_errors(pair: PairResult, truth: PixelTruth, source: GroundTruth | None = None) -> np.ndarray:
+    """Distance (mm) of each of the pair's points, in PointSet order, from where its own camera ray
+    (the pixel's centre; a ring sample's sub-pixel position) first meets the true surface: the error
+    along the ray. NaN where the ray meets no surface."""
+    if pair.rings is not None:
+        if source is None:
+            raise ValueError("measuring ring points needs the ground truth's ray casts")
+        keep = pair.rings.kept
+        true, _ = source.cast(pair.rings.origins[keep], pair.rings.directions[keep])
+        return np.linalg.norm(pair.rings.points[keep] - true, axis=1)
+    idx = np.flatnonzero(np.isfinite(pair.grid).all(axis=2).ravel())
+    return np.linalg.norm(pair.grid.reshape(-1, 3)[idx] - truth.points.reshape(-1, 3)[idx], axis=1)
+
+
 def evaluate_pair(
     pair: PairResult, truth: PixelTruth, source: GroundTruth | None = None, dist: np.ndarray | None = None
 ) -> dict[str, float | int | None]:
-    """rms/mean/p95 distance to the true surface, and completeness: the fraction of camera pixels
-    that see a lit, unshadowed true surface and got a point within 1 mm of it. Sparse (ring) points
-    are measured along their own rays, which needs the truth's `source` (its ray casts). `dist`: the
-    distances of the pair's points, when already measured (point_distances)."""
+    """rms/mean/p95 distance to the true surface (point_distances), the same figures along each
+    point's own camera ray (ray_errors; they differ where a grazing surface or a depth edge puts a
+    point near one surface while its ray meets another), and completeness: the fraction of camera
+    pixels that see a lit, unshadowed true surface and got a point within 1 mm of it. Ring points are
+    measured on their sub-pixel rays, which needs the truth's `source` (its ray casts), and add ring
+    coverage (rig.evaluate.rings). `dist`: the distances of the pair's points, when already measured."""
     valid = np.isfinite(pair.grid).all(axis=2)
     if dist is None:
         dist = point_distances(pair, truth, source)
@@ -80,7 +97,9 @@ def evaluate_pair(
     covered = good.reshape(valid.shape) & target
     n = max(1, len(dist))
     empty = len(dist) == 0  # no points: no distances (None, which JSON can carry; NaN it cannot)
-    return {
+    along = ray_errors(pair, truth, source)
+    along = np.where(np.isfinite(along), along, dist)  # a ray that meets nothing: its surface distance
+    metrics = {
         "points": len(dist),
         "rms_mm": None if empty else float(np.sqrt(np.mean(dist**2))),
         "mean_abs_mm": None if empty else float(np.mean(dist)),
@@ -91,7 +110,13 @@ def evaluate_pair(
         "outlier_fraction": float((dist > 5.0).sum() / n),
         "completeness": float(covered.sum() / max(1, target.sum())),
         "target_pixels": int(target.sum()),
+        "ray_rms_mm": None if empty else float(np.sqrt(np.mean(along**2))),
+        "ray_over_1mm_fraction": float((along > 1.0).sum() / n),
+        "ray_outliers_over_5mm": int((along > 5.0).sum()),
     }
+    if pair.rings is not None:
+        metrics.update(ring_coverage_on_bench(pair, truth, dist))
+    return metrics
 
 
 def in_truth_frame(pair: PairResult, estimated: CameraModel, truth: CameraModel) -> PairResult:

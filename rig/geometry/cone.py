@@ -101,3 +101,21 @@ def refine_on_distorted_ring(
         t = t - residual(t) / np.where(np.abs(slope) > 1e-12, slope, np.nan)
     s[ok] = t
     return s
+
+
+def ray_half_plane(
+    projector: CameraModel, origins: np.ndarray, directions: np.ndarray, theta: np.ndarray, center: tuple[float, float]
+) -> np.ndarray:
+    """Ray parameter s where each ray (M, 3) meets the projector's half-plane of polar angle `theta`
+    (M, J) about `center`: the points the projector's (undistorted) image puts on the half-line from
+    the centre at that angle. NaN where the ray meets only the other half, or behind either device."""
+    u0, v0 = center
+    alpha, beta = _affine_image(projector, origins, directions)
+    a = [alpha[:, 0:1] - u0 * alpha[:, 2:3], alpha[:, 1:2] - v0 * alpha[:, 2:3], alpha[:, 2:3]]
+    b = [beta[:, 0:1] - u0 * beta[:, 2:3], beta[:, 1:2] - v0 * beta[:, 2:3], beta[:, 2:3]]
+    sin, cos = np.sin(theta), np.cos(theta)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        s = -(a[0] * sin - a[1] * cos) / (b[0] * sin - b[1] * cos)
+        along = (a[0] + s * b[0]) * cos + (a[1] + s * b[1]) * sin  # > 0 on the half-line at theta
+        s[(s <= 0) | (a[2] + s * b[2] <= 0) | (along <= 0) | ~np.isfinite(s)] = np.nan
+    return s

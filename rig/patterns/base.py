@@ -49,11 +49,17 @@ class RingSamples:
     theta: np.ndarray  # (M,) float64, projector polar angle about the centre, radians
     contrast: np.ndarray  # (M,) float32, |pattern - inverse| step across the ring edge
     center_px: tuple[float, float]  # the rings' centre in the projector image
+    ring_radii_px: np.ndarray | None = None  # (K,) every ring's radius by index, seen or not
     # How triangulation treats the samples (the codec's parameters):
     min_cos_beta: float = 0.3
     min_radius_px: float = 0.0
     radius_sigma_px: float = 0.05
     model: str = "cone"  # see rig.patterns.rings.RingsParams.model
+    # The fine angular code (rings' tangential_period_px), None without it: its wrapped phase at
+    # each sample (NaN where unreadable) and the periods per revolution in the sample's ring zone.
+    fine_phase: np.ndarray | None = None
+    fine_periods: np.ndarray | None = None
+    tangential_sigma_px: float = 0.1
 
     def __len__(self) -> int:
         return len(self.ring)

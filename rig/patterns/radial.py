@@ -23,6 +23,7 @@ from pydantic import Field, field_validator
 
 from rig.patterns.base import CodecParams, Correspondence, NormalizedFrames, PixelCoord, even_period
 from rig.patterns.circular import CircularCodec
+from rig.patterns.fringes import fringe_images, phase_sums
 from rig.patterns.graycode import bit_count, decode_gray, gray_planes, planes_with_inverses
 from rig.patterns.registry import register
 
@@ -59,13 +60,7 @@ class RadialParams(CodecParams):
 
 def _phase(frames: NormalizedFrames, first: int, steps: int) -> tuple[np.ndarray, np.ndarray]:
     """Wrapped phase in [0, 2 pi) and modulation of `steps` frames from index `first`."""
-    s = np.zeros(frames[first].shape, dtype=np.float32)
-    c = np.zeros_like(s)
-    for n in range(steps):
-        delta = 2 * np.pi * n / steps
-        frame = frames[first + n]
-        s += frame * np.float32(math.sin(delta))
-        c += frame * np.float32(math.cos(delta))
+    s, c = phase_sums(frames, first, steps)
     return np.mod(np.arctan2(s, c), 2 * np.pi), (2.0 / steps) * np.sqrt(s * s + c * c)
 
 
@@ -97,16 +92,10 @@ class RadialCodec(CircularCodec):
         p = self.params
         rho, theta = self.polar()
 
-        def fringes(phase: np.ndarray, steps: int) -> list[np.ndarray]:
-            return [
-                np.rint((0.5 + 0.5 * np.cos(phase - 2 * np.pi * n / steps)) * 255).astype(np.uint8)
-                for n in range(steps)
-            ]
-
-        out = fringes(2 * np.pi * rho / p.period_px, p.steps)
+        out = fringe_images(2 * np.pi * rho / p.period_px, p.steps)
         out += planes_with_inverses(gray_planes(np.floor(rho / (p.period_px // 2)).astype(np.int64), self._gray_bits()))
         for periods, steps in self._angular_levels():
-            out += fringes(periods * theta, steps)
+            out += fringe_images(periods * theta, steps)
         return out
 
     def _decode(

@@ -10,8 +10,12 @@ Frames after white and black:
   to ring k-1 to midway to ring k+1): at a ring point both neighbouring pixels lie well inside zone
   k, so the index is read far from any edge of its own code. No ring counting, so occlusions do not
   shift the numbering.
-- a coarse angular code: one period of a cosine in the polar angle, `angle_steps` shifts. It only has
-  to choose between the two points where a camera ray meets a ring's cone.
+- a coarse angular code: one period of a cosine in the polar angle, `angle_steps` shifts. It
+  chooses between the two points where a camera ray meets a ring's cone.
+- a fine angular code (unless `tangential_period_px` is None): in zone k, M_k periods of a cosine in
+  the polar angle, M_k chosen so that a period along ring k is about `tangential_period_px`,
+  `tangential_steps` shifts. Where a ring runs along the epipolar line its radius says little about
+  depth; there this tangential coordinate does (rig.pipeline.ring_angles).
 
 A ring point is where E - inverse changes sign between two lit, horizontally or vertically adjacent
 camera pixels that read the same ring index: its position is the linear zero crossing.
@@ -20,7 +24,7 @@ camera pixels that read the same ring index: its position is the linear zero cro
 from __future__ import annotations
 
 import functools
-import math
+from dataclasses import dataclass
 from typing import Annotated, Literal
 
 import numpy as np
@@ -28,8 +32,12 @@ from pydantic import Field, model_validator
 
 from rig.patterns.base import CodecParams, Correspondence, NormalizedFrames, PixelCoord, RingSamples
 from rig.patterns.circular import CircularCodec
+from rig.patterns.fringes import fringe_images, phase_sums
 from rig.patterns.graycode import bit_count, decode_gray, gray_planes, planes_with_inverses
 from rig.patterns.registry import register
+
+# A crossing whose step is more than this many times the scan's median is a jump, not a ramp.
+_RAMP_MEDIAN_FACTOR = 1.5
 
 # Width of the anti-aliased ramp across a ring edge: wide enough that both camera pixels around a
 # zero crossing sit on the straight part of the ramp, so linear interpolation finds the circle.
@@ -50,6 +58,18 @@ class RingsParams(CodecParams):
     )
     center_px: tuple[PixelCoord, PixelCoord] | None = Field(None, description="ring centre; default: the image centre")
     angle_steps: int = Field(4, ge=3, le=32, description="phase steps of the angular code")
+    tangential_period_px: float | None = Field(
+        16.0,
+        ge=4.0,
+        le=4096.0,
+        description="period of the fine angular code along each ring, projector pixels (projected for the cone "
+        "model only); None: no fine code, and the samples where the ring runs along the epipolar line are "
+        "masked (min_cos_beta)",
+    )
+    tangential_steps: int = Field(4, ge=3, le=32, description="phase steps of the fine angular code")
+    tangential_sigma_px: float = Field(
+        0.1, gt=0, le=10, description="assumed error of the fine angular code along the ring, projector pixels"
+    )
     min_edge_contrast: float = Field(
         0.03, ge=0.0, le=2.0, description="minimum |step| of pattern - inverse across a ring edge"
     )
@@ -57,8 +77,18 @@ class RingsParams(CodecParams):
         0.3,
         ge=0.0,
         le=1.0,
-        description="mask points where |cos| of the angle between the ring's radial direction and the "
-        "epipolar line is below this: there a radius error moves the point by 1/|cos| times more",
+        description="without the fine angular code, mask points where |cos| of the angle between the ring's "
+        "radial direction and the epipolar line is below this: there a radius error moves the point by "
+        "1/|cos| times more",
+    )
+    max_edge_step: float = Field(
+        0.5,
+        gt=0.0,
+        le=1.0,
+        description="a ring edge rises over 2 px of the projector image, so between two neighbouring camera "
+        "pixels pattern - inverse (as a fraction of white - black) steps by about the projector pixels one "
+        "camera pixel spans, halved; a larger half-step is a depth edge jumping across an annulus, not a ring. "
+        "Crossings stepping more than this (or 1.5 times the scan's median, when the camera is coarser) are dropped",
     )
     min_radius_px: float = Field(8.0, ge=0.0, le=16384, description="mask rings smaller than this")
     model: Literal["cone", "parallel", "radius_ratio"] = Field(
@@ -117,11 +147,22 @@ class RingsCodec(CircularCodec):
         midpoints = 0.5 * (radii[1:] + radii[:-1])
         return np.searchsorted(midpoints, rho, side="right")
 
+    @functools.cached_property
+    def fine_periods(self) -> np.ndarray | None:
+        """Periods per revolution of the fine angular code in each ring's zone (None: no fine code)."""
+        period = self.params.tangential_period_px
+        if period is None or self.params.model != "cone":  # the closed-form models read the radius only
+            return None
+        return np.maximum(1, np.rint(2 * np.pi * self.radii / period)).astype(np.int64)
+
     def _zone_bits(self) -> int:
         return bit_count(max(2, len(self.radii)))
 
+    def _fine_steps(self) -> int:
+        return 0 if self.fine_periods is None else self.params.tangential_steps
+
     def _coded_frame_count(self) -> int:
-        return 2 + 2 * self._zone_bits() + self.params.angle_steps
+        return 2 + 2 * self._zone_bits() + self.params.angle_steps + self._fine_steps()
 
     def _coded_patterns(self) -> list[np.ndarray]:
         rho, theta = self.polar()
@@ -135,11 +176,11 @@ class RingsCodec(CircularCodec):
         coverage = np.clip(0.5 + ramp, 0.0, 1.0)
         edge = np.rint(coverage * 255).astype(np.uint8)
         out = [edge, 255 - edge]
-        out += planes_with_inverses(gray_planes(self._zone(rho), self._zone_bits()))
-        steps = self.params.angle_steps
-        for n in range(steps):
-            value = 0.5 + 0.5 * np.cos(theta - 2 * np.pi * n / steps)
-            out.append(np.rint(value * 255).astype(np.uint8))
+        zone = self._zone(rho)
+        out += planes_with_inverses(gray_planes(zone, self._zone_bits()))
+        out += fringe_images(theta, self.params.angle_steps)
+        if self.fine_periods is not None:
+            out += fringe_images(self.fine_periods[zone] * theta, self.params.tangential_steps)
         return out
 
     def _decode(
@@ -150,16 +191,65 @@ class RingsCodec(CircularCodec):
         bits = self._zone_bits()
         zone, strength = decode_gray(frames[2 : 2 + 2 * bits], bits)
         zone_ok = lit & (strength >= p.min_edge_contrast * 0.5) & (zone < len(self.radii))
-        s = np.zeros(lit.shape, dtype=np.float32)
-        c = np.zeros(lit.shape, dtype=np.float32)
-        for n in range(p.angle_steps):
-            delta = 2 * np.pi * n / p.angle_steps
-            frame = frames[2 + 2 * bits + n]
-            s += frame * np.float32(math.sin(delta))
-            c += frame * np.float32(math.cos(delta))
+        found = _Crossings.find(edge, zone, zone_ok, p.min_edge_contrast)
+        # A ring edge is a ramp; a depth edge across an annulus is a jump (see max_edge_step).
+        ramp = found.ramp(edge / np.maximum(white - black, 1e-6))
+        limit = max(p.max_edge_step, _RAMP_MEDIAN_FACTOR * float(np.median(ramp))) if len(ramp) else 1.0
+        crossings = found.select(ramp <= limit)
+        first = 2 + 2 * bits
+        theta = np.arctan2(*crossings.between(*phase_sums(frames, first, p.angle_steps)))
+        phase, periods = None, None
+        if self.fine_periods is not None:
+            fs, fc = crossings.between(*phase_sums(frames, first + p.angle_steps, p.tangential_steps))
+            phase = np.arctan2(fs, fc).astype(np.float64)
+            phase[(2.0 / p.tangential_steps) * np.hypot(fs, fc) < p.min_edge_contrast] = np.nan  # unreadable
+            periods = self.fine_periods[crossings.ring]
+        samples = RingSamples(
+            camera_xy=crossings.xy,
+            ring=crossings.ring,
+            radius_px=self.radii[crossings.ring],
+            theta=theta.astype(np.float64),
+            contrast=np.abs(crossings.step).astype(np.float32),
+            center_px=self.center,
+            ring_radii_px=self.radii,
+            min_cos_beta=p.min_cos_beta,
+            min_radius_px=p.min_radius_px,
+            radius_sigma_px=p.radius_sigma_px,
+            model=p.model,
+            fine_phase=phase,
+            fine_periods=periods,
+            tangential_sigma_px=p.tangential_sigma_px,
+        )
+        valid = np.zeros(lit.shape, dtype=bool)
+        nearest = np.rint(crossings.xy).astype(np.int64)
+        valid[nearest[:, 1], nearest[:, 0]] = True
+        counts = {
+            "lit": int(lit.sum()),
+            "ring_samples": len(samples),
+            "rings_seen": len(np.unique(crossings.ring)),
+            "rejected_edge_jump": len(found.ring) - len(crossings.ring),
+        }
+        if phase is not None:
+            counts["no_fine_angle"] = int(np.isnan(phase).sum())
+        return Correspondence(valid=valid, quality=white - black, texture=texture, samples=samples, counts=counts)
+
+
+@dataclass(frozen=True, eq=False)
+class _Crossings:
+    """Sign changes of pattern - inverse between neighbouring camera pixels a and b (index arrays),
+    a fraction `t` of the way from a to b, with the ring index and the step d(a) - d(b)."""
+
+    a: tuple[np.ndarray, np.ndarray]
+    b: tuple[np.ndarray, np.ndarray]
+    t: np.ndarray
+    step: np.ndarray
+    ring: np.ndarray
+
+    @classmethod
+    def find(cls, edge: np.ndarray, zone: np.ndarray, zone_ok: np.ndarray, min_contrast: float) -> _Crossings:
         gy, gx = np.gradient(edge)
         steep = np.abs(gy) >= np.abs(gx)  # the edge crosses columns more than rows
-        xy, ring, theta, contrast = [], [], [], []
+        parts = []
         for axis in (0, 1):  # crossings between vertical, then horizontal neighbours
             a = (slice(None, -1), slice(None)) if axis == 0 else (slice(None), slice(None, -1))
             b = (slice(1, None), slice(None)) if axis == 0 else (slice(None), slice(1, None))
@@ -168,36 +258,42 @@ class RingsCodec(CircularCodec):
             # A sign change, counting 0 as positive: a pixel exactly on the ring (common in 8-bit
             # captures) still yields its crossing, and each crossing is found once.
             found = ((d1 >= 0) != (d2 >= 0)) & zone_ok[a] & zone_ok[b] & (zone[a] == zone[b])
-            found &= np.abs(step) >= p.min_edge_contrast
+            found &= np.abs(step) >= min_contrast
             # Search across the edge, not along it: each point once, from the better-conditioned pair.
             found &= steep[a] if axis == 0 else ~steep[a]
             rows, cols = np.nonzero(found)
-            t = d1[rows, cols] / step[rows, cols]  # fraction of the way from pixel a to pixel b
-            x = cols + (t if axis == 1 else 0.0)
-            y = rows + (t if axis == 0 else 0.0)
-            bi = (rows + (axis == 0), cols + (axis == 1))
-            si = (1 - t) * s[rows, cols] + t * s[bi]
-            ci = (1 - t) * c[rows, cols] + t * c[bi]
-            xy.append(np.column_stack([x, y]))
-            ring.append(zone[rows, cols])
-            theta.append(np.arctan2(si, ci))
-            contrast.append(np.abs(step[rows, cols]))
-        samples_xy = np.concatenate(xy).astype(np.float64)
-        ring_idx = np.concatenate(ring).astype(np.int64)
-        samples = RingSamples(
-            camera_xy=samples_xy,
-            ring=ring_idx,
-            radius_px=self.radii[ring_idx],
-            theta=np.concatenate(theta).astype(np.float64),
-            contrast=np.concatenate(contrast).astype(np.float32),
-            center_px=self.center,
-            min_cos_beta=p.min_cos_beta,
-            min_radius_px=p.min_radius_px,
-            radius_sigma_px=p.radius_sigma_px,
-            model=p.model,
+            t = d1[rows, cols] / step[rows, cols]
+            parts.append(((rows, cols), (rows + (axis == 0), cols + (axis == 1)), t, step[rows, cols]))
+        a = tuple(np.concatenate([part[0][k] for part in parts]) for k in range(2))
+        b = tuple(np.concatenate([part[1][k] for part in parts]) for k in range(2))
+        return cls(
+            a,  # type: ignore[arg-type]
+            b,  # type: ignore[arg-type]
+            np.concatenate([part[2] for part in parts]).astype(np.float64),
+            np.concatenate([part[3] for part in parts]),
+            zone[a].astype(np.int64),
         )
-        valid = np.zeros(lit.shape, dtype=bool)
-        nearest = np.rint(samples_xy).astype(np.int64)
-        valid[nearest[:, 1], nearest[:, 0]] = True
-        counts = {"lit": int(lit.sum()), "ring_samples": len(samples), "rings_seen": len(np.unique(ring_idx))}
-        return Correspondence(valid=valid, quality=white - black, texture=texture, samples=samples, counts=counts)
+
+    @property
+    def xy(self) -> np.ndarray:
+        """Sub-pixel camera positions (M, 2): x, y."""
+        return np.column_stack(
+            [self.a[1] + self.t * (self.b[1] - self.a[1]), self.a[0] + self.t * (self.b[0] - self.a[0])]
+        )
+
+    def between(self, *images: np.ndarray) -> tuple[np.ndarray, ...]:
+        """Each image interpolated at the crossings."""
+        return tuple((1 - self.t) * image[self.a] + self.t * image[self.b] for image in images)
+
+    def ramp(self, normalized: np.ndarray) -> np.ndarray:
+        """Half the step of `normalized` pattern - inverse (in [-1, 1]) across each crossing."""
+        return 0.5 * np.abs(normalized[self.a] - normalized[self.b])
+
+    def select(self, keep: np.ndarray) -> _Crossings:
+        return _Crossings(
+            (self.a[0][keep], self.a[1][keep]),
+            (self.b[0][keep], self.b[1][keep]),
+            self.t[keep],
+            self.step[keep],
+            self.ring[keep],
+        )

@@ -1,5 +1,6 @@
-"""Ring samples -> points: ray-cone triangulation, root choice by angle, conditioning masks, and
-normals from a triangulation of the samples."""
+"""Ring samples -> points: ray-cone triangulation, root choice by angle (or radius and fine angle
+together, rig.pipeline.ring_angles), conditioning masks, the depth-edge tests along and across
+rings, coverage, and normals from a triangulation of the samples."""
 
 from __future__ import annotations
 
@@ -14,9 +15,14 @@ from rig.geometry.ring_models import parallel_projection, radius_ratio
 from rig.patterns import Correspondence, RingSamples
 from rig.pipeline.dense import texture_rgb
 from rig.pipeline.pointset import PointSet
+from rig.pipeline.ring_angles import Placed, place_by_fine_angle
 
 # Triangles of the sample mesh longer than this (camera pixels) bridge gaps, not neighbouring rings.
 _MAX_TRIANGLE_EDGE_PX = 80.0
+
+# A sample whose agreeing neighbours along its ring sum to an offset more than this fraction of their
+# total distance has them all on one side: the end of a ring stretch.
+_ONE_SIDED = 0.75
 
 # The across-ring test rejects only this many times the depth-jump limit off the neighbours' plane.
 ACROSS_RINGS_FACTOR = 5.0
@@ -31,13 +37,13 @@ class RingPoints:
     """Triangulated ring samples. `kept` marks the points that pass the conditioning masks; the
     other arrays cover every sample that had a valid root."""
 
-    points: np.ndarray  # (M, 3) chosen root
+    points: np.ndarray  # (M, 3) the chosen root, or where radius and fine angle agree
     other_root: np.ndarray  # (M, 3) the rejected root, NaN if there was one root only
     origins: np.ndarray  # (M, 3) camera ray of each sample
     directions: np.ndarray  # (M, 3)
     camera_xy: np.ndarray  # (M, 2)
     ring: np.ndarray  # (M,)
-    sigma_mm: np.ndarray  # (M,) displacement for the codec's assumed radius error
+    sigma_mm: np.ndarray  # (M,) displacement for the codec's assumed radius (and fine angle) errors
     cos_beta: np.ndarray  # (M,)
     kept: np.ndarray  # (M,) bool
     contrast: np.ndarray  # (M,)
@@ -46,24 +52,24 @@ class RingPoints:
 def triangulate_rings(
     camera: CameraModel, projector: CameraModel, samples: RingSamples
 ) -> tuple[RingPoints, dict[str, int]]:
+    """Each sample's point: the root of its ray and ring cone that the coarse angle picks, or, with
+    the fine angular code, the point radius and fine angle agree on (which also places the samples
+    where the ring runs along the epipolar line); the closed-form models where configured."""
     origins, directions = camera.rays(samples.camera_xy)
     origins = np.ascontiguousarray(origins)
     hits = ray_cone(projector, origins, directions, samples.radius_px, samples.center_px)
     s = hits.s
     if projector.has_distortion:
+        ring = (samples.radius_px, samples.center_px)
         s = np.column_stack(
-            [
-                refine_on_distorted_ring(projector, origins, directions, s[:, k], samples.radius_px, samples.center_px)
-                for k in range(2)
-            ]
+            [refine_on_distorted_ring(projector, origins, directions, s[:, k], *ring) for k in range(2)]
         )
     # Choose the root whose projector angle matches the decoded angular code.
     angle_error = np.abs(np.angle(np.exp(1j * (hits.theta - samples.theta[:, None]))))
     angle_error[~np.isfinite(s)] = np.inf
     choice = np.argmin(angle_error, axis=1)
     rows = np.arange(len(choice))
-    chosen_error = angle_error[rows, choice]
-    found = chosen_error <= MAX_ANGLE_ERROR_RAD
+    found = angle_error[rows, choice] <= MAX_ANGLE_ERROR_RAD
     s_chosen = s[rows, choice]
     s_other = s[rows, 1 - choice]
     points = origins + s_chosen[:, None] * directions
@@ -76,27 +82,26 @@ def triangulate_rings(
     cos_beta = np.nan_to_num(hits.cos_beta[rows, choice], nan=0.0)
     near_centre = samples.radius_px < samples.min_radius_px
     ill_conditioned = cos_beta < samples.min_cos_beta
+    counts: dict[str, int] = {"ring_samples": len(samples)}
+    if samples.fine_phase is not None and samples.model == "cone":
+        fine = np.isfinite(samples.fine_phase)
+        ill_conditioned &= ~fine  # the angle fixes these points
+        placed = Placed(found, points, other, sigma, cos_beta)
+        counts.update(
+            place_by_fine_angle(projector, origins, directions, samples, hits, s, np.flatnonzero(fine), placed)
+        )
     kept = found & ~near_centre & ~ill_conditioned
-    counts = {
-        "ring_samples": len(samples),
-        "rejected_no_root": int((~found).sum()),
-        "masked_near_centre": int((found & near_centre).sum()),
-        "masked_ill_conditioned": int((found & ~near_centre & ill_conditioned).sum()),
-        "ring_points": int(kept.sum()),
-    }
-    keep = found
-    result = RingPoints(
-        points=points[keep],
-        other_root=other[keep],
-        origins=origins[keep],
-        directions=directions[keep],
-        camera_xy=samples.camera_xy[keep],
-        ring=samples.ring[keep],
-        sigma_mm=sigma[keep],
-        cos_beta=cos_beta[keep],
-        kept=kept[keep],
-        contrast=samples.contrast[keep],
+    rejected_by_angle = counts.get("rejected_angle_misfit", 0) + counts.get("rejected_angle_ambiguous", 0)
+    counts.update(
+        {
+            "rejected_no_root": int((~found).sum()) - rejected_by_angle,
+            "masked_near_centre": int((found & near_centre).sum()),
+            "masked_ill_conditioned": int((found & ~near_centre & ill_conditioned).sum()),
+            "ring_points": int(kept.sum()),
+        }
     )
+    columns = (points, other, origins, directions, samples.camera_xy, samples.ring, sigma, cos_beta, kept)
+    result = RingPoints(*(column[found] for column in columns), contrast=samples.contrast[found])
     return result, counts
 
 
@@ -115,12 +120,21 @@ def along_ring_support(
     coords = np.column_stack([rings.camera_xy[kept], rings.ring[kept] * 10.0 * reach_px])
     pairs = cKDTree(coords).query_pairs(reach_px, output_type="ndarray")
     support = np.zeros(len(kept), np.int64)
+    offset_sum = np.zeros((len(kept), 2))
+    reach_sum = np.zeros(len(kept))
     if len(pairs):
-        close = np.abs(depth[pairs[:, 0]] - depth[pairs[:, 1]]) <= max_jump_mm
-        np.add.at(support, pairs[close, 0], 1)
-        np.add.at(support, pairs[close, 1], 1)
+        close = pairs[np.abs(depth[pairs[:, 0]] - depth[pairs[:, 1]]) <= max_jump_mm]
+        offset = coords[close[:, 1], :2] - coords[close[:, 0], :2]
+        length = np.linalg.norm(offset, axis=1)
+        for end, sign in ((0, 1.0), (1, -1.0)):
+            np.add.at(support, close[:, end], 1)
+            np.add.at(offset_sum, close[:, end], sign * offset)
+            np.add.at(reach_sum, close[:, end], length)
+    # An end of a ring stretch (at a shadow, an occlusion or a depth edge) has its neighbours on one
+    # side only: its pixels straddle the boundary and may see the far surface.
+    one_sided = np.linalg.norm(offset_sum, axis=1) > _ONE_SIDED * np.maximum(reach_sum, 1e-9)
     out = np.zeros(len(rings.kept), bool)
-    out[kept[support >= min_support]] = True
+    out[kept[(support >= min_support) & ~one_sided]] = True
     return out
 
 
@@ -198,8 +212,14 @@ def across_ring_support(
         rows = np.arange(len(doubt))
         threshold = 0.5 * (ordered[rows, split_at] + ordered[rows, split_at + 1])
         below = u & (z <= threshold[:, None])
-        either = _plane_agrees(dx, dy, z, d, below, max_jump_mm, min_count)
-        either |= _plane_agrees(dx, dy, z, d, u & ~below, max_jump_mm, min_count)
+        near = near_ring[doubt]
+        either = np.zeros(len(doubt), bool)
+        for part in (below, u & ~below):
+            # samples of one ring alone lie on a curve, which fixes no plane: such a side cannot judge
+            one_ring = np.where(part, near, np.iinfo(near.dtype).max).min(axis=1) == np.where(
+                part, near, np.iinfo(near.dtype).min
+            ).max(axis=1)
+            either |= _plane_agrees(dx, dy, z, d, part, max_jump_mm, min_count) | (part.any(axis=1) & one_ring)
         agrees[doubt] = either
     out[kept[judged & ~agrees & (use.sum(axis=1) >= min_count)]] = False
     return out
@@ -239,6 +259,20 @@ def sample_normals(points: np.ndarray, camera_xy: np.ndarray, directions: np.nda
     normals[~missing] /= norm[~missing, None]
     normals[missing] = -directions[missing]
     return normals
+
+
+def ring_coverage(rings: RingPoints, samples: RingSamples, min_samples: int = 50) -> dict[str, object]:
+    """The fraction of each ring's length seen in the camera (its samples, about one a pixel) that
+    became points: overall, the least of any ring with `min_samples` samples or more, and per ring."""
+    seen = np.bincount(samples.ring)
+    kept = np.bincount(rings.ring[rings.kept], minlength=len(seen))
+    judged = np.flatnonzero(seen >= min_samples)
+    per_ring = {int(k): round(float(kept[k] / seen[k]), 4) for k in judged}
+    return {
+        "overall": round(float(kept.sum() / max(1, seen.sum())), 4),
+        "min_ring": min(per_ring.values()) if per_ring else None,
+        "rings": per_ring,
+    }
 
 
 def ring_pointset(

@@ -20,6 +20,7 @@ from rig.pipeline.rings import (
     RingPoints,
     across_ring_support,
     along_ring_support,
+    ring_coverage,
     ring_pointset,
     triangulate_rings,
 )
@@ -38,6 +39,7 @@ class PairResult:
     points: PointSet
     rings: RingPoints | None = None  # sparse ring codecs: every triangulated sample, with diagnostics
     counts: dict[str, int] = field(default_factory=dict)
+    ring_coverage: dict[str, object] | None = None  # sparse ring codecs: rig.pipeline.rings.ring_coverage
 
 
 @dataclass(eq=False)
@@ -101,7 +103,8 @@ def reconstruct_pair(
     if elapsed is not None:
         elapsed["triangulate"] = elapsed.get("triangulate", 0.0) + t_mid - t
         elapsed["pointset"] = elapsed.get("pointset", 0.0) + time.perf_counter() - t_mid
-    return PairResult(projector, camera, corr, grid, points, rings, counts)
+    coverage = None if rings is None or corr.samples is None else ring_coverage(rings, corr.samples)
+    return PairResult(projector, camera, corr, grid, points, rings, counts, coverage)
 
 
 def triangulator(rig: Rig, projector: int, camera: int) -> PairTriangulator:

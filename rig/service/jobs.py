@@ -22,7 +22,6 @@ from rig.service.errors import IllegalTransitionError, JobNotFoundError
 log = logging.getLogger(__name__)
 
 
-
 class JobState(enum.StrEnum):
     """Where a job is; shared by the service, its store and the API."""
 

@@ -99,6 +99,7 @@ def build_manifest(
                 "camera": config.cameras[p.camera].name,
                 "points": len(p.points),
                 "counts": p.counts,
+                **({"ring_coverage": p.ring_coverage} if p.ring_coverage is not None else {}),
             }
             for p in result.pairs
         ],

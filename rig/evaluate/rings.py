@@ -1,0 +1,81 @@
+"""How much of each ring a scan recovered, and how well, against the bench's ground truth."""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy.spatial import cKDTree
+
+from rig.pipeline.scan import PairResult
+from rig.rig import PixelTruth
+
+# A true ring crossing counts as recovered when a kept point of the same ring lies this close (pixels).
+_RECOVERED_WITHIN_PX = 1.0
+# Neighbouring pixels whose true points lie farther apart than this are on two surfaces: no crossing.
+_SAME_SURFACE_MM = 2.0
+# Rings with less visible length than this (pixels) are too short to judge alone.
+_MIN_RING_LENGTH_PX = 50.0
+
+
+def true_ring_crossings(
+    truth: PixelTruth, radii: np.ndarray, center: tuple[float, float]
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Where each ring truly crosses the camera image on lit, visible surface: sub-pixel positions
+    (N, 2), ring index (N,) and the length of ring each crossing stands for (N,), pixels. Like the
+    decoder, crossings are taken between vertical neighbours where the ring runs more across columns,
+    between horizontal ones elsewhere, so one crossing stands for 1 / max(|cos|, |sin|) of length."""
+    rho = np.hypot(truth.projector_uv[..., 0] - center[0], truth.projector_uv[..., 1] - center[1])
+    seen = truth.hit & truth.lit
+    gy, gx = np.gradient(np.where(seen, rho, np.nan))
+    steep = np.abs(gy) >= np.abs(gx)
+    length = np.hypot(gx, gy) / np.maximum(np.abs(gx), np.abs(gy))
+    xy, ring, weight = [], [], []
+    for axis in (0, 1):
+        a = (slice(None, -1), slice(None)) if axis == 0 else (slice(None), slice(None, -1))
+        b = (slice(1, None), slice(None)) if axis == 0 else (slice(None), slice(1, None))
+        r1, r2 = rho[a], rho[b]
+        same = np.linalg.norm(truth.points[a] - truth.points[b], axis=-1) < _SAME_SURFACE_MM
+        usable = seen[a] & seen[b] & same & (steep[a] if axis == 0 else ~steep[a]) & np.isfinite(length[a])
+        low, high = np.minimum(r1, r2), np.maximum(r1, r2)
+        first = np.searchsorted(radii, low[usable], side="right")  # the rings between the two radii
+        last = np.searchsorted(radii, high[usable], side="right")
+        rows, cols = np.nonzero(usable)
+        for k in range(int(np.max(last - first, initial=0))):  # usually at most one ring per pixel pair
+            has = last - first > k
+            r, c, index = rows[has], cols[has], (first + k)[has]
+            t = (radii[index] - r1[r, c]) / (r2[r, c] - r1[r, c])
+            xy.append(np.column_stack([c + (t if axis == 1 else 0.0), r + (t if axis == 0 else 0.0)]))
+            ring.append(index)
+            weight.append(length[a][r, c])
+    if not xy:
+        return np.zeros((0, 2)), np.zeros(0, np.int64), np.zeros(0)
+    return np.concatenate(xy), np.concatenate(ring), np.concatenate(weight)
+
+
+def ring_coverage_on_bench(pair: PairResult, truth: PixelTruth, dist: np.ndarray) -> dict[str, float | int | None]:
+    """Ring coverage against the truth (overall and the least of any ring, by length) and the
+    accuracy of the former wedges (points where the ring runs within acos(min_cos_beta) of the
+    epipolar line, which the radius alone cannot place) against the rest; `dist` are the kept
+    points' distances to the true surface."""
+    rings, samples = pair.rings, pair.correspondence.samples
+    assert rings is not None and samples is not None and samples.ring_radii_px is not None
+    xy, ring, length = true_ring_crossings(truth, samples.ring_radii_px, samples.center_px)
+    kept = rings.kept
+    spread = 10.0 * (truth.hit.shape[0] + truth.hit.shape[1])  # rings far apart in the search
+    found = cKDTree(np.column_stack([rings.camera_xy[kept], rings.ring[kept] * spread]))
+    gap, _ = found.query(np.column_stack([xy, ring * spread]), distance_upper_bound=2 * _RECOVERED_WITHIN_PX)
+    covered = gap <= _RECOVERED_WITHIN_PX
+    visible = np.bincount(ring, weights=length, minlength=len(samples.ring_radii_px))
+    recovered = np.bincount(ring, weights=length * covered, minlength=len(visible))
+    judged = visible >= _MIN_RING_LENGTH_PX
+    wedge = rings.cos_beta[kept] < samples.min_cos_beta
+
+    def rms(part: np.ndarray) -> float | None:
+        return float(np.sqrt(np.mean(dist[part] ** 2))) if part.any() else None
+
+    return {
+        "ring_coverage": float(recovered.sum() / max(1e-9, visible.sum())),
+        "ring_coverage_min": float(np.min(recovered[judged] / visible[judged])) if judged.any() else None,
+        "wedge_points": int(wedge.sum()),
+        "wedge_rms_mm": rms(wedge),
+        "outside_wedge_rms_mm": rms(~wedge),
+    }

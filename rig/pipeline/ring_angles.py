@@ -1,0 +1,224 @@
+"""Ring samples read with the fine angular code: depth from the ring's radius and its polar angle
+together, each weighted by how well it fixes the point.
+
+A camera ray's image in the projector is its epipolar line. The ring's radius fixes where on that
+line the point is only where the line crosses the ring steeply; where the ring runs along the line
+(the two wedges of every ring the radius alone leaves empty) the angle does. The fine code gives the
+angle modulo one of its periods, so each sample has branches theta_j = (phi + 2 pi j) / M: the ray
+meets the projector's half-plane of each branch angle at one point (ray to ray). The branches near
+the coarse angle are scored against the ring's radius and the coarse angle; the best is refined by
+Gauss-Newton on the radius and fine-angle residuals, which weights each coordinate by its
+conditioning. A sample whose best branch misfits (a mixed pixel on a depth edge) or whose second
+best fits nearly as well (an ambiguous period) is rejected by the caller, from `chi2` and `margin`.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from rig.geometry import CameraModel
+from rig.geometry.cone import ConeHits, ray_half_plane
+from rig.patterns import RingSamples
+
+# A sample is rejected when its best reading misfits the decoded radius
+# and angles by more than this chi-square (a mixed pixel on a depth edge, read between two surfaces),
+# or when another period of the fine code fits within MIN_BRANCH_MARGIN of it (ambiguous).
+MAX_ANGLE_CHI2 = 25.0
+MIN_BRANCH_MARGIN = 9.0
+
+# Branches of the fine code are searched this far (radians) on either side of the coarse angle.
+BRANCH_WINDOW_RAD = 0.6
+# Assumed error of the coarse angular code (radians), for scoring branches.
+COARSE_SIGMA_RAD = 0.05
+# Gauss-Newton iterations from a branch's ray-to-ray point.
+_ITERATIONS = 3
+_STEP_MM = 1e-3  # for numerical derivatives along the ray
+
+
+@dataclass(frozen=True, eq=False)
+class AngleSolution:
+    """Per sample: the ray parameter of the best branch (NaN if no branch meets the ray), its
+    standard deviation, the best branch's misfit and how much worse the second best fits."""
+
+    s: np.ndarray
+    sigma_s: np.ndarray
+    chi2: np.ndarray
+    margin: np.ndarray  # chi2 of the second-best branch minus chi2 of the best; inf if none
+
+
+@dataclass(frozen=True, eq=False)
+class _Rays:
+    projector: CameraModel
+    origins: np.ndarray  # (n, 3)
+    directions: np.ndarray  # (n, 3)
+    center: tuple[float, float]
+
+    def polar(self, s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Projector radius and angle about the centre of the points at ray parameters s (n, k)."""
+        points = self.origins[:, None, :] + s[..., None] * self.directions[:, None, :]
+        uv, _ = self.projector.project(points.reshape(-1, 3))
+        du, dv = uv[:, 0] - self.center[0], uv[:, 1] - self.center[1]
+        return np.hypot(du, dv).reshape(s.shape), np.arctan2(dv, du).reshape(s.shape)
+
+
+def _wrap(angle: np.ndarray) -> np.ndarray:
+    return np.mod(angle + np.pi, 2 * np.pi) - np.pi
+
+
+def solve_ring_angles(
+    projector: CameraModel,
+    origins: np.ndarray,
+    directions: np.ndarray,
+    radius: np.ndarray,
+    coarse_theta: np.ndarray,
+    fine_phase: np.ndarray,
+    fine_periods: np.ndarray,
+    center: tuple[float, float],
+    radius_sigma_px: float,
+    tangential_sigma_px: float,
+    chunk: int = 4096,
+) -> AngleSolution:
+    """Best point along each ray (M, 3) on its ring (`radius`, pixels) agreeing with the decoded
+    angles: `coarse_theta` (radians, absolute) and `fine_phase` (wrapped, of `fine_periods` periods
+    per revolution)."""
+    n = len(radius)
+    out = [np.full(n, np.nan), np.full(n, np.nan), np.full(n, np.inf), np.full(n, np.inf)]
+    for start in range(0, n, chunk):
+        part = slice(start, min(n, start + chunk))
+        rays = _Rays(projector, origins[part], directions[part], center)
+        solved = _solve_chunk(
+            rays,
+            radius[part],
+            coarse_theta[part],
+            fine_phase[part],
+            fine_periods[part],
+            radius_sigma_px,
+            tangential_sigma_px,
+        )
+        for array, value in zip(out, solved, strict=True):
+            array[part] = value
+    return AngleSolution(*out)
+
+
+def _solve_chunk(
+    rays: _Rays,
+    radius: np.ndarray,
+    coarse: np.ndarray,
+    phase: np.ndarray,
+    periods: np.ndarray,
+    radius_sigma: float,
+    tangential_sigma: float,
+) -> tuple[np.ndarray, ...]:
+    periods_f = periods.astype(np.float64)
+    lo = np.ceil((periods_f * (coarse - BRANCH_WINDOW_RAD) - phase) / (2 * np.pi))
+    hi = np.floor((periods_f * (coarse + BRANCH_WINDOW_RAD) - phase) / (2 * np.pi))
+    width = int(np.max(hi - lo, initial=0)) + 1
+    branch = lo[:, None] + np.arange(width)[None, :]
+    theta = (phase[:, None] + 2 * np.pi * branch) / periods_f[:, None]
+    s = ray_half_plane(rays.projector, rays.origins, rays.directions, theta, rays.center)
+    s[branch > hi[:, None]] = np.nan
+    rho, _ = rays.polar(np.nan_to_num(s, nan=1.0))
+    score = ((rho - radius[:, None]) / radius_sigma) ** 2 + (_wrap(theta - coarse[:, None]) / COARSE_SIGMA_RAD) ** 2
+    score[~np.isfinite(s)] = np.inf
+    # the two best branches, refined, then compared on their full misfit
+    order = np.argsort(score, axis=1)[:, :2]
+    if order.shape[1] == 1:
+        order = np.column_stack([order, order])
+    rows = np.arange(len(radius))[:, None]
+    best_s, best_theta = s[rows, order], theta[rows, order]
+    refined, sigma, chi2 = _refine(rays, best_s, best_theta, radius, radius_sigma, tangential_sigma)
+    chi2 = chi2 + (_wrap(best_theta - coarse[:, None]) / COARSE_SIGMA_RAD) ** 2
+    chi2[~np.isfinite(refined)] = np.inf
+    if width == 1:
+        chi2[:, 1] = np.inf
+    first = np.argmin(chi2, axis=1)
+    r = rows[:, 0]
+    margin = chi2[r, 1 - first] - chi2[r, first]
+    return refined[r, first], sigma[r, first], chi2[r, first], np.nan_to_num(margin, nan=np.inf)
+
+
+def _refine(
+    rays: _Rays, s: np.ndarray, theta: np.ndarray, radius: np.ndarray, radius_sigma: float, tangential_sigma: float
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Gauss-Newton on r = [(rho - R) / sigma_R, R (angle - theta) / sigma_t] along each ray from
+    `s` (n, k); the refined s, its standard deviation and the misfit |r|^2."""
+    s = np.nan_to_num(s, nan=np.nan).copy()
+    bad = ~np.isfinite(s)
+    s[bad] = 1.0
+    R = radius[:, None]
+
+    def residuals(t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        rho, angle = rays.polar(t)
+        return (rho - R) / radius_sigma, R * _wrap(angle - theta) / tangential_sigma
+
+    for _ in range(_ITERATIONS):
+        r1, r2 = residuals(s)
+        p1, p2 = residuals(s + _STEP_MM)
+        m1, m2 = residuals(s - _STEP_MM)
+        j1, j2 = (p1 - m1) / (2 * _STEP_MM), (p2 - m2) / (2 * _STEP_MM)
+        information = j1 * j1 + j2 * j2
+        s = s - (j1 * r1 + j2 * r2) / np.maximum(information, 1e-300)
+    r1, r2 = residuals(s)
+    sigma = 1.0 / np.sqrt(np.maximum(information, 1e-300))
+    s[bad | (s <= 0)] = np.nan
+    return s, sigma, r1 * r1 + r2 * r2
+
+
+@dataclass(frozen=True, eq=False)
+class Placed:
+    """Per-sample results of triangulation, updated in place where the fine angle places a sample."""
+
+    found: np.ndarray
+    points: np.ndarray
+    other: np.ndarray
+    sigma: np.ndarray
+    cos_beta: np.ndarray
+
+
+def place_by_fine_angle(
+    projector: CameraModel,
+    origins: np.ndarray,
+    directions: np.ndarray,
+    samples: RingSamples,
+    hits: ConeHits,
+    roots: np.ndarray,
+    idx: np.ndarray,
+    placed: Placed,
+) -> dict[str, int]:
+    """Place the samples `idx` by radius and fine angle together (rig.pipeline.ring_angles); the cone
+    `roots` (M, 2) only name the rejected root. Returns the counts of what it rejected and fixed."""
+    assert samples.fine_phase is not None and samples.fine_periods is not None
+    solution = solve_ring_angles(
+        projector,
+        origins[idx],
+        directions[idx],
+        samples.radius_px[idx],
+        samples.theta[idx],
+        samples.fine_phase[idx],
+        samples.fine_periods[idx],
+        samples.center_px,
+        samples.radius_sigma_px,
+        samples.tangential_sigma_px,
+    )
+    solvable = np.isfinite(solution.s)
+    misfit = solvable & (solution.chi2 > MAX_ANGLE_CHI2)
+    ambiguous = solvable & ~misfit & (solution.margin < MIN_BRANCH_MARGIN)
+    solved = solvable & ~misfit & ~ambiguous
+    placed.found[idx] = solved
+    placed.points[idx] = origins[idx] + solution.s[:, None] * directions[idx]
+    placed.sigma[idx] = solution.sigma_s
+    # The cone root the solution did not take is the rejected root; where the roots lie within a few
+    # sigma of each other (the ring along the epipolar line) there is no root to reject.
+    distance = np.abs(roots[idx] - solution.s[:, None])
+    nearer = np.argmin(np.where(np.isfinite(distance), distance, np.inf), axis=1)
+    apart = np.abs(roots[idx, 0] - roots[idx, 1]) > 6 * solution.sigma_s
+    rejected = origins[idx] + np.take_along_axis(roots[idx], 1 - nearer[:, None], axis=1) * directions[idx]
+    placed.other[idx] = np.where(apart[:, None], rejected, np.nan)
+    placed.cos_beta[idx] = np.nan_to_num(hits.cos_beta[idx, nearer], nan=0.0)
+    return {
+        "rejected_angle_misfit": int(misfit.sum()),
+        "rejected_angle_ambiguous": int(ambiguous.sum()),
+        "fixed_by_angle": int((solved & (placed.cos_beta[idx] < samples.min_cos_beta)).sum()),
+    }
