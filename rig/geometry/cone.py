@@ -27,7 +27,7 @@ class ConeHits:
     cos_beta: np.ndarray  # |cos| of the angle between the ring's radial direction and the epipolar line
 
 
-def _affine_image(projector: CameraModel, origins: np.ndarray, directions: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def affine_image(projector: CameraModel, origins: np.ndarray, directions: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Homogeneous projector image point x(s) = alpha + s beta of the rays (each (M, 3))."""
     dev_o = projector.to_device(origins)
     dev_d = directions @ projector.R.T
@@ -45,7 +45,7 @@ def ray_cone(
 ) -> ConeHits:
     """Intersect rays (M, 3) with the cones of rings of `radius` (M,) about `center` (pixels)."""
     u0, v0 = center
-    alpha, beta = _affine_image(projector, origins, directions)
+    alpha, beta = affine_image(projector, origins, directions)
     a0, a1, a2 = alpha[:, 0] - u0 * alpha[:, 2], alpha[:, 1] - v0 * alpha[:, 2], alpha[:, 2]
     b0, b1, b2 = beta[:, 0] - u0 * beta[:, 2], beta[:, 1] - v0 * beta[:, 2], beta[:, 2]
     r2 = radius * radius
@@ -110,7 +110,7 @@ def ray_half_plane(
     (M, J) about `center`: the points the projector's (undistorted) image puts on the half-line from
     the centre at that angle. NaN where the ray meets only the other half, or behind either device."""
     u0, v0 = center
-    alpha, beta = _affine_image(projector, origins, directions)
+    alpha, beta = affine_image(projector, origins, directions)
     a = [alpha[:, 0:1] - u0 * alpha[:, 2:3], alpha[:, 1:2] - v0 * alpha[:, 2:3], alpha[:, 2:3]]
     b = [beta[:, 0:1] - u0 * beta[:, 2:3], beta[:, 1:2] - v0 * beta[:, 2:3], beta[:, 2:3]]
     sin, cos = np.sin(theta), np.cos(theta)

@@ -19,7 +19,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from rig.geometry import CameraModel
-from rig.geometry.cone import ConeHits, ray_half_plane
+from rig.geometry.cone import ConeHits, affine_image, ray_half_plane
 from rig.patterns import RingSamples
 
 # A sample is rejected when its best reading misfits the decoded radius
@@ -29,7 +29,7 @@ MAX_ANGLE_CHI2 = 25.0
 MIN_BRANCH_MARGIN = 9.0
 
 # Branches of the fine code are searched this far (radians) on either side of the coarse angle.
-BRANCH_WINDOW_RAD = 0.6
+BRANCH_WINDOW_RAD = 0.3
 # Assumed error of the coarse angular code (radians), for scoring branches.
 COARSE_SIGMA_RAD = 0.05
 # Gauss-Newton iterations from a branch's ray-to-ray point.
@@ -48,19 +48,56 @@ class AngleSolution:
     margin: np.ndarray  # chi2 of the second-best branch minus chi2 of the best; inf if none
 
 
-@dataclass(frozen=True, eq=False)
 class _Rays:
-    projector: CameraModel
-    origins: np.ndarray  # (n, 3)
-    directions: np.ndarray  # (n, 3)
-    center: tuple[float, float]
+    """Rays (n, 3) seen in the projector image: radius and angle about the rings' centre of the point
+    at ray parameter s, and their slopes along the ray. Without distortion the image point is
+    (a + s b)[:2] / (a + s b)[2] for per-ray vectors a, b (rig.geometry.cone.affine_image): closed
+    forms; with it, the full projection and central differences."""
+
+    def __init__(
+        self, projector: CameraModel, origins: np.ndarray, directions: np.ndarray, center: tuple[float, float]
+    ) -> None:
+        self.projector, self.origins, self.directions, self.center = projector, origins, directions, center
+        self.affine: tuple[np.ndarray, ...] | None = None
+        if not projector.has_distortion:
+            alpha, beta = affine_image(projector, origins, directions)
+            u0, v0 = center
+            self.affine = tuple(  # centred, as (n, 1) columns for broadcasting against (n, k)
+                column[:, None]
+                for column in (
+                    alpha[:, 0] - u0 * alpha[:, 2],
+                    alpha[:, 1] - v0 * alpha[:, 2],
+                    alpha[:, 2],
+                    beta[:, 0] - u0 * beta[:, 2],
+                    beta[:, 1] - v0 * beta[:, 2],
+                    beta[:, 2],
+                )
+            )
 
     def polar(self, s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Projector radius and angle about the centre of the points at ray parameters s (n, k)."""
+        if self.affine is not None:
+            a0, a1, a2, b0, b1, b2 = self.affine
+            w = a2 + s * b2
+            x, y = (a0 + s * b0) / w, (a1 + s * b1) / w
+            return np.hypot(x, y), np.arctan2(y, x)
         points = self.origins[:, None, :] + s[..., None] * self.directions[:, None, :]
         uv, _ = self.projector.project(points.reshape(-1, 3))
         du, dv = uv[:, 0] - self.center[0], uv[:, 1] - self.center[1]
         return np.hypot(du, dv).reshape(s.shape), np.arctan2(dv, du).reshape(s.shape)
+
+    def slopes(self, s: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """Radius, angle, d radius / ds and d angle / ds at ray parameters s (n, k)."""
+        if self.affine is not None:
+            a0, a1, a2, b0, b1, b2 = self.affine
+            w = a2 + s * b2
+            x, y = (a0 + s * b0) / w, (a1 + s * b1) / w
+            dx, dy = (b0 * a2 - a0 * b2) / (w * w), (b1 * a2 - a1 * b2) / (w * w)
+            rho = np.hypot(x, y)
+            return rho, np.arctan2(y, x), (x * dx + y * dy) / rho, (x * dy - y * dx) / (rho * rho)
+        rho, angle = self.polar(s)
+        (rho_p, angle_p), (rho_m, angle_m) = self.polar(s + _STEP_MM), self.polar(s - _STEP_MM)
+        return rho, angle, (rho_p - rho_m) / (2 * _STEP_MM), _wrap(angle_p - angle_m) / (2 * _STEP_MM)
 
 
 def _wrap(angle: np.ndarray) -> np.ndarray:
@@ -149,18 +186,14 @@ def _refine(
     s[bad] = 1.0
     R = radius[:, None]
 
-    def residuals(t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        rho, angle = rays.polar(t)
-        return (rho - R) / radius_sigma, R * _wrap(angle - theta) / tangential_sigma
-
-    for _ in range(_ITERATIONS):
-        r1, r2 = residuals(s)
-        p1, p2 = residuals(s + _STEP_MM)
-        m1, m2 = residuals(s - _STEP_MM)
-        j1, j2 = (p1 - m1) / (2 * _STEP_MM), (p2 - m2) / (2 * _STEP_MM)
+    information = np.ones_like(s)
+    for iteration in range(_ITERATIONS + 1):
+        rho, angle, d_rho, d_angle = rays.slopes(s)
+        r1, r2 = (rho - R) / radius_sigma, R * _wrap(angle - theta) / tangential_sigma
+        j1, j2 = d_rho / radius_sigma, R * d_angle / tangential_sigma
         information = j1 * j1 + j2 * j2
-        s = s - (j1 * r1 + j2 * r2) / np.maximum(information, 1e-300)
-    r1, r2 = residuals(s)
+        if iteration < _ITERATIONS:  # the last pass only measures the misfit and the information
+            s = s - (j1 * r1 + j2 * r2) / np.maximum(information, 1e-300)
     sigma = 1.0 / np.sqrt(np.maximum(information, 1e-300))
     s[bad | (s <= 0)] = np.nan
     return s, sigma, r1 * r1 + r2 * r2
