@@ -172,7 +172,8 @@ def _solve_chunk(
         chi2[:, 1] = np.inf
     first = np.argmin(chi2, axis=1)
     r = rows[:, 0]
-    margin = chi2[r, 1 - first] - chi2[r, first]
+    with np.errstate(invalid="ignore"):  # inf - inf where no branch fits: no margin to speak of
+        margin = chi2[r, 1 - first] - chi2[r, first]
     return refined[r, first], sigma[r, first], chi2[r, first], np.nan_to_num(margin, nan=np.inf)
 
 
