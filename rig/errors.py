@@ -40,3 +40,8 @@ class StoreError(SlrigError):
 class CalibrationError(SlrigError):
     """Raised when calibration cannot produce a result: no board found, too few views, images that
     do not fit the rig. Nothing is written when it is raised."""
+
+
+class PlanError(SlrigError):
+    """Raised when rings cannot be planned: a tolerance that is not positive, a pilot scan with no
+    points, or a surface the rings do not reach. The message names the input and the reason."""

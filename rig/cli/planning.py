@@ -15,7 +15,7 @@ from rig.assembly.simulated import build_scene
 from rig.cli.common import scene_override
 from rig.config import load_config
 from rig.errors import ConfigError
-from rig.plan import confirm_on_bench, plan_views
+from rig.plan.views import confirm_on_bench, plan_views
 
 
 def cmd_plan(args: argparse.Namespace) -> int:

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from typing import Literal
 
-from pydantic import Field, field_validator
+from pydantic import Field, field_validator, model_validator
 
 from rig.config.common import Strict
 from rig.patterns import codec_names
@@ -36,6 +36,47 @@ class MergeConfig(Strict):
     )
 
 
+class RingPlanSettings(Strict):
+    """How an adaptive scan plans its rings from a pilot scan (rig.plan.rings)."""
+
+    tolerance_mm: float = Field(0.2, gt=0.0, le=100.0, description="interpolation error the plan allows between rings")
+    pilot_codec: str = Field("phase", description="the dense codec of the pilot scan")
+    curvature_radius_mm: float = Field(
+        5.0, ge=0.5, le=200.0, description="smoothing scale: curvature is fitted over neighbours this close"
+    )
+    min_spacing_px: float = Field(6.0, gt=4.0, le=4096.0, description="rings never closer than this (projector px)")
+    max_spacing_px: float = Field(
+        64.0, gt=4.0, le=4096.0, description="rings never further apart: flat surface still needs its outline"
+    )
+    min_radius_px: float = Field(8.0, ge=0.0, le=4096.0, description="the innermost ring at least this large")
+    bin_px: float = Field(2.0, gt=0.0, le=64.0, description="radius bins of the spacing profile")
+    demand_quantile: float = Field(
+        0.98, gt=0.5, le=1.0, description="each radius gets the spacing this fraction of its surface allows"
+    )
+    energy_fraction: float = Field(
+        0.95, gt=0.5, lt=1.0, description="curvature-frequency criterion: the band limit holds this much energy"
+    )
+    dense_spacing_px: float = Field(
+        8.0, gt=4.0, le=1024.0, description="curvature-frequency criterion: spacing of the N dense rings"
+    )
+    curve_step_mm: float = Field(0.5, gt=0.0, le=50.0, description="ring curves resampled at this arc length")
+    curve_smooth_mm: float = Field(3.0, gt=0.0, le=100.0, description="ring curves smoothed over this arc length")
+    min_curve_mm: float = Field(20.0, gt=0.0, le=10_000.0, description="shorter ring pieces are not measured")
+
+    @field_validator("pilot_codec")
+    @classmethod
+    def _known_codec(cls, v: str) -> str:
+        if v not in codec_names():
+            raise ValueError(f"unknown codec {v!r}; known codecs: {', '.join(codec_names())}")
+        return v
+
+    @model_validator(mode="after")
+    def _spacings_ordered(self) -> RingPlanSettings:
+        if self.min_spacing_px > self.max_spacing_px:
+            raise ValueError(f"min_spacing_px {self.min_spacing_px} exceeds max_spacing_px {self.max_spacing_px}")
+        return self
+
+
 class ScanConfig(Strict):
     codec: str = "phase"
     gray: GrayParams = GrayParams()
@@ -52,6 +93,7 @@ class ScanConfig(Strict):
     )
     save_frames: bool = Field(False, description="keep raw captures in the scan directory")
     merge: MergeConfig = MergeConfig()
+    adaptive: RingPlanSettings = RingPlanSettings()
 
     @field_validator("codec")
     @classmethod

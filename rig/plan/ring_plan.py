@@ -1,0 +1,150 @@
+"""A ring plan: planned from a pilot (rig.plan.rings), kept in a file that later scans reuse.
+
+The file is JSON (YAML is read too): the radii to project, both criteria, the spacing profile they
+came from, and what the pilot was. A scan takes a plan's radii as its rings codec's `radii_px`.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import yaml
+
+from rig.config.scan import RingPlanSettings
+from rig.errors import PlanError
+from rig.geometry import CameraModel
+from rig.pipeline.scan import ScanResult
+from rig.plan.rings import (
+    Demand,
+    PilotView,
+    demand,
+    frequency_criterion,
+    pilot_curvature,
+    place_rings,
+    spacing_profile,
+    uniform_rings,
+)
+
+PLAN_FORMAT = "slrig-ring-plan/1"
+
+
+@dataclass(frozen=True)
+class RingPlan:
+    """The rings to project (`radii_px` about `center_px`, one set for every projector) and why."""
+
+    tolerance_mm: float
+    center_px: tuple[float, float]
+    radii_px: list[float]
+    criteria: dict[str, dict[str, Any]]
+    profile: dict[str, list[float]]  # radius bins (px) and the spacing each allows (px)
+    pilot: dict[str, Any] = field(default_factory=dict)
+
+    @property
+    def rings(self) -> int:
+        return len(self.radii_px)
+
+    def as_dict(self) -> dict[str, Any]:
+        return {
+            "format": PLAN_FORMAT,
+            "tolerance_mm": self.tolerance_mm,
+            "center_px": list(self.center_px),
+            "rings": self.rings,
+            "radii_px": [round(r, 2) for r in self.radii_px],
+            "criteria": self.criteria,
+            "pilot": self.pilot,
+            "profile": self.profile,
+        }
+
+    def save(self, path: Path) -> None:
+        Path(path).write_text(json.dumps(self.as_dict(), indent=1, allow_nan=False) + "\n")
+
+    @staticmethod
+    def from_dict(data: Any, source: str = "plan") -> RingPlan:
+        """A plan read back; raises PlanError naming the field that is missing or wrong."""
+        if not isinstance(data, dict) or data.get("format") != PLAN_FORMAT:
+            raise PlanError(f"{source}: not a ring plan (format must be {PLAN_FORMAT!r})")
+        try:
+            radii = [float(r) for r in data["radii_px"]]
+            center = (float(data["center_px"][0]), float(data["center_px"][1]))
+            tolerance = float(data["tolerance_mm"])
+        except (KeyError, TypeError, ValueError, IndexError) as exc:
+            raise PlanError(f"{source}: radii_px, center_px and tolerance_mm must be numbers ({exc!r})") from None
+        if not radii or not np.all(np.isfinite(radii)) or np.any(np.diff(radii) <= 4.0) or radii[0] <= 0:
+            raise PlanError(f"{source}: radii_px must be positive and increase by more than 4 px")
+        return RingPlan(
+            tolerance,
+            center,
+            radii,
+            dict(data.get("criteria", {})),
+            dict(data.get("profile", {})),
+            data.get("pilot", {}),
+        )
+
+    @staticmethod
+    def load(path: Path) -> RingPlan:
+        try:
+            text = Path(path).read_text()
+        except OSError as exc:
+            raise PlanError(f"cannot read plan {path}: {exc.strerror or exc}") from None
+        try:
+            data = json.loads(text) if text.lstrip().startswith("{") else yaml.safe_load(text)
+        except (json.JSONDecodeError, yaml.YAMLError) as exc:
+            raise PlanError(f"plan {path} is not JSON or YAML: {exc}") from None
+        return RingPlan.from_dict(data, str(path))
+
+
+def plan_rings(
+    views: list[PilotView],
+    settings: RingPlanSettings,
+    tolerance_mm: float | None = None,
+    pilot: dict[str, Any] | None = None,
+) -> RingPlan:
+    """The plan for the pilot's views (one per projector and camera): one set of radii for every
+    projector, under the strictest demand any of them makes at each radius."""
+    tolerance = settings.tolerance_mm if tolerance_mm is None else tolerance_mm
+    if not np.isfinite(tolerance) or tolerance <= 0:
+        raise PlanError(f"tolerance_mm: must be a positive number of millimetres, got {tolerance}")
+    views = [v for v in views if len(v.points)]
+    if not views:
+        raise PlanError("pilot: the pilot scan has no points")
+    projector = views[0].projector
+    center = ((projector.width - 1) / 2, (projector.height - 1) / 2)
+    demands: list[Demand] = []
+    for view in views:
+        curvature = pilot_curvature(view, settings)
+        demands.append(demand(view, curvature, tolerance, center, settings.max_spacing_px))
+    if sum(len(d.radius_px) for d in demands) < 10:
+        raise PlanError("pilot: the rings do not reach the scanned surface (no lit, smooth point inside the projector)")
+    edges, profile = spacing_profile(demands, settings)
+    radii = place_rings(edges, profile, settings.bin_px)
+    count, spacing = uniform_rings(edges, profile, settings.bin_px)
+    rate = float(np.median(np.concatenate([d.px_per_mm for d in demands])))
+    criteria = {
+        "sagitta_nonuniform": {"rings": len(radii)},
+        "sagitta_uniform": {"rings": count, "spacing_px": round(spacing, 2)},
+        "curvature_frequency": frequency_criterion(views, center, settings, edges, rate),
+    }
+    kappa = np.concatenate([d.kappa_across for d in demands])
+    pilot = {
+        **(pilot or {}),
+        "points": int(sum(len(v.points) for v in views)),
+        "curvature_samples": len(kappa),
+        "kappa_across_p50_p98_per_mm": [round(float(q), 5) for q in np.percentile(kappa, [50, 98])],
+        "radius_range_px": [round(float(edges[0]), 1), round(float(edges[-1] + settings.bin_px), 1)],
+    }
+    profile_out = {
+        "radius_px": [round(float(e), 1) for e in edges],
+        "spacing_px": [round(float(p), 2) for p in profile],
+    }
+    return RingPlan(tolerance, center, radii, criteria, profile_out, pilot)
+
+
+def pilot_views(result: ScanResult, cameras: list[CameraModel], projectors: list[CameraModel]) -> list[PilotView]:
+    """One view per (projector, camera) pair of a pilot scan."""
+    return [
+        PilotView(pair.points.points, projectors[pair.projector], cameras[pair.camera].center) for pair in result.pairs
+    ]
