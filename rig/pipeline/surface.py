@@ -1,0 +1,299 @@
+"""The surface between the rings (dissertation ch.4-5): from ring samples alone, a depth map on the
+camera grid and a mesh, interpolated between neighbouring rings, with holes where the rings say
+there is no surface.
+
+The samples are triangulated in the camera image (Delaunay). A triangle is kept only if it joins
+one ring to the next (a ring missing between two others is a shadow or an occlusion: a hole), does
+not bridge a gap along a ring, and is not seen edge-on or bent against its corners' normals (a
+depth edge). Each camera pixel inside a kept triangle gets a point on its ray:
+
+- `linear`: where the ray meets the triangle's plane;
+- `quadratic`: the mean of that and the blend of the corners' tangent planes (each met by the ray,
+  weighted by the point's barycentric coordinates). For a quadratic surface the linear
+  interpolant errs by +1/2 sum b_i (x - x_i)' H (x - x_i) and the tangent blend by exactly the
+  opposite, so their mean is exact to second order: only the corners' normals are needed;
+- `cubic`: SciPy's Clough-Tocher C1 interpolant of camera depth over the image (gradients
+  estimated globally, so they also feel samples across a depth edge).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Literal
+
+import cv2
+import numpy as np
+from scipy.interpolate import CloughTocher2DInterpolator
+
+from rig.geometry import CameraModel
+
+Interpolant = Literal["linear", "quadratic", "cubic"]
+INTERPOLANTS: tuple[str, ...] = ("linear", "quadratic", "cubic")
+
+
+@dataclass(frozen=True)
+class SurfaceSettings:
+    max_gap_px: float = 6.0  # two samples of one ring further apart than this are not neighbours
+    max_slant_deg: float = 84.0  # triangles seen more edge-on than this span a depth edge
+    max_bend_deg: float = 50.0  # ... as do triangles this far from one of their corners' normals
+    min_foreshortening: float = 0.05  # ... and edges steep to both devices (see _bridges)
+    max_unlit: float = 0.2  # triangles over more of their pixels dark than this span a shadow
+
+
+@dataclass(frozen=True, eq=False)
+class RingSurface:
+    """The interpolated surface of one (projector, camera) pair."""
+
+    vertices: np.ndarray  # (M, 3) the ring samples
+    normals: np.ndarray  # (M, 3) unit, toward the camera
+    faces: np.ndarray  # (F, 3) kept triangles of the samples
+    grid: np.ndarray  # (H, W, 3) a point per covered pixel, NaN elsewhere
+    valid: np.ndarray  # (H, W)
+    counts: dict[str, int]
+
+
+def ring_triangles(
+    points: np.ndarray,
+    xy: np.ndarray,
+    ring: np.ndarray,
+    camera: CameraModel,
+    projector: CameraModel,
+    settings: SurfaceSettings,
+) -> tuple[np.ndarray, np.ndarray, dict[str, int]]:
+    """Kept triangles (F, 3) of the samples' image Delaunay triangulation, the samples' normals
+    (unit, facing the camera), and how many triangles each test dropped."""
+    _, rays = camera.rays(xy)
+    directions = np.asarray(rays)
+    tri = delaunay(xy)
+    counts = {"triangles": len(tri)}
+    r = ring[tri]
+    span = r.max(axis=1) - r.min(axis=1)
+    same = r == np.roll(r, -1, axis=1)  # edge k joins corner k and k+1 on one ring
+    edge_px = np.linalg.norm(xy[tri] - np.roll(xy[tri], -1, axis=1), axis=2)
+    gap = (same & (edge_px > settings.max_gap_px)).any(axis=1)
+    keep = (span == 1) & ~gap
+    counts["dropped_ring_skipped"] = int((span > 1).sum())
+    counts["dropped_gap"] = int(((span <= 1) & ~keep & ~(span == 0)).sum())
+    counts["dropped_one_ring"] = int((span == 0).sum())
+    tri = tri[keep]
+    face = _face_normals(points, tri, directions)
+    slant = np.abs(np.einsum("ij,ij->i", face, directions[tri[:, 0]]))
+    edge_on = slant < np.cos(np.radians(settings.max_slant_deg))
+    edge_on |= _bridges(points, xy, tri, camera, projector, settings.min_foreshortening)
+    tri, face = tri[~edge_on], face[~edge_on]
+    normals = _vertex_normals(points, tri, face, directions)
+    bent = (np.einsum("ikj,ij->ik", normals[tri], face) < np.cos(np.radians(settings.max_bend_deg))).any(axis=1)
+    tri, face = tri[~bent], face[~bent]
+    counts["dropped_depth_edge"] = int(edge_on.sum() + bent.sum())
+    counts["faces"] = len(tri)
+    return tri, _vertex_normals(points, tri, face, directions), counts
+
+
+def delaunay(xy: np.ndarray) -> np.ndarray:
+    """Delaunay triangles (F, 3) of image points, by OpenCV's Subdiv2D (a third of Qhull's time
+    here); points that coincide in float32 are triangulated once."""
+    if len(xy) < 3:
+        return np.zeros((0, 3), np.int64)
+    lo, hi = xy.min(axis=0) - 2.0, xy.max(axis=0) + 2.0
+    subdiv = cv2.Subdiv2D((int(lo[0]), int(lo[1]), int(hi[0] - lo[0]) + 2, int(hi[1] - lo[1]) + 2))
+    coords = np.ascontiguousarray(xy, dtype=np.float32)
+    subdiv.insert(coords)
+    corners = subdiv.getTriangleList().astype(np.float32).reshape(-1, 3, 2)
+    keys = coords.view(np.int64).ravel()  # both float32 coordinates as one exact key
+    order = np.argsort(keys)
+    found = np.searchsorted(keys[order], np.ascontiguousarray(corners).view(np.int64).reshape(-1, 3))
+    found = np.minimum(found, len(keys) - 1)
+    index = order[found]
+    real = (keys[index] == np.ascontiguousarray(corners).view(np.int64).reshape(-1, 3)).all(axis=1)
+    return index[real]  # triangles touching Subdiv2D's outer virtual vertices are dropped
+
+
+def _bridges(
+    points: np.ndarray, xy: np.ndarray, tri: np.ndarray, camera: CameraModel, projector: CameraModel, min_product: float
+) -> np.ndarray:
+    """Triangles with an edge that both devices see foreshortened: f = (image length x mm per
+    pixel at its depth) / 3D length is the cosine of the edge's tilt out of a device's image plane.
+    A surface can be steep to one device, rarely to both; an edge joining a surface to another that
+    one device hides or shadows runs along a ray of one and steeply for the other."""
+    p = points[tri]
+    length = np.linalg.norm(np.roll(p, -1, axis=1) - p, axis=2)
+    product = np.ones_like(length)
+    for device, image in ((camera, xy[tri]), (projector, None)):
+        if image is None:
+            image = device.project(p.reshape(-1, 3))[0].reshape(p.shape[0], 3, 2)
+        pixels = np.linalg.norm(np.roll(image, -1, axis=1) - image, axis=2)
+        product *= np.minimum(1.0, pixels * _mm_per_px(device, p) / np.maximum(length, 1e-12))
+    return (product < min_product).any(axis=1)
+
+
+def _mm_per_px(device: CameraModel, p: np.ndarray) -> np.ndarray:
+    """Millimetres per pixel across a device's rays at each corner's depth (F, 3)."""
+    if device.projection == "orthographic":
+        return np.full(p.shape[:2], 1.0 / device.K[0, 0])
+    depth = device.to_device(p.reshape(-1, 3))[:, 2].reshape(p.shape[:2])
+    return 0.5 * (depth + np.roll(depth, -1, axis=1)) / device.K[0, 0]
+
+
+def _face_normals(points: np.ndarray, tri: np.ndarray, directions: np.ndarray) -> np.ndarray:
+    p = points[tri]
+    face = np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])
+    face /= np.maximum(np.linalg.norm(face, axis=1), 1e-300)[:, None]
+    facing = np.einsum("ij,ij->i", face, directions[tri[:, 0]]) > 0
+    face[facing] *= -1
+    return face
+
+
+def _vertex_normals(points: np.ndarray, tri: np.ndarray, face: np.ndarray, directions: np.ndarray) -> np.ndarray:
+    """Each sample's normal: its triangles' unit normals weighted by 1 / their longest edge. A
+    triangle's normal belongs half-way across to the next ring, so weighting each side by the
+    inverse of its spacing interpolates the two sides' normals to the sample, also where the rings
+    are unevenly spaced."""
+    p = points[tri]
+    longest = np.linalg.norm(p - np.roll(p, -1, axis=1), axis=2).max(axis=1)
+    weighted = face / np.maximum(longest, 1e-9)[:, None]
+    normals = np.zeros_like(points)
+    for k in range(3):
+        np.add.at(normals, tri[:, k], weighted)
+    norm = np.linalg.norm(normals, axis=1)
+    missing = norm < 1e-12
+    normals[~missing] /= norm[~missing, None]
+    normals[missing] = -directions[missing]
+    return normals
+
+
+def rasterize(xy: np.ndarray, tri: np.ndarray, width: int, height: int) -> tuple[np.ndarray, np.ndarray]:
+    """Camera pixels (flat indices) whose centres lie in the image triangles, and the triangle of
+    each (a pixel on a shared edge goes to one of them). Scanline: each triangle's rows, each row's
+    span between the edges it crosses."""
+    corners = xy[tri]  # (F, 3, 2)
+    top = np.clip(np.ceil(corners[:, :, 1].min(axis=1)), 0, height - 1).astype(np.int64)
+    bottom = np.clip(np.floor(corners[:, :, 1].max(axis=1)), 0, height - 1).astype(np.int64)
+    rows_per = np.maximum(bottom - top + 1, 0)
+    owner = np.repeat(np.arange(len(tri)), rows_per)
+    row = top[owner] + np.arange(len(owner)) - np.repeat(np.cumsum(rows_per) - rows_per, rows_per)
+    left = np.full(len(owner), np.inf)
+    right = np.full(len(owner), -np.inf)
+    for k in range(3):
+        a, b = corners[owner, k], corners[owner, (k + 1) % 3]
+        dy = b[:, 1] - a[:, 1]
+        crosses = (np.minimum(a[:, 1], b[:, 1]) <= row) & (row <= np.maximum(a[:, 1], b[:, 1])) & (dy != 0)
+        x = a[:, 0] + (row - a[:, 1]) * np.divide(b[:, 0] - a[:, 0], dy, out=np.zeros_like(dy), where=dy != 0)
+        left = np.where(crosses, np.minimum(left, x), left)
+        right = np.where(crosses, np.maximum(right, x), right)
+    first = np.clip(np.ceil(left), 0, width).astype(np.int64, copy=False) if len(left) else left.astype(np.int64)
+    last = np.clip(np.floor(right), -1, width - 1).astype(np.int64, copy=False) if len(right) else first
+    count = np.maximum(last - first + 1, 0)
+    pixel_owner = np.repeat(owner, count)
+    column = np.repeat(first, count) + np.arange(count.sum()) - np.repeat(np.cumsum(count) - count, count)
+    image = np.full(width * height, -1, dtype=np.int64)
+    image[np.repeat(row, count) * width + column] = pixel_owner  # a pixel on a shared edge: one wins
+    pixel = np.flatnonzero(image >= 0)
+    return pixel, image[pixel]
+
+
+def interpolate_surface(
+    points: np.ndarray,
+    xy: np.ndarray,
+    ring: np.ndarray,
+    camera: CameraModel,
+    projector: CameraModel,
+    lit: np.ndarray | None = None,
+    method: Interpolant = "quadratic",
+    settings: SurfaceSettings | None = None,
+) -> RingSurface:
+    """The dense surface of one pair's kept ring samples (points, sub-pixel camera positions, ring
+    index) by `method` (see the module docstring). `lit` (H, W) marks the pixels the projector
+    lights: a triangle over dark pixels spans a shadow (or no surface at all)."""
+    if method not in INTERPOLANTS:
+        raise ValueError(f"unknown interpolant {method!r}; known: {', '.join(INTERPOLANTS)}")
+    settings = settings or SurfaceSettings()
+    tri, normals, counts = ring_triangles(points, xy, ring, camera, projector, settings)
+    pixel, owner = rasterize(xy, tri, camera.width, camera.height)
+    if lit is not None:
+        area = np.bincount(owner, minlength=len(tri))
+        dark = np.bincount(owner, ~lit.ravel()[pixel], minlength=len(tri))
+        shadowed = dark > settings.max_unlit * np.maximum(area, 1)
+        counts["dropped_shadow"] = int(shadowed.sum())
+        counts["faces"] -= counts["dropped_shadow"]
+        pixel, owner = pixel[~shadowed[owner]], owner[~shadowed[owner]]
+        renumber = np.cumsum(~shadowed) - 1
+        tri, owner = tri[~shadowed], renumber[owner]
+    all_origins, all_directions = camera.pixel_rays
+    rays = (np.asarray(all_origins[pixel]), np.asarray(all_directions[pixel]))
+    if method == "cubic":
+        depth = _cubic_depth(points, xy, camera, pixel)
+        found = rays[0] + depth[:, None] * rays[1]
+    else:
+        quadratic = method == "quadratic"
+        found = _on_triangles(points, normals, xy, tri, pixel, owner, rays, camera.width, quadratic)
+    ok = np.isfinite(found).all(axis=1)
+    grid = np.full((camera.height * camera.width, 3), np.nan)
+    grid[pixel[ok]] = found[ok]
+    valid = np.zeros(camera.height * camera.width, dtype=bool)
+    valid[pixel[ok]] = True
+    counts["pixels"] = int(ok.sum())
+    shape = (camera.height, camera.width)
+    return RingSurface(points, normals, tri, grid.reshape(*shape, 3), valid.reshape(shape), counts)
+
+
+def _on_triangles(
+    points: np.ndarray,
+    normals: np.ndarray,
+    xy: np.ndarray,
+    tri: np.ndarray,
+    pixel: np.ndarray,
+    owner: np.ndarray,
+    rays: tuple[np.ndarray, np.ndarray],
+    width: int,
+    quadratic: bool,
+) -> np.ndarray:
+    """Each pixel's point on its triangle (`owner`): on the plane of the corners, or (quadratic)
+    the mean of that and the blend of the corners' tangent planes, weighted by the pixel's
+    barycentric coordinates in the image (against the 3D ones they differ by the depth's relative
+    change across a triangle, a fraction of a percent of a correction that is itself small)."""
+    origins, directions = rays
+    corner = points[tri]
+    plane = np.cross(corner[:, 1] - corner[:, 0], corner[:, 2] - corner[:, 0])
+    t_linear = _ray_plane(origins, directions, plane[owner], np.einsum("ij,ij->i", plane, corner[:, 0])[owner])
+    if not quadratic:
+        return origins + t_linear[:, None] * directions
+    weights = _image_barycentric(xy[tri], pixel, width, owner)
+    offset = np.einsum("ij,ij->i", normals, points)  # each corner's tangent plane n . x = offset
+    blend = np.zeros_like(t_linear)
+    steep = np.zeros(len(t_linear), dtype=bool)
+    for k in range(3):
+        corner_k = tri[owner, k]
+        n = normals[corner_k]
+        steep |= np.abs(np.einsum("ij,ij->i", n, directions)) < 0.1  # a tangent plane met at a grazing angle
+        blend += weights[:, k] * _ray_plane(origins, directions, n, offset[corner_k])
+    longest = np.linalg.norm(corner - np.roll(corner, -1, axis=1), axis=2).max(axis=1)[owner]
+    t = np.where(steep, t_linear, 0.5 * (t_linear + blend))
+    t = np.clip(t, t_linear - 0.25 * longest, t_linear + 0.25 * longest)
+    return origins + t[:, None] * directions
+
+
+def _ray_plane(origins: np.ndarray, rays: np.ndarray, normal: np.ndarray, offset: np.ndarray) -> np.ndarray:
+    """Distance along each ray to the plane normal . x = offset."""
+    denominator = np.einsum("ij,ij->i", rays, normal)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return (offset - np.einsum("ij,ij->i", origins, normal)) / denominator
+
+
+def _image_barycentric(corners: np.ndarray, pixel: np.ndarray, width: int, owner: np.ndarray) -> np.ndarray:
+    """Barycentric coordinates (N, 3) of pixel centres in their image triangles (`corners` (F, 3, 2))."""
+    e1, e2 = corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0]
+    det = e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]
+    det = np.where(np.abs(det) < 1e-12, 1e-12, det)
+    dx = (pixel % width) - corners[owner, 0, 0]
+    dy = (pixel // width) - corners[owner, 0, 1]
+    b1 = (dx * e2[owner, 1] - dy * e2[owner, 0]) / det[owner]
+    b2 = (dy * e1[owner, 0] - dx * e1[owner, 1]) / det[owner]
+    return np.column_stack([1.0 - b1 - b2, b1, b2])
+
+
+def _cubic_depth(points: np.ndarray, xy: np.ndarray, camera: CameraModel, pixel: np.ndarray) -> np.ndarray:
+    """Distance along each pixel's ray by Clough-Tocher over the image, from the samples' distances."""
+    distance = np.linalg.norm(points - camera.center, axis=1)
+    interpolant = CloughTocher2DInterpolator(xy, distance)
+    query = np.column_stack([pixel % camera.width, pixel // camera.width]).astype(np.float64)
+    return np.asarray(interpolant(query), dtype=np.float64)
