@@ -32,6 +32,14 @@ def _scan_command(sub: argparse._SubParsersAction) -> None:  # type: ignore[type
         default=None,
         help="scan directory to create (must not exist); default <data_dir>/scans/<id>",
     )
+    scan.add_argument(
+        "--adaptive", action="store_true", help="pilot scan, ring plan from its curvature, then the planned rings"
+    )
+    scan.add_argument(
+        "--tolerance-mm", type=float, default=None, help="--adaptive: interpolation error allowed (scan.adaptive)"
+    )
+    scan.add_argument("--plan", type=Path, default=None, help="scan the rings of this plan file (no pilot)")
+    scan.add_argument("--save-plan", type=Path, default=None, help="--adaptive: also write the plan to this file")
 
 
 def _evaluate_command(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
@@ -46,8 +54,13 @@ def _evaluate_command(sub: argparse._SubParsersAction) -> None:  # type: ignore[
 
 
 def _plan_command(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
-    plan = sub.add_parser("plan", help="plan the fewest projector-camera heads that cover an object")
-    plan.add_argument("what", choices=["views"])
+    plan = sub.add_parser(
+        "plan", help="views: the fewest projector-camera heads that cover an object; rings: the fewest rings"
+    )
+    plan.add_argument("what", choices=["views", "rings"])
+    plan.add_argument("--from", dest="source", type=Path, default=None, help="rings: plan from this scan directory")
+    plan.add_argument("--tolerance-mm", type=float, default=None, help="rings: interpolation error allowed (0.2)")
+    plan.add_argument("--out", type=Path, default=None, help="rings: write the plan to this file (JSON)")
     plan.add_argument("--config", type=Path, default=None, help="rig description (YAML); default: config/sim.yaml")
     plan.add_argument("--scene", default=None, help="box, sphere or a mesh file (default: the config's object)")
     plan.add_argument("--coverage", type=float, default=0.95, help="fraction of the surface to cover (0.95)")

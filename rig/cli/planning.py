@@ -1,5 +1,5 @@
 """`slrig plan views`: the fewest heads that cover an object (the planner casts rays with the
-simulator, so this command alone loads it)."""
+simulator, so this command alone loads it). `plan rings` is rig.cli.ring_planning."""
 
 from __future__ import annotations
 
@@ -13,12 +13,15 @@ import yaml
 
 from rig.assembly.simulated import build_scene
 from rig.cli.common import scene_override
+from rig.cli.ring_planning import cmd_plan_rings
 from rig.config import load_config
 from rig.errors import ConfigError
 from rig.plan.views import confirm_on_bench, plan_views
 
 
 def cmd_plan(args: argparse.Namespace) -> int:
+    if args.what == "rings":
+        return cmd_plan_rings(args)
 
     checks = [
         ("--coverage", 0.05 <= args.coverage <= 1.0, "0.05..1"),

@@ -12,7 +12,8 @@ from rig.errors import ConfigError
 from rig.evaluate.merged import evaluate_merge
 from rig.evaluate.pairs import evaluate_on_bench
 from rig.pipeline.scan import run_scan
-from rig.service.tasks import scan_to_directory
+from rig.plan.ring_plan import RingPlan
+from rig.service.tasks import adaptive_scan_to_directory, scan_to_directory
 from rig.store.scandir import new_scan_id
 
 
@@ -23,8 +24,23 @@ def cmd_scan(args: argparse.Namespace) -> int:
     if target.exists():
         raise ConfigError("--out", [f"--out: {target} already exists; choose a new directory"])
     bar = progress_bar(args)
+    # Callers that build their own Namespace (the daemon's tests, scripts) may leave these out.
+    piloted, tolerance = getattr(args, "adaptive", False), getattr(args, "tolerance_mm", None)
+    plan_file, save_plan = getattr(args, "plan", None), getattr(args, "save_plan", None)
+    if not piloted and (tolerance is not None or save_plan is not None):
+        raise ConfigError("--adaptive", ["--tolerance-mm and --save-plan plan rings: add --adaptive"])
+    plan = RingPlan.load(plan_file) if plan_file is not None else None
     with open_rig(config) as the_rig:
-        path, result = scan_to_directory(the_rig, target, scan_id, keep_frames=config.scan.save_frames, progress=bar)
+        if piloted or plan is not None:
+            path, result, plan = adaptive_scan_to_directory(
+                the_rig, target, scan_id, tolerance, plan, config.scan.save_frames, bar
+            )
+            if save_plan is not None:
+                plan.save(save_plan)
+        else:
+            path, result = scan_to_directory(
+                the_rig, target, scan_id, keep_frames=config.scan.save_frames, progress=bar
+            )
     summary = {
         "scan_id": scan_id,
         "path": str(path),
@@ -33,6 +49,8 @@ def cmd_scan(args: argparse.Namespace) -> int:
         "frames": result.frames_projected,
         "timings_ms": {k: round(v, 1) for k, v in result.timings_ms.items()},
     }
+    if result.adaptive is not None:
+        summary["adaptive"] = {k: v for k, v in result.adaptive.items() if k != "plan"}
     if args.json:
         print(json.dumps(summary, allow_nan=False))
     else:
@@ -40,6 +58,8 @@ def cmd_scan(args: argparse.Namespace) -> int:
             f"scan {scan_id}: {len(result.cloud)} points with {result.codec} "
             f"({result.frames_projected} patterns) -> {path}/cloud.ply"
         )
+        if plan is not None:
+            print(f"  {plan.rings} planned rings for {plan.tolerance_mm:g} mm; the plan is in the manifest")
     return 0
 
 

@@ -36,6 +36,19 @@ class MergeConfig(Strict):
     )
 
 
+class SurfaceConfig(Strict):
+    """The dense surface between the rings of a ring scan (rig.pipeline.surface)."""
+
+    interpolate: bool = Field(True, description="ring scans: interpolate a surface between the rings (mesh.ply)")
+    interpolant: Literal["linear", "quadratic", "cubic"] = Field(
+        "quadratic", description="linear: the samples' triangles; quadratic: with their normals; cubic: Clough-Tocher"
+    )
+    mesh_stride_px: int = Field(2, ge=1, le=16, description="a mesh vertex every this many camera pixels")
+    max_gap_px: float = Field(
+        6.0, gt=0.0, le=1000.0, description="samples of one ring further apart in the image are not neighbours"
+    )
+
+
 class RingPlanSettings(Strict):
     """How an adaptive scan plans its rings from a pilot scan (rig.plan.rings)."""
 
@@ -93,6 +106,7 @@ class ScanConfig(Strict):
     )
     save_frames: bool = Field(False, description="keep raw captures in the scan directory")
     merge: MergeConfig = MergeConfig()
+    surface: SurfaceConfig = SurfaceConfig()
     adaptive: RingPlanSettings = RingPlanSettings()
 
     @field_validator("codec")

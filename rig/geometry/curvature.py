@@ -30,6 +30,10 @@ _MAX_NEIGHBOURS = 96
 # at the border of the scanned surface (a disc's half has its centroid at 0.42 of the radius).
 _MAX_OFFSET = 0.25
 
+# The least ratio of the neighbours' second to first spread (variance) across the tangent plane: a
+# disc has 1, a band along one curve next to 0.
+_MIN_SPREAD = 0.15
+
 # The voxel grid's orientation: a fixed rotation that aligns no grid face with a world plane.
 _GRID_TURN = np.linalg.qr(np.array([[0.8, 0.3, 0.52], [-0.35, 0.9, 0.27], [-0.45, -0.2, 0.87]]))[0]
 
@@ -109,7 +113,7 @@ def principal_curvatures(
     local = grid[index] - centres[:, None, :]
     local[~inside] = 0.0
     count = inside.sum(axis=1)
-    normal, e1, e2 = _local_frames(local, count, centres, np.asarray(viewpoint, float))
+    normal, e1, e2, flatness = _local_frames(local, count, centres, np.asarray(viewpoint, float))
     x = np.einsum("mkj,mj->mk", local, e1)
     y = np.einsum("mkj,mj->mk", local, e2)
     z = np.einsum("mkj,mj->mk", local, normal)
@@ -123,24 +127,27 @@ def principal_curvatures(
     # At the border of what was scanned the neighbours sit on one side: the fit extrapolates.
     offset = np.hypot(x.sum(axis=1), y.sum(axis=1)) / np.maximum(count, 1)
     valid = (count >= min_neighbours) & conditioned & np.isfinite(k1) & (offset < _MAX_OFFSET * radius_mm)
+    valid &= flatness >= _MIN_SPREAD  # neighbours along one curve (a single ring) do not make a surface
     return SurfaceCurvature(centres, normal, k1, k2, d1, d2, rms, count, valid, radius_mm)
 
 
 def _local_frames(
     local: np.ndarray, count: np.ndarray, centres: np.ndarray, viewpoint: np.ndarray
-) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Normal (the neighbours' least-variance direction, toward the viewpoint) and two tangents."""
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Normal (the neighbours' least-variance direction, toward the viewpoint), two tangents, and
+    how evenly the neighbours spread across the tangent plane (second / first variance)."""
     mean = local.sum(axis=1) / np.maximum(count, 1)[:, None]
     spread = local - mean[:, None, :]
     spread[np.all(local == 0.0, axis=2)] = 0.0
     cov = np.einsum("mki,mkj->mij", spread, spread)
-    _, vectors = np.linalg.eigh(cov)
+    values, vectors = np.linalg.eigh(cov)
+    spread_ratio = values[:, 1] / np.maximum(values[:, 2], 1e-300)
     normal = vectors[:, :, 0]
     e1 = vectors[:, :, 2]
     flip = np.einsum("ij,ij->i", normal, viewpoint - centres) < 0
     normal[flip] *= -1
     e2 = np.cross(normal, e1)
-    return normal, e1, e2
+    return normal, e1, e2, spread_ratio
 
 
 def _weingarten(

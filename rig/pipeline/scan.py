@@ -11,9 +11,10 @@ import numpy as np
 from rig.errors import DecodeError, ScanError
 from rig.patterns import Codec, Correspondence, codec_class
 from rig.pipeline.capture import CUE, capture
-from rig.pipeline.dense import PairTriangulator, pair_pointset, reject_isolated
+from rig.pipeline.dense import PairTriangulator, pair_pointset, reject_isolated, texture_rgb
 from rig.pipeline.icp import AlignmentRefusedError, point_to_plane
 from rig.pipeline.merge import expected_error_mm, local_noise_mm, merge, triangulation_angles
+from rig.pipeline.mesh import Mesh, grid_mesh
 from rig.pipeline.overlap import overlap_from_cue
 from rig.pipeline.pointset import PointSet
 from rig.pipeline.rings import (
@@ -24,6 +25,7 @@ from rig.pipeline.rings import (
     ring_pointset,
     triangulate_rings,
 )
+from rig.pipeline.surface import RingSurface, SurfaceSettings, interpolate_surface
 from rig.progress import ProgressCallback, ProgressTracker
 from rig.rig import Rig
 
@@ -40,6 +42,7 @@ class PairResult:
     rings: RingPoints | None = None  # sparse ring codecs: every triangulated sample, with diagnostics
     counts: dict[str, int] = field(default_factory=dict)
     ring_coverage: dict[str, object] | None = None  # sparse ring codecs: rig.pipeline.rings.ring_coverage
+    surface: RingSurface | None = None  # sparse ring codecs: the surface interpolated between the rings
 
 
 @dataclass(eq=False)
@@ -55,6 +58,8 @@ class ScanResult:
     merge: dict[str, object] | None = None  # the merge report, when several pairs were merged
     merged_index: np.ndarray | None = None  # indices of the kept points in the pairs' points, concatenated
     overlap: dict[int, np.ndarray] = field(default_factory=dict)  # per camera: pixels lit by several projectors
+    mesh: Mesh | None = None  # ring scans with a surface: every pair's interpolated surface, meshed
+    adaptive: dict[str, object] | None = None  # an adaptive scan: its ring plan and pattern economy
 
 
 def make_codec(rig: Rig, projector: int, name: str | None = None) -> Codec:
@@ -104,7 +109,31 @@ def reconstruct_pair(
         elapsed["triangulate"] = elapsed.get("triangulate", 0.0) + t_mid - t
         elapsed["pointset"] = elapsed.get("pointset", 0.0) + time.perf_counter() - t_mid
     coverage = None if rings is None or corr.samples is None else ring_coverage(rings, corr.samples)
-    return PairResult(projector, camera, corr, grid, points, rings, counts, coverage)
+    surface = None
+    if rings is not None and rig.config.scan.surface.interpolate:
+        t = time.perf_counter()
+        surface = ring_surface(rig, projector, camera, rings, corr)
+        counts.update({f"surface_{k}": v for k, v in surface.counts.items()})
+        if elapsed is not None:
+            elapsed["surface"] = elapsed.get("surface", 0.0) + time.perf_counter() - t
+    return PairResult(projector, camera, corr, grid, points, rings, counts, coverage, surface)
+
+
+def ring_surface(rig: Rig, projector: int, camera: int, rings: RingPoints, corr: Correspondence) -> RingSurface:
+    """The surface between the kept ring samples, with holes where the projector left the camera dark."""
+    config = rig.config.scan.surface
+    keep = rings.kept
+    lit = corr.quality >= rig.config.scan.rings.black_threshold
+    return interpolate_surface(
+        rings.points[keep],
+        rings.camera_xy[keep],
+        rings.ring[keep],
+        rig.camera_models[camera],
+        rig.projector_models[projector],
+        lit,
+        config.interpolant,
+        SurfaceSettings(max_gap_px=config.max_gap_px),
+    )
 
 
 def triangulator(rig: Rig, projector: int, camera: int) -> PairTriangulator:
@@ -173,6 +202,7 @@ def reconstruct_frames(
         report["overlap_cue_pixels"] = {rig.config.cameras[c].name: int(m.sum()) for c, m in overlap.items()}
         elapsed["merge"] = time.perf_counter() - t
     bytes_captured = sum(img.nbytes for images in frames.values() for img in images)
+    mesh = scan_mesh(rig, pairs, elapsed)
     return ScanResult(
         codec=codec_name,
         codec_params=codecs[0].params.model_dump(),
@@ -185,7 +215,26 @@ def reconstruct_frames(
         merge=report,
         merged_index=merged_index,
         overlap=overlap,
+        mesh=mesh,
     )
+
+
+def scan_mesh(rig: Rig, pairs: list[PairResult], elapsed: dict[str, float]) -> Mesh | None:
+    """Every pair's interpolated surface in one mesh (None: no pair has one)."""
+    surfaced = [pair for pair in pairs if pair.surface is not None]
+    if not surfaced:
+        return None
+    t = time.perf_counter()
+    stride = rig.config.scan.surface.mesh_stride_px
+    mesh = Mesh.concatenate([pair_mesh(rig, pair, stride) for pair in surfaced])
+    elapsed["mesh"] = time.perf_counter() - t
+    return mesh
+
+
+def pair_mesh(rig: Rig, pair: PairResult, stride: int) -> Mesh:
+    """The pair's interpolated surface as a mesh, coloured from the lit frame."""
+    assert pair.surface is not None
+    return grid_mesh(pair.surface.grid, texture_rgb(pair.correspondence), rig.camera_models[pair.camera], stride)
 
 
 def pair_errors(rig: Rig, pair: PairResult, quantized: bool = False) -> np.ndarray:
@@ -230,7 +279,15 @@ def moved_pair(pair: PairResult, rotation: np.ndarray, shift: np.ndarray) -> Pai
         points=move(pair.points.points),
         normals=(pair.points.normals @ rotation.T).astype(np.float32),
     )
-    return dataclasses.replace(pair, grid=move(pair.grid), rings=rings, points=points)
+    surface = pair.surface
+    if surface is not None:
+        surface = dataclasses.replace(
+            surface,
+            vertices=move(surface.vertices),
+            normals=surface.normals @ rotation.T,
+            grid=move(surface.grid),
+        )
+    return dataclasses.replace(pair, grid=move(pair.grid), rings=rings, points=points, surface=surface)
 
 
 def align_pairs(rig: Rig, pairs: list[PairResult], max_distance_mm: float) -> dict[str, object]:

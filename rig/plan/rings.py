@@ -267,6 +267,12 @@ def _length(curve: np.ndarray) -> float:
 def pilot_curvature(view: PilotView, settings: RingPlanSettings) -> SurfaceCurvature:
     try:
         radius = settings.curvature_radius_mm
-        return principal_curvatures(view.points, view.viewpoint, radius, spacing_mm=radius / 2)
+        curvature = principal_curvatures(view.points, view.viewpoint, radius, spacing_mm=radius / 2)
     except ValueError as exc:
         raise PlanError(f"pilot: {exc}") from None
+    if curvature.valid.mean() < 0.25:
+        raise PlanError(
+            f"pilot: too sparse for curvature over {radius:g} mm (most neighbourhoods hold one curve, not a "
+            "surface): plan from a dense scan, or raise scan.adaptive.curvature_radius_mm"
+        )
+    return curvature

@@ -12,8 +12,10 @@ from rig.calibrate.session import calibrate
 from rig.config import config_from_dict
 from rig.evaluate.merged import metrics_on_bench
 from rig.pipeline.scan import ScanResult, reconstruct_frames, run_scan
+from rig.plan.ring_plan import RingPlan
 from rig.progress import ProgressCallback, ProgressTracker
 from rig.rig import Rig
+from rig.service.adaptive import adaptive_scan, with_plan
 from rig.store.scandir import read_frames, write_scan
 
 
@@ -32,6 +34,25 @@ def scan_to_directory(
     path = write_scan(the_rig, result, target, scan_id, metrics_on_bench(the_rig, result))
     tracker.report("done", 1.0)
     return path, result
+
+
+def adaptive_scan_to_directory(
+    the_rig: Rig,
+    target: Path,
+    scan_id: str,
+    tolerance_mm: float | None = None,
+    plan: RingPlan | None = None,
+    keep_frames: bool = False,
+    progress: ProgressCallback | None = None,
+) -> tuple[Path, ScanResult, RingPlan]:
+    """An adaptive scan (rig.service.adaptive) written like any scan, its plan in the manifest."""
+    result, plan = adaptive_scan(the_rig, tolerance_mm, plan, keep_frames, progress)
+    tracker = ProgressTracker(progress)
+    tracker.report("store", 0.95)
+    sparse = with_plan(the_rig, plan)
+    path = write_scan(sparse, result, target, scan_id, metrics_on_bench(sparse, result))
+    tracker.report("done", 1.0)
+    return path, result, plan
 
 
 def reprocess_to_directory(

@@ -1,4 +1,4 @@
-"""Binary little-endian PLY: x y z, nx ny nz (float), red green blue (uchar), quality (float),
+"""Binary little-endian PLY. Clouds: x y z, nx ny nz (float), red green blue (uchar), quality (float),
 source (uchar), angle (float, the triangulation angle in degrees): the names Open3D, MeshLab and
 CloudCompare read (they keep the extra properties as scalar fields)."""
 
@@ -6,6 +6,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from rig.errors import StoreError
+from rig.pipeline.mesh import Mesh
 from rig.pipeline.pointset import PointSet
 
 _VERTEX = np.dtype(
@@ -41,3 +43,47 @@ def ply_bytes(cloud: PointSet, comment: str = "slrig") -> bytes:
     lines += [f"property {'float' if _VERTEX[name].kind == 'f' else 'uchar'} {name}" for name in _VERTEX.names]
     lines.append("end_header")
     return ("\n".join(lines) + "\n").encode("ascii") + vertex.tobytes()
+
+
+_MESH_VERTEX = np.dtype([("x", "<f4"), ("y", "<f4"), ("z", "<f4"), ("red", "u1"), ("green", "u1"), ("blue", "u1")])
+_FACE = np.dtype([("count", "u1"), ("vertex_indices", "<i4", (3,))])
+
+
+def mesh_ply_bytes(mesh: Mesh, comment: str = "slrig") -> bytes:
+    """Binary PLY of a triangle mesh: vertices x y z with red green blue, faces as lists of three
+    vertex indices (`property list uchar int vertex_indices`, what Open3D and MeshLab read)."""
+    vertex = np.empty(len(mesh.vertices), dtype=_MESH_VERTEX)
+    for i, axis in enumerate("xyz"):
+        vertex[axis] = mesh.vertices[:, i]
+    for i, channel in enumerate(("red", "green", "blue")):
+        vertex[channel] = mesh.colors[:, i]
+    face = np.empty(len(mesh.faces), dtype=_FACE)
+    face["count"] = 3
+    face["vertex_indices"] = mesh.faces
+    lines = ["ply", "format binary_little_endian 1.0", f"comment {comment}", f"element vertex {len(vertex)}"]
+    lines += [f"property float {a}" for a in "xyz"] + [f"property uchar {c}" for c in ("red", "green", "blue")]
+    lines += [f"element face {len(face)}", "property list uchar int vertex_indices", "end_header"]
+    return ("\n".join(lines) + "\n").encode("ascii") + vertex.tobytes() + face.tobytes()
+
+
+def read_cloud_ply(data: bytes, source: str = "cloud.ply") -> PointSet:
+    """A cloud written by `ply_bytes`; raises StoreError for any other layout."""
+    end = data.find(b"end_header\n")
+    header = data[:end].decode("ascii", errors="replace").splitlines() if end >= 0 else []
+    expected = [f"property {'float' if _VERTEX[n].kind == 'f' else 'uchar'} {n}" for n in _VERTEX.names]
+    count = next((int(line.split()[2]) for line in header if line.startswith("element vertex ")), None)
+    body = data[end + len(b"end_header\n") :] if end >= 0 else b""
+    if count is None or [line for line in header if line.startswith("property")] != expected:
+        raise StoreError(f"{source}: not a cloud slrig wrote (binary PLY with {', '.join(_VERTEX.names)})")
+    if len(body) < count * _VERTEX.itemsize:
+        raise StoreError(f"{source}: truncated ({len(body)} bytes for {count} vertices)")
+    vertex = np.frombuffer(body, dtype=_VERTEX, count=count)
+    return PointSet(
+        points=np.column_stack([vertex[a] for a in "xyz"]).astype(np.float64),
+        normals=np.column_stack([vertex["n" + a] for a in "xyz"]).astype(np.float32),
+        colors=np.column_stack([vertex[c] for c in ("red", "green", "blue")]),
+        quality=vertex["quality"].copy(),
+        source=vertex["source"].copy(),
+        pixel=np.full(count, -1, np.int64),
+        angle=vertex["angle"].copy(),
+    )

@@ -25,7 +25,7 @@ from rig.pipeline.scan import ScanResult
 from rig.rig import Rig
 from rig.store.atomic import fsync_dir, rename_no_replace, write_atomic
 from rig.store.images import depth_png, mask_png, preview_png
-from rig.store.ply import ply_bytes
+from rig.store.ply import mesh_ply_bytes, ply_bytes
 
 
 def new_scan_id() -> str:
@@ -103,11 +103,24 @@ def build_manifest(
             }
             for p in result.pairs
         ],
+        **({"surface": _surface_summary(the_rig, result)} if result.mesh is not None else {}),
+        **({"adaptive": result.adaptive} if result.adaptive is not None else {}),
         "timings_ms": {k: round(v, 1) for k, v in result.timings_ms.items()},
         "merge": result.merge,
         "metrics": metrics or {},
         "files": files,
         "config": config.model_dump(mode="json"),
+    }
+
+
+def _surface_summary(the_rig: Rig, result: ScanResult) -> dict[str, Any]:
+    assert result.mesh is not None
+    config = the_rig.config.scan.surface
+    return {
+        "interpolant": config.interpolant,
+        "mesh_vertices": len(result.mesh.vertices),
+        "mesh_faces": len(result.mesh.faces),
+        "pixels": sum(int(p.surface.valid.sum()) for p in result.pairs if p.surface is not None),
     }
 
 
@@ -153,6 +166,8 @@ def write_scan(
             write_atomic(partial / name, depth_png(grid, the_rig.camera_models[c]))
             files["depth"][camera.name] = name
         write_atomic(partial / "preview.png", preview_png(result.cloud, the_rig.camera_models[0]))
+        if result.mesh is not None:
+            files["surface"] = _write_surface(the_rig, result, partial, scan_id)
         for c, mask in result.overlap.items():
             name = f"overlap_{the_rig.config.cameras[c].name}.png"
             write_atomic(partial / name, mask_png(mask))
@@ -169,6 +184,25 @@ def write_scan(
     except OSError as exc:
         raise StoreError(f"cannot write scan to {target}: {exc}") from exc
     return target
+
+
+def _write_surface(the_rig: Rig, result: ScanResult, partial: Path, scan_id: str) -> dict[str, Any]:
+    """mesh.ply and, per camera, the depth map of the surface interpolated between the rings."""
+    assert result.mesh is not None
+    write_atomic(partial / "mesh.ply", mesh_ply_bytes(result.mesh, comment=f"slrig surface {scan_id}"))
+    out: dict[str, Any] = {"mesh": "mesh.ply", "depth": {}}
+    for c, camera in enumerate(the_rig.config.cameras):
+        grids = [pair.surface.grid for pair in result.pairs if pair.camera == c and pair.surface is not None]
+        if not grids:
+            continue
+        grid = grids[0].copy()
+        for more in grids[1:]:
+            missing = ~np.isfinite(grid).all(axis=2)
+            grid[missing] = more[missing]
+        name = f"surface_depth_{camera.name}.png"
+        write_atomic(partial / name, depth_png(grid, the_rig.camera_models[c]))
+        out["depth"][camera.name] = name
+    return out
 
 
 def _write_frames(the_rig: Rig, result: ScanResult, partial: Path) -> dict[str, list[str]]:

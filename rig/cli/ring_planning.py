@@ -1,0 +1,78 @@
+"""`slrig plan rings` and the ring plan of `slrig scan --adaptive / --plan`: the fewest rings a
+surface needs, from a pilot scan (run here on the simulated bench, or a stored scan directory)."""
+
+from __future__ import annotations
+
+import argparse
+import json
+from pathlib import Path
+
+import numpy as np
+
+from rig.assembly import open_rig
+from rig.cli.common import scene_override
+from rig.config import config_from_dict, load_config
+from rig.errors import PlanError, StoreError
+from rig.plan.ring_plan import RingPlan, plan_rings
+from rig.plan.rings import PilotView
+from rig.service.adaptive import plan_from_pilot
+from rig.store.ply import read_cloud_ply
+
+
+def cmd_plan_rings(args: argparse.Namespace) -> int:
+    if args.source is not None and args.scene is not None:
+        raise PlanError("give --from SCAN_DIR or --scene NAME, not both")
+    if args.source is not None:
+        plan = plan_from_scan_dir(args.source, args.tolerance_mm)
+    else:
+        config = load_config(args.config)
+        if args.scene:
+            config = scene_override(config, args.scene)
+        if not config.simulated:
+            raise PlanError("--scene: a real rig plans from a scan it made: --from SCAN_DIR")
+        with open_rig(config) as the_rig:
+            plan = plan_from_pilot(the_rig, args.tolerance_mm)
+    if args.out is not None:
+        plan.save(args.out)
+    print_plan(plan, args.json)
+    return 0
+
+
+def plan_from_scan_dir(folder: Path, tolerance_mm: float | None) -> RingPlan:
+    """The plan for the surface a stored scan saw (its cloud.ply, its rig from its manifest)."""
+    try:
+        manifest = json.loads((folder / "manifest.json").read_text())
+        cloud = read_cloud_ply((folder / manifest["files"]["cloud"]).read_bytes(), str(folder / "cloud.ply"))
+    except (OSError, ValueError, KeyError) as exc:
+        raise StoreError(f"--from: {folder} is not a readable scan directory ({exc})") from None
+    config = config_from_dict(manifest["config"], f"scan {manifest.get('scan_id', folder.name)}")
+    projectors = [p.name for p in config.projectors]
+    cameras = [c.name for c in config.cameras]
+    with open_rig(config, with_devices=False) as geometry:
+        views = []
+        for source, pair in enumerate(manifest["pairs"]):
+            p, c = projectors.index(pair["projector"]), cameras.index(pair["camera"])
+            points = cloud.points[cloud.source == source]
+            views.append(PilotView(points, geometry.projector_models[p], geometry.camera_models[c].center))
+        pilot = {"codec": manifest["codec"]["name"], "scan_id": manifest.get("scan_id")}
+        pilot.update({k: manifest["economy"][k] for k in ("frames_projected", "bytes_captured")})
+        return plan_rings(views, config.scan.adaptive, tolerance_mm, pilot)
+
+
+def print_plan(plan: RingPlan, as_json: bool) -> None:
+    if as_json:
+        report = plan.as_dict()
+        report.pop("profile")
+        print(json.dumps(report, allow_nan=False))
+        return
+    criteria = plan.criteria
+    uniform, frequency = criteria["sagitta_uniform"], criteria["curvature_frequency"]
+    print(f"{plan.rings} rings for {plan.tolerance_mm:g} mm between them (non-uniform radii, sagitta bound)")
+    print(f"  uniform rings under the same bound: {uniform['rings']} ({uniform['spacing_px']:g} px apart)")
+    print(
+        f"  curvature-frequency criterion: N_min = ceil({frequency['dense_rings']} x {frequency['f_s']:g}) = "
+        f"{frequency['rings']} (f_max {frequency['f_max_per_mm']:g} per mm)"
+    )
+    spacing = np.diff(plan.radii_px)
+    radii = f"{plan.radii_px[0]:.1f} .. {plan.radii_px[-1]:.1f} px"
+    print(f"  radii {radii}, spacing {spacing.min():.1f} .. {spacing.max():.1f} px")

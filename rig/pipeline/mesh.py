@@ -1,0 +1,64 @@
+"""A triangle mesh of an organised grid of points (a depth map on the camera grid)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from rig.geometry import CameraModel
+
+# A grid cell whose edge is longer than this many times its pixel footprint is a depth edge seen
+# within a pixel or two (a slope beyond 84 degrees to the camera): it is not meshed.
+_MAX_STRETCH = 10.0
+
+
+@dataclass(frozen=True, eq=False)
+class Mesh:
+    vertices: np.ndarray  # (V, 3) float64, mm
+    colors: np.ndarray  # (V, 3) uint8 RGB
+    faces: np.ndarray  # (F, 3) int32
+    pixel: np.ndarray  # (V,) flat camera pixel of each vertex
+
+    @staticmethod
+    def concatenate(meshes: list[Mesh]) -> Mesh:
+        offsets = np.cumsum([0, *(len(m.vertices) for m in meshes)])[:-1]
+        return Mesh(
+            np.concatenate([m.vertices for m in meshes]) if meshes else np.zeros((0, 3)),
+            np.concatenate([m.colors for m in meshes]) if meshes else np.zeros((0, 3), np.uint8),
+            np.concatenate([m.faces + o for m, o in zip(meshes, offsets, strict=True)]).astype(np.int32)
+            if meshes
+            else np.zeros((0, 3), np.int32),
+            np.concatenate([m.pixel for m in meshes]) if meshes else np.zeros(0, np.int64),
+        )
+
+
+def grid_mesh(grid: np.ndarray, colors: np.ndarray, camera: CameraModel, stride: int = 2) -> Mesh:
+    """Vertices at every `stride`-th pixel of the grid (H, W, 3; NaN: no point) with their colours
+    (H, W, 3 uint8), two triangles per cell whose four corners have points and no depth edge."""
+    sub = grid[::stride, ::stride]
+    rows, cols = sub.shape[:2]
+    valid = np.isfinite(sub).all(axis=2)
+    index = np.full((rows, cols), -1, dtype=np.int64)
+    index[valid] = np.arange(int(valid.sum()))
+    a, b = index[:-1, :-1], index[:-1, 1:]
+    c, d = index[1:, 1:], index[1:, :-1]
+    cell = (a >= 0) & (b >= 0) & (c >= 0) & (d >= 0)
+    vertices = sub[valid]
+    footprint = stride * _mm_per_px(camera, vertices)
+    quads = np.column_stack([a[cell], b[cell], c[cell], d[cell]])
+    longest = np.zeros(len(quads))
+    for k in range(4):
+        edge = np.linalg.norm(vertices[quads[:, k]] - vertices[quads[:, (k + 1) % 4]], axis=1)
+        longest = np.maximum(longest, edge / footprint[quads[:, k]])
+    quads = quads[longest <= _MAX_STRETCH]
+    faces = np.vstack([quads[:, [0, 2, 1]], quads[:, [0, 3, 2]]]).astype(np.int32)  # facing the camera
+    row, col = np.nonzero(valid)
+    pixel = (row * stride) * camera.width + col * stride
+    return Mesh(vertices, colors[::stride, ::stride][valid], faces, pixel)
+
+
+def _mm_per_px(camera: CameraModel, points: np.ndarray) -> np.ndarray:
+    if camera.projection == "orthographic":
+        return np.full(len(points), 1.0 / camera.K[0, 0])
+    return np.maximum(camera.to_device(points)[:, 2], 1e-6) / camera.K[0, 0]

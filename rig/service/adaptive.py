@@ -1,0 +1,77 @@
+"""An adaptive scan (dissertation ch.4 as a workflow): a dense pilot scan, a ring plan from its
+curvature, then the planned sparse ring scan. With a plan given (a file a lab keeps per kind of
+object), the pilot is skipped."""
+
+from __future__ import annotations
+
+import dataclasses
+from typing import Any
+
+from rig.config import config_from_dict
+from rig.errors import ConfigError, PlanError
+from rig.pipeline.scan import ScanResult, run_scan
+from rig.plan.ring_plan import RingPlan, pilot_views, plan_rings
+from rig.progress import ProgressCallback, ProgressTracker
+from rig.rig import Rig
+
+
+def plan_from_pilot(the_rig: Rig, tolerance_mm: float | None, progress: ProgressCallback | None = None) -> RingPlan:
+    """Scan with the pilot codec (scan.adaptive.pilot_codec) and plan the rings from what it saw."""
+    settings = the_rig.config.scan.adaptive
+    tracker = ProgressTracker(progress)
+    tracker.report("pilot", 0.0)
+    pilot = run_scan(the_rig, settings.pilot_codec)
+    tracker.report("plan", 0.45)
+    views = pilot_views(pilot, the_rig.camera_models, the_rig.projector_models)
+    about = {"codec": pilot.codec, "frames_projected": pilot.frames_projected, "bytes_captured": pilot.bytes_captured}
+    return plan_rings(views, settings, tolerance_mm, about)
+
+
+def with_plan(the_rig: Rig, plan: RingPlan) -> Rig:
+    """The same rig (devices and geometry shared) scanning the plan's rings."""
+    data = the_rig.config.model_dump(mode="json")
+    data["scan"]["codec"] = "rings"
+    rings = data["scan"]["rings"]
+    rings.update(radii_px=plan.radii_px, center_px=list(plan.center_px), rings=plan.rings)
+    try:
+        config = config_from_dict(data, "the ring plan")
+    except ConfigError as exc:
+        raise PlanError(f"the plan's rings do not fit this rig: {'; '.join(exc.problems)}") from None
+    return dataclasses.replace(the_rig, config=config)
+
+
+def adaptive_scan(
+    the_rig: Rig,
+    tolerance_mm: float | None = None,
+    plan: RingPlan | None = None,
+    keep_frames: bool = False,
+    progress: ProgressCallback | None = None,
+) -> tuple[ScanResult, RingPlan]:
+    """Pilot (unless `plan` is given), plan, and the planned ring scan; the result records the plan
+    and what the scan cost beside the pilot (ScanResult.adaptive)."""
+    piloted = plan is None
+    if plan is None:
+        plan = plan_from_pilot(the_rig, tolerance_mm, progress)
+    sparse = with_plan(the_rig, plan)
+    result = run_scan(sparse, "rings", keep_frames=keep_frames)
+    result.adaptive = adaptive_record(plan, result, piloted)
+    return result, plan
+
+
+def adaptive_record(plan: RingPlan, result: ScanResult, piloted: bool) -> dict[str, Any]:
+    """The plan, and the pattern economy: the ring scan's frames and bytes beside the dense pilot's
+    (which this scan paid for only when it ran the pilot, not when it reused a plan)."""
+    pilot = plan.pilot
+    return {
+        "plan": plan.as_dict(),
+        "rings": plan.rings,
+        "tolerance_mm": plan.tolerance_mm,
+        "pilot_scanned": piloted,
+        "economy": {
+            "ring_frames": result.frames_projected,
+            "ring_bytes": result.bytes_captured,
+            "dense_codec": pilot.get("codec"),
+            "dense_frames": pilot.get("frames_projected"),
+            "dense_bytes": pilot.get("bytes_captured"),
+        },
+    }

@@ -1,0 +1,143 @@
+"""The ring planner (dissertation ch.4): Table 1, the sagitta plan, its refusals, its file; curvature
+on a noisy simulated scan."""
+
+from __future__ import annotations
+
+import itertools
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from rig.assembly import open_rig
+from rig.config import load_config
+from rig.config.scan import RingPlanSettings
+from rig.errors import PlanError
+from rig.geometry.curvature import principal_curvatures
+from rig.pipeline.scan import run_scan
+from rig.plan.ring_plan import RingPlan, pilot_views, plan_rings
+from rig.plan.rings import PilotView, _PooledSpectrum, minimum_rings, place_rings, ring_polar
+
+# Lee & Krim 2017, Table 1: model, N (initial patterns), f_s, N_s (minimum patterns), as published.
+TABLE_1 = [
+    ("Brian", 147, 0.38, 56),
+    ("Eric", 153, 0.40, 62),
+    ("Greg", 142, 0.33, 47),
+    ("Jeff", 221, 0.49, 109),
+    ("Weihong", 271, 0.33, 90),
+    ("fvgallary", 89, 0.30, 27),
+    ("fvinput", 93, 0.44, 41),
+]
+
+
+@pytest.mark.parametrize(("model", "dense", "rate", "published"), TABLE_1)
+def test_table_1_of_the_sampling_paper(model: str, dense: int, rate: float, published: int) -> None:
+    assert minimum_rings(dense, rate) == published, model
+
+
+def test_n_min_rounds_up_not_to_nearest_and_survives_float_noise() -> None:
+    assert minimum_rings(153, 0.40) == 62  # 61.2: rounding would give 61
+    assert minimum_rings(90, 0.3) == 27  # 0.3 * 90 is 27.000000000000004 in floating point
+    with pytest.raises(PlanError):
+        minimum_rings(0, 0.5)
+
+
+def test_the_pooled_spectrum_finds_a_curvature_ripples_frequency() -> None:
+    spectrum = _PooledSpectrum(0.5)
+    s = np.arange(2000) * 0.5
+    spectrum.add(0.02 * np.sin(2 * np.pi * 0.05 * s))  # curvature rippling every 20 mm
+    assert abs(spectrum.band_limit(0.95) - 0.05) < 0.01
+    flat = _PooledSpectrum(0.5)
+    flat.add(np.full(400, 0.02))  # a circle: all its energy at zero frequency
+    assert flat.band_limit(0.95) < 0.01
+
+
+def test_rings_are_placed_greedily_under_the_spacing_each_radius_allows() -> None:
+    edges = np.arange(10.0, 400.0, 2.0)
+    profile = np.where((edges > 100) & (edges < 150), 8.0, 40.0)
+    radii = np.array(place_rings(edges, profile, 2.0))
+    assert radii[-1] >= edges[-1]
+    for a, b in itertools.pairwise(radii):
+        inside = (edges + 2.0 > a) & (edges <= b)
+        assert b - a <= profile[inside].min() + 1e-9
+    dense = np.diff(radii)[(radii[:-1] > 100) & (radii[:-1] < 140)]
+    assert dense.max() <= 8.0 and np.diff(radii).max() > 30.0
+
+
+@pytest.fixture(scope="module")
+def pilot() -> tuple[list[PilotView], RingPlanSettings]:
+    config = load_config()
+    with open_rig(config) as rig:
+        result = run_scan(rig, "phase")
+        return pilot_views(result, rig.camera_models, rig.projector_models), config.scan.adaptive
+
+
+def test_curvature_of_a_noisy_simulated_scan(pilot: tuple[list[PilotView], RingPlanSettings]) -> None:
+    view = pilot[0][0]
+    c = principal_curvatures(view.points, view.viewpoint, radius_mm=5.0)
+    centre = np.array([0.0, 0.0, 60.0])  # the default scene: a sphere of radius 60 on the plane
+    top = c.valid & (np.linalg.norm(c.points - centre, axis=1) > 55) & (c.points[:, 2] > 100)
+    plane = (
+        c.valid & (np.hypot(c.points[:, 0], c.points[:, 1]) > 120) & (np.hypot(c.points[:, 0], c.points[:, 1]) < 170)
+    )
+    assert top.sum() > 50 and plane.sum() > 200
+    assert abs(np.median(c.mean[top]) - 1 / 60) < 0.1 / 60
+    assert np.percentile(np.abs(c.k1[plane]), 90) < 0.1 / 60
+
+
+def test_the_plan_crowds_rings_over_the_sphere_and_beats_any_uniform_set(
+    pilot: tuple[list[PilotView], RingPlanSettings],
+) -> None:
+    views, settings = pilot
+    plan = plan_rings(views, settings, 0.2)
+    uniform = plan.criteria["sagitta_uniform"]["rings"]
+    assert plan.rings < 0.7 * uniform
+    radii = np.array(plan.radii_px)
+    gaps = np.diff(radii)
+    sphere = radii[:-1] < 150  # the sphere fills the projector's first 150 px or so
+    assert gaps[sphere].mean() < gaps[~sphere].mean()
+    frequency = plan.criteria["curvature_frequency"]
+    assert frequency["rings"] == minimum_rings(frequency["dense_rings"], frequency["f_s"])
+    looser = plan_rings(views, settings, 1.0)
+    assert looser.rings < plan.rings
+
+
+@pytest.mark.parametrize("tolerance", [0.0, -0.1, float("nan")])
+def test_the_planner_refuses_a_tolerance_that_is_not_positive(
+    pilot: tuple[list[PilotView], RingPlanSettings], tolerance: float
+) -> None:
+    with pytest.raises(PlanError, match="tolerance_mm"):
+        plan_rings(pilot[0], pilot[1], tolerance)
+
+
+def test_the_planner_refuses_an_empty_pilot_and_a_surface_the_rings_miss(
+    pilot: tuple[list[PilotView], RingPlanSettings],
+) -> None:
+    views, settings = pilot
+    empty = PilotView(np.zeros((0, 3)), views[0].projector, views[0].viewpoint)
+    with pytest.raises(PlanError, match="no points"):
+        plan_rings([empty], settings, 0.2)
+    aside = PilotView(views[0].points + np.array([3000.0, 0.0, 0.0]), views[0].projector, views[0].viewpoint)
+    assert not ring_polar(aside.projector, aside.points[:100], (511.5, 383.5))[2].any()
+    with pytest.raises(PlanError, match="do not reach"):
+        plan_rings([aside], settings, 0.2)
+
+
+def test_a_plan_file_round_trips_and_a_bad_one_is_named(
+    pilot: tuple[list[PilotView], RingPlanSettings], tmp_path: Path
+) -> None:
+    plan = plan_rings(*pilot, 0.5)
+    path = tmp_path / "plan.json"
+    plan.save(path)
+    again = RingPlan.load(path)
+    assert again.radii_px == pytest.approx(plan.radii_px, abs=0.01)
+    assert again.tolerance_mm == 0.5
+    data = json.loads(path.read_text())
+    data["radii_px"] = [10.0, 12.0]
+    path.write_text(json.dumps(data))
+    with pytest.raises(PlanError, match="radii_px"):
+        RingPlan.load(path)
+    path.write_text("{}")
+    with pytest.raises(PlanError, match="not a ring plan"):
+        RingPlan.load(path)

@@ -1,0 +1,119 @@
+"""The surface between the rings: rasterisation, interpolants against the truth, holes, mesh.ply,
+and the adaptive scan that plans its rings."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import plyfile
+import pytest
+import trimesh
+from conftest import small_config_path  # noqa: F401 - fixture
+
+from rig.assembly import open_rig
+from rig.cli import main
+from rig.config import load_config
+from rig.errors import StoreError
+from rig.evaluate.distances import surface_distances
+from rig.pipeline.scan import run_scan
+from rig.pipeline.surface import interpolate_surface, rasterize
+from rig.store.ply import ply_bytes, read_cloud_ply
+
+
+def test_rasterize_covers_exactly_the_pixel_centres_inside() -> None:
+    xy = np.array([[2.3, 1.7], [17.9, 4.2], [6.1, 13.6]])
+    pixel, owner = rasterize(xy, np.array([[0, 1, 2]]), 20, 16)
+    cols, rows = np.meshgrid(np.arange(20), np.arange(16))
+    p = np.column_stack([cols.ravel(), rows.ravel()]).astype(float)
+    a, b, c = xy
+
+    def side(u: np.ndarray, v: np.ndarray) -> np.ndarray:
+        return (v[0] - u[0]) * (p[:, 1] - u[1]) - (v[1] - u[1]) * (p[:, 0] - u[0])
+
+    s = np.stack([side(a, b), side(b, c), side(c, a)])
+    inside = (s >= 0).all(axis=0) | (s <= 0).all(axis=0)
+    assert set(pixel.tolist()) == set(np.flatnonzero(inside).tolist())
+    assert (owner == 0).all()
+
+
+@pytest.fixture(scope="module")
+def ring_scan():  # type: ignore[no-untyped-def]
+    config = load_config()
+    with open_rig(config) as rig:
+        result = run_scan(rig, "rings")
+        yield rig, result
+
+
+def test_quadratic_beats_linear_and_both_leave_shadows_empty(ring_scan) -> None:  # type: ignore[no-untyped-def]
+    rig, result = ring_scan
+    pair = result.pairs[0]
+    keep = pair.rings.kept
+    truth = rig.truth.ground_truth(0, 0)
+    lit = pair.correspondence.quality >= rig.config.scan.rings.black_threshold
+    rms = {}
+    for method in ("linear", "quadratic"):
+        surface = interpolate_surface(
+            pair.rings.points[keep],
+            pair.rings.camera_xy[keep],
+            pair.rings.ring[keep],
+            rig.camera_models[0],
+            rig.projector_models[0],
+            lit,
+            method,
+        )
+        dist = surface_distances(surface.grid, surface.valid, truth)
+        rms[method] = float(np.sqrt(np.mean(dist**2)))
+        assert (dist > 1.0).mean() < 1e-3  # no bridge over a depth edge or a shadow
+        in_shadow = surface.valid & truth.hit & ~truth.lit
+        assert in_shadow.sum() < 0.002 * surface.valid.sum()
+        target = truth.hit & truth.lit
+        assert (surface.valid & target).sum() > 0.9 * target.sum()
+    assert rms["quadratic"] < 0.8 * rms["linear"]
+    assert rms["quadratic"] < 0.08
+
+
+def test_a_ring_scan_writes_a_mesh_others_read(tmp_path: Path) -> None:
+    out = tmp_path / "scan"
+    assert main(["scan", "--codec", "rings", "--out", str(out)]) == 0
+    manifest = json.loads((out / "manifest.json").read_text())
+    assert manifest["files"]["surface"]["mesh"] == "mesh.ply"
+    ply = plyfile.PlyData.read(out / "mesh.ply")
+    vertices, faces = ply["vertex"], ply["face"]
+    assert len(faces) > 100_000 and {"red", "green", "blue"} <= set(vertices.data.dtype.names)
+    indices = np.vstack(faces["vertex_indices"])
+    assert indices.min() >= 0 and indices.max() < len(vertices)
+    mesh = trimesh.load(out / "mesh.ply", process=False)
+    assert len(mesh.faces) == len(faces)
+    metrics = manifest["metrics"]["projector0/camera0"]
+    assert metrics["surface_rms_mm"] < 0.1 and metrics["surface_completeness"] > 0.9
+
+
+def test_the_cloud_reads_back_and_a_foreign_ply_is_refused(ring_scan, tmp_path: Path) -> None:  # type: ignore[no-untyped-def]
+    cloud = ring_scan[1].cloud
+    again = read_cloud_ply(ply_bytes(cloud))
+    assert np.allclose(again.points, cloud.points, atol=1e-3) and (again.source == cloud.source).all()
+    with pytest.raises(StoreError, match="not a cloud slrig wrote"):
+        read_cloud_ply(b"ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nend_header\n1\n")
+
+
+def test_an_adaptive_scan_records_its_plan_and_a_plan_file_skips_the_pilot(
+    small_config_path: Path,  # noqa: F811
+    tmp_path: Path,
+) -> None:
+    plan_file = tmp_path / "plan.json"
+    first, second = tmp_path / "a", tmp_path / "b"
+    args = ["scan", "--config", str(small_config_path), "--adaptive", "--tolerance-mm", "0.5"]
+    assert main([*args, "--out", str(first), "--save-plan", str(plan_file)]) == 0
+    adaptive = json.loads((first / "manifest.json").read_text())["adaptive"]
+    assert adaptive["pilot_scanned"] and adaptive["tolerance_mm"] == 0.5
+    assert adaptive["plan"]["criteria"]["sagitta_uniform"]["rings"] >= adaptive["rings"]
+    assert adaptive["economy"]["dense_codec"] == "phase" and adaptive["economy"]["ring_frames"] > 0
+    assert main(["scan", "--config", str(small_config_path), "--plan", str(plan_file), "--out", str(second)]) == 0
+    reused = json.loads((second / "manifest.json").read_text())
+    assert not reused["adaptive"]["pilot_scanned"]
+    assert reused["codec"]["params"]["radii_px"] == pytest.approx(json.loads(plan_file.read_text())["radii_px"])
+    assert (
+        main(["scan", "--config", str(small_config_path), "--tolerance-mm", "0.5", "--out", str(tmp_path / "c")]) == 2
+    )
