@@ -17,6 +17,7 @@ the viewer, a sphere seen from outside), negative in a hollow.
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 
 import numpy as np
@@ -58,6 +59,11 @@ class SurfaceCurvature:
 
     def __len__(self) -> int:
         return len(self.points)
+
+    def subset(self, index: np.ndarray) -> SurfaceCurvature:
+        """The curvatures at `index` (indices or a mask) only."""
+        arrays = {f.name: getattr(self, f.name)[index] for f in dataclasses.fields(self) if f.name != "radius_mm"}
+        return SurfaceCurvature(**arrays, radius_mm=self.radius_mm)
 
     @property
     def mean(self) -> np.ndarray:

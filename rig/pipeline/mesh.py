@@ -22,14 +22,14 @@ class Mesh:
 
     @staticmethod
     def concatenate(meshes: list[Mesh]) -> Mesh:
+        """One mesh of several (at least one), faces renumbered."""
         offsets = np.cumsum([0, *(len(m.vertices) for m in meshes)])[:-1]
+        faces = [m.faces + offset for m, offset in zip(meshes, offsets, strict=True)]
         return Mesh(
-            np.concatenate([m.vertices for m in meshes]) if meshes else np.zeros((0, 3)),
-            np.concatenate([m.colors for m in meshes]) if meshes else np.zeros((0, 3), np.uint8),
-            np.concatenate([m.faces + o for m, o in zip(meshes, offsets, strict=True)]).astype(np.int32)
-            if meshes
-            else np.zeros((0, 3), np.int32),
-            np.concatenate([m.pixel for m in meshes]) if meshes else np.zeros(0, np.int64),
+            np.concatenate([m.vertices for m in meshes]),
+            np.concatenate([m.colors for m in meshes]),
+            np.concatenate(faces).astype(np.int32),
+            np.concatenate([m.pixel for m in meshes]),
         )
 
 

@@ -7,7 +7,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.spatial import Delaunay, QhullError, cKDTree
+from scipy.spatial import cKDTree
 
 from rig.geometry import CameraModel
 from rig.geometry.cone import ray_cone, refine_on_distorted_ring
@@ -16,6 +16,7 @@ from rig.patterns import Correspondence, RingSamples
 from rig.pipeline.dense import texture_rgb
 from rig.pipeline.pointset import PointSet
 from rig.pipeline.ring_angles import Placed, place_by_fine_angle
+from rig.pipeline.surface import accumulate_normals, delaunay
 
 # Triangles of the sample mesh longer than this (camera pixels) bridge gaps, not neighbouring rings.
 _MAX_TRIANGLE_EDGE_PX = 80.0
@@ -239,26 +240,16 @@ def sample_normals(points: np.ndarray, camera_xy: np.ndarray, directions: np.nda
     """Unit normals of scattered surface samples, from a Delaunay triangulation of their camera
     positions (which links neighbouring rings); triangles with an image edge longer than
     `max_edge_px` are dropped. Oriented toward the camera; samples in no triangle face the camera."""
-    normals = np.zeros_like(points)
-    try:
-        tri = Delaunay(camera_xy).simplices if len(points) >= 3 else np.zeros((0, 3), dtype=np.int64)
-    except QhullError:  # all samples on one line: no surface to take a normal from
-        tri = np.zeros((0, 3), dtype=np.int64)
+    tri = delaunay(camera_xy)
     if len(tri):
         xy = camera_xy[tri]
         longest = np.max(np.linalg.norm(xy - np.roll(xy, 1, axis=1), axis=2), axis=1)
         tri = tri[longest <= max_edge_px]
-        p = points[tri]
-        face = np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])  # area-weighted
-        facing = np.einsum("ij,ij->i", face, directions[tri[:, 0]]) > 0
-        face[facing] *= -1
-        for k in range(3):
-            np.add.at(normals, tri[:, k], face)
-    norm = np.linalg.norm(normals, axis=1)
-    missing = norm < 1e-12
-    normals[~missing] /= norm[~missing, None]
-    normals[missing] = -directions[missing]
-    return normals
+    p = points[tri]
+    face = np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])  # area-weighted
+    facing = np.einsum("ij,ij->i", face, directions[tri[:, 0]]) > 0
+    face[facing] *= -1
+    return accumulate_normals(tri, face, directions)
 
 
 def ring_coverage(rings: RingPoints, samples: RingSamples, min_samples: int = 50) -> dict[str, object]:

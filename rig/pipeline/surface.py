@@ -73,7 +73,7 @@ def ring_triangles(
     gap = (same & (edge_px > settings.max_gap_px)).any(axis=1)
     keep = (span == 1) & ~gap
     counts["dropped_ring_skipped"] = int((span > 1).sum())
-    counts["dropped_gap"] = int(((span <= 1) & ~keep & ~(span == 0)).sum())
+    counts["dropped_gap"] = int(((span == 1) & gap).sum())
     counts["dropped_one_ring"] = int((span == 0).sum())
     tri = tri[keep]
     face = _face_normals(points, tri, directions)
@@ -150,10 +150,15 @@ def _vertex_normals(points: np.ndarray, tri: np.ndarray, face: np.ndarray, direc
     are unevenly spaced."""
     p = points[tri]
     longest = np.linalg.norm(p - np.roll(p, -1, axis=1), axis=2).max(axis=1)
-    weighted = face / np.maximum(longest, 1e-9)[:, None]
-    normals = np.zeros_like(points)
+    return accumulate_normals(tri, face / np.maximum(longest, 1e-9)[:, None], directions)
+
+
+def accumulate_normals(tri: np.ndarray, face: np.ndarray, directions: np.ndarray) -> np.ndarray:
+    """Unit normals of the points of triangles `tri` (F, 3): the sum of the (weighted) `face`
+    vectors of the triangles each is in; a point in none faces its camera ray `directions` back."""
+    normals = np.zeros_like(directions, dtype=np.float64)
     for k in range(3):
-        np.add.at(normals, tri[:, k], weighted)
+        np.add.at(normals, tri[:, k], face)
     norm = np.linalg.norm(normals, axis=1)
     missing = norm < 1e-12
     normals[~missing] /= norm[~missing, None]

@@ -13,10 +13,12 @@ from typing import Any
 
 import numpy as np
 import yaml
+from pydantic import ValidationError
 
 from rig.config.scan import RingPlanSettings
 from rig.errors import PlanError
 from rig.geometry import CameraModel
+from rig.patterns.rings import RingsParams
 from rig.pipeline.scan import ScanResult
 from rig.plan.rings import (
     Demand,
@@ -73,8 +75,11 @@ class RingPlan:
             tolerance = float(data["tolerance_mm"])
         except (KeyError, TypeError, ValueError, IndexError) as exc:
             raise PlanError(f"{source}: radii_px, center_px and tolerance_mm must be numbers ({exc!r})") from None
-        if not radii or not np.all(np.isfinite(radii)) or np.any(np.diff(radii) <= 4.0) or radii[0] <= 0:
-            raise PlanError(f"{source}: radii_px must be positive and increase by more than 4 px")
+        try:  # the rings codec's own checks on radii and centre
+            RingsParams(radii_px=radii, center_px=center)
+        except ValidationError as exc:
+            problems = "; ".join(f"{'.'.join(map(str, e['loc'])) or 'radii_px'}: {e['msg']}" for e in exc.errors())
+            raise PlanError(f"{source}: {problems}") from None
         return RingPlan(
             tolerance,
             center,

@@ -97,14 +97,10 @@ def demand(
     normal = curvature.normals[idx]
     across = grad - np.einsum("ij,ij->i", grad, normal)[:, None] * normal
     rate = np.linalg.norm(across, axis=1)
-    sub = SurfaceCurvature(*(getattr(curvature, f)[idx] for f in _FIELDS), radius_mm=curvature.radius_mm)
-    kappa = np.abs(sub.normal_curvature(across))
+    kappa = np.abs(curvature.subset(idx).normal_curvature(across))
     allowed_mm = np.sqrt(8.0 * tolerance_mm / np.maximum(kappa, 1e-12))
     allowed = np.minimum(allowed_mm * rate, max_px)
     return Demand(radius[idx], allowed, kappa, rate)
-
-
-_FIELDS = ("points", "normals", "k1", "k2", "dir1", "dir2", "residual_mm", "neighbours", "valid")
 
 
 def spacing_profile(demands: list[Demand], settings: RingPlanSettings) -> tuple[np.ndarray, np.ndarray]:

@@ -46,16 +46,17 @@ def adaptive_scan(
     plan: RingPlan | None = None,
     keep_frames: bool = False,
     progress: ProgressCallback | None = None,
-) -> tuple[ScanResult, RingPlan]:
+) -> tuple[ScanResult, RingPlan, Rig]:
     """Pilot (unless `plan` is given), plan, and the planned ring scan; the result records the plan
-    and what the scan cost beside the pilot (ScanResult.adaptive)."""
+    and what the scan cost beside the pilot (ScanResult.adaptive). Also returns the rig as it
+    scanned the plan (with_plan), whose config the stored scan records."""
     piloted = plan is None
     if plan is None:
         plan = plan_from_pilot(the_rig, tolerance_mm, progress)
     sparse = with_plan(the_rig, plan)
     result = run_scan(sparse, "rings", keep_frames=keep_frames)
     result.adaptive = adaptive_record(plan, result, piloted)
-    return result, plan
+    return result, plan, sparse
 
 
 def adaptive_record(plan: RingPlan, result: ScanResult, piloted: bool) -> dict[str, Any]:

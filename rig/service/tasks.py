@@ -15,7 +15,7 @@ from rig.pipeline.scan import ScanResult, reconstruct_frames, run_scan
 from rig.plan.ring_plan import RingPlan
 from rig.progress import ProgressCallback, ProgressTracker
 from rig.rig import Rig
-from rig.service.adaptive import adaptive_scan, with_plan
+from rig.service.adaptive import adaptive_scan
 from rig.store.scandir import read_frames, write_scan
 
 
@@ -46,10 +46,9 @@ def adaptive_scan_to_directory(
     progress: ProgressCallback | None = None,
 ) -> tuple[Path, ScanResult, RingPlan]:
     """An adaptive scan (rig.service.adaptive) written like any scan, its plan in the manifest."""
-    result, plan = adaptive_scan(the_rig, tolerance_mm, plan, keep_frames, progress)
+    result, plan, sparse = adaptive_scan(the_rig, tolerance_mm, plan, keep_frames, progress)
     tracker = ProgressTracker(progress)
     tracker.report("store", 0.95)
-    sparse = with_plan(the_rig, plan)
     path = write_scan(sparse, result, target, scan_id, metrics_on_bench(sparse, result))
     tracker.report("done", 1.0)
     return path, result, plan

@@ -124,17 +124,22 @@ def _surface_summary(the_rig: Rig, result: ScanResult) -> dict[str, Any]:
     }
 
 
-def _depth_grid(result: ScanResult, camera: int) -> np.ndarray | None:
-    """Organised points of a camera, filled from each projector in turn (None: no pair has it)."""
+def _depth_grid(result: ScanResult, camera: int, surface: bool = False) -> np.ndarray | None:
+    """Organised points of a camera (or, with `surface`, of the surface interpolated between its
+    rings), filled from each projector in turn (None: no pair has it)."""
     grid: np.ndarray | None = None
     for pair in result.pairs:
-        if pair.camera != camera:
+        if surface:
+            found = None if pair.surface is None else pair.surface.grid
+        else:
+            found = pair.grid
+        if pair.camera != camera or found is None:
             continue
         if grid is None:
-            grid = pair.grid.copy()
+            grid = found.copy()
         else:
             missing = ~np.isfinite(grid).all(axis=2)
-            grid[missing] = pair.grid[missing]
+            grid[missing] = found[missing]
     return grid
 
 
@@ -192,13 +197,9 @@ def _write_surface(the_rig: Rig, result: ScanResult, partial: Path, scan_id: str
     write_atomic(partial / "mesh.ply", mesh_ply_bytes(result.mesh, comment=f"slrig surface {scan_id}"))
     out: dict[str, Any] = {"mesh": "mesh.ply", "depth": {}}
     for c, camera in enumerate(the_rig.config.cameras):
-        grids = [pair.surface.grid for pair in result.pairs if pair.camera == c and pair.surface is not None]
-        if not grids:
+        grid = _depth_grid(result, c, surface=True)
+        if grid is None:
             continue
-        grid = grids[0].copy()
-        for more in grids[1:]:
-            missing = ~np.isfinite(grid).all(axis=2)
-            grid[missing] = more[missing]
         name = f"surface_depth_{camera.name}.png"
         write_atomic(partial / name, depth_png(grid, the_rig.camera_models[c]))
         out["depth"][camera.name] = name
