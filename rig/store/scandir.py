@@ -21,7 +21,7 @@ import numpy as np
 import rig
 from rig.errors import StoreError
 from rig.pipeline.capture import CUE
-from rig.pipeline.scan import ScanResult
+from rig.pipeline.scan import PairResult, ScanResult
 from rig.rig import Rig
 from rig.store.atomic import fsync_dir, rename_no_replace, write_atomic
 from rig.store.images import depth_png, mask_png, preview_png
@@ -124,15 +124,18 @@ def _surface_summary(the_rig: Rig, result: ScanResult) -> dict[str, Any]:
     }
 
 
+def _pair_grid(pair: PairResult, surface: bool) -> np.ndarray | None:
+    if not surface:
+        return pair.grid
+    return None if pair.surface is None else pair.surface.grid
+
+
 def _depth_grid(result: ScanResult, camera: int, surface: bool = False) -> np.ndarray | None:
     """Organised points of a camera (or, with `surface`, of the surface interpolated between its
     rings), filled from each projector in turn (None: no pair has it)."""
     grid: np.ndarray | None = None
     for pair in result.pairs:
-        if surface:
-            found = None if pair.surface is None else pair.surface.grid
-        else:
-            found = pair.grid
+        found = _pair_grid(pair, surface)
         if pair.camera != camera or found is None:
             continue
         if grid is None:
