@@ -14,10 +14,13 @@ from rig.assembly import open_rig
 from rig.config import load_config
 from rig.config.scan import RingPlanSettings
 from rig.errors import PlanError
+from rig.evaluate.pairs import evaluate_pair
 from rig.geometry.curvature import principal_curvatures
 from rig.pipeline.scan import run_scan
+from rig.plan.rehearsal import pilot_surface, rehearse, ring_samples
 from rig.plan.ring_plan import RingPlan, pilot_views, plan_rings
 from rig.plan.rings import PilotView, _PooledSpectrum, minimum_rings, place_rings, ring_polar
+from rig.service.adaptive import with_plan
 
 # Lee & Krim 2017, Table 1: model, N (initial patterns), f_s, N_s (minimum patterns), as published.
 TABLE_1 = [
@@ -86,21 +89,49 @@ def test_curvature_of_a_noisy_simulated_scan(pilot: tuple[list[PilotView], RingP
     assert np.percentile(np.abs(c.k1[plane]), 90) < 0.1 / 60
 
 
-def test_the_plan_crowds_rings_over_the_sphere_and_beats_any_uniform_set(
-    pilot: tuple[list[PilotView], RingPlanSettings],
-) -> None:
+@pytest.fixture(scope="module")
+def plans(pilot: tuple[list[PilotView], RingPlanSettings]) -> dict[float, RingPlan]:
     views, settings = pilot
-    plan = plan_rings(views, settings, 0.2)
-    uniform = plan.criteria["sagitta_uniform"]["rings"]
-    assert plan.rings < 0.7 * uniform
+    return {tolerance: plan_rings(views, settings, tolerance) for tolerance in (0.05, 0.2)}
+
+
+def test_the_plan_crowds_rings_over_the_sphere_and_beats_any_uniform_set(plans: dict[float, RingPlan]) -> None:
+    plan = plans[0.05]
+    rehearsed = plan.criteria["rms_nonuniform"]
+    assert rehearsed["met"] and rehearsed["rms_mm"] <= 0.05 and rehearsed["rings"] == plan.rings
+    uniform = plan.criteria["rms_uniform"]
+    assert uniform["met"] and plan.rings <= 0.7 * uniform["rings"]
+    assert plan.criteria["sagitta_uniform"]["rings"] > plan.rings
     radii = np.array(plan.radii_px)
     gaps = np.diff(radii)
     sphere = radii[:-1] < 150  # the sphere fills the projector's first 150 px or so
     assert gaps[sphere].mean() < gaps[~sphere].mean()
     frequency = plan.criteria["curvature_frequency"]
     assert frequency["rings"] == minimum_rings(frequency["dense_rings"], frequency["f_s"])
-    looser = plan_rings(views, settings, 1.0)
-    assert looser.rings < plan.rings
+    assert plans[0.2].rings < plan.rings
+
+
+def test_the_planned_scan_meets_its_tolerance(plans: dict[float, RingPlan]) -> None:
+    plan = plans[0.05]
+    with open_rig(load_config()) as rig:
+        result = run_scan(with_plan(rig, plan), "rings")
+        assert rig.truth is not None
+        metrics = evaluate_pair(result.pairs[0], rig.truth.ground_truth(0, 0), rig.truth)
+    assert metrics["surface_rms_mm"] is not None and metrics["surface_rms_mm"] <= plan.tolerance_mm
+    assert metrics["surface_completeness"] > 0.9
+
+
+def test_a_rehearsal_cuts_the_rings_out_of_the_pilot(pilot: tuple[list[PilotView], RingPlanSettings]) -> None:
+    view = pilot[0][0]
+    assert view.camera is not None and view.grid is not None
+    center = (511.5, 383.5)
+    surface = pilot_surface(view.grid, view.camera, view.projector, center)
+    radii = np.linspace(30.0, 600.0, 12)
+    points, _, ring = ring_samples(surface, radii)
+    rho = ring_polar(view.projector, points, center)[0]
+    assert len(points) > 1000 and np.percentile(np.abs(rho - radii[ring]), 99) < 0.5
+    errors = [rehearse([surface], np.linspace(30.0, 600.0, n), center, "quadratic").rms_mm for n in (8, 32)]
+    assert errors[1] < 0.5 * errors[0]
 
 
 @pytest.mark.parametrize("tolerance", [0.0, -0.1, float("nan")])
@@ -124,15 +155,13 @@ def test_the_planner_refuses_an_empty_pilot_and_a_surface_the_rings_miss(
         plan_rings([aside], settings, 0.2)
 
 
-def test_a_plan_file_round_trips_and_a_bad_one_is_named(
-    pilot: tuple[list[PilotView], RingPlanSettings], tmp_path: Path
-) -> None:
-    plan = plan_rings(*pilot, 0.5)
+def test_a_plan_file_round_trips_and_a_bad_one_is_named(plans: dict[float, RingPlan], tmp_path: Path) -> None:
+    plan = plans[0.2]
     path = tmp_path / "plan.json"
     plan.save(path)
     again = RingPlan.load(path)
     assert again.radii_px == pytest.approx(plan.radii_px, abs=0.01)
-    assert again.tolerance_mm == 0.5
+    assert again.tolerance_mm == 0.2 and again.criteria["rms_uniform"] == plan.criteria["rms_uniform"]
     data = json.loads(path.read_text())
     data["radii_px"] = [10.0, 12.0]
     path.write_text(json.dumps(data))

@@ -14,11 +14,11 @@ from conftest import small_config_path  # noqa: F401 - fixture
 
 from rig.assembly import open_rig
 from rig.cli import main
-from rig.config import load_config
+from rig.config import config_from_dict, load_config
 from rig.errors import StoreError
 from rig.evaluate.distances import surface_distances
-from rig.pipeline.scan import run_scan
-from rig.pipeline.surface import interpolate_surface, rasterize
+from rig.pipeline.scan import ring_bands, run_scan
+from rig.pipeline.surface import SurfaceSettings, band_agreement, interpolate_surface, rasterize
 from rig.store.ply import ply_bytes, read_cloud_ply
 
 
@@ -72,6 +72,40 @@ def test_quadratic_beats_linear_and_both_leave_shadows_empty(ring_scan) -> None:
         assert (surface.valid & target).sum() > 0.9 * target.sum()
     assert rms["quadratic"] < 0.8 * rms["linear"]
     assert rms["quadratic"] < 0.08
+
+
+def test_a_point_off_its_pixels_annulus_or_angle_is_refused(ring_scan) -> None:  # type: ignore[no-untyped-def]
+    rig, result = ring_scan
+    pair = result.pairs[0]
+    bands = ring_bands(pair.correspondence)
+    assert bands is not None and (bands.annulus >= 0).mean() > 0.5 and np.isfinite(bands.angle).mean() > 0.5
+    pixel = np.flatnonzero(pair.surface.valid.ravel())
+    found = pair.surface.grid.reshape(-1, 3)[pixel]
+    projector, settings = rig.projector_models[0], SurfaceSettings()
+    assert band_agreement(found, pixel, projector, bands, settings).mean() > 0.99
+    ray = found - rig.camera_models[0].center
+    ray /= np.linalg.norm(ray, axis=1)[:, None]
+    # What a bridge over a step would put on these rays: refused wherever the step moves the point
+    # out of its annulus (radially) or by over 0.15 rad (tangentially), so more as the step grows.
+    for depth_mm, most_kept in ((-20.0, 0.65), (20.0, 0.65), (60.0, 0.35)):
+        moved = band_agreement(found + depth_mm * ray, pixel, projector, bands, settings)
+        assert moved.mean() < most_kept, depth_mm
+
+
+def test_sparse_rings_leave_holes_at_the_silhouette_instead_of_bridging_it() -> None:
+    """16 rings, about 40 px apart: between the last ring on the sphere and the first on the plane
+    the surface is unknown. The annulus and angle each pixel read, and the foreshortening of a
+    triangle to both devices, keep the surface from spanning it (it did, by up to 35 mm)."""
+    data = load_config().with_codec("rings").model_dump(mode="json")
+    data["scan"]["rings"]["rings"] = 16
+    with open_rig(config_from_dict(data, "16 rings")) as rig:
+        pair = run_scan(rig, "rings").pairs[0]
+        assert rig.truth is not None and pair.surface is not None
+        truth = rig.truth.ground_truth(0, 0)
+        dist = surface_distances(pair.surface.grid, pair.surface.valid, truth)
+    assert np.sqrt(np.mean(dist**2)) < 0.2 and dist.max() < 3.0
+    target = truth.hit & truth.lit
+    assert (pair.surface.valid & target).sum() > 0.85 * target.sum()
 
 
 def test_a_ring_scan_writes_a_mesh_others_read(tmp_path: Path) -> None:

@@ -59,9 +59,15 @@ class RingPlanSettings(Strict):
     )
     min_spacing_px: float = Field(6.0, gt=4.0, le=4096.0, description="rings never closer than this (projector px)")
     max_spacing_px: float = Field(
-        64.0, gt=4.0, le=4096.0, description="rings never further apart: flat surface still needs its outline"
+        256.0, gt=4.0, le=4096.0, description="rings never further apart: flat surface still needs its outline"
     )
     min_radius_px: float = Field(8.0, ge=0.0, le=4096.0, description="the innermost ring at least this large")
+    rehearsal_step_px: int = Field(
+        2, ge=1, le=16, description="the plan is rehearsed on every n-th pilot pixel row and column"
+    )
+    keep_coverage: float = Field(
+        0.95, gt=0.0, le=1.0, description="a plan covers at least this fraction of what the densest rings cover"
+    )
     bin_px: float = Field(2.0, gt=0.0, le=64.0, description="radius bins of the spacing profile")
     demand_quantile: float = Field(
         0.98, gt=0.5, le=1.0, description="each radius gets the spacing this fraction of its surface allows"

@@ -231,7 +231,32 @@ class RingsCodec(CircularCodec):
         }
         if phase is not None:
             counts["no_fine_angle"] = int(np.isnan(phase).sum())
-        return Correspondence(valid=valid, quality=white - black, texture=texture, samples=samples, counts=counts)
+        extra = self._bands(edge, zone, zone_ok, phase_sums(frames, first, p.angle_steps), lit)
+        return Correspondence(
+            valid=valid, quality=white - black, texture=texture, samples=samples, counts=counts, extra=extra
+        )
+
+    def _bands(
+        self,
+        edge: np.ndarray,
+        zone: np.ndarray,
+        zone_ok: np.ndarray,
+        sums: tuple[np.ndarray, np.ndarray],
+        lit: np.ndarray,
+    ) -> dict[str, np.ndarray]:
+        """Where every pixel lies in the projector image, coarsely: `annulus` a (between rings a-1
+        and a; -1 unread), from its zone and the edge pattern's parity, and `angle`, the coarse polar
+        angle (NaN unread). The surface between the rings checks its points against them."""
+        p = self.params
+        lit_annulus_odd = edge > 0
+        annulus = np.where((zone % 2 == 1) == lit_annulus_odd, zone, zone + 1)
+        sure = zone_ok & (np.abs(edge) >= p.min_edge_contrast)
+        s, c = sums
+        readable = lit & ((2.0 / p.angle_steps) * np.hypot(s, c) >= p.min_edge_contrast)
+        return {
+            "annulus": np.where(sure, annulus, -1).astype(np.int16),
+            "angle": np.where(readable, np.arctan2(s, c), np.nan).astype(np.float32),
+        }
 
 
 @dataclass(frozen=True, eq=False)

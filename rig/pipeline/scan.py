@@ -25,7 +25,7 @@ from rig.pipeline.rings import (
     ring_pointset,
     triangulate_rings,
 )
-from rig.pipeline.surface import RingSurface, SurfaceSettings, interpolate_surface
+from rig.pipeline.surface import RingBands, RingSurface, SurfaceSettings, interpolate_surface
 from rig.progress import ProgressCallback, ProgressTracker
 from rig.rig import Rig
 
@@ -133,7 +133,16 @@ def ring_surface(rig: Rig, projector: int, camera: int, rings: RingPoints, corr:
         lit,
         config.interpolant,
         SurfaceSettings(max_gap_px=config.max_gap_px),
+        ring_bands(corr),
     )
+
+
+def ring_bands(corr: Correspondence) -> RingBands | None:
+    """The ring codec's per-pixel annulus and angle, when it read them."""
+    samples = corr.samples
+    if samples is None or samples.ring_radii_px is None or "annulus" not in corr.extra:
+        return None
+    return RingBands(corr.extra["annulus"], corr.extra["angle"], samples.ring_radii_px, samples.center_px)
 
 
 def triangulator(rig: Rig, projector: int, camera: int) -> PairTriangulator:

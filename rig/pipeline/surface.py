@@ -30,14 +30,31 @@ from rig.geometry import CameraModel
 Interpolant = Literal["linear", "quadratic", "cubic"]
 INTERPOLANTS: tuple[str, ...] = ("linear", "quadratic", "cubic")
 
+# Near the rings' centre the polar angle says little (and is read poorly): no angle check inside this.
+_ANGLE_MIN_RADIUS_PX = 8.0
+
 
 @dataclass(frozen=True)
 class SurfaceSettings:
     max_gap_px: float = 6.0  # two samples of one ring further apart than this are not neighbours
     max_slant_deg: float = 84.0  # triangles seen more edge-on than this span a depth edge
     max_bend_deg: float = 50.0  # ... as do triangles this far from one of their corners' normals
-    min_foreshortening: float = 0.05  # ... and edges steep to both devices (see _bridges)
+    min_foreshortening: float = 0.15  # ... and edges steep to both devices (see _bridges)
     max_unlit: float = 0.2  # triangles over more of their pixels dark than this span a shadow
+    band_margin_px: float = 2.0  # a point may project this far outside the annulus its pixel read ...
+    band_angle_rad: float = 0.15  # ... and this far from the polar angle it read (3x the code's p99.9)
+    max_band_disagreement: float = 0.25  # a triangle with more of its pixels off their bands bridges an edge
+
+
+@dataclass(frozen=True, eq=False)
+class RingBands:
+    """What the ring codec read at every camera pixel (rig.patterns.rings): the annulus between two
+    rings (-1 unread) and the coarse polar angle (NaN unread), with the rings' radii and centre."""
+
+    annulus: np.ndarray  # (H, W) int16
+    angle: np.ndarray  # (H, W) float32, radians
+    radii_px: np.ndarray  # (K,)
+    center_px: tuple[float, float]
 
 
 @dataclass(frozen=True, eq=False)
@@ -205,10 +222,13 @@ def interpolate_surface(
     lit: np.ndarray | None = None,
     method: Interpolant = "quadratic",
     settings: SurfaceSettings | None = None,
+    bands: RingBands | None = None,
 ) -> RingSurface:
     """The dense surface of one pair's kept ring samples (points, sub-pixel camera positions, ring
     index) by `method` (see the module docstring). `lit` (H, W) marks the pixels the projector
-    lights: a triangle over dark pixels spans a shadow (or no surface at all)."""
+    lights: a triangle over dark pixels spans a shadow (or no surface at all). With `bands`, a pixel
+    whose interpolated point the projector would light outside the annulus or away from the angle
+    that pixel read is a hole: the triangle there bridges a depth edge its corners cannot see."""
     if method not in INTERPOLANTS:
         raise ValueError(f"unknown interpolant {method!r}; known: {', '.join(INTERPOLANTS)}")
     settings = settings or SurfaceSettings()
@@ -232,6 +252,13 @@ def interpolate_surface(
         quadratic = method == "quadratic"
         found = _on_triangles(points, normals, xy, tri, pixel, owner, rays, camera.width, quadratic)
     ok = np.isfinite(found).all(axis=1)
+    if bands is not None:
+        agree = band_agreement(found, pixel, projector, bands, settings)
+        area = np.bincount(owner, minlength=len(tri))
+        bridging = np.bincount(owner, ~agree, minlength=len(tri)) > settings.max_band_disagreement * area
+        agree &= ~bridging[owner]
+        counts["dropped_band_px"] = int((ok & ~agree).sum())
+        ok &= agree
     grid = np.full((camera.height * camera.width, 3), np.nan)
     grid[pixel[ok]] = found[ok]
     valid = np.zeros(camera.height * camera.width, dtype=bool)
@@ -239,6 +266,25 @@ def interpolate_surface(
     counts["pixels"] = int(ok.sum())
     shape = (camera.height, camera.width)
     return RingSurface(points, normals, tri, grid.reshape(*shape, 3), valid.reshape(shape), counts)
+
+
+def band_agreement(
+    found: np.ndarray, pixel: np.ndarray, projector: CameraModel, bands: RingBands, settings: SurfaceSettings
+) -> np.ndarray:
+    """Whether each interpolated point (at flat camera pixel `pixel`) projects into the annulus and
+    near the polar angle its pixel read; unread pixels agree with anything."""
+    uv, z = projector.project(np.where(np.isfinite(found), found, 0.0))
+    du, dv = uv[:, 0] - bands.center_px[0], uv[:, 1] - bands.center_px[1]
+    rho = np.hypot(du, dv)
+    annulus = bands.annulus.ravel()[pixel].astype(np.int64)
+    radii = np.concatenate([[-np.inf], bands.radii_px, [np.inf]])  # annulus a lies between radii[a], radii[a + 1]
+    read = annulus >= 0
+    a = np.clip(annulus, 0, len(bands.radii_px))
+    inside = (rho >= radii[a] - settings.band_margin_px) & (rho <= radii[a + 1] + settings.band_margin_px)
+    angle = bands.angle.ravel()[pixel]
+    turned = np.abs(np.angle(np.exp(1j * (np.arctan2(dv, du) - angle))))
+    aligned = ~np.isfinite(angle) | (turned <= settings.band_angle_rad) | (rho < _ANGLE_MIN_RADIUS_PX)
+    return (z > 0) & (~read | inside) & aligned
 
 
 def _on_triangles(

@@ -20,6 +20,8 @@ from rig.errors import PlanError
 from rig.geometry import CameraModel
 from rig.patterns.rings import RingsParams
 from rig.pipeline.scan import ScanResult
+from rig.pipeline.surface import Interpolant
+from rig.plan.rehearsal import PilotSurface, noise_mm, organised, pilot_surface
 from rig.plan.rings import (
     Demand,
     PilotView,
@@ -30,6 +32,7 @@ from rig.plan.rings import (
     spacing_profile,
     uniform_rings,
 )
+from rig.plan.search import nonuniform_rings, rms_shape, uniform_count
 
 PLAN_FORMAT = "slrig-ring-plan/1"
 
@@ -107,9 +110,12 @@ def plan_rings(
     settings: RingPlanSettings,
     tolerance_mm: float | None = None,
     pilot: dict[str, Any] | None = None,
+    method: Interpolant = "quadratic",
 ) -> RingPlan:
     """The plan for the pilot's views (one per projector and camera): one set of radii for every
-    projector, under the strictest demand any of them makes at each radius."""
+    projector. With the views' cameras known, the fewest non-uniform rings whose surface (by the
+    interpolant `method`) rehearses within the tolerance in rms (rig.plan.search); otherwise the
+    sagitta bound's rings, under the strictest demand any view makes at each radius."""
     tolerance = settings.tolerance_mm if tolerance_mm is None else tolerance_mm
     if not np.isfinite(tolerance) or tolerance <= 0:
         raise PlanError(f"tolerance_mm: must be a positive number of millimetres, got {tolerance}")
@@ -128,11 +134,15 @@ def plan_rings(
     radii = place_rings(edges, profile, settings.bin_px)
     count, spacing = uniform_rings(edges, profile, settings.bin_px)
     rate = float(np.median(np.concatenate([d.px_per_mm for d in demands])))
-    criteria = {
+    criteria: dict[str, dict[str, Any]] = {
         "sagitta_nonuniform": {"rings": len(radii)},
         "sagitta_uniform": {"rings": count, "spacing_px": round(spacing, 2)},
         "curvature_frequency": frequency_criterion(views, center, settings, edges, rate),
     }
+    step = settings.rehearsal_step_px
+    pilots = [pilot_surface(_grid(v), v.camera, v.projector, center, step) for v in views if v.camera is not None]
+    if pilots:
+        radii = _rehearsed(pilots, demands, edges, settings, tolerance, method, center, criteria)
     kappa = np.concatenate([d.kappa_across for d in demands])
     pilot = {
         **(pilot or {}),
@@ -148,8 +158,41 @@ def plan_rings(
     return RingPlan(tolerance, center, radii, criteria, profile_out, pilot)
 
 
+def _rehearsed(
+    pilots: list[PilotSurface],
+    demands: list[Demand],
+    edges: np.ndarray,
+    settings: RingPlanSettings,
+    tolerance: float,
+    method: Interpolant,
+    center: tuple[float, float],
+    criteria: dict[str, dict[str, Any]],
+) -> list[float]:
+    """The rehearsed non-uniform radii; adds both rehearsed criteria to `criteria`."""
+    noise = float(np.median([noise_mm(p) for p in pilots]))
+    shape = rms_shape(demands, edges, settings.bin_px)
+    planned = nonuniform_rings(pilots, edges, shape, settings, tolerance, method, center, noise)
+    uniform = uniform_count(pilots, edges, settings, tolerance, method, center, noise)
+    for name, found in (("rms_nonuniform", planned), ("rms_uniform", uniform)):
+        criteria[name] = {**found.rehearsal.as_dict(), "met": found.met, "interpolant": method}
+    criteria["rms_nonuniform"]["pilot_noise_mm"] = round(noise, 4)
+    return planned.radii_px
+
+
+def _grid(view: PilotView) -> np.ndarray:
+    assert view.camera is not None
+    return view.grid if view.grid is not None else organised(view.points, view.camera)
+
+
 def pilot_views(result: ScanResult, cameras: list[CameraModel], projectors: list[CameraModel]) -> list[PilotView]:
     """One view per (projector, camera) pair of a pilot scan."""
     return [
-        PilotView(pair.points.points, projectors[pair.projector], cameras[pair.camera].center) for pair in result.pairs
+        PilotView(
+            pair.points.points,
+            projectors[pair.projector],
+            cameras[pair.camera].center,
+            cameras[pair.camera],
+            pair.grid,
+        )
+        for pair in result.pairs
     ]

@@ -39,6 +39,8 @@ class PilotView:
     points: np.ndarray
     projector: CameraModel
     viewpoint: np.ndarray
+    camera: CameraModel | None = None  # with it, the plan is rehearsed on the pilot (rig.plan.rehearsal)
+    grid: np.ndarray | None = None  # (H, W, 3) the points on the camera's pixels, when known
 
 
 @dataclass(frozen=True, eq=False)

@@ -24,7 +24,7 @@ def plan_from_pilot(the_rig: Rig, tolerance_mm: float | None, progress: Progress
     tracker.report("plan", 0.45)
     views = pilot_views(pilot, the_rig.camera_models, the_rig.projector_models)
     about = {"codec": pilot.codec, "frames_projected": pilot.frames_projected, "bytes_captured": pilot.bytes_captured}
-    return plan_rings(views, settings, tolerance_mm, about)
+    return plan_rings(views, settings, tolerance_mm, about, the_rig.config.scan.surface.interpolant)
 
 
 def with_plan(the_rig: Rig, plan: RingPlan) -> Rig:

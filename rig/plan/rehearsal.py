@@ -1,0 +1,202 @@
+"""Rehearsing a ring set on the pilot: what the surface between those rings would err by.
+
+An error model from curvature alone (the sagitta bound) says how a linear interpolant errs on a
+smooth patch; it says nothing of where the surface folds away from the projector (its limb), where
+rings a few pixels apart lie centimetres apart on the surface, nor of the interpolant actually
+configured. The pilot is a dense scan of the same object, so the rings can be tried on it instead:
+cut the pilot's surface at each ring's radius (where its projector radius crosses the ring between
+two neighbouring camera pixels, as the ring codec finds a ring), interpolate the surface between
+those samples exactly as a ring scan would (rig.pipeline.surface, with the annulus and angle each
+pixel would read), and measure the distance to the pilot's own points, pixel by pixel.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass
+
+import cv2
+import numpy as np
+
+from rig.geometry import CameraModel
+from rig.pipeline.surface import Interpolant, RingBands, interpolate_surface
+
+# Smoothing scale of the pilot's noise (camera pixels): a few pixels, far under any ring spacing.
+_SMOOTH_PX = 1.5
+
+# Neighbouring pixels further apart than this many pixel footprints straddle a depth edge: no ring
+# sample between them (the codec drops such crossings as jumps).
+_JUMP_FOOTPRINTS = 6.0
+
+
+@dataclass(frozen=True, eq=False)
+class PilotSurface:
+    """A pilot's points organised on its camera's pixel grid, with their projector polar coordinates."""
+
+    grid: np.ndarray  # (H, W, 3), NaN where the pilot has no point
+    camera: CameraModel
+    projector: CameraModel
+    rho: np.ndarray  # (H, W) projector radius about the rings' centre, NaN where no point
+    theta: np.ndarray  # (H, W) projector polar angle
+
+    @property
+    def valid(self) -> np.ndarray:
+        return np.isfinite(self.rho)
+
+
+@dataclass(frozen=True)
+class Rehearsal:
+    """How a ring set would do on the pilot: rms and p95 distance (mm) of the interpolated surface to
+    the pilot's points, and the fraction of the pilot's pixels the interpolated surface covers."""
+
+    rings: int
+    rms_mm: float
+    p95_mm: float
+    covered: float
+
+    def as_dict(self) -> dict[str, float | int]:
+        return {
+            "rings": self.rings,
+            "rms_mm": round(self.rms_mm, 4),
+            "p95_mm": round(self.p95_mm, 4),
+            "covered": round(self.covered, 4),
+        }
+
+
+def pilot_surface(
+    grid: np.ndarray, camera: CameraModel, projector: CameraModel, center_px: tuple[float, float], step: int = 1
+) -> PilotSurface:
+    """The pilot on every `step`-th camera row and column (a camera of 1/step the resolution sees
+    them: rehearsals are step^2 times cheaper, and the rings' spacing is what they test)."""
+    grid = smoothed(grid, camera)
+    if step > 1:
+        grid = grid[::step, ::step]
+        scale = np.diag([1.0 / step, 1.0 / step, 1.0])
+        camera = dataclasses.replace(camera, width=grid.shape[1], height=grid.shape[0], K=scale @ camera.K)
+    valid = np.isfinite(grid).all(axis=2)
+    uv, z = projector.project(np.where(valid[..., None], grid, 0.0).reshape(-1, 3))
+    du, dv = uv[:, 0] - center_px[0], uv[:, 1] - center_px[1]
+    seen = valid.ravel() & (z > 0)
+    rho = np.where(seen, np.hypot(du, dv), np.nan).reshape(valid.shape)
+    theta = np.where(seen, np.arctan2(dv, du), np.nan).reshape(valid.shape)
+    return PilotSurface(grid, camera, projector, rho, theta)
+
+
+def smoothed(grid: np.ndarray, camera: CameraModel, sigma_px: float = _SMOOTH_PX) -> np.ndarray:
+    """The pilot with its noise along the rays averaged down (a Gaussian of the distance along each
+    ray over valid neighbours; a pixel whose average lands far from it, by an edge, keeps its own):
+    the ring samples cut from it, and the normals the interpolant takes from them, should be about
+    as clean as a ring scan's, whose ring edges are located more finely than a dense code's pixels."""
+    origins, directions = camera.pixel_rays
+    shape = grid.shape[:2]
+    flat = grid.reshape(-1, 3)
+    along = np.einsum("ij,ij->i", flat - origins, directions).reshape(shape)
+    valid = np.isfinite(along)
+    weight = cv2.GaussianBlur(valid.astype(np.float32), (0, 0), sigma_px)
+    total = cv2.GaussianBlur(np.where(valid, along, 0.0).astype(np.float32), (0, 0), sigma_px)
+    mean = total / np.maximum(weight, 1e-6)
+    footprint = np.abs(along) / camera.K[0, 0] if camera.projection == "pinhole" else 1.0 / camera.K[0, 0]
+    keep = valid & (np.abs(mean - along) <= _JUMP_FOOTPRINTS * footprint)
+    along = np.where(keep, mean, along).reshape(-1)
+    return (origins + along[:, None] * directions).reshape(grid.shape)
+
+
+def organised(points: np.ndarray, camera: CameraModel) -> np.ndarray:
+    """Points of a dense scan put back on the camera pixels they were seen at (nearest pixel;
+    the nearer point where two land on one)."""
+    grid = np.full((camera.height, camera.width, 3), np.nan)
+    uv, z = camera.project(points)
+    col, row = np.rint(uv[:, 0]).astype(np.int64), np.rint(uv[:, 1]).astype(np.int64)
+    inside = (z > 0) & (col >= 0) & (col < camera.width) & (row >= 0) & (row < camera.height)
+    order = np.flatnonzero(inside)[np.argsort(-z[inside])]  # far first: the nearest is written last
+    grid[row[order], col[order]] = points[order]
+    return grid
+
+
+def ring_samples(pilot: PilotSurface, radii: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Where each ring crosses the pilot's surface between horizontally or vertically neighbouring
+    pixels: 3D points, sub-pixel camera positions and ring indices."""
+    annulus = np.where(pilot.valid, np.searchsorted(radii, np.nan_to_num(pilot.rho, nan=-1.0)), -1)
+    footprint = _footprint_mm(pilot)
+    found: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = []
+    height, width = annulus.shape
+    for dy, dx in ((0, 1), (1, 0)):
+        a = (slice(0, height - dy), slice(0, width - dx))
+        b = (slice(dy, height), slice(dx, width))
+        za, zb = annulus[a], annulus[b]
+        cross = (za >= 0) & (zb >= 0) & (np.abs(za - zb) == 1)
+        ya, xa = np.nonzero(cross)
+        pa, pb = pilot.grid[a][ya, xa], pilot.grid[b][ya, xa]
+        near = np.linalg.norm(pb - pa, axis=1) <= _JUMP_FOOTPRINTS * footprint[a][ya, xa]
+        ya, xa, pa, pb = ya[near], xa[near], pa[near], pb[near]
+        ring = np.minimum(za[ya, xa], zb[ya, xa])
+        ra, rb = pilot.rho[a][ya, xa], pilot.rho[b][ya, xa]
+        t = np.clip((radii[ring] - ra) / (rb - ra), 0.0, 1.0)
+        xy = np.column_stack([xa + t * dx, ya + t * dy]).astype(np.float64)
+        found.append((pa + t[:, None] * (pb - pa), xy, ring))
+    points, xy, ring = (np.concatenate(parts) for parts in zip(*found, strict=True))
+    return points, xy, ring
+
+
+def _footprint_mm(pilot: PilotSurface) -> np.ndarray:
+    """Millimetres one camera pixel spans at each point's depth."""
+    camera = pilot.camera
+    if camera.projection == "orthographic":
+        return np.full(pilot.rho.shape, 1.0 / camera.K[0, 0])
+    depth = camera.to_device(np.nan_to_num(pilot.grid).reshape(-1, 3))[:, 2].reshape(pilot.rho.shape)
+    return np.abs(depth) / camera.K[0, 0]
+
+
+def rehearse(
+    pilots: list[PilotSurface],
+    radii: np.ndarray,
+    center_px: tuple[float, float],
+    method: Interpolant,
+    noise_mm: float = 0.0,
+) -> Rehearsal:
+    """The rings `radii` cut out of each pilot view and interpolated, against the pilot: rms and p95
+    over every view's pixels, less the pilot's own noise (`noise_mm`, which the comparison counts
+    once more than the ring scan will; what stays stands for the ring scan's own noise)."""
+    radii = np.asarray(radii, dtype=np.float64)
+    dist, covered, total = [], 0, 0
+    for pilot in pilots:
+        d = _distances(pilot, radii, center_px, method)
+        dist.append(d)
+        covered, total = covered + len(d), total + int(pilot.valid.sum())
+    d = np.concatenate(dist)
+    if len(d) == 0:
+        return Rehearsal(len(radii), float("inf"), float("inf"), 0.0)
+    rms = math.sqrt(max(0.0, float(np.mean(d**2)) - noise_mm**2))
+    p95 = math.sqrt(max(0.0, float(np.percentile(d, 95)) ** 2 - noise_mm**2))
+    return Rehearsal(len(radii), rms, p95, covered / max(total, 1))
+
+
+def _distances(
+    pilot: PilotSurface, radii: np.ndarray, center_px: tuple[float, float], method: Interpolant
+) -> np.ndarray:
+    points, xy, ring = ring_samples(pilot, radii)
+    valid = pilot.valid
+    bands = RingBands(
+        np.where(valid, np.searchsorted(radii, np.nan_to_num(pilot.rho)), -1).astype(np.int16),
+        pilot.theta.astype(np.float32),
+        radii,
+        center_px,
+    )
+    surface = interpolate_surface(points, xy, ring, pilot.camera, pilot.projector, valid, method, None, bands)
+    # The pilot's own pixels at its edges are its least reliable (a dense code mixes the two sides):
+    # they are not what a ring scan is measured against.
+    inner = cv2.erode(valid.astype(np.uint8), np.ones((5, 5), np.uint8)).astype(bool)
+    both = surface.valid & inner
+    return np.linalg.norm(surface.grid[both] - pilot.grid[both], axis=1)
+
+
+def noise_mm(pilot: PilotSurface) -> float:
+    """The pilot's noise along the camera rays, from second differences of range along the rows
+    (robust: a smooth surface adds little to them, edges are outliers): var(d2) = 6 sigma^2."""
+    distance = np.linalg.norm(pilot.grid - pilot.camera.center, axis=2)
+    d2 = distance[:, :-2] - 2.0 * distance[:, 1:-1] + distance[:, 2:]
+    d2 = d2[np.isfinite(d2)]
+    if len(d2) < 100:
+        return 0.0
+    return float(1.4826 * np.median(np.abs(d2 - np.median(d2))) / math.sqrt(6.0))
