@@ -113,7 +113,7 @@ def _meets(figures: dict[str, Any], tolerance: float) -> bool:
 def plot(results: list[dict[str, Any]], path: Path) -> None:
     """rms against ring count (log-log), one panel per scene: uniform as a line, planned as dots."""
     width, height, margin = 420, 320, 48
-    canvas = np.full((height, width * len(results), 3), 255, np.uint8)
+    canvas = np.full((height + 24, width * len(results), 3), 255, np.uint8)  # a strip below for the legend
     x_range, y_range = (np.log(3.5), np.log(80.0)), (np.log(0.01), np.log(20.0))
 
     def to_px(panel: int, n: float, e: float) -> tuple[int, int]:
@@ -140,11 +140,23 @@ def plot(results: list[dict[str, Any]], path: Path) -> None:
                 cv2.circle(canvas, to_px(panel, p["rings"], p["rms_mm"]), 5, (0, 0, 220), -1, cv2.LINE_AA)
             tol = to_px(panel, 80.0, p["tolerance_mm"])
             cv2.drawMarker(canvas, (tol[0] - 6, tol[1]), (0, 0, 220), cv2.MARKER_TRIANGLE_DOWN, 8)
+        marks = scene["planned"][0]["n_min"] if scene["planned"] else {}
+        for key, letter, colour in (
+            ("curvature_frequency", "F", (40, 150, 40)),
+            ("sagitta_uniform", "S", (0, 120, 230)),
+        ):
+            if key in marks:
+                x, y = to_px(panel, min(float(marks[key]), 78.0), 0.01)
+                cv2.line(canvas, (x, y), (x, y - 14), colour, 2)
+                cv2.putText(canvas, letter, (x - 4, y - 18), cv2.FONT_HERSHEY_SIMPLEX, 0.45, colour, 1, cv2.LINE_AA)
         cv2.putText(
             canvas, "rings", (x0 + width // 2, height - 8), cv2.FONT_HERSHEY_SIMPLEX, 0.45, (0, 0, 0), 1, cv2.LINE_AA
         )
-    legend = "line: N uniform rings; dots: planned rings; triangles: tolerances; rms mm (log) against rings (log)"
-    cv2.putText(canvas, legend, (8, height - 28 + 24), cv2.FONT_HERSHEY_SIMPLEX, 0.4, (60, 60, 60), 1, cv2.LINE_AA)
+    legend = (
+        "line: N uniform rings; dots: planned rings; triangles: tolerances; F, S: N_min at the tightest, "
+        "by curvature frequency and by the sagitta bound (at the right edge: beyond 64); rms mm against rings, log-log"
+    )
+    cv2.putText(canvas, legend, (8, height + 16), cv2.FONT_HERSHEY_SIMPLEX, 0.45, (60, 60, 60), 1, cv2.LINE_AA)
     path.parent.mkdir(parents=True, exist_ok=True)
     cv2.imwrite(str(path), canvas)
 

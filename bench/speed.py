@@ -2,7 +2,7 @@
 
 - simulated frame time at 1280x1024 after the first ray cast (median of 30 random patterns);
 - decode + triangulate of one 1280x1024 scan per codec (median of 7), and the PointSet step
-  (normals, colours) separately;
+  (normals, colours) and, for ring codecs, the surface between the rings separately;
 - peak resident memory of a whole `slrig scan` per codec, each in a fresh process.
 
     python bench/speed.py            # JSON
@@ -74,7 +74,7 @@ def reconstruction(codec_name: str, repeats: int = 7, config: RigConfig | None =
         codec = make_codec(rig, 0)
         frames = capture(rig, [codec], ProgressTracker(None))[(0, 0)]
         reconstruct_pair(rig, 0, 0, codec.decode(frames, 255), source=0)
-        decode, tri, pointset = [], [], []
+        decode, tri, pointset, surface = [], [], [], []
         for _ in range(repeats):
             elapsed: dict[str, float] = {}
             t0 = time.perf_counter()
@@ -83,13 +83,15 @@ def reconstruction(codec_name: str, repeats: int = 7, config: RigConfig | None =
             reconstruct_pair(rig, 0, 0, corr, source=0, elapsed=elapsed)
             tri.append(elapsed["triangulate"])
             pointset.append(elapsed["pointset"])
-    d, t, p = (statistics.median(x) * 1e3 for x in (decode, tri, pointset))
+            surface.append(elapsed.get("surface", 0.0))
+    d, t, p, s = (statistics.median(x) * 1e3 for x in (decode, tri, pointset, surface))
     return {
         "frames": len(frames),
         "decode_ms": round(d, 1),
         "triangulate_ms": round(t, 1),
         "decode_triangulate_ms": round(d + t, 1),
         "pointset_ms": round(p, 1),
+        "surface_ms": round(s, 1),  # ring codecs: the surface between the rings (rig.pipeline.surface)
     }
 
 
@@ -128,6 +130,7 @@ def main() -> None:
                 c["triangulate_ms"],
                 c["decode_triangulate_ms"],
                 c["pointset_ms"],
+                c["surface_ms"] or "",
                 c["scan_peak_rss_mb"],
             ]
             for name, c in result["codecs"].items()
@@ -140,6 +143,7 @@ def main() -> None:
                 "triangulate ms",
                 "decode+triangulate ms",
                 "normals+colour ms",
+                "surface between rings ms",
                 "whole scan peak RSS MB",
             ],
             rows,

@@ -12,10 +12,11 @@ import cv2
 import numpy as np
 
 from rig.assembly import open_rig
-from rig.config import REPO_CONFIG_DIR, load_config
+from rig.config import REPO_CONFIG_DIR, config_from_dict, load_config
 from rig.geometry import CameraModel, look_at_rotation
 from rig.pipeline.capture import CUE
-from rig.pipeline.scan import make_codec, run_scan
+from rig.pipeline.scan import PairResult, make_codec, run_scan
+from rig.service.adaptive import adaptive_scan
 from rig.store.images import preview_png
 
 OUT = Path(__file__).resolve().parent / "images"
@@ -44,6 +45,49 @@ def main() -> None:
             )
             _save(f"preview_{codec_name}.png", preview)
     _multi()
+    _surface()
+
+
+def _surface() -> None:
+    """An adaptive ring scan (planned for 0.05 mm): its ring points, and the surface interpolated
+    between them, shaded by its normals (light from the camera's upper left), as the camera sees
+    them; and the same for 16 evenly spaced rings, which leave the sphere's limb unknown."""
+    with open_rig(load_config()) as rig:
+        result = adaptive_scan(rig, 0.05)[0]
+        _surface_pair("planned", rig.camera_models[0], result.pairs[0])
+        data = load_config().with_codec("rings").model_dump(mode="json")
+        data["scan"]["rings"]["rings"] = 16
+        uniform = dataclasses.replace(rig, config=config_from_dict(data, "16 rings"))
+        _surface_pair("uniform16", rig.camera_models[0], run_scan(uniform).pairs[0])
+
+
+def _surface_pair(name: str, camera: CameraModel, pair: PairResult) -> None:
+    assert pair.surface is not None and pair.rings is not None
+    dots = np.full((*pair.surface.valid.shape, 3), 255, np.uint8)
+    xy = np.rint(pair.rings.camera_xy[pair.rings.kept]).astype(int)
+    for dx, dy in ((0, 0), (1, 0), (0, 1), (1, 1)):
+        rows, cols = np.clip(xy[:, 1] + dy, 0, dots.shape[0] - 1), np.clip(xy[:, 0] + dx, 0, dots.shape[1] - 1)
+        dots[rows, cols] = (90, 40, 0)
+    _save(f"surface_{name}_rings.png", dots)
+    _save(f"surface_{name}_mesh.png", _shaded(pair.surface.grid, camera))
+
+
+def _shaded(grid: np.ndarray, camera: CameraModel) -> np.ndarray:
+    """Lambert shading of an organised surface from its pixel neighbours' normals; holes white."""
+    du = np.roll(grid, -1, axis=1) - np.roll(grid, 1, axis=1)
+    dv = np.roll(grid, -1, axis=0) - np.roll(grid, 1, axis=0)
+    normal = np.cross(du, dv)
+    normal /= np.linalg.norm(normal, axis=2, keepdims=True) + 1e-12
+    toward = camera.center - grid
+    normal *= np.sign(np.einsum("ijk,ijk->ij", normal, toward))[..., None]
+    light = camera.R.T @ np.array([-0.4, -0.5, -0.77])  # camera frame: x right, y down, z forward
+    light /= np.linalg.norm(light)
+    value = np.clip(np.einsum("ijk,k->ij", normal, light), 0.0, 1.0)
+    image = np.full((*grid.shape[:2], 3), 255, np.uint8)
+    ok = np.isfinite(value)
+    shade = (40 + 200 * value[ok]).astype(np.uint8)
+    image[ok] = np.column_stack([shade, (0.95 * shade).astype(np.uint8), (0.85 * shade).astype(np.uint8)])
+    return image
 
 
 def _multi() -> None:

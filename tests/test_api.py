@@ -120,6 +120,42 @@ def test_bad_input_gets_a_4xx_that_names_the_field(client: TestClient) -> None:
     assert views.status_code == 422 and views.json()["detail"][0]["loc"] == ["body", "views"]
 
 
+def test_an_adaptive_scan_over_rest_and_a_scan_of_its_plan(client: TestClient) -> None:
+    created = client.post("/v1/scans", json={"adaptive": True, "tolerance_mm": 0.5}, headers=AUTH)
+    assert created.status_code == 202
+    done = wait_done(client, created.json()["id"])
+    assert done["state"] == "done", done["error"]
+    manifest = client.get(f"/v1/scans/{done['id']}/files/manifest.json").json()
+    adaptive = manifest["adaptive"]
+    assert adaptive["pilot_scanned"] and adaptive["tolerance_mm"] == 0.5 and manifest["codec"]["name"] == "rings"
+    assert manifest["config"]["scan"]["rings"]["radii_px"] == pytest.approx(adaptive["plan"]["radii_px"], abs=0.01)
+    again = client.post("/v1/scans", json={"plan": adaptive["plan"]}, headers=AUTH)
+    assert again.status_code == 202
+    reused = wait_done(client, again.json()["id"])
+    assert reused["state"] == "done", reused["error"]
+    second = client.get(f"/v1/scans/{reused['id']}/files/manifest.json").json()
+    assert not second["adaptive"]["pilot_scanned"] and second["adaptive"]["rings"] == adaptive["rings"]
+
+
+def test_adaptive_and_plan_requests_that_contradict_themselves_or_the_rig_are_refused(client: TestClient) -> None:
+    plan = {"format": "slrig-ring-plan/1", "tolerance_mm": 0.2, "center_px": [100.0, 80.0], "radii_px": [20.0, 40.0]}
+    cases = [
+        ({"adaptive": True, "plan": plan}, "not both"),
+        ({"tolerance_mm": 0.2}, "tolerance_mm"),
+        ({"adaptive": True, "codec": "phase"}, "codec"),
+        ({"plan": {**plan, "radii_px": [20.0, 21.0]}}, "radii_px"),
+        ({"plan": {"radii_px": [20.0, 40.0]}}, "not a ring plan"),
+        ({"adaptive": True, "tolerance_mm": 0}, "greater than 0"),
+    ]
+    cases.append(({"plan": {**plan, "center_px": [5000.0, 80.0]}}, "center_px"))
+    for body, named in cases:
+        answer = client.post("/v1/scans", json=body, headers=AUTH)
+        # what the schema says is 422; what only the request as a whole, or this rig, rules out is 409
+        assert answer.status_code == (422 if "tolerance_mm" in body and body["tolerance_mm"] == 0 else 409), body
+        assert named in json.dumps(answer.json()["detail"]), (body, answer.json())
+    assert client.get("/v1/scans").json()["total"] == 0  # none of them was queued
+
+
 def test_files_are_served_only_by_the_names_a_result_lists(client: TestClient, service: JobService) -> None:
     job_id = client.post("/v1/scans", json={}, headers=AUTH).json()["id"]
     wait_done(client, job_id)

@@ -71,7 +71,7 @@ def test_quadratic_beats_linear_and_both_leave_shadows_empty(ring_scan) -> None:
         target = truth.hit & truth.lit
         assert (surface.valid & target).sum() > 0.9 * target.sum()
     assert rms["quadratic"] < 0.8 * rms["linear"]
-    assert rms["quadratic"] < 0.08
+    assert rms["quadratic"] < 0.06  # 0.046 measured; 0.050 before normals were averaged along rings
 
 
 def test_a_point_off_its_pixels_annulus_or_angle_is_refused(ring_scan) -> None:  # type: ignore[no-untyped-def]
@@ -151,3 +151,24 @@ def test_an_adaptive_scan_records_its_plan_and_a_plan_file_skips_the_pilot(
     assert (
         main(["scan", "--config", str(small_config_path), "--tolerance-mm", "0.5", "--out", str(tmp_path / "c")]) == 2
     )
+
+
+def test_plan_rings_from_a_stored_dense_scan_prints_the_rehearsed_plan(
+    small_config_path: Path,  # noqa: F811
+    tmp_path: Path,
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    dense = tmp_path / "dense"
+    assert main(["scan", "--config", str(small_config_path), "--codec", "phase", "--out", str(dense)]) == 0
+    capsys.readouterr()
+    assert main(["plan", "rings", "--from", str(dense), "--tolerance-mm", "0.3", "--json"]) == 0
+    plan = json.loads(capsys.readouterr().out)
+    rehearsed = plan["criteria"]["rms_nonuniform"]
+    assert rehearsed["rings"] == plan["rings"] == len(plan["radii_px"])
+    assert (not rehearsed["met"]) or rehearsed["rms_mm"] <= 0.3
+    assert plan["criteria"]["rms_uniform"]["rings"] >= 2 and plan["pilot"]["codec"] == "phase"
+    assert main(["plan", "rings", "--from", str(dense), "--tolerance-mm", "0.3"]) == 0
+    text = capsys.readouterr().out
+    assert "rehearsed on the pilot" in text and "evenly spaced rings" in text
+    assert main(["plan", "rings", "--from", str(dense), "--tolerance-mm", "-1"]) == 2
+    assert "tolerance_mm" in capsys.readouterr().err

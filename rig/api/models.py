@@ -26,6 +26,17 @@ class ScanRequest(_Request):
     )
     keep_frames: bool = Field(False, description="store the raw frames, so the scan can be reprocessed")
     label: str | None = Field(None, max_length=200, description="free text kept with the scan")
+    adaptive: bool = Field(
+        False,
+        description="a dense pilot scan, a ring plan from it, then the planned rings (the manifest keeps the plan)",
+    )
+    tolerance_mm: float | None = Field(
+        None, gt=0, le=100, description="adaptive: rms error allowed between the rings; default: scan.adaptive's"
+    )
+    plan: dict[str, Any] | None = Field(
+        None,
+        description="a ring plan (as `slrig plan rings --out` writes it, or a manifest's adaptive.plan): its rings",
+    )
 
 
 class ReprocessRequest(_Request):

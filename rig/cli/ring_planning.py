@@ -53,10 +53,11 @@ def plan_from_scan_dir(folder: Path, tolerance_mm: float | None) -> RingPlan:
         for source, pair in enumerate(manifest["pairs"]):
             p, c = projectors.index(pair["projector"]), cameras.index(pair["camera"])
             points = cloud.points[cloud.source == source]
-            views.append(PilotView(points, geometry.projector_models[p], geometry.camera_models[c].center))
+            camera = geometry.camera_models[c]  # the points go back on its pixels for the rehearsal
+            views.append(PilotView(points, geometry.projector_models[p], camera.center, camera))
         pilot = {"codec": manifest["codec"]["name"], "scan_id": manifest.get("scan_id")}
         pilot.update({k: manifest["economy"][k] for k in ("frames_projected", "bytes_captured")})
-        return plan_rings(views, config.scan.adaptive, tolerance_mm, pilot)
+        return plan_rings(views, config.scan.adaptive, tolerance_mm, pilot, config.scan.surface.interpolant)
 
 
 def print_plan(plan: RingPlan, as_json: bool) -> None:
@@ -67,8 +68,18 @@ def print_plan(plan: RingPlan, as_json: bool) -> None:
         return
     criteria = plan.criteria
     uniform, frequency = criteria["sagitta_uniform"], criteria["curvature_frequency"]
-    print(f"{plan.rings} rings for {plan.tolerance_mm:g} mm between them (non-uniform radii, sagitta bound)")
-    print(f"  uniform rings under the same bound: {uniform['rings']} ({uniform['spacing_px']:g} px apart)")
+    rehearsed = criteria.get("rms_nonuniform")
+    if rehearsed is not None:
+        met = "" if rehearsed["met"] else " (NOT met: the densest rings tried)"
+        print(
+            f"{plan.rings} rings for {plan.tolerance_mm:g} mm rms between them{met}: rehearsed on the pilot "
+            f"{rehearsed['rms_mm']:g} mm rms, {100 * rehearsed['covered']:.0f} % covered"
+        )
+        even = criteria["rms_uniform"]
+        print(f"  evenly spaced rings for the same: {even['rings']} (rehearsed {even['rms_mm']:g} mm rms)")
+    else:
+        print(f"{plan.rings} rings for {plan.tolerance_mm:g} mm between them (non-uniform radii, sagitta bound)")
+    print(f"  sagitta bound (worst point, linear): {uniform['rings']} even rings ({uniform['spacing_px']:g} px apart)")
     print(
         f"  curvature-frequency criterion: N_min = ceil({frequency['dense_rings']} x {frequency['f_s']:g}) = "
         f"{frequency['rings']} (f_max {frequency['f_max_per_mm']:g} per mm)"

@@ -24,6 +24,7 @@ from typing import Literal
 import cv2
 import numpy as np
 from scipy.interpolate import CloughTocher2DInterpolator
+from scipy.spatial import cKDTree
 
 from rig.geometry import CameraModel
 
@@ -43,6 +44,7 @@ class SurfaceSettings:
     max_unlit: float = 0.2  # triangles over more of their pixels dark than this span a shadow
     band_margin_px: float = 2.0  # a point may project this far outside the annulus its pixel read ...
     band_angle_rad: float = 0.15  # ... and this far from the polar angle it read (3x the code's p99.9)
+    normal_smoothing_px: float = 4.0  # samples' normals averaged over their ring this far either way
     max_band_disagreement: float = 0.25  # a triangle with more of its pixels off their bands bridges an edge
 
 
@@ -103,7 +105,10 @@ def ring_triangles(
     tri, face = tri[~bent], face[~bent]
     counts["dropped_depth_edge"] = int(edge_on.sum() + bent.sum())
     counts["faces"] = len(tri)
-    return tri, _vertex_normals(points, tri, face, directions), counts
+    normals = _vertex_normals(points, tri, face, directions)
+    in_triangle = np.bincount(tri.ravel(), minlength=len(points)) > 0  # the others' normals are a guess
+    normals = smoothed_normals(normals, points, xy, ring, in_triangle, settings.normal_smoothing_px)
+    return tri, normals, counts
 
 
 def delaunay(xy: np.ndarray) -> np.ndarray:
@@ -168,6 +173,28 @@ def _vertex_normals(points: np.ndarray, tri: np.ndarray, face: np.ndarray, direc
     p = points[tri]
     longest = np.linalg.norm(p - np.roll(p, -1, axis=1), axis=2).max(axis=1)
     return accumulate_normals(tri, face / np.maximum(longest, 1e-9)[:, None], directions)
+
+
+def smoothed_normals(
+    normals: np.ndarray, points: np.ndarray, xy: np.ndarray, ring: np.ndarray, known: np.ndarray, radius_px: float
+) -> np.ndarray:
+    """Each sample's normal averaged with those of the samples of its ring within `radius_px` in the
+    image and as many pixel footprints in space (not across a bend the image foreshortens), of the
+    samples whose normals are `known` (from triangles). Along a ring samples are a pixel apart, so
+    each triangle's short edge, and with it its normal, is mostly the samples' noise; the quadratic
+    interpolant carries a normal's error across the whole gap to the next ring."""
+    if radius_px <= 0 or len(xy) < 2:
+        return normals
+    pairs = cKDTree(xy).query_pairs(radius_px, output_type="ndarray")
+    a, b = pairs[:, 0], pairs[:, 1]
+    apart_mm = np.linalg.norm(points[a] - points[b], axis=1)
+    apart_px = np.linalg.norm(xy[a] - xy[b], axis=1)
+    footprint = np.median(apart_mm / np.maximum(apart_px, 1e-6))  # mm per pixel where the surface faces the camera
+    pairs = pairs[(ring[a] == ring[b]) & (apart_mm <= radius_px * footprint) & known[a] & known[b]]
+    total = normals.copy()
+    np.add.at(total, pairs[:, 0], normals[pairs[:, 1]])
+    np.add.at(total, pairs[:, 1], normals[pairs[:, 0]])
+    return total / np.maximum(np.linalg.norm(total, axis=1), 1e-12)[:, None]
 
 
 def accumulate_normals(tri: np.ndarray, face: np.ndarray, directions: np.ndarray) -> np.ndarray:

@@ -20,7 +20,7 @@ import cv2
 import numpy as np
 
 from rig.geometry import CameraModel
-from rig.pipeline.surface import Interpolant, RingBands, interpolate_surface
+from rig.pipeline.surface import Interpolant, RingBands, SurfaceSettings, interpolate_surface
 
 # Smoothing scale of the pilot's noise (camera pixels): a few pixels, far under any ring spacing.
 _SMOOTH_PX = 1.5
@@ -183,7 +183,9 @@ def _distances(
         radii,
         center_px,
     )
-    surface = interpolate_surface(points, xy, ring, pilot.camera, pilot.projector, valid, method, None, bands)
+    # The pilot is smoothed already: its samples' normals need no averaging along the rings.
+    settings = SurfaceSettings(normal_smoothing_px=0.0)
+    surface = interpolate_surface(points, xy, ring, pilot.camera, pilot.projector, valid, method, settings, bands)
     # The pilot's own pixels at its edges are its least reliable (a dense code mixes the two sides):
     # they are not what a ring scan is measured against.
     inner = cv2.erode(valid.astype(np.uint8), np.ones((5, 5), np.uint8)).astype(bool)

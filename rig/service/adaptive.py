@@ -7,7 +7,7 @@ from __future__ import annotations
 import dataclasses
 from typing import Any
 
-from rig.config import config_from_dict
+from rig.config import RigConfig, config_from_dict
 from rig.errors import ConfigError, PlanError
 from rig.pipeline.scan import ScanResult, run_scan
 from rig.plan.ring_plan import RingPlan, pilot_views, plan_rings
@@ -27,17 +27,45 @@ def plan_from_pilot(the_rig: Rig, tolerance_mm: float | None, progress: Progress
     return plan_rings(views, settings, tolerance_mm, about, the_rig.config.scan.surface.interpolant)
 
 
-def with_plan(the_rig: Rig, plan: RingPlan) -> Rig:
-    """The same rig (devices and geometry shared) scanning the plan's rings."""
-    data = the_rig.config.model_dump(mode="json")
+def check_scan_request(config: RigConfig, request: dict[str, Any]) -> None:
+    """Refuse (PlanError, naming the field) what a scan request's schema cannot: adaptive and plan
+    together, tolerance_mm without adaptive, another codec beside either, a plan that is not one or
+    does not fit this rig's projectors."""
+    adaptive, plan = bool(request.get("adaptive")), request.get("plan")
+    if plan is not None and adaptive:
+        raise PlanError("plan: give a plan or adaptive: true, not both")
+    if request.get("tolerance_mm") is not None and not adaptive:
+        raise PlanError("tolerance_mm: only an adaptive scan plans to a tolerance (adaptive: true)")
+    codec = request.get("codec")
+    if (adaptive or plan is not None) and codec not in (None, "rings"):
+        raise PlanError(f"codec: an adaptive or planned scan projects rings, not {codec}")
+    if plan is not None:
+        planned_config(config, RingPlan.from_dict(plan, "plan"))
+
+
+def planned_config(config: RigConfig, plan: RingPlan) -> RigConfig:
+    """The config scanning the plan's rings; PlanError where they do not fit the rig's projectors."""
+    for projector in config.projectors:
+        width, height = projector.resolution
+        cx, cy = plan.center_px
+        if not (-0.5 <= cx < width - 0.5 and -0.5 <= cy < height - 0.5):
+            raise PlanError(
+                f"center_px: ({cx:g}, {cy:g}) lies outside {projector.name}'s {width}x{height} image: "
+                "a plan for another projector"
+            )
+    data = config.model_dump(mode="json")
     data["scan"]["codec"] = "rings"
     rings = data["scan"]["rings"]
     rings.update(radii_px=plan.radii_px, center_px=list(plan.center_px), rings=plan.rings)
     try:
-        config = config_from_dict(data, "the ring plan")
+        return config_from_dict(data, "the ring plan")
     except ConfigError as exc:
         raise PlanError(f"the plan's rings do not fit this rig: {'; '.join(exc.problems)}") from None
-    return dataclasses.replace(the_rig, config=config)
+
+
+def with_plan(the_rig: Rig, plan: RingPlan) -> Rig:
+    """The same rig (devices and geometry shared) scanning the plan's rings."""
+    return dataclasses.replace(the_rig, config=planned_config(the_rig.config, plan))
 
 
 def adaptive_scan(

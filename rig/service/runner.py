@@ -23,9 +23,10 @@ from typing import Any, TextIO
 from drivers.errors import DeviceError
 from rig.assembly import open_rig
 from rig.config import RigConfig
-from rig.errors import ConfigError, SlrigError
+from rig.errors import ConfigError, PlanError, SlrigError
 from rig.progress import ProgressCallback, ProgressEvent
 from rig.rig import Rig
+from rig.service.adaptive import check_scan_request
 from rig.service.errors import (
     JobCancelledError,
     JobConflictError,
@@ -36,7 +37,7 @@ from rig.service.errors import (
 from rig.service.events import EventHub
 from rig.service.jobs import Job, JobKind, JobState, JobStore
 from rig.service.status import device_views
-from rig.service.tasks import calibration_to_directory, reprocess_to_directory, scan_summary, scan_to_directory
+from rig.service.tasks import calibration_to_directory, reprocess_to_directory, scan_job_to_directory, scan_summary
 from rig.store.scandir import new_scan_id
 
 log = logging.getLogger(__name__)
@@ -144,6 +145,10 @@ class JobService:
         return job
 
     def submit_scan(self, request: dict[str, Any]) -> Job:
+        try:
+            check_scan_request(self.config, request)
+        except PlanError as exc:
+            raise JobConflictError(str(exc)) from None
         if request.get("codec"):
             try:
                 self.config.with_codec(request["codec"])
@@ -349,15 +354,7 @@ class JobService:
 
     # --- the jobs (rig.service.tasks does the work) ----------------------------------------
     def _scan(self, job: Job, progress: ProgressCallback) -> dict[str, Any]:
-        request = job.request
-        path, result = scan_to_directory(
-            self._open(),
-            self.scans_dir / job.id,
-            job.id,
-            request.get("codec") or self.config.scan.codec,
-            keep_frames=bool(request.get("keep_frames")),
-            progress=progress,
-        )
+        path, result = scan_job_to_directory(self._open(), self.scans_dir / job.id, job.id, job.request, progress)
         return scan_summary(path, result)
 
     def _reprocess(self, job: Job, progress: ProgressCallback) -> dict[str, Any]:

@@ -36,6 +36,20 @@ def scan_to_directory(
     return path, result
 
 
+def scan_job_to_directory(
+    the_rig: Rig, target: Path, scan_id: str, request: dict[str, Any], progress: ProgressCallback | None = None
+) -> tuple[Path, ScanResult]:
+    """A scan as the REST API asks for it (rig.api.models.ScanRequest): plain, adaptive, or a plan's rings."""
+    keep_frames = bool(request.get("keep_frames"))
+    if request.get("adaptive") or request.get("plan"):
+        plan = RingPlan.from_dict(request["plan"]) if request.get("plan") else None
+        path, result, _ = adaptive_scan_to_directory(
+            the_rig, target, scan_id, request.get("tolerance_mm"), plan, keep_frames, progress
+        )
+        return path, result
+    return scan_to_directory(the_rig, target, scan_id, request.get("codec"), keep_frames, progress)
+
+
 def adaptive_scan_to_directory(
     the_rig: Rig,
     target: Path,
