@@ -32,7 +32,7 @@ from rig.plan.rings import (
     spacing_profile,
     uniform_rings,
 )
-from rig.plan.search import nonuniform_rings, rms_shape, uniform_count
+from rig.plan.search import Rehearser, nonuniform_rings, rms_shape, uniform_count
 
 PLAN_FORMAT = "slrig-ring-plan/1"
 
@@ -171,8 +171,9 @@ def _rehearsed(
     """The rehearsed non-uniform radii; adds both rehearsed criteria to `criteria`."""
     noise = float(np.median([noise_mm(p) for p in pilots]))
     shape = rms_shape(demands, edges, settings.bin_px)
-    planned = nonuniform_rings(pilots, edges, shape, settings, tolerance, method, center, noise)
-    uniform = uniform_count(pilots, edges, settings, tolerance, method, center, noise)
+    trial = Rehearser(pilots, center, method, noise)
+    planned = nonuniform_rings(trial, edges, shape, settings, tolerance)
+    uniform = uniform_count(trial, edges, settings, tolerance)
     for name, found in (("rms_nonuniform", planned), ("rms_uniform", uniform)):
         criteria[name] = {**found.rehearsal.as_dict(), "met": found.met, "interpolant": method}
     criteria["rms_nonuniform"]["pilot_noise_mm"] = round(noise, 4)

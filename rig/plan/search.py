@@ -48,15 +48,21 @@ def rms_shape(demands: list[Demand], edges: np.ndarray, bin_px: float) -> np.nda
     return shape / shape[finite].min() if finite.any() else np.ones(len(edges))
 
 
+@dataclass(frozen=True, eq=False)
+class Rehearser:
+    """Rehearses ring sets on a pilot's views (rig.plan.rehearsal.rehearse) with one interpolant."""
+
+    pilots: list[PilotSurface]
+    center_px: tuple[float, float]
+    method: Interpolant
+    noise_mm: float
+
+    def __call__(self, radii: list[float]) -> Rehearsal:
+        return rehearse(self.pilots, np.asarray(radii), self.center_px, self.method, self.noise_mm)
+
+
 def nonuniform_rings(
-    pilots: list[PilotSurface],
-    edges: np.ndarray,
-    shape: np.ndarray,
-    settings: RingPlanSettings,
-    tolerance_mm: float,
-    method: Interpolant,
-    center_px: tuple[float, float],
-    noise_mm: float,
+    trial: Rehearser, edges: np.ndarray, shape: np.ndarray, settings: RingPlanSettings, tolerance_mm: float
 ) -> SearchResult:
     """Bisection over the scale k of spacing clip(k * shape, min, max): the fewest rings rehearsed
     within the tolerance."""
@@ -65,23 +71,12 @@ def nonuniform_rings(
         profile = np.clip(scale * shape, settings.min_spacing_px, settings.max_spacing_px)
         return place_rings(edges, profile, settings.bin_px)
 
-    def trial(radii: list[float]) -> Rehearsal:
-        return rehearse(pilots, np.asarray(radii), center_px, method, noise_mm)
-
     flattest = float(shape[np.isfinite(shape)].max())  # at the low end every bin with surface is densest
     low, high = math.log(settings.min_spacing_px / flattest), math.log(settings.max_spacing_px)
     return _bisect(lambda x: radii_for(math.exp(x)), trial, low, high, tolerance_mm, settings.keep_coverage)
 
 
-def uniform_count(
-    pilots: list[PilotSurface],
-    edges: np.ndarray,
-    settings: RingPlanSettings,
-    tolerance_mm: float,
-    method: Interpolant,
-    center_px: tuple[float, float],
-    noise_mm: float,
-) -> SearchResult:
+def uniform_count(trial: Rehearser, edges: np.ndarray, settings: RingPlanSettings, tolerance_mm: float) -> SearchResult:
     """The fewest evenly spaced rings over the same radii rehearsed within the tolerance."""
     start, end = float(edges[0]), float(edges[-1] + settings.bin_px)
     most = max(2, math.ceil((end - start) / settings.min_spacing_px) + 1)
@@ -89,9 +84,6 @@ def uniform_count(
     def radii_for(x: float) -> list[float]:
         count = round(most - x)  # x grows toward fewer rings, as the scale does above
         return [float(r) for r in np.linspace(start, end, max(2, count))]
-
-    def trial(radii: list[float]) -> Rehearsal:
-        return rehearse(pilots, np.asarray(radii), center_px, method, noise_mm)
 
     return _bisect(radii_for, trial, 0.0, float(most - 2), tolerance_mm, settings.keep_coverage)
 
