@@ -197,7 +197,8 @@ class RingsCodec(CircularCodec):
         limit = max(p.max_edge_step, _RAMP_MEDIAN_FACTOR * float(np.median(ramp))) if len(ramp) else 1.0
         crossings = found.select(ramp <= limit)
         first = 2 + 2 * bits
-        theta = np.arctan2(*crossings.between(*phase_sums(frames, first, p.angle_steps)))
+        coarse = phase_sums(frames, first, p.angle_steps)  # at the crossings, and everywhere for _bands
+        theta = np.arctan2(*crossings.between(*coarse))
         phase, periods = None, None
         if self.fine_periods is not None:
             fs, fc = crossings.between(*phase_sums(frames, first + p.angle_steps, p.tangential_steps))
@@ -231,7 +232,7 @@ class RingsCodec(CircularCodec):
         }
         if phase is not None:
             counts["no_fine_angle"] = int(np.isnan(phase).sum())
-        extra = self._bands(edge, zone, zone_ok, phase_sums(frames, first, p.angle_steps), lit)
+        extra = self._bands(edge, zone, zone_ok, coarse, lit)
         return Correspondence(
             valid=valid, quality=white - black, texture=texture, samples=samples, counts=counts, extra=extra
         )

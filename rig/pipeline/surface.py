@@ -309,7 +309,7 @@ def band_agreement(
     a = np.clip(annulus, 0, len(bands.radii_px))
     inside = (rho >= radii[a] - settings.band_margin_px) & (rho <= radii[a + 1] + settings.band_margin_px)
     angle = bands.angle.ravel()[pixel]
-    turned = np.abs(np.angle(np.exp(1j * (np.arctan2(dv, du) - angle))))
+    turned = np.abs(np.remainder(np.arctan2(dv, du) - angle + np.pi, 2 * np.pi) - np.pi)
     aligned = ~np.isfinite(angle) | (turned <= settings.band_angle_rad) | (rho < _ANGLE_MIN_RADIUS_PX)
     return (z > 0) & (~read | inside) & aligned
 

@@ -39,6 +39,7 @@ class PilotSurface:
     projector: CameraModel
     rho: np.ndarray  # (H, W) projector radius about the rings' centre, NaN where no point
     theta: np.ndarray  # (H, W) projector polar angle
+    footprint_mm: np.ndarray  # (H, W) millimetres one camera pixel spans at each point's depth
 
     @property
     def valid(self) -> np.ndarray:
@@ -80,7 +81,7 @@ def pilot_surface(
     seen = valid.ravel() & (z > 0)
     rho = np.where(seen, np.hypot(du, dv), np.nan).reshape(valid.shape)
     theta = np.where(seen, np.arctan2(dv, du), np.nan).reshape(valid.shape)
-    return PilotSurface(grid, camera, projector, rho, theta)
+    return PilotSurface(grid, camera, projector, rho, theta, _footprint_mm(grid, camera))
 
 
 def smoothed(grid: np.ndarray, camera: CameraModel, sigma_px: float = _SMOOTH_PX) -> np.ndarray:
@@ -114,11 +115,19 @@ def organised(points: np.ndarray, camera: CameraModel) -> np.ndarray:
     return grid
 
 
-def ring_samples(pilot: PilotSurface, radii: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def annuli(pilot: PilotSurface, radii: np.ndarray) -> np.ndarray:
+    """The annulus (between rings a-1 and a) of every pilot pixel, -1 where the pilot has no point."""
+    return np.where(pilot.valid, np.searchsorted(radii, np.nan_to_num(pilot.rho, nan=-1.0)), -1)
+
+
+def ring_samples(
+    pilot: PilotSurface, radii: np.ndarray, annulus: np.ndarray | None = None
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Where each ring crosses the pilot's surface between horizontally or vertically neighbouring
-    pixels: 3D points, sub-pixel camera positions and ring indices."""
-    annulus = np.where(pilot.valid, np.searchsorted(radii, np.nan_to_num(pilot.rho, nan=-1.0)), -1)
-    footprint = _footprint_mm(pilot)
+    pixels: 3D points, sub-pixel camera positions and ring indices (`annulus`: annuli(), if known)."""
+    if annulus is None:
+        annulus = annuli(pilot, radii)
+    footprint = pilot.footprint_mm
     found: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = []
     height, width = annulus.shape
     for dy, dx in ((0, 1), (1, 0)):
@@ -139,12 +148,11 @@ def ring_samples(pilot: PilotSurface, radii: np.ndarray) -> tuple[np.ndarray, np
     return points, xy, ring
 
 
-def _footprint_mm(pilot: PilotSurface) -> np.ndarray:
+def _footprint_mm(grid: np.ndarray, camera: CameraModel) -> np.ndarray:
     """Millimetres one camera pixel spans at each point's depth."""
-    camera = pilot.camera
     if camera.projection == "orthographic":
-        return np.full(pilot.rho.shape, 1.0 / camera.K[0, 0])
-    depth = camera.to_device(np.nan_to_num(pilot.grid).reshape(-1, 3))[:, 2].reshape(pilot.rho.shape)
+        return np.full(grid.shape[:2], 1.0 / camera.K[0, 0])
+    depth = camera.to_device(np.nan_to_num(grid).reshape(-1, 3))[:, 2].reshape(grid.shape[:2])
     return np.abs(depth) / camera.K[0, 0]
 
 
@@ -175,14 +183,10 @@ def rehearse(
 def _distances(
     pilot: PilotSurface, radii: np.ndarray, center_px: tuple[float, float], method: Interpolant
 ) -> np.ndarray:
-    points, xy, ring = ring_samples(pilot, radii)
+    annulus = annuli(pilot, radii)
+    points, xy, ring = ring_samples(pilot, radii, annulus)
     valid = pilot.valid
-    bands = RingBands(
-        np.where(valid, np.searchsorted(radii, np.nan_to_num(pilot.rho)), -1).astype(np.int16),
-        pilot.theta.astype(np.float32),
-        radii,
-        center_px,
-    )
+    bands = RingBands(annulus.astype(np.int16), pilot.theta.astype(np.float32), radii, center_px)
     # The pilot is smoothed already: its samples' normals need no averaging along the rings.
     settings = SurfaceSettings(normal_smoothing_px=0.0)
     surface = interpolate_surface(points, xy, ring, pilot.camera, pilot.projector, valid, method, settings, bands)
