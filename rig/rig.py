@@ -57,6 +57,8 @@ class PixelTruth(Protocol):
     depth: np.ndarray  # camera-frame z, mm (0 where no hit)
     projector_uv: np.ndarray  # projector pixel coordinates of the surface point
     lit: np.ndarray  # inside the projector's image, unshadowed and facing it
+    albedo: np.ndarray  # (H, W, 3) linear RGB of the surface seen (0 where no hit)
+    white_irradiance: np.ndarray  # (H, W) light on the surface under the projector's white frame
 
 
 class GroundTruth(Protocol):

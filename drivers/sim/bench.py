@@ -54,6 +54,8 @@ class PixelTruth:
     depth: np.ndarray  # camera-frame z, mm (0 where no hit)
     projector_uv: np.ndarray  # projector pixel coordinates of the surface point
     lit: np.ndarray  # inside the projector's image, unshadowed and facing it
+    albedo: np.ndarray  # (H, W, 3) float32 linear RGB of the surface seen (0 where no hit)
+    white_irradiance: np.ndarray  # (H, W) float32: light on the surface under this projector's white frame
 
 
 @dataclass(frozen=True, eq=False)
@@ -167,6 +169,8 @@ class SimBench:
             normals[hit] = n
             albedo = np.zeros((len(hit), 3), dtype=np.float32)
             albedo[hit] = self.scene.face_albedo[faces[hit]][:, ::-1]
+            if self.scene.texture is not None:
+                albedo[hit] = self.scene.texture.colour_at(points[hit])[:, ::-1]
             albedo = albedo.reshape(model.height, model.width, 3)
             self._paint_textures(albedo, points, faces, model)
             mono = albedo @ np.array([0.114, 0.587, 0.299], dtype=np.float32)  # BGR luminance weights
@@ -347,4 +351,6 @@ class SimBench:
             depth=view.depth.reshape(shape),
             projector_uv=light.uv.reshape(*shape, 2),
             lit=light.lit.reshape(shape),
+            albedo=view.albedo[..., ::-1],
+            white_irradiance=self.ambient + light.irradiance_gain,
         )

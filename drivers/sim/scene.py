@@ -11,6 +11,8 @@ from pathlib import Path
 import numpy as np
 import trimesh
 
+from drivers.sim.texture import SolidTexture
+
 Albedo = float | tuple[float, float, float]  # grey, or linear RGB, each in [0, 1]
 
 
@@ -46,9 +48,10 @@ class Scene:
     face_albedo: np.ndarray
     objects: tuple[SceneObject, ...]
     face_object: np.ndarray  # (F,) index into objects
+    texture: SolidTexture | None = None  # paints every object, in place of its albedo
 
 
-def build_scene(objects: list[SceneObject]) -> Scene:
+def build_scene(objects: list[SceneObject], texture: SolidTexture | None = None) -> Scene:
     if not objects:
         raise ValueError("a scene needs at least one object")
     vertices, faces, albedo, owner = [], [], [], []
@@ -60,7 +63,9 @@ def build_scene(objects: list[SceneObject]) -> Scene:
         albedo.append(np.tile(rgb, (len(obj.faces), 1)))
         owner.append(np.full(len(obj.faces), i, dtype=np.int32))
         offset += len(obj.vertices)
-    return Scene(np.vstack(vertices), np.vstack(faces), np.concatenate(albedo), tuple(objects), np.concatenate(owner))
+    return Scene(
+        np.vstack(vertices), np.vstack(faces), np.concatenate(albedo), tuple(objects), np.concatenate(owner), texture
+    )
 
 
 def printed_plane(

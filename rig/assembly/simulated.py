@@ -16,11 +16,14 @@ from drivers.sim import scene as sim_scene
 from drivers.sim.bench import SimBench
 from drivers.sim.camera import SimCamera
 from drivers.sim.projector import SimProjector
+from drivers.sim.texture import Checker, Decal, Gradient, SolidTexture, Stripes, read_decal_image
 from rig.assembly.world import World
 from rig.config import (
     BlocksScene,
     BoxScene,
     CameraConfig,
+    CheckerTexture,
+    GradientTexture,
     MeshScene,
     PlaneScene,
     ProjectorConfig,
@@ -29,7 +32,9 @@ from rig.config import (
     SphereOnPlaneScene,
     SphereScene,
     StepsScene,
+    StripesTexture,
     TerrainScene,
+    TextureConfig,
 )
 from rig.errors import SceneError
 from rig.geometry import CameraModel
@@ -70,7 +75,24 @@ def build_scene(config: SimulationConfig) -> sim_scene.Scene:
         objects = [sim_scene.plane(600.0, 0.6), mesh] if s.plane else [mesh]
     else:  # pragma: no cover - the config union is exhaustive
         raise SceneError(f"unsupported scene kind {s.kind!r}")
-    return sim_scene.build_scene(objects)
+    return sim_scene.build_scene(objects, build_texture(config.texture))
+
+
+def build_texture(config: TextureConfig | None) -> SolidTexture | None:
+    """The solid texture of a config; raises SceneError for an unreadable image."""
+    if config is None:
+        return None
+    if isinstance(config, StripesTexture):
+        return Stripes(config.period_mm, config.direction_mm, config.colours)
+    if isinstance(config, CheckerTexture):
+        return Checker(config.size_mm, config.colours)
+    if isinstance(config, GradientTexture):
+        return Gradient(config.period_mm)
+    try:
+        image = read_decal_image(str(config.path))
+    except ValueError as exc:
+        raise SceneError(f"simulation.texture.path: {exc}") from None
+    return Decal(image, config.size_mm, config.center_mm)
 
 
 class BenchClock:

@@ -7,7 +7,7 @@ from pathlib import Path
 import yaml
 
 from rig.config.rig import RigConfig, validate_rig
-from rig.config.scenes import MeshScene
+from rig.config.scenes import ImageTexture, MeshScene
 from rig.errors import ConfigError
 
 REPO_CONFIG_DIR = Path(__file__).resolve().parent.parent.parent / "config"
@@ -51,6 +51,7 @@ def _resolve_paths(data: dict, base: Path) -> None:  # type: ignore[type-arg]
 
     simulation = data.get("simulation")
     resolve(simulation.get("scene") if isinstance(simulation, dict) else None, "path")
+    resolve(simulation.get("texture") if isinstance(simulation, dict) else None, "path")
     resolve(data.get("calibration"), "file")
 
 
@@ -58,6 +59,9 @@ def _check_files(config: RigConfig, source: str) -> None:
     scene = config.simulation.scene if config.simulation else None
     if isinstance(scene, MeshScene) and not scene.path.is_file():
         raise ConfigError(source, [f"simulation.scene.path: mesh file not found: {scene.path}"])
+    texture = config.simulation.texture if config.simulation else None
+    if isinstance(texture, ImageTexture) and not texture.path.is_file():
+        raise ConfigError(source, [f"simulation.texture.path: image file not found: {texture.path}"])
     file = config.calibration.file
     if file is not None and not (
         file.is_file() or (file / "calibration.json").is_file() or (file / "response.json").is_file()

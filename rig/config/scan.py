@@ -44,6 +44,12 @@ class SurfaceConfig(Strict):
         "quadratic", description="linear: the samples' triangles; quadratic: with their normals; cubic: Clough-Tocher"
     )
     mesh_stride_px: int = Field(2, ge=1, le=16, description="a mesh vertex every this many camera pixels")
+    colour: Literal["white", "nearest", "idw", "area"] = Field(
+        "white",
+        description="the surface's colour: white: the lit frame at every pixel; nearest, idw, area: only the "
+        "ring samples' colours, interpolated between the rings (rig.pipeline.colour)",
+    )
+    colour_neighbours: int = Field(8, ge=1, le=64, description="L: samples the colour interpolants consider per ring")
     max_gap_px: float = Field(
         6.0, gt=0.0, le=1000.0, description="samples of one ring further apart in the image are not neighbours"
     )

@@ -7,7 +7,7 @@ from typing import Annotated, Literal
 
 from pydantic import Field, model_validator
 
-from rig.config.common import Albedo, Coord, Extent, Strict, Vec3
+from rig.config.common import Albedo, Coord, Extent, Fraction, Strict, Vec3
 
 
 class PlaneScene(Strict):
@@ -105,7 +105,56 @@ SceneConfig = Annotated[
 SCENE_KINDS = ("plane", "sphere", "box", "sphere_on_plane", "terrain", "steps", "blocks", "mesh")
 
 
+Colour = tuple[Fraction, Fraction, Fraction]  # linear [red, green, blue]
+_TWO_COLOURS: tuple[Colour, ...] = ((0.85, 0.2, 0.15), (0.15, 0.35, 0.8))
+
+
+class StripesTexture(Strict):
+    """Parallel bands across `direction_mm`, one of each colour per period."""
+
+    kind: Literal["stripes"]
+    period_mm: float = Field(20.0, gt=0.0, le=10_000.0)
+    direction_mm: Vec3 = (1.0, 0.0, 0.0)
+    colours: tuple[Colour, ...] = Field(_TWO_COLOURS, min_length=2, max_length=16)
+
+    @model_validator(mode="after")
+    def _direction(self) -> StripesTexture:
+        if sum(c * c for c in self.direction_mm) < 1e-12:
+            raise ValueError("direction_mm: the stripes' direction cannot be zero")
+        return self
+
+
+class CheckerTexture(Strict):
+    """A 3D checkerboard of cubes `size_mm` on a side (squares on a plane)."""
+
+    kind: Literal["checker"]
+    size_mm: float = Field(15.0, gt=0.0, le=10_000.0)
+    colours: tuple[Colour, ...] = Field(_TWO_COLOURS, min_length=2, max_length=16)
+
+
+class GradientTexture(Strict):
+    """Smooth colour: red, green and blue each a cosine of `period_mm` along its own direction."""
+
+    kind: Literal["gradient"]
+    period_mm: float = Field(120.0, gt=0.0, le=100_000.0)
+
+
+class ImageTexture(Strict):
+    """A printed image laid on the scene from above (along -z), `size_mm` wide, centred at `center_mm`."""
+
+    kind: Literal["image"]
+    path: Path = Field(description="PNG, BMP, TIFF or JPEG (sRGB); relative paths are relative to the config file")
+    size_mm: float = Field(200.0, gt=0.0, le=10_000.0)
+    center_mm: tuple[Coord, Coord] = (0.0, 0.0)
+
+
+TextureConfig = Annotated[StripesTexture | CheckerTexture | GradientTexture | ImageTexture, Field(discriminator="kind")]
+
+
 class SimulationConfig(Strict):
     scene: SceneConfig
+    texture: TextureConfig | None = Field(
+        None, description="paint the whole scene with a procedural texture (in place of its albedo)"
+    )
     ambient: float = Field(0.02, ge=0.0, le=10.0, description="ambient irradiance, relative to white")
     seed: int = Field(1, ge=0, le=2**31)

@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial import cKDTree
 
+from rig.evaluate.colour import colour_metrics
 from rig.evaluate.distances import LOCAL_MM as _LOCAL_MM
 from rig.evaluate.distances import surface_distances
 from rig.evaluate.rings import ring_coverage_on_bench
@@ -95,6 +96,7 @@ def evaluate_pair(
         metrics.update(ring_coverage_on_bench(pair, truth, dist))
     if pair.surface is not None:
         metrics.update(surface_metrics(pair, truth))
+        metrics.update(colour_metrics(pair, truth))
     return metrics
 
 

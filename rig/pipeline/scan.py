@@ -11,6 +11,7 @@ import numpy as np
 from rig.errors import DecodeError, ScanError
 from rig.patterns import Codec, Correspondence, codec_class
 from rig.pipeline.capture import CUE, capture
+from rig.pipeline.colour import interpolate_colour, sample_colours
 from rig.pipeline.dense import PairTriangulator, pair_pointset, reject_isolated, texture_rgb
 from rig.pipeline.icp import AlignmentRefusedError, point_to_plane
 from rig.pipeline.merge import expected_error_mm, local_noise_mm, merge, triangulation_angles
@@ -124,7 +125,7 @@ def ring_surface(rig: Rig, projector: int, camera: int, rings: RingPoints, corr:
     config = rig.config.scan.surface
     keep = rings.kept
     lit = corr.quality >= rig.config.scan.rings.black_threshold
-    return interpolate_surface(
+    surface = interpolate_surface(
         rings.points[keep],
         rings.camera_xy[keep],
         rings.ring[keep],
@@ -134,6 +135,13 @@ def ring_surface(rig: Rig, projector: int, camera: int, rings: RingPoints, corr:
         config.interpolant,
         SurfaceSettings(max_gap_px=config.max_gap_px),
         ring_bands(corr),
+    )
+    if config.colour == "white":
+        return surface
+    colours = sample_colours(corr.texture, rings.camera_xy[keep], corr.full_scale)
+    return dataclasses.replace(
+        surface,
+        colour=interpolate_colour(surface, colours, config.colour, config.colour_neighbours, config.mesh_stride_px),
     )
 
 
@@ -241,9 +249,14 @@ def scan_mesh(rig: Rig, pairs: list[PairResult], elapsed: dict[str, float]) -> M
 
 
 def pair_mesh(rig: Rig, pair: PairResult, stride: int) -> Mesh:
-    """The pair's interpolated surface as a mesh, coloured from the lit frame."""
-    assert pair.surface is not None
-    return grid_mesh(pair.surface.grid, texture_rgb(pair.correspondence), rig.camera_models[pair.camera], stride)
+    """The pair's interpolated surface as a mesh, coloured between the rings or from the lit frame."""
+    surface = pair.surface
+    assert surface is not None
+    if surface.colour is not None:
+        colours = np.rint(np.clip(np.nan_to_num(surface.colour), 0.0, 1.0) * 255).astype(np.uint8)
+    else:
+        colours = texture_rgb(pair.correspondence)
+    return grid_mesh(surface.grid, colours, rig.camera_models[pair.camera], stride)
 
 
 def pair_errors(rig: Rig, pair: PairResult, quantized: bool = False) -> np.ndarray:

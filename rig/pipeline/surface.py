@@ -69,6 +69,9 @@ class RingSurface:
     grid: np.ndarray  # (H, W, 3) a point per covered pixel, NaN elsewhere
     valid: np.ndarray  # (H, W)
     counts: dict[str, int]
+    ring: np.ndarray  # (M,) each sample's ring
+    triangle: np.ndarray  # (H, W) int32: the face each covered pixel lies in, -1 elsewhere
+    colour: np.ndarray | None = None  # (H, W, 3) float32 RGB in [0, 1] between the rings (rig.pipeline.colour)
 
 
 def ring_triangles(
@@ -292,7 +295,11 @@ def interpolate_surface(
     valid[pixel[ok]] = True
     counts["pixels"] = int(ok.sum())
     shape = (camera.height, camera.width)
-    return RingSurface(points, normals, tri, grid.reshape(*shape, 3), valid.reshape(shape), counts)
+    triangle = np.full(camera.height * camera.width, -1, dtype=np.int32)
+    triangle[pixel[ok]] = owner[ok]
+    return RingSurface(
+        points, normals, tri, grid.reshape(*shape, 3), valid.reshape(shape), counts, ring, triangle.reshape(shape)
+    )
 
 
 def band_agreement(

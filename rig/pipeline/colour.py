@@ -1,0 +1,127 @@
+"""Colour between the rings (dissertation ch.5): colour known only along the projected curves,
+interpolated over the surface.
+
+Each ring sample takes its colour from the lit (white) frame at its own sub-pixel position: only
+the pixels under the ring's curve are read. Every covered pixel of the interpolated surface then
+takes a weighted mean of nearby samples, in 3D on the surface: its neighbours are the samples of
+the two rings its triangle joins (the triangle was kept because it bridges no depth edge, so they
+are on the pixel's own surface), the L + 2 of each ring nearest the triangle (L = `neighbours`), and
+none farther than twice the triangle's longest edge.
+
+- `nearest`: the mean of the L nearest of them (the dissertation's choice for uniform sampling);
+- `idw`: all of them, weighted by inverse squared distance;
+- `area`: inverse squared distance times the surface area each sample stands for (a third of its
+  triangles' area), so that where samples crowd along a ring (rings seen obliquely, or rings
+  planned close together) one ring does not outvote the other: density-compensated weights for
+  non-uniform sampling.
+"""
+
+from __future__ import annotations
+
+import os
+from concurrent.futures import ThreadPoolExecutor
+from typing import Literal
+
+import numpy as np
+from scipy.spatial import cKDTree
+
+from rig.pipeline.surface import RingSurface
+
+ColourMethod = Literal["nearest", "idw", "area"]
+COLOUR_METHODS: tuple[str, ...] = ("nearest", "idw", "area")
+
+_CHUNK = 1 << 15  # pixels per batch: bounds the (pixels x candidates) temporaries
+_SOFTENING_MM = 0.05  # keeps a pixel on a sample from taking an infinite weight
+
+
+def sample_colours(texture: np.ndarray, xy: np.ndarray, full_scale: int) -> np.ndarray:
+    """The lit frame (H, W grey, or H, W, 3 BGR) at sub-pixel positions xy (M, 2), bilinear, as
+    RGB float32 in [0, 1] of full scale (M, 3)."""
+    image = texture if texture.ndim == 3 else texture[..., None]
+    h, w = image.shape[:2]
+    x = np.clip(xy[:, 0], 0, w - 1)
+    y = np.clip(xy[:, 1], 0, h - 1)
+    x0, y0 = np.minimum(x.astype(np.int64), w - 2), np.minimum(y.astype(np.int64), h - 2)
+    fx, fy = (x - x0)[:, None], (y - y0)[:, None]
+    top = image[y0, x0] * (1 - fx) + image[y0, x0 + 1] * fx
+    bottom = image[y0 + 1, x0] * (1 - fx) + image[y0 + 1, x0 + 1] * fx
+    value = (top * (1 - fy) + bottom * fy) / full_scale
+    rgb = value[:, ::-1] if value.shape[1] == 3 else np.repeat(value, 3, axis=1)
+    return rgb.astype(np.float32)
+
+
+def sample_areas(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
+    """The surface area (mm^2) each sample stands for: a third of the area of its triangles."""
+    corner = vertices[faces]
+    area = 0.5 * np.linalg.norm(np.cross(corner[:, 1] - corner[:, 0], corner[:, 2] - corner[:, 0]), axis=1)
+    return np.bincount(faces.ravel(), np.repeat(area / 3.0, 3), minlength=len(vertices))
+
+
+def interpolate_colour(
+    surface: RingSurface, colours: np.ndarray, method: ColourMethod = "area", neighbours: int = 8, stride: int = 1
+) -> np.ndarray:
+    """Colour (H, W, 3 float32) of the covered pixels of `surface` on every `stride`-th row and
+    column (the mesh's vertices; NaN elsewhere), from its samples' `colours` (M, 3) by `method`
+    (see the module docstring)."""
+    if method not in COLOUR_METHODS:
+        raise ValueError(f"unknown colour interpolant {method!r}; known: {', '.join(COLOUR_METHODS)}")
+    height, width = surface.valid.shape
+    out = np.full((height * width, 3), np.nan, dtype=np.float32)
+    if len(surface.faces) == 0:
+        return out.reshape(height, width, 3)
+    candidates, reach = _candidates(surface, neighbours)
+    reach2 = (reach**2).astype(np.float32)
+    area = sample_areas(surface.vertices, surface.faces) if method == "area" else np.ones(len(surface.vertices))
+    on_grid = np.zeros_like(surface.valid)
+    on_grid[::stride, ::stride] = True
+    pixel = np.flatnonzero((surface.valid & on_grid).ravel())
+    owner = surface.triangle.ravel()[pixel]
+    points = surface.grid.reshape(-1, 3)
+    # the samples relative to the pixels' triangles' first corners: float32 differences stay exact enough
+    origin = surface.vertices[surface.faces[:, 0]]
+    far = np.float32(np.inf)
+    padded = np.vstack([surface.vertices, np.zeros((1, 3))])  # index M: no candidate
+    padded_area = np.append(area, 0.0).astype(np.float32)
+    padded_colours = np.vstack([colours, np.zeros((1, 3), np.float32)]).astype(np.float32)
+
+    def colour_part(start: int) -> None:
+        part, tri = pixel[start : start + _CHUNK], owner[start : start + _CHUNK]
+        index = candidates[tri]  # (P, C)
+        local = (padded[index] - origin[tri][:, None, :]).astype(np.float32)
+        here = (points[part] - origin[tri]).astype(np.float32)
+        d2 = np.einsum("pci,pci->pc", local - here[:, None, :], local - here[:, None, :])
+        d2[(index == len(surface.vertices)) | (d2 > reach2[tri, None])] = far
+        if method == "nearest":
+            order = np.argpartition(d2, min(neighbours, d2.shape[1]) - 1, axis=1)[:, :neighbours]
+            index = np.take_along_axis(index, order, axis=1)
+            weight = np.isfinite(np.take_along_axis(d2, order, axis=1)).astype(np.float32)
+        else:
+            weight = padded_area[index] / (d2 + np.float32(_SOFTENING_MM**2))
+        total = np.maximum(weight.sum(axis=1, keepdims=True), np.float32(1e-30))
+        out[part] = np.einsum("pk,pkc->pc", weight, padded_colours[index]) / total
+
+    with ThreadPoolExecutor(max_workers=min(4, os.cpu_count() or 1)) as pool:  # numpy releases the GIL
+        list(pool.map(colour_part, range(0, len(pixel), _CHUNK)))
+    return out.reshape(height, width, 3)
+
+
+def _candidates(surface: RingSurface, neighbours: int) -> tuple[np.ndarray, np.ndarray]:
+    """Per face, its candidate samples (F, 2L; M where none): the L of each of its two rings
+    nearest its centroid within reach; and the reach, twice its longest edge (F,)."""
+    vertices, faces, ring = surface.vertices, surface.faces, surface.ring
+    corner = vertices[faces]
+    reach = 2.0 * np.linalg.norm(corner - np.roll(corner, -1, axis=1), axis=2).max(axis=1)
+    # rings far apart in a fourth coordinate: one tree answers "nearest on ring r"
+    spread = 10.0 * float(np.ptp(vertices, axis=0).max() + 1.0)
+    used = np.flatnonzero(np.bincount(faces.ravel(), minlength=len(vertices)) > 0)
+    tree = cKDTree(np.column_stack([vertices[used], ring[used] * spread]))
+    centroid = corner.mean(axis=1)
+    low = ring[faces].min(axis=1)
+    found = []
+    # the L nearest to the centroid and two more: pixels across the face have other nearest ones
+    k = min(neighbours + 2, len(used))
+    for r in (low, low + 1):
+        _, index = tree.query(np.column_stack([centroid, r * spread]), k=k, distance_upper_bound=spread / 2, workers=-1)
+        index = np.asarray(index).reshape(len(faces), k)
+        found.append(np.where(index < len(used), used[np.minimum(index, len(used) - 1)], len(vertices)))
+    return np.hstack(found), reach
