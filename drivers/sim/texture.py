@@ -32,14 +32,16 @@ def _pick(choice: np.ndarray, colours: tuple[tuple[float, float, float], ...]) -
 
 @dataclass(frozen=True)
 class Stripes:
-    """Parallel slabs across `direction`, one of each of `colours` (equally wide) per `period_mm`."""
+    """Parallel slabs across `direction`, one of each of `colours` (equally wide) per `period_mm`,
+    the first centred on the origin (so the bench plane lies mid-slab; see Checker)."""
 
     period_mm: float
     direction: tuple[float, float, float]
     colours: tuple[tuple[float, float, float], ...]
 
     def colour_at(self, points: np.ndarray) -> np.ndarray:
-        band = np.floor(points @ _unit(self.direction) / (self.period_mm / len(self.colours))).astype(np.int64)
+        width = self.period_mm / len(self.colours)
+        band = np.floor(points @ _unit(self.direction) / width + 0.5).astype(np.int64)
         return _pick(band, self.colours)
 
 
