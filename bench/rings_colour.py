@@ -88,6 +88,10 @@ def _figures(metrics: dict[str, Any], prefix: str) -> dict[str, Any]:
     return {k: _round(metrics[f"{prefix}_{k}"]) for k in ("psnr_db", "rgb_rms", "delta_e2000")}
 
 
+def _one(value: float | None) -> str:
+    return "-" if value is None else f"{value:.1f}"
+
+
 def _round(value: Any) -> Any:
     return round(value, 3) if isinstance(value, float) else value
 
@@ -119,8 +123,8 @@ def readme_table(rows: list[dict[str, Any]], tolerance: float) -> str:
                 [
                     row["texture"],
                     f"{f['rings']} ({label})",
-                    *(f[m]["psnr_db"] for m in ("nearest", "idw", "area", "white")),
-                    *(f[m]["delta_e2000"] for m in ("nearest", "area", "white")),
+                    *(_one(f[m]["psnr_db"]) for m in ("nearest", "idw", "area", "white")),
+                    *(_one(f[m]["delta_e2000"]) for m in ("nearest", "area", "white")),
                 ]
             )
     return markdown_table(header, lines)

@@ -6,6 +6,7 @@ python docs/make_images.py
 from __future__ import annotations
 
 import dataclasses
+import sys
 from pathlib import Path
 
 import cv2
@@ -15,11 +16,14 @@ from rig.assembly import open_rig
 from rig.config import REPO_CONFIG_DIR, config_from_dict, load_config
 from rig.geometry import CameraModel, look_at_rotation
 from rig.pipeline.capture import CUE
+from rig.pipeline.colour import interpolate_colour, sample_colours
+from rig.pipeline.dense import texture_rgb
 from rig.pipeline.scan import PairResult, make_codec, run_scan
 from rig.service.adaptive import adaptive_scan
 from rig.store.images import preview_png
 
 OUT = Path(__file__).resolve().parent / "images"
+CHART = Path(__file__).resolve().parent.parent / "config/textures/chart.png"
 
 
 def _save(name: str, image: np.ndarray, width: int = 640) -> None:
@@ -30,6 +34,9 @@ def _save(name: str, image: np.ndarray, width: int = 640) -> None:
 
 def main() -> None:
     OUT.mkdir(parents=True, exist_ok=True)
+    if "--colour" in sys.argv:  # only the colour pictures
+        _colour()
+        return
     shown = {"phase": 4, "gray": 4, "rings": 2}  # a fringe, a Gray-code bit, the ring edge pattern
     for codec_name in ("phase", "gray", "rings"):
         config = load_config().with_codec(codec_name)
@@ -46,6 +53,7 @@ def main() -> None:
             _save(f"preview_{codec_name}.png", preview)
     _multi()
     _surface()
+    _colour()
 
 
 def _surface() -> None:
@@ -59,6 +67,34 @@ def _surface() -> None:
         data["scan"]["rings"]["rings"] = 16
         uniform = dataclasses.replace(rig, config=config_from_dict(data, "16 rings"))
         _surface_pair("uniform16", rig.camera_models[0], run_scan(uniform).pairs[0])
+
+
+def _colour() -> None:
+    """The chart texture on the default bench, seen by a colour camera: its true colour, the white
+    frame, and the colour interpolated from 32 rings' samples alone (L-NN and density-compensated),
+    cropped to the sphere and the chart around it."""
+    data = load_config().with_codec("rings").model_dump(mode="json")
+    data["simulation"]["texture"] = {"kind": "image", "path": str(CHART), "size_mm": 240.0}
+    data["cameras"][0]["color"] = True
+    data["scan"]["surface"]["mesh_stride_px"] = 1
+    with open_rig(config_from_dict(data, "chart")) as rig:
+        pair = run_scan(rig).pairs[0]
+        assert pair.surface is not None and pair.rings is not None and rig.truth is not None
+        truth = rig.truth.ground_truth(0, 0)
+    crop = (slice(212, 812), slice(340, 1090))
+    white = cv2.cvtColor(texture_rgb(pair.correspondence), cv2.COLOR_RGB2BGR)
+    shading = np.clip(truth.white_irradiance, 0, None)[..., None] * float(np.median(white[truth.hit] / 255.0))
+    true = np.clip(truth.albedo[..., ::-1] * shading * 255 / np.median(shading[truth.hit]), 0, 255)
+    _save("colour_truth.png", true.astype(np.uint8)[crop], 360)
+    _save("colour_white.png", white[crop], 360)
+    corr = pair.correspondence
+    samples = sample_colours(corr.texture, pair.rings.camera_xy[pair.rings.kept], corr.full_scale)
+    for method in ("nearest", "area"):
+        colour = interpolate_colour(pair.surface, samples, method)  # type: ignore[arg-type]
+        image = np.full(colour.shape, 255, np.uint8)
+        ok = np.isfinite(colour).all(axis=2)
+        image[ok] = np.clip(colour[ok][:, ::-1] * 255, 0, 255).astype(np.uint8)
+        _save(f"colour_{method}.png", image[crop], 360)
 
 
 def _surface_pair(name: str, camera: CameraModel, pair: PairResult) -> None:

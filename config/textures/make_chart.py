@@ -1,6 +1,6 @@
 """Make chart.png, a printed colour chart for the simulated bench's `image` texture: 24 patches in
 the layout of a colour rendition chart (approximate published sRGB values of the classic chart),
-on a smooth hue ring, with a black frame. Procedural and deterministic, so it carries no licence
+on a smooth hue ring, separated by dark grey. Procedural and deterministic, so it carries no licence
 but slrig's. Run: python config/textures/make_chart.py"""
 
 from pathlib import Path
@@ -27,7 +27,8 @@ def chart() -> np.ndarray:
     for k, rgb in enumerate(PATCHES_SRGB):
         r, c = divmod(k, 6)
         x0, y0 = left + c * (patch + gap), top + r * (patch + gap)
-        image[y0 - gap // 2 : y0 + patch + gap // 2, x0 - gap // 2 : x0 + patch + gap // 2] = 20
+        # dark grey: black would return too little light to read rings on
+        image[y0 - gap // 2 : y0 + patch + gap // 2, x0 - gap // 2 : x0 + patch + gap // 2] = 90
         image[y0 : y0 + patch, x0 : x0 + patch] = rgb
     return image
 

@@ -11,6 +11,7 @@ from rig.cli.common import load, progress_bar, scene_override
 from rig.errors import ConfigError
 from rig.evaluate.merged import evaluate_merge
 from rig.evaluate.pairs import evaluate_on_bench
+from rig.evaluate.surface import pattern_economy
 from rig.pipeline.scan import run_scan
 from rig.plan.ring_plan import RingPlan
 from rig.service.tasks import adaptive_scan_to_directory, scan_to_directory
@@ -90,6 +91,10 @@ def cmd_eval(args: argparse.Namespace) -> int:
         "triangulate_ms": round(result.timings_ms["triangulate_ms"], 1),
         "pointset_ms": round(result.timings_ms["pointset_ms"], 1),
     }
+    if "surface_ms" in result.timings_ms:
+        report["surface_ms"] = round(result.timings_ms["surface_ms"], 1)
+    if result.pairs and result.pairs[0].rings is not None:
+        report["economy"] = pattern_economy(result, config)
     if result.merged_index is None:
         report["counts"] = pair.counts
     if args.json:

@@ -22,17 +22,21 @@ _D65 = np.array([0.95047, 1.0, 1.08883])
 
 
 def colour_metrics(pair: PairResult, truth: PixelTruth) -> dict[str, float | int | None]:
-    """PSNR (dB), RGB rms and mean CIEDE2000 of the pair's interpolated colour and of its lit
-    frame, both on the pixels the interpolated surface covers (with a lit true surface)."""
+    """PSNR (dB), RGB rms and mean CIEDE2000 of the pair's interpolated colour (when it has one)
+    and of its lit frame, both on the pixels the interpolated colour covers (or, without one, the
+    interpolated surface) where the true surface is lit."""
     surface = pair.surface
-    if surface is None or surface.colour is None:
+    if surface is None:
         return {}
-    white = texture_rgb(pair.correspondence).astype(np.float32) / 255.0
-    mask = surface.valid & truth.hit & truth.lit & np.isfinite(surface.colour).all(axis=2)
+    covered = surface.valid if surface.colour is None else np.isfinite(surface.colour).all(axis=2)
+    mask = covered & truth.hit & truth.lit
     irradiance = truth.white_irradiance
-    mask &= irradiance >= _MIN_RELATIVE_IRRADIANCE * np.median(irradiance[truth.hit & truth.lit])
+    if mask.any():
+        mask &= irradiance >= _MIN_RELATIVE_IRRADIANCE * np.median(irradiance[truth.hit & truth.lit])
+    white = texture_rgb(pair.correspondence).astype(np.float32) / 255.0
+    estimates = [("white_colour", white)] + ([("colour", surface.colour)] if surface.colour is not None else [])
     metrics: dict[str, float | int | None] = {"colour_pixels": int(mask.sum())}
-    for name, estimate in (("colour", surface.colour), ("white_colour", white)):
+    for name, estimate in estimates:
         metrics.update({f"{name}_{k}": v for k, v in albedo_errors(estimate, truth, mask).items()})
     return metrics
 

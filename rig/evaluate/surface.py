@@ -4,8 +4,10 @@ from __future__ import annotations
 
 import numpy as np
 
+from rig.config import RigConfig
 from rig.evaluate.distances import surface_distances
-from rig.pipeline.scan import PairResult
+from rig.patterns import codec_class
+from rig.pipeline.scan import PairResult, ScanResult
 from rig.rig import PixelTruth
 
 COMPLETE_WITHIN_MM = 1.0
@@ -29,4 +31,25 @@ def surface_metrics(pair: PairResult, truth: PixelTruth) -> dict[str, float | in
         "surface_max_mm": None if empty else float(np.max(dist)),
         "surface_over_1mm_fraction": float((dist > 1.0).sum() / max(1, len(dist))),
         "surface_completeness": float((close.reshape(valid.shape) & target).sum() / max(1, target.sum())),
+    }
+
+
+def pattern_economy(result: ScanResult, config: RigConfig, dense: str = "phase") -> dict[str, float | int]:
+    """The scan's frames and bytes beside those a dense scan (`dense` codec, as configured) of the
+    same rig would take: the dense figures are counted from its patterns and the cameras' formats."""
+    frames = 0
+    frame_bytes = 0
+    for projector in config.projectors:
+        count = codec_class(dense)(tuple(projector.resolution), getattr(config.scan, dense)).frame_count
+        frames += count
+        for camera in config.cameras:
+            width, height = camera.resolution
+            samples = width * height * (3 if camera.color else 1)
+            frame_bytes += count * samples * (1 if camera.bit_depth <= 8 else 2)
+    return {
+        "frames": result.frames_projected,
+        "bytes": result.bytes_captured,
+        f"{dense}_frames": frames,
+        f"{dense}_bytes": frame_bytes,
+        "fraction_of_dense_bytes": round(result.bytes_captured / max(frame_bytes, 1), 4),
     }
