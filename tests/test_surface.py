@@ -17,8 +17,9 @@ from rig.cli import main
 from rig.config import config_from_dict, load_config
 from rig.errors import StoreError
 from rig.evaluate.distances import surface_distances
+from rig.pipeline.raster import rasterize
 from rig.pipeline.scan import ring_bands, run_scan
-from rig.pipeline.surface import SurfaceSettings, band_agreement, interpolate_surface, rasterize
+from rig.pipeline.surface import SurfaceSettings, band_agreement, interpolate_surface
 from rig.store.ply import ply_bytes, read_cloud_ply
 
 

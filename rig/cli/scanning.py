@@ -5,14 +5,16 @@ from __future__ import annotations
 import argparse
 import json
 from pathlib import Path
+from typing import Any
 
 from rig.assembly import open_rig
 from rig.cli.common import load, progress_bar, scene_override
+from rig.config import RigConfig
 from rig.errors import ConfigError
 from rig.evaluate.merged import evaluate_merge
 from rig.evaluate.pairs import evaluate_on_bench
 from rig.evaluate.surface import pattern_economy
-from rig.pipeline.scan import run_scan
+from rig.pipeline.scan import ScanResult, run_scan
 from rig.plan.ring_plan import RingPlan
 from rig.service.tasks import adaptive_scan_to_directory, scan_to_directory
 from rig.store.scandir import new_scan_id
@@ -64,6 +66,27 @@ def cmd_scan(args: argparse.Namespace) -> int:
     return 0
 
 
+def eval_report(config: RigConfig, result: ScanResult, metrics: dict[str, Any]) -> dict[str, Any]:
+    """What `slrig eval` prints: the scan, its accuracy, its times and (rings) its pattern economy."""
+    assert config.simulation is not None
+    scene = config.simulation.scene
+    report = {
+        "codec": result.codec,
+        "scene": (getattr(scene, "path", None) and Path(str(scene.path)).name) or scene.kind,
+        "frames": result.frames_projected,
+        "bytes_captured": result.bytes_captured,
+        **metrics,
+        **{k: round(result.timings_ms[k], 1) for k in ("capture_ms", "decode_ms", "triangulate_ms", "pointset_ms")},
+    }
+    if "surface_ms" in result.timings_ms:
+        report["surface_ms"] = round(result.timings_ms["surface_ms"], 1)
+    if result.pairs and result.pairs[0].rings is not None:
+        report["economy"] = pattern_economy(result, config)
+    if result.merged_index is None:
+        report["counts"] = result.pairs[0].counts
+    return report
+
+
 def cmd_eval(args: argparse.Namespace) -> int:
     config = load(args)
     if args.scene:
@@ -79,24 +102,7 @@ def cmd_eval(args: argparse.Namespace) -> int:
             metrics["merge"] = result.merge
         else:
             metrics = evaluate_on_bench(the_rig, pair)
-    scene = config.simulation.scene
-    report = {
-        "codec": result.codec,
-        "scene": (getattr(scene, "path", None) and Path(str(scene.path)).name) or scene.kind,
-        "frames": result.frames_projected,
-        "bytes_captured": result.bytes_captured,
-        **metrics,
-        "capture_ms": round(result.timings_ms["capture_ms"], 1),
-        "decode_ms": round(result.timings_ms["decode_ms"], 1),
-        "triangulate_ms": round(result.timings_ms["triangulate_ms"], 1),
-        "pointset_ms": round(result.timings_ms["pointset_ms"], 1),
-    }
-    if "surface_ms" in result.timings_ms:
-        report["surface_ms"] = round(result.timings_ms["surface_ms"], 1)
-    if result.pairs and result.pairs[0].rings is not None:
-        report["economy"] = pattern_economy(result, config)
-    if result.merged_index is None:
-        report["counts"] = pair.counts
+    report = eval_report(config, result, metrics)
     if args.json:
         print(json.dumps(report, allow_nan=False))
         return 0

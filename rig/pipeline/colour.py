@@ -18,14 +18,13 @@ none farther than twice the triangle's longest edge.
 
 from __future__ import annotations
 
-import os
-from concurrent.futures import ThreadPoolExecutor
 from typing import Literal
 
 import numpy as np
 from scipy.spatial import cKDTree
 
 from rig.pipeline.surface import RingSurface
+from rig.pipeline.workers import pool
 
 ColourMethod = Literal["nearest", "idw", "area"]
 COLOUR_METHODS: tuple[str, ...] = ("nearest", "idw", "area")
@@ -77,19 +76,18 @@ def interpolate_colour(
     pixel = np.flatnonzero((surface.valid & on_grid).ravel())
     owner = surface.triangle.ravel()[pixel]
     points = surface.grid.reshape(-1, 3)
-    # the samples relative to the pixels' triangles' first corners: float32 differences stay exact enough
-    origin = surface.vertices[surface.faces[:, 0]]
+    # float32 about the samples' centre: a few hundred mm to 1e-4 mm, ample for weights
+    centre = surface.vertices.mean(axis=0)
     far = np.float32(np.inf)
-    padded = np.vstack([surface.vertices, np.zeros((1, 3))])  # index M: no candidate
+    padded = np.vstack([surface.vertices - centre, np.zeros((1, 3))]).astype(np.float32)  # index M: none
     padded_area = np.append(area, 0.0).astype(np.float32)
     padded_colours = np.vstack([colours, np.zeros((1, 3), np.float32)]).astype(np.float32)
 
     def colour_part(start: int) -> None:
         part, tri = pixel[start : start + _CHUNK], owner[start : start + _CHUNK]
         index = candidates[tri]  # (P, C)
-        local = (padded[index] - origin[tri][:, None, :]).astype(np.float32)
-        here = (points[part] - origin[tri]).astype(np.float32)
-        d2 = np.einsum("pci,pci->pc", local - here[:, None, :], local - here[:, None, :])
+        offset = padded[index] - (points[part] - centre).astype(np.float32)[:, None, :]
+        d2 = np.einsum("pci,pci->pc", offset, offset)
         d2[(index == len(surface.vertices)) | (d2 > reach2[tri, None])] = far
         if method == "nearest":
             order = np.argpartition(d2, min(neighbours, d2.shape[1]) - 1, axis=1)[:, :neighbours]
@@ -100,28 +98,31 @@ def interpolate_colour(
         total = np.maximum(weight.sum(axis=1, keepdims=True), np.float32(1e-30))
         out[part] = np.einsum("pk,pkc->pc", weight, padded_colours[index]) / total
 
-    with ThreadPoolExecutor(max_workers=min(4, os.cpu_count() or 1)) as pool:  # numpy releases the GIL
-        list(pool.map(colour_part, range(0, len(pixel), _CHUNK)))
+    list(pool().map(colour_part, range(0, len(pixel), _CHUNK)))
     return out.reshape(height, width, 3)
 
 
 def _candidates(surface: RingSurface, neighbours: int) -> tuple[np.ndarray, np.ndarray]:
-    """Per face, its candidate samples (F, 2L; M where none): the L of each of its two rings
-    nearest its centroid within reach; and the reach, twice its longest edge (F,)."""
+    """Per face, its candidate samples (F, 2(L + 2); M where none): on each of its two rings, the
+    L + 2 samples nearest one of its corners there (two more than L: pixels across the face have
+    other nearest ones); and the reach, twice its longest edge (F,)."""
     vertices, faces, ring = surface.vertices, surface.faces, surface.ring
     corner = vertices[faces]
     reach = 2.0 * np.linalg.norm(corner - np.roll(corner, -1, axis=1), axis=2).max(axis=1)
-    # rings far apart in a fourth coordinate: one tree answers "nearest on ring r"
-    spread = 10.0 * float(np.ptp(vertices, axis=0).max() + 1.0)
     used = np.flatnonzero(np.bincount(faces.ravel(), minlength=len(vertices)) > 0)
+    # rings far apart in a fourth coordinate: a sample's nearest in this tree are on its own ring
+    spread = 10.0 * float(np.ptp(vertices, axis=0).max() + 1.0)
     tree = cKDTree(np.column_stack([vertices[used], ring[used] * spread]))
-    centroid = corner.mean(axis=1)
-    low = ring[faces].min(axis=1)
-    found = []
-    # the L nearest to the centroid and two more: pixels across the face have other nearest ones
     k = min(neighbours + 2, len(used))
-    for r in (low, low + 1):
-        _, index = tree.query(np.column_stack([centroid, r * spread]), k=k, distance_upper_bound=spread / 2, workers=-1)
-        index = np.asarray(index).reshape(len(faces), k)
-        found.append(np.where(index < len(used), used[np.minimum(index, len(used) - 1)], len(vertices)))
-    return np.hstack(found), reach
+    _, index = tree.query(tree.data, k=k, distance_upper_bound=spread / 2, workers=-1)
+    index = np.asarray(index).reshape(len(used), k)
+    along = np.full((len(vertices) + 1, k), len(vertices))  # per sample: its ring's nearest
+    along[used] = np.where(index < len(used), used[np.minimum(index, len(used) - 1)], len(vertices))
+    corner_ring = ring[faces]
+    low = corner_ring.min(axis=1)
+    rows = np.arange(len(faces))
+    on_low = faces[rows, np.argmin(corner_ring, axis=1)]  # a corner on each of the face's rings
+    on_high = faces[rows, np.argmax(corner_ring, axis=1)]
+    both = corner_ring[rows, np.argmax(corner_ring, axis=1)] == low + 1
+    high = np.where(both[:, None], along[on_high], len(vertices))
+    return np.hstack([along[on_low], high]), reach

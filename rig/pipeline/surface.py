@@ -27,6 +27,8 @@ from scipy.interpolate import CloughTocher2DInterpolator
 from scipy.spatial import cKDTree
 
 from rig.geometry import CameraModel
+from rig.pipeline.raster import FaceTerms, on_triangles, rasterize
+from rig.pipeline.workers import batches, pool
 
 Interpolant = Literal["linear", "quadratic", "cubic"]
 INTERPOLANTS: tuple[str, ...] = ("linear", "quadratic", "cubic")
@@ -194,18 +196,16 @@ def smoothed_normals(
     apart_px = np.linalg.norm(xy[a] - xy[b], axis=1)
     footprint = np.median(apart_mm / np.maximum(apart_px, 1e-6))  # mm per pixel where the surface faces the camera
     pairs = pairs[(ring[a] == ring[b]) & (apart_mm <= radius_px * footprint) & known[a] & known[b]]
-    total = normals.copy()
-    np.add.at(total, pairs[:, 0], normals[pairs[:, 1]])
-    np.add.at(total, pairs[:, 1], normals[pairs[:, 0]])
+    total = normals + _sum_at(
+        np.concatenate([pairs[:, 0], pairs[:, 1]]), normals[pairs[:, ::-1].T.ravel()], len(normals)
+    )
     return total / np.maximum(np.linalg.norm(total, axis=1), 1e-12)[:, None]
 
 
 def accumulate_normals(tri: np.ndarray, face: np.ndarray, directions: np.ndarray) -> np.ndarray:
     """Unit normals of the points of triangles `tri` (F, 3): the sum of the (weighted) `face`
     vectors of the triangles each is in; a point in none faces its camera ray `directions` back."""
-    normals = np.zeros_like(directions, dtype=np.float64)
-    for k in range(3):
-        np.add.at(normals, tri[:, k], face)
+    normals = _sum_at(tri.T.ravel(), np.tile(face, (3, 1)), len(directions))
     norm = np.linalg.norm(normals, axis=1)
     missing = norm < 1e-12
     normals[~missing] /= norm[~missing, None]
@@ -213,34 +213,9 @@ def accumulate_normals(tri: np.ndarray, face: np.ndarray, directions: np.ndarray
     return normals
 
 
-def rasterize(xy: np.ndarray, tri: np.ndarray, width: int, height: int) -> tuple[np.ndarray, np.ndarray]:
-    """Camera pixels (flat indices) whose centres lie in the image triangles, and the triangle of
-    each (a pixel on a shared edge goes to one of them). Scanline: each triangle's rows, each row's
-    span between the edges it crosses."""
-    corners = xy[tri]  # (F, 3, 2)
-    top = np.clip(np.ceil(corners[:, :, 1].min(axis=1)), 0, height - 1).astype(np.int64)
-    bottom = np.clip(np.floor(corners[:, :, 1].max(axis=1)), 0, height - 1).astype(np.int64)
-    rows_per = np.maximum(bottom - top + 1, 0)
-    owner = np.repeat(np.arange(len(tri)), rows_per)
-    row = top[owner] + np.arange(len(owner)) - np.repeat(np.cumsum(rows_per) - rows_per, rows_per)
-    left = np.full(len(owner), np.inf)
-    right = np.full(len(owner), -np.inf)
-    for k in range(3):
-        a, b = corners[owner, k], corners[owner, (k + 1) % 3]
-        dy = b[:, 1] - a[:, 1]
-        crosses = (np.minimum(a[:, 1], b[:, 1]) <= row) & (row <= np.maximum(a[:, 1], b[:, 1])) & (dy != 0)
-        x = a[:, 0] + (row - a[:, 1]) * np.divide(b[:, 0] - a[:, 0], dy, out=np.zeros_like(dy), where=dy != 0)
-        left = np.where(crosses, np.minimum(left, x), left)
-        right = np.where(crosses, np.maximum(right, x), right)
-    first = np.clip(np.ceil(left), 0, width).astype(np.int64, copy=False) if len(left) else left.astype(np.int64)
-    last = np.clip(np.floor(right), -1, width - 1).astype(np.int64, copy=False) if len(right) else first
-    count = np.maximum(last - first + 1, 0)
-    pixel_owner = np.repeat(owner, count)
-    column = np.repeat(first, count) + np.arange(count.sum()) - np.repeat(np.cumsum(count) - count, count)
-    image = np.full(width * height, -1, dtype=np.int64)
-    image[np.repeat(row, count) * width + column] = pixel_owner  # a pixel on a shared edge: one wins
-    pixel = np.flatnonzero(image >= 0)
-    return pixel, image[pixel]
+def _sum_at(index: np.ndarray, vectors: np.ndarray, count: int) -> np.ndarray:
+    """(count, 3): the sum of the rows of `vectors` at each `index` (np.add.at, by bincount: faster)."""
+    return np.column_stack([np.bincount(index, vectors[:, k], minlength=count) for k in range(3)])
 
 
 def interpolate_surface(
@@ -265,25 +240,26 @@ def interpolate_surface(
     tri, normals, counts = ring_triangles(points, xy, ring, camera, projector, settings)
     pixel, owner = rasterize(xy, tri, camera.width, camera.height)
     if lit is not None:
-        area = np.bincount(owner, minlength=len(tri))
-        dark = np.bincount(owner, ~lit.ravel()[pixel], minlength=len(tri))
-        shadowed = dark > settings.max_unlit * np.maximum(area, 1)
-        counts["dropped_shadow"] = int(shadowed.sum())
-        counts["faces"] -= counts["dropped_shadow"]
-        pixel, owner = pixel[~shadowed[owner]], owner[~shadowed[owner]]
-        renumber = np.cumsum(~shadowed) - 1
-        tri, owner = tri[~shadowed], renumber[owner]
+        tri, pixel, owner = _without_shadowed(tri, pixel, owner, lit, settings.max_unlit, counts)
     all_origins, all_directions = camera.pixel_rays
-    rays = (np.asarray(all_origins[pixel]), np.asarray(all_directions[pixel]))
-    if method == "cubic":
-        depth = _cubic_depth(points, xy, camera, pixel)
-        found = rays[0] + depth[:, None] * rays[1]
-    else:
-        quadratic = method == "quadratic"
-        found = _on_triangles(points, normals, xy, tri, pixel, owner, rays, camera.width, quadratic)
+    quadratic = method == "quadratic"
+    terms = FaceTerms.of(points, xy, tri)
+
+    def solve(span: tuple[int, int]) -> tuple[np.ndarray, np.ndarray | None]:
+        part, part_owner = pixel[span[0] : span[1]], owner[span[0] : span[1]]
+        rays = (np.asarray(all_origins[part]), np.asarray(all_directions[part]))
+        if method == "cubic":
+            found = rays[0] + _cubic_depth(points, xy, camera, part)[:, None] * rays[1]
+        else:
+            found = on_triangles(points, normals, terms, tri, part, part_owner, rays, camera.width, quadratic)
+        return found, None if bands is None else band_agreement(found, part, projector, bands, settings)
+
+    # cubic: one interpolant over the whole image, not one per batch
+    solved = list(pool().map(solve, [(0, len(pixel))] if method == "cubic" else batches(len(pixel))))
+    found = np.concatenate([f for f, _ in solved]) if solved else np.zeros((0, 3))
     ok = np.isfinite(found).all(axis=1)
     if bands is not None:
-        agree = band_agreement(found, pixel, projector, bands, settings)
+        agree = np.concatenate([a for _, a in solved if a is not None]) if solved else np.zeros(0, bool)
         area = np.bincount(owner, minlength=len(tri))
         bridging = np.bincount(owner, ~agree, minlength=len(tri)) > settings.max_band_disagreement * area
         agree &= ~bridging[owner]
@@ -300,6 +276,20 @@ def interpolate_surface(
     return RingSurface(
         points, normals, tri, grid.reshape(*shape, 3), valid.reshape(shape), counts, ring, triangle.reshape(shape)
     )
+
+
+def _without_shadowed(
+    tri: np.ndarray, pixel: np.ndarray, owner: np.ndarray, lit: np.ndarray, max_unlit: float, counts: dict[str, int]
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The triangles with at most `max_unlit` of their pixels dark, and their pixels (renumbered)."""
+    area = np.bincount(owner, minlength=len(tri))
+    dark = np.bincount(owner, ~lit.ravel()[pixel], minlength=len(tri))
+    shadowed = dark > max_unlit * np.maximum(area, 1)
+    counts["dropped_shadow"] = int(shadowed.sum())
+    counts["faces"] -= counts["dropped_shadow"]
+    keep = ~shadowed[owner]
+    renumber = np.cumsum(~shadowed) - 1
+    return tri[~shadowed], pixel[keep], renumber[owner[keep]]
 
 
 def band_agreement(
@@ -319,61 +309,6 @@ def band_agreement(
     turned = np.abs(np.remainder(np.arctan2(dv, du) - angle + np.pi, 2 * np.pi) - np.pi)
     aligned = ~np.isfinite(angle) | (turned <= settings.band_angle_rad) | (rho < _ANGLE_MIN_RADIUS_PX)
     return (z > 0) & (~read | inside) & aligned
-
-
-def _on_triangles(
-    points: np.ndarray,
-    normals: np.ndarray,
-    xy: np.ndarray,
-    tri: np.ndarray,
-    pixel: np.ndarray,
-    owner: np.ndarray,
-    rays: tuple[np.ndarray, np.ndarray],
-    width: int,
-    quadratic: bool,
-) -> np.ndarray:
-    """Each pixel's point on its triangle (`owner`): on the plane of the corners, or (quadratic)
-    the mean of that and the blend of the corners' tangent planes, weighted by the pixel's
-    barycentric coordinates in the image (against the 3D ones they differ by the depth's relative
-    change across a triangle, a fraction of a percent of a correction that is itself small)."""
-    origins, directions = rays
-    corner = points[tri]
-    plane = np.cross(corner[:, 1] - corner[:, 0], corner[:, 2] - corner[:, 0])
-    t_linear = _ray_plane(origins, directions, plane[owner], np.einsum("ij,ij->i", plane, corner[:, 0])[owner])
-    if not quadratic:
-        return origins + t_linear[:, None] * directions
-    weights = _image_barycentric(xy[tri], pixel, width, owner)
-    offset = np.einsum("ij,ij->i", normals, points)  # each corner's tangent plane n . x = offset
-    blend = np.zeros_like(t_linear)
-    steep = np.zeros(len(t_linear), dtype=bool)
-    for k in range(3):
-        corner_k = tri[owner, k]
-        n = normals[corner_k]
-        steep |= np.abs(np.einsum("ij,ij->i", n, directions)) < 0.1  # a tangent plane met at a grazing angle
-        blend += weights[:, k] * _ray_plane(origins, directions, n, offset[corner_k])
-    longest = np.linalg.norm(corner - np.roll(corner, -1, axis=1), axis=2).max(axis=1)[owner]
-    t = np.where(steep, t_linear, 0.5 * (t_linear + blend))
-    t = np.clip(t, t_linear - 0.25 * longest, t_linear + 0.25 * longest)
-    return origins + t[:, None] * directions
-
-
-def _ray_plane(origins: np.ndarray, rays: np.ndarray, normal: np.ndarray, offset: np.ndarray) -> np.ndarray:
-    """Distance along each ray to the plane normal . x = offset."""
-    denominator = np.einsum("ij,ij->i", rays, normal)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        return (offset - np.einsum("ij,ij->i", origins, normal)) / denominator
-
-
-def _image_barycentric(corners: np.ndarray, pixel: np.ndarray, width: int, owner: np.ndarray) -> np.ndarray:
-    """Barycentric coordinates (N, 3) of pixel centres in their image triangles (`corners` (F, 3, 2))."""
-    e1, e2 = corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0]
-    det = e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]
-    det = np.where(np.abs(det) < 1e-12, 1e-12, det)
-    dx = (pixel % width) - corners[owner, 0, 0]
-    dy = (pixel // width) - corners[owner, 0, 1]
-    b1 = (dx * e2[owner, 1] - dy * e2[owner, 0]) / det[owner]
-    b2 = (dy * e1[owner, 0] - dx * e1[owner, 1]) / det[owner]
-    return np.column_stack([1.0 - b1 - b2, b1, b2])
 
 
 def _cubic_depth(points: np.ndarray, xy: np.ndarray, camera: CameraModel, pixel: np.ndarray) -> np.ndarray:
