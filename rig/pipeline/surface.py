@@ -215,7 +215,8 @@ def accumulate_normals(tri: np.ndarray, face: np.ndarray, directions: np.ndarray
 
 def _sum_at(index: np.ndarray, vectors: np.ndarray, count: int) -> np.ndarray:
     """(count, 3): the sum of the rows of `vectors` at each `index` (np.add.at, by bincount: faster)."""
-    return np.column_stack([np.bincount(index, vectors[:, k], minlength=count) for k in range(3)])
+    sums = np.column_stack([np.bincount(index, vectors[:, k], minlength=count) for k in range(3)])
+    return sums.astype(np.float64, copy=False)  # bincount of nothing is int64
 
 
 def interpolate_surface(
