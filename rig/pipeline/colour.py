@@ -5,8 +5,8 @@ Each ring sample takes its colour from the lit (white) frame at its own sub-pixe
 the pixels under the ring's curve are read. Every covered pixel of the interpolated surface then
 takes a weighted mean of nearby samples, in 3D on the surface: its neighbours are the samples of
 the two rings its triangle joins (the triangle was kept because it bridges no depth edge, so they
-are on the pixel's own surface), the L + 2 of each ring nearest the triangle (L = `neighbours`), and
-none farther than twice the triangle's longest edge.
+are on the pixel's own surface), on each ring the L + 2 samples nearest the triangle's corner there
+(L = `neighbours`), and none farther than twice the triangle's longest edge.
 
 - `nearest`: the mean of the L nearest of them (the dissertation's choice for uniform sampling);
 - `idw`: all of them, weighted by inverse squared distance;
@@ -118,11 +118,8 @@ def _candidates(surface: RingSurface, neighbours: int) -> tuple[np.ndarray, np.n
     index = np.asarray(index).reshape(len(used), k)
     along = np.full((len(vertices) + 1, k), len(vertices))  # per sample: its ring's nearest
     along[used] = np.where(index < len(used), used[np.minimum(index, len(used) - 1)], len(vertices))
-    corner_ring = ring[faces]
-    low = corner_ring.min(axis=1)
-    rows = np.arange(len(faces))
-    on_low = faces[rows, np.argmin(corner_ring, axis=1)]  # a corner on each of the face's rings
+    # a corner on each of the face's two rings (a kept face joins one ring to the next)
+    corner_ring, rows = ring[faces], np.arange(len(faces))
+    on_low = faces[rows, np.argmin(corner_ring, axis=1)]
     on_high = faces[rows, np.argmax(corner_ring, axis=1)]
-    both = corner_ring[rows, np.argmax(corner_ring, axis=1)] == low + 1
-    high = np.where(both[:, None], along[on_high], len(vertices))
-    return np.hstack([along[on_low], high]), reach
+    return np.hstack([along[on_low], along[on_high]]), reach
