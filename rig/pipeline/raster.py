@@ -77,7 +77,7 @@ class FaceTerms:
 
 def on_triangles(
     points: np.ndarray,
-    normals: np.ndarray,
+    corner_normals: np.ndarray,
     faces: FaceTerms,
     tri: np.ndarray,
     pixel: np.ndarray,
@@ -87,7 +87,8 @@ def on_triangles(
     quadratic: bool,
 ) -> np.ndarray:
     """Each pixel's point on its triangle (`owner`): on the plane of the corners, or (quadratic)
-    the mean of that and the blend of the corners' tangent planes, weighted by the pixel's
+    the mean of that and the blend of the corners' tangent planes (`corner_normals` (F, 3, 3),
+    rig.pipeline.normals.corner_normals), weighted by the pixel's
     barycentric coordinates in the image (against the 3D ones they differ by the depth's relative
     change across a triangle, a fraction of a percent of a correction that is itself small)."""
     origins, directions = rays
@@ -101,7 +102,7 @@ def on_triangles(
     steep = np.zeros(len(t_linear), dtype=bool)
     for k in range(3):
         corner_k = tri[owner, k]
-        n = normals[corner_k]
+        n = corner_normals[owner, k]
         facing = np.einsum("ij,ij->i", n, directions)
         steep |= np.abs(facing) < 0.1  # a tangent plane met at a grazing angle
         with np.errstate(divide="ignore", invalid="ignore"):

@@ -14,9 +14,10 @@ from rig.geometry.cone import ray_cone, refine_on_distorted_ring
 from rig.geometry.ring_models import parallel_projection, radius_ratio
 from rig.patterns import Correspondence, RingSamples
 from rig.pipeline.dense import texture_rgb
+from rig.pipeline.normals import accumulate_normals
 from rig.pipeline.pointset import PointSet
 from rig.pipeline.ring_angles import Placed, place_by_fine_angle
-from rig.pipeline.surface import accumulate_normals, delaunay
+from rig.pipeline.surface import delaunay
 
 # Triangles of the sample mesh longer than this (camera pixels) bridge gaps, not neighbouring rings.
 _MAX_TRIANGLE_EDGE_PX = 80.0

@@ -24,9 +24,9 @@ from typing import Literal
 import cv2
 import numpy as np
 from scipy.interpolate import CloughTocher2DInterpolator
-from scipy.spatial import cKDTree
 
 from rig.geometry import CameraModel
+from rig.pipeline.normals import corner_normals, face_normals, smoothed_normals, vertex_normals
 from rig.pipeline.raster import FaceTerms, on_triangles, rasterize
 from rig.pipeline.workers import batches, pool
 
@@ -100,17 +100,17 @@ def ring_triangles(
     counts["dropped_gap"] = int(((span == 1) & gap).sum())
     counts["dropped_one_ring"] = int((span == 0).sum())
     tri = tri[keep]
-    face = _face_normals(points, tri, directions)
+    face = face_normals(points, tri, directions)
     slant = np.abs(np.einsum("ij,ij->i", face, directions[tri[:, 0]]))
     edge_on = slant < np.cos(np.radians(settings.max_slant_deg))
     edge_on |= _bridges(points, xy, tri, camera, projector, settings.min_foreshortening)
     tri, face = tri[~edge_on], face[~edge_on]
-    normals = _vertex_normals(points, tri, face, directions)
+    normals = vertex_normals(points, tri, face, directions)
     bent = (np.einsum("ikj,ij->ik", normals[tri], face) < np.cos(np.radians(settings.max_bend_deg))).any(axis=1)
     tri, face = tri[~bent], face[~bent]
     counts["dropped_depth_edge"] = int(edge_on.sum() + bent.sum())
     counts["faces"] = len(tri)
-    normals = _vertex_normals(points, tri, face, directions)
+    normals = vertex_normals(points, tri, face, directions)
     in_triangle = np.bincount(tri.ravel(), minlength=len(points)) > 0  # the others' normals are a guess
     normals = smoothed_normals(normals, points, xy, ring, in_triangle, settings.normal_smoothing_px)
     return tri, normals, counts
@@ -161,64 +161,6 @@ def _mm_per_px(device: CameraModel, p: np.ndarray) -> np.ndarray:
     return 0.5 * (depth + np.roll(depth, -1, axis=1)) / device.K[0, 0]
 
 
-def _face_normals(points: np.ndarray, tri: np.ndarray, directions: np.ndarray) -> np.ndarray:
-    p = points[tri]
-    face = np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])
-    face /= np.maximum(np.linalg.norm(face, axis=1), 1e-300)[:, None]
-    facing = np.einsum("ij,ij->i", face, directions[tri[:, 0]]) > 0
-    face[facing] *= -1
-    return face
-
-
-def _vertex_normals(points: np.ndarray, tri: np.ndarray, face: np.ndarray, directions: np.ndarray) -> np.ndarray:
-    """Each sample's normal: its triangles' unit normals weighted by 1 / their longest edge. A
-    triangle's normal belongs half-way across to the next ring, so weighting each side by the
-    inverse of its spacing interpolates the two sides' normals to the sample, also where the rings
-    are unevenly spaced."""
-    p = points[tri]
-    longest = np.linalg.norm(p - np.roll(p, -1, axis=1), axis=2).max(axis=1)
-    return accumulate_normals(tri, face / np.maximum(longest, 1e-9)[:, None], directions)
-
-
-def smoothed_normals(
-    normals: np.ndarray, points: np.ndarray, xy: np.ndarray, ring: np.ndarray, known: np.ndarray, radius_px: float
-) -> np.ndarray:
-    """Each sample's normal averaged with those of the samples of its ring within `radius_px` in the
-    image and as many pixel footprints in space (not across a bend the image foreshortens), of the
-    samples whose normals are `known` (from triangles). Along a ring samples are a pixel apart, so
-    each triangle's short edge, and with it its normal, is mostly the samples' noise; the quadratic
-    interpolant carries a normal's error across the whole gap to the next ring."""
-    if radius_px <= 0 or len(xy) < 2:
-        return normals
-    pairs = cKDTree(xy).query_pairs(radius_px, output_type="ndarray")
-    a, b = pairs[:, 0], pairs[:, 1]
-    apart_mm = np.linalg.norm(points[a] - points[b], axis=1)
-    apart_px = np.linalg.norm(xy[a] - xy[b], axis=1)
-    footprint = np.median(apart_mm / np.maximum(apart_px, 1e-6))  # mm per pixel where the surface faces the camera
-    pairs = pairs[(ring[a] == ring[b]) & (apart_mm <= radius_px * footprint) & known[a] & known[b]]
-    total = normals + _sum_at(
-        np.concatenate([pairs[:, 0], pairs[:, 1]]), normals[pairs[:, ::-1].T.ravel()], len(normals)
-    )
-    return total / np.maximum(np.linalg.norm(total, axis=1), 1e-12)[:, None]
-
-
-def accumulate_normals(tri: np.ndarray, face: np.ndarray, directions: np.ndarray) -> np.ndarray:
-    """Unit normals of the points of triangles `tri` (F, 3): the sum of the (weighted) `face`
-    vectors of the triangles each is in; a point in none faces its camera ray `directions` back."""
-    normals = _sum_at(tri.T.ravel(), np.tile(face, (3, 1)), len(directions))
-    norm = np.linalg.norm(normals, axis=1)
-    missing = norm < 1e-12
-    normals[~missing] /= norm[~missing, None]
-    normals[missing] = -directions[missing]
-    return normals
-
-
-def _sum_at(index: np.ndarray, vectors: np.ndarray, count: int) -> np.ndarray:
-    """(count, 3): the sum of the rows of `vectors` at each `index` (np.add.at, by bincount: faster)."""
-    sums = np.column_stack([np.bincount(index, vectors[:, k], minlength=count) for k in range(3)])
-    return sums.astype(np.float64, copy=False)  # bincount of nothing is int64
-
-
 def interpolate_surface(
     points: np.ndarray,
     xy: np.ndarray,
@@ -245,6 +187,7 @@ def interpolate_surface(
     all_origins, all_directions = camera.pixel_rays
     quadratic = method == "quadratic"
     terms = FaceTerms.of(points, xy, tri)
+    corners = corner_normals(points, xy, tri, normals, camera) if quadratic else np.zeros((len(tri), 3, 3))
 
     def solve(span: tuple[int, int]) -> tuple[np.ndarray, np.ndarray | None]:
         part, part_owner = pixel[span[0] : span[1]], owner[span[0] : span[1]]
@@ -252,7 +195,7 @@ def interpolate_surface(
         if method == "cubic":
             found = rays[0] + _cubic_depth(points, xy, camera, part)[:, None] * rays[1]
         else:
-            found = on_triangles(points, normals, terms, tri, part, part_owner, rays, camera.width, quadratic)
+            found = on_triangles(points, corners, terms, tri, part, part_owner, rays, camera.width, quadratic)
         return found, None if bands is None else band_agreement(found, part, projector, bands, settings)
 
     # cubic: one interpolant over the whole image, not one per batch

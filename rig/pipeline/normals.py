@@ -1,0 +1,113 @@
+"""Normals of ring samples (rig.pipeline.surface): each sample's from the triangles it is in,
+smoothed along its ring, and, where a sample sits on a crease, one per face corner."""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy.spatial import cKDTree
+
+from rig.geometry import CameraModel
+
+# A corner normal further than CREASE_DEG from its face's normal may be a crease's (a sample at the
+# foot of a wall, whose normal also leans up the wall): that face then bends by the normals of the
+# sample's faces within SIDE_DEG of its own (its side of the crease) only.
+CREASE_DEG = 30.0
+SIDE_DEG = 45.0
+
+
+def face_normals(points: np.ndarray, tri: np.ndarray, directions: np.ndarray) -> np.ndarray:
+    """(F, 3) unit normals of triangles `tri`, toward the camera (against the corners' rays)."""
+    p = points[tri]
+    face = np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])
+    face /= np.maximum(np.linalg.norm(face, axis=1), 1e-300)[:, None]
+    facing = np.einsum("ij,ij->i", face, directions[tri[:, 0]]) > 0
+    face[facing] *= -1
+    return face
+
+
+def vertex_normals(points: np.ndarray, tri: np.ndarray, face: np.ndarray, directions: np.ndarray) -> np.ndarray:
+    """Each sample's normal: its triangles' unit normals weighted by 1 / their longest edge. A
+    triangle's normal belongs half-way across to the next ring, so weighting each side by the
+    inverse of its spacing interpolates the two sides' normals to the sample, also where the rings
+    are unevenly spaced."""
+    return accumulate_normals(tri, face * _face_weights(points, tri)[:, None], directions)
+
+
+def _face_weights(points: np.ndarray, tri: np.ndarray) -> np.ndarray:
+    """(F,) 1 / each triangle's longest edge (see vertex_normals)."""
+    p = points[tri]
+    return 1.0 / np.maximum(np.linalg.norm(p - np.roll(p, -1, axis=1), axis=2).max(axis=1), 1e-9)
+
+
+def accumulate_normals(tri: np.ndarray, face: np.ndarray, directions: np.ndarray) -> np.ndarray:
+    """Unit normals of the points of triangles `tri` (F, 3): the sum of the (weighted) `face`
+    vectors of the triangles each is in; a point in none faces its camera ray `directions` back."""
+    normals = _sum_at(tri.T.ravel(), np.tile(face, (3, 1)), len(directions))
+    norm = np.linalg.norm(normals, axis=1)
+    missing = norm < 1e-12
+    normals[~missing] /= norm[~missing, None]
+    normals[missing] = -directions[missing]
+    return normals
+
+
+def smoothed_normals(
+    normals: np.ndarray, points: np.ndarray, xy: np.ndarray, ring: np.ndarray, known: np.ndarray, radius_px: float
+) -> np.ndarray:
+    """Each sample's normal averaged with those of the samples of its ring within `radius_px` in the
+    image and as many pixel footprints in space (not across a bend the image foreshortens), of the
+    samples whose normals are `known` (from triangles). Along a ring samples are a pixel apart, so
+    each triangle's short edge, and with it its normal, is mostly the samples' noise; the quadratic
+    interpolant carries a normal's error across the whole gap to the next ring."""
+    if radius_px <= 0 or len(xy) < 2:
+        return normals
+    pairs = cKDTree(xy).query_pairs(radius_px, output_type="ndarray")
+    a, b = pairs[:, 0], pairs[:, 1]
+    apart_mm = np.linalg.norm(points[a] - points[b], axis=1)
+    apart_px = np.linalg.norm(xy[a] - xy[b], axis=1)
+    footprint = np.median(apart_mm / np.maximum(apart_px, 1e-6))  # mm per pixel where the surface faces the camera
+    pairs = pairs[(ring[a] == ring[b]) & (apart_mm <= radius_px * footprint) & known[a] & known[b]]
+    total = normals + _sum_at(
+        np.concatenate([pairs[:, 0], pairs[:, 1]]), normals[pairs[:, ::-1].T.ravel()], len(normals)
+    )
+    return total / np.maximum(np.linalg.norm(total, axis=1), 1e-12)[:, None]
+
+
+def _sum_at(index: np.ndarray, vectors: np.ndarray, count: int) -> np.ndarray:
+    """(count, 3): the sum of the rows of `vectors` at each `index` (np.add.at, by bincount: faster)."""
+    sums = np.column_stack([np.bincount(index, vectors[:, k], minlength=count) for k in range(3)])
+    return sums.astype(np.float64, copy=False)  # bincount of nothing is int64
+
+
+def corner_normals(
+    points: np.ndarray, xy: np.ndarray, tri: np.ndarray, normals: np.ndarray, camera: CameraModel
+) -> np.ndarray:
+    """(F, 3, 3) the normals the quadratic interpolant bends each face by (crease_normals), the
+    faces weighted as the samples' own `normals` are (vertex_normals)."""
+    _, rays = camera.rays(xy)
+    return crease_normals(tri, normals, face_normals(points, tri, np.asarray(rays)), _face_weights(points, tri))
+
+
+def crease_normals(tri: np.ndarray, normals: np.ndarray, face: np.ndarray, weight: np.ndarray) -> np.ndarray:
+    """(F, 3, 3) each face corner's normal: the sample's own, or, where that is more than CREASE_DEG
+    from the face's unit normal `face`, the `weight`ed mean of the unit normals of the faces around
+    the sample that are within SIDE_DEG of this face (a crease splits a sample's normal in two)."""
+    corner = normals[tri].copy()
+    limit = np.cos(np.radians(CREASE_DEG))
+    split_face, split_k = np.nonzero(np.einsum("fkj,fj->fk", corner, face) < limit)
+    if len(split_face) == 0:
+        return corner
+    # the faces of each sample, grouped: faces_of[start[v] : start[v] + count[v]]
+    order = np.argsort(tri.ravel(), kind="stable")
+    faces_of = order // 3
+    count = np.bincount(tri.ravel(), minlength=len(normals))
+    start = np.cumsum(count) - count
+    sample = tri[split_face, split_k]
+    n = count[sample]
+    which = np.repeat(np.arange(len(sample)), n)
+    other = faces_of[np.repeat(start[sample], n) + np.arange(n.sum()) - np.repeat(np.cumsum(n) - n, n)]
+    agree = np.einsum("ij,ij->i", face[other], face[split_face[which]]) >= np.cos(np.radians(SIDE_DEG))
+    total = np.column_stack(
+        [np.bincount(which, agree * weight[other] * face[other, j], minlength=len(sample)) for j in range(3)]
+    )
+    corner[split_face, split_k] = total / np.maximum(np.linalg.norm(total, axis=1), 1e-12)[:, None]
+    return corner
