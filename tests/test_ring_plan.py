@@ -111,6 +111,17 @@ def test_the_plan_crowds_rings_over_the_sphere_and_beats_any_uniform_set(plans: 
     assert plans[0.2].rings < plan.rings
 
 
+def test_a_plan_is_the_fewest_rings_either_spacing_rehearsed_within_tolerance(plans: dict[float, RingPlan]) -> None:
+    for plan in plans.values():
+        uneven, even = plan.criteria["rms_nonuniform"], plan.criteria["rms_uniform"]
+        assert uneven["chosen"] != even["chosen"]
+        chosen, other = (even, uneven) if even["chosen"] else (uneven, even)
+        assert chosen["rings"] == plan.rings and chosen["met"]
+        assert not other["met"] or other["rings"] >= plan.rings
+        if even["chosen"]:
+            assert np.ptp(np.diff(plan.radii_px)) < 1e-6
+
+
 def test_the_planned_scan_meets_its_tolerance(plans: dict[float, RingPlan]) -> None:
     plan = plans[0.05]
     with open_rig(load_config()) as rig:

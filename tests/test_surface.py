@@ -212,6 +212,6 @@ def test_plan_rings_from_a_stored_dense_scan_prints_the_rehearsed_plan(
     assert plan["criteria"]["rms_uniform"]["rings"] >= 2 and plan["pilot"]["codec"] == "phase"
     assert main(["plan", "rings", "--from", str(dense), "--tolerance-mm", "0.3"]) == 0
     text = capsys.readouterr().out
-    assert "rehearsed on the pilot" in text and "evenly spaced rings" in text
+    assert "rehearsed on the pilot" in text and "rings for the same" in text
     assert main(["plan", "rings", "--from", str(dense), "--tolerance-mm", "-1"]) == 2
     assert "tolerance_mm" in capsys.readouterr().err

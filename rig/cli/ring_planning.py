@@ -68,15 +68,17 @@ def print_plan(plan: RingPlan, as_json: bool) -> None:
         return
     criteria = plan.criteria
     uniform, frequency = criteria["sagitta_uniform"], criteria["curvature_frequency"]
-    rehearsed = criteria.get("rms_nonuniform")
-    if rehearsed is not None:
-        met = "" if rehearsed["met"] else " (NOT met: the densest rings tried)"
-        print(
-            f"{plan.rings} rings for {plan.tolerance_mm:g} mm rms between them{met}: rehearsed on the pilot "
-            f"{rehearsed['rms_mm']:g} mm rms, {100 * rehearsed['covered']:.0f} % covered"
-        )
+    uneven = criteria.get("rms_nonuniform")
+    if uneven is not None:
         even = criteria["rms_uniform"]
-        print(f"  evenly spaced rings for the same: {even['rings']} (rehearsed {even['rms_mm']:g} mm rms)")
+        rehearsed, other, kind = (even, uneven, "uneven") if even.get("chosen") else (uneven, even, "evenly spaced")
+        met = "" if rehearsed["met"] else " (NOT met: the densest rings tried)"
+        spacing = " (evenly spaced: no uneven set needs fewer)" if even.get("chosen") else ""
+        print(
+            f"{plan.rings} rings{spacing} for {plan.tolerance_mm:g} mm rms between them{met}: rehearsed on the "
+            f"pilot {rehearsed['rms_mm']:g} mm rms, {100 * rehearsed['covered']:.0f} % covered"
+        )
+        print(f"  {kind} rings for the same: {other['rings']} (rehearsed {other['rms_mm']:g} mm rms)")
     else:
         print(f"{plan.rings} rings for {plan.tolerance_mm:g} mm between them (non-uniform radii, sagitta bound)")
     print(f"  sagitta bound (worst point, linear): {uniform['rings']} even rings ({uniform['spacing_px']:g} px apart)")

@@ -114,7 +114,8 @@ def plan_rings(
 ) -> RingPlan:
     """The plan for the pilot's views (one per projector and camera): one set of radii for every
     projector. With the views' cameras known, the fewest non-uniform rings whose surface (by the
-    interpolant `method`) rehearses within the tolerance in rms (rig.plan.search); otherwise the
+    interpolant `method`) rehearses within the tolerance in rms (rig.plan.search), or evenly spaced
+    ones where fewer of those do; otherwise the
     sagitta bound's rings, under the strictest demand any view makes at each radius."""
     tolerance = settings.tolerance_mm if tolerance_mm is None else tolerance_mm
     if not np.isfinite(tolerance) or tolerance <= 0:
@@ -168,16 +169,19 @@ def _rehearsed(
     center: tuple[float, float],
     criteria: dict[str, dict[str, Any]],
 ) -> list[float]:
-    """The rehearsed non-uniform radii; adds both rehearsed criteria to `criteria`."""
+    """The fewest rehearsed radii that meet the tolerance: the non-uniform ones, or evenly spaced
+    ones where those need fewer (a surface that bends alike everywhere); adds both rehearsed
+    criteria to `criteria`, the one chosen marked."""
     noise = float(np.median([noise_mm(p) for p in pilots]))
     shape = rms_shape(demands, edges, settings.bin_px)
     trial = Rehearser(pilots, center, method, noise)
     planned = nonuniform_rings(trial, edges, shape, settings, tolerance)
     uniform = uniform_count(trial, edges, settings, tolerance)
-    for name, found in (("rms_nonuniform", planned), ("rms_uniform", uniform)):
-        criteria[name] = {**found.rehearsal.as_dict(), "met": found.met, "interpolant": method}
+    even = uniform.met and (not planned.met or len(uniform.radii_px) < len(planned.radii_px))
+    for name, found, chosen in (("rms_nonuniform", planned, not even), ("rms_uniform", uniform, even)):
+        criteria[name] = {**found.rehearsal.as_dict(), "met": found.met, "interpolant": method, "chosen": chosen}
     criteria["rms_nonuniform"]["pilot_noise_mm"] = round(noise, 4)
-    return planned.radii_px
+    return uniform.radii_px if even else planned.radii_px
 
 
 def _grid(view: PilotView) -> np.ndarray:
