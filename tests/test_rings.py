@@ -228,6 +228,29 @@ def test_ring_crossings_on_pixels_exactly_on_the_ring_are_kept() -> None:
     assert np.max(np.abs(radius - samples.radius_px)) <= 0.2 + 0.01  # the zeroed pixels are <= 0.2 px off
 
 
+def test_a_ring_along_the_frames_border_reports_no_edge_the_border_cut() -> None:
+    """A camera that sees past the projector's frame (dark around it, optics that blur): the last
+    ring runs 2 px outside the top and bottom of the frame and crosses its border at a grazing
+    angle. Its ramp cut by the border, the edge found there was 1.2 px off the ring (on a real rig:
+    a point centimetres off, where the ring runs along the epipolar direction)."""
+    pad = 24
+    radii = [40.0 + 24.0 * k for k in range(15)] + [385.4]  # the frame's half-height is 383.5
+    codec = codec_class("rings")(SIZE, RingsParams(rings=len(radii), radii_px=radii))
+    frames = []
+    for pattern in codec.patterns():
+        canvas = np.zeros((SIZE[1] + 2 * pad, SIZE[0] + 2 * pad), np.float32)
+        canvas[pad:-pad, pad:-pad] = pattern
+        frames.append(np.rint(cv2.GaussianBlur(canvas, (0, 0), 1.0)).astype(np.uint8))
+    decoded = codec.decode(frames, 255)
+    samples = decoded.samples
+    assert samples is not None
+    error = _radial_distance(samples.camera_xy - pad, samples.center_px) - samples.radius_px
+    last = samples.ring == len(radii) - 1
+    assert last.sum() > 1000  # the ring's sides, well inside the frame, are all there
+    assert decoded.counts["rejected_off_frame"] > 0
+    assert np.abs(error).max() <= 0.1
+
+
 def test_ring_radii_and_count_must_agree() -> None:
     with pytest.raises(ValueError, match="radii_px lists 3"):
         RingsParams(rings=32, radii_px=[10.0, 30.0, 60.0])

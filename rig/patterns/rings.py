@@ -42,6 +42,8 @@ _RAMP_MEDIAN_FACTOR = 1.5
 # Width of the anti-aliased ramp across a ring edge: wide enough that both camera pixels around a
 # zero crossing sit on the straight part of the ramp, so linear interpolation finds the circle.
 _EDGE_RAMP_PX = 2.0
+# The coarse angle code's typical error (radians; its 99.9th percentile over a scan is 0.05).
+_ANGLE_SLACK_RAD = 0.01
 
 
 class RingsParams(CodecParams):
@@ -199,6 +201,8 @@ class RingsCodec(CircularCodec):
         first = 2 + 2 * bits
         coarse = phase_sums(frames, first, p.angle_steps)  # at the crossings, and everywhere for _bands
         theta = np.arctan2(*crossings.between(*coarse))
+        on_frame = self._on_frame(crossings.ring, theta)
+        crossings, theta = crossings.select(on_frame), theta[on_frame]
         phase, periods = None, None
         if self.fine_periods is not None:
             fs, fc = crossings.between(*phase_sums(frames, first + p.angle_steps, p.tangential_steps))
@@ -228,7 +232,8 @@ class RingsCodec(CircularCodec):
             "lit": int(lit.sum()),
             "ring_samples": len(samples),
             "rings_seen": len(np.unique(crossings.ring)),
-            "rejected_edge_jump": len(found.ring) - len(crossings.ring),
+            "rejected_edge_jump": int((ramp > limit).sum()),
+            "rejected_off_frame": int((~on_frame).sum()),
         }
         if phase is not None:
             counts["no_fine_angle"] = int(np.isnan(phase).sum())
@@ -236,6 +241,21 @@ class RingsCodec(CircularCodec):
         return Correspondence(
             valid=valid, quality=white - black, texture=texture, samples=samples, counts=counts, extra=extra
         )
+
+    def _on_frame(self, ring: np.ndarray, theta: np.ndarray) -> np.ndarray:
+        """Whether each ring's edge is shown whole (its ramp _EDGE_RAMP_PX inside the frame) at the
+        polar angle read, or within the coarse angle's error there (_ANGLE_SLACK_RAD: a ring crossing
+        the border steeply keeps its samples up to it). Where a ring runs along the border, the
+        border cuts its ramp or hides it, and the edge found there is off by pixels: on the ring's
+        cone, where it runs along the epipolar direction, centimetres off."""
+        cu, cv = self.center
+        radius = self.radii[ring]
+        m = _EDGE_RAMP_PX
+        on = np.zeros(len(ring), dtype=bool)
+        for slack in (-_ANGLE_SLACK_RAD, 0.0, _ANGLE_SLACK_RAD):
+            u, v = cu + radius * np.cos(theta + slack), cv + radius * np.sin(theta + slack)
+            on |= (u >= m) & (u <= self.width - 1 - m) & (v >= m) & (v <= self.height - 1 - m)
+        return on
 
     def _bands(
         self,
