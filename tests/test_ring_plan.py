@@ -66,6 +66,9 @@ def test_rings_are_placed_greedily_under_the_spacing_each_radius_allows() -> Non
         assert b - a <= profile[inside].min() + 1e-9
     dense = np.diff(radii)[(radii[:-1] > 100) & (radii[:-1] < 140)]
     assert dense.max() <= 8.0 and np.diff(radii).max() > 30.0
+    capped = place_rings(edges, profile, 2.0, last_px=355.0)  # a projector whose corners are this near
+    assert capped[-1] <= 355.0 and capped == [r for r in radii if r < capped[-1]] + [capped[-1]]
+    assert np.diff(capped).min() >= 8.0 - 1e-9
 
 
 @pytest.fixture(scope="module")

@@ -41,7 +41,7 @@ _RAMP_MEDIAN_FACTOR = 1.5
 
 # Width of the anti-aliased ramp across a ring edge: wide enough that both camera pixels around a
 # zero crossing sit on the straight part of the ramp, so linear interpolation finds the circle.
-_EDGE_RAMP_PX = 2.0
+EDGE_RAMP_PX = 2.0
 # The coarse angle code's typical error (radians; its 99.9th percentile over a scan is 0.05).
 _ANGLE_SLACK_RAD = 0.01
 
@@ -51,7 +51,7 @@ class RingsParams(CodecParams):
     first_radius_px: float = Field(16.0, gt=0, le=16384, description="radius of the innermost ring")
     spacing_px: float | None = Field(
         None,
-        gt=2 * _EDGE_RAMP_PX,
+        gt=2 * EDGE_RAMP_PX,
         le=16384,
         description="ring spacing; default: the K rings reach the farthest image corner",
     )
@@ -107,8 +107,8 @@ class RingsParams(CodecParams):
     def _radii_increase(self) -> RingsParams:
         if self.radii_px is not None:
             r = np.asarray(self.radii_px)
-            if len(r) == 0 or np.any(r <= 0) or np.any(np.diff(r) <= 2 * _EDGE_RAMP_PX):
-                raise ValueError(f"radii_px must be positive and increase by more than {2 * _EDGE_RAMP_PX:g} px")
+            if len(r) == 0 or np.any(r <= 0) or np.any(np.diff(r) <= 2 * EDGE_RAMP_PX):
+                raise ValueError(f"radii_px must be positive and increase by more than {2 * EDGE_RAMP_PX:g} px")
             if "rings" in self.model_fields_set and self.rings != len(r):
                 raise ValueError(f"rings is {self.rings} but radii_px lists {len(r)} radii; give one of them")
         return self
@@ -125,10 +125,10 @@ class RingsCodec(CircularCodec):
     ) -> None:
         super().__init__(projector_size, params, output_lut)
         steps = np.diff(self.radii)
-        if self.radii[0] <= 0 or (steps <= 2 * _EDGE_RAMP_PX).any():
+        if self.radii[0] <= 0 or (steps <= 2 * EDGE_RAMP_PX).any():
             raise ValueError(
                 f"rings: radii {self.radii[0]:.1f}..{self.radii[-1]:.1f} px must be positive and at least "
-                f"{2 * _EDGE_RAMP_PX:g} px apart in a {self.width}x{self.height} projector image "
+                f"{2 * EDGE_RAMP_PX:g} px apart in a {self.width}x{self.height} projector image "
                 "(fewer rings, a smaller first_radius_px or an explicit spacing_px)"
             )
 
@@ -174,7 +174,7 @@ class RingsCodec(CircularCodec):
             nearest = np.where(np.abs(rho - radii[nearest - 1]) < np.abs(rho - radii[nearest]), nearest - 1, nearest)
         signed = rho - radii[nearest]  # > 0 outside the nearest ring
         outside_lit = (nearest % 2) == 0  # outside ring k is annulus k + 1: lit when k + 1 is odd
-        ramp = np.where(outside_lit, signed, -signed) / _EDGE_RAMP_PX
+        ramp = np.where(outside_lit, signed, -signed) / EDGE_RAMP_PX
         coverage = np.clip(0.5 + ramp, 0.0, 1.0)
         edge = np.rint(coverage * 255).astype(np.uint8)
         out = [edge, 255 - edge]
@@ -243,14 +243,14 @@ class RingsCodec(CircularCodec):
         )
 
     def _on_frame(self, ring: np.ndarray, theta: np.ndarray) -> np.ndarray:
-        """Whether each ring's edge is shown whole (its ramp _EDGE_RAMP_PX inside the frame) at the
+        """Whether each ring's edge is shown whole (its ramp EDGE_RAMP_PX inside the frame) at the
         polar angle read, or within the coarse angle's error there (_ANGLE_SLACK_RAD: a ring crossing
         the border steeply keeps its samples up to it). Where a ring runs along the border, the
         border cuts its ramp or hides it, and the edge found there is off by pixels: on the ring's
         cone, where it runs along the epipolar direction, centimetres off."""
         cu, cv = self.center
         radius = self.radii[ring]
-        m = _EDGE_RAMP_PX
+        m = EDGE_RAMP_PX
         on = np.zeros(len(ring), dtype=bool)
         for slack in (-_ANGLE_SLACK_RAD, 0.0, _ANGLE_SLACK_RAD):
             u, v = cu + radius * np.cos(theta + slack), cv + radius * np.sin(theta + slack)

@@ -18,7 +18,7 @@ from pydantic import ValidationError
 from rig.config.scan import RingPlanSettings
 from rig.errors import PlanError
 from rig.geometry import CameraModel
-from rig.patterns.rings import RingsParams
+from rig.patterns.rings import EDGE_RAMP_PX, RingsParams
 from rig.pipeline.scan import ScanResult
 from rig.pipeline.surface import Interpolant
 from rig.plan.rehearsal import PilotSurface, noise_mm, organised, pilot_surface
@@ -132,7 +132,10 @@ def plan_rings(
     if sum(len(d.radius_px) for d in demands) < 10:
         raise PlanError("pilot: the rings do not reach the scanned surface (no lit, smooth point inside the projector)")
     edges, profile = spacing_profile(demands, settings)
-    radii = place_rings(edges, profile, settings.bin_px)
+    cu, cv = center  # the farthest a ring can be and still show its edge whole, in a frame corner
+    last = max(np.hypot(x - cu, y - cv) for x in (0, projector.width - 1) for y in (0, projector.height - 1))
+    last -= EDGE_RAMP_PX
+    radii = place_rings(edges, profile, settings.bin_px, last)
     count, spacing = uniform_rings(edges, profile, settings.bin_px)
     rate = float(np.median(np.concatenate([d.px_per_mm for d in demands])))
     criteria: dict[str, dict[str, Any]] = {
@@ -143,7 +146,7 @@ def plan_rings(
     step = settings.rehearsal_step_px
     pilots = [pilot_surface(_grid(v), v.camera, v.projector, center, step) for v in views if v.camera is not None]
     if pilots:
-        radii = _rehearsed(pilots, demands, edges, settings, tolerance, method, center, criteria)
+        radii = _rehearsed(pilots, demands, edges, settings, tolerance, method, center, criteria, last)
     kappa = np.concatenate([d.kappa_across for d in demands])
     pilot = {
         **(pilot or {}),
@@ -168,14 +171,15 @@ def _rehearsed(
     method: Interpolant,
     center: tuple[float, float],
     criteria: dict[str, dict[str, Any]],
+    last_px: float,
 ) -> list[float]:
     """The fewest rehearsed radii that meet the tolerance: the non-uniform ones, or evenly spaced
     ones where those need fewer (a surface that bends alike everywhere); adds both rehearsed
-    criteria to `criteria`, the one chosen marked."""
+    criteria to `criteria`, the one chosen marked. No ring lies beyond `last_px`."""
     noise = float(np.median([noise_mm(p) for p in pilots]))
     shape = rms_shape(demands, edges, settings.bin_px)
     trial = Rehearser(pilots, center, method, noise)
-    planned = nonuniform_rings(trial, edges, shape, settings, tolerance)
+    planned = nonuniform_rings(trial, edges, shape, settings, tolerance, last_px)
     uniform = uniform_count(trial, edges, settings, tolerance)
     even = uniform.met and (not planned.met or len(uniform.radii_px) < len(planned.radii_px))
     for name, found, chosen in (("rms_nonuniform", planned, not even), ("rms_uniform", uniform, even)):

@@ -131,9 +131,10 @@ def spacing_profile(demands: list[Demand], settings: RingPlanSettings) -> tuple[
     return edges, np.clip(profile, settings.min_spacing_px, settings.max_spacing_px)
 
 
-def place_rings(edges: np.ndarray, profile: np.ndarray, bin_px: float) -> list[float]:
-    """Radii from the first bin outward, each gap the least spacing allowed anywhere inside it."""
-    end = edges[-1] + bin_px
+def place_rings(edges: np.ndarray, profile: np.ndarray, bin_px: float, last_px: float = np.inf) -> list[float]:
+    """Radii from the first bin outward, each gap the least spacing allowed anywhere inside it, none
+    beyond `last_px` (the farthest a ring the projector shows whole can be)."""
+    end = min(edges[-1] + bin_px, last_px)
     radii = [float(edges[0])]
     while radii[-1] < end:
         r = radii[-1]
@@ -143,7 +144,9 @@ def place_rings(edges: np.ndarray, profile: np.ndarray, bin_px: float) -> list[f
             if tighter >= step:
                 break
             step = tighter
-        radii.append(r + step)
+        if last_px - r < 0.5 * step:
+            break  # a ring at the frame's reach would crowd this one: it closes the last annulus
+        radii.append(min(r + step, last_px))
     return radii
 
 

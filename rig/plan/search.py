@@ -62,14 +62,19 @@ class Rehearser:
 
 
 def nonuniform_rings(
-    trial: Rehearser, edges: np.ndarray, shape: np.ndarray, settings: RingPlanSettings, tolerance_mm: float
+    trial: Rehearser,
+    edges: np.ndarray,
+    shape: np.ndarray,
+    settings: RingPlanSettings,
+    tolerance_mm: float,
+    last_px: float = np.inf,
 ) -> SearchResult:
     """Bisection over the scale k of spacing clip(k * shape, min, max): the fewest rings rehearsed
-    within the tolerance."""
+    within the tolerance (none beyond `last_px`)."""
 
     def radii_for(scale: float) -> list[float]:
         profile = np.clip(scale * shape, settings.min_spacing_px, settings.max_spacing_px)
-        return place_rings(edges, profile, settings.bin_px)
+        return place_rings(edges, profile, settings.bin_px, last_px)
 
     flattest = float(shape[np.isfinite(shape)].max())  # at the low end every bin with surface is densest
     low, high = math.log(settings.min_spacing_px / flattest), math.log(settings.max_spacing_px)
