@@ -111,7 +111,7 @@ def test_the_plan_crowds_rings_over_the_sphere_and_beats_any_uniform_set(plans: 
     assert gaps[sphere].mean() < gaps[~sphere].mean()
     frequency = plan.criteria["curvature_frequency"]
     assert frequency["rings"] == minimum_rings(frequency["dense_rings"], frequency["f_s"])
-    assert plans[0.2].rings < plan.rings
+    assert plans[0.2].rings <= plan.rings  # where coverage (keep_coverage) decides, both alike
 
 
 def test_a_plan_is_the_fewest_rings_either_spacing_rehearsed_within_tolerance(plans: dict[float, RingPlan]) -> None:

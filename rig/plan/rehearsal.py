@@ -128,13 +128,17 @@ def ring_samples(
     if annulus is None:
         annulus = annuli(pilot, radii)
     footprint = pilot.footprint_mm
+    # A ring scan finds no sample at the end of a ring stretch (its pixels straddle the boundary:
+    # rig.pipeline.rings.along_ring_support) nor at the frame's border; the pilot's own pixels
+    # there are its least reliable, and their normals would bend whole triangles.
+    inside = cv2.erode(pilot.valid.astype(np.uint8), np.ones((3, 3), np.uint8)).astype(bool)
     found: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = []
     height, width = annulus.shape
     for dy, dx in ((0, 1), (1, 0)):
         a = (slice(0, height - dy), slice(0, width - dx))
         b = (slice(dy, height), slice(dx, width))
         za, zb = annulus[a], annulus[b]
-        cross = (za >= 0) & (zb >= 0) & (np.abs(za - zb) == 1)
+        cross = inside[a] & inside[b] & (np.abs(za - zb) == 1)
         ya, xa = np.nonzero(cross)
         pa, pb = pilot.grid[a][ya, xa], pilot.grid[b][ya, xa]
         near = np.linalg.norm(pb - pa, axis=1) <= _JUMP_FOOTPRINTS * footprint[a][ya, xa]
