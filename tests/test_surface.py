@@ -206,7 +206,8 @@ def test_plan_rings_from_a_stored_dense_scan_prints_the_rehearsed_plan(
     capsys.readouterr()
     assert main(["plan", "rings", "--from", str(dense), "--tolerance-mm", "0.3", "--json"]) == 0
     plan = json.loads(capsys.readouterr().out)
-    rehearsed = plan["criteria"]["rms_nonuniform"]
+    uneven, even = plan["criteria"]["rms_nonuniform"], plan["criteria"]["rms_uniform"]
+    rehearsed = even if even["chosen"] else uneven
     assert rehearsed["rings"] == plan["rings"] == len(plan["radii_px"])
     assert (not rehearsed["met"]) or rehearsed["rms_mm"] <= 0.3
     assert plan["criteria"]["rms_uniform"]["rings"] >= 2 and plan["pilot"]["codec"] == "phase"

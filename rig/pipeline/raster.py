@@ -60,9 +60,13 @@ class FaceTerms:
     longest: np.ndarray  # (F,) longest edge, mm
     image_origin: np.ndarray  # (F, 2) corner 0 in the image
     image_inverse: np.ndarray  # (F, 2, 2): image offset from corner 0 -> barycentric (b1, b2)
+    corner_normals: np.ndarray | None = None  # (F, 3, 3) the quadratic's tangent planes (None: linear)
+    corner_offset: np.ndarray | None = None  # (F, 3) each tangent plane's normal . its corner
 
     @staticmethod
-    def of(points: np.ndarray, xy: np.ndarray, tri: np.ndarray) -> FaceTerms:
+    def of(points: np.ndarray, xy: np.ndarray, tri: np.ndarray, corner_normals: np.ndarray | None = None) -> FaceTerms:
+        """The terms of faces `tri`; with `corner_normals` (rig.pipeline.normals.corner_normals),
+        those of the quadratic interpolant."""
         corner = points[tri]
         plane = np.cross(corner[:, 1] - corner[:, 0], corner[:, 2] - corner[:, 0])
         longest = np.linalg.norm(corner - np.roll(corner, -1, axis=1), axis=2).max(axis=1)
@@ -72,41 +76,33 @@ class FaceTerms:
         det = np.where(np.abs(det) < 1e-12, 1e-12, det)
         inverse = np.stack([np.column_stack([e2[:, 1], -e2[:, 0]]), np.column_stack([-e1[:, 1], e1[:, 0]])], axis=1)
         offset = np.einsum("ij,ij->i", plane, corner[:, 0])
-        return FaceTerms(plane, offset, longest, image[:, 0], inverse / det[:, None, None])
+        corner_offset = None if corner_normals is None else np.einsum("fkj,fkj->fk", corner_normals, corner)
+        return FaceTerms(
+            plane, offset, longest, image[:, 0], inverse / det[:, None, None], corner_normals, corner_offset
+        )
 
 
 def on_triangles(
-    points: np.ndarray,
-    corner_normals: np.ndarray,
-    faces: FaceTerms,
-    tri: np.ndarray,
-    pixel: np.ndarray,
-    owner: np.ndarray,
-    rays: tuple[np.ndarray, np.ndarray],
-    width: int,
-    quadratic: bool,
+    faces: FaceTerms, pixel: np.ndarray, owner: np.ndarray, rays: tuple[np.ndarray, np.ndarray], width: int
 ) -> np.ndarray:
-    """Each pixel's point on its triangle (`owner`): on the plane of the corners, or (quadratic)
-    the mean of that and the blend of the corners' tangent planes (`corner_normals` (F, 3, 3),
-    rig.pipeline.normals.corner_normals), weighted by the pixel's
-    barycentric coordinates in the image (against the 3D ones they differ by the depth's relative
-    change across a triangle, a fraction of a percent of a correction that is itself small)."""
+    """Each pixel's point on its triangle (`owner`): on the plane of the corners, or (with the faces'
+    corner normals: quadratic) the mean of that and the blend of the corners' tangent planes,
+    weighted by the pixel's barycentric coordinates in the image (against the 3D ones they differ by
+    the depth's relative change across a triangle, a fraction of a percent of a correction that is
+    itself small)."""
     origins, directions = rays
     t_linear = ray_plane(origins, directions, faces.plane[owner], faces.plane_offset[owner])
-    if not quadratic:
+    if faces.corner_normals is None or faces.corner_offset is None:
         return origins + t_linear[:, None] * directions
     offset = np.column_stack([pixel % width, pixel // width]) - faces.image_origin[owner]
     b = np.einsum("pij,pj->pi", faces.image_inverse[owner], offset)
     weights = np.column_stack([1.0 - b[:, 0] - b[:, 1], b])
-    blend = np.zeros_like(t_linear)
-    steep = np.zeros(len(t_linear), dtype=bool)
-    for k in range(3):
-        corner_k = tri[owner, k]
-        n = corner_normals[owner, k]
-        facing = np.einsum("ij,ij->i", n, directions)
-        steep |= np.abs(facing) < 0.1  # a tangent plane met at a grazing angle
-        with np.errstate(divide="ignore", invalid="ignore"):
-            blend += weights[:, k] * (np.einsum("ij,ij->i", n, points[corner_k] - origins) / facing)
+    normals = faces.corner_normals[owner]  # (P, 3, 3)
+    facing = np.einsum("pkj,pj->pk", normals, directions)
+    toward = faces.corner_offset[owner] - np.einsum("pkj,pj->pk", normals, origins)
+    steep = (np.abs(facing) < 0.1).any(axis=1)  # a tangent plane met at a grazing angle
+    with np.errstate(divide="ignore", invalid="ignore"):
+        blend = np.einsum("pk,pk->p", weights, toward / facing)
     longest = faces.longest[owner]
     t = np.where(steep, t_linear, 0.5 * (t_linear + blend))
     t = np.clip(t, t_linear - 0.25 * longest, t_linear + 0.25 * longest)

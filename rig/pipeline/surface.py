@@ -185,9 +185,8 @@ def interpolate_surface(
     if lit is not None:
         tri, pixel, owner = _without_shadowed(tri, pixel, owner, lit, settings.max_unlit, counts)
     all_origins, all_directions = camera.pixel_rays
-    quadratic = method == "quadratic"
-    terms = FaceTerms.of(points, xy, tri)
-    corners = corner_normals(points, xy, tri, normals, camera) if quadratic else np.zeros((len(tri), 3, 3))
+    corners = corner_normals(points, xy, tri, normals, camera) if method == "quadratic" else None
+    terms = FaceTerms.of(points, xy, tri, corners)
 
     def solve(span: tuple[int, int]) -> tuple[np.ndarray, np.ndarray | None]:
         part, part_owner = pixel[span[0] : span[1]], owner[span[0] : span[1]]
@@ -195,7 +194,7 @@ def interpolate_surface(
         if method == "cubic":
             found = rays[0] + _cubic_depth(points, xy, camera, part)[:, None] * rays[1]
         else:
-            found = on_triangles(points, corners, terms, tri, part, part_owner, rays, camera.width, quadratic)
+            found = on_triangles(terms, part, part_owner, rays, camera.width)
         return found, None if bands is None else band_agreement(found, part, projector, bands, settings)
 
     # cubic: one interpolant over the whole image, not one per batch
