@@ -17,14 +17,21 @@ _MIN_RING_LENGTH_PX = 50.0
 
 
 def true_ring_crossings(
-    truth: PixelTruth, radii: np.ndarray, center: tuple[float, float]
+    truth: PixelTruth,
+    radii: np.ndarray,
+    center: tuple[float, float],
+    shown: tuple[float, float, float, float] | None = None,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Where each ring truly crosses the camera image on lit, visible surface: sub-pixel positions
+    """Where each ring truly crosses the camera image on lit, visible surface (and, with `shown`,
+    where the projector shows its edge whole: u, v bounds, RingSamples.shown_within_px): sub-pixel positions
     (N, 2), ring index (N,) and the length of ring each crossing stands for (N,), pixels. Like the
     decoder, crossings are taken between vertical neighbours where the ring runs more across columns,
     between horizontal ones elsewhere, so one crossing stands for 1 / max(|cos|, |sin|) of length."""
-    rho = np.hypot(truth.projector_uv[..., 0] - center[0], truth.projector_uv[..., 1] - center[1])
+    u, v = truth.projector_uv[..., 0], truth.projector_uv[..., 1]
+    rho = np.hypot(u - center[0], v - center[1])
     seen = truth.hit & truth.lit
+    if shown is not None:
+        seen &= (u >= shown[0]) & (u <= shown[1]) & (v >= shown[2]) & (v <= shown[3])
     gy, gx = np.gradient(np.where(seen, rho, np.nan))
     steep = np.abs(gy) >= np.abs(gx)
     length = np.hypot(gx, gy) / np.maximum(np.abs(gx), np.abs(gy))
@@ -58,7 +65,7 @@ def ring_coverage_on_bench(pair: PairResult, truth: PixelTruth, dist: np.ndarray
     points' distances to the true surface."""
     rings, samples = pair.rings, pair.correspondence.samples
     assert rings is not None and samples is not None and samples.ring_radii_px is not None
-    xy, ring, length = true_ring_crossings(truth, samples.ring_radii_px, samples.center_px)
+    xy, ring, length = true_ring_crossings(truth, samples.ring_radii_px, samples.center_px, samples.shown_within_px)
     kept = rings.kept
     spread = 10.0 * (truth.hit.shape[0] + truth.hit.shape[1])  # rings far apart in the search
     found = cKDTree(np.column_stack([rings.camera_xy[kept], rings.ring[kept] * spread]))

@@ -60,6 +60,7 @@ class RingSamples:
     fine_phase: np.ndarray | None = None
     fine_periods: np.ndarray | None = None
     tangential_sigma_px: float = 0.1
+    shown_within_px: tuple[float, float, float, float] | None = None  # where a ring's edge is whole: u, v bounds
 
     def __len__(self) -> int:
         return len(self.ring)

@@ -224,6 +224,7 @@ class RingsCodec(CircularCodec):
             fine_phase=phase,
             fine_periods=periods,
             tangential_sigma_px=p.tangential_sigma_px,
+            shown_within_px=self._shown_within(),
         )
         valid = np.zeros(lit.shape, dtype=bool)
         nearest = np.rint(crossings.xy).astype(np.int64)
@@ -243,19 +244,26 @@ class RingsCodec(CircularCodec):
         )
 
     def _on_frame(self, ring: np.ndarray, theta: np.ndarray) -> np.ndarray:
-        """Whether each ring's edge is shown whole (its ramp EDGE_RAMP_PX inside the frame) at the
+        """Whether each ring's edge is shown whole (_shown_within) at the
         polar angle read, or within the coarse angle's error there (_ANGLE_SLACK_RAD: a ring crossing
         the border steeply keeps its samples up to it). Where a ring runs along the border, the
         border cuts its ramp or hides it, and the edge found there is off by pixels: on the ring's
         cone, where it runs along the epipolar direction, centimetres off."""
         cu, cv = self.center
         radius = self.radii[ring]
-        m = EDGE_RAMP_PX
+        left, right, top, bottom = self._shown_within()
         on = np.zeros(len(ring), dtype=bool)
         for slack in (-_ANGLE_SLACK_RAD, 0.0, _ANGLE_SLACK_RAD):
             u, v = cu + radius * np.cos(theta + slack), cv + radius * np.sin(theta + slack)
-            on |= (u >= m) & (u <= self.width - 1 - m) & (v >= m) & (v <= self.height - 1 - m)
+            on |= (u >= left) & (u <= right) & (v >= top) & (v <= bottom)
         return on
+
+    def _shown_within(self) -> tuple[float, float, float, float]:
+        """The projector coordinates (u from, to; v from, to) where a ring's edge is shown whole and
+        clear of the frame's border: its ramp spans the ring +- EDGE_RAMP_PX / 2, and a camera's
+        blur of the border (a pixel or so) reaches as far again."""
+        m = EDGE_RAMP_PX
+        return (m, self.width - 1 - m, m, self.height - 1 - m)
 
     def _bands(
         self,
