@@ -6,8 +6,6 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial import cKDTree
 
-from rig.geometry import CameraModel
-
 # A corner normal further than CREASE_DEG from its face's normal may be a crease's (a sample at the
 # foot of a wall, whose normal also leans up the wall): that face then bends by the normals of the
 # sample's faces within SIDE_DEG of its own (its side of the crease) only.
@@ -30,10 +28,10 @@ def vertex_normals(points: np.ndarray, tri: np.ndarray, face: np.ndarray, direct
     triangle's normal belongs half-way across to the next ring, so weighting each side by the
     inverse of its spacing interpolates the two sides' normals to the sample, also where the rings
     are unevenly spaced."""
-    return accumulate_normals(tri, face * _face_weights(points, tri)[:, None], directions)
+    return accumulate_normals(tri, face * face_weights(points, tri)[:, None], directions)
 
 
-def _face_weights(points: np.ndarray, tri: np.ndarray) -> np.ndarray:
+def face_weights(points: np.ndarray, tri: np.ndarray) -> np.ndarray:
     """(F,) 1 / each triangle's longest edge (see vertex_normals)."""
     p = points[tri]
     return 1.0 / np.maximum(np.linalg.norm(p - np.roll(p, -1, axis=1), axis=2).max(axis=1), 1e-9)
@@ -76,15 +74,6 @@ def _sum_at(index: np.ndarray, vectors: np.ndarray, count: int) -> np.ndarray:
     """(count, 3): the sum of the rows of `vectors` at each `index` (np.add.at, by bincount: faster)."""
     sums = np.column_stack([np.bincount(index, vectors[:, k], minlength=count) for k in range(3)])
     return sums.astype(np.float64, copy=False)  # bincount of nothing is int64
-
-
-def corner_normals(
-    points: np.ndarray, xy: np.ndarray, tri: np.ndarray, normals: np.ndarray, camera: CameraModel
-) -> np.ndarray:
-    """(F, 3, 3) the normals the quadratic interpolant bends each face by (crease_normals), the
-    faces weighted as the samples' own `normals` are (vertex_normals)."""
-    _, rays = camera.rays(xy)
-    return crease_normals(tri, normals, face_normals(points, tri, np.asarray(rays)), _face_weights(points, tri))
 
 
 def crease_normals(tri: np.ndarray, normals: np.ndarray, face: np.ndarray, weight: np.ndarray) -> np.ndarray:

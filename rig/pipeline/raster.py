@@ -65,7 +65,7 @@ class FaceTerms:
 
     @staticmethod
     def of(points: np.ndarray, xy: np.ndarray, tri: np.ndarray, corner_normals: np.ndarray | None = None) -> FaceTerms:
-        """The terms of faces `tri`; with `corner_normals` (rig.pipeline.normals.corner_normals),
+        """The terms of faces `tri`; with `corner_normals` (rig.pipeline.normals.crease_normals),
         those of the quadratic interpolant."""
         corner = points[tri]
         plane = np.cross(corner[:, 1] - corner[:, 0], corner[:, 2] - corner[:, 0])

@@ -26,7 +26,7 @@ import numpy as np
 from scipy.interpolate import CloughTocher2DInterpolator
 
 from rig.geometry import CameraModel
-from rig.pipeline.normals import corner_normals, face_normals, smoothed_normals, vertex_normals
+from rig.pipeline.normals import crease_normals, face_normals, face_weights, smoothed_normals, vertex_normals
 from rig.pipeline.raster import FaceTerms, on_triangles, rasterize
 from rig.pipeline.workers import batches, pool
 
@@ -84,8 +84,8 @@ def ring_triangles(
     projector: CameraModel,
     settings: SurfaceSettings,
 ) -> tuple[np.ndarray, np.ndarray, dict[str, int]]:
-    """Kept triangles (F, 3) of the samples' image Delaunay triangulation, the samples' normals
-    (unit, facing the camera), and how many triangles each test dropped."""
+    """Kept triangles (F, 3) of the samples' image Delaunay triangulation, their unit normals and
+    the samples' (both facing the camera), and how many triangles each test dropped."""
     _, rays = camera.rays(xy)
     directions = np.asarray(rays)
     tri = delaunay(xy)
@@ -113,7 +113,7 @@ def ring_triangles(
     normals = vertex_normals(points, tri, face, directions)
     in_triangle = np.bincount(tri.ravel(), minlength=len(points)) > 0  # the others' normals are a guess
     normals = smoothed_normals(normals, points, xy, ring, in_triangle, settings.normal_smoothing_px)
-    return tri, normals, counts
+    return tri, face, normals, counts
 
 
 def delaunay(xy: np.ndarray) -> np.ndarray:
@@ -180,12 +180,13 @@ def interpolate_surface(
     if method not in INTERPOLANTS:
         raise ValueError(f"unknown interpolant {method!r}; known: {', '.join(INTERPOLANTS)}")
     settings = settings or SurfaceSettings()
-    tri, normals, counts = ring_triangles(points, xy, ring, camera, projector, settings)
+    tri, face, normals, counts = ring_triangles(points, xy, ring, camera, projector, settings)
     pixel, owner = rasterize(xy, tri, camera.width, camera.height)
     if lit is not None:
-        tri, pixel, owner = _without_shadowed(tri, pixel, owner, lit, settings.max_unlit, counts)
+        kept, pixel, owner = _without_shadowed(tri, pixel, owner, lit, settings.max_unlit, counts)
+        tri, face = tri[kept], face[kept]
     all_origins, all_directions = camera.pixel_rays
-    corners = corner_normals(points, xy, tri, normals, camera) if method == "quadratic" else None
+    corners = crease_normals(tri, normals, face, face_weights(points, tri)) if method == "quadratic" else None
     terms = FaceTerms.of(points, xy, tri, corners)
 
     def solve(span: tuple[int, int]) -> tuple[np.ndarray, np.ndarray | None]:
@@ -224,7 +225,7 @@ def interpolate_surface(
 def _without_shadowed(
     tri: np.ndarray, pixel: np.ndarray, owner: np.ndarray, lit: np.ndarray, max_unlit: float, counts: dict[str, int]
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The triangles with at most `max_unlit` of their pixels dark, and their pixels (renumbered)."""
+    """Which triangles have at most `max_unlit` of their pixels dark, and their pixels (renumbered)."""
     area = np.bincount(owner, minlength=len(tri))
     dark = np.bincount(owner, ~lit.ravel()[pixel], minlength=len(tri))
     shadowed = dark > max_unlit * np.maximum(area, 1)
@@ -232,7 +233,7 @@ def _without_shadowed(
     counts["faces"] -= counts["dropped_shadow"]
     keep = ~shadowed[owner]
     renumber = np.cumsum(~shadowed) - 1
-    return tri[~shadowed], pixel[keep], renumber[owner[keep]]
+    return ~shadowed, pixel[keep], renumber[owner[keep]]
 
 
 def band_agreement(
