@@ -9,6 +9,12 @@ import numpy as np
 from rig.patterns.base import Codec
 
 
+def farthest_corner_px(width: int, height: int, center: tuple[float, float]) -> float:
+    """Distance from `center` to the farthest corner pixel of a width x height image."""
+    cu, cv = center
+    return max(math.hypot(x - cu, y - cv) for x in (0, width - 1) for y in (0, height - 1))
+
+
 class CircularCodec(Codec):
     """Patterns in polar coordinates (rho, theta) about `center` (params.center_px, or the image
     centre)."""
@@ -23,8 +29,7 @@ class CircularCodec(Codec):
     @property
     def reach(self) -> float:
         """Distance from the centre to the farthest image corner, pixels."""
-        cu, cv = self.center
-        return max(math.hypot(x - cu, y - cv) for x in (0, self.width - 1) for y in (0, self.height - 1))
+        return farthest_corner_px(self.width, self.height, self.center)
 
     def polar(self) -> tuple[np.ndarray, np.ndarray]:
         """rho and theta of every projector pixel (H, W)."""

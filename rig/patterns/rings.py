@@ -246,9 +246,9 @@ class RingsCodec(CircularCodec):
     def _on_frame(self, ring: np.ndarray, theta: np.ndarray) -> np.ndarray:
         """Whether each ring's edge is shown whole (_shown_within) at the polar angle read, or within
         the coarse angle's error there (_ANGLE_SLACK_RAD: a ring crossing the border steeply keeps
-        its samples up to it). Where a ring runs along the border, the
-        border cuts its ramp or hides it, and the edge found there is off by pixels: on the ring's
-        cone, where it runs along the epipolar direction, centimetres off."""
+        its samples up to it). Where a ring runs along the border, the border cuts its ramp or hides
+        it, and the edge found there is off by pixels: on the ring's cone, where it runs along the
+        epipolar direction, centimetres off."""
         cu, cv = self.center
         radius = self.radii[ring]
         left, right, top, bottom = self._shown_within()

@@ -83,7 +83,7 @@ def ring_triangles(
     camera: CameraModel,
     projector: CameraModel,
     settings: SurfaceSettings,
-) -> tuple[np.ndarray, np.ndarray, dict[str, int]]:
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, dict[str, int]]:
     """Kept triangles (F, 3) of the samples' image Delaunay triangulation, their unit normals and
     the samples' (both facing the camera), and how many triangles each test dropped."""
     _, rays = camera.rays(xy)

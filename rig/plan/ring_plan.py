@@ -18,6 +18,7 @@ from pydantic import ValidationError
 from rig.config.scan import RingPlanSettings
 from rig.errors import PlanError
 from rig.geometry import CameraModel
+from rig.patterns.circular import farthest_corner_px
 from rig.patterns.rings import EDGE_RAMP_PX, RingsParams
 from rig.pipeline.scan import ScanResult
 from rig.pipeline.surface import Interpolant
@@ -115,8 +116,8 @@ def plan_rings(
     """The plan for the pilot's views (one per projector and camera): one set of radii for every
     projector. With the views' cameras known, the fewest non-uniform rings whose surface (by the
     interpolant `method`) rehearses within the tolerance in rms (rig.plan.search), or evenly spaced
-    ones where fewer of those do; otherwise the
-    sagitta bound's rings, under the strictest demand any view makes at each radius."""
+    ones where fewer of those do; otherwise the sagitta bound's rings, under the strictest demand
+    any view makes at each radius."""
     tolerance = settings.tolerance_mm if tolerance_mm is None else tolerance_mm
     if not np.isfinite(tolerance) or tolerance <= 0:
         raise PlanError(f"tolerance_mm: must be a positive number of millimetres, got {tolerance}")
@@ -132,9 +133,8 @@ def plan_rings(
     if sum(len(d.radius_px) for d in demands) < 10:
         raise PlanError("pilot: the rings do not reach the scanned surface (no lit, smooth point inside the projector)")
     edges, profile = spacing_profile(demands, settings)
-    cu, cv = center  # the farthest a ring can be and still show its edge whole, in a frame corner
-    last = max(np.hypot(x - cu, y - cv) for x in (0, projector.width - 1) for y in (0, projector.height - 1))
-    last -= EDGE_RAMP_PX
+    # the farthest a ring can be and still show its edge whole, in a frame corner
+    last = farthest_corner_px(projector.width, projector.height, center) - EDGE_RAMP_PX
     radii = place_rings(edges, profile, settings.bin_px, last)
     count, spacing = uniform_rings(edges, profile, settings.bin_px)
     rate = float(np.median(np.concatenate([d.px_per_mm for d in demands])))
