@@ -21,6 +21,7 @@ from __future__ import annotations
 from typing import Literal
 
 import numpy as np
+from scipy.sparse import csr_matrix
 from scipy.spatial import cKDTree
 
 from rig.pipeline.surface import RingSurface
@@ -76,27 +77,38 @@ def interpolate_colour(
     pixel = np.flatnonzero((surface.valid & on_grid).ravel())
     owner = surface.triangle.ravel()[pixel]
     points = surface.grid.reshape(-1, 3)
-    # float32 about the samples' centre: a few hundred mm to 1e-4 mm, ample for weights
+    # float32 about the samples' centre: a few hundred mm to 1e-4 mm, ample for weights. One row per
+    # coordinate: a batch gathers each from a small array, and index M (no sample) lies beyond reach.
     centre = surface.vertices.mean(axis=0)
-    far = np.float32(np.inf)
-    padded = np.vstack([surface.vertices - centre, np.zeros((1, 3))]).astype(np.float32)  # index M: none
+    count = len(surface.vertices)
+    sample_xyz = np.hstack([(surface.vertices - centre).T, np.full((3, 1), 1e18)]).astype(np.float32)
     padded_area = np.append(area, 0.0).astype(np.float32)
     padded_colours = np.vstack([colours, np.zeros((1, 3), np.float32)]).astype(np.float32)
 
     def colour_part(start: int) -> None:
         part, tri = pixel[start : start + _CHUNK], owner[start : start + _CHUNK]
         index = candidates[tri]  # (P, C)
-        offset = padded[index] - (points[part] - centre).astype(np.float32)[:, None, :]
-        d2 = np.einsum("pci,pci->pc", offset, offset)
-        d2[(index == len(surface.vertices)) | (d2 > reach2[tri, None])] = far
+        at = (points[part] - centre).astype(np.float32)
+        d2 = np.zeros(index.shape, np.float32)
+        for axis in range(3):
+            offset = sample_xyz[axis][index]
+            offset -= at[:, axis, None]
+            d2 += offset * offset
+        beyond = d2 > reach2[tri, None]
         if method == "nearest":
+            d2[beyond] = np.inf
             order = np.argpartition(d2, min(neighbours, d2.shape[1]) - 1, axis=1)[:, :neighbours]
             index = np.take_along_axis(index, order, axis=1)
             weight = np.isfinite(np.take_along_axis(d2, order, axis=1)).astype(np.float32)
         else:
-            weight = padded_area[index] / (d2 + np.float32(_SOFTENING_MM**2))
-        total = np.maximum(weight.sum(axis=1, keepdims=True), np.float32(1e-30))
-        out[part] = np.einsum("pk,pkc->pc", weight, padded_colours[index]) / total
+            d2 += np.float32(_SOFTENING_MM**2)
+            weight = np.divide(padded_area[index], d2, out=d2)
+            weight[beyond] = 0.0
+        # sum_c weight x colour as one sparse (pixels x samples) product: a single pass in C
+        rows, per_row = weight.shape
+        mix = csr_matrix((weight.ravel(), index.ravel(), np.arange(0, rows * per_row + 1, per_row)), (rows, count + 1))
+        total = np.maximum(weight.sum(axis=1), np.float32(1e-30))
+        out[part] = (mix @ padded_colours) / total[:, None]
 
     list(pool().map(colour_part, range(0, len(pixel), _CHUNK)))
     return out.reshape(height, width, 3)

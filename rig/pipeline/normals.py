@@ -23,18 +23,17 @@ def face_normals(points: np.ndarray, tri: np.ndarray, directions: np.ndarray) ->
     return face
 
 
-def vertex_normals(points: np.ndarray, tri: np.ndarray, face: np.ndarray, directions: np.ndarray) -> np.ndarray:
-    """Each sample's normal: its triangles' unit normals weighted by 1 / their longest edge. A
-    triangle's normal belongs half-way across to the next ring, so weighting each side by the
-    inverse of its spacing interpolates the two sides' normals to the sample, also where the rings
-    are unevenly spaced."""
-    return accumulate_normals(tri, face * face_weights(points, tri)[:, None], directions)
+def vertex_normals(tri: np.ndarray, face: np.ndarray, weight: np.ndarray, directions: np.ndarray) -> np.ndarray:
+    """Each sample's normal: its triangles' unit normals `face` weighted by `weight`, 1 / their
+    longest edge (face_weights). A triangle's normal belongs half-way across to the next ring, so
+    weighting each side by the inverse of its spacing interpolates the two sides' normals to the
+    sample, also where the rings are unevenly spaced."""
+    return accumulate_normals(tri, face * weight[:, None], directions)
 
 
-def face_weights(points: np.ndarray, tri: np.ndarray) -> np.ndarray:
-    """(F,) 1 / each triangle's longest edge (see vertex_normals)."""
-    p = points[tri]
-    return 1.0 / np.maximum(np.linalg.norm(p - np.roll(p, -1, axis=1), axis=2).max(axis=1), 1e-9)
+def face_weights(edge_mm: np.ndarray) -> np.ndarray:
+    """(F,) 1 / each triangle's longest edge, from its edges' lengths (F, 3) (see vertex_normals)."""
+    return 1.0 / np.maximum(edge_mm.max(axis=1), 1e-9)
 
 
 def accumulate_normals(tri: np.ndarray, face: np.ndarray, directions: np.ndarray) -> np.ndarray:

@@ -53,33 +53,47 @@ def _spans(
 
 @dataclass(frozen=True, eq=False)
 class FaceTerms:
-    """Per-face terms every pixel of a face shares, computed once for all batches of pixels."""
+    """Per-face terms every pixel of a face shares, computed once for all batches of pixels. Each
+    term is a row over the faces: a pixel batch gathers it by its faces from a small array that
+    stays in cache, and computes on contiguous rows (a third of the time of gathering (F, 3) rows)."""
 
-    plane: np.ndarray  # (F, 3) normal (unnormalised) of the corners' plane
-    plane_offset: np.ndarray  # (F,) plane . corner 0
+    plane: np.ndarray  # (3, F) unit normal of the corners' plane
+    plane_offset: np.ndarray  # (F,) plane . (corner 0 - origin)
     longest: np.ndarray  # (F,) longest edge, mm
-    image_origin: np.ndarray  # (F, 2) corner 0 in the image
-    image_inverse: np.ndarray  # (F, 2, 2): image offset from corner 0 -> barycentric (b1, b2)
-    corner_normals: np.ndarray | None = None  # (F, 3, 3) the quadratic's tangent planes (None: linear)
-    corner_offset: np.ndarray | None = None  # (F, 3) each tangent plane's normal . its corner
+    barycentric: np.ndarray  # (3, 3, F): corner k's weight at pixel (x, y) is [k, 0] x + [k, 1] y + [k, 2]
+    origin: np.ndarray | None  # the rays' common origin (a pinhole's centre) the offsets are from; None: per ray
+    corner_normals: np.ndarray | None = None  # (3, 3, F) [corner, axis]: the quadratic's tangent planes
+    corner_offset: np.ndarray | None = None  # (3, F) each tangent plane's normal . (its corner - origin)
 
     @staticmethod
-    def of(points: np.ndarray, xy: np.ndarray, tri: np.ndarray, corner_normals: np.ndarray | None = None) -> FaceTerms:
-        """The terms of faces `tri`; with `corner_normals` (rig.pipeline.normals.crease_normals),
-        those of the quadratic interpolant."""
-        corner = points[tri]
+    def of(
+        points: np.ndarray,
+        xy: np.ndarray,
+        tri: np.ndarray,
+        corner_normals: np.ndarray | None = None,
+        origin: np.ndarray | None = None,
+    ) -> FaceTerms:
+        """The terms of faces `tri`; with `corner_normals` (F, 3, 3; rig.pipeline.normals.crease_normals),
+        those of the quadratic interpolant. `origin`: the point every ray starts from, if they share one."""
+        corner = points[tri] - (0.0 if origin is None else origin)
         plane = np.cross(corner[:, 1] - corner[:, 0], corner[:, 2] - corner[:, 0])
-        longest = np.linalg.norm(corner - np.roll(corner, -1, axis=1), axis=2).max(axis=1)
+        plane /= np.maximum(np.linalg.norm(plane, axis=1), 1e-300)[:, None]
+        longest = np.linalg.norm(corner - corner[:, [1, 2, 0]], axis=2).max(axis=1)
         image = xy[tri]
         e1, e2 = image[:, 1] - image[:, 0], image[:, 2] - image[:, 0]
         det = e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]
         det = np.where(np.abs(det) < 1e-12, 1e-12, det)
-        inverse = np.stack([np.column_stack([e2[:, 1], -e2[:, 0]]), np.column_stack([-e1[:, 1], e1[:, 0]])], axis=1)
-        offset = np.einsum("ij,ij->i", plane, corner[:, 0])
-        corner_offset = None if corner_normals is None else np.einsum("fkj,fkj->fk", corner_normals, corner)
-        return FaceTerms(
-            plane, offset, longest, image[:, 0], inverse / det[:, None, None], corner_normals, corner_offset
+        # (b1, b2) = inverse @ (pixel - corner 0), as affine functions of the pixel
+        b1 = np.stack([e2[:, 1], -e2[:, 0]]) / det
+        b2 = np.stack([-e1[:, 1], e1[:, 0]]) / det
+        c1, c2 = -(b1 * image[:, 0].T).sum(axis=0), -(b2 * image[:, 0].T).sum(axis=0)
+        weights = np.stack(
+            [np.vstack([-b1[0] - b2[0], -b1[1] - b2[1], 1.0 - c1 - c2]), np.vstack([*b1, c1]), np.vstack([*b2, c2])]
         )
+        offset = np.einsum("ij,ij->i", plane, corner[:, 0])
+        normals = None if corner_normals is None else np.ascontiguousarray(corner_normals.transpose(1, 2, 0))
+        corner_offset = None if corner_normals is None else np.einsum("fkj,fkj->kf", corner_normals, corner)
+        return FaceTerms(np.ascontiguousarray(plane.T), offset, longest, weights, origin, normals, corner_offset)
 
 
 def on_triangles(
@@ -91,26 +105,32 @@ def on_triangles(
     the depth's relative change across a triangle, a fraction of a percent of a correction that is
     itself small)."""
     origins, directions = rays
-    t_linear = ray_plane(origins, directions, faces.plane[owner], faces.plane_offset[owner])
-    if faces.corner_normals is None or faces.corner_offset is None:
-        return origins + t_linear[:, None] * directions
-    offset = np.column_stack([pixel % width, pixel // width]) - faces.image_origin[owner]
-    b = np.einsum("pij,pj->pi", faces.image_inverse[owner], offset)
-    weights = np.column_stack([1.0 - b[:, 0] - b[:, 1], b])
-    normals = faces.corner_normals[owner]  # (P, 3, 3)
-    facing = np.einsum("pkj,pj->pk", normals, directions)
-    toward = faces.corner_offset[owner] - np.einsum("pkj,pj->pk", normals, origins)
-    steep = (np.abs(facing) < 0.1).any(axis=1)  # a tangent plane met at a grazing angle
-    with np.errstate(divide="ignore", invalid="ignore"):
-        blend = np.einsum("pk,pk->p", weights, toward / facing)
-    longest = faces.longest[owner]
-    t = np.where(steep, t_linear, 0.5 * (t_linear + blend))
-    t = np.clip(t, t_linear - 0.25 * longest, t_linear + 0.25 * longest)
-    return origins + t[:, None] * directions
+    d = [np.ascontiguousarray(directions[:, j]) for j in range(3)]
 
+    def along(normal: np.ndarray, offset: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The ray parameter where each pixel's ray meets its face's plane (rows gathered by owner),
+        and the cosine of the ray with that plane's normal."""
+        n = [row[owner] for row in normal]
+        facing = n[0] * d[0] + n[1] * d[1] + n[2] * d[2]
+        numerator = offset[owner]
+        if faces.origin is None:
+            numerator = numerator - np.einsum("ij,ij->i", origins, np.column_stack(n))
+        with np.errstate(divide="ignore", invalid="ignore"):
+            return numerator / facing, facing
 
-def ray_plane(origins: np.ndarray, rays: np.ndarray, normal: np.ndarray, offset: np.ndarray) -> np.ndarray:
-    """Distance along each ray to the plane normal . x = offset."""
-    denominator = np.einsum("ij,ij->i", rays, normal)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        return (offset - np.einsum("ij,ij->i", origins, normal)) / denominator
+    t_linear, _ = along(faces.plane, faces.plane_offset)
+    t = t_linear
+    if faces.corner_normals is not None and faces.corner_offset is not None:
+        x, y = (pixel % width).astype(np.float64), (pixel // width).astype(np.float64)
+        blend = np.zeros(len(pixel))
+        steep = np.zeros(len(pixel), dtype=bool)
+        for k in range(3):
+            t_k, facing = along(faces.corner_normals[k], faces.corner_offset[k])
+            steep |= np.abs(facing) < 0.1  # a tangent plane met at a grazing angle
+            w = faces.barycentric[k]
+            blend += (w[0][owner] * x + w[1][owner] * y + w[2][owner]) * t_k
+        reach = 0.25 * faces.longest[owner]
+        t = np.where(steep, t_linear, 0.5 * (t_linear + blend))
+        t = np.clip(t, t_linear - reach, t_linear + reach)
+    start = faces.origin if faces.origin is not None else origins
+    return start + t[:, None] * directions

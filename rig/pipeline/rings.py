@@ -17,7 +17,7 @@ from rig.pipeline.dense import texture_rgb
 from rig.pipeline.normals import accumulate_normals
 from rig.pipeline.pointset import PointSet
 from rig.pipeline.ring_angles import Placed, place_by_fine_angle
-from rig.pipeline.surface import delaunay
+from rig.pipeline.triangulation import delaunay
 
 # Triangles of the sample mesh longer than this (camera pixels) bridge gaps, not neighbouring rings.
 _MAX_TRIANGLE_EDGE_PX = 80.0

@@ -21,13 +21,13 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Literal
 
-import cv2
 import numpy as np
 from scipy.interpolate import CloughTocher2DInterpolator
 
 from rig.geometry import CameraModel
 from rig.pipeline.normals import crease_normals, face_normals, face_weights, smoothed_normals, vertex_normals
 from rig.pipeline.raster import FaceTerms, on_triangles, rasterize
+from rig.pipeline.triangulation import delaunay
 from rig.pipeline.workers import batches, pool
 
 Interpolant = Literal["linear", "quadratic", "cubic"]
@@ -76,6 +76,24 @@ class RingSurface:
     colour: np.ndarray | None = None  # (H, W, 3) float32 RGB in [0, 1] between the rings (rig.pipeline.colour)
 
 
+_NEXT = [1, 2, 0]  # a triangle's edge k runs from corner k to corner _NEXT[k]
+
+
+@dataclass(frozen=True, eq=False)
+class RingTriangles:
+    """The kept triangles of a pair's ring samples (ring_triangles)."""
+
+    tri: np.ndarray  # (F, 3) sample indices
+    face: np.ndarray  # (F, 3) unit normals, toward the camera
+    weight: np.ndarray  # (F,) 1 / longest edge (rig.pipeline.normals.face_weights)
+    normals: np.ndarray  # (M, 3) the samples' unit normals, toward the camera
+    counts: dict[str, int]  # how many triangles each test dropped
+
+    def subset(self, keep: np.ndarray) -> RingTriangles:
+        """These triangles but only those `keep` marks (the samples' normals unchanged)."""
+        return RingTriangles(self.tri[keep], self.face[keep], self.weight[keep], self.normals, self.counts)
+
+
 def ring_triangles(
     points: np.ndarray,
     xy: np.ndarray,
@@ -83,82 +101,70 @@ def ring_triangles(
     camera: CameraModel,
     projector: CameraModel,
     settings: SurfaceSettings,
-) -> tuple[np.ndarray, np.ndarray, np.ndarray, dict[str, int]]:
-    """Kept triangles (F, 3) of the samples' image Delaunay triangulation, their unit normals and
-    the samples' (both facing the camera), and how many triangles each test dropped."""
+) -> RingTriangles:
+    """The kept triangles of the samples' image Delaunay triangulation (see the module docstring)."""
     _, rays = camera.rays(xy)
     directions = np.asarray(rays)
     tri = delaunay(xy)
     counts = {"triangles": len(tri)}
     r = ring[tri]
     span = r.max(axis=1) - r.min(axis=1)
-    same = r == np.roll(r, -1, axis=1)  # edge k joins corner k and k+1 on one ring
-    edge_px = np.linalg.norm(xy[tri] - np.roll(xy[tri], -1, axis=1), axis=2)
-    gap = (same & (edge_px > settings.max_gap_px)).any(axis=1)
+    image = xy[tri]
+    edge_px = np.linalg.norm(image[:, _NEXT] - image, axis=2)
+    gap = ((r == r[:, _NEXT]) & (edge_px > settings.max_gap_px)).any(axis=1)
     keep = (span == 1) & ~gap
     counts["dropped_ring_skipped"] = int((span > 1).sum())
     counts["dropped_gap"] = int(((span == 1) & gap).sum())
     counts["dropped_one_ring"] = int((span == 0).sum())
-    tri = tri[keep]
+    tri, edge_px = tri[keep], edge_px[keep]
+    corner = points[tri]
+    edge_mm = np.linalg.norm(corner[:, _NEXT] - corner, axis=2)
     face = face_normals(points, tri, directions)
     slant = np.abs(np.einsum("ij,ij->i", face, directions[tri[:, 0]]))
     edge_on = slant < np.cos(np.radians(settings.max_slant_deg))
-    edge_on |= _bridges(points, xy, tri, camera, projector, settings.min_foreshortening)
-    tri, face = tri[~edge_on], face[~edge_on]
-    normals = vertex_normals(points, tri, face, directions)
+    edge_on |= _bridges(points, tri, edge_px, edge_mm, camera, projector, settings.min_foreshortening)
+    weight = face_weights(edge_mm)
+    tri, face, weight = tri[~edge_on], face[~edge_on], weight[~edge_on]
+    normals = vertex_normals(tri, face, weight, directions)
     bent = (np.einsum("ikj,ij->ik", normals[tri], face) < np.cos(np.radians(settings.max_bend_deg))).any(axis=1)
-    tri, face = tri[~bent], face[~bent]
+    tri, face, weight = tri[~bent], face[~bent], weight[~bent]
     counts["dropped_depth_edge"] = int(edge_on.sum() + bent.sum())
     counts["faces"] = len(tri)
-    normals = vertex_normals(points, tri, face, directions)
+    normals = vertex_normals(tri, face, weight, directions)
     in_triangle = np.bincount(tri.ravel(), minlength=len(points)) > 0  # the others' normals are a guess
     normals = smoothed_normals(normals, points, xy, ring, in_triangle, settings.normal_smoothing_px)
-    return tri, face, normals, counts
-
-
-def delaunay(xy: np.ndarray) -> np.ndarray:
-    """Delaunay triangles (F, 3) of image points, by OpenCV's Subdiv2D (a third of Qhull's time
-    here); points that coincide in float32 are triangulated once."""
-    if len(xy) < 3:
-        return np.zeros((0, 3), np.int64)
-    lo, hi = xy.min(axis=0) - 2.0, xy.max(axis=0) + 2.0
-    subdiv = cv2.Subdiv2D((int(lo[0]), int(lo[1]), int(hi[0] - lo[0]) + 2, int(hi[1] - lo[1]) + 2))
-    coords = np.ascontiguousarray(xy, dtype=np.float32)
-    subdiv.insert(coords)
-    corners = subdiv.getTriangleList().astype(np.float32).reshape(-1, 3, 2)
-    keys = coords.view(np.int64).ravel()  # both float32 coordinates as one exact key
-    order = np.argsort(keys)
-    found = np.searchsorted(keys[order], np.ascontiguousarray(corners).view(np.int64).reshape(-1, 3))
-    found = np.minimum(found, len(keys) - 1)
-    index = order[found]
-    real = (keys[index] == np.ascontiguousarray(corners).view(np.int64).reshape(-1, 3)).all(axis=1)
-    return index[real]  # triangles touching Subdiv2D's outer virtual vertices are dropped
+    return RingTriangles(tri, face, weight, normals, counts)
 
 
 def _bridges(
-    points: np.ndarray, xy: np.ndarray, tri: np.ndarray, camera: CameraModel, projector: CameraModel, min_product: float
+    points: np.ndarray,
+    tri: np.ndarray,
+    edge_px: np.ndarray,
+    edge_mm: np.ndarray,
+    camera: CameraModel,
+    projector: CameraModel,
+    min_product: float,
 ) -> np.ndarray:
     """Triangles with an edge that both devices see foreshortened: f = (image length x mm per
     pixel at its depth) / 3D length is the cosine of the edge's tilt out of a device's image plane.
     A surface can be steep to one device, rarely to both; an edge joining a surface to another that
-    one device hides or shadows runs along a ray of one and steeply for the other."""
-    p = points[tri]
-    length = np.linalg.norm(np.roll(p, -1, axis=1) - p, axis=2)
-    product = np.ones_like(length)
-    for device, image in ((camera, xy[tri]), (projector, None)):
-        if image is None:
-            image = device.project(p.reshape(-1, 3))[0].reshape(p.shape[0], 3, 2)
-        pixels = np.linalg.norm(np.roll(image, -1, axis=1) - image, axis=2)
-        product *= np.minimum(1.0, pixels * _mm_per_px(device, p) / np.maximum(length, 1e-12))
+    one device hides or shadows runs along a ray of one and steeply for the other. `edge_px`,
+    `edge_mm`: the triangles' edges (F, 3) in the camera image and in space."""
+    product = np.ones_like(edge_mm)
+    for device, pixels in ((camera, edge_px), (projector, None)):
+        if pixels is None:
+            image = device.project(points)[0][tri]  # each sample once, then its corners
+            pixels = np.linalg.norm(image[:, _NEXT] - image, axis=2)
+        product *= np.minimum(1.0, pixels * _mm_per_px(device, points, tri) / np.maximum(edge_mm, 1e-12))
     return (product < min_product).any(axis=1)
 
 
-def _mm_per_px(device: CameraModel, p: np.ndarray) -> np.ndarray:
-    """Millimetres per pixel across a device's rays at each corner's depth (F, 3)."""
+def _mm_per_px(device: CameraModel, points: np.ndarray, tri: np.ndarray) -> np.ndarray:
+    """Millimetres per pixel across a device's rays at the depth of each triangle edge's middle (F, 3)."""
     if device.projection == "orthographic":
-        return np.full(p.shape[:2], 1.0 / device.K[0, 0])
-    depth = device.to_device(p.reshape(-1, 3))[:, 2].reshape(p.shape[:2])
-    return 0.5 * (depth + np.roll(depth, -1, axis=1)) / device.K[0, 0]
+        return np.full(tri.shape, 1.0 / device.K[0, 0])
+    depth = device.to_device(points)[:, 2][tri]
+    return 0.5 * (depth + depth[:, _NEXT]) / device.K[0, 0]
 
 
 def interpolate_surface(
@@ -180,18 +186,22 @@ def interpolate_surface(
     if method not in INTERPOLANTS:
         raise ValueError(f"unknown interpolant {method!r}; known: {', '.join(INTERPOLANTS)}")
     settings = settings or SurfaceSettings()
-    tri, face, normals, counts = ring_triangles(points, xy, ring, camera, projector, settings)
-    pixel, owner = rasterize(xy, tri, camera.width, camera.height)
+    triangles = ring_triangles(points, xy, ring, camera, projector, settings)
+    counts = triangles.counts
+    pixel, owner = rasterize(xy, triangles.tri, camera.width, camera.height)
     if lit is not None:
-        kept, pixel, owner = _without_shadowed(tri, pixel, owner, lit, settings.max_unlit, counts)
-        tri, face = tri[kept], face[kept]
+        kept, pixel, owner = _without_shadowed(triangles.tri, pixel, owner, lit, settings.max_unlit, counts)
+        triangles = triangles.subset(kept)
+    tri, normals = triangles.tri, triangles.normals
     all_origins, all_directions = camera.pixel_rays
-    corners = crease_normals(tri, normals, face, face_weights(points, tri)) if method == "quadratic" else None
-    terms = FaceTerms.of(points, xy, tri, corners)
+    corners = crease_normals(tri, normals, triangles.face, triangles.weight) if method == "quadratic" else None
+    common_origin = camera.center if camera.projection != "orthographic" else None
+    terms = FaceTerms.of(points, xy, tri, corners, common_origin)
 
     def solve(span: tuple[int, int]) -> tuple[np.ndarray, np.ndarray | None]:
         part, part_owner = pixel[span[0] : span[1]], owner[span[0] : span[1]]
-        rays = (np.asarray(all_origins[part]), np.asarray(all_directions[part]))
+        origins = all_origins[:1] if common_origin is not None else np.asarray(all_origins[part])
+        rays = (origins, np.asarray(all_directions[part]))
         if method == "cubic":
             found = rays[0] + _cubic_depth(points, xy, camera, part)[:, None] * rays[1]
         else:
@@ -241,18 +251,18 @@ def band_agreement(
 ) -> np.ndarray:
     """Whether each interpolated point (at flat camera pixel `pixel`) projects into the annulus and
     near the polar angle its pixel read; unread pixels agree with anything."""
-    uv, z = projector.project(np.where(np.isfinite(found), found, 0.0))
-    du, dv = uv[:, 0] - bands.center_px[0], uv[:, 1] - bands.center_px[1]
+    u, v, z = projector.project_columns(found)  # a point that is NaN agrees with nothing
+    du, dv = u - bands.center_px[0], v - bands.center_px[1]
     rho = np.hypot(du, dv)
-    annulus = bands.annulus.ravel()[pixel].astype(np.int64)
+    annulus = bands.annulus.ravel()[pixel]
     radii = np.concatenate([[-np.inf], bands.radii_px, [np.inf]])  # annulus a lies between radii[a], radii[a + 1]
-    read = annulus >= 0
-    a = np.clip(annulus, 0, len(bands.radii_px))
+    a = np.clip(annulus, 0, len(bands.radii_px)).astype(np.intp)
     inside = (rho >= radii[a] - settings.band_margin_px) & (rho <= radii[a + 1] + settings.band_margin_px)
+    inside |= annulus < 0  # unread: anywhere
     angle = bands.angle.ravel()[pixel]
     turned = np.abs(np.remainder(np.arctan2(dv, du) - angle + np.pi, 2 * np.pi) - np.pi)
     aligned = ~np.isfinite(angle) | (turned <= settings.band_angle_rad) | (rho < _ANGLE_MIN_RADIUS_PX)
-    return (z > 0) & (~read | inside) & aligned
+    return (z > 0) & inside & aligned
 
 
 def _cubic_depth(points: np.ndarray, xy: np.ndarray, camera: CameraModel, pixel: np.ndarray) -> np.ndarray:
