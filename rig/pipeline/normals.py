@@ -47,22 +47,28 @@ def accumulate_normals(tri: np.ndarray, face: np.ndarray, directions: np.ndarray
     return normals
 
 
-def smoothed_normals(
-    normals: np.ndarray, points: np.ndarray, xy: np.ndarray, ring: np.ndarray, known: np.ndarray, radius_px: float
-) -> np.ndarray:
-    """Each sample's normal averaged with those of the samples of its ring within `radius_px` in the
-    image and as many pixel footprints in space (not across a bend the image foreshortens), of the
-    samples whose normals are `known` (from triangles). Along a ring samples are a pixel apart, so
-    each triangle's short edge, and with it its normal, is mostly the samples' noise; the quadratic
-    interpolant carries a normal's error across the whole gap to the next ring."""
+def ring_pairs(points: np.ndarray, xy: np.ndarray, ring: np.ndarray, radius_px: float) -> np.ndarray:
+    """(P, 2) pairs of samples of one ring within `radius_px` in the image and as many pixel
+    footprints in space (not across a bend the image foreshortens): the neighbours whose normals
+    smoothed_normals averages."""
     if radius_px <= 0 or len(xy) < 2:
-        return normals
+        return np.zeros((0, 2), np.int64)
     pairs = cKDTree(xy).query_pairs(radius_px, output_type="ndarray")
     a, b = pairs[:, 0], pairs[:, 1]
     apart_mm = np.linalg.norm(points[a] - points[b], axis=1)
     apart_px = np.linalg.norm(xy[a] - xy[b], axis=1)
     footprint = np.median(apart_mm / np.maximum(apart_px, 1e-6))  # mm per pixel where the surface faces the camera
-    pairs = pairs[(ring[a] == ring[b]) & (apart_mm <= radius_px * footprint) & known[a] & known[b]]
+    return pairs[(ring[a] == ring[b]) & (apart_mm <= radius_px * footprint)]
+
+
+def smoothed_normals(normals: np.ndarray, pairs: np.ndarray, known: np.ndarray) -> np.ndarray:
+    """Each sample's normal averaged with those of its `pairs` (ring_pairs) whose normals are
+    `known` (from triangles). Along a ring samples are a pixel apart, so each triangle's short edge,
+    and with it its normal, is mostly the samples' noise; the quadratic interpolant carries a
+    normal's error across the whole gap to the next ring."""
+    pairs = pairs[known[pairs[:, 0]] & known[pairs[:, 1]]]
+    if len(pairs) == 0:
+        return normals
     total = normals + _sum_at(
         np.concatenate([pairs[:, 0], pairs[:, 1]]), normals[pairs[:, ::-1].T.ravel()], len(normals)
     )

@@ -25,7 +25,14 @@ import numpy as np
 from scipy.interpolate import CloughTocher2DInterpolator
 
 from rig.geometry import CameraModel
-from rig.pipeline.normals import crease_normals, face_normals, face_weights, smoothed_normals, vertex_normals
+from rig.pipeline.normals import (
+    crease_normals,
+    face_normals,
+    face_weights,
+    ring_pairs,
+    smoothed_normals,
+    vertex_normals,
+)
 from rig.pipeline.raster import FaceTerms, on_triangles, rasterize
 from rig.pipeline.triangulation import delaunay
 from rig.pipeline.workers import batches, pool
@@ -35,6 +42,7 @@ INTERPOLANTS: tuple[str, ...] = ("linear", "quadratic", "cubic")
 
 # Near the rings' centre the polar angle says little (and is read poorly): no angle check inside this.
 _ANGLE_MIN_RADIUS_PX = 8.0
+_PAIRS_TIMEOUT_S = 300.0  # a bound on waiting for the pool, far beyond the ~30 ms it takes
 
 
 @dataclass(frozen=True)
@@ -105,6 +113,8 @@ def ring_triangles(
     """The kept triangles of the samples' image Delaunay triangulation (see the module docstring)."""
     _, rays = camera.rays(xy)
     directions = np.asarray(rays)
+    # the samples' neighbours along their rings need no triangles: found while OpenCV triangulates
+    neighbours = pool().submit(ring_pairs, points, xy, ring, settings.normal_smoothing_px)
     tri = delaunay(xy)
     counts = {"triangles": len(tri)}
     r = ring[tri]
@@ -132,7 +142,7 @@ def ring_triangles(
     counts["faces"] = len(tri)
     normals = vertex_normals(tri, face, weight, directions)
     in_triangle = np.bincount(tri.ravel(), minlength=len(points)) > 0  # the others' normals are a guess
-    normals = smoothed_normals(normals, points, xy, ring, in_triangle, settings.normal_smoothing_px)
+    normals = smoothed_normals(normals, neighbours.result(timeout=_PAIRS_TIMEOUT_S), in_triangle)
     return RingTriangles(tri, face, weight, normals, counts)
 
 
@@ -198,7 +208,12 @@ def interpolate_surface(
     common_origin = camera.center if camera.projection != "orthographic" else None
     terms = FaceTerms.of(points, xy, tri, corners, common_origin)
 
-    def solve(span: tuple[int, int]) -> tuple[np.ndarray, np.ndarray | None]:
+    size = camera.height * camera.width
+    grid = np.full((size, 3), np.nan)
+    ok = np.ones(len(pixel), dtype=bool)  # a point was found ...
+    agree = np.ones(len(pixel), dtype=bool)  # ... and lies in the band its pixel read
+
+    def solve(span: tuple[int, int]) -> None:  # each batch writes its own pixels
         part, part_owner = pixel[span[0] : span[1]], owner[span[0] : span[1]]
         origins = all_origins[:1] if common_origin is not None else np.asarray(all_origins[part])
         rays = (origins, np.asarray(all_directions[part]))
@@ -206,27 +221,27 @@ def interpolate_surface(
             found = rays[0] + _cubic_depth(points, xy, camera, part)[:, None] * rays[1]
         else:
             found = on_triangles(terms, part, part_owner, rays, camera.width)
-        return found, None if bands is None else band_agreement(found, part, projector, bands, settings)
+        grid[part] = found
+        ok[span[0] : span[1]] = np.isfinite(found).all(axis=1)
+        if bands is not None:
+            agree[span[0] : span[1]] = band_agreement(found, part, projector, bands, settings)
 
     # cubic: one interpolant over the whole image, not one per batch
-    solved = list(pool().map(solve, [(0, len(pixel))] if method == "cubic" else batches(len(pixel))))
-    found = np.concatenate([f for f, _ in solved]) if solved else np.zeros((0, 3))
-    ok = np.isfinite(found).all(axis=1)
+    list(pool().map(solve, [(0, len(pixel))] if method == "cubic" else batches(len(pixel))))
     if bands is not None:
-        agree = np.concatenate([a for _, a in solved if a is not None]) if solved else np.zeros(0, bool)
         area = np.bincount(owner, minlength=len(tri))
         bridging = np.bincount(owner, ~agree, minlength=len(tri)) > settings.max_band_disagreement * area
         agree &= ~bridging[owner]
         counts["dropped_band_px"] = int((ok & ~agree).sum())
         ok &= agree
-    grid = np.full((camera.height * camera.width, 3), np.nan)
-    grid[pixel[ok]] = found[ok]
-    valid = np.zeros(camera.height * camera.width, dtype=bool)
-    valid[pixel[ok]] = True
-    counts["pixels"] = int(ok.sum())
+    grid[pixel[~ok]] = np.nan
+    covered = pixel[ok]
+    valid = np.zeros(size, dtype=bool)
+    valid[covered] = True
+    counts["pixels"] = len(covered)
     shape = (camera.height, camera.width)
-    triangle = np.full(camera.height * camera.width, -1, dtype=np.int32)
-    triangle[pixel[ok]] = owner[ok]
+    triangle = np.full(size, -1, dtype=np.int32)
+    triangle[covered] = owner[ok]
     return RingSurface(
         points, normals, tri, grid.reshape(*shape, 3), valid.reshape(shape), counts, ring, triangle.reshape(shape)
     )
