@@ -25,30 +25,30 @@ def rasterize(xy: np.ndarray, tri: np.ndarray, width: int, height: int) -> tuple
 def _spans(
     xy: np.ndarray, tri: np.ndarray, first_face: int, end_face: int, width: int, height: int
 ) -> tuple[np.ndarray, np.ndarray]:
-    """Flat pixel indices covered by faces [first_face, end_face) and their face numbers."""
+    """Flat pixel indices covered by faces [first_face, end_face) and their face numbers. With its
+    corners sorted by y, a triangle's rows run between its long edge (top to bottom) and, above the
+    middle corner, the upper short edge, below it the lower one."""
     corners = xy[tri[first_face:end_face]]  # (F, 3, 2)
-    top = np.clip(np.ceil(corners[:, :, 1].min(axis=1)), 0, height - 1).astype(np.int64)
-    bottom = np.clip(np.floor(corners[:, :, 1].max(axis=1)), 0, height - 1).astype(np.int64)
-    rows_per = np.maximum(bottom - top + 1, 0)
+    order = np.argsort(corners[:, :, 1], axis=1, kind="stable")
+    (x0, x1, x2), (y0, y1, y2) = np.take_along_axis(corners, order[:, :, None], axis=1).transpose(2, 1, 0)
+    top = np.clip(np.ceil(y0), 0, height - 1).astype(np.int64)
+    bottom = np.clip(np.floor(y2), 0, height - 1).astype(np.int64)
+    rows_per = np.where(y2 > y0, np.maximum(bottom - top + 1, 0), 0)  # a flat triangle has no inside
     owner = np.repeat(np.arange(len(corners)), rows_per)
     row = top[owner] + np.arange(len(owner)) - np.repeat(np.cumsum(rows_per) - rows_per, rows_per)
-    left = np.full(len(owner), np.inf)
-    right = np.full(len(owner), -np.inf)
-    for k in range(3):  # per edge, per face: its y range and x at y = 0, then per row one multiply-add
-        a, b = corners[:, k], corners[:, (k + 1) % 3]
-        dy = b[:, 1] - a[:, 1]
-        slope = np.divide(b[:, 0] - a[:, 0], dy, out=np.zeros_like(dy), where=dy != 0)
-        low = np.where(dy != 0, np.minimum(a[:, 1], b[:, 1]), np.inf)[owner]  # a flat edge crosses no row
-        high = np.maximum(a[:, 1], b[:, 1])[owner]
-        x = (a[:, 0] - a[:, 1] * slope)[owner] + row * slope[owner]
-        crosses = (low <= row) & (row <= high)
-        left = np.where(crosses, np.minimum(left, x), left)
-        right = np.where(crosses, np.maximum(right, x), right)
+    long_at, long_slope = _edge(x0, y0, x2, y2)
+    (upper_at, upper_slope), (lower_at, lower_slope) = _edge(x0, y0, x1, y1), _edge(x1, y1, x2, y2)
+    short_at, short_slope = np.column_stack([upper_at, lower_at]), np.column_stack([upper_slope, lower_slope])
+    short = 2 * owner + (row > y1[owner])  # flat index of the short edge of each row
+    x_long = long_at[owner] + row * long_slope[owner]
+    x_short = short_at.ravel()[short] + row * short_slope.ravel()[short]
+    left, right = np.minimum(x_long, x_short), np.maximum(x_long, x_short)
     first = np.clip(np.ceil(left), 0, width).astype(np.int64, copy=False) if len(left) else left.astype(np.int64)
     last = np.clip(np.floor(right), -1, width - 1).astype(np.int64, copy=False) if len(right) else first
     count = np.maximum(last - first + 1, 0)
-    column = np.repeat(first, count) + np.arange(count.sum()) - np.repeat(np.cumsum(count) - count, count)
-    return np.repeat(row, count) * width + column, np.repeat(owner, count) + first_face
+    # each span's pixels: its first flat index, then consecutive (one repeat and one arange in all)
+    start = row * width + first - (np.cumsum(count) - count)
+    return np.repeat(start, count) + np.arange(count.sum()), np.repeat(owner + first_face, count)
 
 
 @dataclass(frozen=True, eq=False)
@@ -134,3 +134,11 @@ def on_triangles(
         t = np.clip(t, t_linear - reach, t_linear + reach)
     start = faces.origin if faces.origin is not None else origins
     return start + t[:, None] * directions
+
+
+def _edge(xa: np.ndarray, ya: np.ndarray, xb: np.ndarray, yb: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """An edge from (xa, ya) down to (xb, yb) as x = at + y * slope; a flat edge as x = xb (it is
+    met only in its own row, where the other edges give its other end)."""
+    dy = yb - ya
+    slope = np.divide(xb - xa, dy, out=np.zeros_like(dy), where=dy != 0)
+    return np.where(dy != 0, xa - ya * slope, xb), slope
