@@ -203,24 +203,21 @@ def interpolate_surface(
         kept, pixel, owner = _without_shadowed(triangles.tri, pixel, owner, lit, settings.max_unlit, counts)
         triangles = triangles.subset(kept)
     tri, normals = triangles.tri, triangles.normals
-    all_origins, all_directions = camera.pixel_rays
     corners = crease_normals(tri, normals, triangles.face, triangles.weight) if method == "quadratic" else None
     common_origin = camera.center if camera.projection != "orthographic" else None
     terms = FaceTerms.of(points, xy, tri, corners, common_origin)
-
     size = camera.height * camera.width
     grid = np.full((size, 3), np.nan)
     ok = np.ones(len(pixel), dtype=bool)  # a point was found ...
     agree = np.ones(len(pixel), dtype=bool)  # ... and lies in the band its pixel read
 
     def solve(span: tuple[int, int]) -> None:  # each batch writes its own pixels
-        part, part_owner = pixel[span[0] : span[1]], owner[span[0] : span[1]]
-        origins = all_origins[:1] if common_origin is not None else np.asarray(all_origins[part])
-        rays = (origins, np.asarray(all_directions[part]))
+        part = pixel[span[0] : span[1]]
         if method == "cubic":
-            found = rays[0] + _cubic_depth(points, xy, camera, part)[:, None] * rays[1]
+            origins, directions = (np.asarray(rays[part]) for rays in camera.pixel_rays)
+            found = origins + _cubic_depth(points, xy, camera, part)[:, None] * directions
         else:
-            found = on_triangles(terms, part, part_owner, rays, camera.width)
+            found = on_triangles(terms, part, owner[span[0] : span[1]], _rays(camera, part), camera.width)
         grid[part] = found
         ok[span[0] : span[1]] = np.isfinite(found).all(axis=1)
         if bands is not None:
@@ -234,17 +231,41 @@ def interpolate_surface(
         agree &= ~bridging[owner]
         counts["dropped_band_px"] = int((ok & ~agree).sum())
         ok &= agree
-    grid[pixel[~ok]] = np.nan
-    covered = pixel[ok]
-    valid = np.zeros(size, dtype=bool)
-    valid[covered] = True
-    counts["pixels"] = len(covered)
+    counts["pixels"] = int(ok.sum())
+    return _surface(points, normals, tri, ring, counts, camera, grid, pixel[ok], owner[ok])
+
+
+def _surface(
+    points: np.ndarray,
+    normals: np.ndarray,
+    tri: np.ndarray,
+    ring: np.ndarray,
+    counts: dict[str, int],
+    camera: CameraModel,
+    grid: np.ndarray,
+    covered: np.ndarray,
+    owner: np.ndarray,
+) -> RingSurface:
+    """The RingSurface whose points are the rows `covered` of `grid` (flat, H*W x 3; the others are
+    cleared), each in face `owner`."""
     shape = (camera.height, camera.width)
-    triangle = np.full(size, -1, dtype=np.int32)
-    triangle[covered] = owner[ok]
+    valid = np.zeros(grid.shape[0], dtype=bool)
+    valid[covered] = True
+    grid[~valid] = np.nan
+    triangle = np.full(grid.shape[0], -1, dtype=np.int32)
+    triangle[covered] = owner
     return RingSurface(
         points, normals, tri, grid.reshape(*shape, 3), valid.reshape(shape), counts, ring, triangle.reshape(shape)
     )
+
+
+def _rays(camera: CameraModel, pixel: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The rays of flat camera pixels: a pinhole's common origin once (FaceTerms measure from it),
+    each ray's own origin otherwise; the unit directions."""
+    origins, directions = camera.pixel_rays
+    if camera.projection != "orthographic":
+        return origins[:1], np.asarray(directions[pixel])
+    return np.asarray(origins[pixel]), np.asarray(directions[pixel])
 
 
 def _without_shadowed(
