@@ -2,7 +2,8 @@
 
 __version__ = "0.1.0"
 
-import drivers as _drivers  # noqa: F401 - sets OpenCV's V4L2 read timeout before cv2 is imported
-from rig.pipeline.workers import share_malloc_arena as _share_malloc_arena
+from rig.pipeline.workers import tune_malloc as _tune_malloc
 
-_share_malloc_arena()
+_tune_malloc()  # first: before numpy and OpenCV start their threads and allocate
+
+import drivers as _drivers  # noqa: E402, F401 - sets OpenCV's V4L2 read timeout before cv2 is imported

@@ -12,7 +12,15 @@ import threading
 from concurrent.futures import ThreadPoolExecutor
 
 THREADS = max(1, min(4, os.cpu_count() or 1))
-_M_ARENA_MAX = -8  # glibc's mallopt parameter (malloc.h)
+# glibc's mallopt parameters (malloc.h)
+_M_TRIM_THRESHOLD = -1
+_M_MMAP_THRESHOLD = -3
+_M_ARENA_MAX = -8
+# Arrays up to _MMAP_FROM_BYTES come from the heap, and it keeps up to _KEEP_FREED_BYTES of freed
+# memory for the next arrays (a scan frees several hundred MB at a time: at 256 MB it gained nothing).
+# Builds of glibc that refuse so high a threshold keep their default.
+_MMAP_FROM_BYTES = 1 << 30
+_KEEP_FREED_BYTES = 1 << 30
 
 _lock = threading.Lock()
 _executor: ThreadPoolExecutor | None = None
@@ -27,21 +35,44 @@ def pool() -> ThreadPoolExecutor:
         return _executor
 
 
-def share_malloc_arena() -> None:
-    """Let every thread allocate from the main thread's heap (glibc; elsewhere a no-op). Call before
-    any thread starts (the rig package does, on import): glibc fixes its arena limit when a second
-    thread first allocates.
+def tune_malloc() -> None:
+    """Tune glibc's allocator for numpy's few, large, short-lived arrays (elsewhere a no-op). Call
+    before any thread starts (the rig package does, on import): glibc fixes its arena limit when a
+    second thread first allocates.
 
-    glibc gives each new thread its own malloc arena, and memory freed in one is not reused by
-    another: a ring scan's peak RSS rose from 680 to 790 MB with this pool. numpy allocates few, large
-    blocks, so sharing one arena costs no measurable contention."""
-    if not sys.platform.startswith("linux"):
+    - One arena for every thread: glibc gives each new thread its own, and memory freed in one is
+      not reused by another (a ring scan's peak RSS rose from 680 to 790 MB with this pool).
+    - Freed arrays stay in the heap for the next ones (up to _KEEP_FREED_BYTES), and arrays up to
+      _MMAP_FROM_BYTES come from the heap: by default glibc maps every large array afresh and
+      unmaps it on free, so each new array page-faults all its memory in again. On a virtual
+      machine that can cost more than the arithmetic: multiplying two 1M x 3 arrays took 45 ms
+      against 9 ms; the surface between the rings (bench/speed.py's row, three runs each) 850 ms
+      against 730 to 800, at the same peak RSS. release_free_memory() returns what a job left."""
+    libc = _glibc()
+    if libc is None:
         return
+    libc.mallopt(_M_ARENA_MAX, 1)
+    libc.mallopt(_M_MMAP_THRESHOLD, _MMAP_FROM_BYTES)
+    libc.mallopt(_M_TRIM_THRESHOLD, _KEEP_FREED_BYTES)
+
+
+def release_free_memory() -> None:
+    """Return the heap's free pages to the system (glibc's malloc_trim; elsewhere a no-op): after a
+    job, so that an idle daemon does not hold what a scan freed."""
+    libc = _glibc()
+    if libc is not None:
+        libc.malloc_trim(0)
+
+
+def _glibc() -> ctypes.CDLL | None:
+    if not sys.platform.startswith("linux"):
+        return None
     try:
         libc = ctypes.CDLL(ctypes.util.find_library("c") or "libc.so.6")
-        libc.mallopt(_M_ARENA_MAX, 1)
-    except (OSError, AttributeError):  # not glibc (musl has no arenas to share)
-        return
+        libc.mallopt, libc.malloc_trim  # noqa: B018 - musl has neither
+    except (OSError, AttributeError):
+        return None
+    return libc
 
 
 def batches(count: int, per_thread: int = 2) -> list[tuple[int, int]]:

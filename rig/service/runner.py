@@ -24,6 +24,7 @@ from drivers.errors import DeviceError
 from rig.assembly import open_rig
 from rig.config import RigConfig
 from rig.errors import ConfigError, PlanError, SlrigError
+from rig.pipeline.workers import release_free_memory
 from rig.progress import ProgressCallback, ProgressEvent
 from rig.rig import Rig
 from rig.service.adaptive import check_scan_request
@@ -251,6 +252,7 @@ class JobService:
             except Exception:  # the worker must outlive any job
                 log.exception("job %s: unexpected error in the worker", job_id)
             finally:
+                release_free_memory()  # an idle daemon holds no scan's freed arrays
                 with self._cond:
                     self._current = None
 
