@@ -45,3 +45,8 @@ class CalibrationError(SlrigError):
 class PlanError(SlrigError):
     """Raised when rings cannot be planned: a tolerance that is not positive, a pilot scan with no
     points, or a surface the rings do not reach. The message names the input and the reason."""
+
+
+class RecognitionError(SlrigError):
+    """Raised when a scan cannot be described or identified: too little surface around its
+    reference point, descriptor settings that differ from the gallery's, an empty gallery."""

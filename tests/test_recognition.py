@@ -5,7 +5,11 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from scipy.spatial.transform import Rotation
 
+from drivers.sim import faces
+from rig.errors import RecognitionError
+from rig.recognition.descriptor import DescriptorSettings, correlation, describe
 from rig.recognition.geodesic import geodesic_distances, height_field, sample
 
 UP = np.array([0.0, 0.0, 1.0])
@@ -58,3 +62,62 @@ def test_a_geodesic_does_not_step_across_a_depth_edge() -> None:
     assert around * 0.99 <= from_plane[1] < around * 1.02
     from_block = sample(field, geodesic_distances(field, on_block), np.array([[-5.0, 0.0, 20.0], beyond]))
     assert abs(from_block[0] - 10.0) < 0.2 and not np.isfinite(from_block[1])
+
+
+def _bumpy_dome(seed: int) -> np.ndarray:
+    """A dome 40 mm high with eight random bumps of up to 4 mm, as a camera above samples it."""
+    rng = np.random.default_rng(seed)
+    bumps = [(*rng.uniform(-40, 40, 2), rng.uniform(-4, 4), rng.uniform(8, 15)) for _ in range(8)]
+
+    def height(x: np.ndarray, y: np.ndarray) -> np.ndarray:
+        z = 40 * np.exp(-(x**2 + y**2) / (2 * 30**2))
+        for cx, cy, amplitude, sigma in bumps:
+            z = z + amplitude * np.exp(-((x - cx) ** 2 + (y - cy) ** 2) / (2 * sigma**2))
+        return z
+
+    return _depth_map_points(height, half_mm=75.0, noise_mm=0.03)
+
+
+# per ring, a turn only shifts each ring's samples: its spectrum's magnitude stays; the published
+# concatenation of the rings is turned ring by ring, which no single shift of its signal is
+@pytest.mark.parametrize(("spectrum", "bound"), [("per_ring", 0.2), ("concatenated", 0.6)])
+def test_the_descriptor_ignores_a_turn_about_the_axis_and_a_shift(spectrum: str, bound: float) -> None:
+    settings = DescriptorSettings(spectrum=spectrum)  # type: ignore[arg-type]
+    surface = _bumpy_dome(1)
+    own = describe(surface, UP, settings)
+    turn = Rotation.from_euler("z", 37.0, degrees=True).as_matrix()  # not a multiple of 360 / 64
+    turned = describe((surface - own.reference) @ turn.T + own.reference, UP, settings)
+    shifted = describe(surface + np.array([12.0, -7.0, 5.0]), UP, settings)
+    other = describe(_bumpy_dome(2), UP, settings)
+
+    def apart(found: np.ndarray) -> float:
+        return float(np.linalg.norm(found - own.features) / np.linalg.norm(own.features))
+
+    assert apart(turned.features) < bound * apart(other.features)  # 0.0096, 0.0063 against 0.091, 0.014
+    assert apart(shifted.features) < bound * apart(other.features)
+    assert correlation(own.features, turned.features) > 0.9999
+
+
+def test_a_scan_without_surface_around_its_reference_point_is_refused() -> None:
+    surface = _bumpy_dome(1)
+    hole = np.hypot(surface[:, 0], surface[:, 1] - 20.0) > 12.0  # a hole across the rings above the apex
+    with pytest.raises(RecognitionError, match="too little surface around the reference point"):
+        describe(surface[hole], UP, DescriptorSettings())
+    with pytest.raises(RecognitionError, match="no points"):
+        describe(np.zeros((0, 3)), UP)
+
+
+def test_the_face_set_is_reproducible_and_an_expression_moves_only_its_region() -> None:
+    try:
+        one = faces.identity(3)
+    except faces.FaceTemplateMissingError as exc:
+        pytest.skip(f"the MeshMonk face template is optional: {exc}")
+    assert np.array_equal(one.vertices, faces.identity(3).vertices)
+    assert not np.allclose(one.vertices, faces.identity(4).vertices)
+    smile = faces.expression(one, "smile")
+    moved = np.linalg.norm(smile.vertices - one.vertices, axis=1)
+    landmarks = faces.LANDMARKS
+    assert moved[landmarks["left_mouth"]] > 3.0 and moved[landmarks["right_mouth"]] > 3.0
+    assert moved[landmarks["nose_tip"]] < 0.3 and moved[landmarks["left_inner_eye"]] < 0.3
+    with pytest.raises(ValueError, match="unknown expression"):
+        faces.expression(one, "wink")

@@ -1,0 +1,135 @@
+"""The dissertation's descriptor (ch.8; reference 5.6): K rings about a reference point on the
+surface, M samples on each at fixed polar angles, each sample's geodesic distance to the reference
+point, and the magnitude of the Fourier transform, compared by correlation.
+
+The rings are circles of radius R_k about the axis through the reference point (the viewing axis:
+a projector's rings are such circles when centred there), met on the surface. The magnitude of each
+ring's spectrum does not change when the object turns about that axis (the samples shift along
+the ring), nor when it moves (the reference point moves with it).
+
+- `spectrum: per_ring` (default): each ring's distances less the ring's radius (what the surface
+  adds to a flat disc), |FFT| per ring, concatenated: exactly invariant to turns by a multiple of
+  2 pi / M, and the rings' common radius no longer dominates the correlation;
+- `spectrum: concatenated`: the published variant, |FFT| of all rings' distances in one signal.
+"""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass
+from typing import Literal
+
+import numpy as np
+from scipy.spatial import cKDTree
+
+from rig.errors import RecognitionError
+from rig.recognition.geodesic import HeightField, geodesic_distances, height_field, sample
+
+MAX_MISSING = 0.05  # the fraction of ring samples that may fall in holes (filled along the ring)
+_APEX_SUPPORT = 8  # the apex is the nearest point to the viewer with this many points within ...
+_APEX_RADIUS_MM = 1.5  # ... this distance: a lone outlier is not an apex
+
+
+@dataclass(frozen=True)
+class DescriptorSettings:
+    rings: int = 8
+    samples: int = 64
+    inner_mm: float = 6.0
+    outer_mm: float = 48.0
+    distance: Literal["geodesic", "euclidean"] = "geodesic"
+    spectrum: Literal["per_ring", "concatenated"] = "per_ring"
+    cell_mm: float = 1.0
+
+    def radii(self) -> np.ndarray:
+        return np.linspace(self.inner_mm, self.outer_mm, self.rings)
+
+    def as_dict(self) -> dict[str, object]:
+        return asdict(self)
+
+
+@dataclass(frozen=True, eq=False)
+class Descriptor:
+    features: np.ndarray  # (K * (M // 2 + 1),) or (K * M // 2 + 1,) float64
+    distances: np.ndarray  # (K, M) each ring sample's distance to the reference point, mm
+    reference: np.ndarray  # (3,)
+    settings: DescriptorSettings
+
+
+def apex(points: np.ndarray, toward_viewer: np.ndarray) -> np.ndarray:
+    """The point of the surface nearest the viewer along `toward_viewer`, ignoring lone points."""
+    height = points @ (toward_viewer / np.linalg.norm(toward_viewer))
+    order = np.argsort(-height)[:2000]
+    tree = cKDTree(points)
+    support = np.array([len(n) for n in tree.query_ball_point(points[order], _APEX_RADIUS_MM)])
+    found = np.flatnonzero(support > _APEX_SUPPORT)
+    if len(found) == 0:
+        raise RecognitionError("no apex: the scan has no surface of more than a few scattered points")
+    return points[order[found[0]]]
+
+
+def describe(
+    points: np.ndarray,
+    toward_viewer: np.ndarray,
+    settings: DescriptorSettings | None = None,
+    reference: np.ndarray | None = None,
+) -> Descriptor:
+    """The descriptor of the surface sampled by `points` (N, 3), seen along `toward_viewer` (the
+    direction from the surface to the projector), about `reference` (default: the apex)."""
+    settings = settings or DescriptorSettings()
+    if len(points) == 0:
+        raise RecognitionError("the scan has no points")
+    reference = apex(points, toward_viewer) if reference is None else np.asarray(reference, float)
+    field = height_field(points, reference, toward_viewer, 1.5 * settings.outer_mm, settings.cell_mm)
+    on_surface = ring_points(field, reference, settings)
+    if settings.distance == "geodesic":
+        distances = sample(field, geodesic_distances(field, reference), on_surface.reshape(-1, 3))
+    else:
+        distances = np.linalg.norm(on_surface.reshape(-1, 3) - reference, axis=1)
+    distances = _fill_along_rings(distances.reshape(settings.rings, settings.samples), settings)
+    return Descriptor(spectrum(distances, settings), distances, reference, settings)
+
+
+def ring_points(field: HeightField, reference: np.ndarray, settings: DescriptorSettings) -> np.ndarray:
+    """(K, M, 3) where each ring's circle about the axis through `reference` meets the surface, at
+    polar angles 2 pi m / M from the field's u axis (NaN where the surface has a hole)."""
+    angle = 2 * np.pi * np.arange(settings.samples) / settings.samples
+    radius = settings.radii()[:, None]
+    across = (radius * np.cos(angle))[..., None] * field.axes[0] + (radius * np.sin(angle))[..., None] * field.axes[1]
+    on_plane = (reference + across).reshape(-1, 3)
+    height = sample(field, field.height, on_plane)
+    base = (on_plane - field.origin) @ field.axes[2]
+    return (on_plane + (height - base)[:, None] * field.axes[2]).reshape(settings.rings, settings.samples, 3)
+
+
+def spectrum(distances: np.ndarray, settings: DescriptorSettings) -> np.ndarray:
+    """The descriptor's features from the ring samples' distances (K, M)."""
+    if settings.spectrum == "concatenated":
+        signal = distances.ravel()
+        return np.abs(np.fft.rfft(signal))[: len(signal) // 2 + 1]
+    excess = distances - settings.radii()[:, None]
+    return np.abs(np.fft.rfft(excess, axis=1)).ravel()
+
+
+def correlation(a: np.ndarray, b: np.ndarray) -> float:
+    """Pearson correlation of two feature vectors of one length."""
+    a, b = a - a.mean(), b - b.mean()
+    return float(a @ b / max(np.linalg.norm(a) * np.linalg.norm(b), 1e-300))
+
+
+def _fill_along_rings(distances: np.ndarray, settings: DescriptorSettings) -> np.ndarray:
+    """Distances with the few samples in holes interpolated along their ring (circularly)."""
+    missing = ~np.isfinite(distances)
+    if missing.mean() > MAX_MISSING:
+        raise RecognitionError(
+            f"too little surface around the reference point: {missing.sum()} of {missing.size} ring samples "
+            f"(radii {settings.inner_mm:g} to {settings.outer_mm:g} mm) fall in holes or off the scan "
+            f"(at most {MAX_MISSING:.0%})"
+        )
+    filled = distances.copy()
+    m = settings.samples
+    for k in np.flatnonzero(missing.any(axis=1)):
+        known = np.flatnonzero(~missing[k])
+        if len(known) < 2:
+            raise RecognitionError(f"ring {k} ({settings.radii()[k]:g} mm) has almost no surface")
+        at = np.concatenate([known - m, known, known + m])
+        filled[k, missing[k]] = np.interp(np.flatnonzero(missing[k]), at, np.tile(distances[k, known], 3))
+    return filled
