@@ -252,9 +252,9 @@ class JobService:
             except Exception:  # the worker must outlive any job
                 log.exception("job %s: unexpected error in the worker", job_id)
             finally:
-                release_free_memory()  # an idle daemon holds no scan's freed arrays
                 with self._cond:
                     self._current = None
+            release_free_memory()  # an idle daemon holds no job's freed arrays (after: the rig reads idle)
 
     def _run(self, job_id: str) -> None:
         try:
