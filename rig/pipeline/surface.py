@@ -217,7 +217,9 @@ def interpolate_surface(
             origins, directions = (np.asarray(rays[part]) for rays in camera.pixel_rays)
             found = origins + _cubic_depth(points, xy, camera, part)[:, None] * directions
         else:
-            found = on_triangles(terms, part, owner[span[0] : span[1]], _rays(camera, part), camera.width)
+            found = on_triangles(
+                terms, part, owner[span[0] : span[1]], _rays(camera, part, terms.origin is not None), camera.width
+            )
         grid[part] = found
         ok[span[0] : span[1]] = np.isfinite(found).all(axis=1)
         if bands is not None:
@@ -259,11 +261,11 @@ def _surface(
     )
 
 
-def _rays(camera: CameraModel, pixel: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """The rays of flat camera pixels: a pinhole's common origin once (FaceTerms measure from it),
-    each ray's own origin otherwise; the unit directions."""
+def _rays(camera: CameraModel, pixel: np.ndarray, common_origin: bool) -> tuple[np.ndarray, np.ndarray]:
+    """The rays of flat camera pixels: with a `common_origin` (the FaceTerms measure from it) that
+    origin once, each ray's own origin otherwise; the unit directions."""
     origins, directions = camera.pixel_rays
-    if camera.projection != "orthographic":
+    if common_origin:
         return origins[:1], np.asarray(directions[pixel])
     return np.asarray(origins[pixel]), np.asarray(directions[pixel])
 
