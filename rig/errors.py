@@ -50,3 +50,9 @@ class PlanError(SlrigError):
 class RecognitionError(SlrigError):
     """Raised when a scan cannot be described or identified: too little surface around its
     reference point, descriptor settings that differ from the gallery's, an empty gallery."""
+
+
+class GalleryError(RecognitionError):
+    """Raised when the recognition gallery refuses a change or cannot be read: a label that is not
+    a plain name, a scan already in it, an entry that is not there, a file that is not a gallery or
+    is from a newer slrig. The file is left as it was."""

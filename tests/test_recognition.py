@@ -100,7 +100,7 @@ def test_the_descriptor_ignores_a_turn_about_the_axis_and_a_shift(spectrum: str,
 
 def test_a_scan_without_surface_around_its_reference_point_is_refused() -> None:
     surface = _bumpy_dome(1)
-    hole = np.hypot(surface[:, 0], surface[:, 1] - 20.0) > 12.0  # a hole across the rings above the apex
+    hole = np.hypot(surface[:, 0], surface[:, 1] - 25.0) > 30.0  # across the rings above the apex, too wide to fill
     with pytest.raises(RecognitionError, match="too little surface around the reference point"):
         describe(surface[hole], UP, DescriptorSettings())
     with pytest.raises(RecognitionError, match="no points"):

@@ -98,6 +98,16 @@ def build_devices(config: RigConfig, world: World) -> tuple[list[Device], list[P
     return extras, projectors, cameras  # type: ignore[return-value]
 
 
+def rig_geometry(config: RigConfig) -> tuple[list[CameraModel], list[CameraModel]]:
+    """The cameras' and projectors' models reconstruction uses (calibrated where the config names a
+    calibration), without devices or the simulated world: what reading a stored scan needs."""
+    projector_models = [geometry_model(p.geometry, p.resolution) for p in config.projectors]
+    camera_models = [geometry_model(c.geometry, c.resolution) for c in config.cameras]
+    if config.calibration.file is not None:
+        camera_models, projector_models, _ = _calibrated_models(config, camera_models, projector_models)
+    return camera_models, projector_models
+
+
 def open_rig(config: RigConfig, with_devices: bool = True) -> Rig:
     """Open every device of `config` (housekeeping first, then projectors, then cameras; on any
     failure everything opened is closed again). Without devices, a rig of geometry only (and the

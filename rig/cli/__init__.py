@@ -26,6 +26,8 @@ COMMANDS = {
     "doctor": ("rig.cli.bench_setup", "cmd_doctor"),
     "serve": ("rig.cli.serving", "cmd_serve"),
     "plan": ("rig.cli.planning", "cmd_plan"),
+    "gallery": ("rig.cli.recognising", "cmd_gallery"),
+    "identify": ("rig.cli.recognising", "cmd_identify"),
 }
 
 

@@ -124,11 +124,36 @@ def _cal_command(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-
     cal.add_argument("--json", action="store_true", help="print one JSON object instead of text")
 
 
+def _recognition_commands(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
+    gallery = sub.add_parser("gallery", help="the recognition gallery: labelled scans to identify others against")
+    action = gallery.add_subparsers(dest="action", required=True)
+    add = action.add_parser("add", help="describe a scan directory and add it under a label")
+    add.add_argument("scan_dir", type=Path)
+    add.add_argument("--label", required=True, help="a plain name: letters, digits, '.', '_', '-'")
+    sizes = (("rings", int, 8), ("samples", int, 64), ("inner-mm", float, 6), ("outer-mm", float, 48))
+    for name, kind, default in sizes:
+        add.add_argument(f"--{name}", type=kind, default=None, help=f"descriptor (first entry only; default {default})")
+    add.add_argument("--distance", choices=["geodesic", "euclidean"], default=None, help="descriptor (geodesic)")
+    add.add_argument("--spectrum", choices=["per_ring", "concatenated"], default=None, help="descriptor (per_ring)")
+    lister = action.add_parser("list", help="the gallery's entries")
+    remove = action.add_parser("remove", help="remove an entry by its id")
+    remove.add_argument("entry_id", type=int)
+    identify = sub.add_parser("identify", help="identify a scan directory against the gallery")
+    identify.add_argument("scan_dir", type=Path)
+    identify.add_argument("--top", type=int, default=5, help="labels to list (5)")
+    identify.add_argument("--threshold", type=float, default=None, help="below this score: unknown (0.5)")
+    identify.add_argument("--raw", action="store_true", help="the published comparison: raw correlation")
+    for p in (add, lister, remove, identify):
+        p.add_argument("--config", type=Path, default=None, help="rig description; the gallery is in its data_dir")
+        p.add_argument("--gallery", type=Path, default=None, help="gallery file (default <data_dir>/gallery.db)")
+        p.add_argument("--json", action="store_true", help="print one JSON object instead of text")
+
+
 def parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="slrig", description="Structured-light 3D scanning rig.")
     parser.add_argument("--version", action="version", version=f"slrig {__version__}")
     sub = parser.add_subparsers(dest="command", required=True)
     commands = (_scan_command, _evaluate_command, _plan_command, _serve_command, _devices_command, _doctor_command)
-    for add in (*commands, _cal_command):
+    for add in (*commands, _cal_command, _recognition_commands):
         add(sub)
     return parser

@@ -22,11 +22,14 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from rig.errors import RecognitionError
-from rig.recognition.geodesic import HeightField, geodesic_distances, height_field, sample
+from rig.recognition.geodesic import HeightField, fill_holes, geodesic_distances, height_field, sample
 
 MAX_MISSING = 0.05  # the fraction of ring samples that may fall in holes (filled along the ring)
 _APEX_SUPPORT = 8  # the apex is the nearest point to the viewer with this many points within ...
 _APEX_RADIUS_MM = 1.5  # ... this distance: a lone outlier is not an apex
+FRAME_ITERATIONS = 6  # the balanced frame's axis settles within 0.1 deg in 3 to 4 on faces
+FRAME_CELL_MM = 2.0  # the balanced frame's rings are sampled on a coarser field
+_APEX_REACH_MM = 15.0  # a re-centred apex stays on the feature it started on
 
 
 @dataclass(frozen=True)
@@ -37,7 +40,24 @@ class DescriptorSettings:
     outer_mm: float = 48.0
     distance: Literal["geodesic", "euclidean"] = "geodesic"
     spectrum: Literal["per_ring", "concatenated"] = "per_ring"
+    frame: Literal["balanced", "viewer"] = "balanced"
     cell_mm: float = 1.0
+
+    def __post_init__(self) -> None:
+        """ValueError naming the first setting out of its range."""
+        checks = [
+            ("rings", 1 <= self.rings <= 64, "1 to 64"),
+            ("samples", 8 <= self.samples <= 1024 and self.samples % 2 == 0, "an even number, 8 to 1024"),
+            ("inner_mm", 0 < self.inner_mm < self.outer_mm, "above 0 and below outer_mm"),
+            ("outer_mm", self.outer_mm <= 500, "at most 500"),
+            ("distance", self.distance in ("geodesic", "euclidean"), "geodesic or euclidean"),
+            ("spectrum", self.spectrum in ("per_ring", "concatenated"), "per_ring or concatenated"),
+            ("frame", self.frame in ("balanced", "viewer"), "balanced or viewer"),
+            ("cell_mm", 0.1 <= self.cell_mm <= 10 and self.cell_mm < self.inner_mm, "0.1 to 10 and below inner_mm"),
+        ]
+        for name, ok, expected in checks:
+            if not ok:
+                raise ValueError(f"{name}: {getattr(self, name)!r} is not {expected}")
 
     def radii(self) -> np.ndarray:
         return np.linspace(self.inner_mm, self.outer_mm, self.rings)
@@ -51,14 +71,16 @@ class Descriptor:
     features: np.ndarray  # (K * (M // 2 + 1),) or (K * M // 2 + 1,) float64
     distances: np.ndarray  # (K, M) each ring sample's distance to the reference point, mm
     reference: np.ndarray  # (3,)
+    axis: np.ndarray  # (3,) unit, toward the viewer: the rings are circles about it
     settings: DescriptorSettings
 
 
 def apex(points: np.ndarray, toward_viewer: np.ndarray) -> np.ndarray:
     """The point of the surface nearest the viewer along `toward_viewer`, ignoring lone points."""
     height = points @ (toward_viewer / np.linalg.norm(toward_viewer))
-    order = np.argsort(-height)[:2000]
-    tree = cKDTree(points)
+    top = np.argpartition(-height, 2000)[:2000] if len(height) > 2000 else np.arange(len(height))
+    order = top[np.argsort(-height[top])]
+    tree = cKDTree(points[height >= height[order[-1]] - _APEX_RADIUS_MM])  # all a candidate's neighbours
     support = np.array([len(n) for n in tree.query_ball_point(points[order], _APEX_RADIUS_MM)])
     found = np.flatnonzero(support > _APEX_SUPPORT)
     if len(found) == 0:
@@ -77,15 +99,50 @@ def describe(
     settings = settings or DescriptorSettings()
     if len(points) == 0:
         raise RecognitionError("the scan has no points")
-    reference = apex(points, toward_viewer) if reference is None else np.asarray(reference, float)
-    field = height_field(points, reference, toward_viewer, 1.5 * settings.outer_mm, settings.cell_mm)
+    axis = np.asarray(toward_viewer, float) / np.linalg.norm(toward_viewer)
+    if reference is None:
+        reference = apex(points, axis)
+        if settings.frame == "balanced":
+            reference, axis = balanced_frame(points, reference, axis, settings)
+    reference = np.asarray(reference, float)
+    field = fill_holes(height_field(points, reference, axis, 1.5 * settings.outer_mm, settings.cell_mm))
     on_surface = ring_points(field, reference, settings)
     if settings.distance == "geodesic":
         distances = sample(field, geodesic_distances(field, reference), on_surface.reshape(-1, 3))
     else:
         distances = np.linalg.norm(on_surface.reshape(-1, 3) - reference, axis=1)
     distances = _fill_along_rings(distances.reshape(settings.rings, settings.samples), settings)
-    return Descriptor(spectrum(distances, settings), distances, reference, settings)
+    return Descriptor(spectrum(distances, settings), distances, reference, axis, settings)
+
+
+def balanced_frame(
+    points: np.ndarray, reference: np.ndarray, axis: np.ndarray, settings: DescriptorSettings
+) -> tuple[np.ndarray, np.ndarray]:
+    """The reference point and axis a small tilt of the object does not change: the axis about
+    which the surface's heights on the rings have no first harmonic (a tilt adds r tan(t) cos(a)
+    to them: a plane fitted to the ring samples), the apex along it near where it was; repeated
+    until the axis settles."""
+    for _ in range(FRAME_ITERATIONS):
+        field = height_field(points, reference, axis, settings.outer_mm + FRAME_CELL_MM, FRAME_CELL_MM)
+        on_rings = ring_points(field, reference, settings).reshape(-1, 3)
+        on_rings = on_rings[np.isfinite(on_rings[:, 0])]
+        if len(on_rings) < 3 * settings.rings:
+            raise RecognitionError(
+                f"too little surface around the reference point: {len(on_rings)} ring samples "
+                f"within {settings.outer_mm:g} mm"
+            )
+        local = (on_rings - reference) @ field.axes.T
+        design = np.column_stack([np.ones(len(local)), local[:, :2]])
+        _, slope_u, slope_v = np.linalg.lstsq(design, local[:, 2], rcond=None)[0]
+        tilted = field.axes[2] - slope_u * field.axes[0] - slope_v * field.axes[1]
+        tilted /= np.linalg.norm(tilted)
+        settled = tilted @ axis > np.cos(np.radians(0.1))
+        axis = tilted
+        near = np.linalg.norm(np.cross(points - reference, axis), axis=1) <= _APEX_REACH_MM
+        reference = apex(points[near], axis)
+        if settled:
+            break
+    return reference, axis
 
 
 def ring_points(field: HeightField, reference: np.ndarray, settings: DescriptorSettings) -> np.ndarray:

@@ -12,6 +12,10 @@ exact distances on a sphere and a tilted plane. A step is not taken across a dep
 rises more steeply than `MAX_SLOPE_DEG`, or where a cell it passes over is empty or off its line by
 more than `STRAIGHT_MM`.
 
+Holes narrower than `2 * FILL_MM` (between a sparse scan's rings, where an interpolated surface
+left out a triangle) are filled linearly from the cells around them (`fill_holes`), so that ring
+samples alone, or a surface with gaps, still give a connected field.
+
 Chosen over the libraries of reference 5.6: the heat method (potpourri3d) and exact polyhedral
 geodesics (gdist, pygeodesic) need a clean triangle mesh and a compiled dependency; a scan is a
 cloud with holes, and this needs only SciPy.
@@ -23,13 +27,16 @@ from dataclasses import dataclass
 from math import gcd
 
 import numpy as np
-from scipy.ndimage import map_coordinates
+from scipy.interpolate import LinearNDInterpolator
+from scipy.ndimage import binary_dilation, distance_transform_edt, map_coordinates
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import dijkstra
+from scipy.spatial import QhullError
 
 LAYER_MM = 1.0  # a cell's points this far below its highest are a surface behind a depth edge
 MAX_SLOPE_DEG = 80.0  # a step rising more steeply than this crosses a depth edge ...
 STRAIGHT_MM = 1.0  # ... as does one over a cell this far off the line between its ends
+FILL_MM = 12.0  # an empty cell this close to a measured one is filled from the cells around its hole
 STENCIL = [(du, dv) for du in range(-3, 4) for dv in range(0, 4) if (dv > 0 or du > 0) and gcd(du, dv) == 1]
 
 
@@ -77,6 +84,26 @@ def height_field(
     height = _plane_at_centre(flat[layer], offset, local[layer, 2], size * size)
     origin = centre - radius_mm * (axes[0] + axes[1])
     return HeightField(height.reshape(size, size), origin, axes, cell_mm)
+
+
+def fill_holes(field: HeightField, fill_mm: float = FILL_MM) -> HeightField:
+    """The field with each empty cell within `fill_mm` of a measured one filled by linear
+    interpolation over the measured cells around its hole (Delaunay); cells outside their hull and
+    farther away stay empty."""
+    known = np.isfinite(field.height)
+    reach = fill_mm / field.cell_mm
+    gap = ~known & (distance_transform_edt(~known) <= reach)
+    if not gap.any() or known.sum() < 3:
+        return field
+    rim = known & binary_dilation(gap, np.ones((3, 3), bool))  # a hole's edge is enough to span it
+    rows, cols = np.nonzero(rim)
+    try:
+        fill = LinearNDInterpolator(np.column_stack([rows, cols]), field.height[rim])
+    except QhullError:  # the rim is degenerate (its cells on one line)
+        return field
+    height = field.height.copy()
+    height[gap] = fill(np.column_stack(np.nonzero(gap)))
+    return HeightField(height, field.origin, field.axes, field.cell_mm)
 
 
 def _plane_at_centre(cell: np.ndarray, offset: np.ndarray, height: np.ndarray, cells: int) -> np.ndarray:

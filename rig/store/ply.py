@@ -68,16 +68,8 @@ def mesh_ply_bytes(mesh: Mesh, comment: str = "slrig") -> bytes:
 
 def read_cloud_ply(data: bytes, source: str = "cloud.ply") -> PointSet:
     """A cloud written by `ply_bytes`; raises StoreError for any other layout."""
-    end = data.find(b"end_header\n")
-    header = data[:end].decode("ascii", errors="replace").splitlines() if end >= 0 else []
-    expected = [f"property {'float' if _VERTEX[n].kind == 'f' else 'uchar'} {n}" for n in _VERTEX.names]
-    count = next((int(line.split()[2]) for line in header if line.startswith("element vertex ")), None)
-    body = data[end + len(b"end_header\n") :] if end >= 0 else b""
-    if count is None or [line for line in header if line.startswith("property")] != expected:
-        raise StoreError(f"{source}: not a cloud slrig wrote (binary PLY with {', '.join(_VERTEX.names)})")
-    if len(body) < count * _VERTEX.itemsize:
-        raise StoreError(f"{source}: truncated ({len(body)} bytes for {count} vertices)")
-    vertex = np.frombuffer(body, dtype=_VERTEX, count=count)
+    vertex = _read_vertices(data, source, _VERTEX, "a cloud")
+    count = len(vertex)
     return PointSet(
         points=np.column_stack([vertex[a] for a in "xyz"]).astype(np.float64),
         normals=np.column_stack([vertex["n" + a] for a in "xyz"]).astype(np.float32),
@@ -87,3 +79,24 @@ def read_cloud_ply(data: bytes, source: str = "cloud.ply") -> PointSet:
         pixel=np.full(count, -1, np.int64),
         angle=vertex["angle"].copy(),
     )
+
+
+def read_mesh_vertices(data: bytes, source: str = "mesh.ply") -> np.ndarray:
+    """(V, 3) float64 vertices of a mesh written by `mesh_ply_bytes`; raises StoreError for any other layout."""
+    vertex = _read_vertices(data, source, _MESH_VERTEX, "a mesh")
+    return np.column_stack([vertex[a] for a in "xyz"]).astype(np.float64)
+
+
+def _read_vertices(data: bytes, source: str, dtype: np.dtype, what: str) -> np.ndarray:
+    """The vertex element of a binary PLY whose vertex properties are exactly `dtype`'s."""
+    end = data.find(b"end_header\n")
+    header = data[:end].decode("ascii", errors="replace").splitlines() if end >= 0 else []
+    expected = [f"property {'float' if dtype[n].kind == 'f' else 'uchar'} {n}" for n in dtype.names or ()]
+    count = next((int(line.split()[2]) for line in header if line.startswith("element vertex ")), None)
+    body = data[end + len(b"end_header\n") :] if end >= 0 else b""
+    properties = [line for line in header if line.startswith("property")]
+    if count is None or properties[: len(expected)] != expected or "format binary_little_endian 1.0" not in header:
+        raise StoreError(f"{source}: not {what} slrig wrote (binary PLY with {', '.join(dtype.names or ())})")
+    if len(body) < count * dtype.itemsize:
+        raise StoreError(f"{source}: truncated ({len(body)} bytes for {count} vertices)")
+    return np.frombuffer(body, dtype=dtype, count=count)

@@ -1,0 +1,90 @@
+"""Identification: a probe's descriptor against the gallery's, ranked by correlation.
+
+Two comparisons:
+- `standardised` (default): each feature less the gallery's mean and divided by its spread over
+  the gallery before the correlation, so that what every surface shares (a face is a face: the
+  rings' mean excess, the nose's harmonics) does not make every pair look alike (raw correlations
+  between different faces are above 0.99);
+- `raw`: the published comparison, Pearson correlation of the features as they are.
+A gallery of fewer than `MIN_STANDARDISED` entries has no spread to divide by; it is compared raw.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Literal
+
+import numpy as np
+
+from rig.errors import RecognitionError
+from rig.recognition.gallery import Entry
+
+Comparison = Literal["standardised", "raw"]
+MIN_STANDARDISED = 3
+UNKNOWN = "unknown"
+EMPTY_GALLERY = "the gallery is empty: add labelled scans first (slrig gallery add SCAN_DIR --label NAME)"
+
+
+@dataclass(frozen=True)
+class Match:
+    label: str
+    score: float
+    entry_id: int
+    scan_id: str
+
+    def as_dict(self) -> dict[str, object]:
+        return {"label": self.label, "score": round(self.score, 6), "entry_id": self.entry_id, "scan_id": self.scan_id}
+
+
+@dataclass(frozen=True)
+class Identification:
+    label: str  # the best match's label, or UNKNOWN when its score is below the threshold
+    matches: list[Match]  # best first, one per label
+    threshold: float
+    comparison: Comparison
+
+    def as_dict(self) -> dict[str, object]:
+        return {
+            "label": self.label,
+            "threshold": self.threshold,
+            "comparison": self.comparison,
+            "matches": [m.as_dict() for m in self.matches],
+        }
+
+
+def scores(probe: np.ndarray, gallery: np.ndarray, comparison: Comparison = "standardised") -> np.ndarray:
+    """(N,) the correlation of `probe` (F,) with each row of `gallery` (N, F)."""
+    if comparison == "standardised" and len(gallery) >= MIN_STANDARDISED:
+        mean = gallery.mean(axis=0)
+        spread = gallery.std(axis=0)
+        spread = np.where(spread > 1e-9 * max(float(spread.max()), 1e-300), spread, np.inf)  # constant features
+        gallery, probe = (gallery - mean) / spread, (probe - mean) / spread
+    rows = gallery - gallery.mean(axis=1, keepdims=True)
+    centred = probe - probe.mean()
+    norms = np.linalg.norm(rows, axis=1) * np.linalg.norm(centred)
+    return rows @ centred / np.maximum(norms, 1e-300)
+
+
+def identify(
+    probe: np.ndarray,
+    entries: list[Entry],
+    gallery: np.ndarray,
+    top: int = 5,
+    threshold: float = 0.5,
+    comparison: Comparison = "standardised",
+) -> Identification:
+    """The `top` labels best matching `probe` (each label's best entry), and the label it is
+    identified as (UNKNOWN below `threshold`). Raises RecognitionError for an empty gallery."""
+    if not entries:
+        raise RecognitionError(EMPTY_GALLERY)
+    if probe.shape != gallery.shape[1:]:
+        raise RecognitionError(f"the probe has {probe.size} features, the gallery's entries {gallery.shape[1]}")
+    score = scores(probe, gallery, comparison)
+    best: dict[str, Match] = {}
+    for i in np.argsort(-score, kind="stable"):
+        entry = entries[int(i)]
+        if entry.label not in best:
+            best[entry.label] = Match(entry.label, float(score[i]), entry.id, entry.scan_id)
+    matches = list(best.values())[: max(top, 1)]
+    label = matches[0].label if matches[0].score >= threshold else UNKNOWN
+    return Identification(label, matches, threshold, comparison)
