@@ -56,3 +56,12 @@ class GalleryError(RecognitionError):
     """Raised when the recognition gallery refuses a change or cannot be read: a label that is not
     a plain name, a scan already in it, an entry that is not there, a file that is not a gallery or
     is from a newer slrig. The file is left as it was."""
+
+
+class GalleryFileError(GalleryError):
+    """Raised when the gallery file cannot be used: not a gallery, from a newer slrig, unreadable.
+    It is left as it is."""
+
+
+class GalleryEntryNotFoundError(GalleryError):
+    """Raised when a gallery entry asked for by its id is not there."""

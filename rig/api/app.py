@@ -29,6 +29,7 @@ from rig.api.models import (
     RigView,
     ScanRequest,
 )
+from rig.api.recognition import recognition_errors, recognition_router
 from rig.api.security import MUTATING, READING, ApiSettings, BodyLimitMiddleware
 from rig.errors import ConfigError
 from rig.patterns import codec_class, codec_names
@@ -82,9 +83,11 @@ def create_app(service: JobService, settings: ApiSettings, stopping: Callable[[]
         )
     app.add_middleware(BodyLimitMiddleware, limit=settings.max_body_bytes)
     _error_handlers(app)
+    recognition_errors(app)
     app.include_router(_general(service), prefix="/v1")
     app.include_router(_jobs(service, JobKind.SCAN, "scans", is_stopping), prefix="/v1")
     app.include_router(_jobs(service, JobKind.CALIBRATION, "calibrations", is_stopping), prefix="/v1")
+    app.include_router(recognition_router(service, ERRORS), prefix="/v1")
     return app
 
 

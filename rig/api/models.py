@@ -9,10 +9,13 @@ from pydantic import BaseModel, ConfigDict, Field
 
 from rig.config import DeviceKind
 from rig.patterns import codec_names
+from rig.recognition.gallery import LABEL
 from rig.service.jobs import Job, JobKind, JobState
+from rig.service.recognition import DEFAULT_THRESHOLD
 
 JOB_ID_PATTERN = r"^[0-9]{8}-[0-9]{6}-[0-9a-f]{6}$"
 FILE_NAME_PATTERN = r"^[A-Za-z0-9][A-Za-z0-9_.-]{0,99}$"
+LABEL_PATTERN = f"^{LABEL.pattern}$"
 CodecName = Literal[tuple(codec_names())]  # type: ignore[valid-type]
 
 
@@ -47,6 +50,23 @@ class ReprocessRequest(_Request):
         None, gt=0, le=1000, description="depth-jump filter for dense codecs; default: the scan's setting"
     )
     label: str | None = Field(None, max_length=200)
+
+
+class GalleryAddRequest(_Request):
+    scan_id: str = Field(pattern=JOB_ID_PATTERN, description="a finished scan's id")
+    label: str = Field(pattern=LABEL_PATTERN, description="a plain name: letters, digits, '.', '_', '-'")
+    rings: int | None = Field(None, ge=1, le=64, description="descriptor rings (first entry only; default 8)")
+    samples: int | None = Field(None, ge=8, le=1024, description="samples per ring, even (first entry only; 64)")
+    inner_mm: float | None = Field(None, gt=0, le=500, description="the innermost ring's radius (first entry only; 6)")
+    outer_mm: float | None = Field(None, gt=0, le=500, description="the outermost ring's radius (first entry only; 48)")
+    distance: Literal["geodesic", "euclidean"] | None = None
+    spectrum: Literal["per_ring", "concatenated"] | None = None
+
+
+class IdentifyRequest(_Request):
+    top: int = Field(5, ge=1, le=100, description="labels to return")
+    threshold: float = Field(DEFAULT_THRESHOLD, ge=-1, le=1, description="below this score: unknown")
+    comparison: Literal["standardised", "raw"] = "standardised"
 
 
 class CalibrationRequest(_Request):

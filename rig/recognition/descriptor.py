@@ -76,12 +76,17 @@ class Descriptor:
 
 
 def apex(points: np.ndarray, toward_viewer: np.ndarray) -> np.ndarray:
-    """The point of the surface nearest the viewer along `toward_viewer`, ignoring lone points."""
+    """The point of the surface nearest the viewer along `toward_viewer`, ignoring lone points (a
+    point needs `_APEX_SUPPORT` others within `_APEX_RADIUS_MM`, or 3 point spacings in a sparse scan)."""
     height = points @ (toward_viewer / np.linalg.norm(toward_viewer))
     top = np.argpartition(-height, 2000)[:2000] if len(height) > 2000 else np.arange(len(height))
     order = top[np.argsort(-height[top])]
-    tree = cKDTree(points[height >= height[order[-1]] - _APEX_RADIUS_MM])  # all a candidate's neighbours
-    support = np.array([len(n) for n in tree.query_ball_point(points[order], _APEX_RADIUS_MM)])
+    if len(order) < 2:
+        raise RecognitionError("no apex: the scan has fewer than two points")
+    spacing = float(np.median(cKDTree(points[order]).query(points[order], k=2)[0][:, 1]))
+    radius = max(_APEX_RADIUS_MM, 3.0 * spacing)
+    tree = cKDTree(points[height >= height[order[-1]] - radius])  # every candidate's neighbours
+    support = np.array([len(n) for n in tree.query_ball_point(points[order], radius)])
     found = np.flatnonzero(support > _APEX_SUPPORT)
     if len(found) == 0:
         raise RecognitionError("no apex: the scan has no surface of more than a few scattered points")

@@ -17,7 +17,7 @@ from pathlib import Path
 
 import numpy as np
 
-from rig.errors import GalleryError
+from rig.errors import GalleryEntryNotFoundError, GalleryError, GalleryFileError
 from rig.recognition.descriptor import Descriptor, DescriptorSettings
 
 GALLERY_NAME = "gallery.db"
@@ -134,7 +134,7 @@ class Gallery:
             ).fetchone()
         )
         if row is None:
-            raise GalleryError(f"no gallery entry {entry_id}")
+            raise GalleryEntryNotFoundError(f"no gallery entry {entry_id}")
         return _entry(row)
 
     def entries(self, label: str | None = None) -> list[Entry]:
@@ -182,8 +182,8 @@ def _connect(path: Path) -> sqlite3.Connection:
             db.executescript(_SCHEMA)
     except sqlite3.DatabaseError as exc:
         db.close()
-        raise GalleryError(f"{path}: not a gallery ({exc}); it is left as it is") from None
-    except GalleryError:
+        raise GalleryFileError(f"{path}: not a gallery ({exc}); it is left as it is") from None
+    except GalleryFileError:
         db.close()
         raise
     return db
@@ -198,15 +198,15 @@ def _check_file(path: Path) -> None:
         with path.open("rb") as f:
             head = f.read(len(_SQLITE_MAGIC))
     except OSError as exc:
-        raise GalleryError(f"{path}: cannot read the gallery ({exc.strerror})") from None
+        raise GalleryFileError(f"{path}: cannot read the gallery ({exc.strerror})") from None
     if head != _SQLITE_MAGIC:
-        raise GalleryError(f"{path}: not a gallery (not an SQLite database); it is left as it is")
+        raise GalleryFileError(f"{path}: not a gallery (not an SQLite database); it is left as it is")
 
 
 def _check_schema(db: sqlite3.Connection, path: Path) -> None:
     version = db.execute("PRAGMA user_version").fetchone()[0]
     if version > VERSION:
-        raise GalleryError(f"{path}: a gallery from a newer slrig (version {version}; this one reads {VERSION})")
+        raise GalleryFileError(f"{path}: a gallery from a newer slrig (version {version}; this one reads {VERSION})")
     columns = {row[1] for row in db.execute("PRAGMA table_info(entries)")}
     if version != VERSION or columns != _COLUMNS:
-        raise GalleryError(f"{path}: not a gallery (no entries table of version {VERSION}); it is left as it is")
+        raise GalleryFileError(f"{path}: not a gallery (no entries table of version {VERSION}); it is left as it is")

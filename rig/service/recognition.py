@@ -17,7 +17,7 @@ import numpy as np
 
 from rig.assembly import rig_geometry
 from rig.config import config_from_dict
-from rig.errors import GalleryError, RecognitionError, SlrigError
+from rig.errors import RecognitionError, SlrigError
 from rig.recognition.descriptor import Descriptor, DescriptorSettings, describe
 from rig.recognition.gallery import GALLERY_NAME, Entry, Gallery
 from rig.recognition.identify import EMPTY_GALLERY, Comparison, Identification, identify
@@ -87,12 +87,12 @@ def identify_scan(
 
 
 def settings_from(options: dict[str, Any]) -> DescriptorSettings | None:
-    """Descriptor settings from the options given (None where none was); GalleryError naming a bad one."""
+    """Descriptor settings from the options given (None where none was); RecognitionError naming a bad one."""
     given = {k: v for k, v in options.items() if v is not None}
     if not given:
         return None
     try:
         settings = DescriptorSettings(**given)
     except (TypeError, ValueError) as exc:
-        raise GalleryError(f"descriptor settings: {exc}") from None
+        raise RecognitionError(f"descriptor settings: {exc}") from None
     return settings

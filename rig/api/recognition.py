@@ -1,0 +1,84 @@
+"""The recognition routes: the gallery (list, add a finished scan, delete an entry) and the
+identification of a finished scan. Gallery changes are serialised by one lock."""
+
+from __future__ import annotations
+
+import threading
+from typing import Annotated, Any
+
+from fastapi import APIRouter, FastAPI, Path, Request, Response, status
+from fastapi.responses import JSONResponse
+
+from rig.api.models import JOB_ID_PATTERN, GalleryAddRequest, IdentifyRequest
+from rig.api.security import MUTATING, READING
+from rig.errors import GalleryEntryNotFoundError, GalleryError, GalleryFileError, RecognitionError
+from rig.recognition.gallery import Gallery
+from rig.service.errors import JobConflictError
+from rig.service.jobs import JobKind, JobState
+from rig.service.recognition import gallery_add, gallery_path, identify_scan, settings_from
+from rig.service.runner import JobService
+
+JobId = Annotated[str, Path(pattern=JOB_ID_PATTERN, description="a finished scan's id")]
+EntryId = Annotated[int, Path(ge=1, le=2**62, description="a gallery entry's id")]
+
+
+def recognition_router(service: JobService, errors: dict[int | str, dict[str, Any]]) -> APIRouter:
+    router = APIRouter(tags=["recognition"], responses=errors)
+    lock = threading.Lock()
+    path = gallery_path(service.data_dir)
+
+    def scan_folder(scan_id: str) -> Any:
+        job = service.job(scan_id, JobKind.SCAN)
+        if job.state is not JobState.DONE:
+            raise JobConflictError(f"scan {scan_id} is {job.state}; only a finished scan can be described")
+        return service.job_folder(job)
+
+    @router.get("/gallery", dependencies=READING)
+    def list_gallery() -> dict[str, Any]:
+        with Gallery(path) as gallery:
+            settings = gallery.settings()
+            return {
+                "settings": None if settings is None else settings.as_dict(),
+                "entries": [e.as_dict() for e in gallery.entries()],
+            }
+
+    @router.post("/gallery", status_code=status.HTTP_201_CREATED, dependencies=MUTATING)
+    def add_to_gallery(body: GalleryAddRequest, response: Response) -> dict[str, Any]:
+        folder = scan_folder(body.scan_id)
+        options = body.model_dump(include={"rings", "samples", "inner_mm", "outer_mm", "distance", "spectrum"})
+        with lock, Gallery(path) as gallery:
+            entry = gallery_add(gallery, folder, body.label, settings_from(options))
+        response.headers["Location"] = f"/v1/gallery/{entry.id}"
+        return entry.as_dict()
+
+    @router.delete("/gallery/{entry_id}", status_code=status.HTTP_204_NO_CONTENT, dependencies=MUTATING)
+    def delete_entry(entry_id: EntryId) -> Response:
+        with lock, Gallery(path) as gallery:
+            gallery.remove(entry_id)
+        return Response(status_code=status.HTTP_204_NO_CONTENT)
+
+    @router.post("/scans/{scan_id}/identify", dependencies=MUTATING)
+    def identify(scan_id: JobId, body: IdentifyRequest) -> dict[str, Any]:
+        folder = scan_folder(scan_id)
+        with Gallery(path) as gallery:
+            _, found = identify_scan(gallery, folder, body.top, body.threshold, body.comparison)
+        return {"scan_id": scan_id, **found.as_dict()}
+
+    return router
+
+
+def recognition_errors(app: FastAPI) -> None:
+    """Gallery conflicts (a scan already in it, other settings) 409, missing entries 404, scans that
+    cannot be described 422, a gallery
+    file that cannot be read 503 (it is left as it is)."""
+
+    def handler(code: int):  # type: ignore[no-untyped-def]
+        async def respond(request: Request, exc: Exception) -> JSONResponse:
+            return JSONResponse({"detail": str(exc)}, status_code=code)
+
+        return respond
+
+    app.add_exception_handler(GalleryError, handler(409))  # a scan already in it, other settings
+    app.add_exception_handler(GalleryEntryNotFoundError, handler(404))
+    app.add_exception_handler(GalleryFileError, handler(503))
+    app.add_exception_handler(RecognitionError, handler(422))
