@@ -52,6 +52,8 @@ def cmd_identify(args: argparse.Namespace) -> int:
     if args.top < 1:
         raise RecognitionError(f"--top: {args.top} is not a positive count")
     threshold = DEFAULT_THRESHOLD if args.threshold is None else args.threshold
+    if not -1.0 <= threshold <= 1.0:
+        raise RecognitionError(f"--threshold: {threshold:g} is not a score between -1 and 1")
     with Gallery(_gallery_file(args)) as gallery:
         comparison = "raw" if args.raw else "standardised"
         scan_id, found = identify_scan(gallery, args.scan_dir, args.top, threshold, comparison)
