@@ -2,10 +2,12 @@
 surface, M samples on each at fixed polar angles, each sample's geodesic distance to the reference
 point, and the magnitude of the Fourier transform, compared by correlation.
 
-The rings are circles of radius R_k about the axis through the reference point (the viewing axis:
-a projector's rings are such circles when centred there), met on the surface. The magnitude of each
-ring's spectrum does not change when the object turns about that axis (the samples shift along
-the ring), nor when it moves (the reference point moves with it).
+The rings are circles of radius R_k about an axis through the reference point, met on the surface.
+`frame: viewer` (the published choice) takes the viewing axis and the apex along it; `frame:
+balanced` (default) starts there and tilts the axis until the surface's heights on the rings have
+no first harmonic, then finds the apex again along it (`balanced_frame`), so that a small tilt of
+the object moves neither. The magnitude of each ring's spectrum does not change when the object
+turns about the axis (the samples shift along the ring), nor when it moves.
 
 - `spectrum: per_ring` (default): each ring's distances less the ring's radius (what the surface
   adds to a flat disc), |FFT| per ring, concatenated: exactly invariant to turns by a multiple of
