@@ -29,9 +29,9 @@ from rig.api.models import (
     RigView,
     ScanRequest,
 )
-from rig.api.recognition import recognition_errors, recognition_router
+from rig.api.recognition import recognition_router
 from rig.api.security import MUTATING, READING, ApiSettings, BodyLimitMiddleware
-from rig.errors import ConfigError
+from rig.errors import ConfigError, GalleryEntryNotFoundError, GalleryError, GalleryFileError, RecognitionError
 from rig.patterns import codec_class, codec_names
 from rig.service.errors import JobConflictError, JobNotFoundError, QueueFullError, ServiceStoppingError
 from rig.service.jobs import JobKind
@@ -83,7 +83,6 @@ def create_app(service: JobService, settings: ApiSettings, stopping: Callable[[]
         )
     app.add_middleware(BodyLimitMiddleware, limit=settings.max_body_bytes)
     _error_handlers(app)
-    recognition_errors(app)
     app.include_router(_general(service), prefix="/v1")
     app.include_router(_jobs(service, JobKind.SCAN, "scans", is_stopping), prefix="/v1")
     app.include_router(_jobs(service, JobKind.CALIBRATION, "calibrations", is_stopping), prefix="/v1")
@@ -102,6 +101,10 @@ def _error_handlers(app: FastAPI) -> None:
     app.add_exception_handler(JobConflictError, handler(409))
     app.add_exception_handler(QueueFullError, handler(429, {"Retry-After": "5"}))
     app.add_exception_handler(ServiceStoppingError, handler(503))
+    app.add_exception_handler(GalleryError, handler(409))  # a scan already in it, other settings
+    app.add_exception_handler(GalleryEntryNotFoundError, handler(404))
+    app.add_exception_handler(GalleryFileError, handler(503))  # not a gallery, or newer: left as it is
+    app.add_exception_handler(RecognitionError, handler(422))  # too little surface, an empty gallery
 
     async def config_error(request: Request, exc: Exception) -> JSONResponse:
         problems = exc.problems if isinstance(exc, ConfigError) else [str(exc)]

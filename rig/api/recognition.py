@@ -4,14 +4,13 @@ identification of a finished scan. Gallery changes are serialised by one lock.""
 from __future__ import annotations
 
 import threading
+from pathlib import Path as FilePath
 from typing import Annotated, Any
 
-from fastapi import APIRouter, FastAPI, Path, Request, Response, status
-from fastapi.responses import JSONResponse
+from fastapi import APIRouter, Path, Response, status
 
 from rig.api.models import JOB_ID_PATTERN, GalleryAddRequest, IdentifyRequest
 from rig.api.security import MUTATING, READING
-from rig.errors import GalleryEntryNotFoundError, GalleryError, GalleryFileError, RecognitionError
 from rig.recognition.gallery import Gallery
 from rig.service.errors import JobConflictError
 from rig.service.jobs import JobKind, JobState
@@ -27,7 +26,7 @@ def recognition_router(service: JobService, errors: dict[int | str, dict[str, An
     lock = threading.Lock()
     path = gallery_path(service.data_dir)
 
-    def scan_folder(scan_id: str) -> Any:
+    def scan_folder(scan_id: str) -> FilePath:
         job = service.job(scan_id, JobKind.SCAN)
         if job.state is not JobState.DONE:
             raise JobConflictError(f"scan {scan_id} is {job.state}; only a finished scan can be described")
@@ -65,20 +64,3 @@ def recognition_router(service: JobService, errors: dict[int | str, dict[str, An
         return {"scan_id": scan_id, **found.as_dict()}
 
     return router
-
-
-def recognition_errors(app: FastAPI) -> None:
-    """Gallery conflicts (a scan already in it, other settings) 409, missing entries 404, scans that
-    cannot be described 422, a gallery
-    file that cannot be read 503 (it is left as it is)."""
-
-    def handler(code: int):  # type: ignore[no-untyped-def]
-        async def respond(request: Request, exc: Exception) -> JSONResponse:
-            return JSONResponse({"detail": str(exc)}, status_code=code)
-
-        return respond
-
-    app.add_exception_handler(GalleryError, handler(409))  # a scan already in it, other settings
-    app.add_exception_handler(GalleryEntryNotFoundError, handler(404))
-    app.add_exception_handler(GalleryFileError, handler(503))
-    app.add_exception_handler(RecognitionError, handler(422))
