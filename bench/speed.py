@@ -4,7 +4,10 @@
 - decode + triangulate of one 1280x1024 scan per codec (median of 7), and the PointSet step
   (normals, colours) and, for ring codecs, the surface and its colour between the rings separately
   (colour by the density-compensated interpolant, scan.surface.colour = area);
-- peak resident memory of a whole `slrig scan` per codec, each in a fresh process.
+- peak resident memory of a whole `slrig scan` per codec, each in a fresh process;
+- recognition: the descriptor of the default 32-ring scan (its cloud and the surface between its
+  rings, as `slrig identify` reads it; median of 5), and identification against a gallery of 1000
+  entries (reading the SQLite gallery and scoring every entry; median of 20).
 
     python bench/speed.py            # JSON
     python bench/speed.py --readme   # also rewrite the speed table in README.md
@@ -21,6 +24,7 @@ import subprocess
 import sys
 import tempfile
 import time
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -32,8 +36,11 @@ from _readme import markdown_table, replace_block
 from rig.assembly import open_rig
 from rig.config import RigConfig, config_from_dict, load_config
 from rig.patterns import codec_names
-from rig.pipeline.scan import capture, make_codec, reconstruct_pair
+from rig.pipeline.scan import capture, make_codec, reconstruct_pair, run_scan
 from rig.progress import ProgressTracker
+from rig.recognition.descriptor import describe
+from rig.recognition.gallery import Gallery
+from rig.recognition.identify import identify
 
 _PEAK_SNIPPET = """
 import json, resource, sys
@@ -99,6 +106,39 @@ def reconstruction(codec_name: str, repeats: int = 7, config: RigConfig | None =
     }
 
 
+def recognition(gallery_entries: int = 1000) -> dict[str, float]:
+    config = load_config().with_codec("rings")
+    with open_rig(config) as rig:
+        result = run_scan(rig, "rings")
+        axis = -np.asarray(rig.projector_models[0].axis, float)
+    assert result.mesh is not None
+    points = np.concatenate([result.cloud.points, result.mesh.vertices])
+    describe(points, axis)  # untimed: first calls
+    times = []
+    for _ in range(5):
+        t0 = time.perf_counter()
+        descriptor = describe(points, axis)
+        times.append(time.perf_counter() - t0)
+    rng = np.random.default_rng(0)
+    with tempfile.TemporaryDirectory() as tmp:
+        with Gallery(Path(tmp) / "gallery.db", create=True) as gallery:
+            for i in range(gallery_entries):
+                noisy = descriptor.features * rng.normal(1.0, 0.2, descriptor.features.shape)
+                gallery.add(f"object-{i % 100}", f"scan-{i}", replace(descriptor, features=noisy))
+        lookups = []
+        for _ in range(20):
+            t0 = time.perf_counter()
+            with Gallery(Path(tmp) / "gallery.db") as gallery:
+                identify(descriptor.features, *gallery.features())
+            lookups.append(time.perf_counter() - t0)
+    return {
+        "points": len(points),
+        "describe_ms": round(statistics.median(times) * 1e3, 1),
+        "gallery_entries": gallery_entries,
+        "identify_ms": round(statistics.median(lookups) * 1e3, 1),
+    }
+
+
 def peak_memory(codec_name: str) -> float:
     with tempfile.TemporaryDirectory() as tmp:
         out = subprocess.run(
@@ -122,10 +162,11 @@ def main() -> None:
         "python": platform.python_version(),
         "simulated_frame_1280x1024": frame_time(),
         "codecs": {name: {**reconstruction(name), "scan_peak_rss_mb": peak_memory(name)} for name in codec_names()},
+        "recognition": recognition(),
     }
     print(json.dumps(result))
     if args.readme:
-        f = result["simulated_frame_1280x1024"]
+        f, r = result["simulated_frame_1280x1024"], result["recognition"]
         rows = [
             [
                 name,
@@ -155,6 +196,9 @@ def main() -> None:
         text = (
             f"Simulated 1280x1024 frame: {f['frame_ms_median']} ms median ({f['frame_ms_p90']} ms p90) after "  # type: ignore[index]
             f"the first, which casts the rays: {f['first_frame_s']} s.\n\n{table}\n\n"  # type: ignore[index]
+            f"Recognition: the descriptor of the default 32-ring scan ({r['points']} points) in {r['describe_ms']} ms; "
+            f"identification against {r['gallery_entries']} gallery entries (reading the gallery, scoring each) "
+            f"in {r['identify_ms']} ms.\n\n"
             f"Measured on {result['cpus']} cores by `python bench/speed.py --readme`."
         )
         replace_block("speed-table", text)

@@ -121,3 +121,23 @@ def test_the_face_set_is_reproducible_and_an_expression_moves_only_its_region() 
     assert moved[landmarks["nose_tip"]] < 0.3 and moved[landmarks["left_inner_eye"]] < 0.3
     with pytest.raises(ValueError, match="unknown expression"):
         faces.expression(one, "wink")
+
+
+def test_a_small_tilt_of_the_object_is_taken_out_by_the_balanced_frame() -> None:
+    """The viewer's axis stays while the dome tilts 6 degrees: the balanced frame finds the tilted
+    axis again (the published frame, the viewer's axis, sees a different surface)."""
+    surface = _bumpy_dome(1)
+    tilt = Rotation.from_euler("xy", [6.0, -3.0], degrees=True).as_matrix()
+    found = {}
+    for frame in ("balanced", "viewer"):
+        settings = DescriptorSettings(frame=frame)  # type: ignore[arg-type]
+        own = describe(surface, UP, settings)
+        tilted = describe((surface - own.reference) @ tilt.T + own.reference, UP, settings)
+        other = describe(_bumpy_dome(2), UP, settings)
+        found[frame] = float(
+            np.linalg.norm(tilted.features - own.features) / np.linalg.norm(other.features - own.features)
+        )
+        if frame == "balanced":
+            assert np.degrees(np.arccos(tilted.axis @ (tilt @ own.axis))) < 1.0  # the tilted axis, found
+    assert found["balanced"] < 0.25
+    assert found["balanced"] < 0.5 * found["viewer"]
