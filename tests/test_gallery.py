@@ -103,3 +103,15 @@ def test_standardising_removes_what_every_entry_shares() -> None:
     standardised = scores(probe, gallery, "standardised")
     assert raw.min() > 0.99  # raw: everything looks alike
     assert np.argmax(standardised) == 2 and np.sort(standardised)[-2] < 0.5 < standardised[2]
+
+
+def test_a_gallery_too_small_to_standardise_is_compared_raw_against_the_raw_threshold(tmp_path: Path) -> None:
+    with Gallery(tmp_path / "gallery.db") as gallery:
+        for i, label in enumerate(["alice", "bob"]):
+            gallery.add(label, f"scan-{i}", _descriptor(_features(i)))
+        entries, matrix = gallery.features()
+    probe = _features(1) + np.random.default_rng(9).normal(0, 0.01, 10)
+    thresholds = {"standardised": 0.999, "raw": 0.9}
+    found = identify(probe, entries, matrix, threshold=thresholds)  # type: ignore[arg-type]
+    assert found.comparison == "raw" and found.threshold == 0.9 and found.label == "bob"
+    assert found.matches[0].score == pytest.approx(scores(probe, matrix, "raw")[1])

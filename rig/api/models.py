@@ -11,7 +11,6 @@ from rig.config import DeviceKind
 from rig.patterns import codec_names
 from rig.recognition.gallery import LABEL
 from rig.service.jobs import Job, JobKind, JobState
-from rig.service.recognition import DEFAULT_THRESHOLD
 
 JOB_ID_PATTERN = r"^[0-9]{8}-[0-9]{6}-[0-9a-f]{6}$"
 FILE_NAME_PATTERN = r"^[A-Za-z0-9][A-Za-z0-9_.-]{0,99}$"
@@ -61,11 +60,14 @@ class GalleryAddRequest(_Request):
     outer_mm: float | None = Field(None, gt=0, le=500, description="the outermost ring's radius (first entry only; 48)")
     distance: Literal["geodesic", "euclidean"] | None = None
     spectrum: Literal["per_ring", "concatenated"] | None = None
+    frame: Literal["balanced", "viewer"] | None = None
 
 
 class IdentifyRequest(_Request):
     top: int = Field(5, ge=1, le=100, description="labels to return")
-    threshold: float = Field(DEFAULT_THRESHOLD, ge=-1, le=1, description="below this score: unknown")
+    threshold: float | None = Field(
+        None, ge=-1, le=1, description="below this score: unknown (default: per comparison, from the benchmark's EER)"
+    )
     comparison: Literal["standardised", "raw"] = "standardised"
 
 

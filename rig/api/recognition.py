@@ -44,7 +44,7 @@ def recognition_router(service: JobService, errors: dict[int | str, dict[str, An
     @router.post("/gallery", status_code=status.HTTP_201_CREATED, dependencies=MUTATING)
     def add_to_gallery(body: GalleryAddRequest, response: Response) -> dict[str, Any]:
         folder = scan_folder(body.scan_id)
-        options = body.model_dump(include={"rings", "samples", "inner_mm", "outer_mm", "distance", "spectrum"})
+        options = body.model_dump(include={"rings", "samples", "inner_mm", "outer_mm", "distance", "spectrum", "frame"})
         with lock, Gallery(path) as gallery:
             entry = gallery_add(gallery, folder, body.label, settings_from(options))
         response.headers["Location"] = f"/v1/gallery/{entry.id}"

@@ -135,13 +135,19 @@ def _recognition_commands(sub: argparse._SubParsersAction) -> None:  # type: ign
         add.add_argument(f"--{name}", type=kind, default=None, help=f"descriptor (first entry only; default {default})")
     add.add_argument("--distance", choices=["geodesic", "euclidean"], default=None, help="descriptor (geodesic)")
     add.add_argument("--spectrum", choices=["per_ring", "concatenated"], default=None, help="descriptor (per_ring)")
+    add.add_argument("--frame", choices=["balanced", "viewer"], default=None, help="descriptor (balanced)")
     lister = action.add_parser("list", help="the gallery's entries")
     remove = action.add_parser("remove", help="remove an entry by its id")
     remove.add_argument("entry_id", type=int)
     identify = sub.add_parser("identify", help="identify a scan directory against the gallery")
     identify.add_argument("scan_dir", type=Path)
     identify.add_argument("--top", type=int, default=5, help="labels to list (5)")
-    identify.add_argument("--threshold", type=float, default=None, help="below this score: unknown (0.5)")
+    identify.add_argument(
+        "--threshold",
+        type=float,
+        default=None,
+        help="below this score: unknown (default: per comparison, from the recognition benchmark's EER)",
+    )
     identify.add_argument("--raw", action="store_true", help="the published comparison: raw correlation")
     for p in (add, lister, remove, identify):
         p.add_argument("--config", type=Path, default=None, help="rig description; the gallery is in its data_dir")

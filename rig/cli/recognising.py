@@ -10,8 +10,8 @@ from pathlib import Path
 from rig.config import load_config
 from rig.errors import RecognitionError
 from rig.recognition.gallery import Gallery
+from rig.recognition.identify import Comparison
 from rig.service.recognition import (
-    DEFAULT_THRESHOLD,
     gallery_add,
     gallery_path,
     identify_scan,
@@ -30,7 +30,7 @@ def cmd_gallery(args: argparse.Namespace) -> int:
     with Gallery(path) as gallery:
         if args.action == "add":
             options = {"rings": args.rings, "samples": args.samples, "inner_mm": args.inner_mm}
-            options.update(outer_mm=args.outer_mm, distance=args.distance, spectrum=args.spectrum)
+            options.update(outer_mm=args.outer_mm, distance=args.distance, spectrum=args.spectrum, frame=args.frame)
             entry = gallery_add(gallery, args.scan_dir, args.label, settings_from(options))
             _print(args.json, entry.as_dict(), f"added entry {entry.id}: {entry.label} (scan {entry.scan_id})")
         elif args.action == "list":
@@ -51,11 +51,11 @@ def cmd_gallery(args: argparse.Namespace) -> int:
 def cmd_identify(args: argparse.Namespace) -> int:
     if args.top < 1:
         raise RecognitionError(f"--top: {args.top} is not a positive count")
-    threshold = DEFAULT_THRESHOLD if args.threshold is None else args.threshold
-    if not -1.0 <= threshold <= 1.0:
+    comparison: Comparison = "raw" if args.raw else "standardised"
+    threshold = args.threshold
+    if threshold is not None and not -1.0 <= threshold <= 1.0:
         raise RecognitionError(f"--threshold: {threshold:g} is not a score between -1 and 1")
     with Gallery(_gallery_file(args)) as gallery:
-        comparison = "raw" if args.raw else "standardised"
         scan_id, found = identify_scan(gallery, args.scan_dir, args.top, threshold, comparison)
     if args.json:
         print(json.dumps({"scan_id": scan_id, **found.as_dict()}))

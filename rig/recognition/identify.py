@@ -52,9 +52,14 @@ class Identification:
         }
 
 
+def compared_as(comparison: Comparison, entries: int) -> Comparison:
+    """The comparison a gallery of `entries` entries gets when `comparison` is asked for."""
+    return comparison if entries >= MIN_STANDARDISED else "raw"
+
+
 def scores(probe: np.ndarray, gallery: np.ndarray, comparison: Comparison = "standardised") -> np.ndarray:
     """(N,) the correlation of `probe` (F,) with each row of `gallery` (N, F)."""
-    if comparison == "standardised" and len(gallery) >= MIN_STANDARDISED:
+    if compared_as(comparison, len(gallery)) == "standardised":
         mean = gallery.mean(axis=0)
         spread = gallery.std(axis=0)
         spread = np.where(spread > 1e-9 * max(float(spread.max()), 1e-300), spread, np.inf)  # constant features
@@ -70,15 +75,19 @@ def identify(
     entries: list[Entry],
     gallery: np.ndarray,
     top: int = 5,
-    threshold: float = 0.5,
+    threshold: float | dict[Comparison, float] = 0.5,
     comparison: Comparison = "standardised",
 ) -> Identification:
     """The `top` labels best matching `probe` (each label's best entry), and the label it is
-    identified as (UNKNOWN below `threshold`). Raises RecognitionError for an empty gallery."""
+    identified as (UNKNOWN below `threshold`, or below the threshold of the comparison made when
+    given one per comparison). Raises RecognitionError for an empty gallery."""
     if not entries:
         raise RecognitionError(EMPTY_GALLERY)
     if probe.shape != gallery.shape[1:]:
         raise RecognitionError(f"the probe has {probe.size} features, the gallery's entries {gallery.shape[1]}")
+    comparison = compared_as(comparison, len(gallery))
+    if isinstance(threshold, dict):
+        threshold = threshold[comparison]
     score = scores(probe, gallery, comparison)
     best: dict[str, Match] = {}
     for i in np.argsort(-score, kind="stable"):

@@ -23,7 +23,9 @@ from rig.recognition.gallery import GALLERY_NAME, Entry, Gallery
 from rig.recognition.identify import EMPTY_GALLERY, Comparison, Identification, identify
 from rig.store.ply import read_cloud_ply, read_mesh_vertices
 
-DEFAULT_THRESHOLD = 0.5
+# below these scores a probe is "unknown": the equal-error thresholds bench/recognition.py measured
+# for the default descriptor (standardised) and the published one (raw) on the scanned face set
+DEFAULT_THRESHOLDS: dict[Comparison, float] = {"standardised": 0.5, "raw": 0.5}
 
 
 @dataclass(frozen=True, eq=False)
@@ -76,14 +78,17 @@ def gallery_add(gallery: Gallery, folder: Path, label: str, settings: Descriptor
 
 
 def identify_scan(
-    gallery: Gallery, folder: Path, top: int, threshold: float, comparison: Comparison = "standardised"
+    gallery: Gallery, folder: Path, top: int, threshold: float | None, comparison: Comparison = "standardised"
 ) -> tuple[str, Identification]:
+    """`folder`'s scan identified against the gallery; `threshold` None: the default for the
+    comparison made (a gallery of fewer than 3 entries is compared raw)."""
     entries, features = gallery.features()
     settings = gallery.settings()
     if settings is None:
         raise RecognitionError(EMPTY_GALLERY)
     scan_id, descriptor = describe_scan(folder, settings)
-    return scan_id, identify(descriptor.features, entries, features, top, threshold, comparison)
+    limit = DEFAULT_THRESHOLDS if threshold is None else threshold
+    return scan_id, identify(descriptor.features, entries, features, top, limit, comparison)
 
 
 def settings_from(options: dict[str, Any]) -> DescriptorSettings | None:
