@@ -64,7 +64,7 @@ def test_a_geodesic_does_not_step_across_a_depth_edge() -> None:
     assert abs(from_block[0] - 10.0) < 0.2 and not np.isfinite(from_block[1])
 
 
-def _bumpy_dome(seed: int) -> np.ndarray:
+def _bumpy_dome(seed: int, spacing_mm: float = 0.3) -> np.ndarray:
     """A dome 40 mm high with eight random bumps of up to 4 mm, as a camera above samples it."""
     rng = np.random.default_rng(seed)
     bumps = [(*rng.uniform(-40, 40, 2), rng.uniform(-4, 4), rng.uniform(8, 15)) for _ in range(8)]
@@ -75,7 +75,7 @@ def _bumpy_dome(seed: int) -> np.ndarray:
             z = z + amplitude * np.exp(-((x - cx) ** 2 + (y - cy) ** 2) / (2 * sigma**2))
         return z
 
-    return _depth_map_points(height, half_mm=75.0, noise_mm=0.03)
+    return _depth_map_points(height, spacing_mm, half_mm=75.0, noise_mm=0.03)
 
 
 # per ring, a turn only shifts each ring's samples: its spectrum's magnitude stays; the published
@@ -126,18 +126,18 @@ def test_the_face_set_is_reproducible_and_an_expression_moves_only_its_region() 
 def test_a_small_tilt_of_the_object_is_taken_out_by_the_balanced_frame() -> None:
     """The viewer's axis stays while the dome tilts 6 degrees: the balanced frame finds the tilted
     axis again (the published frame, the viewer's axis, sees a different surface)."""
-    surface = _bumpy_dome(1)
+    surface = _bumpy_dome(1, spacing_mm=0.6)
     tilt = Rotation.from_euler("xy", [6.0, -3.0], degrees=True).as_matrix()
     found = {}
     for frame in ("balanced", "viewer"):
         settings = DescriptorSettings(frame=frame)  # type: ignore[arg-type]
         own = describe(surface, UP, settings)
         tilted = describe((surface - own.reference) @ tilt.T + own.reference, UP, settings)
-        other = describe(_bumpy_dome(2), UP, settings)
+        other = describe(_bumpy_dome(2, spacing_mm=0.6), UP, settings)
         found[frame] = float(
             np.linalg.norm(tilted.features - own.features) / np.linalg.norm(other.features - own.features)
         )
         if frame == "balanced":
-            assert np.degrees(np.arccos(tilted.axis @ (tilt @ own.axis))) < 1.0  # the tilted axis, found
-    assert found["balanced"] < 0.25
-    assert found["balanced"] < 0.5 * found["viewer"]
+            assert np.degrees(np.arccos(tilted.axis @ (tilt @ own.axis))) < 0.5  # the tilted axis: 0.01 measured
+    assert found["balanced"] < 0.1  # 0.03 measured; the viewer's frame: 1.8
+    assert found["balanced"] < 0.2 * found["viewer"]
