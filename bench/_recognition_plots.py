@@ -11,6 +11,7 @@ import numpy as np
 from _face_scans import Case
 
 from rig.recognition.descriptor import correlation
+from rig.recognition.identify import standardised
 
 COLOURS = {  # BGR
     "geodesic": (180, 80, 0),
@@ -58,15 +59,13 @@ def rank_one_plot(report: dict[str, Any], path: Path) -> None:
 def correlation_image(cases: list[Case], features: list[np.ndarray | None], path: Path, cell: int = 8) -> None:
     """Every scan against every scan: the correlation of their default descriptors, standardised
     by the gallery's spread as identification compares them; scans grouped by identity."""
-    gallery = [f for c, f in zip(cases, features, strict=True) if c.group == "gallery" and f is not None]
-    mean, spread = np.mean(gallery, axis=0), np.std(gallery, axis=0)
-    spread = np.where(spread > 1e-9 * spread.max(), spread, np.inf)
+    gallery = np.array([f for c, f in zip(cases, features, strict=True) if c.group == "gallery" and f is not None])
     n = len(cases)
     matrix = np.full((n, n), np.nan)
     for i, a in enumerate(features):
         for j, b in enumerate(features):
             if a is not None and b is not None:
-                matrix[i, j] = correlation((a - mean) / spread, (b - mean) / spread)
+                matrix[i, j] = correlation(standardised(a, gallery), standardised(b, gallery))
     scaled = np.clip((np.nan_to_num(matrix, nan=-1.0) + 1.0) / 2.0 * 255.0, 0, 255).astype(np.uint8)
     image = cv2.applyColorMap(np.kron(scaled, np.ones((cell, cell), np.uint8)), cv2.COLORMAP_VIRIDIS)
     label = 70

@@ -57,13 +57,18 @@ def compared_as(comparison: Comparison, entries: int) -> Comparison:
     return comparison if entries >= MIN_STANDARDISED else "raw"
 
 
+def standardised(features: np.ndarray, gallery: np.ndarray) -> np.ndarray:
+    """`features` (..., F) less the gallery's (N, F) mean, over its spread (features the gallery
+    holds constant: 0)."""
+    spread = gallery.std(axis=0)
+    spread = np.where(spread > 1e-9 * max(float(spread.max()), 1e-300), spread, np.inf)
+    return (features - gallery.mean(axis=0)) / spread
+
+
 def scores(probe: np.ndarray, gallery: np.ndarray, comparison: Comparison = "standardised") -> np.ndarray:
     """(N,) the correlation of `probe` (F,) with each row of `gallery` (N, F)."""
     if compared_as(comparison, len(gallery)) == "standardised":
-        mean = gallery.mean(axis=0)
-        spread = gallery.std(axis=0)
-        spread = np.where(spread > 1e-9 * max(float(spread.max()), 1e-300), spread, np.inf)  # constant features
-        gallery, probe = (gallery - mean) / spread, (probe - mean) / spread
+        gallery, probe = standardised(gallery, gallery), standardised(probe, gallery)
     rows = gallery - gallery.mean(axis=1, keepdims=True)
     centred = probe - probe.mean()
     norms = np.linalg.norm(rows, axis=1) * np.linalg.norm(centred)
