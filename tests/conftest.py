@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import copy
+import os
 from pathlib import Path
 from typing import Any
 
@@ -56,6 +57,16 @@ def small_config_data() -> dict[str, Any]:
     proj["geometry"]["intrinsics"] = {"fx": 375.0, "fy": 375.0, "cx": 127.5, "cy": 95.5}
     data["scan"]["phase"] = {"steps": 6, "period_px": 8}
     return data
+
+
+def shared_data(*parts: str) -> Path:
+    """A file or folder of the real captures made by other people (`$SLRIG_TEST_DATA`, else
+    ../shared/data beside the project); the test is skipped, saying why, where it is absent."""
+    root = Path(os.environ["SLRIG_TEST_DATA"]) if os.environ.get("SLRIG_TEST_DATA") else REPO.parent / "shared" / "data"
+    path = root.joinpath(*parts)
+    if not path.exists():
+        pytest.skip(f"real data {'/'.join(parts)} is not here ({root}; set SLRIG_TEST_DATA to the shared data folder)")
+    return path
 
 
 def write_config(tmp_path: Path, data: dict[str, Any], name: str = "rig.yaml") -> Path:

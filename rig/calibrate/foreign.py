@@ -1,0 +1,284 @@
+"""Projector-camera calibrations other tools wrote: OpenCV FileStorage (XML, YAML) and JSON, read
+into slrig's device models and checked on the way in.
+
+Other tools name their fields differently (procam-calibration: `cam_int`, `proj_int`, `roration`
+[sic]; OpenCV's stereo samples: `M1`, `D1`, `R`, `T`; many scripts: `camera_matrix`); each field
+is found under any of its usual names (`ALIASES`, compared without case), or under the name given
+in the options. What the file cannot say is an option: which way its R, T map (camera to
+projector, as OpenCV's stereoCalibrate returns them with the camera first, or the reverse), which
+device is the world frame, the resolutions where the file has none, the names of the devices.
+
+A size stored as a `shape` is (rows, columns) as numpy gives it; any other size is (width,
+height) as OpenCV's Size. Matrices may be OpenCV matrices, nested lists, or flat lists.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Literal
+
+import cv2
+import numpy as np
+from pydantic import Field
+
+from rig.config.common import Strict
+from rig.errors import CalibrationError
+from rig.geometry import CameraModel
+
+FIELDS = (
+    "camera_matrix",
+    "camera_distortion",
+    "projector_matrix",
+    "projector_distortion",
+    "rotation",
+    "translation",
+    "camera_size",
+    "projector_size",
+    "rms",
+)
+ALIASES: dict[str, tuple[str, ...]] = {
+    "camera_matrix": ("cam_int", "camera_matrix", "cam_k", "cam_mtx", "cam_matrix", "m1", "camera_intrinsics"),
+    "camera_distortion": ("cam_dist", "camera_distortion", "cam_distortion", "d1", "dist_coeffs", "cam_dist_coeffs"),
+    "projector_matrix": ("proj_int", "projector_matrix", "proj_k", "proj_mtx", "proj_matrix", "m2"),
+    "projector_distortion": ("proj_dist", "projector_distortion", "proj_distortion", "d2", "proj_dist_coeffs"),
+    "rotation": ("r", "rotation", "roration", "rot", "rotation_matrix", "om", "rvec"),
+    "translation": ("t", "translation", "trans", "tvec", "translation_vector"),
+    "camera_size": ("img_shape", "image_size", "imagesize", "cam_shape", "camera_size", "camera_resolution"),
+    "projector_size": ("proj_shape", "projector_size", "proj_size", "projector_resolution"),
+    "rms": ("rms", "reprojection_error", "rms_error", "stereo_rms"),
+}
+DISTORTION_LENGTHS = (0, 4, 5, 8, 12, 14)  # OpenCV's: k1 k2 p1 p2 [k3 [k4 k5 k6 [s1..s4 [tx ty]]]]
+ROTATION_TOLERANCE = 1e-3  # |R R^T - I| beyond this is not a rotation (stored values carry ~1e-12)
+
+
+class ForeignCalibrationOptions(Strict):
+    """What a foreign calibration file does not say."""
+
+    camera: str = Field("camera0", min_length=1, description="the camera's device name")
+    projector: str = Field("projector0", min_length=1, description="the projector's device name")
+    extrinsics: Literal["camera_to_projector", "projector_to_camera"] = Field(
+        "camera_to_projector",
+        description="what the file's R, T map: camera_to_projector is X_projector = R X_camera + T "
+        "(OpenCV stereoCalibrate with the camera first)",
+    )
+    world: Literal["camera", "projector"] = Field("camera", description="the device whose frame is the world's")
+    translation_scale: float = Field(1.0, gt=0, le=1e6, description="the file's length unit in millimetres")
+    camera_resolution: tuple[int, int] | None = Field(None, description="(width, height) where the file has none")
+    projector_resolution: tuple[int, int] | None = Field(None, description="(width, height) where the file has none")
+    keys: dict[str, str] = Field(default_factory=dict, description="field -> the file's name for it (see FIELDS)")
+
+
+@dataclass(frozen=True, eq=False)
+class ForeignCalibration:
+    camera: CameraModel
+    projector: CameraModel
+    rms_px: float | None
+    found: dict[str, str]  # field -> the file's name it was read from
+
+    def models(self, options: ForeignCalibrationOptions) -> dict[str, CameraModel]:
+        return {options.camera: self.camera, options.projector: self.projector}
+
+
+def read_foreign_calibration(path: Path, options: ForeignCalibrationOptions | None = None) -> ForeignCalibration:
+    """The camera and projector of `path`; CalibrationError naming the file and field at fault."""
+    options = options or ForeignCalibrationOptions()
+    unknown = sorted(set(options.keys) - set(FIELDS))
+    if unknown:
+        raise CalibrationError(
+            f"calibration import keys: unknown fields {', '.join(unknown)}; known: {', '.join(FIELDS)}"
+        )
+    values = _read_values(path)
+    fields = _Fields(path, values, options)
+    camera_k = fields.matrix("camera_matrix", required=True)
+    projector_k = fields.matrix("projector_matrix", required=True)
+    rotation = _rotation(fields, fields.matrix("rotation", required=True))
+    translation = fields.vector("translation", 3) * options.translation_scale
+    if options.extrinsics == "projector_to_camera":  # X_c = R X_p + T  ->  X_p = R^T X_c - R^T T
+        rotation, translation = rotation.T, -rotation.T @ translation
+    if options.world == "camera":
+        camera_pose, projector_pose = (np.eye(3), np.zeros(3)), (rotation, translation)
+    else:
+        camera_pose, projector_pose = (rotation.T, -rotation.T @ translation), (np.eye(3), np.zeros(3))
+    camera = _model(fields, "camera", camera_k, camera_pose, options.camera_resolution)
+    projector = _model(fields, "projector", projector_k, projector_pose, options.projector_resolution)
+    rms = fields.number("rms")
+    return ForeignCalibration(camera, projector, rms, fields.found)
+
+
+def check_resolution(model: CameraModel, size: tuple[int, int], what: str, path: Path) -> None:
+    """CalibrationError where frames of `size` (width, height) do not fit the calibrated device."""
+    if (model.width, model.height) != tuple(size):
+        raise CalibrationError(
+            f"calibration file {path}: the {what} is calibrated for {model.width}x{model.height}, "
+            f"the frames are {size[0]}x{size[1]}"
+        )
+
+
+class _Fields:
+    """The file's values, looked up by field under the option's name or any alias."""
+
+    def __init__(self, path: Path, values: dict[str, Any], options: ForeignCalibrationOptions) -> None:
+        self.path, self.options = path, options
+        self.values = {k.lower(): (k, v) for k, v in values.items()}
+        self.found: dict[str, str] = {}
+
+    def error(self, name: str, reason: str) -> CalibrationError:
+        return CalibrationError(f"calibration file {self.path}: {name}: {reason}")
+
+    def raw(self, field: str, required: bool) -> Any:
+        names = (self.options.keys[field],) if field in self.options.keys else ALIASES[field]
+        present = [self.values[n.lower()] for n in names if n.lower() in self.values]
+        if len(present) > 1:
+            raise self.error(
+                field, f"given twice, as {' and '.join(k for k, _ in present)}; name one in the options' keys"
+            )
+        if not present:
+            if required:
+                raise self.error(field, f"missing (looked for {', '.join(names)})")
+            return None
+        self.found[field] = present[0][0]
+        return present[0][1]
+
+    def array(self, field: str, required: bool = False) -> np.ndarray | None:
+        value = self.raw(field, required)
+        if value is None:
+            return None
+        try:
+            found = np.asarray(value, dtype=np.float64)
+        except (TypeError, ValueError):
+            raise self.error(self.found[field], "not a matrix of numbers") from None
+        if not np.all(np.isfinite(found)):
+            raise self.error(self.found[field], "holds a value that is not a finite number")
+        return found
+
+    def matrix(self, field: str, required: bool = False) -> np.ndarray:
+        found = self.array(field, required)
+        assert found is not None
+        if field != "rotation" and found.size != 9:
+            raise self.error(self.found[field], f"{found.size} values where a 3x3 matrix has 9")
+        return found.reshape(3, 3) if found.size == 9 else found
+
+    def vector(self, field: str, size: int) -> np.ndarray:
+        found = self.array(field, required=True)
+        assert found is not None
+        if found.size != size:
+            raise self.error(self.found[field], f"{found.size} values where {size} belong")
+        return found.ravel()
+
+    def number(self, field: str) -> float | None:
+        found = self.array(field)
+        return None if found is None or found.size != 1 else float(found.ravel()[0])
+
+
+def _rotation(fields: _Fields, value: np.ndarray) -> np.ndarray:
+    name = fields.found["rotation"]
+    if value.size == 3:  # a rotation vector (Rodrigues), as OpenCV's solvers return
+        return cv2.Rodrigues(value.reshape(3, 1))[0]
+    if value.size != 9:
+        raise fields.error(name, f"{value.size} values: neither a 3x3 rotation nor a rotation vector")
+    rotation = value.reshape(3, 3)
+    off = float(np.abs(rotation @ rotation.T - np.eye(3)).max())
+    determinant = float(np.linalg.det(rotation))
+    if off > ROTATION_TOLERANCE or determinant < 0:
+        raise fields.error(
+            name, f"not a rotation (R R^T differs from the identity by up to {off:.3g}, determinant {determinant:.3g})"
+        )
+    return rotation
+
+
+def _model(
+    fields: _Fields,
+    device: str,
+    k: np.ndarray,
+    pose: tuple[np.ndarray, np.ndarray],
+    resolution: tuple[int, int] | None,
+) -> CameraModel:
+    name = fields.found[f"{device}_matrix"]
+    if k[0, 0] <= 0 or k[1, 1] <= 0 or not np.allclose(k[2], [0.0, 0.0, 1.0]):
+        raise fields.error(name, "not a camera matrix (fx, fy > 0 and a last row 0 0 1)")
+    dist = fields.array(f"{device}_distortion")
+    dist = np.zeros(5) if dist is None else dist.ravel()
+    if dist.size not in DISTORTION_LENGTHS:
+        raise fields.error(
+            fields.found[f"{device}_distortion"], f"{dist.size} coefficients; OpenCV's are 4, 5, 8, 12 or 14"
+        )
+    if np.any(dist[5:] != 0):
+        raise fields.error(
+            fields.found[f"{device}_distortion"],
+            "terms beyond k1 k2 p1 p2 k3 are not zero; slrig's camera model has those five only",
+        )
+    width, height = _size(fields, f"{device}_size", resolution)
+    return CameraModel(width=width, height=height, K=k, R=pose[0], t=pose[1], dist=dist[:5])
+
+
+def _size(fields: _Fields, field: str, given: tuple[int, int] | None) -> tuple[int, int]:
+    found = fields.array(field)
+    if found is None:
+        if given is None:
+            device = field.split("_")[0]
+            raise fields.error(field, f"missing (looked for {', '.join(ALIASES[field])}); give {device}_resolution")
+        return given
+    name = fields.found[field]
+    values = found.ravel()
+    if values.size != 2 or np.any(values <= 0) or np.any(values != np.round(values)):
+        raise fields.error(name, "not a size of two positive whole numbers")
+    width, height = (values[1], values[0]) if "shape" in name.lower() else (values[0], values[1])
+    size = (int(width), int(height))
+    if given is not None and tuple(given) != size:
+        raise fields.error(name, f"{size[0]}x{size[1]} in the file, {given[0]}x{given[1]} in the options")
+    return size
+
+
+def _read_values(path: Path) -> dict[str, Any]:
+    if not path.is_file():
+        raise CalibrationError(f"calibration file {path}: not found")
+    if path.suffix.lower() == ".json":
+        try:
+            document = json.loads(path.read_text())
+        except (OSError, UnicodeDecodeError, ValueError) as exc:
+            raise CalibrationError(f"calibration file {path}: not JSON ({exc})") from None
+        if not isinstance(document, dict):
+            raise CalibrationError(f"calibration file {path}: not a JSON object of named fields")
+        return {k: _json_value(v) for k, v in document.items()}
+    if path.suffix.lower() not in (".xml", ".yml", ".yaml"):
+        raise CalibrationError(f"calibration file {path}: not .xml, .yml, .yaml or .json")
+    try:
+        storage = cv2.FileStorage(str(path), cv2.FILE_STORAGE_READ)
+    except cv2.error as exc:
+        raise CalibrationError(f"calibration file {path}: not an OpenCV FileStorage file ({exc.err})") from None
+    try:
+        if not storage.isOpened():
+            raise CalibrationError(f"calibration file {path}: cannot be opened as OpenCV FileStorage")
+        root = storage.root()
+        names = root.keys()  # a FileNode's, not a dict's
+        return {key: _node_value(root.getNode(key)) for key in names}
+    finally:
+        storage.release()
+
+
+def _node_value(node: cv2.FileNode) -> Any:
+    if node.isReal() or node.isInt():
+        return node.real()
+    if node.isString():
+        return node.string()
+    if node.isSeq():
+        return [_node_value(node.at(i)) for i in range(node.size())]
+    if node.isMap():
+        matrix = node.mat()
+        if matrix is not None:
+            return matrix
+        names = node.keys()
+        return {key: _node_value(node.getNode(key)) for key in names}
+    return None
+
+
+def _json_value(value: Any) -> Any:
+    """OpenCV's JSON matrices ({"type_id": "opencv-matrix", "rows", "cols", "data"}) as arrays."""
+    if isinstance(value, dict) and {"rows", "cols", "data"} <= value.keys():
+        try:
+            return np.asarray(value["data"], dtype=np.float64).reshape(int(value["rows"]), int(value["cols"]))
+        except (TypeError, ValueError):
+            return value
+    return value
