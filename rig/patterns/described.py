@@ -1,0 +1,116 @@
+"""Decode frames another system captured, as a pattern description (rig.patterns.spec) says they
+were projected, into slrig's Correspondence."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from rig.errors import DecodeError
+from rig.patterns.base import Correspondence, NormalizedFrames
+from rig.patterns.lines import LineCodec
+from rig.patterns.spec import Axis, PatternSpec, Role
+
+
+def decode_described(frames: list[np.ndarray], spec: PatternSpec, full_scale: int) -> Correspondence:
+    """Per camera pixel, the projector column and/or row its frames spell out (NaN where a pixel is
+    unlit, a bit too weak to read, or the code beyond the projector)."""
+    roles = spec.roles()
+    if len(frames) != len(roles):
+        raise DecodeError(f"the pattern description has {len(roles)} frames, {len(frames)} were given")
+    shapes = {f.shape[:2] for f in frames}
+    if len(shapes) != 1:
+        raise DecodeError(f"frames differ in size: {sorted(shapes)}")
+    normalized = NormalizedFrames(frames, full_scale)
+    index = {role: i for i, role in enumerate(roles)}
+    white, black, texture = _references(normalized, roles, index, frames)
+    gray = spec.gray
+    lit = (white - black) >= gray.black_threshold
+    valid = lit.copy()
+    coords: dict[str, np.ndarray] = {}
+    counts = {"lit": int(lit.sum())}
+    for axis in gray.axes:
+        value, strength = _read_axis(normalized, spec, axis, index, white, black)
+        skipped = gray.skipped_low_bits
+        position = (value << skipped).astype(np.float32) + np.float32(
+            (2**skipped - 1) / 2.0
+        )  # a skipped bit's span: its middle
+        ok = (strength >= gray.min_contrast) & (position <= spec.extent(axis) - 1)
+        counts[f"weak_bits_{'u' if axis == 'columns' else 'v'}"] = int((lit & ~ok).sum())
+        valid &= ok
+        coords["u" if axis == "columns" else "v"] = position + np.float32(spec.projector.first_pixel_centre)
+    return LineCodec.correspondence(coords, valid, white - black, texture, counts)
+
+
+def _references(
+    frames: NormalizedFrames, roles: list[Role], index: dict[Role, int], raw: list[np.ndarray]
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """White, black (normalised) and the texture (as captured). Without white and black frames: the
+    brighter and darker of the first bit and its inverse, which light every pixel once."""
+    if Role("white") in index:
+        at = index[Role("white")]
+        return frames[at], frames[index[Role("black")]], raw[at]
+    first = roles[0]
+    pair = frames[index[first]], frames[index[Role("bit", first.axis, first.bit, True)]]
+    brighter = np.maximum(*pair)
+    full_scale = 65535 if raw[0].dtype == np.uint16 else 255
+    texture = np.clip(brighter * full_scale, 0, full_scale).astype(raw[0].dtype)
+    return brighter, np.minimum(*pair), texture
+
+
+def _read_axis(
+    frames: NormalizedFrames,
+    spec: PatternSpec,
+    axis: Axis,
+    index: dict[Role, int],
+    white: np.ndarray,
+    black: np.ndarray,
+) -> tuple[np.ndarray, np.ndarray]:
+    """The binary value of the projected bits and the second weakest bit's strength: at a stripe
+    edge of a Gray code only one bit changes, so one weak bit is no reason to reject a pixel."""
+    gray = spec.gray
+    shape = white.shape
+    value = np.zeros(shape, np.int32)
+    prefix = np.zeros(shape, np.int32)
+    weakest = np.full(shape, np.inf, np.float32)
+    second = np.full(shape, np.inf, np.float32)
+    threshold = black + np.float32(gray.threshold) * (white - black)
+    for bit in range(spec.bits(axis) - gray.skipped_low_bits):
+        frame = frames[index[Role("bit", axis, bit)]]
+        if gray.reference == "inverse":
+            difference = frame - frames[index[Role("bit", axis, bit, True)]]
+        else:
+            difference = 2.0 * (frame - threshold)  # on the scale of frame - inverse
+        plane = (difference > 0) if gray.polarity == "lit_is_one" else (difference < 0)
+        if gray.code == "gray":
+            prefix ^= plane.astype(np.int32)  # binary bit = XOR of the Gray bits so far
+            value = (value << 1) | prefix
+        else:
+            value = (value << 1) | plane.astype(np.int32)
+        strength = np.abs(difference)
+        second = np.minimum(second, np.maximum(weakest, strength))
+        weakest = np.minimum(weakest, strength)
+    return value, second
+
+
+def described_patterns(spec: PatternSpec) -> list[np.ndarray]:
+    """The projector images (uint8) the description says were shown, in frame order: what the
+    simulated bench projects to make captures in another system's convention."""
+    width, height = spec.projector.resolution
+    out = []
+    for role in spec.roles():
+        if role.kind != "bit":
+            out.append(np.full((height, width), 255 if role.kind == "white" else 0, np.uint8))
+            continue
+        assert role.axis is not None
+        index = np.arange(spec.extent(role.axis))
+        code = index ^ (index >> 1) if spec.gray.code == "gray" else index
+        lit = ((code >> (spec.bits(role.axis) - 1 - role.bit)) & 1).astype(bool)
+        lit ^= role.inverse ^ (spec.gray.polarity == "lit_is_zero")
+        line = lit.astype(np.uint8) * 255
+        image = (
+            np.broadcast_to(line, (height, width))
+            if role.axis == "columns"
+            else np.broadcast_to(line[:, None], (height, width))
+        )
+        out.append(np.ascontiguousarray(image))
+    return out

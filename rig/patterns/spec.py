@@ -1,0 +1,152 @@
+"""A description, in YAML, of what another structured-light system projected, frame by frame, so
+that slrig decodes captures it did not make.
+
+```yaml
+projector: {resolution: [1024, 768], first_pixel_centre: 0.0}
+frames: {files: "graycode_*.png", grey: luminance}
+gray:
+  axes: [columns, rows]        # in the order their frames come
+  code: gray                   # or binary
+  order: msb_first             # or lsb_first
+  polarity: lit_is_one         # or lit_is_zero
+  reference: inverse           # each bit followed by its inverse; or threshold (against white/black)
+  layout: interleaved          # bit, inverse, bit, inverse; or grouped: an axis' bits, then its inverses
+  white_black: last            # a fully lit and a dark frame: first, last or none
+  skipped_low_bits: 0          # finest bits not projected
+```
+
+The description expands into one role per frame (`roles`): the white and black frames, and per
+axis each projected bit (0 the most significant) with or without its inverse. The preset
+`opencv_graycode` is OpenCV contrib's GrayCodePattern: columns then rows, MSB first, each bit
+then its inverse, white and black last.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Literal
+
+from pydantic import Field, model_validator
+
+from rig.config.common import Strict
+
+Axis = Literal["columns", "rows"]
+
+
+class ProjectorSpace(Strict):
+    """The projector's coordinates that the calibration uses."""
+
+    resolution: tuple[int, int] = Field(description="(width, height) in projector pixels")
+    first_pixel_centre: float = Field(
+        0.0,
+        ge=-1.0,
+        le=1.0,
+        description="the calibration's coordinate of pixel 0's centre: 0 (OpenCV), 0.5, 1 (MATLAB)",
+    )
+
+    @model_validator(mode="after")
+    def _positive(self) -> ProjectorSpace:
+        if not all(1 <= n <= 16384 for n in self.resolution):
+            raise ValueError(f"resolution {self.resolution}: each side must be 1 to 16384 pixels")
+        return self
+
+
+class FrameFiles(Strict):
+    """Which files in the frames folder are the frames, in projection order."""
+
+    files: str | list[str] = Field(
+        "*.png", description="a glob (matches sorted with numbers in order) or the file names in order"
+    )
+    grey: Literal["luminance", "mean", "red", "green", "blue"] = Field("luminance", description="colour to grey")
+
+
+class GrayCode(Strict):
+    axes: tuple[Axis, ...] = Field(("columns",), min_length=1, max_length=2)
+    code: Literal["gray", "binary"] = "gray"
+    order: Literal["msb_first", "lsb_first"] = "msb_first"
+    polarity: Literal["lit_is_one", "lit_is_zero"] = "lit_is_one"
+    reference: Literal["inverse", "threshold"] = "inverse"
+    layout: Literal["interleaved", "grouped"] = Field("interleaved", description="where the inverse frames are")
+    white_black: Literal["first", "last", "none"] = Field("first", description="a fully lit then a dark frame")
+    bits: int | None = Field(None, ge=1, le=15, description="bits per axis; default: enough for the resolution")
+    skipped_low_bits: int = Field(0, ge=0, le=8, description="the finest bits, not projected")
+    threshold: float = Field(
+        0.5, gt=0.0, lt=1.0, description="reference threshold: lit above black + this * (white - black)"
+    )
+    min_contrast: float = Field(0.02, ge=0.0, le=1.0, description="a bit's least |frame - reference|, of full scale")
+    black_threshold: float = Field(0.03, ge=0.0, le=1.0, description="least white - black for a lit pixel")
+
+    @model_validator(mode="after")
+    def _consistent(self) -> GrayCode:
+        if len(set(self.axes)) != len(self.axes):
+            raise ValueError(f"axes {list(self.axes)}: an axis twice")
+        if self.reference == "threshold" and self.white_black == "none":
+            raise ValueError("reference threshold needs the white and black frames (white_black first or last)")
+        if self.bits is not None and self.skipped_low_bits >= self.bits:
+            raise ValueError(
+                f"skipped_low_bits {self.skipped_low_bits}: at least one of the {self.bits} bits is projected"
+            )
+        return self
+
+
+@dataclass(frozen=True)
+class Role:
+    """What one frame shows."""
+
+    kind: Literal["white", "black", "bit"]
+    axis: Axis | None = None
+    bit: int = 0  # 0: the most significant
+    inverse: bool = False
+
+
+class PatternSpec(Strict):
+    projector: ProjectorSpace
+    frames: FrameFiles = FrameFiles()
+    gray: GrayCode
+
+    def bits(self, axis: Axis) -> int:
+        """Bits of `axis`' code, projected or not."""
+        if self.gray.bits is not None:
+            return self.gray.bits
+        return max(1, math.ceil(math.log2(self.extent(axis))))
+
+    def extent(self, axis: Axis) -> int:
+        return self.projector.resolution[0 if axis == "columns" else 1]
+
+    def roles(self) -> list[Role]:
+        """One role per frame, in the order the frames come."""
+        coded: list[Role] = []
+        for axis in self.gray.axes:
+            projected = list(range(self.bits(axis) - self.gray.skipped_low_bits))
+            if self.gray.order == "lsb_first":
+                projected.reverse()
+            plain = [Role("bit", axis, b) for b in projected]
+            if self.gray.reference == "threshold":
+                coded += plain
+            elif self.gray.layout == "interleaved":
+                coded += [r for b in projected for r in (Role("bit", axis, b), Role("bit", axis, b, True))]
+            else:
+                coded += plain + [Role("bit", axis, b, True) for b in projected]
+        references = [Role("white"), Role("black")]
+        if self.gray.white_black == "first":
+            return references + coded
+        if self.gray.white_black == "last":
+            return coded + references
+        return coded
+
+    @model_validator(mode="after")
+    def _bits_fit(self) -> PatternSpec:
+        for axis in self.gray.axes:
+            if 2 ** self.bits(axis) < self.extent(axis):
+                raise ValueError(f"gray.bits {self.bits(axis)}: too few for {self.extent(axis)} {axis}")
+        return self
+
+
+def opencv_graycode(width: int, height: int, files: str = "*.png") -> PatternSpec:
+    """OpenCV contrib's structured_light.GrayCodePattern for a `width` x `height` projector."""
+    return PatternSpec(
+        projector=ProjectorSpace(resolution=(width, height)),
+        frames=FrameFiles(files=files),
+        gray=GrayCode(axes=("columns", "rows"), white_black="last"),
+    )

@@ -1,0 +1,97 @@
+"""Pattern descriptions of other systems' captures: every convention decodes to the projector pixel
+that showed it, and the real OpenCV GrayCodePattern captures decode where the board was lit."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import cv2
+import numpy as np
+import pytest
+from pydantic import ValidationError
+
+from rig.errors import DecodeError
+from rig.patterns.described import decode_described, described_patterns
+from rig.patterns.spec import FrameFiles, GrayCode, PatternSpec, ProjectorSpace, opencv_graycode
+from tests.conftest import shared_data
+
+WIDTH, HEIGHT = 200, 120
+
+
+def _seen(patterns: list[np.ndarray], seed: int = 0) -> list[np.ndarray]:
+    """The patterns as a camera that sees the projector pixel for pixel would: dimmed, lifted by
+    ambient light, noisy."""
+    rng = np.random.default_rng(seed)
+    return [np.clip(20 + 0.7 * p + rng.normal(0, 2.0, p.shape), 0, 255).astype(np.uint8) for p in patterns]
+
+
+CONVENTIONS: list[dict[str, Any]] = [
+    {},
+    {"axes": ("rows", "columns"), "white_black": "last"},
+    {"order": "lsb_first", "layout": "grouped"},
+    {"code": "binary", "polarity": "lit_is_zero"},
+    {"reference": "threshold", "white_black": "last"},
+    {"white_black": "none", "axes": ("columns", "rows")},
+    {"bits": 9},
+]
+
+
+@pytest.mark.parametrize(
+    "convention", CONVENTIONS, ids=lambda c: ",".join(f"{k}={v}" for k, v in c.items()) or "default"
+)
+def test_every_convention_decodes_to_the_pixel_that_showed_it(convention: dict[str, Any]) -> None:
+    spec = PatternSpec(projector=ProjectorSpace(resolution=(WIDTH, HEIGHT)), gray=GrayCode(**convention))
+    patterns = described_patterns(spec)
+    assert len(patterns) == len(spec.roles())
+    found = decode_described(_seen(patterns), spec, 255)
+    columns, rows = np.meshgrid(np.arange(WIDTH), np.arange(HEIGHT))
+    assert found.valid.mean() > 0.99
+    if "columns" in spec.gray.axes:
+        assert found.u is not None and np.array_equal(found.u[found.valid], columns[found.valid])
+    if "rows" in spec.gray.axes:
+        assert found.v is not None and np.array_equal(found.v[found.valid], rows[found.valid])
+
+
+def test_a_skipped_finest_bit_and_a_half_pixel_convention_place_the_pixel_in_its_span() -> None:
+    spec = PatternSpec(
+        projector=ProjectorSpace(resolution=(WIDTH, HEIGHT), first_pixel_centre=0.5),
+        gray=GrayCode(skipped_low_bits=1),
+    )
+    found = decode_described(_seen(described_patterns(spec)), spec, 255)
+    columns = np.broadcast_to(np.arange(WIDTH), (HEIGHT, WIDTH))
+    assert found.u is not None
+    assert np.array_equal(found.u[found.valid], (columns // 2 * 2 + 0.5 + 0.5)[found.valid])
+
+
+def test_a_description_that_cannot_hold_is_refused_naming_the_field() -> None:
+    with pytest.raises(ValidationError, match="reference threshold needs the white and black frames"):
+        GrayCode(reference="threshold", white_black="none")
+    with pytest.raises(ValidationError, match=r"gray\.bits 7: too few for 200 columns"):
+        PatternSpec(projector=ProjectorSpace(resolution=(WIDTH, HEIGHT)), gray=GrayCode(bits=7))
+    with pytest.raises(ValidationError, match="axes"):
+        GrayCode(axes=("columns", "columns"))
+    with pytest.raises(ValidationError, match="extra_forbidden"):
+        FrameFiles(files="*.png", colour="grey")  # type: ignore[call-arg]
+    spec = PatternSpec(projector=ProjectorSpace(resolution=(WIDTH, HEIGHT)), gray=GrayCode())
+    frames = _seen(described_patterns(spec))
+    with pytest.raises(DecodeError, match=f"the pattern description has {len(frames)} frames, {len(frames) - 1} were"):
+        decode_described(frames[:-1], spec, 255)
+
+
+def test_opencv_graycode_captures_of_a_real_board_decode_where_the_board_is_lit() -> None:
+    """kamino410/procam-calibration capture_0: 42 frames of a real 1024x768 projector on a board,
+    in OpenCV GrayCodePattern's order."""
+    folder = shared_data("procam-calibration", "sample_data", "capture_0")
+    files = sorted(folder.glob("graycode_*.png"))
+    frames = [cv2.imread(str(f), cv2.IMREAD_GRAYSCALE) for f in files]
+    spec = opencv_graycode(1024, 768, "graycode_*.png")
+    assert len(spec.roles()) == len(frames) == 42
+    found = decode_described(frames, spec, 255)
+    assert found.u is not None and found.v is not None
+    assert found.valid.mean() > 0.3  # the lit board and wall in view
+    u, v = found.u[found.valid], found.v[found.valid]
+    assert u.min() >= 0 and u.max() <= 1023 and v.min() >= 0 and v.max() <= 767
+    # the code varies smoothly across the image: neighbours decode to neighbouring projector pixels
+    step = np.abs(np.diff(found.u, axis=1))
+    both = found.valid[:, 1:] & found.valid[:, :-1]
+    assert np.median(step[both]) <= 1.0 and np.mean(step[both] > 8) < 0.02
