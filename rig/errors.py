@@ -29,6 +29,21 @@ class DecodeError(SlrigError):
     """Raised when captured frames do not fit the codec (wrong count or shape)."""
 
 
+class PatternSpecError(SlrigError):
+    """Raised when a pattern description (YAML) cannot be read or does not hold; `problems` lists
+    every error, each naming its field."""
+
+    def __init__(self, source: str, problems: list[str]) -> None:
+        self.source = source
+        self.problems = problems
+        super().__init__(f"invalid pattern description {source}:\n" + "\n".join(f"  {p}" for p in problems))
+
+
+class FramesError(SlrigError):
+    """Raised when a folder of frames does not hold what its description lists: a missing, extra,
+    unreadable or differently sized frame, or another number of frames. Nothing is written."""
+
+
 class ScanError(SlrigError):
     """Raised when a scan fails; the projectors are dark when it propagates."""
 

@@ -27,11 +27,13 @@ import math
 from dataclasses import dataclass
 from typing import Literal
 
-from pydantic import Field, model_validator
-
-from rig.config.common import Strict
+from pydantic import BaseModel, ConfigDict, Field, model_validator
 
 Axis = Literal["columns", "rows"]
+
+
+class Strict(BaseModel):
+    model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
 
 
 class ProjectorSpace(Strict):

@@ -1,0 +1,110 @@
+"""A folder of frames another system captured, read as its pattern description (a YAML file,
+rig.patterns.spec) lists them: in order, checked (every frame there, readable, one size), at its
+bit depth, in grey."""
+
+from __future__ import annotations
+
+import hashlib
+import re
+from concurrent.futures import ThreadPoolExecutor
+from dataclasses import dataclass
+from pathlib import Path
+
+import cv2
+import numpy as np
+import yaml
+from pydantic import ValidationError
+
+from rig.config.problems import problems
+from rig.errors import FramesError, PatternSpecError
+from rig.patterns.spec import FrameFiles, PatternSpec
+
+_GREY = {"red": 2, "green": 1, "blue": 0}  # channels as OpenCV reads them (BGR)
+
+
+@dataclass(frozen=True, eq=False)
+class FrameSet:
+    frames: list[np.ndarray]  # (H, W) uint8 or uint16, in the description's order
+    files: list[Path]
+    full_scale: int  # 255 or 65535
+    sha256: dict[str, str]  # file name -> its content's hash, for the manifest
+
+
+def load_pattern_spec(path: Path) -> PatternSpec:
+    """The description in the YAML file `path`; PatternSpecError naming each field at fault."""
+    try:
+        data = yaml.safe_load(path.read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError, yaml.YAMLError, RecursionError) as exc:
+        raise PatternSpecError(str(path), [f"cannot be read: {exc}"]) from None
+    try:
+        return PatternSpec.model_validate(data)
+    except ValidationError as exc:
+        raise PatternSpecError(str(path), problems(exc)) from None
+
+
+def frame_files(folder: Path, files: FrameFiles, expected: int) -> list[Path]:
+    """The frame files in order; FramesError where the folder and the description disagree."""
+    if not folder.is_dir():
+        raise FramesError(f"frames folder {folder}: not a folder")
+    if isinstance(files.files, list):
+        found = [folder / name for name in files.files]
+        missing = [p.name for p in found if not p.is_file()]
+        if missing:
+            raise FramesError(f"frames folder {folder}: missing {', '.join(missing[:5])}")
+    else:
+        found = sorted((p for p in folder.glob(files.files) if p.is_file()), key=_natural)
+    if len(found) != expected:
+        names = ", ".join(p.name for p in found[expected:][:5])
+        detail = f" (beyond them: {names})" if len(found) > expected else ""
+        listed = "are listed" if isinstance(files.files, list) else f"match {files.files!r}"
+        raise FramesError(
+            f"frames folder {folder}: the pattern description has {expected} frames, "
+            f"{len(found)} files {listed}{detail}"
+        )
+    return found
+
+
+def read_frames(folder: Path, files: FrameFiles, expected: int) -> FrameSet:
+    """The frames of `folder`, decoded on a few threads (PNG decoding releases the GIL)."""
+    paths = frame_files(folder, files, expected)
+    with ThreadPoolExecutor(max_workers=4) as pool:
+        loaded = list(pool.map(lambda p: _read(p, files.grey), paths))
+    frames = [frame for frame, _ in loaded]
+    first = frames[0]
+    for path, frame in zip(paths, frames, strict=True):
+        if frame.shape != first.shape or frame.dtype != first.dtype:
+            raise FramesError(f"frame {path}: {_kind(frame)}, the first frame ({paths[0].name}) is {_kind(first)}")
+    full_scale = 65535 if first.dtype == np.uint16 else 255
+    return FrameSet(frames, paths, full_scale, {p.name: digest for p, (_, digest) in zip(paths, loaded, strict=True)})
+
+
+def _kind(frame: np.ndarray) -> str:
+    return f"{frame.shape[1]}x{frame.shape[0]} {8 * frame.itemsize}-bit"
+
+
+def _read(path: Path, grey: str) -> tuple[np.ndarray, str]:
+    try:
+        data = path.read_bytes()
+    except OSError as exc:
+        raise FramesError(f"frame {path}: cannot be read ({exc.strerror})") from None
+    image = cv2.imdecode(np.frombuffer(data, np.uint8), cv2.IMREAD_UNCHANGED)
+    if image is None:
+        raise FramesError(f"frame {path}: not an image OpenCV can read")
+    if image.dtype not in (np.uint8, np.uint16):
+        raise FramesError(f"frame {path}: {image.dtype} pixels; frames are 8- or 16-bit")
+    if image.ndim == 3:
+        image = _to_grey(image[..., :3], grey)
+    return image, hashlib.sha256(data).hexdigest()
+
+
+def _to_grey(image: np.ndarray, grey: str) -> np.ndarray:
+    if grey == "luminance":
+        return cv2.cvtColor(image, cv2.COLOR_BGR2GRAY)
+    if grey == "mean":
+        return (image.astype(np.float32).mean(axis=2) + 0.5).astype(image.dtype)
+    return np.ascontiguousarray(image[..., _GREY[grey]])
+
+
+def _natural(path: Path) -> list[object]:
+    """Sort key: numbers in a name by value (frame_2 before frame_10)."""
+    return [int(part) if part.isdigit() else part for part in re.split(r"(\d+)", path.name)]
