@@ -1,0 +1,137 @@
+"""A scan directory from frames another system captured: the frames folder read as its pattern
+description says, decoded, triangulated with a calibration (slrig's own calibration.json, or
+another tool's file), filtered and stored exactly as a scan, the manifest recording where every
+input came from and its hash.
+
+The rig of such a scan is one camera and one projector named by the calibration import options,
+their models from the calibration; the rest of the rig description (scan filters, output) is the
+config's.
+"""
+
+from __future__ import annotations
+
+import hashlib
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from rig.calibrate.files import JSON_NAME, load_calibration
+from rig.calibrate.foreign import ForeignCalibrationOptions, check_resolution, read_foreign_calibration
+from rig.config import RigConfig, config_from_dict
+from rig.errors import CalibrationError
+from rig.geometry import CameraModel
+from rig.patterns.described import decode_described
+from rig.pipeline.scan import ScanResult, reconstruct_pair
+from rig.rig import Rig
+from rig.store.frames import load_pattern_spec, read_frames
+from rig.store.scandir import write_scan
+
+CODEC_NAME = "described"
+
+
+def reconstruct_folder(
+    frames_dir: Path,
+    patterns: Path,
+    calibration: Path,
+    target: Path,
+    scan_id: str,
+    config: RigConfig,
+    options: ForeignCalibrationOptions | None = None,
+) -> tuple[Path, ScanResult]:
+    """Reconstruct `frames_dir` into a new scan directory `target`; nothing is written when an
+    input is refused (PatternSpecError, FramesError, CalibrationError, DecodeError)."""
+    options = options or ForeignCalibrationOptions()
+    spec = load_pattern_spec(patterns)
+    frames = read_frames(frames_dir, spec.frames, len(spec.roles()))
+    height, width = frames.frames[0].shape
+    camera, projector, digest = calibration_models(calibration, options)
+    check_resolution(camera, (width, height), "camera", calibration)
+    check_resolution(projector, spec.projector.resolution, "projector", calibration)
+    rig_config = offline_config(config, options, camera, projector, frames.full_scale)
+    the_rig = Rig(rig_config, [], [], [projector], [camera], calibration_sha256=digest)
+    correspondence = decode_described(frames.frames, spec, frames.full_scale)
+    pair = reconstruct_pair(the_rig, 0, 0, correspondence, source=0)
+    result = ScanResult(
+        CODEC_NAME,
+        spec.model_dump(mode="json"),
+        [pair],
+        pair.points,
+        frames_projected=len(frames.frames),
+        bytes_captured=sum(f.nbytes for f in frames.frames),
+    )
+    origin = {
+        "reconstructed": {
+            "frames": str(frames_dir),
+            "frames_sha256": frames.sha256,
+            "patterns": str(patterns),
+            "patterns_sha256": _file_hash(patterns),
+            "calibration": str(calibration),
+            "calibration_sha256": digest,
+            "calibration_options": options.model_dump(mode="json"),
+        }
+    }
+    return write_scan(the_rig, result, target, scan_id, None, origin), result
+
+
+def calibration_models(path: Path, options: ForeignCalibrationOptions) -> tuple[CameraModel, CameraModel, str]:
+    """The camera and projector of slrig's calibration.json (by the options' device names) or of
+    another tool's file, and the calibration's hash."""
+    own = path / JSON_NAME if path.is_dir() else path
+    if own.name == JSON_NAME:
+        models, digest = load_calibration(own)
+        missing = [n for n in (options.camera, options.projector) if n not in models]
+        if missing:
+            raise CalibrationError(
+                f"calibration file {own}: has no device {', '.join(missing)} (its: {', '.join(models)})"
+            )
+        return models[options.camera], models[options.projector], digest
+    found = read_foreign_calibration(path, options)
+    return found.camera, found.projector, _file_hash(path)[:16]
+
+
+def offline_config(
+    config: RigConfig, options: ForeignCalibrationOptions, camera: CameraModel, projector: CameraModel, full_scale: int
+) -> RigConfig:
+    """`config` with one camera and one projector, as calibrated (the geometry a config can hold;
+    the exact models travel beside it)."""
+    data: dict[str, Any] = config.model_dump(mode="json")
+    data["projectors"] = [
+        {"name": options.projector, "resolution": [projector.width, projector.height], "geometry": _geometry(projector)}
+    ]
+    data["cameras"] = [
+        {
+            "name": options.camera,
+            "resolution": [camera.width, camera.height],
+            "geometry": _geometry(camera),
+            "bit_depth": 16 if full_scale > 255 else 8,
+        }
+    ]
+    data["calibration"] = {**data["calibration"], "file": None}
+    return config_from_dict(data, "reconstruction")
+
+
+def _geometry(model: CameraModel) -> dict[str, Any]:
+    centre = model.center
+    return {
+        "intrinsics": {
+            "fx": model.K[0, 0],
+            "fy": model.K[1, 1],
+            "cx": model.K[0, 2],
+            "cy": model.K[1, 2],
+            "skew": model.K[0, 1],
+        },
+        "distortion": [float(np.clip(d, -10.0, 10.0)) for d in model.dist],
+        "pose": {
+            "position_mm": centre.tolist(),
+            "look_at_mm": (centre + 100.0 * model.axis).tolist(),
+            "up": (-model.R[1]).tolist(),
+        },
+    }
+
+
+def _file_hash(path: Path) -> str:
+    try:
+        return hashlib.sha256(path.read_bytes()).hexdigest()
+    except OSError as exc:
+        raise CalibrationError(f"{path}: cannot be read ({exc.strerror})") from None
