@@ -13,6 +13,7 @@ import pytest
 import yaml
 
 from rig.assembly import open_rig
+from rig.cli import main
 from rig.config import load_config
 from rig.errors import FramesError
 from rig.patterns.described import described_patterns
@@ -108,3 +109,26 @@ def test_a_folder_with_a_frame_missing_writes_nothing(foreign: dict[str, Any], t
             foreign["config"],
         )
     assert not (tmp_path / "out").exists()
+
+
+def test_the_command_line_writes_the_scan_and_refuses_what_does_not_fit(
+    foreign: dict[str, Any], tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    folder = foreign["folder"]
+    common = [
+        str(folder / "frames"),
+        "--patterns",
+        str(folder / "patterns.yaml"),
+        "--calibration",
+        str(foreign["calibration"]),
+    ]
+    assert main(["reconstruct", *common, "--out", str(tmp_path / "scan"), "--json"]) == 0
+    summary = json.loads(capsys.readouterr().out)
+    assert summary["frames"] == 42 and summary["points"] > 0.9 * summary["lit"]
+    assert main(["reconstruct", *common, "--out", str(tmp_path / "scan")]) == 2  # exists: kept
+    assert "already exists" in capsys.readouterr().err
+    assert main(["reconstruct", *common, "--out", str(tmp_path / "b"), "--camera-resolution", "640x512"]) == 2
+    assert "img_shape: 1280x1024 in the file, 640x512 in the options" in capsys.readouterr().err
+    assert main(["reconstruct", *common, "--out", str(tmp_path / "c"), "--translation-scale", "-1"]) == 2
+    assert "--translation-scale: Input should be greater than 0" in capsys.readouterr().err
+    assert not (tmp_path / "b").exists() and not (tmp_path / "c").exists()

@@ -28,6 +28,7 @@ COMMANDS = {
     "plan": ("rig.cli.planning", "cmd_plan"),
     "gallery": ("rig.cli.recognising", "cmd_gallery"),
     "identify": ("rig.cli.recognising", "cmd_identify"),
+    "reconstruct": ("rig.cli.reconstructing", "cmd_reconstruct"),
 }
 
 

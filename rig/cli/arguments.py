@@ -155,11 +155,42 @@ def _recognition_commands(sub: argparse._SubParsersAction) -> None:  # type: ign
         p.add_argument("--json", action="store_true", help="print one JSON object instead of text")
 
 
+def _size(text: str) -> tuple[int, int]:
+    """WIDTHxHEIGHT."""
+    try:
+        width, height = (int(part) for part in text.lower().split("x"))
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not WIDTHxHEIGHT") from None
+    return width, height
+
+
+def _reconstruct_command(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
+    rec = sub.add_parser("reconstruct", help="a scan directory from another system's frames on disk (no devices)")
+    rec.add_argument("frames_dir", type=Path)
+    rec.add_argument("--patterns", type=Path, required=True, help="the pattern description (YAML) of the frames")
+    rec.add_argument("--calibration", type=Path, required=True, help="slrig's calibration.json or another tool's file")
+    rec.add_argument("--out", type=Path, default=None, help="scan directory to create; default <data_dir>/scans/<id>")
+    rec.add_argument("--config", type=Path, default=None, help="rig description for the scan settings (filters)")
+    rec.add_argument("--camera", default=None, help="the camera's name (camera0)")
+    rec.add_argument("--projector", default=None, help="the projector's name (projector0)")
+    rec.add_argument(
+        "--extrinsics",
+        choices=["camera_to_projector", "projector_to_camera"],
+        default=None,
+        help="what the file's R, T map (camera_to_projector: as OpenCV's stereoCalibrate, camera first)",
+    )
+    rec.add_argument("--world", choices=["camera", "projector"], default=None, help="the world frame's device (camera)")
+    rec.add_argument("--translation-scale", type=float, default=None, help="the file's length unit in mm (1)")
+    rec.add_argument("--camera-resolution", type=_size, default=None, help="WIDTHxHEIGHT where the file has none")
+    rec.add_argument("--projector-resolution", type=_size, default=None, help="WIDTHxHEIGHT where the file has none")
+    rec.add_argument("--json", action="store_true", help="print one JSON object instead of text")
+
+
 def parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="slrig", description="Structured-light 3D scanning rig.")
     parser.add_argument("--version", action="version", version=f"slrig {__version__}")
     sub = parser.add_subparsers(dest="command", required=True)
     commands = (_scan_command, _evaluate_command, _plan_command, _serve_command, _devices_command, _doctor_command)
-    for add in (*commands, _cal_command, _recognition_commands):
+    for add in (*commands, _cal_command, _recognition_commands, _reconstruct_command):
         add(sub)
     return parser
