@@ -218,7 +218,10 @@ def _size(fields: _Fields, field: str, given: tuple[int, int] | None) -> tuple[i
     if found is None:
         if given is None:
             device = field.split("_")[0]
-            raise fields.error(field, f"missing (looked for {', '.join(ALIASES[field])}); give {device}_resolution")
+            looked = ", ".join(ALIASES[field])
+            raise fields.error(
+                field, f"missing (looked for {looked}); give {device}_resolution (--{device}-resolution)"
+            )
         return given
     name = fields.found[field]
     values = found.ravel()
