@@ -10,9 +10,11 @@ import numpy as np
 import pytest
 from pydantic import ValidationError
 
+from rig.calibrate.foreign import ForeignCalibrationOptions, read_foreign_calibration
 from rig.errors import DecodeError
 from rig.patterns.described import decode_described, described_patterns
 from rig.patterns.spec import FrameFiles, GrayCode, PatternSpec, ProjectorSpace, opencv_graycode
+from rig.pipeline.dense import PairTriangulator
 from tests.conftest import shared_data
 
 WIDTH, HEIGHT = 200, 120
@@ -95,3 +97,49 @@ def test_opencv_graycode_captures_of_a_real_board_decode_where_the_board_is_lit(
     step = np.abs(np.diff(found.u, axis=1))
     both = found.valid[:, 1:] & found.valid[:, :-1]
     assert np.median(step[both]) <= 1.0 and np.mean(step[both] > 8) < 0.02
+
+
+def test_a_code_step_counts_the_calibrations_pixels_per_code() -> None:
+    spec = PatternSpec(projector=ProjectorSpace(resolution=(WIDTH, HEIGHT), code_step_px=2), gray=GrayCode())
+    assert spec.extent("columns") == WIDTH // 2 and len(spec.roles()) == 2 + 2 * 7  # 100 codes: 7 bits
+    found = decode_described(_seen(described_patterns(spec)), spec, 255)
+    columns = np.broadcast_to(np.arange(WIDTH), (HEIGHT, WIDTH))
+    assert found.u is not None and found.valid.mean() > 0.99
+    assert np.array_equal(found.u[found.valid], (columns // 2 * 2)[found.valid])
+
+
+@pytest.mark.parametrize("pose", [0, 1])
+def test_the_real_board_is_flat_and_where_the_camera_alone_puts_it(pose: int) -> None:
+    """procam-calibration's result counts two projector pixels per code (its graycode_step 2: its
+    principal point (737, 1358) is that of a 2048x1536 image) although its patterns are 1024x768
+    with a code per pixel. Described so, each board reconstructs flat to the Gray code's step
+    (about 9.6 units of depth per code at 3.5 m with its 645-unit baseline: 2.8 rms) and at the
+    depth the camera alone gives it (solvePnP, 75-unit squares as in the authors' command)."""
+    sample = shared_data("procam-calibration", "sample_data")
+    frames = [
+        cv2.imread(str(f), cv2.IMREAD_GRAYSCALE) for f in sorted((sample / f"capture_{pose}").glob("graycode_*.png"))
+    ]
+    spec = PatternSpec(
+        projector=ProjectorSpace(resolution=(2048, 1536), code_step_px=2),
+        gray=GrayCode(axes=("columns", "rows"), white_black="last"),
+    )
+    calibration = read_foreign_calibration(
+        sample / "calibration_result.xml", ForeignCalibrationOptions(projector_resolution=(2048, 1536))
+    )
+    grid, valid = PairTriangulator(calibration.camera, calibration.projector).triangulate(
+        decode_described(frames, spec, 255)
+    )
+    found, corners = cv2.findChessboardCorners(frames[40], (9, 7))
+    assert found
+    board = np.zeros(frames[40].shape, np.uint8)
+    cv2.fillConvexPoly(board, cv2.convexHull(corners.reshape(-1, 2)).astype(np.int32), 1)
+    points = grid[(board > 0) & valid]
+    centre = points.mean(axis=0)
+    normal = np.linalg.svd(points - centre, full_matrices=False)[2][2]
+    assert np.sqrt(np.mean(((points - centre) @ normal) ** 2)) < 4.0  # 3.41 and 1.34 measured
+    squares = np.zeros((63, 3))
+    squares[:, :2] = np.mgrid[0:9, 0:7].T.reshape(-1, 2) * 75.0
+    camera = calibration.camera
+    _, rotation, translation = cv2.solvePnP(squares, corners, camera.K, camera.dist)
+    alone = (squares @ cv2.Rodrigues(rotation)[0].T + translation.ravel()).mean(axis=0)
+    assert abs(centre[2] - alone[2]) < 0.02 * alone[2]

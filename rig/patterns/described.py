@@ -37,7 +37,8 @@ def decode_described(frames: list[np.ndarray], spec: PatternSpec, full_scale: in
         ok = (strength >= gray.min_contrast) & (position <= spec.extent(axis) - 1)
         counts[f"weak_bits_{'u' if axis == 'columns' else 'v'}"] = int((lit & ~ok).sum())
         valid &= ok
-        coords["u" if axis == "columns" else "v"] = position + np.float32(spec.projector.first_pixel_centre)
+        step, centre = spec.projector.code_step_px, spec.projector.first_pixel_centre
+        coords["u" if axis == "columns" else "v"] = position * np.float32(step) + np.float32(centre)
     return LineCodec.correspondence(coords, valid, white - black, texture, counts)
 
 
@@ -102,7 +103,8 @@ def described_patterns(spec: PatternSpec) -> list[np.ndarray]:
             out.append(np.full((height, width), 255 if role.kind == "white" else 0, np.uint8))
             continue
         assert role.axis is not None
-        index = np.arange(spec.extent(role.axis))
+        size = width if role.axis == "columns" else height
+        index = np.arange(size) // spec.projector.code_step_px
         code = index ^ (index >> 1) if spec.gray.code == "gray" else index
         lit = ((code >> (spec.bits(role.axis) - 1 - role.bit)) & 1).astype(bool)
         lit ^= role.inverse ^ (spec.gray.polarity == "lit_is_zero")

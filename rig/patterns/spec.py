@@ -15,6 +15,9 @@ gray:
   skipped_low_bits: 0          # finest bits not projected
 ```
 
+Code i of an axis stands for projector coordinate i * code_step_px + first_pixel_centre in the
+calibration's pixels (procam-calibration's convention for its graycode_step).
+
 The description expands into one role per frame (`roles`): the white and black frames, and per
 axis each projected bit (0 the most significant) with or without its inverse. The preset
 `opencv_graycode` is OpenCV contrib's GrayCodePattern: columns then rows, MSB first, each bit
@@ -45,6 +48,9 @@ class ProjectorSpace(Strict):
         ge=-1.0,
         le=1.0,
         description="the calibration's coordinate of pixel 0's centre: 0 (OpenCV), 0.5, 1 (MATLAB)",
+    )
+    code_step_px: int = Field(
+        1, ge=1, le=64, description="projector pixels per code, as the calibration counts them (procam's graycode_step)"
     )
 
     @model_validator(mode="after")
@@ -114,7 +120,8 @@ class PatternSpec(Strict):
         return max(1, math.ceil(math.log2(self.extent(axis))))
 
     def extent(self, axis: Axis) -> int:
-        return self.projector.resolution[0 if axis == "columns" else 1]
+        """Codes along `axis`: the projector's pixels over the pixels per code."""
+        return math.ceil(self.projector.resolution[0 if axis == "columns" else 1] / self.projector.code_step_px)
 
     def roles(self) -> list[Role]:
         """One role per frame, in the order the frames come."""
