@@ -13,6 +13,7 @@ import pytest
 import yaml
 
 from rig.assembly import open_rig
+from rig.calibrate.foreign import ForeignCalibrationOptions
 from rig.cli import main
 from rig.config import load_config
 from rig.errors import FramesError
@@ -20,6 +21,7 @@ from rig.patterns.described import described_patterns
 from rig.patterns.spec import opencv_graycode
 from rig.pipeline.scan import run_scan
 from rig.service.reconstruct import reconstruct_folder
+from tests.conftest import shared_data
 
 
 def _opencv_calibration(path: Path, camera: Any, projector: Any) -> Path:
@@ -132,3 +134,27 @@ def test_the_command_line_writes_the_scan_and_refuses_what_does_not_fit(
     assert main(["reconstruct", *common, "--out", str(tmp_path / "c"), "--translation-scale", "-1"]) == 2
     assert "--translation-scale: Input should be greater than 0" in capsys.readouterr().err
     assert not (tmp_path / "b").exists() and not (tmp_path / "c").exists()
+
+
+def test_the_depth_jump_limit_follows_the_depth_a_code_step_makes(tmp_path: Path) -> None:
+    """At 3.2-3.6 m with a 645-unit baseline a code step moves depth by about 8 units: the bench's
+    2 mm limit would drop every point, so the limit rises to three steps; the scan keeps the board."""
+    sample = shared_data("procam-calibration", "sample_data")
+    description = tmp_path / "graycode.yaml"
+    spec = {"projector": {"resolution": [2048, 1536], "code_step_px": 2}, "gray": {"axes": ["columns", "rows"]}}
+    description.write_text(
+        yaml.safe_dump({**spec, "frames": {"files": "graycode_*.png"}, "gray": {**spec["gray"], "white_black": "last"}})
+    )
+    options = ForeignCalibrationOptions(projector_resolution=(2048, 1536))
+    path, result = reconstruct_folder(
+        sample / "capture_1",
+        description,
+        sample / "calibration_result.xml",
+        tmp_path / "scan",
+        "x",
+        load_config(),
+        options,
+    )
+    limit = json.loads((path / "manifest.json").read_text())["config"]["scan"]["max_depth_jump_mm"]
+    assert 20.0 < limit < 35.0  # 27.0 measured
+    assert len(result.cloud) > 0.9 * result.pairs[0].correspondence.counts["decoded"]

@@ -10,6 +10,7 @@ config's.
 
 from __future__ import annotations
 
+import dataclasses
 import hashlib
 from pathlib import Path
 from typing import Any
@@ -21,7 +22,9 @@ from rig.calibrate.foreign import ForeignCalibrationOptions, check_resolution, r
 from rig.config import RigConfig, config_from_dict
 from rig.errors import CalibrationError
 from rig.geometry import CameraModel
+from rig.patterns.base import Correspondence
 from rig.patterns.described import decode_described
+from rig.pipeline.dense import PairTriangulator
 from rig.pipeline.scan import ScanResult, reconstruct_pair
 from rig.rig import Rig
 from rig.store.frames import load_pattern_spec, read_frames
@@ -48,9 +51,10 @@ def reconstruct_folder(
     camera, projector, digest = calibration_models(calibration, options)
     check_resolution(camera, (width, height), "camera", calibration)
     check_resolution(projector, spec.projector.resolution, "projector", calibration)
-    rig_config = offline_config(config, options, camera, projector, frames.full_scale)
-    the_rig = Rig(rig_config, [], [], [projector], [camera], calibration_sha256=digest)
     correspondence = decode_described(frames.frames, spec, frames.full_scale)
+    limit = jump_limit(camera, projector, correspondence, spec.projector.code_step_px, config.scan.max_depth_jump_mm)
+    rig_config = offline_config(config, options, camera, projector, frames.full_scale, limit)
+    the_rig = Rig(rig_config, [], [], [projector], [camera], calibration_sha256=digest)
     pair = reconstruct_pair(the_rig, 0, 0, correspondence, source=0)
     result = ScanResult(
         CODEC_NAME,
@@ -90,12 +94,39 @@ def calibration_models(path: Path, options: ForeignCalibrationOptions) -> tuple[
     return found.camera, found.projector, _file_hash(path)[:16]
 
 
+def jump_limit(
+    camera: CameraModel, projector: CameraModel, found: Correspondence, step_px: int, configured: float | None
+) -> float | None:
+    """The depth-jump filter's limit for these frames: the config's, or three times the depth one
+    code step makes here if that is more (a Gray code's depth moves in steps of a code; a rig far
+    from its object, or with a short baseline, steps by more than the bench's 2 mm)."""
+    if configured is None:
+        return None
+    triangulator = PairTriangulator(camera, projector)
+    here, valid = triangulator.triangulate(found)
+    moved = {
+        axis: None if value is None else value + np.float32(step_px) for axis, value in (("u", found.u), ("v", found.v))
+    }
+    there, valid_there = triangulator.triangulate(dataclasses.replace(found, **moved))
+    both = valid & valid_there
+    if not both.any():
+        return configured
+    step = np.abs((there[both] - here[both]) @ camera.axis)
+    return max(configured, 3.0 * float(np.median(step)))
+
+
 def offline_config(
-    config: RigConfig, options: ForeignCalibrationOptions, camera: CameraModel, projector: CameraModel, full_scale: int
+    config: RigConfig,
+    options: ForeignCalibrationOptions,
+    camera: CameraModel,
+    projector: CameraModel,
+    full_scale: int,
+    jump_limit_mm: float | None,
 ) -> RigConfig:
     """`config` with one camera and one projector, as calibrated (the geometry a config can hold;
-    the exact models travel beside it)."""
+    the exact models travel beside it), and the depth-jump limit for these frames."""
     data: dict[str, Any] = config.model_dump(mode="json")
+    data["scan"] = {**data["scan"], "max_depth_jump_mm": None if jump_limit_mm is None else min(jump_limit_mm, 1000.0)}
     data["projectors"] = [
         {"name": options.projector, "resolution": [projector.width, projector.height], "geometry": _geometry(projector)}
     ]
