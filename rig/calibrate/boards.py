@@ -30,14 +30,7 @@ class Board:
 
     def __init__(self, config: BoardConfig) -> None:
         self.config = config
-        cols, rows = config.squares
-        if min(cols, rows) < 3 or (config.kind == "checker" and cols % 2 == rows % 2):
-            raise ValueError(
-                "a checkerboard needs at least 3x3 squares, one count even and one odd "
-                "(so its orientation is unambiguous)"
-            )
-        if config.kind == "charuco" and config.marker_mm >= config.square_mm:
-            raise ValueError("marker_mm must be smaller than square_mm")
+        cols, rows = config.squares  # checked by BoardConfig; counts of one parity: orientation_warning
         self.inner = (cols - 1, rows - 1)
         sq = config.square_mm
         self.size_mm = (cols * sq + 2 * config.margin_mm, rows * sq + 2 * config.margin_mm)

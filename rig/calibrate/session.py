@@ -81,6 +81,9 @@ def calibrate(
             collected, board, devices, [p.name for p in config.projectors], [p.resolution for p in config.projectors]
         )
     summary = report(devices)
+    board_warning = board.config.orientation_warning()
+    if board_warning is not None:
+        summary["warnings"].insert(0, board_warning)
     digest = write_calibration(out, devices, summary, board.config.model_dump(mode="json"))
     for device in devices:
         write_atomic(out / f"coverage_{device.name}.png", coverage_png(device))

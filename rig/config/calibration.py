@@ -5,7 +5,7 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Annotated, Literal
 
-from pydantic import Field
+from pydantic import Field, model_validator
 
 from rig.config.common import Strict, Vec3
 
@@ -19,6 +19,26 @@ class BoardConfig(Strict):
     marker_mm: float = Field(15.0, gt=0.5, le=500.0, description="ChArUco marker side")
     dictionary: Literal["DICT_4X4_50", "DICT_5X5_100", "DICT_6X6_250"] = "DICT_4X4_50"
     margin_mm: float = Field(10.0, ge=0.0, le=200.0, description="white border around the squares")
+
+    @model_validator(mode="after")
+    def _printable(self) -> BoardConfig:
+        if min(self.squares) < 3 or max(self.squares) > 100:
+            raise ValueError(f"squares {list(self.squares)}: a board needs 3 to 100 squares each way")
+        if self.kind == "charuco" and self.marker_mm >= self.square_mm:
+            raise ValueError(f"marker_mm {self.marker_mm:g} must be smaller than square_mm {self.square_mm:g}")
+        return self
+
+    def orientation_warning(self) -> str | None:
+        """Why views of this board may be numbered wrongly, for a checkerboard whose square counts
+        are both even or both odd (it looks the same turned half a turn)."""
+        cols, rows = self.squares
+        if self.kind != "checker" or cols % 2 != rows % 2:
+            return None
+        return (
+            f"the {cols}x{rows}-square checkerboard has {'two even' if cols % 2 == 0 else 'two odd'} counts: it "
+            "looks the same turned half a turn, so keep every view within a quarter turn of the first "
+            "(or use a board with one count even and one odd, or ChArUco)"
+        )
 
 
 class BoardPose(Strict):
