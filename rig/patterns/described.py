@@ -31,9 +31,8 @@ def decode_described(frames: list[np.ndarray], spec: PatternSpec, full_scale: in
     for axis in gray.axes:
         value, strength = _read_axis(normalized, spec, axis, index, white, black)
         skipped = gray.skipped_low_bits
-        position = (value << skipped).astype(np.float32) + np.float32(
-            (2**skipped - 1) / 2.0
-        )  # a skipped bit's span: its middle
+        middle = np.float32((2**skipped - 1) / 2.0)  # of the span the skipped finest bits leave open
+        position = (value << skipped).astype(np.float32) + middle
         ok = (strength >= gray.min_contrast) & (position <= spec.extent(axis) - 1)
         counts[f"weak_bits_{'u' if axis == 'columns' else 'v'}"] = int((lit & ~ok).sum())
         valid &= ok
