@@ -12,11 +12,10 @@ from rig.cli import main
 
 @pytest.fixture(scope="module")
 def scans(tmp_path_factory: pytest.TempPathFactory) -> list[Path]:
-    folder = tmp_path_factory.mktemp("cli-recognition")
-    out = [folder / "first", folder / "second"]
-    for target in out:
-        assert main(["scan", "--codec", "rings", "--out", str(target), "--json"]) == 0
-    return out
+    """One ring scan, added and identified (the REST tests identify a second scan of the object)."""
+    target = tmp_path_factory.mktemp("cli-recognition") / "scan"
+    assert main(["scan", "--codec", "rings", "--out", str(target), "--json"]) == 0
+    return [target, target]
 
 
 def test_add_list_identify_and_remove(scans: list[Path], tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
