@@ -13,6 +13,7 @@ from pydantic import ValidationError
 from rig.calibrate.foreign import ForeignCalibrationOptions, read_foreign_calibration
 from rig.errors import DecodeError
 from rig.patterns.described import decode_described, described_patterns
+from rig.patterns.gray import GrayCodec, GrayParams
 from rig.patterns.spec import FrameFiles, GrayCode, PatternSpec, ProjectorSpace, opencv_graycode
 from rig.pipeline.dense import PairTriangulator
 from tests.conftest import shared_data
@@ -143,3 +144,19 @@ def test_the_real_board_is_flat_and_where_the_camera_alone_puts_it(pose: int) ->
     _, rotation, translation = cv2.solvePnP(squares, corners, camera.K, camera.dist)
     alone = (squares @ cv2.Rodrigues(rotation)[0].T + translation.ravel()).mean(axis=0)
     assert abs(centre[2] - alone[2]) < 0.02 * alone[2]
+
+
+@pytest.mark.parametrize("directions", ["columns", "both"])
+def test_slrigs_own_gray_frames_read_as_their_description_says(directions: str) -> None:
+    """The gray codec describes its frames; the described decoder gives its correspondence bit for bit."""
+    codec = GrayCodec((WIDTH, HEIGHT), GrayParams(directions=directions))  # type: ignore[arg-type]
+    spec = codec.description()
+    frames = _seen(codec.patterns(), seed=3)
+    assert len(spec.roles()) == codec.frame_count
+    own, described = codec.decode(frames, 255), decode_described(frames, spec, 255)
+    assert np.array_equal(own.valid, described.valid)
+    for axis in ("u", "v"):
+        mine, theirs = getattr(own, axis), getattr(described, axis)
+        assert (mine is None) == (theirs is None)
+        if mine is not None:
+            assert np.array_equal(mine[own.valid], theirs[own.valid])

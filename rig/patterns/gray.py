@@ -8,6 +8,7 @@ from rig.patterns.base import Correspondence, NormalizedFrames
 from rig.patterns.graycode import bit_count, decode_gray, gray_planes, planes_with_inverses
 from rig.patterns.lines import LineCodec, LineParams
 from rig.patterns.registry import register
+from rig.patterns.spec import GrayCode, PatternSpec, ProjectorSpace
 
 
 class GrayParams(LineParams):
@@ -20,6 +21,19 @@ class GrayCodec(LineCodec):
     quantized = True
     Params = GrayParams
     params: GrayParams
+
+    def description(self) -> PatternSpec:
+        """This codec's frames as a pattern description (rig.patterns.spec): the one reader of
+        others' captures reads slrig's own."""
+        return PatternSpec(
+            projector=ProjectorSpace(resolution=(self.width, self.height)),
+            gray=GrayCode(
+                axes=tuple("columns" if axis == "u" else "rows" for axis in self.axes()),
+                white_black="first",
+                min_contrast=self.params.white_threshold,
+                black_threshold=self.params.black_threshold,
+            ),
+        )
 
     def _coded_frame_count(self) -> int:
         return sum(2 * bit_count(self.extent(axis)) for axis in self.axes())
