@@ -140,7 +140,7 @@ def test_the_options_and_the_file_kind_are_checked(tmp_path: Path) -> None:
         read_foreign_calibration(broken)
     found = read_foreign_calibration(path, ForeignCalibrationOptions(projector_resolution=(1024, 768)))
     with pytest.raises(CalibrationError, match="camera is calibrated for 1280x1024, the frames are 640x512"):
-        check_resolution(found.camera, (640, 512), "camera", path)
+        check_resolution(found.camera, (640, 512), "camera", "the frames are", path)
 
 
 def test_the_procam_calibration_result_reads_as_its_authors_wrote_it() -> None:

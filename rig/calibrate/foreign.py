@@ -107,12 +107,12 @@ def read_foreign_calibration(path: Path, options: ForeignCalibrationOptions | No
     return ForeignCalibration(camera, projector, rms, fields.found)
 
 
-def check_resolution(model: CameraModel, size: tuple[int, int], what: str, path: Path) -> None:
-    """CalibrationError where frames of `size` (width, height) do not fit the calibrated device."""
+def check_resolution(model: CameraModel, size: tuple[int, int], what: str, source: str, path: Path) -> None:
+    """CalibrationError where the size (width, height) `source` gives does not fit the calibrated device."""
     if (model.width, model.height) != tuple(size):
         raise CalibrationError(
             f"calibration file {path}: the {what} is calibrated for {model.width}x{model.height}, "
-            f"the frames are {size[0]}x{size[1]}"
+            f"{source} {size[0]}x{size[1]}"
         )
 
 

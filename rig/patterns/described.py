@@ -3,11 +3,14 @@ were projected, into slrig's Correspondence."""
 
 from __future__ import annotations
 
+from collections.abc import Iterator
+
 import numpy as np
 
 from rig.errors import DecodeError
 from rig.patterns.base import Correspondence, NormalizedFrames
-from rig.patterns.lines import LineCodec
+from rig.patterns.graycode import read_bits
+from rig.patterns.lines import LineCodec, stretch
 from rig.patterns.spec import Axis, PatternSpec, Role
 
 
@@ -68,28 +71,18 @@ def _read_axis(
     """The binary value of the projected bits and the second weakest bit's strength: at a stripe
     edge of a Gray code only one bit changes, so one weak bit is no reason to reject a pixel."""
     gray = spec.gray
-    shape = white.shape
-    value = np.zeros(shape, np.int32)
-    prefix = np.zeros(shape, np.int32)
-    weakest = np.full(shape, np.inf, np.float32)
-    second = np.full(shape, np.inf, np.float32)
     threshold = black + np.float32(gray.threshold) * (white - black)
-    for bit in range(spec.bits(axis) - gray.skipped_low_bits):
-        frame = frames[index[Role("bit", axis, bit)]]
-        if gray.reference == "inverse":
-            difference = frame - frames[index[Role("bit", axis, bit, True)]]
-        else:
-            difference = 2.0 * (frame - threshold)  # on the scale of frame - inverse
-        plane = (difference > 0) if gray.polarity == "lit_is_one" else (difference < 0)
-        if gray.code == "gray":
-            prefix ^= plane.astype(np.int32)  # binary bit = XOR of the Gray bits so far
-            value = (value << 1) | prefix
-        else:
-            value = (value << 1) | plane.astype(np.int32)
-        strength = np.abs(difference)
-        second = np.minimum(second, np.maximum(weakest, strength))
-        weakest = np.minimum(weakest, strength)
-    return value, second
+    sign = np.float32(1.0 if gray.polarity == "lit_is_one" else -1.0)
+
+    def differences() -> Iterator[np.ndarray]:
+        for bit in range(spec.bits(axis) - gray.skipped_low_bits):
+            frame = frames[index[Role("bit", axis, bit)]]
+            if gray.reference == "inverse":
+                yield sign * (frame - frames[index[Role("bit", axis, bit, True)]])
+            else:
+                yield sign * 2.0 * (frame - threshold)  # on the scale of frame - inverse
+
+    return read_bits(differences(), gray=gray.code == "gray")
 
 
 def described_patterns(spec: PatternSpec) -> list[np.ndarray]:
@@ -107,11 +100,5 @@ def described_patterns(spec: PatternSpec) -> list[np.ndarray]:
         code = index ^ (index >> 1) if spec.gray.code == "gray" else index
         lit = ((code >> (spec.bits(role.axis) - 1 - role.bit)) & 1).astype(bool)
         lit ^= role.inverse ^ (spec.gray.polarity == "lit_is_zero")
-        line = lit.astype(np.uint8) * 255
-        image = (
-            np.broadcast_to(line, (height, width))
-            if role.axis == "columns"
-            else np.broadcast_to(line[:, None], (height, width))
-        )
-        out.append(np.ascontiguousarray(image))
+        out.append(stretch(lit.astype(np.uint8) * 255, "u" if role.axis == "columns" else "v", width, height))
     return out

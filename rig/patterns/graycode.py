@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Iterable, Sequence
 
 import numpy as np
 
@@ -29,23 +29,31 @@ def planes_with_inverses(planes: list[np.ndarray]) -> list[np.ndarray]:
 
 
 def decode_gray(frames: Sequence[np.ndarray], bits: int) -> tuple[np.ndarray, np.ndarray]:
-    """Decode `bits` (pattern, inverse) frame pairs, MSB first.
+    """Decode `bits` (pattern, inverse) frame pairs, MSB first (see read_bits)."""
+    return read_bits((frames[2 * b] - frames[2 * b + 1] for b in range(bits)), gray=True)
 
-    Returns the binary value (int32) and the smallest |pattern - inverse| over the bits for each
-    pixel, except the single smallest one: along a Gray code only one bit changes at any stripe
-    edge, so one weak bit is expected there and is no reason to reject a pixel.
+
+def read_bits(differences: Iterable[np.ndarray], gray: bool) -> tuple[np.ndarray, np.ndarray]:
+    """The value spelled by bit frames, MSB first, each given as its difference from its reference
+    (its inverse, or a threshold): a bit is 1 where the difference is positive.
+
+    Returns the binary value (int32; `gray`: the bits are a Gray code) and the smallest |difference|
+    over the bits for each pixel, except the single smallest one: along a Gray code only one bit
+    changes at any stripe edge, so one weak bit is expected there and is no reason to reject a pixel.
     """
-    shape = frames[0].shape
-    value = np.zeros(shape, dtype=np.int32)
-    bit = np.zeros(shape, dtype=np.int32)
-    weakest = np.full(shape, np.inf, dtype=np.float32)
-    second = np.full(shape, np.inf, dtype=np.float32)
-    for b in range(bits):
-        diff = frames[2 * b] - frames[2 * b + 1]
-        g = (diff > 0).astype(np.int32)
-        bit ^= g  # binary bit = XOR of gray bits so far (prefix XOR)
+    value = prefix = weakest = second = None
+    for difference in differences:
+        if value is None:
+            value, prefix = np.zeros(difference.shape, np.int32), np.zeros(difference.shape, np.int32)
+            weakest = second = np.full(difference.shape, np.inf, dtype=np.float32)
+        bit = (difference > 0).astype(np.int32)
+        if gray:
+            prefix ^= bit  # binary bit = XOR of the Gray bits so far
+            bit = prefix
         value = (value << 1) | bit
-        strength = np.abs(diff)
+        strength = np.abs(difference)
         second = np.minimum(second, np.maximum(weakest, strength))
         weakest = np.minimum(weakest, strength)
+    if value is None:
+        raise ValueError("no bit frames")
     return value, second

@@ -12,6 +12,13 @@ from rig.patterns.base import Codec, CodecParams, Correspondence
 Directions = Literal["columns", "rows", "both"]
 
 
+def stretch(line: np.ndarray, axis: str, width: int, height: int) -> np.ndarray:
+    """A 1-D profile along `axis` ("u": across the columns, "v": down the rows) as a width x height image."""
+    if axis == "u":
+        return np.ascontiguousarray(np.broadcast_to(line, (height, width)))
+    return np.ascontiguousarray(np.broadcast_to(line[:, None], (height, width)))
+
+
 class LineParams(CodecParams):
     directions: Directions = Field("columns", description="which projector coordinates to code")
     white_threshold: float = Field(
@@ -32,9 +39,7 @@ class LineCodec(Codec):
 
     def stretch(self, line: np.ndarray, axis: str) -> np.ndarray:
         """A 1-D profile along `axis` as a full projector image."""
-        if axis == "u":
-            return np.ascontiguousarray(np.broadcast_to(line, (self.height, self.width)))
-        return np.ascontiguousarray(np.broadcast_to(line[:, None], (self.height, self.width)))
+        return stretch(line, axis, self.width, self.height)
 
     @staticmethod
     def correspondence(

@@ -49,8 +49,8 @@ def reconstruct_folder(
     frames = read_frames(frames_dir, spec.frames, len(spec.roles()))
     height, width = frames.frames[0].shape
     camera, projector, digest = calibration_models(calibration, options)
-    check_resolution(camera, (width, height), "camera", calibration)
-    check_resolution(projector, spec.projector.resolution, "projector", calibration)
+    check_resolution(camera, (width, height), "camera", "the frames are", calibration)
+    check_resolution(projector, spec.projector.resolution, "projector", "the pattern description's is", calibration)
     correspondence = decode_described(frames.frames, spec, frames.full_scale)
     limit = jump_limit(camera, projector, correspondence, spec.projector.code_step_px, config.scan.max_depth_jump_mm)
     rig_config = offline_config(config, options, camera, projector, frames.full_scale, limit)
