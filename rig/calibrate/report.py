@@ -14,6 +14,8 @@ GRID = 8  # coverage is the fraction of an 8x8 grid of image cells that hold a c
 RECOMMENDED_VIEWS = 8
 MIN_COVERAGE = 0.4
 MAX_RMS_PX = {"camera": 0.5, "projector": 1.0}
+MAX_FOCAL_STD = 0.01  # of the focal length: more, and the views do not determine the lens
+MAX_CENTRE_STD = 0.02  # of the image's width or height
 
 
 def coverage(device: DeviceCalibration) -> float:
@@ -46,9 +48,23 @@ def warnings(devices: list[DeviceCalibration]) -> list[str]:
                 f"{d.name}: reprojection error {d.rms_px:.2f} px is above {limit} px; check focus, board "
                 "flatness, exposure and, for a projector, its response (gamma) and frame sync"
             )
+        out += _undetermined(d)
         if d.stereo_rms_px is not None and d.stereo_rms_px > 2 * limit:
             out.append(f"{d.name}: stereo error {d.stereo_rms_px:.2f} px; the views may be inconsistent")
     return out
+
+
+def _undetermined(d: DeviceCalibration) -> list[str]:
+    """Parameters the views leave uncertain (OpenCV's standard deviations against their scale)."""
+    scale = {"fx": d.K[0, 0] * MAX_FOCAL_STD, "fy": d.K[1, 1] * MAX_FOCAL_STD}
+    scale |= {"cx": d.resolution[0] * MAX_CENTRE_STD, "cy": d.resolution[1] * MAX_CENTRE_STD}
+    loose = [f"{name} +-{d.std[name]:.1f} px" for name in scale if d.std.get(name, 0.0) > scale[name]]
+    if not loose:
+        return []
+    return [
+        f"{d.name}: the views leave {', '.join(loose)} uncertain (model {d.model}); add views at other "
+        "tilts and distances, or choose a simpler model (calibration.model)"
+    ]
 
 
 def report(devices: list[DeviceCalibration]) -> dict[str, Any]:
@@ -62,6 +78,9 @@ def report(devices: list[DeviceCalibration]) -> dict[str, Any]:
                 "per_view_rms_px": {str(v): round(e, 4) for v, e in sorted(d.per_view_rms_px.items())},
                 "rejected_views": {str(v): reason for v, reason in sorted(d.rejected.items())},
                 "coverage": round(coverage(d), 3),
+                "model": d.model,
+                "std": {name: round(value, 6) for name, value in d.std.items()},
+                "held_out_rms_px": d.held_out_px,
             }
             for d in devices
         },

@@ -9,13 +9,16 @@ from typing import Any, Literal
 import numpy as np
 
 from rig.calibrate.boards import Board
+from rig.calibrate.described import BoardImage, load_described_views, view_folders
 from rig.calibrate.files import write_calibration
 from rig.calibrate.report import coverage_png, report
 from rig.calibrate.solve import DeviceCalibration, calibrate_cameras, calibrate_projectors
 from rig.calibrate.views import View, capture_placed_views, default_poses, load_folder_views
+from rig.config import RigConfig
 from rig.errors import CalibrationError
 from rig.rig import Rig
 from rig.store.atomic import write_atomic
+from rig.store.frames import load_pattern_spec
 
 Mode = Literal["camera", "projector", "rig"]
 
@@ -64,22 +67,52 @@ def calibrate(
     """Capture (or read) views, calibrate, and write the files into `out`. `camera` calibrates the
     cameras; `projector` and `rig` also the projectors (which need the cameras). Raises
     CalibrationError, having written nothing, when the views cannot give a calibration."""
-    board = Board(rig.config.calibration.board)
-    collected = collect_views(rig, board, mode, views or rig.config.calibration.views, images, save_views)
+    config = rig.config
+    board = Board(config.calibration.board)
+    collected = collect_views(rig, board, mode, views or config.calibration.views, images, save_views)
+    cameras = [(c.name, c.resolution) for c in config.cameras]
+    projectors = [(p.name, p.resolution) for p in config.projectors] if mode != "camera" else []
+    return solve_and_write(collected, board, cameras, projectors, config.calibration.model, out)
+
+
+def calibrate_described(
+    config: RigConfig,
+    images: Path,
+    patterns: Path,
+    out: Path,
+    mode: Mode = "rig",
+    view_glob: str = "*",
+    source: BoardImage = "auto",
+) -> CalibrationOutcome:
+    """Calibrate the config's first camera (and projector) from another system's capture folders
+    under `images`, described by the pattern description `patterns`; no device is opened."""
+    spec = load_pattern_spec(patterns)
+    board = Board(config.calibration.board)
+    collected, camera_size = load_described_views(view_folders(images, view_glob), spec, board, source)
+    cameras = [(config.cameras[0].name, camera_size)]
+    projectors = [(config.projectors[0].name, spec.projector.resolution)] if mode != "camera" else []
+    return solve_and_write(collected, board, cameras, projectors, config.calibration.model, out)
+
+
+def solve_and_write(
+    collected: list[View],
+    board: Board,
+    cameras: list[tuple[str, tuple[int, int]]],
+    projectors: list[tuple[str, tuple[int, int]]],
+    model: str,
+    out: Path,
+) -> CalibrationOutcome:
+    """Calibrate the named devices from the views and write the files into `out`."""
     if not any(v.camera for v in collected):
         cols, rows = board.config.squares
         raise CalibrationError(
             f"no view shows the {cols}x{rows}-square {board.config.kind} board that the config "
             "describes (calibration.board): wrong board, or not in view"
         )
-    config = rig.config
-    devices = calibrate_cameras(
-        collected, board, [c.name for c in config.cameras], [c.resolution for c in config.cameras]
-    )
-    if mode != "camera":
-        devices += calibrate_projectors(
-            collected, board, devices, [p.name for p in config.projectors], [p.resolution for p in config.projectors]
-        )
+    devices = calibrate_cameras(collected, board, [n for n, _ in cameras], [s for _, s in cameras], model)
+    if projectors:
+        names, sizes = [n for n, _ in projectors], [s for _, s in projectors]
+        devices += calibrate_projectors(collected, board, devices, names, sizes, model)
     summary = report(devices)
     board_warning = board.config.orientation_warning()
     if board_warning is not None:

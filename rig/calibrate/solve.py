@@ -9,6 +9,7 @@ import cv2
 import numpy as np
 
 from rig.calibrate.boards import Board, Detection
+from rig.calibrate.models import REFERENCE, LensFit, LensModel, choose, fit
 from rig.calibrate.views import View
 from rig.errors import CalibrationError
 
@@ -34,11 +35,16 @@ class DeviceCalibration:
     rejected: dict[int, str] = field(default_factory=dict)  # view -> reason
     stereo_rms_px: float | None = None
     points: dict[int, np.ndarray] = field(default_factory=dict)  # view -> image points, for coverage
+    model: str = REFERENCE
+    std: dict[str, float] = field(default_factory=dict)  # free parameter -> its standard deviation
+    held_out_px: dict[str, float] = field(default_factory=dict)  # model -> held-out rms, when chosen
 
 
 def _intrinsics(
-    name: str, size: tuple[int, int], detections: dict[int, Detection], board: Board, fix_k3: bool = True
-) -> tuple[float, np.ndarray, np.ndarray, dict[int, tuple[np.ndarray, np.ndarray]], dict[int, float], dict[int, str]]:
+    name: str, size: tuple[int, int], detections: dict[int, Detection], board: Board, model: str
+) -> tuple[LensFit, dict[int, str]]:
+    """The device's lens fitted to its usable views (outlier views dropped once, found with the
+    reference model), then the requested model (or auto's choice) on the views that remain."""
     rejected: dict[int, str] = {}
     usable = {}
     for view, det in sorted(detections.items()):
@@ -52,27 +58,22 @@ def _intrinsics(
                 f"{name}: the board was found in {len(usable)} usable view(s); calibration needs at least "
                 f"{MIN_VIEWS} (10-20 recommended)"
             )
-        views = list(usable)
-        obj = [board.object_points(usable[v].ids).astype(np.float32) for v in views]
-        img = [usable[v].points.astype(np.float32).reshape(-1, 1, 2) for v in views]
-        flags = cv2.CALIB_FIX_K3 if fix_k3 else 0
-        rms, K, dist, rvecs, tvecs, _, _, per_view = cv2.calibrateCameraExtended(
-            obj, img, size, None, None, flags=flags
-        )
-        per_view_rms = {v: float(e) for v, e in zip(views, np.ravel(per_view), strict=True)}
-        limit = max(OUTLIER_FACTOR * float(np.median(list(per_view_rms.values()))), OUTLIER_FLOOR_PX)
-        outliers = {v: e for v, e in per_view_rms.items() if e > limit}
+        objects = {v: board.object_points(d.ids) for v, d in usable.items()}
+        images = {v: d.points for v, d in usable.items()}
+        lens = fit(LensModel(REFERENCE), objects, images, size)
+        limit = max(OUTLIER_FACTOR * float(np.median(list(lens.per_view_rms_px.values()))), OUTLIER_FLOOR_PX)
+        outliers = {v: e for v, e in lens.per_view_rms_px.items() if e > limit}
         if not outliers or len(usable) - len(outliers) < MIN_VIEWS:
             break
         for v, e in outliers.items():
             rejected[v] = f"reprojection error {e:.2f} px, more than {limit:.2f} px (outlier)"
             del usable[v]
-    poses = {v: (cv2.Rodrigues(r)[0], np.ravel(t)) for v, r, t in zip(views, rvecs, tvecs, strict=True)}
-    return float(rms), K, np.ravel(dist), poses, per_view_rms, rejected
+    requested = LensModel.parse(model)
+    return (lens if requested == lens.model else choose(requested, objects, images, size)), rejected
 
 
 def calibrate_cameras(
-    views: list[View], board: Board, names: list[str], sizes: list[tuple[int, int]]
+    views: list[View], board: Board, names: list[str], sizes: list[tuple[int, int]], model: str = "auto"
 ) -> list[DeviceCalibration]:
     out = []
     for c, (name, size) in enumerate(zip(names, sizes, strict=True)):
@@ -82,33 +83,24 @@ def calibrate_cameras(
                 f"{name}: the board ({board.config.squares[0]}x{board.config.squares[1]} "
                 f"{board.config.kind} squares) was not found in any view"
             )
-        rms, K, dist, poses, per_view, rejected = _intrinsics(name, size, detections, board)
-        if 0 not in poses:
+        lens, rejected = _intrinsics(name, size, detections, board, model)
+        if 0 not in lens.poses:
             raise CalibrationError(
                 f"{name}: the first view (the board that defines the world frame) was not usable: "
                 f"{rejected.get(0, 'board not found')}"
             )
-        R, t = poses[0]
-        out.append(
-            DeviceCalibration(
-                name,
-                "camera",
-                size,
-                K,
-                dist,
-                R,
-                t,
-                rms,
-                per_view,
-                rejected,
-                points={v: d.points for v, d in detections.items()},
-            )
-        )
+        R, t = lens.poses[0]
+        out.append(_device(name, "camera", size, lens, R, t, rejected, detections))
     return out
 
 
 def calibrate_projectors(
-    views: list[View], board: Board, cameras: list[DeviceCalibration], names: list[str], sizes: list[tuple[int, int]]
+    views: list[View],
+    board: Board,
+    cameras: list[DeviceCalibration],
+    names: list[str],
+    sizes: list[tuple[int, int]],
+    model: str = "auto",
 ) -> list[DeviceCalibration]:
     out = []
     for p, (name, size) in enumerate(zip(names, sizes, strict=True)):
@@ -122,8 +114,8 @@ def calibrate_projectors(
                 f"{name}: no view gave projector coordinates at the board's corners "
                 "(is the board lit by the projector, and inside its image?)"
             )
-        rms, K, dist, _poses, per_view, rejected = _intrinsics(name, size, detections, board)
-        common = [v for v in views if v.index in per_view and v.index not in rejected and c in v.camera]
+        lens, rejected = _intrinsics(name, size, detections, board, model)
+        common = [v for v in views if v.index in lens.per_view_rms_px and v.index not in rejected and c in v.camera]
         obj, cam_pts, proj_pts = [], [], []
         for v in common:
             proj = detections[v.index]
@@ -140,25 +132,48 @@ def calibrate_projectors(
                 f"at least {MIN_VIEWS} needed"
             )
         stereo = cv2.stereoCalibrate(
-            obj, cam_pts, proj_pts, camera.K, camera.dist, K, dist, camera.resolution, flags=cv2.CALIB_FIX_INTRINSIC
+            obj,
+            cam_pts,
+            proj_pts,
+            camera.K,
+            camera.dist,
+            lens.K,
+            lens.dist,
+            camera.resolution,
+            flags=cv2.CALIB_FIX_INTRINSIC,
         )
         stereo_rms, R_cp, T_cp = stereo[0], stereo[5], np.ravel(stereo[6])
         R = R_cp @ camera.R
         t = R_cp @ camera.t + T_cp
-        out.append(
-            DeviceCalibration(
-                name,
-                "projector",
-                size,
-                K,
-                dist,
-                R,
-                t,
-                rms,
-                per_view,
-                rejected,
-                stereo_rms_px=float(stereo_rms),
-                points={v: d.points for v, d in detections.items()},
-            )
-        )
+        device = _device(name, "projector", size, lens, R, t, rejected, detections)
+        device.stereo_rms_px = float(stereo_rms)
+        out.append(device)
     return out
+
+
+def _device(
+    name: str,
+    kind: str,
+    size: tuple[int, int],
+    lens: LensFit,
+    R: np.ndarray,
+    t: np.ndarray,
+    rejected: dict[int, str],
+    detections: dict[int, Detection],
+) -> DeviceCalibration:
+    return DeviceCalibration(
+        name,
+        kind,
+        size,
+        lens.K,
+        lens.dist,
+        R,
+        t,
+        lens.rms_px,
+        lens.per_view_rms_px,
+        rejected,
+        points={v: d.points for v, d in detections.items()},
+        model=lens.model.name,
+        std=lens.std,
+        held_out_px=lens.held_out_px,
+    )

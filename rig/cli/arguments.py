@@ -114,6 +114,32 @@ def _cal_command(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-
         default=None,
         help="read the views from this folder (view_NN/<camera>.png, view_NN/<projector>_<camera>/)",
     )
+    cal.add_argument(
+        "--patterns",
+        type=Path,
+        default=None,
+        help="with --images: another system's captures, one sub-folder per board pose, its frames as this "
+        "pattern description (YAML) lists them; no device is opened",
+    )
+    cal.add_argument("--view-glob", default="*", help="with --patterns: the sub-folders that are views (capture_*)")
+    cal.add_argument(
+        "--board-image",
+        choices=["auto", "white", "mean", "modulation"],
+        default="auto",
+        help="with --patterns: where the board is found (auto: the white frame, else the frames' mean)",
+    )
+    cal.add_argument(
+        "--board",
+        default=None,
+        help="the board as KIND:COLSxROWS:SQUARE_MM (squares, not inner corners), e.g. checker:10x8:75; "
+        "default: the config's calibration.board",
+    )
+    cal.add_argument(
+        "--model",
+        default=None,
+        help="lens model: auto (drop what the views do not determine), or k1, k1k2, k1k2_tangential, full with "
+        "+fixed_centre and/or +fixed_aspect (k1k2+fixed_aspect); default: the config's calibration.model",
+    )
     cal.add_argument("--save-views", type=Path, default=None, help="also write the captured views to this folder")
     cal.add_argument(
         "--out",

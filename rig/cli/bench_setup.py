@@ -8,8 +8,8 @@ from typing import Any
 
 from rig.assembly import open_rig
 from rig.calibrate.response import RESPONSE_NAME, calibrate_response
-from rig.calibrate.session import calibrate
-from rig.config import load_config
+from rig.calibrate.session import calibrate, calibrate_described
+from rig.config import RigConfig, config_from_dict, load_config
 from rig.doctor.checks import check
 from rig.doctor.inventory import describe, inventory
 from rig.doctor.latency import measure_latency, store_latencies
@@ -17,9 +17,12 @@ from rig.errors import ConfigError
 
 
 def cmd_calibrate(args: argparse.Namespace) -> int:
-    config = load_config(args.config)
+    config = calibration_overrides(load_config(args.config), args.board, args.model)
     if args.views is not None and not 3 <= args.views <= 200:
         raise ConfigError("--views", [f"--views: {args.views} is outside 3..200"])
+    if args.patterns is not None and (args.images is None or args.what not in ("camera", "rig", "projector")):
+        problem = "--patterns: give the captures' folder with --images (camera, projector or rig)"
+        raise ConfigError("--patterns", [problem])
     out = args.out if args.out is not None else config.output.data_dir / "calibration"
     if args.what == "response":
         with open_rig(config) as the_rig:
@@ -30,23 +33,60 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
             for name, p in document["projectors"].items():
                 print(f"{name}: response fits gamma {p['gamma']:.3f} -> {out / RESPONSE_NAME}")
         return 0
-    with open_rig(config) as the_rig:
-        outcome = calibrate(the_rig, args.what, out, args.views, args.images, args.save_views)
+    if args.patterns is not None:
+        outcome = calibrate_described(
+            config, args.images, args.patterns, out, args.what, args.view_glob, args.board_image
+        )
+    else:
+        with open_rig(config) as the_rig:
+            outcome = calibrate(the_rig, args.what, out, args.views, args.images, args.save_views)
     summary = {"path": str(outcome.folder), "sha256": outcome.sha256, "views": outcome.views, **outcome.report}
     if args.json:
         print(json.dumps(summary, allow_nan=False))
         return 0
     print(f"calibration {outcome.sha256} from {outcome.views} views -> {outcome.folder}/calibration.json")
-    for name, d in outcome.report["devices"].items():
+    for device in outcome.devices:
+        d = outcome.report["devices"][device.name]
         stereo = f", stereo {d['stereo_rms_px']:.3f} px" if d["stereo_rms_px"] is not None else ""
         rejected = f", rejected views {d['rejected_views']}" if d["rejected_views"] else ""
         print(
-            f"  {name} ({d['kind']}): rms {d['rms_px']:.3f} px{stereo}, {len(d['views_used'])} views, "
+            f"  {device.name} ({d['kind']}): rms {d['rms_px']:.3f} px{stereo}, {len(d['views_used'])} views, "
             f"coverage {d['coverage']:.0%}{rejected}"
+        )
+        K = device.K
+        print(
+            f"    model {device.model}: f {K[0, 0]:.1f} {K[1, 1]:.1f} (+-{device.std.get('fy', 0.0):.1f}), "
+            f"centre {K[0, 2]:.1f} {K[1, 2]:.1f}, k1 {device.dist[0]:.4f}"
         )
     for warning in outcome.report["warnings"]:
         print(f"  warning: {warning}")
     return 0
+
+
+def calibration_overrides(config: RigConfig, board: str | None, model: str | None) -> RigConfig:
+    """The config with --board (KIND:COLSxROWS:SQUARE_MM) and --model, validated as the file is."""
+    if board is None and model is None:
+        return config
+    data = config.model_dump(mode="json")
+    if model is not None:
+        data["calibration"]["model"] = model
+    if board is not None:
+        parts = board.split(":")
+        try:
+            kind, squares, square = parts
+            cols, rows = (int(n) for n in squares.lower().split("x"))
+            size = float(square)
+        except ValueError:
+            problem = f"--board: {board!r} is not KIND:COLSxROWS:SQUARE_MM (checker:10x8:75)"
+            raise ConfigError("--board", [problem]) from None
+        data["calibration"]["board"] |= {"kind": kind, "squares": [cols, rows], "square_mm": size}
+    try:
+        return config_from_dict(data, "--board/--model")
+    except ConfigError as exc:
+        problems = [
+            p.replace("calibration.board.", "--board ").replace("calibration:", "--model:") for p in exc.problems
+        ]
+        raise ConfigError("--board/--model", problems) from None
 
 
 def cmd_doctor(args: argparse.Namespace) -> int:

@@ -41,6 +41,10 @@ class BoardConfig(Strict):
         )
 
 
+LENS_DISTORTIONS = ("k1", "k1k2", "k1k2_tangential", "full")
+LENS_CONSTRAINTS = ("fixed_centre", "fixed_aspect")
+
+
 class BoardPose(Strict):
     """Where the operator puts the board: its centre and its rotation (x, y, z Euler angles, degrees;
     all zero is flat, face up, columns along world x)."""
@@ -63,8 +67,28 @@ class CalibrationConfig(Strict):
         description="board poses for the simulated session instead of its own choice; the first defines "
         "the world frame",
     )
+    model: str = Field(
+        "auto",
+        description="lens model of every device: auto (drop what the views do not determine), or a distortion "
+        "(k1, k1k2, k1k2_tangential, full) with +fixed_centre and/or +fixed_aspect, e.g. k1k2+fixed_aspect",
+    )
+
     file: Path | None = Field(
         None,
         description="calibration.json (or its folder) that reconstruction uses instead of the devices' geometry; "
         "relative paths are relative to the config file",
     )
+
+    @model_validator(mode="after")
+    def _known_model(self) -> CalibrationConfig:
+        distortion, *constraints = self.model.split("+")
+        if self.model != "auto" and (
+            distortion not in LENS_DISTORTIONS
+            or any(c not in LENS_CONSTRAINTS for c in constraints)
+            or len(set(constraints)) != len(constraints)
+        ):
+            raise ValueError(
+                f"model {self.model!r}: auto, or one of {', '.join(LENS_DISTORTIONS)} followed by any of "
+                f"{', '.join('+' + c for c in LENS_CONSTRAINTS)}"
+            )
+        return self

@@ -52,7 +52,7 @@ def frame_files(folder: Path, files: FrameFiles, expected: int) -> list[Path]:
         if missing:
             raise FramesError(f"frames folder {folder}: missing {', '.join(missing[:5])}")
     else:
-        found = sorted((p for p in folder.glob(files.files) if p.is_file()), key=_natural)
+        found = sorted((p for p in folder.glob(files.files) if p.is_file()), key=natural_order)
     if len(found) != expected:
         names = ", ".join(p.name for p in found[expected:][:5])
         detail = f" (beyond them: {names})" if len(found) > expected else ""
@@ -105,6 +105,6 @@ def _to_grey(image: np.ndarray, grey: str) -> np.ndarray:
     return np.ascontiguousarray(image[..., _GREY[grey]])
 
 
-def _natural(path: Path) -> list[object]:
+def natural_order(path: Path) -> list[object]:
     """Sort key: numbers in a name by value (frame_2 before frame_10)."""
     return [int(part) if part.isdigit() else part for part in re.split(r"(\d+)", path.name)]
