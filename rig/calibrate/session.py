@@ -9,6 +9,7 @@ from typing import Any, Literal
 import numpy as np
 
 from rig.calibrate.boards import Board
+from rig.calibrate.check import board_checks
 from rig.calibrate.described import BoardImage, load_described_views, view_folders
 from rig.calibrate.files import write_calibration
 from rig.calibrate.report import coverage_png, report
@@ -114,6 +115,8 @@ def solve_and_write(
         names, sizes = [n for n, _ in projectors], [s for _, s in projectors]
         devices += calibrate_projectors(collected, board, devices, names, sizes, model)
     summary = report(devices)
+    cameras_done = devices[: len(cameras)]
+    summary["board_check"] = board_checks(collected, board, cameras_done, devices[len(cameras) :])
     board_warning = board.config.orientation_warning()
     if board_warning is not None:
         summary["warnings"].insert(0, board_warning)

@@ -58,6 +58,11 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
             f"    model {device.model}: f {K[0, 0]:.1f} {K[1, 1]:.1f} (+-{device.std.get('fy', 0.0):.1f}), "
             f"centre {K[0, 2]:.1f} {K[1, 2]:.1f}, k1 {device.dist[0]:.4f}"
         )
+    for pair, ruler in outcome.report["board_check"].items():
+        print(
+            f"  board check {pair}: squares {ruler['square_error_pct']:+.2f} % of {ruler['square']:g} (worst view "
+            f"{ruler['worst_view_square_error_pct']:+.2f} %), corners {ruler['plane_rms']:.3f} rms off their plane"
+        )
     for warning in outcome.report["warnings"]:
         print(f"  warning: {warning}")
     return 0
@@ -83,9 +88,8 @@ def calibration_overrides(config: RigConfig, board: str | None, model: str | Non
     try:
         return config_from_dict(data, "--board/--model")
     except ConfigError as exc:
-        problems = [
-            p.replace("calibration.board.", "--board ").replace("calibration:", "--model:") for p in exc.problems
-        ]
+        renamed = (("calibration.board.", "--board "), ("calibration.board", "--board"), ("calibration:", "--model:"))
+        problems = [p.replace(*renamed[0]).replace(*renamed[1]).replace(*renamed[2]) for p in exc.problems]
         raise ConfigError("--board/--model", problems) from None
 
 
