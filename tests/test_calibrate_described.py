@@ -100,7 +100,7 @@ def test_bad_inputs_are_refused_naming_the_field_and_nothing_is_written(
     one_axis = tmp_path / "columns.yaml"
     one_axis.write_text(yaml.safe_dump({**PROCAM, "gray": {"axes": ["columns"], "white_black": "last"}}))
     assert main([*base[:5], str(one_axis), *base[6:]]) == 2
-    assert "needs columns and rows (gray.axes)" in capsys.readouterr().err
+    assert "needs columns and rows (gray.axes or phase.axes)" in capsys.readouterr().err
     assert not out.exists()
 
 

@@ -62,10 +62,10 @@ def load_described_views(
 ) -> tuple[list[View], tuple[int, int]]:
     """One view per folder (camera 0, projector 0) and the camera's (width, height). FramesError
     names a folder whose frames the description does not list, or whose size differs."""
-    if len(spec.gray.axes) != 2:
+    if len(spec.axes) != 2:
         raise CalibrationError(
-            f"the pattern description codes only {spec.gray.axes[0]}; a projector's calibration needs "
-            "columns and rows (gray.axes)"
+            f"the pattern description codes only {spec.axes[0]}; a projector's calibration needs "
+            "columns and rows (gray.axes or phase.axes)"
         )
     views, size = [], None
     for index, folder in enumerate(folders):

@@ -9,6 +9,7 @@ import numpy as np
 
 from rig.errors import DecodeError
 from rig.patterns.base import Correspondence, NormalizedFrames
+from rig.patterns.described_phase import decode_phase, phase_pattern
 from rig.patterns.graycode import read_bits
 from rig.patterns.lines import LineCodec, stretch
 from rig.patterns.spec import Axis, PatternSpec, Role
@@ -25,8 +26,14 @@ def decode_described(frames: list[np.ndarray], spec: PatternSpec, full_scale: in
         raise DecodeError(f"frames differ in size: {sorted(shapes)}")
     normalized = NormalizedFrames(frames, full_scale)
     index = {role: i for i, role in enumerate(roles)}
+    if spec.phase is not None:
+
+        def read_gray(axis: Axis, white: np.ndarray, black: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+            return _read_axis(normalized, spec, axis, index, white, black)
+
+        return decode_phase(normalized, spec, index, frames, read_gray)
     white, black, texture = _references(normalized, roles, index, frames)
-    gray = spec.gray
+    gray = spec.code
     lit = (white - black) >= gray.black_threshold
     valid = lit.copy()
     coords: dict[str, np.ndarray] = {}
@@ -70,7 +77,7 @@ def _read_axis(
 ) -> tuple[np.ndarray, np.ndarray]:
     """The binary value of the projected bits and the second weakest bit's strength: at a stripe
     edge of a Gray code only one bit changes, so one weak bit is no reason to reject a pixel."""
-    gray = spec.gray
+    gray = spec.code
     threshold = black + np.float32(gray.threshold) * (white - black)
     sign = np.float32(1.0 if gray.polarity == "lit_is_one" else -1.0)
 
@@ -91,14 +98,18 @@ def described_patterns(spec: PatternSpec) -> list[np.ndarray]:
     width, height = spec.projector.resolution
     out = []
     for role in spec.roles():
+        if role.kind == "phase":
+            out.append(phase_pattern(spec, role))
+            continue
         if role.kind != "bit":
             out.append(np.full((height, width), 255 if role.kind == "white" else 0, np.uint8))
             continue
         assert role.axis is not None
         size = width if role.axis == "columns" else height
-        index = np.arange(size) // spec.projector.code_step_px
-        code = index ^ (index >> 1) if spec.gray.code == "gray" else index
+        step = spec.phase.frequencies[0].period_px if spec.phase is not None else spec.projector.code_step_px
+        index = (np.arange(size) // step).astype(np.int64)
+        code = index ^ (index >> 1) if spec.code.code == "gray" else index
         lit = ((code >> (spec.bits(role.axis) - 1 - role.bit)) & 1).astype(bool)
-        lit ^= role.inverse ^ (spec.gray.polarity == "lit_is_zero")
+        lit ^= role.inverse ^ (spec.code.polarity == "lit_is_zero")
         out.append(stretch(lit.astype(np.uint8) * 255, "u" if role.axis == "columns" else "v", width, height))
     return out

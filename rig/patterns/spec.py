@@ -98,58 +98,159 @@ class GrayCode(Strict):
         return self
 
 
+class Frequency(Strict):
+    period_px: float = Field(ge=2.0, le=65536.0, description="fringe period in projector pixels")
+    steps: int = Field(ge=3, le=64, description="phase steps N of this period")
+
+
+class PhaseShift(Strict):
+    """N-step phase shift: frame n of a frequency shows 0.5 + 0.5 cos(2 pi x / P + start + s 2 pi n / N),
+    s = +1 (shift plus) or -1 (minus), x the projector coordinate (pixel centres at integers)."""
+
+    axes: tuple[Axis, ...] = Field(("columns",), min_length=1, max_length=2)
+    frequencies: list[Frequency] = Field(min_length=1, max_length=3, description="in the order their frames come")
+    shift: Literal["plus", "minus"] = "plus"
+    start_deg: float = Field(0.0, ge=-360.0, le=360.0)
+    unwrap: Literal["gray", "heterodyne", "hierarchical"] = Field(
+        description="gray: a Gray code (the gray block) of the period index; heterodyne: the beats of 2 or 3 "
+        "frequencies; hierarchical: the longest period spans the projector (a single-period cue) and unwraps "
+        "the next shorter"
+    )
+    white_black: Literal["first", "last", "none"] = Field("none", description="without a gray block")
+    min_modulation: float = Field(0.02, ge=0.0, le=1.0, description="least fringe amplitude, of full scale")
+
+    @model_validator(mode="after")
+    def _unwrappable(self) -> PhaseShift:
+        if len(set(self.axes)) != len(self.axes):
+            raise ValueError(f"axes {list(self.axes)}: an axis twice")
+        count = len(self.frequencies)
+        if self.unwrap == "gray" and count != 1:
+            raise ValueError(f"unwrap gray: one frequency, not {count}")
+        if self.unwrap != "gray" and count < 2:
+            raise ValueError(f"unwrap {self.unwrap}: two or three frequencies")
+        return self
+
+
 @dataclass(frozen=True)
 class Role:
     """What one frame shows."""
 
-    kind: Literal["white", "black", "bit"]
+    kind: Literal["white", "black", "bit", "phase"]
     axis: Axis | None = None
-    bit: int = 0  # 0: the most significant
+    bit: int = 0  # a bit: 0 the most significant; a phase frame: its frequency
     inverse: bool = False
+    step: int = 0  # a phase frame's step n
 
 
 class PatternSpec(Strict):
     projector: ProjectorSpace
     frames: FrameFiles = FrameFiles()
-    gray: GrayCode
+    gray: GrayCode | None = Field(None, description="a Gray or binary code; with phase, of the period index")
+    phase: PhaseShift | None = None
+
+    @property
+    def axes(self) -> tuple[Axis, ...]:
+        """The coded axes, in the order their frames come."""
+        return self.phase.axes if self.phase is not None else self.code.axes
+
+    @property
+    def code(self) -> GrayCode:
+        """The Gray code block (present wherever a bit role is)."""
+        assert self.gray is not None
+        return self.gray
 
     def bits(self, axis: Axis) -> int:
         """Bits of `axis`' code, projected or not."""
-        if self.gray.bits is not None:
-            return self.gray.bits
+        if self.code.bits is not None:
+            return self.code.bits
         return max(1, math.ceil(math.log2(self.extent(axis))))
 
+    def pixels(self, axis: Axis) -> int:
+        return self.projector.resolution[0 if axis == "columns" else 1]
+
     def extent(self, axis: Axis) -> int:
-        """Codes along `axis`: the projector's pixels over the pixels per code."""
-        return math.ceil(self.projector.resolution[0 if axis == "columns" else 1] / self.projector.code_step_px)
+        """Codes along `axis`: the projector's pixels over the pixels per code, or with phase, periods."""
+        if self.phase is not None:
+            return math.ceil(self.pixels(axis) / self.phase.frequencies[0].period_px)
+        return math.ceil(self.pixels(axis) / self.projector.code_step_px)
 
     def roles(self) -> list[Role]:
-        """One role per frame, in the order the frames come."""
+        """One role per frame, in the order the frames come: per axis its phase frames (by frequency),
+        then its Gray code's."""
         coded: list[Role] = []
-        for axis in self.gray.axes:
-            projected = list(range(self.bits(axis) - self.gray.skipped_low_bits))
-            if self.gray.order == "lsb_first":
+        for axis in self.axes:
+            if self.phase is not None:
+                for f, frequency in enumerate(self.phase.frequencies):
+                    coded += [Role("phase", axis, f, step=n) for n in range(frequency.steps)]
+            if self.gray is None:
+                continue
+            gray = self.gray
+            projected = list(range(self.bits(axis) - gray.skipped_low_bits))
+            if gray.order == "lsb_first":
                 projected.reverse()
             plain = [Role("bit", axis, b) for b in projected]
-            if self.gray.reference == "threshold":
+            if gray.reference == "threshold":
                 coded += plain
-            elif self.gray.layout == "interleaved":
+            elif gray.layout == "interleaved":
                 coded += [r for b in projected for r in (Role("bit", axis, b), Role("bit", axis, b, True))]
             else:
                 coded += plain + [Role("bit", axis, b, True) for b in projected]
         references = [Role("white"), Role("black")]
-        if self.gray.white_black == "first":
+        where = self.gray.white_black if self.gray is not None else self.phase.white_black  # type: ignore[union-attr]
+        if where == "first":
             return references + coded
-        if self.gray.white_black == "last":
+        if where == "last":
             return coded + references
         return coded
 
     @model_validator(mode="after")
     def _bits_fit(self) -> PatternSpec:
+        if self.gray is None and self.phase is None:
+            raise ValueError("a description needs a gray or a phase block (or both: phase unwrapped by gray)")
+        if self.phase is not None:
+            check_unwrapping(self)
+        if self.gray is None:
+            return self
         for axis in self.gray.axes:
             if 2 ** self.bits(axis) < self.extent(axis):
                 raise ValueError(f"gray.bits {self.bits(axis)}: too few for {self.extent(axis)} {axis}")
         return self
+
+
+def check_unwrapping(spec: PatternSpec) -> None:
+    """The phase block's unwrapping can reach across the projector; ValueError naming the field."""
+    phase = spec.phase
+    assert phase is not None
+    if phase.unwrap == "gray":
+        if spec.gray is None:
+            raise ValueError("phase.unwrap gray: the gray block (the period index's code) is missing")
+        if spec.gray.axes != phase.axes:
+            raise ValueError(f"gray.axes {list(spec.gray.axes)}: must be phase.axes {list(phase.axes)}")
+        if spec.gray.reference == "threshold" and phase.white_black != "none":
+            raise ValueError("phase.white_black: the gray block's white_black places them")
+        return
+    if spec.gray is not None:
+        raise ValueError(f"gray: phase.unwrap {phase.unwrap} needs no Gray code")
+    longest = max(spec.pixels(axis) for axis in phase.axes)
+    periods = [f.period_px for f in phase.frequencies]
+    if phase.unwrap == "hierarchical" and max(periods) < longest:
+        raise ValueError(f"phase.frequencies: the longest period, {max(periods):g} px, must span {longest} px")
+    if phase.unwrap == "heterodyne":
+        reach = beat_period(periods)
+        if reach < longest:
+            raise ValueError(f"phase.frequencies: their beat spans {reach:g} px, less than the {longest} px to reach")
+
+
+def beat_period(periods: list[float]) -> float:
+    """The longest period the heterodyne of 2 or 3 periods resolves (inf when two are equal)."""
+    ordered = sorted(periods)
+
+    def beat(a: float, b: float) -> float:
+        return math.inf if a == b else a * b / abs(b - a)
+
+    if len(ordered) == 2:
+        return beat(*ordered)
+    return beat(beat(ordered[0], ordered[1]), beat(ordered[1], ordered[2]))
 
 
 def opencv_graycode(width: int, height: int, files: str = "*.png") -> PatternSpec:

@@ -1,0 +1,189 @@
+"""Phase-shift frames another system captured (the `phase` block of a pattern description), decoded
+into slrig's Correspondence, and the projector images such a description stands for.
+
+Each frequency's N frames give a wrapped phase, a fraction of its period: frame n shows
+0.5 + 0.5 cos(2 pi x / P + start + s 2 pi n / N), so with d_n = s 2 pi n / N,
+sum I_n cos d_n = (N/2) B cos(theta) and sum I_n sin d_n = -(N/2) B sin(theta), theta = 2 pi x / P + start.
+
+Unwrapping, as the description says:
+- gray: a Gray code of the period index k = floor(x / P); x = (k + fraction) P.
+- heterodyne: two periods P1 < P2 beat with period P1 P2 / (P2 - P1) (three: the beat of the two
+  beats), long enough to span the projector; each beat's coordinate unwraps the next finer phase.
+- hierarchical: the longest period spans the projector (a single-period cue) and unwraps the
+  next shorter, down to the shortest.
+
+With a Gray code, a pixel whose period count comes out one off (the code's edge read a pixel away
+from the phase's wrap) differs from its 5x5 neighbourhood's median by about a period: that jump is
+taken back. With several frequencies, every frequency unwrapped at the finest one's coordinate
+gives an estimate, and their mean weighted by 1 / P^2 (a phase's noise in pixels grows with its
+period) is the coordinate.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+import cv2
+import numpy as np
+
+from rig.patterns.base import Correspondence, NormalizedFrames
+from rig.patterns.lines import LineCodec, stretch
+from rig.patterns.spec import Axis, PatternSpec, Role
+
+GrayReader = Callable[[Axis, np.ndarray, np.ndarray], tuple[np.ndarray, np.ndarray]]
+Wrapped = tuple[np.ndarray, float]  # (fraction of the period in [0, 1), period in pixels)
+MAX_DOUBT = 0.3  # of a period: how far a coarser coordinate may miss the finer phase's periods
+
+
+def decode_phase(
+    frames: NormalizedFrames, spec: PatternSpec, index: dict[Role, int], raw: list[np.ndarray], read_gray: GrayReader
+) -> Correspondence:
+    """Projector coordinates from phase frames; `read_gray` reads an axis' Gray code (value, strength)
+    between the white and black references, for `unwrap: gray`."""
+    phase = spec.phase
+    assert phase is not None
+    full_scale = 65535 if raw[0].dtype == np.uint16 else 255
+    coords: dict[str, np.ndarray] = {}
+    valid: np.ndarray | None = None
+    quality: np.ndarray | None = None
+    texture: np.ndarray | None = None
+    counts: dict[str, int] = {}
+    for axis in spec.axes:
+        wrapped, offset, modulation = [], None, None
+        for f, frequency in enumerate(phase.frequencies):
+            fraction, mean, amplitude = _wrapped(frames, index, axis, f, frequency.steps, spec)
+            wrapped.append((fraction, frequency.period_px))
+            if modulation is None or frequency.period_px < min(p for _, p in wrapped[:-1]):
+                offset, modulation = mean, amplitude  # the finest frequency's
+        assert offset is not None and modulation is not None
+        ok = modulation >= phase.min_modulation
+        counts[f"low_modulation_{axis}"] = int((~ok).sum())
+        if phase.unwrap == "gray":
+            white, black = _references(frames, index, offset, modulation)
+            value, strength = read_gray(axis, white, black)
+            x = correct_period_jumps((value.astype(np.float32) + wrapped[0][0]) * wrapped[0][1], wrapped[0][1], ok)
+            ok &= strength >= spec.code.min_contrast
+        else:
+            x, doubt = heterodyne(wrapped) if phase.unwrap == "heterodyne" else hierarchical(wrapped)
+            counts[f"unwrap_doubtful_{axis}"] = int((ok & (doubt > MAX_DOUBT)).sum())
+            ok &= doubt <= MAX_DOUBT
+            x = combined(x, wrapped)
+        ok &= (x > -0.5) & (x < spec.pixels(axis) - 0.5)
+        coords["u" if axis == "columns" else "v"] = (x + np.float32(spec.projector.first_pixel_centre)).astype(
+            np.float32
+        )
+        valid = ok if valid is None else valid & ok
+        quality = modulation if quality is None else np.minimum(quality, modulation)
+        if texture is None:
+            lit = index.get(Role("white"))
+            peak = frames[lit] if lit is not None else offset + modulation
+            texture = np.clip(peak * full_scale, 0, full_scale).astype(raw[0].dtype)
+    assert valid is not None and quality is not None and texture is not None
+    counts["lit"] = int(valid.sum())
+    return LineCodec.correspondence(coords, valid, quality, texture, counts)
+
+
+def _wrapped(
+    frames: NormalizedFrames, index: dict[Role, int], axis: Axis, f: int, steps: int, spec: PatternSpec
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The fraction of the period, the mean and the amplitude of one frequency's frames."""
+    phase = spec.phase
+    assert phase is not None
+    sign = 1.0 if phase.shift == "plus" else -1.0
+    s = c = total = None
+    for n in range(steps):
+        frame = frames[index[Role("phase", axis, f, step=n)]]
+        delta = sign * 2 * np.pi * n / steps
+        s = frame * np.float32(np.sin(delta)) if s is None else s + frame * np.float32(np.sin(delta))
+        c = frame * np.float32(np.cos(delta)) if c is None else c + frame * np.float32(np.cos(delta))
+        total = frame.copy() if total is None else total + frame
+    assert s is not None and c is not None and total is not None
+    theta = np.arctan2(-s, c) - np.float32(np.radians(phase.start_deg))
+    fraction = np.mod(theta / np.float32(2 * np.pi), np.float32(1.0)).astype(np.float32)
+    return fraction, total / np.float32(steps), np.float32(2.0 / steps) * np.sqrt(s * s + c * c)
+
+
+def _references(
+    frames: NormalizedFrames, index: dict[Role, int], offset: np.ndarray, modulation: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """White and black: the frames where the description has them, else the fringes' peak and trough."""
+    if Role("white") in index:
+        return frames[index[Role("white")]], frames[index[Role("black")]]
+    return offset + modulation, offset - modulation
+
+
+def unwrap(coarse: np.ndarray, fine: Wrapped) -> np.ndarray:
+    """The fine phase's coordinate, its period count taken from a coarser coordinate of the same point."""
+    return _unwrap(coarse, fine)[0]
+
+
+def _unwrap(coarse: np.ndarray, fine: Wrapped) -> tuple[np.ndarray, np.ndarray]:
+    """The fine coordinate and the doubt: how far (in periods) the coarse one missed a whole count."""
+    fraction, period = fine
+    periods = coarse / np.float32(period) - fraction
+    count = np.rint(periods)
+    return ((count + fraction) * np.float32(period)).astype(np.float32), np.abs(periods - count)
+
+
+def beat(a: Wrapped, b: Wrapped) -> Wrapped:
+    """The phase two periods make together: their difference, with period Pa Pb / |Pb - Pa|."""
+    (fa, pa), (fb, pb) = sorted([a, b], key=lambda w: w[1])
+    return np.mod(fa - fb, np.float32(1.0)).astype(np.float32), pa * pb / (pb - pa)
+
+
+def heterodyne(wrapped: list[Wrapped]) -> tuple[np.ndarray, np.ndarray]:
+    """The finest coordinate through the beats, and the largest doubt on the way."""
+    ordered = sorted(wrapped, key=lambda w: w[1])
+    beats = [beat(ordered[i], ordered[i + 1]) for i in range(len(ordered) - 1)]
+    doubt = np.zeros_like(ordered[0][0])
+    if len(beats) == 2:  # three frequencies: the beat of the beats spans the projector
+        top = beat(*beats)
+        x, doubt = _unwrap(top[0] * np.float32(top[1]), min(beats, key=lambda w: w[1]))
+    else:
+        x = beats[0][0] * np.float32(beats[0][1])
+    x, last = _unwrap(x, ordered[0])
+    return x, np.maximum(doubt, last)
+
+
+def hierarchical(wrapped: list[Wrapped]) -> tuple[np.ndarray, np.ndarray]:
+    """The finest coordinate from the longest period down, and the largest doubt on the way."""
+    ordered = sorted(wrapped, key=lambda w: w[1], reverse=True)
+    x = ordered[0][0] * np.float32(ordered[0][1])
+    doubt = np.zeros_like(x)
+    for fine in ordered[1:]:
+        x, step = _unwrap(x, fine)
+        doubt = np.maximum(doubt, step)
+    return x, doubt
+
+
+def combined(x: np.ndarray, wrapped: list[Wrapped]) -> np.ndarray:
+    """Every frequency unwrapped at `x`, averaged with weights 1 / P^2."""
+    weights = [1.0 / period**2 for _, period in wrapped]
+    total = sum(np.float32(w) * unwrap(x, w_) for w, w_ in zip(weights, wrapped, strict=True))
+    return (total / np.float32(sum(weights))).astype(np.float32)
+
+
+def correct_period_jumps(x: np.ndarray, period: float, valid: np.ndarray) -> np.ndarray:
+    """Take back whole periods where a pixel differs from its 5x5 neighbourhood's median by more
+    than half a period (a Gray code edge read one pixel off the phase's wrap)."""
+    filled = np.where(valid, x, 0).astype(np.float32)
+    median = cv2.medianBlur(filled, 5)
+    jumps = np.rint((median - x) / np.float32(period))
+    return np.where(valid & (np.abs(median - x) > period / 2), x + jumps * np.float32(period), x).astype(np.float32)
+
+
+def phase_pattern(spec: PatternSpec, role: Role) -> np.ndarray:
+    """The projector image (uint8) of one phase frame."""
+    phase = spec.phase
+    assert phase is not None and role.axis is not None
+    width, height = spec.projector.resolution
+    frequency = phase.frequencies[role.bit]
+    x = np.arange(spec.pixels(role.axis), dtype=np.float64)
+    sign = 1.0 if phase.shift == "plus" else -1.0
+    angle = (
+        2 * np.pi * x / frequency.period_px
+        + np.radians(phase.start_deg)
+        + sign * 2 * np.pi * role.step / frequency.steps
+    )
+    profile = np.rint((0.5 + 0.5 * np.cos(angle)) * 255).astype(np.uint8)
+    return stretch(profile, "u" if role.axis == "columns" else "v", width, height)
