@@ -10,6 +10,7 @@ import numpy as np
 from rig.errors import DecodeError
 from rig.patterns.base import Correspondence, NormalizedFrames
 from rig.patterns.described_phase import decode_phase, phase_pattern
+from rig.patterns.diamond import MIRROR_CENTRE, mirror_image
 from rig.patterns.graycode import read_bits
 from rig.patterns.lines import LineCodec, stretch
 from rig.patterns.spec import Axis, PatternSpec, Role
@@ -47,6 +48,8 @@ def decode_described(frames: list[np.ndarray], spec: PatternSpec, full_scale: in
         counts[f"weak_bits_{'u' if axis == 'columns' else 'v'}"] = int((lit & ~ok).sum())
         valid &= ok
         step, centre = spec.projector.code_step_px, spec.projector.first_pixel_centre
+        if axis == "columns" and spec.projector.pixel_geometry == "diamond":
+            centre += MIRROR_CENTRE  # the mirror showing a virtual column's code is centred right of it
         coords["u" if axis == "columns" else "v"] = position * np.float32(step) + np.float32(centre)
     return LineCodec.correspondence(coords, valid, white - black, texture, counts)
 
@@ -94,7 +97,13 @@ def _read_axis(
 
 def described_patterns(spec: PatternSpec) -> list[np.ndarray]:
     """The projector images (uint8) the description says were shown, in frame order: what the
-    simulated bench projects to make captures in another system's convention."""
+    simulated bench projects to make captures in another system's convention (for a diamond DMD,
+    the mirrors' images)."""
+    virtual = _virtual_patterns(spec)
+    return [mirror_image(v) for v in virtual] if spec.projector.pixel_geometry == "diamond" else virtual
+
+
+def _virtual_patterns(spec: PatternSpec) -> list[np.ndarray]:
     width, height = spec.projector.resolution
     out = []
     for role in spec.roles():

@@ -27,6 +27,7 @@ import cv2
 import numpy as np
 
 from rig.patterns.base import Correspondence, NormalizedFrames
+from rig.patterns.diamond import MIRROR_CENTRE
 from rig.patterns.lines import LineCodec, stretch
 from rig.patterns.spec import Axis, PatternSpec, Role
 
@@ -179,6 +180,8 @@ def phase_pattern(spec: PatternSpec, role: Role) -> np.ndarray:
     width, height = spec.projector.resolution
     frequency = phase.frequencies[role.bit]
     x = np.arange(spec.pixels(role.axis), dtype=np.float64)
+    if role.axis == "columns" and spec.projector.pixel_geometry == "diamond":
+        x += MIRROR_CENTRE  # each mirror shows the fringe at its centre
     sign = 1.0 if phase.shift == "plus" else -1.0
     angle = (
         2 * np.pi * x / frequency.period_px

@@ -52,11 +52,19 @@ class ProjectorSpace(Strict):
     code_step_px: int = Field(
         1, ge=1, le=64, description="projector pixels per code, as the calibration counts them (procam's graycode_step)"
     )
+    pixel_geometry: Literal["square", "diamond"] = Field(
+        "square",
+        description="diamond: a diamond-pixel DMD (LightCrafter 4500) whose mirror columns interleave into twice "
+        "as many virtual columns; resolution is then the virtual one (1824x1140) and each frame holds the "
+        "mirrors (912x1140)",
+    )
 
     @model_validator(mode="after")
     def _positive(self) -> ProjectorSpace:
         if not all(1 <= n <= 16384 for n in self.resolution):
             raise ValueError(f"resolution {self.resolution}: each side must be 1 to 16384 pixels")
+        if self.pixel_geometry == "diamond" and self.resolution[0] % 2:
+            raise ValueError(f"resolution {self.resolution}: a diamond DMD has an even number of virtual columns")
         return self
 
 
