@@ -30,10 +30,27 @@ from rig.api.models import (
     ScanRequest,
 )
 from rig.api.recognition import recognition_router
+from rig.api.reconstructions import UPLOADS, reconstruction_router
 from rig.api.security import MUTATING, READING, ApiSettings, BodyLimitMiddleware
-from rig.errors import ConfigError, GalleryEntryNotFoundError, GalleryError, GalleryFileError, RecognitionError
+from rig.errors import (
+    CalibrationError,
+    ConfigError,
+    FramesError,
+    GalleryEntryNotFoundError,
+    GalleryError,
+    GalleryFileError,
+    PatternSpecError,
+    RecognitionError,
+)
 from rig.patterns import codec_class, codec_names
-from rig.service.errors import JobConflictError, JobNotFoundError, QueueFullError, ServiceStoppingError
+from rig.service.errors import (
+    ImportNotFoundError,
+    ImportRefusedError,
+    JobConflictError,
+    JobNotFoundError,
+    QueueFullError,
+    ServiceStoppingError,
+)
 from rig.service.jobs import JobKind
 from rig.service.runner import JobService
 
@@ -81,12 +98,13 @@ def create_app(service: JobService, settings: ApiSettings, stopping: Callable[[]
         app.add_middleware(
             CORSMiddleware, allow_origins=list(settings.cors_origins), allow_credentials=False, allow_methods=["*"]
         )
-    app.add_middleware(BodyLimitMiddleware, limit=settings.max_body_bytes)
+    app.add_middleware(BodyLimitMiddleware, limit=settings.max_body_bytes, uploads=UPLOADS)
     _error_handlers(app)
     app.include_router(_general(service), prefix="/v1")
     app.include_router(_jobs(service, JobKind.SCAN, "scans", is_stopping), prefix="/v1")
     app.include_router(_jobs(service, JobKind.CALIBRATION, "calibrations", is_stopping), prefix="/v1")
     app.include_router(recognition_router(service, ERRORS), prefix="/v1")
+    app.include_router(reconstruction_router(service, ERRORS), prefix="/v1")
     return app
 
 
@@ -105,13 +123,17 @@ def _error_handlers(app: FastAPI) -> None:
     app.add_exception_handler(GalleryEntryNotFoundError, handler(404))
     app.add_exception_handler(GalleryFileError, handler(503))  # not a gallery, or newer: left as it is
     app.add_exception_handler(RecognitionError, handler(422))  # too little surface, an empty gallery
+    app.add_exception_handler(ImportNotFoundError, handler(404))
 
     async def config_error(request: Request, exc: Exception) -> JSONResponse:
-        problems = exc.problems if isinstance(exc, ConfigError) else [str(exc)]
+        problems = exc.problems if isinstance(exc, (ConfigError, PatternSpecError)) else [str(exc)]
         detail = [{"loc": [p.split(":")[0]], "msg": p, "type": "config"} for p in problems]  # like FastAPI's 422
         return JSONResponse({"detail": detail}, status_code=422)
 
     app.add_exception_handler(ConfigError, config_error)
+    # what a reconstruction request names, refused in the shape of FastAPI's own 422
+    for refused in (PatternSpecError, ImportRefusedError, FramesError, CalibrationError):
+        app.add_exception_handler(refused, config_error)
 
 
 def _general(service: JobService) -> APIRouter:

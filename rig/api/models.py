@@ -51,6 +51,20 @@ class ReprocessRequest(_Request):
     label: str | None = Field(None, max_length=200)
 
 
+class ReconstructionRequest(_Request):
+    frames: str = Field(pattern=FILE_NAME_PATTERN, description="the imports folder holding the frames")
+    patterns: dict[str, Any] | str = Field(
+        description="the pattern description (as in slrig reconstruct's YAML), or a YAML file's name in the folder"
+    )
+    calibration: str = Field(
+        pattern=FILE_NAME_PATTERN, description="a finished calibration's id, or a calibration file's name in the folder"
+    )
+    calibration_options: dict[str, Any] | None = Field(
+        None, description="what a foreign calibration file does not say (as slrig reconstruct's options)"
+    )
+    label: str | None = Field(None, max_length=200)
+
+
 class GalleryAddRequest(_Request):
     scan_id: str = Field(pattern=JOB_ID_PATTERN, description="a finished scan's id")
     label: str = Field(pattern=LABEL_PATTERN, description="a plain name: letters, digits, '.', '_', '-'")

@@ -86,20 +86,24 @@ class BodyLimitMiddleware:
     """413 for a request body over `limit` bytes, declared or streamed (chunked): the body is read
     here, up to the limit, before the application sees the request."""
 
-    def __init__(self, app: ASGIApp, limit: int) -> None:
+    def __init__(self, app: ASGIApp, limit: int, uploads: tuple[str, int] | None = None) -> None:
         self.app = app
         self.limit = limit
+        self.uploads = uploads  # (path prefix, its limit): file uploads, larger than any JSON body
 
     async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
         if scope["type"] != "http":
             await self.app(scope, receive, send)
             return
+        limit = self.limit
+        if self.uploads is not None and scope["path"].startswith(self.uploads[0]) and scope["method"] == "PUT":
+            limit = self.uploads[1]
         declared = dict(scope["headers"]).get(b"content-length")
         if declared is not None and not declared.strip().isdigit():
             await _reply(send, 400, "Content-Length is not a number")
             return
-        if declared is not None and int(declared) > self.limit:
-            await _reply(send, 413, f"request body larger than {self.limit} bytes")
+        if declared is not None and int(declared) > limit:
+            await _reply(send, 413, f"request body larger than {limit} bytes")
             return
         body = bytearray()
         while True:
@@ -107,8 +111,8 @@ class BodyLimitMiddleware:
             if message["type"] == "http.disconnect":
                 return  # the client went away
             body += message.get("body", b"")
-            if len(body) > self.limit:
-                await _reply(send, 413, f"request body larger than {self.limit} bytes")
+            if len(body) > limit:
+                await _reply(send, 413, f"request body larger than {limit} bytes")
                 return
             if not message.get("more_body", False):
                 break

@@ -29,3 +29,12 @@ class JobCancelledError(SlrigError):
 
 class ServiceStoppingError(SlrigError):
     """Raised when a job is submitted while the daemon shuts down (HTTP 503)."""
+
+
+class ImportNotFoundError(SlrigError):
+    """Raised when an imports folder named by a request is not there (HTTP 404)."""
+
+
+class ImportRefusedError(SlrigError):
+    """Raised when an upload or a reconstruction request names a file that is refused or missing:
+    a name that is not a plain file name, an unknown suffix, a full folder (HTTP 422)."""

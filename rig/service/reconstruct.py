@@ -11,6 +11,7 @@ config's.
 from __future__ import annotations
 
 import hashlib
+import json
 from pathlib import Path
 from typing import Any
 
@@ -24,6 +25,7 @@ from rig.geometry import CameraModel
 from rig.geometry.triangulate import ray_plane, ray_ray_midpoint
 from rig.patterns.base import Correspondence
 from rig.patterns.described import decode_described
+from rig.patterns.spec import PatternSpec
 from rig.pipeline.scan import ScanResult, reconstruct_pair
 from rig.rig import Rig
 from rig.store.frames import load_pattern_spec, read_frames
@@ -35,7 +37,7 @@ SAMPLES = 4000  # pixels the depth of a code step is measured on
 
 def reconstruct_folder(
     frames_dir: Path,
-    patterns: Path,
+    patterns: Path | PatternSpec,
     calibration: Path,
     target: Path,
     scan_id: str,
@@ -43,9 +45,10 @@ def reconstruct_folder(
     options: ForeignCalibrationOptions | None = None,
 ) -> tuple[Path, ScanResult]:
     """Reconstruct `frames_dir` into a new scan directory `target`; nothing is written when an
-    input is refused (PatternSpecError, FramesError, CalibrationError, DecodeError)."""
+    input is refused (PatternSpecError, FramesError, CalibrationError, DecodeError). `patterns` is
+    the description's file, or the description itself (a REST request's, recorded as inline)."""
     options = options or ForeignCalibrationOptions()
-    spec = load_pattern_spec(patterns)
+    spec = patterns if isinstance(patterns, PatternSpec) else load_pattern_spec(patterns)
     frames = read_frames(frames_dir, spec.frames, len(spec.roles()))
     height, width = frames.frames[0].shape
     camera, projector, digest = calibration_models(calibration, options)
@@ -68,8 +71,8 @@ def reconstruct_folder(
         "reconstructed": {
             "frames": str(frames_dir),
             "frames_sha256": frames.sha256,
-            "patterns": str(patterns),
-            "patterns_sha256": _file_hash(patterns),
+            "patterns": "inline" if isinstance(patterns, PatternSpec) else str(patterns),
+            "patterns_sha256": _spec_hash(spec) if isinstance(patterns, PatternSpec) else _file_hash(patterns),
             "calibration": str(calibration),
             "calibration_sha256": digest,
             "calibration_options": options.model_dump(mode="json"),
@@ -188,3 +191,7 @@ def _file_hash(path: Path) -> str:
         return hashlib.sha256(path.read_bytes()).hexdigest()
     except OSError as exc:
         raise CalibrationError(f"{path}: cannot be read ({exc.strerror})") from None
+
+
+def _spec_hash(spec: PatternSpec) -> str:
+    return hashlib.sha256(json.dumps(spec.model_dump(mode="json"), sort_keys=True).encode()).hexdigest()

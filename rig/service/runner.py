@@ -27,6 +27,7 @@ from rig.errors import ConfigError, PlanError, SlrigError
 from rig.pipeline.workers import release_free_memory
 from rig.progress import ProgressCallback, ProgressEvent
 from rig.rig import Rig
+from rig.service import tasks
 from rig.service.adaptive import check_scan_request
 from rig.service.errors import (
     JobCancelledError,
@@ -36,9 +37,9 @@ from rig.service.errors import (
     ServiceStoppingError,
 )
 from rig.service.events import EventHub
+from rig.service.imports import reconstruction_inputs, remove_leftovers
 from rig.service.jobs import Job, JobKind, JobState, JobStore
 from rig.service.status import device_views
-from rig.service.tasks import calibration_to_directory, reprocess_to_directory, scan_job_to_directory, scan_summary
 from rig.store.scandir import new_scan_id
 
 log = logging.getLogger(__name__)
@@ -80,6 +81,7 @@ class JobService:
             self._publish_state(job_id)
         for partial in self.scans_dir.glob("*.partial"):  # half-written scans of interrupted jobs
             shutil.rmtree(partial, ignore_errors=True)
+        remove_leftovers(self.data_dir)
         self._worker = threading.Thread(target=self._work, name="slrig-jobs", daemon=True)
         self._worker.start()
 
@@ -165,12 +167,14 @@ class JobService:
             raise JobConflictError(f"scan {source_id} is {source.state}; only a finished scan can be reprocessed")
         if not (self.scans_dir / source_id / "frames").is_dir():
             raise JobConflictError(f"scan {source_id} kept no frames; scan with keep_frames: true to reprocess")
-        calibration_id = request.get("calibration")
-        if calibration_id:
-            calibration = self.job(calibration_id, JobKind.CALIBRATION)
-            if calibration.state is not JobState.DONE or calibration.request.get("what") == "response":
-                raise JobConflictError(f"calibration {calibration_id} is not a finished geometric calibration")
+        if request.get("calibration"):
+            self._calibration_folder(request["calibration"])
         return self.submit(JobKind.SCAN, {**request, "source": source_id})
+
+    def submit_reconstruction(self, request: dict[str, Any]) -> Job:
+        """Queue a reconstruction of uploaded frames; refused inputs are answered now, never queued."""
+        reconstruction_inputs(self.data_dir, self._calibration_folder, request)
+        return self.submit(JobKind.SCAN, {"reconstruct": request})
 
     def job(self, job_id: str, kind: JobKind | None = None) -> Job:
         job = self.store.get(job_id)
@@ -263,10 +267,12 @@ class JobService:
             log.info("job %s not started: %s", job_id, exc)
             return
         self._publish_state(job_id)
-        reprocess = "source" in job.request  # a scan from stored frames: no devices involved
+        reprocess = "source" in job.request or "reconstruct" in job.request  # frames on disk: no devices
         handler: Callable[[Job, ProgressCallback], dict[str, Any]]
         if job.kind is JobKind.CALIBRATION:
             handler = self._calibration
+        elif "reconstruct" in job.request:
+            handler = self._reconstruct
         elif reprocess:
             handler = self._reprocess
         else:
@@ -356,15 +362,15 @@ class JobService:
 
     # --- the jobs (rig.service.tasks does the work) ----------------------------------------
     def _scan(self, job: Job, progress: ProgressCallback) -> dict[str, Any]:
-        path, result = scan_job_to_directory(self._open(), self.scans_dir / job.id, job.id, job.request, progress)
-        return scan_summary(path, result)
+        path, result = tasks.scan_job_to_directory(self._open(), self.scans_dir / job.id, job.id, job.request, progress)
+        return tasks.scan_summary(path, result)
 
     def _reprocess(self, job: Job, progress: ProgressCallback) -> dict[str, Any]:
         request = job.request
         source = self.job(request["source"], JobKind.SCAN)  # JobNotFoundError if deleted since
         calibration = self.job(request["calibration"], JobKind.CALIBRATION) if request.get("calibration") else None
         overrides = {"max_depth_jump_mm": request["max_depth_jump_mm"]} if "max_depth_jump_mm" in request else {}
-        path, result = reprocess_to_directory(
+        path, result = tasks.reprocess_to_directory(
             self.scans_dir / source.id,
             self.scans_dir / job.id,
             job.id,
@@ -373,12 +379,22 @@ class JobService:
             origin={"reprocessed_from": source.id, "calibration": request.get("calibration")},
             progress=progress,
         )
-        return scan_summary(path, result)
+        return tasks.scan_summary(path, result)
+
+    def _reconstruct(self, job: Job, progress: ProgressCallback) -> dict[str, Any]:
+        inputs = (self.data_dir, self._calibration_folder, job.request["reconstruct"], self.scans_dir / job.id)
+        return tasks.reconstruction_to_directory(*inputs, job.id, self.config)
+
+    def _calibration_folder(self, calibration_id: str) -> Path:
+        calibration = self.job(calibration_id, JobKind.CALIBRATION)
+        if calibration.state is not JobState.DONE or calibration.request.get("what") == "response":
+            raise JobConflictError(f"calibration {calibration_id} is not a finished geometric calibration")
+        return self.job_folder(calibration)
 
     def _calibration(self, job: Job, progress: ProgressCallback) -> dict[str, Any]:
         request = job.request
         try:
             out = self.calibrations_dir / job.id
-            return calibration_to_directory(self._open(), request["what"], out, request.get("views"), progress)
+            return tasks.calibration_to_directory(self._open(), request["what"], out, request.get("views"), progress)
         finally:
             self._drop_rig()  # the simulated bench showed boards: a fresh rig for the next job

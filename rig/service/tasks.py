@@ -3,19 +3,22 @@ stored result. The CLI runs these directly; the job service runs them in its wor
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
 from rig.assembly import open_rig
 from rig.calibrate.response import calibrate_response
 from rig.calibrate.session import calibrate
-from rig.config import config_from_dict
+from rig.config import RigConfig, config_from_dict
 from rig.evaluate.merged import metrics_on_bench
 from rig.pipeline.scan import ScanResult, reconstruct_frames, run_scan
 from rig.plan.ring_plan import RingPlan
 from rig.progress import ProgressCallback, ProgressTracker
 from rig.rig import Rig
 from rig.service.adaptive import adaptive_scan
+from rig.service.imports import reconstruction_inputs
+from rig.service.reconstruct import reconstruct_folder
 from rig.store.scandir import read_frames, write_scan
 
 
@@ -92,6 +95,20 @@ def reprocess_to_directory(
         tracker.report("store", 0.95)
         path = write_scan(geometry, result, target, scan_id, metrics_on_bench(geometry, result), origin)
     return path, result
+
+
+def reconstruction_to_directory(
+    data_dir: Path,
+    calibration_folder: Callable[[str], Path],
+    request: dict[str, Any],
+    target: Path,
+    scan_id: str,
+    config: RigConfig,
+) -> dict[str, Any]:
+    """A reconstruction request (frames uploaded under data_dir's imports) written as a scan."""
+    frames, patterns, calibration, options = reconstruction_inputs(data_dir, calibration_folder, request)
+    path, result = reconstruct_folder(frames, patterns, calibration, target, scan_id, config, options)
+    return scan_summary(path, result)
 
 
 def calibration_to_directory(

@@ -1,0 +1,65 @@
+"""Reconstruction of another system's frames over REST: upload the frames (and the description or
+calibration file, where they are files) into an imports folder, then ask for a reconstruction; the
+result is a scan like any other (listed, downloaded, identified under /v1/scans)."""
+
+from __future__ import annotations
+
+from typing import Annotated, Any
+
+from fastapi import APIRouter, Path, Request, Response, status
+
+from rig.api.models import FILE_NAME_PATTERN, JobView, ReconstructionRequest
+from rig.api.security import MUTATING, READING
+from rig.service.imports import MAX_FILE_BYTES, SUFFIXES, list_imports, remove_folder, store_file
+from rig.service.runner import JobService
+
+Name = Annotated[str, Path(pattern=FILE_NAME_PATTERN, description="a plain name: letters, digits, '_', '.', '-'")]
+_SUFFIXES = "|".join(s.lstrip(".") for s in SUFFIXES)
+UploadName = Annotated[
+    str,
+    Path(
+        pattern=rf"^[A-Za-z0-9][A-Za-z0-9_.-]{{0,94}}\.({_SUFFIXES}|{_SUFFIXES.upper()})$",
+        description="a plain file name with the suffix of a frame, a description or a calibration",
+    ),
+]
+BINARY_BODY = {
+    "requestBody": {
+        "required": True,
+        "content": {"application/octet-stream": {"schema": {"type": "string", "format": "binary"}}},
+    }
+}
+UPLOADS = ("/v1/imports/", MAX_FILE_BYTES)  # the body limit of uploads (rig.api.security.BodyLimitMiddleware)
+
+
+def reconstruction_router(service: JobService, errors: dict[int | str, dict[str, Any]]) -> APIRouter:
+    router = APIRouter(tags=["reconstructions"], responses=errors)
+
+    @router.get("/imports", dependencies=READING)
+    def list_folders() -> list[dict[str, Any]]:
+        return list_imports(service.data_dir)
+
+    @router.put(
+        "/imports/{folder}/{file}",
+        status_code=status.HTTP_201_CREATED,
+        dependencies=MUTATING,
+        openapi_extra=BINARY_BODY,
+    )
+    async def upload(folder: Name, file: UploadName, request: Request, response: Response) -> dict[str, Any]:
+        stored = store_file(service.data_dir, folder, file, await request.body())
+        response.headers["Location"] = f"/v1/imports/{folder}/{file}"
+        return stored
+
+    @router.delete("/imports/{folder}", status_code=status.HTTP_204_NO_CONTENT, dependencies=MUTATING)
+    def delete_folder(folder: Name) -> Response:
+        remove_folder(service.data_dir, folder)
+        return Response(status_code=status.HTTP_204_NO_CONTENT)
+
+    @router.post(
+        "/reconstructions", status_code=status.HTTP_202_ACCEPTED, response_model=JobView, dependencies=MUTATING
+    )
+    def create_reconstruction(body: ReconstructionRequest, response: Response) -> JobView:
+        job = service.submit_reconstruction(body.model_dump(exclude_none=True))
+        response.headers["Location"] = f"/v1/scans/{job.id}"
+        return JobView.of(job, "/v1/scans")
+
+    return router

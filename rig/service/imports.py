@@ -1,0 +1,123 @@
+"""Files a client uploads for reconstruction (`PUT /v1/imports/{folder}/{file}`): frames, a pattern
+description, a calibration file, kept in <data_dir>/imports/<folder>/ until the folder is deleted.
+Each file is written atomically; a name is a plain file name with a known suffix, so no upload
+can reach outside its folder."""
+
+from __future__ import annotations
+
+import hashlib
+import re
+import shutil
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+from pydantic import ValidationError
+
+from rig.calibrate.foreign import ForeignCalibrationOptions
+from rig.config.problems import problems
+from rig.errors import FramesError, PatternSpecError
+from rig.patterns.spec import PatternSpec
+from rig.service.errors import ImportNotFoundError, ImportRefusedError
+from rig.store.atomic import write_atomic
+from rig.store.frames import frame_files, load_pattern_spec
+
+IMPORTS = "imports"
+NAME = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_.-]{0,99}$")
+SUFFIXES = (".png", ".bmp", ".tif", ".tiff", ".jpg", ".jpeg", ".yaml", ".yml", ".json", ".xml")
+MAX_FILE_BYTES = 64 * 1024 * 1024  # a 16-bit 4K frame as TIFF is about 50 MB
+MAX_FILES = 2000  # per folder
+JOB_ID = re.compile(r"^[0-9]{8}-[0-9]{6}-[0-9a-f]{6}$")
+
+
+def imports_dir(data_dir: Path) -> Path:
+    return data_dir / IMPORTS
+
+
+def folder_path(data_dir: Path, folder: str) -> Path:
+    """An existing imports folder; ImportNotFoundError otherwise."""
+    path = imports_dir(data_dir) / folder
+    if not NAME.match(folder) or not path.is_dir():
+        raise ImportNotFoundError(f"no imports folder {folder!r} (upload its files with PUT /v1/imports/{folder}/FILE)")
+    return path
+
+
+def file_in(data_dir: Path, folder: str, name: str, what: str) -> Path:
+    """A file uploaded into `folder`; ImportRefusedError naming `what` otherwise."""
+    path = folder_path(data_dir, folder) / name
+    if not NAME.match(name) or not path.is_file():
+        raise ImportRefusedError(f"{what}: no file {name!r} in imports folder {folder!r}")
+    return path
+
+
+def store_file(data_dir: Path, folder: str, name: str, data: bytes) -> dict[str, Any]:
+    """Write one uploaded file; ImportRefusedError for a name or suffix that is refused, or a full
+    folder. (A file that is not an image is named when the frames are read.)"""
+    for label, value in (("folder", folder), ("file", name)):
+        if not NAME.match(value):
+            raise ImportRefusedError(f"{label} {value!r}: letters, digits, '_', '.', '-', at most 100 characters")
+    if not name.lower().endswith(SUFFIXES):
+        raise ImportRefusedError(f"file {name!r}: the suffix must be one of {', '.join(SUFFIXES)}")
+    target = imports_dir(data_dir) / folder
+    target.mkdir(parents=True, exist_ok=True)
+    if not (target / name).exists() and sum(1 for _ in target.iterdir()) >= MAX_FILES:
+        raise ImportRefusedError(f"folder {folder!r} holds {MAX_FILES} files already")
+    write_atomic(target / name, data)
+    return {"folder": folder, "file": name, "bytes": len(data), "sha256": hashlib.sha256(data).hexdigest()}
+
+
+def list_imports(data_dir: Path) -> list[dict[str, Any]]:
+    root = imports_dir(data_dir)
+    if not root.is_dir():
+        return []
+    out = []
+    for folder in sorted(p for p in root.iterdir() if p.is_dir() and NAME.match(p.name)):
+        files = [f for f in folder.iterdir() if f.is_file() and not f.name.startswith(".")]
+        out.append({"folder": folder.name, "files": len(files), "bytes": sum(f.stat().st_size for f in files)})
+    return out
+
+
+def remove_folder(data_dir: Path, folder: str) -> None:
+    path = folder_path(data_dir, folder)
+    doomed = path.with_name(f".{path.name}.deleting")
+    path.rename(doomed)  # gone from listings at once; a crash leaves a hidden folder that startup removes
+    shutil.rmtree(doomed, ignore_errors=True)
+
+
+def remove_leftovers(data_dir: Path) -> None:
+    """Folders a deletion began and a crash interrupted."""
+    root = imports_dir(data_dir)
+    for doomed in root.glob(".*.deleting") if root.is_dir() else []:
+        shutil.rmtree(doomed, ignore_errors=True)
+
+
+def reconstruction_inputs(
+    data_dir: Path, calibration_folder: Callable[[str], Path], request: dict[str, Any]
+) -> tuple[Path, PatternSpec | Path, Path, ForeignCalibrationOptions]:
+    """The frames folder, description, calibration and import options a reconstruction request
+    names (see ReconstructionRequest); `calibration_folder` finds a finished calibration job's
+    folder by id. Refusals name the request's field."""
+    frames = folder_path(data_dir, request["frames"])
+    described = request["patterns"]
+    if isinstance(described, str):
+        patterns: PatternSpec | Path = file_in(data_dir, request["frames"], described, "patterns")
+        spec = load_pattern_spec(patterns)  # PatternSpecError names the field at fault
+    else:
+        try:
+            patterns = spec = PatternSpec.model_validate(described)
+        except ValidationError as exc:
+            raise PatternSpecError("patterns", problems(exc)) from None
+    name = request["calibration"]
+    if JOB_ID.match(name):
+        calibration = calibration_folder(name)
+    else:
+        calibration = file_in(data_dir, request["frames"], name, "calibration")
+    try:
+        options = ForeignCalibrationOptions.model_validate(request.get("calibration_options") or {})
+    except ValidationError as exc:
+        raise ImportRefusedError("calibration_options: " + "; ".join(problems(exc))) from None
+    try:
+        frame_files(frames, spec.frames, len(spec.roles()))
+    except FramesError as exc:  # named as the client knows the folder, not by the daemon's path
+        raise FramesError(str(exc).replace(f"frames folder {frames}", f"imports folder {frames.name!r}")) from None
+    return frames, patterns, calibration, options
