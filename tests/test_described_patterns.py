@@ -14,6 +14,7 @@ from rig.calibrate.foreign import ForeignCalibrationOptions, read_foreign_calibr
 from rig.errors import DecodeError
 from rig.patterns.described import decode_described, described_patterns
 from rig.patterns.gray import GrayCodec, GrayParams
+from rig.patterns.phase import PhaseCodec, PhaseParams
 from rig.patterns.spec import FrameFiles, GrayCode, PatternSpec, ProjectorSpace, opencv_graycode
 from rig.pipeline.dense import PairTriangulator
 from tests.conftest import shared_data
@@ -160,3 +161,22 @@ def test_slrigs_own_gray_frames_read_as_their_description_says(directions: str) 
         assert (mine is None) == (theirs is None)
         if mine is not None:
             assert np.array_equal(mine[own.valid], theirs[own.valid])
+
+
+@pytest.mark.parametrize("directions", ["columns", "both"])
+def test_slrigs_own_phase_frames_read_as_their_description_says(directions: str) -> None:
+    """The phase codec describes its frames (half-period Gray unwrapping); the described decoder
+    gives its correspondence to float precision."""
+    codec = PhaseCodec((WIDTH, HEIGHT), PhaseParams(directions=directions, steps=6, period_px=20))  # type: ignore[arg-type]
+    spec = codec.description()
+    frames = _seen(codec.patterns(), seed=5)
+    assert len(spec.roles()) == codec.frame_count
+    own, described = codec.decode(frames, 255), decode_described(frames, spec, 255)
+    agree = own.valid == described.valid
+    assert agree.mean() > 0.999 and own.valid.sum() > 0.5 * own.valid.size
+    both = own.valid & described.valid
+    for axis in ("u", "v"):
+        mine, theirs = getattr(own, axis), getattr(described, axis)
+        assert (mine is None) == (theirs is None)
+        if mine is not None:
+            assert np.abs(mine[both] - theirs[both]).max() < 1e-3

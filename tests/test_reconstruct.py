@@ -21,7 +21,7 @@ from rig.patterns.described import described_patterns
 from rig.patterns.spec import opencv_graycode
 from rig.pipeline.scan import run_scan
 from rig.service.reconstruct import reconstruct_folder
-from tests.conftest import shared_data
+from tests.conftest import shared_data, small_config_data, write_config
 
 
 def _opencv_calibration(path: Path, camera: Any, projector: Any) -> Path:
@@ -158,3 +158,26 @@ def test_the_depth_jump_limit_follows_the_depth_a_code_step_makes(tmp_path: Path
     limit = json.loads((path / "manifest.json").read_text())["config"]["scan"]["max_depth_jump_mm"]
     assert 20.0 < limit < 35.0  # 27.0 measured
     assert len(result.cloud) > 0.9 * result.pairs[0].correspondence.counts["decoded"]
+
+
+@pytest.mark.parametrize("codec", ["gray", "phase"])
+def test_a_scans_kept_frames_reconstruct_from_the_description_written_beside_them(tmp_path: Path, codec: str) -> None:
+    """slrig's own codecs describe their frames: a scan's kept frames are read by `slrig reconstruct`
+    as anyone's, and give the scan's own points."""
+    from rig.service.tasks import scan_to_directory
+
+    config = load_config(write_config(tmp_path, small_config_data()))
+    with open_rig(config) as rig:
+        path, scanned = scan_to_directory(rig, tmp_path / "scan", "20261125-120000-aaaaaa", codec, keep_frames=True)
+        camera = rig.camera_models[0]
+        calibration = _opencv_calibration(tmp_path / "calibration.xml", camera, rig.projector_models[0])
+    frames = path / "frames" / "projector0_camera0"
+    _, again = reconstruct_folder(
+        frames, frames / "patterns.yaml", calibration, tmp_path / "again", "20261125-120000-bbbbbb", config
+    )
+    ours, theirs = scanned.pairs[0].points, again.pairs[0].points
+    # the same pixels, the same points: the calibration file's world is the camera's, the scan's the bench's
+    common, i_ours, i_theirs = np.intersect1d(ours.pixel, theirs.pixel, return_indices=True)
+    assert len(common) >= 0.99 * len(ours.pixel)  # reconstruct's depth-jump limit keeps a few more
+    in_bench = (theirs.points[i_theirs] - camera.t) @ camera.R
+    assert np.abs(in_bench - ours.points[i_ours]).max() < 1e-3

@@ -14,6 +14,7 @@ import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
 
 from rig.errors import DecodeError
+from rig.patterns.spec import PatternSpec
 
 PixelCoord = Annotated[float, Field(ge=-1e5, le=1e5)]  # a position in a projector image, pixels
 
@@ -151,6 +152,11 @@ class Codec(abc.ABC):
     def frame_count(self) -> int:
         """Patterns per scan, without making them."""
         return 2 + self._coded_frame_count()
+
+    def description(self) -> PatternSpec | None:
+        """This codec's frames as a pattern description (rig.patterns.spec), so that the reader of
+        others' captures reads slrig's own; None where a description cannot say what it shows."""
+        return None
 
     def decode(self, frames: list[np.ndarray], full_scale: int) -> Correspondence:
         """Decode captured frames (one per pattern, same order) taken at `full_scale` counts."""

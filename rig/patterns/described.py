@@ -115,8 +115,7 @@ def _virtual_patterns(spec: PatternSpec) -> list[np.ndarray]:
             continue
         assert role.axis is not None
         size = width if role.axis == "columns" else height
-        step = spec.phase.frequencies[0].period_px if spec.phase is not None else spec.projector.code_step_px
-        index = (np.arange(size) // step).astype(np.int64)
+        index = (np.arange(size) // spec.code_step(role.axis)).astype(np.int64)
         code = index ^ (index >> 1) if spec.code.code == "gray" else index
         lit = ((code >> (spec.bits(role.axis) - 1 - role.bit)) & 1).astype(bool)
         lit ^= role.inverse ^ (spec.code.polarity == "lit_is_zero")

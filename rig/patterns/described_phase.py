@@ -6,13 +6,14 @@ Each frequency's N frames give a wrapped phase, a fraction of its period: frame 
 sum I_n cos d_n = (N/2) B cos(theta) and sum I_n sin d_n = -(N/2) B sin(theta), theta = 2 pi x / P + start.
 
 Unwrapping, as the description says:
-- gray: a Gray code of the period index k = floor(x / P); x = (k + fraction) P.
+- gray: a Gray code of the period index k = floor(x / P), x = (k + fraction) P; or of the half-period
+  index (gray_unit half_period, slrig's own phase codec), read as gray_unwrapped says.
 - heterodyne: two periods P1 < P2 beat with period P1 P2 / (P2 - P1) (three: the beat of the two
   beats), long enough to span the projector; each beat's coordinate unwraps the next finer phase.
 - hierarchical: the longest period spans the projector (a single-period cue) and unwraps the
   next shorter, down to the shortest.
 
-With a Gray code, a pixel whose period count comes out one off (the code's edge read a pixel away
+With a Gray code of periods, a pixel whose period count comes out one off (the code's edge read a pixel away
 from the phase's wrap) differs from its 5x5 neighbourhood's median by about a period: that jump is
 taken back. With several frequencies, every frequency unwrapped at the finest one's coordinate
 gives an estimate, and their mean weighted by 1 / P^2 (a phase's noise in pixels grows with its
@@ -59,10 +60,13 @@ def decode_phase(
         assert offset is not None and modulation is not None
         ok = modulation >= phase.min_modulation
         counts[f"low_modulation_{axis}"] = int((~ok).sum())
+        if Role("white") in index:  # unlit where white and black differ too little, as for a code
+            least = spec.gray.black_threshold if spec.gray is not None else phase.min_modulation
+            ok &= frames[index[Role("white")]] - frames[index[Role("black")]] >= least
         if phase.unwrap == "gray":
             white, black = _references(frames, index, offset, modulation)
             value, strength = read_gray(axis, white, black)
-            x = correct_period_jumps((value.astype(np.float32) + wrapped[0][0]) * wrapped[0][1], wrapped[0][1], ok)
+            x = gray_unwrapped(value, wrapped[0], phase.gray_unit == "half_period", ok)
             ok &= strength >= spec.code.min_contrast
         else:
             x, doubt = heterodyne(wrapped) if phase.unwrap == "heterodyne" else hierarchical(wrapped)
@@ -162,6 +166,19 @@ def combined(x: np.ndarray, wrapped: list[Wrapped]) -> np.ndarray:
     weights = [1.0 / period**2 for _, period in wrapped]
     total = sum(np.float32(w) * unwrap(x, w_) for w, w_ in zip(weights, wrapped, strict=True))
     return (total / np.float32(sum(weights))).astype(np.float32)
+
+
+def gray_unwrapped(code: np.ndarray, wrapped: Wrapped, half_periods: bool, valid: np.ndarray) -> np.ndarray:
+    """The coordinate from a Gray code's count. Of half periods h: two counts, k1 = h >> 1 with its
+    edges at the phase's wraps and k2 = (h + 1) >> 1 with its edges mid-period; near a wrap (within a
+    quarter period) k2 is read, elsewhere k1, so neither is read near its own edges. Of periods: the
+    count as read, its jumps taken back by the median."""
+    fraction, period = wrapped
+    if not half_periods:
+        return correct_period_jumps((code.astype(np.float32) + fraction) * np.float32(period), period, valid)
+    k1, k2 = code >> 1, (code + 1) >> 1
+    count = np.where(fraction < 0.25, k2, np.where(fraction > 0.75, k2 - 1, k1))
+    return ((count + fraction) * np.float32(period)).astype(np.float32)
 
 
 def correct_period_jumps(x: np.ndarray, period: float, valid: np.ndarray) -> np.ndarray:

@@ -22,6 +22,7 @@ from rig.patterns.base import Correspondence, NormalizedFrames, even_period
 from rig.patterns.graycode import bit_count, decode_gray, gray_planes, planes_with_inverses
 from rig.patterns.lines import LineCodec, LineParams
 from rig.patterns.registry import register
+from rig.patterns.spec import Frequency, GrayCode, PatternSpec, PhaseShift, ProjectorSpace
 
 
 class PhaseParams(LineParams):
@@ -42,6 +43,28 @@ class PhaseCodec(LineCodec):
     name = "phase"
     Params = PhaseParams
     params: PhaseParams
+
+    def description(self) -> PatternSpec:
+        """This codec's frames as a pattern description (rig.patterns.spec)."""
+        axes = tuple("columns" if axis == "u" else "rows" for axis in self.axes())
+        frequency = Frequency(period_px=self.params.period_px, steps=self.params.steps)
+        return PatternSpec(
+            projector=ProjectorSpace(resolution=(self.width, self.height)),
+            phase=PhaseShift(
+                axes=axes,
+                frequencies=[frequency],
+                shift="minus",
+                unwrap="gray",
+                gray_unit="half_period",
+                min_modulation=self.params.min_modulation,
+            ),
+            gray=GrayCode(
+                axes=axes,
+                white_black="first",
+                min_contrast=self.params.white_threshold,
+                black_threshold=self.params.black_threshold,
+            ),
+        )
 
     def _gray_bits(self, axis: str) -> int:
         halves = math.ceil(self.extent(axis) / (self.params.period_px // 2))

@@ -124,6 +124,11 @@ class PhaseShift(Strict):
         "frequencies; hierarchical: the longest period spans the projector (a single-period cue) and unwraps "
         "the next shorter"
     )
+    gray_unit: Literal["period", "half_period"] = Field(
+        "period",
+        description="unwrap gray: what the code counts; half_period (one bit more, slrig's phase codec) lets each "
+        "pixel read the count whose edges lie a quarter period from its phase's wrap",
+    )
     white_black: Literal["first", "last", "none"] = Field("none", description="without a gray block")
     min_modulation: float = Field(0.02, ge=0.0, le=1.0, description="least fringe amplitude, of full scale")
 
@@ -177,10 +182,16 @@ class PatternSpec(Strict):
         return self.projector.resolution[0 if axis == "columns" else 1]
 
     def extent(self, axis: Axis) -> int:
-        """Codes along `axis`: the projector's pixels over the pixels per code, or with phase, periods."""
-        if self.phase is not None:
-            return math.ceil(self.pixels(axis) / self.phase.frequencies[0].period_px)
-        return math.ceil(self.pixels(axis) / self.projector.code_step_px)
+        """Codes along `axis`: the projector's pixels over the pixels per code (with phase, per
+        period or half period)."""
+        return math.ceil(self.pixels(axis) / self.code_step(axis))
+
+    def code_step(self, axis: Axis) -> float:
+        """Projector pixels per code of the gray block."""
+        if self.phase is None:
+            return self.projector.code_step_px
+        period = self.phase.frequencies[0].period_px
+        return period / 2 if self.phase.gray_unit == "half_period" else period
 
     def roles(self) -> list[Role]:
         """One role per frame, in the order the frames come: per axis its phase frames (by frequency),

@@ -61,6 +61,7 @@ class ScanResult:
     overlap: dict[int, np.ndarray] = field(default_factory=dict)  # per camera: pixels lit by several projectors
     mesh: Mesh | None = None  # ring scans with a surface: every pair's interpolated surface, meshed
     adaptive: dict[str, object] | None = None  # an adaptive scan: its ring plan and pattern economy
+    descriptions: dict[int, dict[str, object]] = field(default_factory=dict)  # kept frames: projector -> spec
 
 
 def make_codec(rig: Rig, projector: int, name: str | None = None) -> Codec:
@@ -229,11 +230,17 @@ def reconstruct_frames(
         bytes_captured=bytes_captured,
         timings_ms={f"{stage}_ms": seconds * 1e3 for stage, seconds in elapsed.items()},
         frames=frames if keep_frames else {},
+        descriptions=_descriptions(codecs) if keep_frames else {},
         merge=report,
         merged_index=merged_index,
         overlap=overlap,
         mesh=mesh,
     )
+
+
+def _descriptions(codecs: list[Codec]) -> dict[int, dict[str, object]]:
+    described = ((p, codec.description()) for p, codec in enumerate(codecs))
+    return {p: spec.model_dump(mode="json") for p, spec in described if spec is not None}
 
 
 def scan_mesh(rig: Rig, pairs: list[PairResult], elapsed: dict[str, float]) -> Mesh | None:

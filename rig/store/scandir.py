@@ -17,6 +17,7 @@ from typing import Any
 
 import cv2
 import numpy as np
+import yaml
 
 import rig
 from rig.errors import StoreError
@@ -26,6 +27,8 @@ from rig.rig import Rig
 from rig.store.atomic import fsync_dir, rename_no_replace, write_atomic
 from rig.store.images import depth_png, mask_png, preview_png
 from rig.store.ply import mesh_ply_bytes, ply_bytes
+
+DESCRIPTION_NAME = "patterns.yaml"  # beside kept frames: what they show, for `slrig reconstruct`
 
 
 def new_scan_id() -> str:
@@ -223,6 +226,9 @@ def _write_frames(the_rig: Rig, result: ScanResult, partial: Path) -> dict[str, 
             name = f"frames/{key}/{k:03d}.png"
             write_atomic(partial / name, buf.tobytes())
             names.append(name)
+        if p in result.descriptions:  # `slrig reconstruct` reads the folder as it reads others'
+            description = {**result.descriptions[p], "frames": {"files": "*.png", "grey": "luminance"}}
+            write_atomic(folder / DESCRIPTION_NAME, yaml.safe_dump(description, sort_keys=False).encode())
         out[key] = names
     if out:
         fsync_dir(partial / "frames")
