@@ -13,7 +13,7 @@ import pytest
 import yaml
 
 from rig.assembly import open_rig
-from rig.calibrate.foreign import ForeignCalibrationOptions
+from rig.calibrate.foreign import ForeignCalibrationOptions, write_opencv_stereo
 from rig.cli import main
 from rig.config import load_config
 from rig.errors import FramesError
@@ -26,18 +26,7 @@ from tests.conftest import shared_data, small_config_data, write_config
 
 def _opencv_calibration(path: Path, camera: Any, projector: Any) -> Path:
     """The bench's true models as OpenCV's stereoCalibrate would give them (camera first)."""
-    rotation = projector.R @ camera.R.T
-    storage = cv2.FileStorage(str(path), cv2.FILE_STORAGE_WRITE)
-    storage.write("img_shape", np.array([[camera.height], [camera.width]], float))
-    storage.write("proj_shape", np.array([[projector.height], [projector.width]], float))
-    for key, value in (("cam_int", camera.K), ("cam_dist", camera.dist.reshape(1, 5))):
-        storage.write(key, value)
-    for key, value in (("proj_int", projector.K), ("proj_dist", projector.dist.reshape(1, 5))):
-        storage.write(key, value)
-    storage.write("R", rotation)
-    storage.write("T", (projector.t - rotation @ camera.t).reshape(3, 1))
-    storage.release()
-    return path
+    return write_opencv_stereo(path, camera, projector)
 
 
 def _rms_against_truth(grid: np.ndarray, camera: Any, truth: Any, in_camera_frame: bool) -> tuple[float, int]:

@@ -285,3 +285,22 @@ def _json_value(value: Any) -> Any:
         except (TypeError, ValueError):
             return value
     return value
+
+
+def write_opencv_stereo(path: Path, camera: CameraModel, projector: CameraModel) -> Path:
+    """A camera-projector pair as OpenCV's stereoCalibrate gives it, camera first (X_projector =
+    R X_camera + T), with procam-calibration's field names and sizes as shapes: what other tools read
+    back, and what this module reads with its default options."""
+    rotation = projector.R @ camera.R.T
+    storage = cv2.FileStorage(str(path), cv2.FILE_STORAGE_WRITE)
+    for key, model in (("img_shape", camera), ("proj_shape", projector)):
+        storage.write(key, np.array([[model.height], [model.width]], float))
+    for key, model in (("cam", camera), ("proj", projector)):
+        dist = np.zeros(5)
+        dist[: len(model.dist)] = np.ravel(model.dist)[:5]
+        storage.write(f"{key}_int", np.asarray(model.K, float))
+        storage.write(f"{key}_dist", dist.reshape(1, 5))
+    storage.write("R", rotation)
+    storage.write("T", (projector.t - rotation @ camera.t).reshape(3, 1))
+    storage.release()
+    return path

@@ -28,7 +28,7 @@ from rig.patterns.described import decode_described
 from rig.patterns.spec import PatternSpec
 from rig.pipeline.scan import ScanResult, reconstruct_pair
 from rig.rig import Rig
-from rig.store.frames import load_pattern_spec, read_frames
+from rig.store.frames import FrameSet, load_pattern_spec, read_frames
 from rig.store.scandir import write_scan
 
 CODEC_NAME = "described"
@@ -50,6 +50,29 @@ def reconstruct_folder(
     options = options or ForeignCalibrationOptions()
     spec = patterns if isinstance(patterns, PatternSpec) else load_pattern_spec(patterns)
     frames = read_frames(frames_dir, spec.frames, len(spec.roles()))
+    inputs = {
+        "frames": str(frames_dir),
+        "frames_sha256": frames.sha256,
+        "patterns": "inline" if isinstance(patterns, PatternSpec) else str(patterns),
+        "patterns_sha256": _spec_hash(spec) if isinstance(patterns, PatternSpec) else _file_hash(patterns),
+    }
+    return reconstruct_frames(frames, spec, calibration, target, scan_id, config, options, inputs)
+
+
+def reconstruct_frames(
+    frames: FrameSet,
+    spec: PatternSpec,
+    calibration: Path,
+    target: Path,
+    scan_id: str,
+    config: RigConfig,
+    options: ForeignCalibrationOptions,
+    inputs: dict[str, Any],
+) -> tuple[Path, ScanResult]:
+    """The in-memory part of reconstruct_folder: frames read, decoded, triangulated, written;
+    `inputs` (where the frames and description came from) goes into the manifest. (Reading the
+    frames while the camera's rays are made was measured slower on 2 cores: 1.77 s against 1.70
+    for the two in turn, 9 runs each.)"""
     height, width = frames.frames[0].shape
     camera, projector, digest = calibration_models(calibration, options)
     check_resolution(camera, (width, height), "camera", "the frames are", calibration)
@@ -69,10 +92,7 @@ def reconstruct_folder(
     )
     origin = {
         "reconstructed": {
-            "frames": str(frames_dir),
-            "frames_sha256": frames.sha256,
-            "patterns": "inline" if isinstance(patterns, PatternSpec) else str(patterns),
-            "patterns_sha256": _spec_hash(spec) if isinstance(patterns, PatternSpec) else _file_hash(patterns),
+            **inputs,
             "calibration": str(calibration),
             "calibration_sha256": digest,
             "calibration_options": options.model_dump(mode="json"),

@@ -1,0 +1,233 @@
+"""Captures in other systems' conventions, made on the simulated bench, read back by `slrig
+reconstruct`: every family of the pattern description against slrig's own codec of the same family,
+and the time a folder takes against reading its PNG frames plus reconstructing them in memory.
+Prints one JSON object; with --readme rewrites the foreign-roundtrip table in README.md.
+
+    python bench/foreign_roundtrip.py [--readme]
+
+Each family's patterns (rig.patterns.described.described_patterns) are projected on the default
+bench (a diamond DMD's through its geometry, on a 1824x1140 virtual-pixel projector), captured,
+saved as PNG files with the bench's true geometry as an OpenCV stereo calibration, and reconstructed
+by reconstruct_folder; rms and coverage are measured against the simulator's ground truth through
+the camera, as for slrig's own codec (gray; phase with the family's finest period and 8 steps; for
+the diamond, square pixels of the same code density).
+"""
+
+from __future__ import annotations
+
+import statistics
+import sys
+import tempfile
+import time
+from pathlib import Path
+from typing import Any
+
+import cv2
+import numpy as np
+import yaml
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+from _readme import markdown_table, run
+
+from rig.assembly import open_rig
+from rig.calibrate.foreign import ForeignCalibrationOptions, write_opencv_stereo
+from rig.config import RigConfig, config_from_dict, load_config
+from rig.patterns.described import described_patterns
+from rig.patterns.diamond import virtual_image
+from rig.patterns.phase import PhaseCodec, PhaseParams
+from rig.patterns.spec import PatternSpec
+from rig.pipeline.scan import run_scan
+from rig.service.reconstruct import reconstruct_folder, reconstruct_frames
+from rig.store.frames import read_frames
+
+
+def _phase(periods: tuple[float, ...], unwrap: str, **more: Any) -> dict[str, Any]:
+    return {"phase": {"frequencies": [{"period_px": p, "steps": 8} for p in periods], "unwrap": unwrap, **more}}
+
+
+PROJECTOR = {"resolution": [1024, 768]}
+FAMILIES: list[tuple[str, dict[str, Any], int | None]] = [  # name, description, own phase period (None: gray)
+    ("Gray, OpenCV GrayCodePattern order", {"gray": {"axes": ["columns", "rows"], "white_black": "last"}}, None),
+    (
+        "binary, thresholds, LSB first",
+        {"gray": {"code": "binary", "order": "lsb_first", "reference": "threshold", "white_black": "first"}},
+        None,
+    ),
+    ("phase 16 px + Gray of periods", {**_phase((16,), "gray", shift="minus"), "gray": {"white_black": "first"}}, 16),
+    ("heterodyne 16 / 17.5 / 19 px", _phase((16, 17.5, 19), "heterodyne", start_deg=90), 16),
+    ("heterodyne 64 / 68 px", _phase((64, 68), "heterodyne"), 64),
+    ("single-period cue 1024 / 128 / 16 px", _phase((1024, 128, 16), "hierarchical", shift="minus"), 16),
+]
+DIAMOND: list[tuple[str, dict[str, Any]]] = [
+    ("diamond DMD: Gray", {"gray": {"axes": ["columns", "rows"], "white_black": "first"}}),
+    ("diamond DMD: cue 1824 / 152 / 24 px", _phase((1824, 152, 24), "hierarchical")),
+]
+
+
+def _error(grid: np.ndarray, camera: Any, truth: Any, in_camera_frame: bool) -> tuple[float, int]:
+    points = (grid - camera.t) @ camera.R if in_camera_frame else grid
+    ok = np.isfinite(points).all(axis=2) & truth.hit
+    return float(np.sqrt(np.mean(np.sum((points[ok] - truth.points[ok]) ** 2, axis=1)))), int(ok.sum())
+
+
+def _render(rig: Any, spec: PatternSpec, folder: Path, diamond: bool = False) -> Path:
+    folder.mkdir(parents=True)
+    for i, pattern in enumerate(described_patterns(spec)):
+        rig.projectors[0].show(virtual_image(pattern) if diamond else pattern)
+        cv2.imwrite(str(folder / f"frame_{i:02d}.png"), rig.cameras[0].capture().image)
+    (folder / "patterns.yaml").write_text(yaml.safe_dump(spec.model_dump(mode="json")))
+    return folder
+
+
+def _reconstructed(folder: Path, calibration: Path, config: RigConfig, camera: Any, truth: Any) -> dict[str, Any]:
+    t0 = time.perf_counter()
+    _, result = reconstruct_folder(
+        folder, folder / "patterns.yaml", calibration, folder.parent / f"{folder.name}_scan", "x", config
+    )
+    seconds = time.perf_counter() - t0
+    rms, covered = _error(result.pairs[0].grid, camera, truth, in_camera_frame=True)
+    return {"frames": result.frames_projected, "rms_mm": rms, "pixels": covered, "reconstruct_s": round(seconds, 2)}
+
+
+def _with_projector(config: RigConfig, **changes: Any) -> RigConfig:
+    data = config.model_dump(mode="json")
+    for key, value in changes.items():
+        if key == "phase":
+            data["scan"]["phase"] = value
+        else:
+            data["projectors"][0][key] = value
+    return config_from_dict(data, "foreign round trip")
+
+
+def _families(scratch: Path) -> list[dict[str, Any]]:
+    config = load_config()
+    rows, own = [], {}
+    with open_rig(config) as rig:
+        assert rig.truth is not None
+        truth = rig.truth.ground_truth(0, 0)
+        camera = rig.camera_models[0]
+        calibration = write_opencv_stereo(scratch / "bench.xml", camera, rig.projector_models[0])
+        own["gray"] = _error(run_scan(rig, "gray").pairs[0].grid, camera, truth, False)
+        own[16] = _error(run_scan(rig, "phase").pairs[0].grid, camera, truth, False)
+        codec = PhaseCodec((1024, 768), PhaseParams(steps=8, period_px=16))
+        described = [*FAMILIES, ("phase 16 px, slrig's own description", codec.description().model_dump(), 16)]
+        folders = []
+        for k, (name, block, period) in enumerate(described):
+            spec = PatternSpec.model_validate({"projector": PROJECTOR, **block})
+            folders.append((name, period, _render(rig, spec, scratch / f"family{k}")))
+    with open_rig(_with_projector(config, phase={"steps": 8, "period_px": 64})) as rig:
+        own[64] = _error(run_scan(rig, "phase").pairs[0].grid, camera, truth, False)
+    for name, period, folder in folders:
+        row = {"family": name, **_reconstructed(folder, calibration, config, camera, truth)}
+        reference = own["gray" if period is None else period]
+        row |= {"own": "gray" if period is None else f"phase {period} px", "own_rms_mm": reference[0]}
+        row["own_pixels"] = reference[1]
+        rows.append(row)
+    return rows
+
+
+def _diamond(scratch: Path) -> list[dict[str, Any]]:
+    intrinsics = {"fx": 2670.0, "fy": 2670.0, "cx": 911.5, "cy": 569.5}
+    base = load_config()
+    geometry = {**base.model_dump(mode="json")["projectors"][0]["geometry"], "intrinsics": intrinsics}
+    config = _with_projector(base, resolution=[1824, 1140], geometry=geometry)
+    rows = []
+    with open_rig(config) as rig:
+        assert rig.truth is not None
+        truth = rig.truth.ground_truth(0, 0)
+        camera = rig.camera_models[0]
+        calibration = write_opencv_stereo(scratch / "diamond.xml", camera, rig.projector_models[0])
+        made = []
+        for k, (name, block) in enumerate(DIAMOND):
+            specs = {
+                geometry_name: PatternSpec.model_validate(
+                    {
+                        "projector": {
+                            "resolution": [1824, 1140],
+                            "pixel_geometry": geometry_name,
+                            "code_step_px": step,
+                        },
+                        **block,
+                    }
+                )
+                for geometry_name, step in (("diamond", 1), ("square", 2))
+            }
+            made.append(
+                (name, {g: _render(rig, s, scratch / f"diamond{k}_{g}", g == "diamond") for g, s in specs.items()})
+            )
+    for name, folders in made:
+        row = {"family": name, **_reconstructed(folders["diamond"], calibration, config, camera, truth)}
+        twin = _reconstructed(folders["square"], calibration, config, camera, truth)
+        rows.append(
+            row | {"own": "square pixels, same density", "own_rms_mm": twin["rms_mm"], "own_pixels": twin["pixels"]}
+        )
+    return rows
+
+
+def _speed(folder: Path, calibration: Path, config: RigConfig, repeats: int = 3) -> dict[str, Any]:
+    """A folder's reconstruction against reading its frames plus reconstructing them in memory."""
+    spec = PatternSpec.model_validate(yaml.safe_load((folder / "patterns.yaml").read_text()))
+    options = ForeignCalibrationOptions()
+    read, memory, total = [], [], []
+    for k in range(repeats):
+        t0 = time.perf_counter()
+        frames = read_frames(folder, spec.frames, len(spec.roles()))
+        t1 = time.perf_counter()
+        reconstruct_frames(frames, spec, calibration, folder.parent / f"mem{k}", "x", config, options, {})
+        t2 = time.perf_counter()
+        reconstruct_folder(folder, folder / "patterns.yaml", calibration, folder.parent / f"all{k}", "x", config)
+        t3 = time.perf_counter()
+        read.append(t1 - t0)
+        memory.append(t2 - t1)
+        total.append(t3 - t2)
+    height, width = frames.frames[0].shape
+    return {
+        "frames": len(frames.frames),
+        "size": [width, height],
+        "png_read_s": round(statistics.median(read), 3),
+        "in_memory_s": round(statistics.median(memory), 3),
+        "folder_s": round(statistics.median(total), 3),
+    }
+
+
+def measure() -> dict[str, Any]:
+    with tempfile.TemporaryDirectory() as scratch:
+        root = Path(scratch)
+        rows = _families(root) + _diamond(root)
+        cue = next(root / f"family{k}" for k, (name, _, _) in enumerate(FAMILIES) if name.startswith("single"))
+        speed = _speed(cue, root / "bench.xml", load_config())
+    for row in rows:
+        row["rms_ratio"] = round(row["rms_mm"] / row["own_rms_mm"], 3)
+        row["rms_mm"], row["own_rms_mm"] = round(row["rms_mm"], 4), round(row["own_rms_mm"], 4)
+    return {"benchmark": "foreign_roundtrip", "families": rows, "speed": speed}
+
+
+def table(report: dict[str, Any]) -> str:
+    header = ["family", "frames", "rms mm", "pixels", "slrig's own", "its rms mm", "its pixels", "ratio", "s"]
+    rows = [
+        [
+            r["family"],
+            r["frames"],
+            r["rms_mm"],
+            r["pixels"],
+            r["own"],
+            r["own_rms_mm"],
+            r["own_pixels"],
+            r["rms_ratio"],
+            r["reconstruct_s"],
+        ]
+        for r in report["families"]
+    ]
+    s = report["speed"]
+    return (
+        markdown_table(header, rows)
+        + f"\n\nA folder of {s['frames']} PNG frames at {s['size'][0]}x{s['size'][1]} (the cue family): "
+        f"{s['folder_s']} s for `reconstruct`, against {s['png_read_s']} s to read the PNG files and "
+        f"{s['in_memory_s']} s to reconstruct them from memory (decode, triangulate, write the scan).\n\n"
+        "Measured by `python bench/foreign_roundtrip.py --readme`."
+    )
+
+
+if __name__ == "__main__":
+    run(__doc__ or "", "foreign-roundtrip", measure, table)
