@@ -90,6 +90,8 @@ def test_bad_inputs_are_refused_naming_the_field_and_nothing_is_written(
     refusals = {
         (): "the pattern description has 42 frames, 1 files match",
         ("--board", "checker:10x8"): "--board: 'checker:10x8' is not KIND:COLSxROWS:SQUARE_MM",
+        ("--board", "charuco:10x8:30:40"): "--board: marker_mm 40 must be smaller than square_mm 30",
+        ("--board", "charuco:10x8:30:20:DICT_9X9"): "--board dictionary",
         ("--board", "checker:10x2:75"): "--board: squares [10, 2]: a board needs 3 to 100",
         ("--model", "k1+fixed_everything"): "--model: model 'k1+fixed_everything'",
         ("--view-glob", "pose_*"): "has no sub-folders matching 'pose_*'",

@@ -93,3 +93,35 @@ def test_a_description_that_does_not_hold_names_its_field(tmp_path: Path) -> Non
     path.write_text("projector: [")
     with pytest.raises(PatternSpecError, match="cannot be read"):
         load_pattern_spec(path)
+
+
+def test_a_list_of_names_and_globs_gives_each_frequency_its_own_files(tmp_path: Path) -> None:
+    """Per-frequency frame lists: a system that names each frequency's frames its own way."""
+    spec = PatternSpec.model_validate(
+        {
+            "projector": {"resolution": [64, 32]},
+            "frames": {"files": ["white.png", "black.png", "coarse_*.png", "fine_*.png"]},
+            "phase": {
+                "frequencies": [{"period_px": 64, "steps": 4}, {"period_px": 8, "steps": 4}],
+                "unwrap": "hierarchical",
+                "white_black": "first",
+            },
+        }
+    )
+    folder = tmp_path / "frames"
+    folder.mkdir()
+    names = ["white.png", "black.png", *(f"coarse_{n}.png" for n in range(4)), *(f"fine_{n}.png" for n in range(4))]
+    for name, pattern in zip(names, described_patterns(spec), strict=True):
+        cv2.imwrite(str(folder / name), (20 + 0.7 * pattern.astype(np.float64)).astype(np.uint8))
+    frames = read_frames(folder, spec.frames, len(spec.roles()))
+    assert [p.name for p in frames.files] == names
+    found = decode_described(frames.frames, spec, frames.full_scale)
+    assert found.u is not None and found.valid.all()
+    assert np.abs(found.u[0] - np.arange(64)).max() < 0.05
+    (folder / "fine_3.png").unlink()
+    with pytest.raises(FramesError, match="9 files are listed"):
+        read_frames(folder, spec.frames, len(spec.roles()))
+    for name in names[6:9]:
+        (folder / name).unlink()
+    with pytest.raises(FramesError, match=re.escape("missing fine_*.png (no file matches)")):
+        read_frames(folder, spec.frames, len(spec.roles()))

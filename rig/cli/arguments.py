@@ -131,8 +131,8 @@ def _cal_command(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-
     cal.add_argument(
         "--board",
         default=None,
-        help="the board as KIND:COLSxROWS:SQUARE_MM (squares, not inner corners), e.g. checker:10x8:75; "
-        "default: the config's calibration.board",
+        help="the board as KIND:COLSxROWS:SQUARE_MM[:MARKER_MM[:DICTIONARY]] (squares, not inner corners), e.g. "
+        "checker:10x8:75 or charuco:11x8:30:22:DICT_5X5_100; default: the config's calibration.board",
     )
     cal.add_argument(
         "--model",

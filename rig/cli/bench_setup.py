@@ -68,6 +68,22 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
     return 0
 
 
+def _board(text: str) -> dict[str, object]:
+    """KIND:COLSxROWS:SQUARE_MM[:MARKER_MM[:DICTIONARY]] as BoardConfig fields."""
+    parts = text.split(":")
+    try:
+        if not 3 <= len(parts) <= 5:
+            raise ValueError
+        cols, rows = (int(n) for n in parts[1].lower().split("x"))
+        fields: dict[str, object] = {"kind": parts[0], "squares": [cols, rows], "square_mm": float(parts[2])}
+        if len(parts) > 3:
+            fields["marker_mm"] = float(parts[3])
+    except ValueError:
+        problem = f"--board: {text!r} is not KIND:COLSxROWS:SQUARE_MM[:MARKER_MM[:DICTIONARY]] (checker:10x8:75)"
+        raise ConfigError("--board", [problem]) from None
+    return fields | ({"dictionary": parts[4]} if len(parts) == 5 else {})
+
+
 def calibration_overrides(config: RigConfig, board: str | None, model: str | None) -> RigConfig:
     """The config with --board (KIND:COLSxROWS:SQUARE_MM) and --model, validated as the file is."""
     if board is None and model is None:
@@ -76,15 +92,7 @@ def calibration_overrides(config: RigConfig, board: str | None, model: str | Non
     if model is not None:
         data["calibration"]["model"] = model
     if board is not None:
-        parts = board.split(":")
-        try:
-            kind, squares, square = parts
-            cols, rows = (int(n) for n in squares.lower().split("x"))
-            size = float(square)
-        except ValueError:
-            problem = f"--board: {board!r} is not KIND:COLSxROWS:SQUARE_MM (checker:10x8:75)"
-            raise ConfigError("--board", [problem]) from None
-        data["calibration"]["board"] |= {"kind": kind, "squares": [cols, rows], "square_mm": size}
+        data["calibration"]["board"] |= _board(board)
     try:
         return config_from_dict(data, "--board/--model")
     except ConfigError as exc:

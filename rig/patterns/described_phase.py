@@ -69,7 +69,8 @@ def decode_phase(
             x = gray_unwrapped(value, wrapped[0], phase.gray_unit == "half_period", ok)
             ok &= strength >= spec.code.min_contrast
         else:
-            x, doubt = heterodyne(wrapped) if phase.unwrap == "heterodyne" else hierarchical(wrapped)
+            unwrapping = heterodyne if phase.unwrap == "heterodyne" else hierarchical
+            x, doubt = unwrapping(wrapped, spec.pixels(axis))
             counts[f"unwrap_doubtful_{axis}"] = int((ok & (doubt > MAX_DOUBT)).sum())
             ok &= doubt <= MAX_DOUBT
             x = combined(x, wrapped)
@@ -136,24 +137,33 @@ def beat(a: Wrapped, b: Wrapped) -> Wrapped:
     return np.mod(fa - fb, np.float32(1.0)).astype(np.float32), pa * pb / (pb - pa)
 
 
-def heterodyne(wrapped: list[Wrapped]) -> tuple[np.ndarray, np.ndarray]:
+def spanning(top: Wrapped, pixels: int) -> np.ndarray:
+    """The coordinate of a phase whose one period spans the projector's `pixels`: a value in the gap
+    between the projector's end and the period's (or within a quarter pixel of the period's end,
+    where the two meet) is the projector's start, read across the wrap."""
+    fraction, period = top
+    x = fraction * np.float32(period)
+    fold = (pixels - 0.5 + period) / 2
+    return np.where(x > fold, x - np.float32(period), x).astype(np.float32)
+
+
+def heterodyne(wrapped: list[Wrapped], pixels: int) -> tuple[np.ndarray, np.ndarray]:
     """The finest coordinate through the beats, and the largest doubt on the way."""
     ordered = sorted(wrapped, key=lambda w: w[1])
     beats = [beat(ordered[i], ordered[i + 1]) for i in range(len(ordered) - 1)]
     doubt = np.zeros_like(ordered[0][0])
     if len(beats) == 2:  # three frequencies: the beat of the beats spans the projector
-        top = beat(*beats)
-        x, doubt = _unwrap(top[0] * np.float32(top[1]), min(beats, key=lambda w: w[1]))
+        x, doubt = _unwrap(spanning(beat(*beats), pixels), min(beats, key=lambda w: w[1]))
     else:
-        x = beats[0][0] * np.float32(beats[0][1])
+        x = spanning(beats[0], pixels)
     x, last = _unwrap(x, ordered[0])
     return x, np.maximum(doubt, last)
 
 
-def hierarchical(wrapped: list[Wrapped]) -> tuple[np.ndarray, np.ndarray]:
+def hierarchical(wrapped: list[Wrapped], pixels: int) -> tuple[np.ndarray, np.ndarray]:
     """The finest coordinate from the longest period down, and the largest doubt on the way."""
     ordered = sorted(wrapped, key=lambda w: w[1], reverse=True)
-    x = ordered[0][0] * np.float32(ordered[0][1])
+    x = spanning(ordered[0], pixels)
     doubt = np.zeros_like(x)
     for fine in ordered[1:]:
         x, step = _unwrap(x, fine)

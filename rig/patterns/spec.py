@@ -72,7 +72,9 @@ class FrameFiles(Strict):
     """Which files in the frames folder are the frames, in projection order."""
 
     files: str | list[str] = Field(
-        "*.png", description="a glob (matches sorted with numbers in order) or the file names in order"
+        "*.png",
+        description="a glob (matches sorted with numbers in order), or a list in frame order of file names and "
+        "globs (e.g. one glob per frequency: [white.png, black.png, 'f16_*.png', 'f18_*.png'])",
     )
     grey: Literal["luminance", "mean", "red", "green", "blue"] = Field("luminance", description="colour to grey")
 

@@ -4,6 +4,7 @@ bit depth, in grey."""
 
 from __future__ import annotations
 
+import glob
 import hashlib
 import re
 from concurrent.futures import ThreadPoolExecutor
@@ -46,13 +47,20 @@ def frame_files(folder: Path, files: FrameFiles, expected: int) -> list[Path]:
     """The frame files in order; FramesError where the folder and the description disagree."""
     if not folder.is_dir():
         raise FramesError(f"frames folder {folder}: not a folder")
-    if isinstance(files.files, list):
-        found = [folder / name for name in files.files]
-        missing = [p.name for p in found if not p.is_file()]
+    if isinstance(files.files, list):  # names and globs in order: one glob per frequency, say
+        found, missing = [], []
+        for entry in files.files:
+            if glob.has_magic(entry):
+                matched = _matching(folder, entry)
+                found += matched
+                missing += [] if matched else [f"{entry} (no file matches)"]
+            else:
+                found.append(folder / entry)
+                missing += [] if (folder / entry).is_file() else [entry]
         if missing:
             raise FramesError(f"frames folder {folder}: missing {', '.join(missing[:5])}")
     else:
-        found = sorted((p for p in folder.glob(files.files) if p.is_file()), key=natural_order)
+        found = _matching(folder, files.files)
     if len(found) != expected:
         names = ", ".join(p.name for p in found[expected:][:5])
         detail = f" (beyond them: {names})" if len(found) > expected else ""
@@ -62,6 +70,10 @@ def frame_files(folder: Path, files: FrameFiles, expected: int) -> list[Path]:
             f"{len(found)} files {listed}{detail}"
         )
     return found
+
+
+def _matching(folder: Path, pattern: str) -> list[Path]:
+    return sorted((p for p in folder.glob(pattern) if p.is_file()), key=natural_order)
 
 
 def read_frames(folder: Path, files: FrameFiles, expected: int) -> FrameSet:
