@@ -74,9 +74,11 @@ def test_save_frames_keeps_the_raw_captures(tmp_path: Path) -> None:
     data["scan"]["codec"] = "gray"
     out = tmp_path / "with-frames"
     assert main(["scan", "--config", str(write_config(tmp_path, data)), "--out", str(out)]) == 0
-    frames = sorted((out / "frames" / "projector0_camera0").iterdir())
+    folder = out / "frames" / "projector0_camera0"
+    frames = sorted(folder.glob("*.png"))
     assert len(frames) == 2 + 2 * 8  # white, black, 8 Gray bits with inverses for 256 columns
     assert cv2.imread(str(frames[0]), cv2.IMREAD_UNCHANGED).shape == (256, 320)
+    assert {p.name for p in folder.iterdir()} - {p.name for p in frames} == {"patterns.yaml"}  # what they show
 
 
 @pytest.mark.parametrize(
