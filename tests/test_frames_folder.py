@@ -125,3 +125,9 @@ def test_a_list_of_names_and_globs_gives_each_frequency_its_own_files(tmp_path: 
         (folder / name).unlink()
     with pytest.raises(FramesError, match=re.escape("missing fine_*.png (no file matches)")):
         read_frames(folder, spec.frames, len(spec.roles()))
+
+
+@pytest.mark.parametrize("files", ["../*.png", "/etc/passwd", ["white.png", "../../x.png"], ".*", "C:frame.png"])
+def test_a_description_cannot_name_files_outside_its_folder(files: object) -> None:
+    with pytest.raises(ValueError, match="within the frames folder"):
+        FrameFiles(files=files)  # type: ignore[arg-type]

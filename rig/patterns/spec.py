@@ -78,6 +78,18 @@ class FrameFiles(Strict):
     )
     grey: Literal["luminance", "mean", "red", "green", "blue"] = Field("luminance", description="colour to grey")
 
+    @model_validator(mode="after")
+    def _inside_the_folder(self) -> FrameFiles:
+        entries = [self.files] if isinstance(self.files, str) else self.files
+        if not entries:
+            raise ValueError("files: an empty list")
+        for entry in entries:  # a description names frames in its folder, never beside or above it
+            if not entry or "/" in entry or "\\" in entry or entry.startswith(".") or ":" in entry:
+                raise ValueError(
+                    f"files {entry!r}: a name or glob within the frames folder (no '/', '\\', ':', no leading '.')"
+                )
+        return self
+
 
 class GrayCode(Strict):
     axes: tuple[Axis, ...] = Field(("columns",), min_length=1, max_length=2)
