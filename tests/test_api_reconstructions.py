@@ -115,3 +115,14 @@ def test_uploads_refuse_names_and_kinds_that_are_not_frames(client: TestClient, 
     with pytest.raises(ImportRefusedError, match="suffix must be one of"):  # behind the path's own pattern
         store_file(tmp_path, "board", "frame.exe", b"x")
     assert client.put("/v1/imports/board/frame.png", content=b"x").status_code == 401
+
+
+def test_only_the_keys_holder_may_send_a_large_upload(client: TestClient) -> None:
+    """A body larger than the JSON limit (64 KiB) is held for an upload only when the key is valid:
+    no one else makes the daemon buffer megabytes."""
+    frame = bytes(300_000)
+    assert client.put("/v1/imports/big/frame.png", content=frame).status_code == 413
+    assert client.put("/v1/imports/big/frame.png", content=frame, headers={"X-API-Key": "x" * 32}).status_code == 413
+    assert client.put("/v1/imports/big/frame.png", content=frame, headers=AUTH).status_code == 201
+    assert client.delete("/v1/imports/big", headers=AUTH).status_code == 204
+    assert client.delete("/v1/imports/big", headers=AUTH).status_code == 404

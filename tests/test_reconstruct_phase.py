@@ -118,6 +118,11 @@ def test_each_phase_family_reconstructs_as_accurately_as_slrigs_own_phase(render
             "the longest period, 128 px, must span 1024 px",
         ),
         ({"frequencies": [{"period_px": 16, "steps": 4}], "unwrap": "gray"}, "the gray block"),
+        ({"frequencies": [{"period_px": 16, "steps": 4}] * 2, "unwrap": "heterodyne"}, "repeat"),
+        (
+            {"frequencies": [{"period_px": p, "steps": 4} for p in (20, 24, 30)], "unwrap": "heterodyne"},
+            "their beat spans 0 px",  # both beats 120 px: their own beat resolves nothing
+        ),
         ({"frequencies": [{"period_px": 16, "steps": 2}], "unwrap": "gray"}, "steps"),
     ],
 )

@@ -98,7 +98,7 @@ def create_app(service: JobService, settings: ApiSettings, stopping: Callable[[]
         app.add_middleware(
             CORSMiddleware, allow_origins=list(settings.cors_origins), allow_credentials=False, allow_methods=["*"]
         )
-    app.add_middleware(BodyLimitMiddleware, limit=settings.max_body_bytes, uploads=UPLOADS)
+    app.add_middleware(BodyLimitMiddleware, limit=settings.max_body_bytes, uploads=UPLOADS, key=settings.api_key)
     _error_handlers(app)
     app.include_router(_general(service), prefix="/v1")
     app.include_router(_jobs(service, JobKind.SCAN, "scans", is_stopping), prefix="/v1")

@@ -7,6 +7,7 @@ from __future__ import annotations
 from typing import Annotated, Any
 
 from fastapi import APIRouter, Path, Request, Response, status
+from starlette.concurrency import run_in_threadpool
 
 from rig.api.models import FILE_NAME_PATTERN, JobView, ReconstructionRequest
 from rig.api.security import MUTATING, READING
@@ -45,7 +46,8 @@ def reconstruction_router(service: JobService, errors: dict[int | str, dict[str,
         openapi_extra=BINARY_BODY,
     )
     async def upload(folder: Name, file: UploadName, request: Request, response: Response) -> dict[str, Any]:
-        stored = store_file(service.data_dir, folder, file, await request.body())
+        body = await request.body()
+        stored = await run_in_threadpool(store_file, service.data_dir, folder, file, body)  # writes, hashes, fsyncs
         response.headers["Location"] = f"/v1/imports/{folder}/{file}"
         return stored
 

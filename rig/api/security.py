@@ -47,10 +47,19 @@ class ApiSettings:
 
 
 def _presented_key(request: Request) -> str | None:
-    key = request.headers.get("x-api-key")
-    if key:
-        return key
-    scheme, _, token = request.headers.get("authorization", "").partition(" ")
+    return _key_from(request.headers.get("x-api-key"), request.headers.get("authorization", ""))
+
+
+def _header_key(scope: Scope) -> str | None:
+    """The key a raw ASGI request presents (before the application parses it)."""
+    headers = {name.decode("latin-1").lower(): value.decode("latin-1") for name, value in scope["headers"]}
+    return _key_from(headers.get("x-api-key"), headers.get("authorization", ""))
+
+
+def _key_from(header: str | None, authorization: str) -> str | None:
+    if header:
+        return header
+    scheme, _, token = authorization.partition(" ")
     return token.strip() if scheme.lower() == "bearer" and token.strip() else None
 
 
@@ -86,18 +95,17 @@ class BodyLimitMiddleware:
     """413 for a request body over `limit` bytes, declared or streamed (chunked): the body is read
     here, up to the limit, before the application sees the request."""
 
-    def __init__(self, app: ASGIApp, limit: int, uploads: tuple[str, int] | None = None) -> None:
+    def __init__(self, app: ASGIApp, limit: int, uploads: tuple[str, int] | None = None, key: str = "") -> None:
         self.app = app
         self.limit = limit
         self.uploads = uploads  # (path prefix, its limit): file uploads, larger than any JSON body
+        self.key = key
 
     async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
         if scope["type"] != "http":
             await self.app(scope, receive, send)
             return
-        limit = self.limit
-        if self.uploads is not None and scope["path"].startswith(self.uploads[0]) and scope["method"] == "PUT":
-            limit = self.uploads[1]
+        limit = self._limit(scope)
         declared = dict(scope["headers"]).get(b"content-length")
         if declared is not None and not declared.strip().isdigit():
             await _reply(send, 400, "Content-Length is not a number")
@@ -126,6 +134,14 @@ class BodyLimitMiddleware:
             return await receive()  # then what the server says (a disconnect, for event streams)
 
         await self.app(scope, replay, send)
+
+    def _limit(self, scope: Scope) -> int:
+        """The body limit of this request: an upload's, for the key's holder only (no one else
+        makes the daemon hold a large body), else the JSON bodies'."""
+        if self.uploads is None or scope["method"] != "PUT" or not scope["path"].startswith(self.uploads[0]):
+            return self.limit
+        presented = (_header_key(scope) or "").encode()
+        return self.uploads[1] if self.key and hmac.compare_digest(presented, self.key.encode()) else self.limit
 
 
 async def _reply(send: Send, status_code: int, detail: str) -> None:

@@ -34,6 +34,7 @@ from rig.patterns.spec import Axis, PatternSpec, Role
 
 GrayReader = Callable[[Axis, np.ndarray, np.ndarray], tuple[np.ndarray, np.ndarray]]
 Wrapped = tuple[np.ndarray, float]  # (fraction of the period in [0, 1), period in pixels)
+MIN_NEIGHBOURS = 9  # valid pixels of a 5x5 neighbourhood that may take a period jump back
 MAX_DOUBT = 0.3  # of a period: how far a coarser coordinate may miss the finer phase's periods
 
 
@@ -192,12 +193,30 @@ def gray_unwrapped(code: np.ndarray, wrapped: Wrapped, half_periods: bool, valid
 
 
 def correct_period_jumps(x: np.ndarray, period: float, valid: np.ndarray) -> np.ndarray:
-    """Take back whole periods where a pixel differs from its 5x5 neighbourhood's median by more
-    than half a period (a Gray code edge read one pixel off the phase's wrap)."""
-    filled = np.where(valid, x, 0).astype(np.float32)
-    median = cv2.medianBlur(filled, 5)
-    jumps = np.rint((median - x) / np.float32(period))
-    return np.where(valid & (np.abs(median - x) > period / 2), x + jumps * np.float32(period), x).astype(np.float32)
+    """Take back whole periods where a pixel differs from the median of its 5x5 neighbourhood's
+    valid pixels by more than half a period (a Gray code edge read one pixel off the phase's wrap).
+    The median is taken fast twice, the invalid pixels counted once far below and once far above;
+    where the two agree on the jump that is the answer, elsewhere (near invalid pixels) the valid
+    neighbours' own median decides, and a pixel with fewer than MIN_NEIGHBOURS of them is left."""
+    far = np.float32(1e6)
+    jumps = [
+        np.rint((cv2.medianBlur(np.where(valid, x, fill).astype(np.float32), 5) - x) / np.float32(period))
+        for fill in (-far, far)
+    ]
+    jump = np.where(jumps[0] == jumps[1], jumps[0], 0)
+    rows, cols = np.nonzero(valid & (jumps[0] != jumps[1]))
+    if len(rows):
+        padded_x = np.pad(x, 2)
+        padded_valid = np.pad(valid, 2)
+        offsets = np.arange(5)
+        window_rows = rows[:, None, None] + offsets[None, :, None]
+        window_cols = cols[:, None, None] + offsets[None, None, :]
+        values = np.where(padded_valid[window_rows, window_cols], padded_x[window_rows, window_cols], np.nan)
+        values = values.reshape(len(rows), 25)
+        enough = np.sum(~np.isnan(values), axis=1) >= MIN_NEIGHBOURS
+        median = np.nanmedian(np.where(enough[:, None], values, 0.0), axis=1)
+        jump[rows, cols] = np.where(enough, np.rint((median - x[rows, cols]) / np.float32(period)), 0)
+    return np.where(valid, x + jump * np.float32(period), x).astype(np.float32)
 
 
 def phase_pattern(spec: PatternSpec, role: Role) -> np.ndarray:

@@ -269,17 +269,20 @@ def check_unwrapping(spec: PatternSpec) -> None:
     if phase.unwrap == "hierarchical" and max(periods) < longest:
         raise ValueError(f"phase.frequencies: the longest period, {max(periods):g} px, must span {longest} px")
     if phase.unwrap == "heterodyne":
+        if len(set(periods)) != len(periods):
+            raise ValueError(f"phase.frequencies: periods {periods} repeat; heterodyne needs different periods")
         reach = beat_period(periods)
         if reach < longest:
             raise ValueError(f"phase.frequencies: their beat spans {reach:g} px, less than the {longest} px to reach")
 
 
 def beat_period(periods: list[float]) -> float:
-    """The longest period the heterodyne of 2 or 3 periods resolves (inf when two are equal)."""
+    """The longest period the heterodyne of 2 or 3 periods resolves (0 where two periods, or the
+    two beats of three, are equal)."""
     ordered = sorted(periods)
 
     def beat(a: float, b: float) -> float:
-        return math.inf if a == b else a * b / abs(b - a)
+        return 0.0 if a == b else a * b / abs(b - a)  # equal periods, or equal beats, resolve nothing
 
     if len(ordered) == 2:
         return beat(*ordered)

@@ -80,7 +80,11 @@ def list_imports(data_dir: Path) -> list[dict[str, Any]]:
 def remove_folder(data_dir: Path, folder: str) -> None:
     path = folder_path(data_dir, folder)
     doomed = path.with_name(f".{path.name}.deleting")
-    path.rename(doomed)  # gone from listings at once; a crash leaves a hidden folder that startup removes
+    shutil.rmtree(doomed, ignore_errors=True)  # an earlier deletion's leftover
+    try:
+        path.rename(doomed)  # gone from listings at once; a crash leaves a hidden folder that startup removes
+    except FileNotFoundError:  # another request deleted it first
+        raise ImportNotFoundError(f"no imports folder {folder!r}") from None
     shutil.rmtree(doomed, ignore_errors=True)
 
 

@@ -383,7 +383,7 @@ class JobService:
 
     def _reconstruct(self, job: Job, progress: ProgressCallback) -> dict[str, Any]:
         inputs = (self.data_dir, self._calibration_folder, job.request["reconstruct"], self.scans_dir / job.id)
-        return tasks.reconstruction_to_directory(*inputs, job.id, self.config)
+        return tasks.reconstruction_to_directory(*inputs, job.id, self.config, progress)
 
     def _calibration_folder(self, calibration_id: str) -> Path:
         calibration = self.job(calibration_id, JobKind.CALIBRATION)

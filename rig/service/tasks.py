@@ -104,10 +104,11 @@ def reconstruction_to_directory(
     target: Path,
     scan_id: str,
     config: RigConfig,
+    progress: ProgressCallback | None = None,
 ) -> dict[str, Any]:
     """A reconstruction request (frames uploaded under data_dir's imports) written as a scan."""
     frames, patterns, calibration, options = reconstruction_inputs(data_dir, calibration_folder, request)
-    path, result = reconstruct_folder(frames, patterns, calibration, target, scan_id, config, options)
+    path, result = reconstruct_folder(frames, patterns, calibration, target, scan_id, config, options, progress)
     return scan_summary(path, result)
 
 
