@@ -165,30 +165,38 @@ def _diamond(scratch: Path) -> list[dict[str, Any]]:
     return rows
 
 
-def _speed(folder: Path, calibration: Path, config: RigConfig, repeats: int = 3) -> dict[str, Any]:
-    """A folder's reconstruction against reading its frames plus reconstructing them in memory."""
+def _speed(folder: Path, calibration: Path, config: RigConfig, repeats: int = 7) -> dict[str, Any]:
+    """A folder's reconstruction against reading its frames plus reconstructing them in memory:
+    one run untimed (caches), then `repeats` of each, in alternating order, medians and ranges."""
     spec = PatternSpec.model_validate(yaml.safe_load((folder / "patterns.yaml").read_text()))
     options = ForeignCalibrationOptions()
-    read, memory, total = [], [], []
-    for k in range(repeats):
+    times: dict[str, list[float]] = {"read": [], "memory": [], "folder": []}
+
+    def separately(k: int) -> None:
         t0 = time.perf_counter()
         frames = read_frames(folder, spec.frames, len(spec.roles()))
         t1 = time.perf_counter()
         reconstruct_frames(frames, spec, calibration, folder.parent / f"mem{k}", "x", config, options, {})
-        t2 = time.perf_counter()
+        times["read"].append(t1 - t0)
+        times["memory"].append(time.perf_counter() - t1)
+
+    def whole(k: int) -> None:
+        t0 = time.perf_counter()
         reconstruct_folder(folder, folder / "patterns.yaml", calibration, folder.parent / f"all{k}", "x", config)
-        t3 = time.perf_counter()
-        read.append(t1 - t0)
-        memory.append(t2 - t1)
-        total.append(t3 - t2)
+        times["folder"].append(time.perf_counter() - t0)
+
+    whole(-1)
+    times["folder"].clear()
+    for k in range(repeats):
+        for step in (separately, whole) if k % 2 else (whole, separately):
+            step(k)
+    frames = read_frames(folder, spec.frames, len(spec.roles()))
     height, width = frames.frames[0].shape
-    return {
-        "frames": len(frames.frames),
-        "size": [width, height],
-        "png_read_s": round(statistics.median(read), 3),
-        "in_memory_s": round(statistics.median(memory), 3),
-        "folder_s": round(statistics.median(total), 3),
-    }
+    out: dict[str, Any] = {"frames": len(frames.frames), "size": [width, height], "repeats": repeats}
+    for name, key in (("read", "png_read_s"), ("memory", "in_memory_s"), ("folder", "folder_s")):
+        out[key] = round(statistics.median(times[name]), 3)
+        out[key.replace("_s", "_range_s")] = [round(min(times[name]), 3), round(max(times[name]), 3)]
+    return out
 
 
 def measure() -> dict[str, Any]:
@@ -222,9 +230,11 @@ def table(report: dict[str, Any]) -> str:
     s = report["speed"]
     return (
         markdown_table(header, rows)
-        + f"\n\nA folder of {s['frames']} PNG frames at {s['size'][0]}x{s['size'][1]} (the cue family): "
-        f"{s['folder_s']} s for `reconstruct`, against {s['png_read_s']} s to read the PNG files and "
-        f"{s['in_memory_s']} s to reconstruct them from memory (decode, triangulate, write the scan).\n\n"
+        + f"\n\nA folder of {s['frames']} PNG frames at {s['size'][0]}x{s['size'][1]} (the cue family), medians "
+        f"of {s['repeats']} runs: {s['folder_s']} s for `reconstruct` (range {s['folder_range_s'][0]}-"
+        f"{s['folder_range_s'][1]}), against {s['png_read_s']} s to read the PNG files and {s['in_memory_s']} s "
+        f"(range {s['in_memory_range_s'][0]}-{s['in_memory_range_s'][1]}) to reconstruct them from memory "
+        "(decode, triangulate, write the scan).\n\n"
         "Measured by `python bench/foreign_roundtrip.py --readme`."
     )
 

@@ -13,7 +13,7 @@ import pytest
 from rig.errors import FramesError, PatternSpecError
 from rig.patterns.described import decode_described, described_patterns
 from rig.patterns.spec import FrameFiles, GrayCode, PatternSpec, ProjectorSpace
-from rig.store.frames import load_pattern_spec, read_frames
+from rig.store.frames import load_pattern_spec, open_frames, read_frames
 
 SPEC_YAML = """
 projector: {resolution: [64, 32]}
@@ -131,3 +131,21 @@ def test_a_list_of_names_and_globs_gives_each_frequency_its_own_files(tmp_path: 
 def test_a_description_cannot_name_files_outside_its_folder(files: object) -> None:
     with pytest.raises(ValueError, match="within the frames folder"):
         FrameFiles(files=files)  # type: ignore[arg-type]
+
+
+def test_frames_opened_as_they_arrive_decode_as_frames_read_first(tmp_path: Path) -> None:
+    """open_frames (read on threads while the decoder walks them) gives the same correspondence and
+    hashes as read_frames, and names a frame of another size when the decoder reaches it."""
+    path = tmp_path / "spec.yaml"
+    path.write_text(SPEC_YAML)
+    spec = load_pattern_spec(path)
+    folder = _folder(tmp_path, spec)
+    eager = read_frames(folder, spec.frames, len(spec.roles()))
+    arriving = open_frames(folder, spec.frames, len(spec.roles()))
+    first, second = (decode_described(f.frames, spec, f.full_scale) for f in (eager, arriving))
+    assert np.array_equal(first.valid, second.valid) and np.array_equal(first.u, second.u, equal_nan=True)
+    assert arriving.sha256 == eager.sha256
+    cv2.imwrite(str(folder / "frame_7.png"), np.zeros((16, 64), np.uint8))
+    arriving = open_frames(folder, spec.frames, len(spec.roles()))
+    with pytest.raises(FramesError, match=r"frame_7\.png: 64x16 8-bit, the first frame \(frame_0\.png\) is 64x32"):
+        decode_described(arriving.frames, spec, arriving.full_scale)

@@ -93,7 +93,7 @@ class NormalizedFrames(Sequence[np.ndarray]):
     """Captured frames as float32 luminance in [0, 1], converted when read (not all at once, which
     would hold a float copy of every frame). Slicing gives another NormalizedFrames."""
 
-    def __init__(self, frames: list[np.ndarray], full_scale: int) -> None:
+    def __init__(self, frames: Sequence[np.ndarray], full_scale: int) -> None:
         self._frames = frames
         self._full_scale = full_scale
 

@@ -3,7 +3,7 @@ were projected, into slrig's Correspondence."""
 
 from __future__ import annotations
 
-from collections.abc import Iterator
+from collections.abc import Iterator, Sequence
 
 import numpy as np
 
@@ -16,15 +16,16 @@ from rig.patterns.lines import LineCodec, stretch
 from rig.patterns.spec import Axis, PatternSpec, Role
 
 
-def decode_described(frames: list[np.ndarray], spec: PatternSpec, full_scale: int) -> Correspondence:
+def decode_described(frames: Sequence[np.ndarray], spec: PatternSpec, full_scale: int) -> Correspondence:
     """Per camera pixel, the projector column and/or row its frames spell out (NaN where a pixel is
-    unlit, a bit too weak to read, or the code beyond the projector)."""
+    unlit, a bit too weak to read, or the code beyond the projector). `frames` may be arriving
+    (rig.store.frames.ArrivingFrames, which checks each frame's size as it comes): they are used in
+    order where the description allows."""
     roles = spec.roles()
     if len(frames) != len(roles):
         raise DecodeError(f"the pattern description has {len(roles)} frames, {len(frames)} were given")
-    shapes = {f.shape[:2] for f in frames}
-    if len(shapes) != 1:
-        raise DecodeError(f"frames differ in size: {sorted(shapes)}")
+    if isinstance(frames, list) and len({f.shape[:2] for f in frames}) != 1:
+        raise DecodeError(f"frames differ in size: {sorted({f.shape[:2] for f in frames})}")
     normalized = NormalizedFrames(frames, full_scale)
     index = {role: i for i, role in enumerate(roles)}
     if spec.phase is not None:

@@ -29,7 +29,7 @@ from rig.patterns.spec import PatternSpec
 from rig.pipeline.scan import ScanResult, reconstruct_pair
 from rig.progress import ProgressCallback, ProgressTracker
 from rig.rig import Rig
-from rig.store.frames import FrameSet, load_pattern_spec, read_frames
+from rig.store.frames import FrameSet, load_pattern_spec, open_frames
 from rig.store.scandir import write_scan
 
 CODEC_NAME = "described"
@@ -52,10 +52,9 @@ def reconstruct_folder(
     options = options or ForeignCalibrationOptions()
     spec = patterns if isinstance(patterns, PatternSpec) else load_pattern_spec(patterns)
     ProgressTracker(progress).report("read", 0.05)
-    frames = read_frames(frames_dir, spec.frames, len(spec.roles()))
+    frames = open_frames(frames_dir, spec.frames, len(spec.roles()))  # decoded as they are read
     inputs = {
         "frames": str(frames_dir),
-        "frames_sha256": frames.sha256,
         "patterns": "inline" if isinstance(patterns, PatternSpec) else str(patterns),
         "patterns_sha256": _spec_hash(spec) if isinstance(patterns, PatternSpec) else _file_hash(patterns),
     }
@@ -74,9 +73,7 @@ def reconstruct_frames(
     progress: ProgressCallback | None = None,
 ) -> tuple[Path, ScanResult]:
     """The in-memory part of reconstruct_folder: frames read, decoded, triangulated, written;
-    `inputs` (where the frames and description came from) goes into the manifest. (Reading the
-    frames while the camera's rays are made was measured slower on 2 cores: 1.77 s against 1.70
-    for the two in turn, 9 runs each.)"""
+    `inputs` (where the frames and description came from) goes into the manifest."""
     tracker = ProgressTracker(progress)  # each report is a point where a job can be cancelled
     tracker.report("decode", 0.3)
     height, width = frames.frames[0].shape
@@ -101,6 +98,7 @@ def reconstruct_frames(
     origin = {
         "reconstructed": {
             **inputs,
+            "frames_sha256": frames.sha256,  # after the decoding: the frames are read by then
             "calibration": str(calibration),
             "calibration_sha256": digest,
             "calibration_options": options.model_dump(mode="json"),

@@ -7,9 +7,11 @@ from __future__ import annotations
 import glob
 import hashlib
 import re
+from collections.abc import Sequence
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 from pathlib import Path
+from typing import overload
 
 import cv2
 import numpy as np
@@ -21,14 +23,59 @@ from rig.errors import FramesError, PatternSpecError
 from rig.patterns.spec import FrameFiles, PatternSpec
 
 _GREY = {"red": 2, "green": 1, "blue": 0}  # channels as OpenCV reads them (BGR)
+READERS = 4
 
 
 @dataclass(frozen=True, eq=False)
 class FrameSet:
-    frames: list[np.ndarray]  # (H, W) uint8 or uint16, in the description's order
+    frames: Sequence[np.ndarray]  # (H, W) uint8 or uint16, in the description's order
     files: list[Path]
     full_scale: int  # 255 or 65535
-    sha256: dict[str, str]  # file name -> its content's hash, for the manifest
+    digests: dict[str, str] | None = None  # read_frames' hashes; open_frames' come with its frames
+
+    @property
+    def sha256(self) -> dict[str, str]:
+        """File name -> its content's hash, for the manifest."""
+        if isinstance(self.frames, ArrivingFrames):
+            return self.frames.sha256()
+        assert self.digests is not None
+        return self.digests
+
+
+class ArrivingFrames(Sequence[np.ndarray]):
+    """Frames being read on threads, each one there as soon as it is read: a decoder that walks
+    them in order decodes while the rest are read. A frame that cannot be read, or differs from the
+    first in size or depth, raises FramesError when it is reached."""
+
+    def __init__(self, paths: list[Path], grey: str) -> None:
+        self._paths = paths
+        pool = ThreadPoolExecutor(max_workers=READERS)
+        self._pending = [pool.submit(_read, path, grey) for path in paths]
+        pool.shutdown(wait=False)  # the threads end when the last frame is read
+        self._first, _ = self._pending[0].result()
+
+    def __len__(self) -> int:
+        return len(self._paths)
+
+    @overload
+    def __getitem__(self, index: int) -> np.ndarray: ...
+
+    @overload
+    def __getitem__(self, index: slice) -> list[np.ndarray]: ...
+
+    def __getitem__(self, index: int | slice) -> np.ndarray | list[np.ndarray]:
+        if isinstance(index, slice):
+            return [self[i] for i in range(*index.indices(len(self)))]
+        frame, _ = self._pending[index].result()
+        if frame.shape != self._first.shape or frame.dtype != self._first.dtype:
+            first = self._paths[0].name
+            raise FramesError(
+                f"frame {self._paths[index]}: {_kind(frame)}, the first frame ({first}) is {_kind(self._first)}"
+            )
+        return frame
+
+    def sha256(self) -> dict[str, str]:
+        return {path.name: pending.result()[1] for path, pending in zip(self._paths, self._pending, strict=True)}
 
 
 def load_pattern_spec(path: Path) -> PatternSpec:
@@ -76,18 +123,29 @@ def _matching(folder: Path, pattern: str) -> list[Path]:
     return sorted((p for p in folder.glob(pattern) if p.is_file()), key=natural_order)
 
 
-def read_frames(folder: Path, files: FrameFiles, expected: int) -> FrameSet:
-    """The frames of `folder`, decoded on a few threads (PNG decoding releases the GIL)."""
+def open_frames(folder: Path, files: FrameFiles, expected: int) -> FrameSet:
+    """The frames of `folder` as they arrive (ArrivingFrames): read on threads while they are used."""
     paths = frame_files(folder, files, expected)
-    with ThreadPoolExecutor(max_workers=4) as pool:
+    frames = ArrivingFrames(paths, files.grey)
+    return FrameSet(frames, paths, 65535 if frames[0].dtype == np.uint16 else 255)
+
+
+def read_frames(folder: Path, files: FrameFiles, expected: int) -> FrameSet:
+    """The frames of `folder`, all read (on a few threads: PNG decoding releases the GIL)."""
+    paths = frame_files(folder, files, expected)
+    with ThreadPoolExecutor(max_workers=READERS) as pool:
         loaded = list(pool.map(lambda p: _read(p, files.grey), paths))
     frames = [frame for frame, _ in loaded]
     first = frames[0]
     for path, frame in zip(paths, frames, strict=True):
-        if frame.shape != first.shape or frame.dtype != first.dtype:
-            raise FramesError(f"frame {path}: {_kind(frame)}, the first frame ({paths[0].name}) is {_kind(first)}")
+        _same_kind(path, frame, paths[0], first)
     full_scale = 65535 if first.dtype == np.uint16 else 255
     return FrameSet(frames, paths, full_scale, {p.name: digest for p, (_, digest) in zip(paths, loaded, strict=True)})
+
+
+def _same_kind(path: Path, frame: np.ndarray, first_path: Path, first: np.ndarray) -> None:
+    if frame.shape != first.shape or frame.dtype != first.dtype:
+        raise FramesError(f"frame {path}: {_kind(frame)}, the first frame ({first_path.name}) is {_kind(first)}")
 
 
 def _kind(frame: np.ndarray) -> str:
