@@ -87,7 +87,7 @@ def test_refused_inputs_name_what_is_wrong_and_queue_nothing(client: TestClient,
     cases: list[tuple[dict[str, Any], int, str]] = [
         (base, 422, f"imports folder 'board': the pattern description has {len(frames)} frames, {len(frames) - 1}"),
         ({**base, "frames": "nothing"}, 404, "no imports folder 'nothing'"),
-        ({**base, "calibration": "missing.xml"}, 422, "calibration: no file 'missing.xml'"),
+        ({**base, "calibration": "missing.xml"}, 404, "calibration: no file 'missing.xml'"),
         ({**base, "patterns": {**base["patterns"], "gray": {"axes": ["diagonal"]}}}, 422, "gray.axes"),
         ({**base, "calibration_options": {"world": "table"}}, 422, "calibration_options: world"),
         ({**base, "frames": "../etc"}, 422, "string_pattern_mismatch"),

@@ -43,10 +43,10 @@ def folder_path(data_dir: Path, folder: str) -> Path:
 
 
 def file_in(data_dir: Path, folder: str, name: str, what: str) -> Path:
-    """A file uploaded into `folder`; ImportRefusedError naming `what` otherwise."""
+    """A file uploaded into `folder`; ImportNotFoundError naming `what` otherwise."""
     path = folder_path(data_dir, folder) / name
     if not NAME.match(name) or not path.is_file():
-        raise ImportRefusedError(f"{what}: no file {name!r} in imports folder {folder!r}")
+        raise ImportNotFoundError(f"{what}: no file {name!r} in imports folder {folder!r}")
     return path
 
 
@@ -102,20 +102,19 @@ def reconstruction_inputs(
     names (see ReconstructionRequest); `calibration_folder` finds a finished calibration job's
     folder by id. Refusals name the request's field."""
     frames = folder_path(data_dir, request["frames"])
+    name = request["calibration"]  # what the request names must be there (404) before it is judged (422)
+    calibration = (
+        calibration_folder(name) if JOB_ID.match(name) else file_in(data_dir, frames.name, name, "calibration")
+    )
     described = request["patterns"]
     if isinstance(described, str):
-        patterns: PatternSpec | Path = file_in(data_dir, request["frames"], described, "patterns")
+        patterns: PatternSpec | Path = file_in(data_dir, frames.name, described, "patterns")
         spec = load_pattern_spec(patterns)  # PatternSpecError names the field at fault
     else:
         try:
             patterns = spec = PatternSpec.model_validate(described)
         except ValidationError as exc:
             raise PatternSpecError("patterns", problems(exc)) from None
-    name = request["calibration"]
-    if JOB_ID.match(name):
-        calibration = calibration_folder(name)
-    else:
-        calibration = file_in(data_dir, request["frames"], name, "calibration")
     try:
         options = ForeignCalibrationOptions.model_validate(request.get("calibration_options") or {})
     except ValidationError as exc:
