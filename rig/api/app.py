@@ -9,6 +9,7 @@ from collections.abc import AsyncIterator, Callable
 from typing import Annotated, Any
 
 from fastapi import APIRouter, FastAPI, Path, Query, Request, Response, status
+from fastapi.exceptions import RequestValidationError
 from fastapi.middleware.cors import CORSMiddleware
 from fastapi.responses import FileResponse, JSONResponse, StreamingResponse
 from fastapi.routing import APIRoute
@@ -29,6 +30,7 @@ from rig.api.models import (
     RigView,
     ScanRequest,
 )
+from rig.api.problems import validation_problem
 from rig.api.recognition import recognition_router
 from rig.api.reconstructions import UPLOADS, reconstruction_router
 from rig.api.security import MUTATING, READING, ApiSettings, BodyLimitMiddleware
@@ -130,6 +132,7 @@ def _error_handlers(app: FastAPI) -> None:
         detail = [{"loc": [p.split(":")[0]], "msg": p, "type": "config"} for p in problems]  # like FastAPI's 422
         return JSONResponse({"detail": detail}, status_code=422)
 
+    app.add_exception_handler(RequestValidationError, validation_problem)  # renders NaN and lone surrogates too
     app.add_exception_handler(ConfigError, config_error)
     # what a reconstruction request names, refused in the shape of FastAPI's own 422
     for refused in (PatternSpecError, ImportRefusedError, FramesError, CalibrationError):
