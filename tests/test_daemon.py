@@ -109,7 +109,9 @@ def test_a_scan_over_http_gives_the_clis_cloud(daemon: Daemon, small: Path, tmp_
 
     assert httpx.post(f"{daemon.url}/v1/scans", json={}, headers={"X-API-Key": "wrong" * 8}).status_code == 403
     assert httpx.post(f"{daemon.url}/v1/scans", json={}).status_code == 401
+    assert httpx.get(f"{daemon.url}/v1/scans?limit=1&api_key={KEY}").status_code == 200  # a key in the query
     log = daemon.log.read_text()
+    assert "GET /v1/scans?limit=REDACTED&api_key=REDACTED" in log  # the access line, values never written
     assert f"scan {job_id}: running -> done" in log  # one journal line per state change, with the id
     assert KEY not in log and "wrong" * 8 not in log
 
@@ -302,3 +304,23 @@ def test_the_unit_file_verifies(tmp_path: Path) -> None:
     result = subprocess.run([analyze, "verify", str(tmp_path / "slrig.service")], capture_output=True, text=True)
     assert result.returncode == 0, result.stderr
     assert "Type=notify" in unit and "WatchdogSec=" in unit and "PrivateDevices=no" in unit
+
+
+def test_the_access_log_writes_query_names_not_values() -> None:
+    import logging
+
+    from rig.daemon.logs import RedactQueryValues
+
+    record = logging.LogRecord(
+        "uvicorn.access",
+        logging.INFO,
+        __file__,
+        1,
+        '%s - "%s %s HTTP/%s" %d',
+        ("127.0.0.1:5000", "GET", "/v1/scans?token=s3cret&x=&api_key=k%20k", "1.1", 200),
+        None,
+    )
+    assert RedactQueryValues().filter(record)
+    line = record.getMessage()
+    assert "s3cret" not in line and "k%20k" not in line
+    assert '"GET /v1/scans?token=REDACTED&x=REDACTED&api_key=REDACTED HTTP/1.1" 200' in line

@@ -22,6 +22,7 @@ import uvicorn
 from rig.api.app import create_app
 from rig.api.security import ApiSettings, check_key_strength, is_loopback
 from rig.config import RigConfig
+from rig.daemon.logs import redact_access_log
 from rig.daemon.sdnotify import Notifier
 from rig.errors import ConfigError
 from rig.service.runner import JobService
@@ -126,6 +127,7 @@ def serve(config: RigConfig, host: str, port: int, api_key: str) -> int:
         lifespan="off",
     )
     server = _Server(uv_config)
+    redact_access_log()  # a key in a query string never reaches the journal
     service.start()
     log.info("slrig serving rig %r from %s", config.name, config.output.data_dir)
     try:
