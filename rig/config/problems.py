@@ -28,6 +28,12 @@ def problems(exc: ValidationError) -> list[str]:
     for error in exc.errors():
         message = error["msg"].removeprefix("Value error, ")
         where = _location(error["loc"])
+        if error["type"] == "extra_forbidden":  # the unknown key itself, whatever its shape
+            key = str(error["loc"][-1])
+            hint = " (slrig's keys use '_', not '-')" if "-" in key else ""
+            where = _location(error["loc"][:-1])
+            by_field[f"{where}/{key}"] = (0, f"{where + '.' if where else ''}{key}: unknown field{hint}")
+            continue
         if not where:  # a check across fields: its message names the field
             by_field.setdefault(message, (0, message))
             continue
