@@ -17,6 +17,11 @@ class ConfigError(SlrigError):
         super().__init__(f"invalid config {source}:\n" + "\n".join(f"  {p}" for p in problems))
 
 
+class UsageError(SlrigError):
+    """Raised when the command line asks for what cannot be done, though every input is valid: an
+    output directory that exists already. The CLI exits with code 2."""
+
+
 class UnknownCodecError(SlrigError):
     """Raised when a codec name is not in the registry; the message lists the known names."""
 

@@ -179,3 +179,20 @@ def test_terminal_bar_draws_the_stages_to_done(
     drawn = stream.getvalue()
     assert "capture" in drawn and "store" in drawn and "100.0% done" in drawn
     assert drawn.endswith("\n") and len(lines) > 10
+
+
+def test_inputs_that_crashed_are_refused_with_exit_2(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """A YAML nested hundreds deep (RecursionError), an API key file that is not UTF-8 (a
+    traceback), an existing --out (not a config problem: a usage error)."""
+    deep = tmp_path / "deep.yaml"
+    deep.write_text("a: " + "[" * 600 + "]" * 600 + "\n")
+    assert main(["scan", "--config", str(deep)]) == 2
+    assert "(file): nested too deeply" in capsys.readouterr().err
+    key = tmp_path / "key"
+    key.write_bytes(b"\xff\xfe" + b"k" * 40)
+    assert main(["serve", "--api-key-file", str(key), "--port", "1"]) == 2
+    assert "--api-key-file: " in capsys.readouterr().err
+    (tmp_path / "taken").mkdir()
+    assert main(["scan", "--out", str(tmp_path / "taken")]) == 2
+    err = capsys.readouterr().err
+    assert "--out: " in err and "already exists" in err and "invalid config" not in err

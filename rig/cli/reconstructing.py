@@ -10,7 +10,7 @@ from pydantic import ValidationError
 from rig.calibrate.foreign import ForeignCalibrationOptions
 from rig.config import load_config
 from rig.config.problems import problems
-from rig.errors import CalibrationError, ConfigError
+from rig.errors import CalibrationError, UsageError
 from rig.service.reconstruct import reconstruct_folder
 from rig.store.scandir import new_scan_id
 
@@ -36,7 +36,7 @@ def cmd_reconstruct(args: argparse.Namespace) -> int:
     scan_id = new_scan_id()
     target = args.out if args.out is not None else config.output.data_dir / "scans" / scan_id
     if target.exists():
-        raise ConfigError("--out", [f"--out: {target} already exists; choose a new directory"])
+        raise UsageError(f"--out: {target} already exists; choose a new directory")
     path, result = reconstruct_folder(
         args.frames_dir, args.patterns, args.calibration, target, scan_id, config, options
     )

@@ -10,7 +10,7 @@ from typing import Any
 from rig.assembly import open_rig
 from rig.cli.common import load, progress_bar, scene_override
 from rig.config import RigConfig
-from rig.errors import ConfigError
+from rig.errors import ConfigError, UsageError
 from rig.evaluate.merged import evaluate_merge
 from rig.evaluate.pairs import evaluate_on_bench
 from rig.evaluate.surface import pattern_economy
@@ -25,7 +25,7 @@ def cmd_scan(args: argparse.Namespace) -> int:
     scan_id = new_scan_id()
     target = args.out if args.out is not None else config.output.data_dir / "scans" / scan_id
     if target.exists():
-        raise ConfigError("--out", [f"--out: {target} already exists; choose a new directory"])
+        raise UsageError(f"--out: {target} already exists; choose a new directory")
     bar = progress_bar(args)
     # Callers that build their own Namespace (the daemon's tests, scripts) may leave these out.
     piloted, tolerance = getattr(args, "adaptive", False), getattr(args, "tolerance_mm", None)

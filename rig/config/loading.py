@@ -33,6 +33,8 @@ def load_config(path: str | Path | None = None) -> RigConfig:
         raise ConfigError(source, [f"(file): not valid YAML: {exc}"]) from None
     except (OSError, UnicodeDecodeError) as exc:
         raise ConfigError(source, [f"(file): cannot read: {exc}"]) from None
+    except RecursionError:
+        raise ConfigError(source, ["(file): nested too deeply to be a rig description"]) from None
     if not isinstance(data, dict):
         raise ConfigError(source, ["(top level): expected a mapping of sections"])
     _resolve_paths(data, path.parent)

@@ -35,6 +35,15 @@ GENERATED_KEY = "api-key"
 WILDCARDS = ("0.0.0.0", "::", "[::]")
 
 
+def _read_key(path: Path, source: str) -> str:
+    try:
+        return path.read_text(encoding="utf-8").strip()
+    except OSError as exc:
+        raise ConfigError(source, [f"{source}: cannot read {path}: {exc.strerror}"]) from None
+    except UnicodeDecodeError:
+        raise ConfigError(source, [f"{source}: {path} is not UTF-8 text (an API key is text)"]) from None
+
+
 def load_api_key(key_file: Path | None, data_dir: Path) -> str:
     """From --api-key-file, the systemd credential or $SLRIG_API_KEY, in that order; with none of
     them, the key in <data_dir>/api-key, generated there (mode 0600) on first start."""
@@ -42,12 +51,9 @@ def load_api_key(key_file: Path | None, data_dir: Path) -> str:
     credentials = os.environ.get("CREDENTIALS_DIRECTORY")
     if key_file is not None:
         source = "--api-key-file"
-        try:
-            key = key_file.read_text().strip()
-        except OSError as exc:
-            raise ConfigError(source, [f"--api-key-file: cannot read {key_file}: {exc.strerror}"]) from None
+        key = _read_key(key_file, source)
     elif credentials and (Path(credentials) / KEY_CREDENTIAL).is_file():
-        source, key = "credential", (Path(credentials) / KEY_CREDENTIAL).read_text().strip()
+        source, key = "credential", _read_key(Path(credentials) / KEY_CREDENTIAL, "credential")
     elif os.environ.get(KEY_ENV):
         source, key = KEY_ENV, os.environ[KEY_ENV].strip()
     else:
