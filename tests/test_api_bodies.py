@@ -1,0 +1,41 @@
+"""Request bodies JSON cannot echo back (non-finite numbers, lone surrogates): 422 naming the
+field, never a 500."""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+from pathlib import Path
+
+import pytest
+from fastapi.testclient import TestClient
+
+from tests.test_api import AUTH, _client, _service
+
+
+@pytest.fixture
+def client(tmp_path: Path) -> Iterator[TestClient]:
+    service = _service(tmp_path, start=False)
+    with _client(service) as c:
+        yield c
+    service.store.close()
+
+
+@pytest.mark.parametrize(
+    ("body", "field"),
+    [
+        ('{"label": NaN}', "label"),
+        ('{"label": Infinity}', "label"),
+        ('{"keep_frames": 1e999}', "keep_frames"),
+        ('{"label": "\\ud800"}', "label"),
+        ('{"codec": "gray\\udfff"}', "codec"),
+        ("[NaN, -Infinity]", "body"),
+    ],
+)
+def test_non_finite_numbers_and_lone_surrogates_are_422_naming_the_field(
+    client: TestClient, body: str, field: str
+) -> None:
+    """The error echoes the bad input; where JSON cannot carry it (NaN, 1e999, a lone surrogate) it
+    is shown by its repr instead of failing with a 500."""
+    answer = client.post("/v1/scans", content=body, headers={**AUTH, "Content-Type": "application/json"})
+    assert answer.status_code == 422, answer.text
+    assert answer.json()["detail"][0]["loc"][-1] == field
