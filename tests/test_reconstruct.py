@@ -35,6 +35,21 @@ def _rms_against_truth(grid: np.ndarray, camera: Any, truth: Any, in_camera_fram
     return float(np.sqrt(np.mean(np.sum((points[ok] - truth.points[ok]) ** 2, axis=1)))), int(ok.sum())
 
 
+def reconstructed_error(rendered: dict[str, Any], name: str) -> tuple[float, int]:
+    """Rms against the truth and pixels of folder `name` (with `name`.yaml beside it) reconstructed
+    with a rendered set's calibration (rendered: folder, calibration, config, camera, truth)."""
+    folder: Path = rendered["folder"]
+    _, result = reconstruct_folder(
+        folder / name,
+        folder / f"{name}.yaml",
+        rendered["calibration"],
+        folder / f"scan_{name}",
+        f"20261125-120000-{name[:6]:a<6}",
+        rendered["config"],
+    )
+    return _rms_against_truth(result.pairs[0].grid, rendered["camera"], rendered["truth"], in_camera_frame=True)
+
+
 @pytest.fixture(scope="module")
 def foreign(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Any]:
     folder = tmp_path_factory.mktemp("foreign")

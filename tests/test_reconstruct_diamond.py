@@ -4,7 +4,6 @@ reconstruct as accurately as a square-pixel projector of the same code density."
 
 from __future__ import annotations
 
-from pathlib import Path
 from typing import Any
 
 import cv2
@@ -17,9 +16,8 @@ from rig.config import config_from_dict
 from rig.patterns.described import described_patterns
 from rig.patterns.diamond import mirror_image, virtual_image
 from rig.patterns.spec import PatternSpec
-from rig.service.reconstruct import reconstruct_folder
 from tests.conftest import default_config_data
-from tests.test_reconstruct import _opencv_calibration, _rms_against_truth
+from tests.test_reconstruct import _opencv_calibration, reconstructed_error
 
 VIRTUAL = [1824, 1140]
 FAMILIES = {
@@ -66,25 +64,12 @@ def rendered(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Any]:
     return {"folder": folder, "config": config, "truth": truth, "camera": camera, "calibration": calibration}
 
 
-def _reconstruct(rendered: dict[str, Any], name: str) -> tuple[float, int]:
-    folder: Path = rendered["folder"]
-    _, result = reconstruct_folder(
-        folder / name,
-        folder / f"{name}.yaml",
-        rendered["calibration"],
-        folder / f"scan_{name}",
-        f"20261125-120000-{name[:6]:a<6}",
-        rendered["config"],
-    )
-    return _rms_against_truth(result.pairs[0].grid, rendered["camera"], rendered["truth"], in_camera_frame=True)
-
-
 @pytest.mark.parametrize("family", list(FAMILIES))
 def test_a_diamond_dmd_reconstructs_as_well_as_square_pixels_of_the_same_density(
     rendered: dict[str, Any], family: str
 ) -> None:
-    diamond, covered = _reconstruct(rendered, f"{family}_diamond")
-    square, square_covered = _reconstruct(rendered, f"{family}_square")
+    diamond, covered = reconstructed_error(rendered, f"{family}_diamond")
+    square, square_covered = reconstructed_error(rendered, f"{family}_square")
     print(f"diamond {family}: {diamond:.4f} mm rms ({covered} px), square {square:.4f} mm ({square_covered} px)")
     assert diamond <= 1.1 * square, (family, diamond, square)
     assert covered >= 0.95 * square_covered, (family, covered, square_covered)

@@ -16,8 +16,7 @@ from rig.config import config_from_dict, load_config
 from rig.patterns.described import described_patterns
 from rig.patterns.spec import PatternSpec
 from rig.pipeline.scan import run_scan
-from rig.service.reconstruct import reconstruct_folder
-from tests.test_reconstruct import _opencv_calibration, _rms_against_truth
+from tests.test_reconstruct import _opencv_calibration, _rms_against_truth, reconstructed_error
 
 PROJECTOR = {"resolution": [1024, 768]}
 DESCRIPTIONS: dict[str, dict[str, Any]] = {
@@ -88,16 +87,7 @@ def rendered(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Any]:
 
 @pytest.mark.parametrize("name", list(DESCRIPTIONS))
 def test_each_phase_family_reconstructs_as_accurately_as_slrigs_own_phase(rendered: dict[str, Any], name: str) -> None:
-    folder = rendered["folder"]
-    _, result = reconstruct_folder(
-        folder / name,
-        folder / f"{name}.yaml",
-        rendered["calibration"],
-        folder / f"scan_{name}",
-        f"20261125-120000-{name[:6]:a<6}",
-        rendered["config"],
-    )
-    rms, covered = _rms_against_truth(result.pairs[0].grid, rendered["camera"], rendered["truth"], in_camera_frame=True)
+    rms, covered = reconstructed_error(rendered, name)
     # against slrig's own phase codec of the same finest period (16 px, 64 for the two-frequency
     # heterodyne, whose beat must span 1024 px) and 8 steps
     own_rms, own_covered = rendered["own"][64 if name == "heterodyne2" else 16]
