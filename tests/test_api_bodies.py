@@ -1,5 +1,5 @@
-"""Request bodies JSON cannot echo back (non-finite numbers, lone surrogates): 422 naming the
-field, never a 500."""
+"""Error responses a client can read: request bodies JSON cannot echo back (non-finite numbers,
+lone surrogates) are 422 naming the field, never a 500; a 405 lists every method of its path."""
 
 from __future__ import annotations
 
@@ -39,3 +39,17 @@ def test_non_finite_numbers_and_lone_surrogates_are_422_naming_the_field(
     answer = client.post("/v1/scans", content=body, headers={**AUTH, "Content-Type": "application/json"})
     assert answer.status_code == 422, answer.text
     assert answer.json()["detail"][0]["loc"][-1] == field
+
+
+@pytest.mark.parametrize(
+    ("method", "path", "allowed"),
+    [
+        ("DELETE", "/v1/scans", "GET, POST"),
+        ("PATCH", "/v1/gallery", "GET, POST"),
+        ("PATCH", "/v1/scans/20261121-105227-a1b2c3", "DELETE, GET"),
+        ("POST", "/v1/imports/board/frame.png", "PUT"),
+    ],
+)
+def test_a_405_lists_every_method_the_path_serves(client: TestClient, method: str, path: str, allowed: str) -> None:
+    answer = client.request(method, path, headers=AUTH)
+    assert answer.status_code == 405 and answer.headers["allow"] == allowed

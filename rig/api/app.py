@@ -13,6 +13,7 @@ from fastapi.exceptions import RequestValidationError
 from fastapi.middleware.cors import CORSMiddleware
 from fastapi.responses import FileResponse, JSONResponse, StreamingResponse
 from fastapi.routing import APIRoute
+from starlette.exceptions import HTTPException as StarletteHTTPException
 from starlette.middleware.trustedhost import TrustedHostMiddleware
 
 from rig import __version__
@@ -30,7 +31,7 @@ from rig.api.models import (
     RigView,
     ScanRequest,
 )
-from rig.api.problems import validation_problem
+from rig.api.problems import method_not_allowed, validation_problem
 from rig.api.recognition import recognition_router
 from rig.api.reconstructions import UPLOADS, reconstruction_router
 from rig.api.security import MUTATING, READING, ApiSettings, BodyLimitMiddleware
@@ -133,6 +134,7 @@ def _error_handlers(app: FastAPI) -> None:
         return JSONResponse({"detail": detail}, status_code=422)
 
     app.add_exception_handler(RequestValidationError, validation_problem)  # renders NaN and lone surrogates too
+    app.add_exception_handler(StarletteHTTPException, method_not_allowed)  # 405: Allow lists every method
     app.add_exception_handler(ConfigError, config_error)
     # what a reconstruction request names, refused in the shape of FastAPI's own 422
     for refused in (PatternSpecError, ImportRefusedError, FramesError, CalibrationError):
