@@ -37,6 +37,8 @@ WILDCARDS = ("0.0.0.0", "::", "[::]")
 
 def _read_key(path: Path, source: str) -> str:
     try:
+        if path.stat().st_mode & 0o077:  # others (or the group) can read the key
+            log.warning("%s: %s can be read by users other than its owner; chmod 600 it", source, path)
         return path.read_text(encoding="utf-8").strip()
     except OSError as exc:
         raise ConfigError(source, [f"{source}: cannot read {path}: {exc.strerror}"]) from None
