@@ -53,11 +53,6 @@ def sample_folder() -> Path:
     return folder
 
 
-def _models(calibration: Path, options: ForeignCalibrationOptions) -> Any:
-    """The camera model of a calibration (the authors' file or slrig's calibration folder)."""
-    return calibration_models(calibration, options)[0]
-
-
 def measure_pose(
     sample: Path, pose: int, description: Path, calibration: Path, scratch: Path, label: str
 ) -> dict[str, Any]:
@@ -82,7 +77,7 @@ def measure_pose(
     distance = (points - centre) @ np.linalg.svd(points - centre, full_matrices=False)[2][2]
     squares = np.zeros((63, 3))
     squares[:, :2] = np.mgrid[0:9, 0:7].T.reshape(-1, 2) * SQUARE
-    camera = _models(calibration, options)
+    camera = calibration_models(calibration, options)[0]  # the authors' file or slrig's folder
     _, rotation, translation = cv2.solvePnP(squares, corners, camera.K, camera.dist)
     alone = float(np.linalg.norm((squares @ cv2.Rodrigues(rotation)[0].T + translation.ravel()).mean(axis=0)))
     scanned = float(np.linalg.norm(centre - camera.center))  # the world is the camera's or the first board's

@@ -70,9 +70,9 @@ def test_the_board_found_in_the_frames_mean_when_there_is_no_white_frame(procam:
     assert isinstance(sample, Path)
     frames = read_frames(sample / "capture_0", spec.frames, len(spec.roles()))
     board = Board(BoardConfig(squares=(10, 8), square_mm=75))
-    white = board.detect(board_image(frames.frames, spec, "white", 255))
+    white = board.detect(board_image(frames.frames, spec, "white"))
     for source in ("auto", "mean", "modulation"):
-        found = board.detect(board_image(frames.frames[:-2], coded_only, source, 255))  # type: ignore[arg-type]
+        found = board.detect(board_image(frames.frames[:-2], coded_only, source))  # type: ignore[arg-type]
         assert len(found) == len(white) == 63
         assert np.abs(found.points - white.points).max() < 1.0, source
 

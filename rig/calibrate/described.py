@@ -29,9 +29,9 @@ from rig.store.frames import natural_order, read_frames
 BoardImage = Literal["auto", "white", "mean", "modulation"]
 
 
-def board_image(frames: list[np.ndarray], spec: PatternSpec, source: BoardImage, full_scale: int) -> np.ndarray:
+def board_image(frames: list[np.ndarray], spec: PatternSpec, source: BoardImage) -> np.ndarray:
     """The 8-bit image the board is detected in: the white frame (auto, where there is one), the
-    frames' mean (auto otherwise) or their modulation."""
+    frames' mean (auto otherwise) or their modulation, stretched so its brightest 0.5 % are white."""
     roles = spec.roles()
     whites = [i for i, role in enumerate(roles) if role.kind == "white"]
     if source == "white" and not whites:
@@ -43,7 +43,7 @@ def board_image(frames: list[np.ndarray], spec: PatternSpec, source: BoardImage,
         image = (stack.max(axis=0) - stack.min(axis=0)).astype(np.float32)
     else:
         image = np.mean(np.stack(frames), axis=0, dtype=np.float32)
-    top = max(float(np.percentile(image, 99.5)), 1.0) if source != "white" else full_scale
+    top = max(float(np.percentile(image, 99.5)), 1.0)
     return np.clip(image * (255.0 / top), 0, 255).astype(np.uint8)
 
 
@@ -76,7 +76,7 @@ def load_described_views(
             raise FramesError(f"frames folder {folder}: {width}x{height} frames, the first view's are {first}")
         size = (width, height)
         view = View(index)
-        image = board_image(frames.frames, spec, source, frames.full_scale)
+        image = board_image(frames.frames, spec, source)
         view.white[0] = image
         detection = board.detect(image)
         if len(detection):

@@ -77,9 +77,6 @@ class ForeignCalibration:
     rms_px: float | None
     found: dict[str, str]  # field -> the file's name it was read from
 
-    def models(self, options: ForeignCalibrationOptions) -> dict[str, CameraModel]:
-        return {options.camera: self.camera, options.projector: self.projector}
-
 
 def read_foreign_calibration(path: Path, options: ForeignCalibrationOptions | None = None) -> ForeignCalibration:
     """The camera and projector of `path`; CalibrationError naming the file and field at fault."""

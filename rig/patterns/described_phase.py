@@ -52,13 +52,10 @@ def decode_phase(
     texture: np.ndarray | None = None
     counts: dict[str, int] = {}
     for axis in spec.axes:
-        wrapped, offset, modulation = [], None, None
-        for f, frequency in enumerate(phase.frequencies):
-            fraction, mean, amplitude = _wrapped(frames, index, axis, f, frequency.steps, spec)
-            wrapped.append((fraction, frequency.period_px))
-            if modulation is None or frequency.period_px < min(p for _, p in wrapped[:-1]):
-                offset, modulation = mean, amplitude  # the finest frequency's
-        assert offset is not None and modulation is not None
+        measured = [_wrapped(frames, index, axis, f, q.steps, spec) for f, q in enumerate(phase.frequencies)]
+        wrapped = [(m[0], q.period_px) for m, q in zip(measured, phase.frequencies, strict=True)]
+        finest = min(range(len(wrapped)), key=lambda f: wrapped[f][1])
+        _, offset, modulation = measured[finest]  # the finest frequency's mean and amplitude
         ok = modulation >= phase.min_modulation
         counts[f"low_modulation_{axis}"] = int((~ok).sum())
         if Role("white") in index:  # unlit where white and black differ too little, as for a code
