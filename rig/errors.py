@@ -53,6 +53,12 @@ class ScanError(SlrigError):
     """Raised when a scan fails; the projectors are dark when it propagates."""
 
 
+class CaptureFaultError(ScanError):
+    """Raised when the rig delivers frames a scan cannot use: a stale (repeated) frame, frames
+    dropped within a sequence, a missed trigger, frames exposed before the pattern was lit. A
+    fault of the rig, reported by `/v1/rig` like a device fault."""
+
+
 class StoreError(SlrigError):
     """Raised when a scan cannot be stored: the target exists already, or the disk refuses."""
 

@@ -53,6 +53,7 @@ from rig.service.errors import (
     JobNotFoundError,
     QueueFullError,
     ServiceStoppingError,
+    StorageFullError,
 )
 from rig.service.jobs import JobKind
 from rig.service.runner import JobService
@@ -63,9 +64,9 @@ JobId = Annotated[str, Path(pattern=JOB_ID_PATTERN, description="a job id, e.g. 
 FileName = Annotated[str, Path(pattern=FILE_NAME_PATTERN, description="a file its result lists")]
 SSE_POLL_S = 0.1
 SSE_PING_S = 15.0
-MAX_EVENT_STREAMS = 64  # each holds a connection; uvicorn allows 128
+MAX_EVENT_STREAMS = 64  # each holds a connection and polls the job store
 ERRORS: dict[int | str, dict[str, Any]] = {
-    code: {"model": Problem} for code in (400, 401, 403, 404, 409, 413, 429, 503)
+    code: {"model": Problem} for code in (400, 401, 403, 404, 409, 413, 429, 503, 507)
 }
 MEDIA_TYPES = {".ply": "application/octet-stream", ".png": "image/png", ".json": "application/json"}
 
@@ -101,7 +102,13 @@ def create_app(service: JobService, settings: ApiSettings, stopping: Callable[[]
         app.add_middleware(
             CORSMiddleware, allow_origins=list(settings.cors_origins), allow_credentials=False, allow_methods=["*"]
         )
-    app.add_middleware(BodyLimitMiddleware, limit=settings.max_body_bytes, uploads=UPLOADS, key=settings.api_key)
+    app.add_middleware(
+        BodyLimitMiddleware,
+        limit=settings.max_body_bytes,
+        uploads=UPLOADS,
+        key=settings.api_key,
+        stall_s=settings.body_stall_s,
+    )
     _error_handlers(app)
     app.include_router(_general(service), prefix="/v1")
     app.include_router(_jobs(service, JobKind.SCAN, "scans", is_stopping), prefix="/v1")
@@ -122,6 +129,7 @@ def _error_handlers(app: FastAPI) -> None:
     app.add_exception_handler(JobConflictError, handler(409))
     app.add_exception_handler(QueueFullError, handler(429, {"Retry-After": "5"}))
     app.add_exception_handler(ServiceStoppingError, handler(503))
+    app.add_exception_handler(StorageFullError, handler(507))  # nothing changed; free some space
     app.add_exception_handler(GalleryError, handler(409))  # a scan already in it, other settings
     app.add_exception_handler(GalleryEntryNotFoundError, handler(404))
     app.add_exception_handler(GalleryFileError, handler(503))  # not a gallery, or newer: left as it is
@@ -146,7 +154,9 @@ def _general(service: JobService) -> APIRouter:
 
     @router.get("/health", response_model=Health)
     def health() -> Health:
-        return Health(status="ok" if service.healthy() else "degraded", version=__version__, rig=service.config.name)
+        problems = service.problems()
+        status = "degraded" if problems else "ok"
+        return Health(status=status, version=__version__, rig=service.config.name, problems=problems)
 
     @router.get("/rig", response_model=RigView)
     def rig_state() -> RigView:
@@ -262,50 +272,67 @@ def _result_routes(router: APIRouter, service: JobService, kind: JobKind, stoppi
     )
     async def events(job_id: JobId, request: Request) -> StreamingResponse:
         await asyncio.to_thread(service.job, job_id, kind)  # 404 before the stream starts
-        if request.app.state.event_streams >= MAX_EVENT_STREAMS:
-            raise ServiceStoppingError(f"{MAX_EVENT_STREAMS} event streams are open; poll the job instead")
         try:
             last = max(0, int(request.headers.get("last-event-id", "0")))
         except ValueError:
             last = 0
-        return StreamingResponse(
+        state = request.app.state
+        if state.event_streams >= MAX_EVENT_STREAMS:
+            raise ServiceStoppingError(f"{MAX_EVENT_STREAMS} event streams are open; poll the job instead")
+        state.event_streams += 1  # taken with the check (no await between): a burst cannot overshoot
+
+        def release() -> None:
+            state.event_streams -= 1
+
+        return _CountedStream(
             _event_stream(service, job_id, last, request, stopping),
+            release,
             media_type="text/event-stream",
             headers={"Cache-Control": "no-cache", "X-Accel-Buffering": "no"},
         )
+
+
+class _CountedStream(StreamingResponse):
+    """Gives its event-stream slot back however the response ends (also before its first byte)."""
+
+    def __init__(self, content: AsyncIterator[bytes], release: Callable[[], None], **kwargs: Any) -> None:
+        super().__init__(content, **kwargs)
+        self._release = release
+
+    async def __call__(self, scope: Any, receive: Any, send: Any) -> None:
+        try:
+            await super().__call__(scope, receive, send)
+        finally:
+            self._release()
 
 
 async def _event_stream(
     service: JobService, job_id: str, last: int, request: Request, stopping: Callable[[], bool]
 ) -> AsyncIterator[bytes]:
     """Events after `last` until the job ends; a job whose events are gone gets its state."""
-    request.app.state.event_streams += 1
-    try:
-        idle, polls = 0.0, 0
-        while not stopping() and not await request.is_disconnected():
-            fresh = service.events.since(job_id, last)
-            for event in fresh:
-                last = event.id
-                yield f"id: {event.id}\nevent: {event.type}\ndata: {json.dumps(event.data)}\n\n".encode()
-                if event.type == "state" and event.data["state"] not in (JobState.QUEUED, JobState.RUNNING):
-                    return
-            if fresh:
-                idle = 0.0
-                continue
-            idle += SSE_POLL_S
-            if idle >= SSE_PING_S:
-                idle = 0.0
-                yield b": ping\n\n"
-            polls += 1
-            if polls % 10 == 1:  # at once, then about every second: did it end unseen (events evicted)?
-                try:
-                    job = await asyncio.to_thread(service.store.get, job_id)
-                except JobNotFoundError:
-                    job = None
-                if job is None or job.terminal:
-                    data = {"id": job_id, "state": job.state if job else "deleted", "error": job.error if job else None}
-                    yield f"event: state\ndata: {json.dumps(data)}\n\n".encode()
-                    return
-            await asyncio.sleep(SSE_POLL_S)
-    finally:
-        request.app.state.event_streams -= 1
+    idle, polls = 0.0, 0
+    while not stopping() and not await request.is_disconnected():
+        fresh = service.events.since(job_id, last)
+        for event in fresh:
+            last = event.id
+            yield f"id: {event.id}\nevent: {event.type}\ndata: {json.dumps(event.data)}\n\n".encode()
+            if event.type == "state" and event.data["state"] not in (JobState.QUEUED, JobState.RUNNING):
+                return
+        if fresh:
+            idle = 0.0
+            continue
+        idle += SSE_POLL_S
+        if idle >= SSE_PING_S:
+            idle = 0.0
+            yield b": ping\n\n"
+        polls += 1
+        if polls % 10 == 1:  # at once, then about every second: did it end unseen (events evicted)?
+            try:
+                job = await asyncio.to_thread(service.store.get, job_id)
+            except JobNotFoundError:
+                job = None
+            if job is None or job.terminal:
+                data = {"id": job_id, "state": job.state if job else "deleted", "error": job.error if job else None}
+                yield f"event: state\ndata: {json.dumps(data)}\n\n".encode()
+                return
+        await asyncio.sleep(SSE_POLL_S)

@@ -140,6 +140,7 @@ class Health(BaseModel):
     status: Literal["ok", "degraded"]
     version: str
     rig: str
+    problems: list[str] = Field(default_factory=list, description="why the service is degraded")
 
 
 class DeviceView(BaseModel):

@@ -7,6 +7,7 @@ daemon listens beyond loopback. Missing: 401; wrong: 403. The key is never logge
 
 from __future__ import annotations
 
+import asyncio
 import hmac
 import ipaddress
 import json
@@ -44,6 +45,7 @@ class ApiSettings:
     max_body_bytes: int = 65536
     cors_origins: tuple[str, ...] = ()
     allowed_hosts: tuple[str, ...] = ("127.0.0.1", "localhost", "::1", "[::1]")
+    body_stall_s: float = 10.0  # a body that sends nothing for this long is answered 408, its connection freed
 
 
 def _presented_key(request: Request) -> str | None:
@@ -95,9 +97,12 @@ class BodyLimitMiddleware:
     """413 for a request body over `limit` bytes, declared or streamed (chunked): the body is read
     here, up to the limit, before the application sees the request."""
 
-    def __init__(self, app: ASGIApp, limit: int, uploads: tuple[str, int] | None = None, key: str = "") -> None:
+    def __init__(
+        self, app: ASGIApp, limit: int, uploads: tuple[str, int] | None = None, key: str = "", stall_s: float = 10.0
+    ) -> None:
         self.app = app
         self.limit = limit
+        self.stall_s = stall_s
         self.uploads = uploads  # (path prefix, its limit): file uploads, larger than any JSON body
         self.key = key
 
@@ -115,7 +120,11 @@ class BodyLimitMiddleware:
             return
         body = bytearray()
         while True:
-            message = await receive()
+            try:
+                message = await asyncio.wait_for(receive(), self.stall_s)
+            except TimeoutError:
+                await _reply(send, 408, f"the request body stalled: no data for {self.stall_s:g} s")
+                return
             if message["type"] == "http.disconnect":
                 return  # the client went away
             body += message.get("body", b"")

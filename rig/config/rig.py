@@ -36,6 +36,13 @@ class ServiceConfig(Strict):
         8.0, ge=1.0, le=10.0, description="to stop the running job on SIGTERM (within systemd's TimeoutStopSec=15)"
     )
     health_stale_s: float = Field(120.0, ge=5.0, le=3600.0, description="a running job silent this long is unhealthy")
+    header_timeout_s: float = Field(
+        10.0, ge=0.5, le=300.0, description="a connection must send its request headers within this; else closed"
+    )
+    body_stall_s: float = Field(10.0, ge=0.5, le=300.0, description="a request body silent this long is answered 408")
+    max_connections: int = Field(
+        1000, ge=16, le=100_000, description="open connections; past this the oldest idle one is closed"
+    )
 
 
 class RigConfig(Strict):

@@ -10,10 +10,12 @@ from __future__ import annotations
 
 import asyncio
 import contextlib
+import errno
 import logging
 import os
 import secrets
 import signal
+import socket
 from collections.abc import Iterator
 from pathlib import Path
 
@@ -22,9 +24,10 @@ import uvicorn
 from rig.api.app import create_app
 from rig.api.security import ApiSettings, check_key_strength, is_loopback
 from rig.config import RigConfig
+from rig.daemon.connections import guarded_protocol
 from rig.daemon.logs import redact_access_log
 from rig.daemon.sdnotify import Notifier
-from rig.errors import ConfigError
+from rig.errors import ConfigError, UsageError
 from rig.service.runner import JobService
 
 log = logging.getLogger(__name__)
@@ -102,7 +105,32 @@ def api_settings(config: RigConfig, host: str, api_key: str) -> ApiSettings:
         max_body_bytes=config.service.max_body_bytes,
         cors_origins=tuple(config.service.cors_origins),
         allowed_hosts=tuple(hosts),
+        body_stall_s=config.service.body_stall_s,
     )
+
+
+def bind(host: str, port: int) -> socket.socket:
+    """The listening socket, bound before anything else starts; UsageError naming --port when
+    another program holds it, --host when it is not an address of this machine."""
+    try:
+        family, kind, proto, _, address = socket.getaddrinfo(
+            host.strip("[]"), port, type=socket.SOCK_STREAM, flags=socket.AI_PASSIVE
+        )[0]
+    except socket.gaierror as exc:
+        raise UsageError(f"--host {host}: not an address this machine can listen on ({exc.strerror})") from None
+    sock = socket.socket(family, kind, proto)
+    sock.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)  # a restart need not wait out TIME_WAIT
+    try:
+        sock.bind(address)
+    except OSError as exc:
+        sock.close()
+        if exc.errno == errno.EADDRINUSE:
+            raise UsageError(
+                f"--port {port}: {host}:{port} is in use by another program (another slrig?); "
+                "stop it or choose another --port"
+            ) from None
+        raise UsageError(f"--host {host}: cannot listen there ({exc.strerror})") from None
+    return sock
 
 
 class _Server(uvicorn.Server):
@@ -116,6 +144,7 @@ class _Server(uvicorn.Server):
 
 def serve(config: RigConfig, host: str, port: int, api_key: str) -> int:
     settings = api_settings(config, host, api_key)
+    sock = bind(host, port)
     service = JobService(config, config.service.max_queue, config.service.health_stale_s)
     notifier = Notifier()
     server: uvicorn.Server | None = None
@@ -130,7 +159,7 @@ def serve(config: RigConfig, host: str, port: int, api_key: str) -> int:
         port=port,
         log_config=None,  # our logging: stderr, read by journald
         timeout_graceful_shutdown=2,
-        limit_concurrency=128,
+        http=guarded_protocol(config.service.header_timeout_s, config.service.max_connections),  # no concurrency cap
         timeout_keep_alive=5,
         lifespan="off",
     )
@@ -139,7 +168,7 @@ def serve(config: RigConfig, host: str, port: int, api_key: str) -> int:
     service.start()
     log.info("slrig serving rig %r from %s", config.name, config.output.data_dir)
     try:
-        asyncio.run(_run(server, service, notifier))
+        asyncio.run(_run(server, sock, service, notifier))
     except KeyboardInterrupt:  # a signal between the event loop's end and here
         pass
     except SystemExit as exc:  # uvicorn could not start (it logged why: port in use, bad address)
@@ -154,7 +183,7 @@ def serve(config: RigConfig, host: str, port: int, api_key: str) -> int:
     return 0
 
 
-async def _run(server: uvicorn.Server, service: JobService, notifier: Notifier) -> None:
+async def _run(server: uvicorn.Server, sock: socket.socket, service: JobService, notifier: Notifier) -> None:
     loop = asyncio.get_running_loop()
 
     def on_signal(signum: int) -> None:
@@ -165,7 +194,7 @@ async def _run(server: uvicorn.Server, service: JobService, notifier: Notifier) 
 
     for signum in (signal.SIGTERM, signal.SIGINT):
         loop.add_signal_handler(signum, on_signal, signum)
-    serving = asyncio.create_task(server.serve())
+    serving = asyncio.create_task(server.serve(sockets=[sock]))
     while not server.started and not serving.done():
         await asyncio.sleep(0.02)
     if serving.done():  # could not bind: uvicorn logged why (and raised SystemExit)

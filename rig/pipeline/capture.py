@@ -14,7 +14,7 @@ import numpy as np
 
 from drivers.base import Frame, PatternSequence, ProjectorMode, SequenceEntry, TriggerMode
 from drivers.errors import DeviceError
-from rig.errors import ScanError
+from rig.errors import CaptureFaultError, ScanError
 from rig.patterns import Codec
 from rig.progress import ProgressTracker
 from rig.rig import Rig
@@ -106,7 +106,7 @@ def _take(rig: Rig, c: int, timeout_s: float, last_sequence: list[int]) -> Frame
     camera = rig.cameras[c]
     frame = camera.capture(timeout_s=timeout_s)
     if frame.sequence <= last_sequence[c]:
-        raise ScanError(f"{camera.name}: stale frame (sequence {frame.sequence})")
+        raise CaptureFaultError(f"{camera.name}: stale frame (sequence {frame.sequence})")
     last_sequence[c] = frame.sequence
     return frame
 
@@ -122,7 +122,7 @@ def _take_lit(rig: Rig, c: int, timeout_s: float, last_sequence: list[int], lit_
             log.warning("%s: frame stamps are not on the projector's clock; cannot gate by time", rig.cameras[c].name)
             return frame
         log.debug("%s: frame %d exposed before the light, dropped", rig.cameras[c].name, frame.sequence)
-    raise ScanError(
+    raise CaptureFaultError(
         f"{rig.cameras[c].name}: {MAX_EARLY_FRAMES + 1} frames in a row were exposed before the pattern was lit"
     )
 
@@ -151,9 +151,11 @@ def _check_follows(name: str, before: Frame | None, frame: Frame, period_s: floa
         return
     gap = frame.timestamp_s - before.timestamp_s
     if frame.sequence != before.sequence + 1:
-        raise ScanError(f"{name}: dropped frames during the sequence")
+        raise CaptureFaultError(f"{name}: dropped frames during the sequence")
     if abs(gap - period_s) > 0.5 * period_s:
-        raise ScanError(f"{name}: a trigger was missed ({gap:.4f} s between frames, pattern period {period_s:.4f} s)")
+        raise CaptureFaultError(
+            f"{name}: a trigger was missed ({gap:.4f} s between frames, pattern period {period_s:.4f} s)"
+        )
 
 
 def _capture_sequence(

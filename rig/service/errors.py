@@ -27,6 +27,12 @@ class JobCancelledError(SlrigError):
     """Raised inside a running job when it has been cancelled or the daemon is stopping."""
 
 
+class StorageFullError(SlrigError):
+    """Raised when the data directory cannot take what is asked: too little free space for a
+    scan's expected size, or a job database that cannot be written (a full disk, an I/O error).
+    Nothing is changed (HTTP 507)."""
+
+
 class ServiceStoppingError(SlrigError):
     """Raised when a job is submitted while the daemon shuts down (HTTP 503)."""
 

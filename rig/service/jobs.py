@@ -7,6 +7,7 @@ marks every job it finds queued or running as interrupted: hardware is never re-
 
 from __future__ import annotations
 
+import contextlib
 import enum
 import json
 import logging
@@ -17,7 +18,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from rig.service.errors import IllegalTransitionError, JobNotFoundError
+from rig.service.errors import IllegalTransitionError, JobNotFoundError, StorageFullError
 
 log = logging.getLogger(__name__)
 
@@ -87,7 +88,12 @@ class Job:
 
 
 class JobStore:
-    """Thread-safe access to the jobs table; each change is committed before it returns."""
+    """Thread-safe access to the jobs table; each change is committed before it returns.
+
+    When the database cannot be written (a full disk, an I/O error) a job's state changes are
+    kept in memory, shown by every read, and written by `flush()` once the disk takes them again;
+    `unsaved` says why meanwhile. New records and deletions are refused instead (StorageFullError).
+    """
 
     def __init__(self, path: Path) -> None:
         path.parent.mkdir(parents=True, exist_ok=True)
@@ -97,6 +103,8 @@ class JobStore:
         self._db.execute("PRAGMA journal_mode=WAL")
         self._db.execute("PRAGMA synchronous=FULL")  # a commit survives power loss
         self._db.executescript(_SCHEMA)
+        self._pending: dict[str, dict[str, Any]] = {}  # job id -> column values not yet written
+        self._write_error: str | None = None
 
     def close(self) -> None:
         with self._lock:
@@ -106,9 +114,23 @@ class JobStore:
         with self._lock:
             return self._db.execute("PRAGMA integrity_check").fetchone()[0] == "ok"
 
+    @property
+    def unsaved(self) -> str | None:
+        """Why job states are held in memory only (None when everything is written)."""
+        with self._lock:
+            return self._write_error if self._pending else None
+
+    def _write(self, sql: str, args: tuple[Any, ...]) -> list[sqlite3.Row]:
+        """One statement under the lock held by the caller; StorageFullError if it cannot be written."""
+        try:
+            return self._db.execute(sql, args).fetchall()
+        except sqlite3.OperationalError as exc:  # SQLITE_FULL, SQLITE_IOERR, a read-only file
+            self._write_error = f"the job database cannot be written: {exc}"
+            raise StorageFullError(self._write_error) from exc
+
     def add(self, job_id: str, kind: JobKind, request: dict[str, Any]) -> Job:
         with self._lock:
-            self._db.execute(
+            self._write(
                 "INSERT INTO jobs (id, kind, state, request, created) VALUES (?, ?, 'queued', ?, ?)",
                 (job_id, kind, json.dumps(request), time.time()),
             )
@@ -118,19 +140,22 @@ class JobStore:
     def get(self, job_id: str) -> Job:
         with self._lock:
             row = self._db.execute("SELECT * FROM jobs WHERE id = ?", (job_id,)).fetchone()
+            pending = dict(self._pending.get(job_id, {}))
         if row is None:
             raise JobNotFoundError(f"no job {job_id}")
-        return _job(row)
+        return _job(row, pending)
 
     def transition(self, job_id: str, state: JobState, **fields: Any) -> Job:
-        """Move a job to `state`, setting `error`, `result`, `stage` or `fraction` too."""
+        """Move a job to `state`, setting `error`, `result`, `stage` or `fraction` too; held in
+        memory when the database cannot be written."""
         now = time.time()
         with self._lock:
             row = self._db.execute("SELECT kind, state FROM jobs WHERE id = ?", (job_id,)).fetchone()
             if row is None:
                 raise JobNotFoundError(f"no job {job_id}")
-            if state not in TRANSITIONS.get(JobState(row["state"]), frozenset()):
-                raise IllegalTransitionError(f"job {job_id}: {row['state']} -> {state} is not allowed")
+            current = JobState(self._pending.get(job_id, {}).get("state", row["state"]))
+            if state not in TRANSITIONS.get(current, frozenset()):
+                raise IllegalTransitionError(f"job {job_id}: {current} -> {state} is not allowed")
             updates: dict[str, Any] = {"state": state}
             if state is JobState.RUNNING:
                 updates["started"] = now
@@ -141,21 +166,60 @@ class JobStore:
                     updates[key] = fields[key]
             if "result" in fields:
                 updates["result"] = json.dumps(fields["result"], allow_nan=False)
-            assignments = ", ".join(f"{key} = ?" for key in updates)
-            self._db.execute(f"UPDATE jobs SET {assignments} WHERE id = ?", (*updates.values(), job_id))
+            self._update(job_id, updates)
         detail = f" ({fields['error']})" if fields.get("error") else ""
-        log.info("%s %s: %s -> %s%s", row["kind"], job_id, row["state"], state, detail)
+        log.info("%s %s: %s -> %s%s", row["kind"], job_id, current, state, detail)
         return self.get(job_id)
+
+    def _update(self, job_id: str, updates: dict[str, Any], others: bool = True) -> None:
+        """Write a job's changed columns (with any held before them), else hold them in memory;
+        a write that succeeds writes what other jobs held too (`others`)."""
+        merged = {**self._pending.get(job_id, {}), **updates}
+        if not merged:
+            return
+        assignments = ", ".join(f"{key} = ?" for key in merged)
+        try:
+            self._write(f"UPDATE jobs SET {assignments} WHERE id = ?", (*merged.values(), job_id))
+        except StorageFullError:
+            if job_id not in self._pending:
+                log.error("job %s: %s; its state is kept in memory until it can be written", job_id, self._write_error)
+            self._pending[job_id] = merged
+            return
+        self._pending.pop(job_id, None)
+        if self._pending and others:
+            self._flush_held()
+
+    def _flush_held(self) -> bool:
+        for job_id in list(self._pending):
+            self._update(job_id, {}, others=False)
+            if job_id in self._pending:
+                return False
+        if self._write_error is not None:
+            log.info("the job database is written again")
+            self._write_error = None
+        return True
+
+    def flush(self) -> bool:
+        """Write the states held in memory; True when nothing is held any more."""
+        with self._lock:
+            return self._flush_held()
 
     def progress(self, job_id: str, stage: str, fraction: float) -> None:
         with self._lock:
-            self._db.execute(
-                "UPDATE jobs SET stage = ?, fraction = ? WHERE id = ? AND state = 'running'", (stage, fraction, job_id)
-            )
+            if job_id in self._pending:  # the state is held in memory: the progress with it
+                self._pending[job_id].update(stage=stage, fraction=fraction)
+                return
+            with contextlib.suppress(StorageFullError):  # progress is not worth failing a job for
+                self._write(
+                    "UPDATE jobs SET stage = ?, fraction = ? WHERE id = ? AND state = 'running'",
+                    (stage, fraction, job_id),
+                )
 
     def delete(self, job_id: str) -> None:
+        """StorageFullError when it cannot be written; the record is then unchanged."""
         with self._lock:
-            self._db.execute("DELETE FROM jobs WHERE id = ?", (job_id,))
+            self._write("DELETE FROM jobs WHERE id = ?", (job_id,))
+            self._pending.pop(job_id, None)
         log.info("job %s: deleted", job_id)
 
     def list(self, kind: JobKind, state: JobState | None, limit: int, offset: int) -> tuple[list[Job], int]:
@@ -170,23 +234,25 @@ class JobStore:
                 f"SELECT * FROM jobs WHERE {where} ORDER BY created DESC, id DESC LIMIT ? OFFSET ?",
                 (*args, limit, offset),
             ).fetchall()
-        return [_job(r) for r in rows], int(total)
+            pending = {job_id: dict(values) for job_id, values in self._pending.items()}
+        return [_job(r, pending.get(r["id"], {})) for r in rows], int(total)
 
     def interrupt_unfinished(self, reason: str) -> list[str]:
         """Mark every queued or running job interrupted, in one statement (at start-up and
         shutdown, when a worker may finish a job at the same moment); returns their ids."""
         with self._lock:
-            rows = self._db.execute(
+            rows = self._write(
                 "UPDATE jobs SET state = 'interrupted', error = ?, finished = ? "
                 "WHERE state IN ('queued', 'running') RETURNING id, kind",
                 (reason, time.time()),
-            ).fetchall()
+            )
         for row in rows:
             log.info("%s %s: -> interrupted (%s)", row["kind"], row["id"], reason)
         return [row["id"] for row in rows]
 
 
-def _job(row: sqlite3.Row) -> Job:
+def _job(row: sqlite3.Row, pending: dict[str, Any]) -> Job:
+    row = {**dict(row), **pending}  # type: ignore[assignment]  # held in memory wins over the table
     return Job(
         id=row["id"],
         kind=JobKind(row["kind"]),

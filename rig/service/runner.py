@@ -9,10 +9,7 @@ ends in a terminal state that names what happened; none is re-run by itself.
 from __future__ import annotations
 
 import contextlib
-import fcntl
 import logging
-import secrets
-import shutil
 import threading
 import time
 from collections import deque
@@ -23,7 +20,7 @@ from typing import Any, TextIO
 from drivers.errors import DeviceError
 from rig.assembly import open_rig
 from rig.config import RigConfig
-from rig.errors import ConfigError, PlanError, SlrigError
+from rig.errors import CaptureFaultError, ConfigError, PlanError, SlrigError
 from rig.pipeline.workers import release_free_memory
 from rig.progress import ProgressCallback, ProgressEvent
 from rig.rig import Rig
@@ -35,17 +32,19 @@ from rig.service.errors import (
     JobNotFoundError,
     QueueFullError,
     ServiceStoppingError,
+    StorageFullError,
 )
 from rig.service.events import EventHub
 from rig.service.imports import reconstruction_inputs, remove_leftovers
 from rig.service.jobs import Job, JobKind, JobState, JobStore
+from rig.service.recovery import clear_leftovers, delete_folder, lock_data_dir
+from rig.service.space import check_free_space, expected_scan_bytes, storage_problems
 from rig.service.status import device_views
 from rig.store.scandir import new_scan_id
 
 log = logging.getLogger(__name__)
 
 DB_NAME = "slrig.db"
-LOCK_NAME = "slrig.lock"
 STORING = 0.95  # from this fraction on a job is writing its results: too late to cancel
 PROGRESS_EVERY_S = 0.2  # at most this often per job, plus every stage change
 
@@ -76,26 +75,14 @@ class JobService:
     # --- lifecycle -------------------------------------------------------------------------
     def start(self) -> None:
         """Take the data directory, recover from a previous run, then start the worker."""
-        self._lock_data_dir()
+        self._lock_file = lock_data_dir(self.data_dir)
+        self.store.flush()
         for job_id in self.store.interrupt_unfinished("the daemon stopped before this job finished; not re-run"):
             self._publish_state(job_id)
-        for partial in self.scans_dir.glob("*.partial"):  # half-written scans of interrupted jobs
-            shutil.rmtree(partial, ignore_errors=True)
+        clear_leftovers(self.store, (self.scans_dir, self.calibrations_dir))
         remove_leftovers(self.data_dir)
         self._worker = threading.Thread(target=self._work, name="slrig-jobs", daemon=True)
         self._worker.start()
-
-    def _lock_data_dir(self) -> None:
-        """One daemon per data directory: a second would mark the first one's jobs interrupted."""
-        lock_file = (self.data_dir / LOCK_NAME).open("a")
-        try:
-            fcntl.flock(lock_file, fcntl.LOCK_EX | fcntl.LOCK_NB)
-        except BlockingIOError:
-            lock_file.close()
-            raise ConfigError(
-                "output.data_dir", [f"output.data_dir: another slrig daemon is using {self.data_dir}"]
-            ) from None
-        self._lock_file = lock_file
 
     @property
     def stopping(self) -> bool:
@@ -122,7 +109,11 @@ class JobService:
             if rig is not None:
                 rig.close()  # dark first, then close; before any bookkeeping that could fail
                 log.info("rig closed, projectors dark")
-        self.store.interrupt_unfinished("the daemon stopped before this job finished")
+        try:
+            self.store.flush()
+            self.store.interrupt_unfinished("the daemon stopped before this job finished")
+        except StorageFullError as exc:  # the next start marks them interrupted
+            log.error("job states not written at shutdown: %s", exc)
         if self._lock_file is not None:
             self._lock_file.close()  # and with it the lock on the data directory
             self._lock_file = None
@@ -132,6 +123,11 @@ class JobService:
         if self._worker is None or not self._worker.is_alive():
             return False
         return self._current is None or time.monotonic() - self._heartbeat < self.health_stale_s
+
+    def problems(self) -> list[str]:
+        """What makes the service degraded: a stalled worker, job states the disk will not take."""
+        found = [] if self.healthy() else ["the job worker is not running or has stalled"]
+        return found + storage_problems(self.data_dir, self.store)
 
     # --- requests --------------------------------------------------------------------------
     def submit(self, kind: JobKind, request: dict[str, Any]) -> Job:
@@ -159,6 +155,7 @@ class JobService:
                 raise JobConflictError(
                     f"codec {request['codec']} does not fit this rig: {'; '.join(exc.problems)}"
                 ) from None
+        check_free_space(self.data_dir, expected_scan_bytes(self.config, request), "a scan of this rig")
         return self.submit(JobKind.SCAN, request)
 
     def submit_reprocess(self, source_id: str, request: dict[str, Any]) -> Job:
@@ -201,12 +198,7 @@ class JobService:
                 raise JobConflictError(f"{kind} {job_id} is running; cancel it first")
             if job_id in self._queue:
                 self._queue.remove(job_id)
-            self.store.delete(job_id)
-        folder = self.job_folder(Job.placeholder(job_id, kind))
-        if folder.exists():  # a crash from here on leaves only an unlisted folder
-            doomed = folder.with_name(f".{folder.name}.{secrets.token_hex(4)}.deleting")
-            folder.rename(doomed)
-            shutil.rmtree(doomed, ignore_errors=True)
+            delete_folder(self.job_folder(Job.placeholder(job_id, kind)), lambda: self.store.delete(job_id))
 
     def job_folder(self, job: Job) -> Path:
         return (self.calibrations_dir if job.kind is JobKind.CALIBRATION else self.scans_dir) / job.id
@@ -247,6 +239,8 @@ class JobService:
                 if self._stopping:
                     return
                 if not self._queue:
+                    if self.store.unsaved:  # the disk may take the held job states again
+                        self.store.flush()
                     continue
                 job_id = self._queue.popleft()
                 self._current = job_id
@@ -285,7 +279,7 @@ class JobService:
             reason = "the daemon stopped during the job" if self._stopping else "cancelled while running"
             self._finish(job_id, state, error=reason)
         except (SlrigError, DeviceError) as exc:
-            if isinstance(exc, DeviceError) or isinstance(exc.__cause__, DeviceError):
+            if isinstance(exc, (DeviceError, CaptureFaultError)) or isinstance(exc.__cause__, DeviceError):
                 self._rig_error = str(exc)  # reported by /v1/rig until a job succeeds
             if not reprocess:
                 self._drop_rig()
@@ -362,6 +356,7 @@ class JobService:
 
     # --- the jobs (rig.service.tasks does the work) ----------------------------------------
     def _scan(self, job: Job, progress: ProgressCallback) -> dict[str, Any]:
+        check_free_space(self.data_dir, expected_scan_bytes(self.config, job.request), "this scan")
         path, result = tasks.scan_job_to_directory(self._open(), self.scans_dir / job.id, job.id, job.request, progress)
         return tasks.scan_summary(path, result)
 

@@ -193,6 +193,7 @@ def write_scan(
     except FileExistsError:
         raise StoreError(f"output directory already exists, not overwriting: {target}") from None
     except OSError as exc:
+        shutil.rmtree(partial, ignore_errors=True)  # a full disk gets its space back at once
         raise StoreError(f"cannot write scan to {target}: {exc}") from exc
     return target
 

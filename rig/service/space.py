@@ -1,0 +1,63 @@
+"""Disk space: what a scan will write, checked before it is queued and again before it runs, and
+what makes the data directory a problem for /v1/health."""
+
+from __future__ import annotations
+
+import shutil
+from pathlib import Path
+from typing import Any
+
+from rig.config import RigConfig
+from rig.patterns.registry import codec_class
+from rig.service.errors import StorageFullError
+from rig.service.jobs import JobStore
+
+MB = 1_000_000
+RESERVE_BYTES = 64 * MB  # kept free for the job database, its write-ahead log and the journal
+# Per camera pixel of a stored scan: a PLY point (xyz and normal float32, rgb), its depth (16-bit
+# PNG), overlap mask and preview; PNG compresses, so this is an upper bound.
+STORED_BYTES_PER_PIXEL = 12 + 12 + 3 + 2 + 1 + 3
+
+
+def expected_scan_bytes(config: RigConfig, request: dict[str, Any]) -> int:
+    """An upper bound of what a scan request writes: the cloud and images, and the frames
+    uncompressed when kept."""
+    pixels = sum(camera.resolution[0] * camera.resolution[1] for camera in config.cameras)
+    total = pixels * STORED_BYTES_PER_PIXEL
+    if request.get("keep_frames"):
+        name = "rings" if request.get("adaptive") or request.get("plan") else request.get("codec") or config.scan.codec
+        frames = sum(
+            codec_class(name)(tuple(p.resolution), getattr(config.scan, name, None), None).frame_count
+            for p in config.projectors
+        )
+        for camera in config.cameras:
+            channels = 3 if camera.color else 1
+            depth = 2 if camera.bit_depth > 8 else 1
+            total += frames * camera.resolution[0] * camera.resolution[1] * channels * depth
+    return total
+
+
+def check_free_space(data_dir: Path, needed: int, what: str) -> None:
+    """StorageFullError unless `data_dir` has room for `needed` bytes and the reserve."""
+    free = shutil.disk_usage(data_dir).free
+    if free < needed + RESERVE_BYTES:
+        raise StorageFullError(
+            f"{data_dir} has {free / MB:.0f} MB free; {what} needs up to {needed / MB:.0f} MB "
+            f"and {RESERVE_BYTES / MB:.0f} MB stay free for the job records: free some space "
+            "(delete old scans) and try again"
+        )
+
+
+def storage_problems(data_dir: Path, store: JobStore) -> list[str]:
+    """Why the data directory degrades the service: job states held in memory, a full disk."""
+    found = []
+    unsaved = store.unsaved
+    if unsaved:
+        found.append(f"{unsaved}; job states are kept in memory until the disk takes them")
+    try:
+        free = shutil.disk_usage(data_dir).free
+    except OSError as exc:
+        return [*found, f"{data_dir}: {exc.strerror}"]
+    if free < RESERVE_BYTES:
+        found.append(f"{data_dir} has {free / MB:.1f} MB free, less than the {RESERVE_BYTES / MB:.0f} MB it keeps free")
+    return found

@@ -1,0 +1,104 @@
+"""`slrig serve` against clients that hold connections: idle sockets, slow headers, stalled
+bodies, bursts of event streams; and a port that another program holds. Each test asserts the
+README's promise for it (docs: Reliability)."""
+
+from __future__ import annotations
+
+import os
+import socket
+import subprocess
+import sys
+import time
+from collections.abc import Iterator
+from pathlib import Path
+
+import httpx
+import pytest
+
+from tests.conftest import small_config_data
+from tests.test_daemon import AUTH, KEY, REPO, Daemon, _config, _free_port
+
+STREAMS_CAP = 64  # rig.api.app.MAX_EVENT_STREAMS, as the README states it
+
+
+@pytest.fixture
+def busy(tmp_path: Path) -> Iterator[tuple[Daemon, str]]:
+    """A daemon whose scan runs for 30 s (its camera stalls), with short connection bounds."""
+    data = small_config_data()
+    data["cameras"][0]["sim"]["faults"] = {"stall_after_frames": 3}
+    data["scan"] = {"capture_timeout_s": 30.0}
+    config = _config(tmp_path, data, header_timeout_s=1.0, body_stall_s=1.0)
+    daemon = Daemon(config, tmp_path / "daemon.log")
+    job_id = httpx.post(f"{daemon.url}/v1/scans", json={}, headers=AUTH).json()["id"]
+    yield daemon, job_id
+    daemon.stop()
+
+
+def _connect(port: int) -> socket.socket:
+    sock = socket.create_connection(("127.0.0.1", port), timeout=10)
+    return sock
+
+
+def _status(sock: socket.socket) -> int:
+    head = b""
+    while b"\r\n" not in head:
+        chunk = sock.recv(256)
+        if not chunk:
+            return 0  # closed without an answer
+        head += chunk
+    return int(head.split(b" ", 2)[1])
+
+
+def test_idle_connections_and_a_burst_of_event_streams_leave_health_answerable(busy: tuple[Daemon, str]) -> None:
+    daemon, job_id = busy
+    idle = [_connect(daemon.port) for _ in range(200)]  # never send a byte (uvicorn's old cap was 128)
+    streams = [_connect(daemon.port) for _ in range(200)]
+    request = f"GET /v1/scans/{job_id}/events HTTP/1.1\r\nHost: 127.0.0.1\r\n\r\n".encode()
+    for sock in streams:
+        sock.sendall(request)  # all at once: the cap must hold for a burst
+    codes = [_status(sock) for sock in streams]
+    assert codes.count(200) == STREAMS_CAP and codes.count(503) == len(streams) - STREAMS_CAP
+    started = time.monotonic()
+    health = httpx.get(f"{daemon.url}/v1/health", timeout=5)
+    assert health.status_code == 200 and time.monotonic() - started < 1.0
+    for sock in streams[:10]:
+        sock.close()  # their slots come back
+    time.sleep(0.5)
+    again = _connect(daemon.port)
+    again.sendall(request)
+    assert _status(again) == 200
+    for sock in (*idle, *streams, again):
+        sock.close()
+
+
+def test_silent_connections_are_closed_and_a_stalled_body_gets_408(busy: tuple[Daemon, str]) -> None:
+    daemon, _ = busy
+    silent = _connect(daemon.port)
+    slow = _connect(daemon.port)
+    slow.sendall(b"GET /v1/health HTTP/1.1\r\nHost: 127.0.0.1\r\n")  # headers never finished
+    stalled = _connect(daemon.port)
+    head = f"POST /v1/scans HTTP/1.1\r\nHost: 127.0.0.1\r\nX-API-Key: {KEY}\r\nContent-Type: application/json\r\n"
+    stalled.sendall(f'{head}Content-Length: 100\r\n\r\n{{"label":'.encode())
+    started = time.monotonic()
+    assert silent.recv(1) == b"" and slow.recv(1) == b""  # closed by the daemon, not by the 10 s timeout
+    assert _status(stalled) == 408
+    assert time.monotonic() - started < 5.0
+    for sock in (silent, slow, stalled):
+        sock.close()
+
+
+def test_a_port_in_use_is_refused_naming_it(small_config_path: Path) -> None:
+    with socket.socket() as holder:
+        port = _free_port()
+        holder.bind(("127.0.0.1", port))
+        holder.listen()
+        run = subprocess.run(
+            [sys.executable, "-m", "rig.cli", "serve", "--config", str(small_config_path), "--port", str(port)],
+            cwd=REPO,
+            env={**os.environ, "SLRIG_API_KEY": KEY},
+            capture_output=True,
+            text=True,
+            timeout=60,
+        )
+    assert run.returncode == 2 and f"--port {port}" in run.stderr and "in use" in run.stderr
+    assert "Traceback" not in run.stderr

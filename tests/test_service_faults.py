@@ -1,0 +1,231 @@
+"""The job service when the disk or the rig fails it: every job ends in a recorded state, the
+service says why it is degraded, refuses new work with 507, and nothing stored is lost. A full
+disk is a real one (a small tmpfs) where the suite runs as root; a database that cannot be
+written is injected (SQLite's query_only), since a full tmpfs need not fail a WAL write."""
+
+from __future__ import annotations
+
+import contextlib
+import os
+import shutil
+import subprocess
+import time
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Any
+
+import pytest
+from fastapi.testclient import TestClient
+
+from rig.api.app import create_app
+from rig.api.security import ApiSettings
+from rig.config import load_config
+from rig.service.errors import StorageFullError
+from rig.service.jobs import JobKind, JobState, JobStore
+from rig.service.runner import DB_NAME, JobService
+from rig.service.space import RESERVE_BYTES
+from tests.conftest import small_config_data, wait_done, write_config
+
+KEY = "k" * 32
+AUTH = {"X-API-Key": KEY}
+
+
+def _service(tmp_path: Path, data_dir: Path | None = None, **camera_faults: Any) -> JobService:
+    data = small_config_data()
+    data["output"] = {"data_dir": str(data_dir or tmp_path / "data")}
+    if camera_faults:
+        data["cameras"][0]["sim"]["faults"] = camera_faults
+    config = load_config(write_config(tmp_path, data, "serve.yaml"))
+    service = JobService(config)
+    service.start()
+    return service
+
+
+def _client(service: JobService) -> TestClient:
+    return TestClient(create_app(service, ApiSettings(api_key=KEY)), base_url="http://localhost")
+
+
+def _refuse_writes(store: JobStore, refuse: bool) -> None:
+    store._db.execute(f"PRAGMA query_only = {'ON' if refuse else 'OFF'}")
+
+
+def test_a_store_that_cannot_write_keeps_states_in_memory_and_writes_them_later(tmp_path: Path) -> None:
+    store = JobStore(tmp_path / DB_NAME)
+    job = store.add("20261125-000000-aaaaaa", JobKind.SCAN, {})
+    store.transition(job.id, JobState.RUNNING)
+    _refuse_writes(store, True)
+    failed = store.transition(job.id, JobState.FAILED, error="cannot write scan: disk full")
+    assert failed.state is JobState.FAILED and store.get(job.id).error == "cannot write scan: disk full"
+    assert store.list(JobKind.SCAN, None, 10, 0)[0][0].state is JobState.FAILED
+    assert "cannot be written" in (store.unsaved or "")
+    with pytest.raises(StorageFullError, match="cannot be written"):
+        store.add("20261125-000000-bbbbbb", JobKind.SCAN, {})
+    with pytest.raises(StorageFullError):
+        store.delete(job.id)
+    assert not store.flush()
+    _refuse_writes(store, False)
+    assert store.flush() and store.unsaved is None
+    store.close()
+    again = JobStore(tmp_path / DB_NAME)  # what a restart reads: the state held in memory, written
+    assert again.get(job.id).state is JobState.FAILED and again.get(job.id).error == "cannot write scan: disk full"
+    again.close()
+
+
+def test_a_job_whose_database_write_fails_still_ends_and_the_service_says_so(tmp_path: Path) -> None:
+    service = _service(tmp_path)
+    try:
+        with _client(service) as client:
+            kept = wait_done(client, client.post("/v1/scans", json={}, headers=AUTH).json()["id"])
+            ran = {"n": 0}
+            progress = service.store.progress
+
+            def refuse_mid_job(job_id: str, stage: str, fraction: float) -> None:
+                ran["n"] += 1
+                if ran["n"] == 3:  # the job is running: from here on the disk takes nothing
+                    _refuse_writes(service.store, True)
+                progress(job_id, stage, fraction)
+
+            service.store.progress = refuse_mid_job  # type: ignore[method-assign]
+            job_id = client.post("/v1/scans", json={}, headers=AUTH).json()["id"]
+            job = wait_done(client, job_id, timeout_s=60)
+            assert job["state"] == "done"  # its folder was written; only the record is held in memory
+            events = client.get(f"/v1/scans/{job_id}/events").text  # it ends: the job did
+            assert "event: state" in events and '"state": "done"' in events
+            health = client.get("/v1/health").json()
+            assert health["status"] == "degraded" and any("cannot be written" in p for p in health["problems"])
+            refused = client.post("/v1/scans", json={}, headers=AUTH)
+            assert refused.status_code == 507 and "cannot be written" in refused.json()["detail"]
+            assert client.delete(f"/v1/scans/{kept['id']}", headers=AUTH).status_code == 507
+            assert (service.scans_dir / kept["id"] / "cloud.ply").is_file()  # nothing deleted
+            assert client.post(f"/v1/scans/{job_id}/cancel", headers=AUTH).json()["state"] == "done"
+            _refuse_writes(service.store, False)
+            deadline = time.monotonic() + 10  # the idle worker writes the held states
+            while client.get("/v1/health").json()["status"] != "ok" and time.monotonic() < deadline:
+                time.sleep(0.1)
+            assert client.get("/v1/health").json() == {**health, "status": "ok", "problems": []}
+    finally:
+        service.shutdown(5.0)
+    reread = JobStore(service.data_dir / DB_NAME)
+    assert reread.get(job_id).state is JobState.DONE
+    reread.close()
+
+
+@contextlib.contextmanager
+def _tmpfs(path: Path, megabytes: int) -> Iterator[Path]:
+    path.mkdir(parents=True)
+    if os.geteuid() != 0:
+        pytest.skip("a real full disk needs a tmpfs, which only root can mount (the injected fault runs anyway)")
+    mounted = subprocess.run(["mount", "-t", "tmpfs", "-o", f"size={megabytes}m", "tmpfs", str(path)], check=False)
+    if mounted.returncode != 0:
+        pytest.skip("this machine does not let root mount a tmpfs (a container without CAP_SYS_ADMIN)")
+    try:
+        yield path
+    finally:
+        subprocess.run(["umount", "-l", str(path)], check=False)
+
+
+def _fill(folder: Path, leave_bytes: int) -> Path:
+    ballast = folder / "ballast"
+    with ballast.open("wb") as f:
+        chunk = b"\0" * (1 << 20)
+        while shutil.disk_usage(folder).free > leave_bytes + len(chunk):
+            f.write(chunk)
+        f.write(b"\0" * max(0, shutil.disk_usage(folder).free - leave_bytes))
+    return ballast
+
+
+def test_a_full_disk_refuses_scans_with_507_and_fails_the_one_that_fills_it(tmp_path: Path) -> None:
+    with _tmpfs(tmp_path / "disk", RESERVE_BYTES // 1_000_000 + 40) as disk:
+        service = _service(tmp_path, disk / "data")
+        try:
+            with _client(service) as client:
+                ballast = _fill(disk, RESERVE_BYTES // 2)
+                refused = client.post("/v1/scans", json={}, headers=AUTH)
+                assert refused.status_code == 507 and "MB free" in refused.json()["detail"]
+                health = client.get("/v1/health").json()
+                assert health["status"] == "degraded" and any("MB free" in p for p in health["problems"])
+                ballast.unlink()
+                progress = service.store.progress
+                filled = []
+
+                def fill_at_store(job_id: str, stage: str, fraction: float) -> None:
+                    if stage == "store" and not filled:  # the scan is about to be written: fill the disk
+                        filled.append(_fill(disk, 0))
+                    progress(job_id, stage, fraction)
+
+                service.store.progress = fill_at_store  # type: ignore[method-assign]
+                job = wait_done(client, client.post("/v1/scans", json={}, headers=AUTH).json()["id"], timeout_s=60)
+                assert filled and job["state"] == "failed" and "No space left on device" in job["error"]
+                assert not list(service.scans_dir.iterdir())  # the half-written scan is gone, its space free
+                filled[0].unlink()
+                service.store.progress = progress  # type: ignore[method-assign]
+                again = wait_done(client, client.post("/v1/scans", json={}, headers=AUTH).json()["id"], timeout_s=60)
+                assert again["state"] == "done" and client.get("/v1/health").json()["status"] == "ok"
+        finally:
+            service.shutdown(5.0)
+
+
+def test_a_stale_frame_fails_the_job_and_the_rig_reports_the_fault(tmp_path: Path) -> None:
+    service = _service(tmp_path, repeat_frame_at=4)
+    try:
+        with _client(service) as client:
+            job = wait_done(client, client.post("/v1/scans", json={}, headers=AUTH).json()["id"])
+            assert job["state"] == "failed" and "stale frame" in job["error"]
+            rig = client.get("/v1/rig").json()
+            assert rig["state"] == "fault" and "stale frame" in rig["last_error"]
+    finally:
+        service.shutdown(5.0)
+
+
+KILLER = """
+import os, signal, sys
+import rig.service.recovery as recovery
+from rig.config import load_config
+from rig.service.runner import JobService
+
+service = JobService(load_config(sys.argv[1]))
+service.start()
+def die(*args, **kwargs):
+    os.kill(os.getpid(), signal.SIGKILL)
+if sys.argv[3] == "with_the_record":
+    service.store.delete = die  # the folder is out of sight, the record still there
+else:
+    recovery.shutil.rmtree = die  # the record is gone, the folder not yet
+service.delete(sys.argv[2], "scan")
+"""
+
+
+@pytest.mark.parametrize("killed", ["with_the_record", "with_the_folder"])
+def test_a_delete_killed_midway_is_finished_by_the_next_start(tmp_path: Path, killed: str) -> None:
+    service = _service(tmp_path)
+    with _client(service) as client:
+        job_id = wait_done(client, client.post("/v1/scans", json={}, headers=AUTH).json()["id"])["id"]
+    service.shutdown(5.0)
+    root = Path(__file__).resolve().parents[1]
+    env = {**os.environ, "PYTHONPATH": str(root)}
+    run = subprocess.run(
+        ["python", "-c", KILLER, str(tmp_path / "serve.yaml"), job_id, killed], env=env, cwd=root, timeout=120
+    )
+    assert run.returncode == -9  # killed where asked, not failed before
+    assert not (service.scans_dir / job_id).exists() and list(service.scans_dir.glob(".*.deleting"))
+    restarted = _service(tmp_path)
+    try:
+        with _client(restarted) as client:
+            assert client.get(f"/v1/scans/{job_id}").status_code == 404
+        assert not list(restarted.scans_dir.iterdir())  # no hidden folder left to fill the disk
+    finally:
+        restarted.shutdown(5.0)
+
+
+def test_start_removes_half_written_scans_and_folders_whose_record_is_gone(tmp_path: Path) -> None:
+    service = _service(tmp_path)
+    with _client(service) as client:
+        kept = wait_done(client, client.post("/v1/scans", json={}, headers=AUTH).json()["id"])["id"]
+    service.shutdown(5.0)
+    orphan = service.scans_dir / "20260101-000000-abcdef"  # an older slrig deleted its record, then crashed
+    shutil.copytree(service.scans_dir / kept, orphan)
+    (service.scans_dir / "20260101-000001-abcdef.partial").mkdir()
+    (service.scans_dir / "notes").mkdir()  # not a job's: left alone
+    restarted = _service(tmp_path)
+    restarted.shutdown(5.0)
+    assert sorted(p.name for p in restarted.scans_dir.iterdir()) == sorted([kept, "notes"])
