@@ -17,6 +17,22 @@ from rig.geometry import CameraModel, look_at_rotation
 REPO = Path(__file__).resolve().parent.parent
 
 
+ONE_THREAD = ("SLRIG_THREADS", "OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS")
+
+
+def pytest_configure(config: pytest.Config) -> None:
+    """With one test process per core (xdist), each runs its pixel work on one thread: threads of
+    two processes contending for two cores only wait on each other. Set before the workers start,
+    which inherit the environment."""
+    if config.getoption("numprocesses", None) not in (None, 0) and not os.environ.get("PYTEST_XDIST_WORKER"):
+        for name in ONE_THREAD:
+            os.environ.setdefault(name, "1")
+    if os.environ.get("SLRIG_THREADS") == "1":
+        import cv2
+
+        cv2.setNumThreads(1)
+
+
 def pytest_addoption(parser: pytest.Parser) -> None:
     parser.addoption(
         "--rig",

@@ -53,3 +53,11 @@ def test_non_finite_numbers_and_lone_surrogates_are_422_naming_the_field(
 def test_a_405_lists_every_method_the_path_serves(client: TestClient, method: str, path: str, allowed: str) -> None:
     answer = client.request(method, path, headers=AUTH)
     assert answer.status_code == 405 and answer.headers["allow"] == allowed
+
+
+def test_one_calibration_request_cannot_hold_the_rig_for_long(client: TestClient) -> None:
+    """200 views would hold the rig for about ten minutes; over REST a request asks for 40 at most."""
+    answer = client.post("/v1/calibrations", json={"what": "rig", "views": 200}, headers=AUTH)
+    assert answer.status_code == 422 and answer.json()["detail"][0]["loc"][-1] == "views"
+    assert "40" in answer.json()["detail"][0]["msg"]
+    assert client.post("/v1/calibrations", json={"what": "rig", "views": 40}, headers=AUTH).status_code == 202

@@ -229,3 +229,26 @@ def test_start_removes_half_written_scans_and_folders_whose_record_is_gone(tmp_p
     restarted = _service(tmp_path)
     restarted.shutdown(5.0)
     assert sorted(p.name for p in restarted.scans_dir.iterdir()) == sorted([kept, "notes"])
+
+
+def test_a_rig_this_machine_cannot_hold_is_refused_naming_the_resolution(tmp_path: Path) -> None:
+    from rig.assembly import open_rig
+    from rig.assembly.memory import check_memory, scan_memory
+    from rig.errors import ConfigError
+
+    data = small_config_data()
+    data["cameras"][0]["resolution"] = [8192, 8192]  # within the documented bounds
+    config = load_config(write_config(tmp_path, data))
+    needs = scan_memory(config)
+    assert max(needs, key=needs.__getitem__) == "cameras[0].resolution"
+    with pytest.raises(ConfigError, match=r"cameras\[0\].resolution: a scan of this rig needs about"):
+        check_memory(config, available=sum(needs.values()) // 2)
+    check_memory(config, available=10 * sum(needs.values()))  # where it fits, it is not refused
+    if sum(needs.values()) > os.sysconf("SC_PHYS_PAGES") * os.sysconf("SC_PAGE_SIZE"):
+        with pytest.raises(ConfigError, match=r"cameras\[0\].resolution"):
+            open_rig(config)  # refused before anything is allocated
+    huge = small_config_data()
+    huge["projectors"][0]["resolution"] = [16384, 16384]
+    config = load_config(write_config(tmp_path, huge, "huge.yaml"))
+    with pytest.raises(ConfigError, match=r"projectors\[0\].resolution"):
+        check_memory(config, available=1 << 30)

@@ -51,6 +51,10 @@ class Scene:
     texture: SolidTexture | None = None  # paints every object, in place of its albedo
 
 
+MAX_MESH_FILE_BYTES = 512 << 20
+MAX_MESH_FACES = 5_000_000  # the ray caster's tree and the per-face tables fit in a few GB
+
+
 def build_scene(objects: list[SceneObject], texture: SolidTexture | None = None) -> Scene:
     if not objects:
         raise ValueError("a scene needs at least one object")
@@ -192,17 +196,20 @@ def mesh_file(
     largest extent is `fit_size_mm`), rotated (x, y, z Euler angles, degrees) and placed so that the
     centre of its base sits at `position_mm`.
 
-    Raises FileNotFoundError for a missing file and ValueError for one with no triangles.
+    Raises FileNotFoundError for a missing file and ValueError for one that is too large, has no
+    triangles, has vertices that are not finite, or only triangles of zero area (those of zero area
+    among others are dropped).
     """
     path = Path(path)
     if not path.is_file():
         raise FileNotFoundError(f"mesh file not found: {path}")
+    if path.stat().st_size > MAX_MESH_FILE_BYTES:
+        raise ValueError(f"mesh file {path} is over {MAX_MESH_FILE_BYTES >> 20} MiB; decimate it first")
     try:
-        mesh = trimesh.load(path, force="mesh", process=True)
+        mesh = trimesh.load(path, force="mesh", process=False)
     except Exception as exc:  # trimesh raises many types for bad files
         raise ValueError(f"cannot read mesh file {path}: {exc}") from exc
-    if not isinstance(mesh, trimesh.Trimesh) or len(mesh.faces) == 0:
-        raise ValueError(f"mesh file {path} has no triangles")
+    mesh = _usable(mesh, path)
     mesh.apply_translation(-mesh.bounds.mean(axis=0))
     if fit_size_mm is not None:
         scale = fit_size_mm / float(np.max(mesh.extents))
@@ -210,6 +217,29 @@ def mesh_file(
     base = np.array([*mesh.bounds.mean(axis=0)[:2], mesh.bounds[0, 2]])
     mesh.apply_translation(np.asarray(position_mm, float) - base)
     return _object(path.stem, mesh, albedo)
+
+
+def _usable(mesh: object, path: Path) -> trimesh.Trimesh:
+    """The mesh's triangles of non-zero area, or ValueError saying why there are none to use."""
+    if not isinstance(mesh, trimesh.Trimesh) or len(mesh.faces) == 0:
+        raise ValueError(f"mesh file {path} has no triangles")
+    if len(mesh.faces) > MAX_MESH_FACES:
+        raise ValueError(f"mesh file {path} has {len(mesh.faces)} triangles, over {MAX_MESH_FACES}; decimate it first")
+    bad = ~np.isfinite(mesh.vertices).all(axis=1)
+    if bad.any():
+        raise ValueError(f"mesh file {path}: {int(bad.sum())} vertices are not finite numbers (NaN or infinity)")
+    if mesh.faces.max() >= len(mesh.vertices):
+        raise ValueError(f"mesh file {path}: a triangle names a vertex that is not in the file")
+    extent = float(np.max(mesh.extents))
+    area = mesh.area_faces
+    kept = area > (1e-12 * extent * extent)
+    if extent <= 0 or not kept.any():
+        raise ValueError(f"mesh file {path}: every triangle has zero area (its vertices coincide or lie on a line)")
+    if not kept.all():
+        mesh.update_faces(kept)
+    mesh.remove_unreferenced_vertices()
+    mesh.merge_vertices()
+    return mesh
 
 
 def _pose(

@@ -18,6 +18,9 @@ LABEL_PATTERN = f"^{LABEL.pattern}$"
 CodecName = Literal[tuple(codec_names())]  # type: ignore[valid-type]
 
 
+MAX_REST_VIEWS = 40  # about 3 s of capture and analysis per view of the default bench
+
+
 class _Request(BaseModel):
     model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
 
@@ -87,7 +90,13 @@ class IdentifyRequest(_Request):
 
 class CalibrationRequest(_Request):
     what: Literal["camera", "projector", "rig", "response"] = "rig"
-    views: int | None = Field(None, ge=3, le=200, description="views to capture; default: the config's")
+    views: int | None = Field(
+        None,
+        ge=3,
+        le=MAX_REST_VIEWS,
+        description=f"views to capture (default: the config's, at most {MAX_REST_VIEWS}): one request holds the "
+        "rig for minutes at most; longer sessions from the CLI",
+    )
 
 
 class JobView(BaseModel):

@@ -11,6 +11,7 @@ from typing import Any
 import numpy as np
 
 from drivers.base import Camera, Device, Projector
+from rig.assembly.memory import check_memory
 from rig.assembly.world import World
 from rig.calibrate.files import JSON_NAME, load_calibration
 from rig.calibrate.response import load_response_luts
@@ -111,7 +112,9 @@ def rig_geometry(config: RigConfig) -> tuple[list[CameraModel], list[CameraModel
 def open_rig(config: RigConfig, with_devices: bool = True) -> Rig:
     """Open every device of `config` (housekeeping first, then projectors, then cameras; on any
     failure everything opened is closed again). Without devices, a rig of geometry only (and the
-    simulated bench's ground truth), for reprocessing stored frames."""
+    simulated bench's ground truth), for reprocessing stored frames. ConfigError, before anything
+    is allocated, for a rig whose scan would need more memory than the machine has available."""
+    check_memory(config)
     projector_models = [geometry_model(p.geometry, p.resolution) for p in config.projectors]
     camera_models = [geometry_model(c.geometry, c.resolution) for c in config.cameras]
     world = world_of(config, camera_models, projector_models)  # the true geometry, whatever reconstruction uses

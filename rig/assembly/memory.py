@@ -1,0 +1,84 @@
+"""The memory a scan of a rig needs, estimated from its resolutions before anything is allocated:
+a rig this machine cannot hold is refused naming the field (ConfigError), instead of exhausting
+memory halfway through a scan.
+
+The coefficients were measured (peak RSS of scans at several camera and projector resolutions,
+each codec; `python bench/memory_model.py`) and rounded up: what a scan holds per camera pixel
+(frames, decoding, triangulation, the cloud), per projector pixel (its patterns, the decoder's
+tables), and what the simulated bench adds per pixel (its ray cast, lighting and rendering).
+"""
+
+from __future__ import annotations
+
+import os
+
+from rig.config import RigConfig
+from rig.errors import ConfigError
+from rig.patterns.registry import codec_class
+
+GB = 1 << 30
+FIXED_BYTES = 400 << 20  # the interpreter, numpy, OpenCV, the web stack: a process before a scan
+CAMERA_BYTES_PER_PIXEL = 260  # per camera pixel and projector lighting it: decode, triangulate, cloud
+SIM_CAMERA_BYTES_PER_PIXEL = 190  # the simulated bench per camera pixel: rays, hits, lighting, render
+PROJECTOR_BYTES_PER_PIXEL = 20  # per projector pixel: the pattern being shown, the decoder's tables
+SIM_PROJECTOR_BYTES_PER_PIXEL = 12  # the simulated projector's light (float32) and its blur
+
+
+def frames_per_scan(config: RigConfig, projector: int) -> int:
+    name = config.scan.codec
+    return codec_class(name)(
+        tuple(config.projectors[projector].resolution), getattr(config.scan, name, None), None
+    ).frame_count
+
+
+def scan_memory(config: RigConfig) -> dict[str, int]:
+    """Bytes a scan of `config` needs, by the field that causes them (beside FIXED_BYTES)."""
+    simulated = config.simulated
+    frames = [frames_per_scan(config, p) for p in range(len(config.projectors))]
+    needs: dict[str, int] = {}
+    for c, camera in enumerate(config.cameras):
+        pixels = camera.resolution[0] * camera.resolution[1]
+        sample = (3 if camera.color else 1) * (2 if camera.bit_depth > 8 else 1)
+        held = pixels * (sum(frames) * sample + CAMERA_BYTES_PER_PIXEL * len(config.projectors))
+        needs[f"cameras[{c}].resolution"] = held + (pixels * SIM_CAMERA_BYTES_PER_PIXEL if simulated else 0)
+    for p, projector in enumerate(config.projectors):
+        pixels = projector.resolution[0] * projector.resolution[1]
+        per_pixel = PROJECTOR_BYTES_PER_PIXEL + (SIM_PROJECTOR_BYTES_PER_PIXEL if simulated else 0)
+        needs[f"projectors[{p}].resolution"] = pixels * per_pixel
+    return needs
+
+
+def available_memory() -> int | None:
+    """Memory this process can take without swapping (MemAvailable), or None where unknown."""
+    try:
+        with open("/proc/meminfo", encoding="ascii") as meminfo:
+            for line in meminfo:
+                if line.startswith("MemAvailable:"):
+                    return int(line.split()[1]) * 1024
+    except (OSError, ValueError, IndexError):
+        pass
+    try:
+        return os.sysconf("SC_AVPHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")
+    except (ValueError, OSError):
+        return None
+
+
+def check_memory(config: RigConfig, available: int | None = None) -> None:
+    """ConfigError naming the resolution that needs the most when a scan needs more memory than
+    is available."""
+    available = available_memory() if available is None else available
+    if available is None:
+        return
+    needs = scan_memory(config)
+    total = FIXED_BYTES + sum(needs.values())
+    if total <= available:
+        return
+    field = max(needs, key=needs.__getitem__)
+    raise ConfigError(
+        field,
+        [
+            f"{field}: a scan of this rig needs about {total / GB:.1f} GB of memory ({needs[field] / GB:.1f} GB "
+            f"for this device), more than the {available / GB:.1f} GB this machine has available; "
+            "use a lower resolution (or a region of interest) or a machine with more memory"
+        ],
+    )
