@@ -16,12 +16,15 @@ from rig.config import RigConfig
 from rig.errors import ConfigError
 from rig.patterns.registry import codec_class
 
-GB = 1 << 30
-FIXED_BYTES = 400 << 20  # the interpreter, numpy, OpenCV, the web stack: a process before a scan
-CAMERA_BYTES_PER_PIXEL = 260  # per camera pixel and projector lighting it: decode, triangulate, cloud
-SIM_CAMERA_BYTES_PER_PIXEL = 190  # the simulated bench per camera pixel: rays, hits, lighting, render
-PROJECTOR_BYTES_PER_PIXEL = 20  # per projector pixel: the pattern being shown, the decoder's tables
-SIM_PROJECTOR_BYTES_PER_PIXEL = 12  # the simulated projector's light (float32) and its blur
+GB = 1_000_000_000
+# Fitted on the simulated bench (27 scans: gray, phase, rings; cameras 640x512 to 2560x2048,
+# projectors 512x384 to 2048x1536): 171 MB + 337.5 B per camera pixel (its ~22 frames included) +
+# 45 B per projector pixel; rounded up so that no measured peak is above the estimate.
+FIXED_BYTES = 200_000_000  # the interpreter, numpy, OpenCV, the web stack: a process before a scan
+CAMERA_BYTES_PER_PIXEL = 220  # per camera pixel and projector lighting it: decode, triangulate, cloud
+SIM_CAMERA_BYTES_PER_PIXEL = 120  # the simulated bench per camera pixel: rays, hits, lighting, render
+PROJECTOR_BYTES_PER_PIXEL = 40  # per projector pixel: the pattern being shown, the decoder's tables
+SIM_PROJECTOR_BYTES_PER_PIXEL = 20  # the simulated projector's light (float32) and its blur
 
 
 def frames_per_scan(config: RigConfig, projector: int) -> int:

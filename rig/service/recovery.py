@@ -1,10 +1,10 @@
 """What a crash can leave in the data directory, and how start-up and deletion keep it whole.
 
-A deletion renames the job's folder to a hidden `.<id>.<random>.deleting` first, then deletes the
-record, then the folder: a crash at any point leaves a `.deleting` folder whose job start-up
-finishes deleting (record too). A scan is written to `<id>.partial` and renamed when complete, so
-start-up removes every `.partial`. A folder named like a job with no record (left by a crash of
-an older slrig, which deleted the record first) is removed too.
+A scan or a calibration is written to `<id>.partial` and renamed when complete: start-up removes
+every `.partial`. A deletion renames the job's folder to a hidden `.<id>.<random>.deleting` first,
+then deletes the record, then the folder: a crash at any point leaves a `.deleting` folder whose
+job start-up finishes deleting (record too). A folder named like a job with no record (left by a
+crash of an older slrig, which deleted the record first) is removed too.
 """
 
 from __future__ import annotations

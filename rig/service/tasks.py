@@ -3,6 +3,7 @@ stored result. The CLI runs these directly; the job service runs them in its wor
 
 from __future__ import annotations
 
+import shutil
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
@@ -19,6 +20,7 @@ from rig.rig import Rig
 from rig.service.adaptive import adaptive_scan
 from rig.service.imports import reconstruction_inputs
 from rig.service.reconstruct import reconstruct_folder
+from rig.store.atomic import publish_folder
 from rig.store.scandir import read_frames, write_scan
 
 
@@ -116,17 +118,24 @@ def calibration_to_directory(
     the_rig: Rig, what: str, out: Path, views: int | None = None, progress: ProgressCallback | None = None
 ) -> dict[str, Any]:
     """A calibration session (camera, projector, rig) or a response measurement, written into
-    `out`; its summary and the files it wrote."""
+    `out` (through `<out>.partial`, so `out` is complete or absent); its summary and files."""
     tracker = ProgressTracker(progress)
     tracker.report("capture", 0.05)
-    if what == "response":
-        document = calibrate_response(the_rig, out)
-        summary: dict[str, Any] = {"projectors": document["projectors"]}
-    else:
-        outcome = calibrate(the_rig, what, out, views)  # type: ignore[arg-type]
-        summary = {"sha256": outcome.sha256, "views": outcome.views, "report": outcome.report}
+    partial = out.with_name(out.name + ".partial")
+    try:
+        if what == "response":
+            document = calibrate_response(the_rig, partial)
+            summary: dict[str, Any] = {"projectors": document["projectors"]}
+        else:
+            outcome = calibrate(the_rig, what, partial, views)  # type: ignore[arg-type]
+            summary = {"sha256": outcome.sha256, "views": outcome.views, "report": outcome.report}
+        files = sorted(p.name for p in partial.iterdir() if p.is_file()) if partial.is_dir() else []
+        if partial.is_dir():
+            publish_folder(partial, out)
+    except BaseException:
+        shutil.rmtree(partial, ignore_errors=True)
+        raise
     tracker.report("done", 1.0)
-    files = sorted(p.name for p in out.iterdir() if p.is_file()) if out.is_dir() else []
     return {**summary, "files": files}
 
 

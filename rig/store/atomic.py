@@ -71,3 +71,11 @@ def rename_no_replace(src: Path, dst: Path) -> None:
     if os.path.lexists(dst):
         raise FileExistsError(errno.EEXIST, "already exists", str(dst))
     os.rename(src, dst)
+
+
+def publish_folder(partial: Path, target: Path) -> None:
+    """Make a completely written folder visible under its final name, durably; FileExistsError
+    rather than replace one that is there."""
+    fsync_dir(partial)
+    rename_no_replace(partial, target)
+    fsync_dir(target.parent)

@@ -24,7 +24,7 @@ from rig.errors import StoreError
 from rig.pipeline.capture import CUE
 from rig.pipeline.scan import PairResult, ScanResult
 from rig.rig import Rig
-from rig.store.atomic import fsync_dir, rename_no_replace, write_atomic
+from rig.store.atomic import fsync_dir, publish_folder, write_atomic
 from rig.store.images import depth_png, mask_png, preview_png
 from rig.store.ply import mesh_ply_bytes, ply_bytes
 
@@ -187,9 +187,7 @@ def write_scan(
             files["frames"] = _write_frames(the_rig, result, partial)
         manifest = build_manifest(the_rig, result, scan_id, files, metrics, origin)
         write_atomic(partial / "manifest.json", json.dumps(manifest, indent=2, allow_nan=False).encode())
-        fsync_dir(partial)
-        rename_no_replace(partial, target)
-        fsync_dir(target.parent)
+        publish_folder(partial, target)
     except FileExistsError:
         raise StoreError(f"output directory already exists, not overwriting: {target}") from None
     except OSError as exc:
