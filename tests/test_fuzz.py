@@ -72,10 +72,14 @@ VALUES = st.recursive(
 KEYS = st.one_of(st.text(min_size=1, max_size=20), st.sampled_from(["my-key", "capture-timeout-s", "1x", "ü", " "]))
 
 
-def _replace(data: Any, path: tuple[Any, ...], value: Any) -> None:
+def _parent(data: Any, path: tuple[Any, ...]) -> Any:
+    """The container of `path`'s last step, or None where an earlier mutation replaced the way."""
     for key in path[:-1]:
-        data = data[key]
-    data[path[-1]] = value
+        try:
+            data = data[key]
+        except (KeyError, IndexError, TypeError):
+            return None
+    return data if isinstance(data, (dict, list)) else None
 
 
 @st.composite
@@ -83,14 +87,14 @@ def mutated_configs(draw: st.DrawFn) -> bytes:
     data = json.loads(json.dumps(BASE))
     for _ in range(draw(st.integers(1, 3))):
         path = draw(st.sampled_from(PATHS))
+        parent = _parent(data, path)
+        if parent is None:
+            continue
         if draw(st.booleans()):
-            _replace(data, path, draw(VALUES))
-        else:  # an unknown key beside a known one
-            parent: Any = data
-            for key in path[:-1]:
-                parent = parent[key]
-            if isinstance(parent, dict):
-                parent[draw(KEYS)] = draw(VALUES)
+            if isinstance(parent, dict) or path[-1] < len(parent):
+                parent[path[-1]] = draw(VALUES)
+        elif isinstance(parent, dict):  # an unknown key beside a known one
+            parent[draw(KEYS)] = draw(VALUES)
     text = yaml.safe_dump(data, allow_unicode=True)
     encoding = draw(st.sampled_from(["utf-8", "utf-16", "latin-1", "garbage"]))
     if encoding == "garbage":
