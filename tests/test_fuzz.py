@@ -25,6 +25,14 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from drivers.sim.scene import mesh_file
+from rig.api.models import (
+    CalibrationRequest,
+    GalleryAddRequest,
+    IdentifyRequest,
+    ReconstructionRequest,
+    ReprocessRequest,
+    ScanRequest,
+)
 from rig.config import load_config
 from rig.errors import ConfigError
 from tests.conftest import small_config_data
@@ -172,24 +180,35 @@ def test_a_fuzzed_mesh_file_gives_a_usable_mesh_or_a_clear_refusal(tmp_path: Pat
 
 # --- request bodies ----------------------------------------------------------------------------
 
-JSON_TEXT = st.one_of(
-    st.recursive(
-        st.none() | st.booleans() | st.integers() | st.floats() | st.text(max_size=20),
-        lambda inner: st.lists(inner, max_size=4) | st.dictionaries(st.text(max_size=10), inner, max_size=5),
-        max_leaves=10,
-    ).map(lambda v: json.dumps(v, allow_nan=True)),
-    st.dictionaries(
-        st.sampled_from(["codec", "label", "keep_frames", "adaptive", "tolerance_mm", "plan", "views", "what"]),
-        st.one_of(SCALARS, st.sampled_from(["NaN", "1e999", '"\\ud800"'])),
-        max_size=4,
-    ).map(lambda d: "{" + ", ".join(f'"{k}": {_raw(v)}' for k, v in d.items()) + "}"),
-    st.binary(max_size=60).map(lambda b: b.decode("latin-1")),
-)
+BODIES = {  # every operation that takes a JSON body, and the model that reads it
+    "/v1/scans": ScanRequest,
+    "/v1/calibrations": CalibrationRequest,
+    "/v1/gallery": GalleryAddRequest,
+    "/v1/reconstructions": ReconstructionRequest,
+    "/v1/scans/20261125-000000-abcdef/reprocess": ReprocessRequest,
+    "/v1/scans/20261125-000000-abcdef/identify": IdentifyRequest,
+}
+UNREPRESENTABLE = ["NaN", "-Infinity", "1e999", '"\\ud800"', '"a\\udfffb"']  # JSON that cannot echo them
+
+
+@st.composite
+def bodies(draw: st.DrawFn) -> tuple[str, str]:
+    """An operation and a body for it: arbitrary JSON, the model's own fields with any values
+    (non-finite numbers and lone surrogates among them), or bytes that are not JSON at all."""
+    url = draw(st.sampled_from(sorted(BODIES)))
+    fields = sorted(BODIES[url].model_fields)
+    kind = draw(st.sampled_from(["json", "fields", "bytes"]))
+    if kind == "json":
+        return url, json.dumps(draw(VALUES), allow_nan=True)
+    if kind == "bytes":
+        return url, draw(st.binary(max_size=60)).decode("latin-1")
+    chosen = draw(st.dictionaries(st.sampled_from(fields), st.one_of(VALUES, st.sampled_from(UNREPRESENTABLE))))
+    return url, "{" + ", ".join(f"{json.dumps(k)}: {_raw(v)}" for k, v in chosen.items()) + "}"
 
 
 def _raw(value: Any) -> str:
     """A JSON value, or a token JSON has no value for (NaN, 1e999, a lone surrogate) as it is."""
-    if isinstance(value, str) and value in ("NaN", "1e999", '"\\ud800"'):
+    if isinstance(value, str) and value in UNREPRESENTABLE:
         return value
     return json.dumps(value, allow_nan=True)
 
@@ -203,8 +222,9 @@ def idle_client(tmp_path_factory: pytest.TempPathFactory) -> Iterator[TestClient
 
 
 @FUZZ
-@given(st.sampled_from(["/v1/scans", "/v1/calibrations", "/v1/gallery", "/v1/reconstructions"]), JSON_TEXT)
-def test_a_fuzzed_request_body_gets_an_answer_not_a_500(idle_client: TestClient, url: str, body: str) -> None:
+@given(bodies())
+def test_a_fuzzed_request_body_gets_an_answer_not_a_500(idle_client: TestClient, request_body: tuple[str, str]) -> None:
+    url, body = request_body
     answer = idle_client.post(
         url, content=body.encode("utf-8", "surrogatepass"), headers={**AUTH, "Content-Type": "application/json"}
     )

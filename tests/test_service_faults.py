@@ -5,7 +5,8 @@ written is injected (SQLite's query_only), since a full tmpfs need not fail a WA
 
 from __future__ import annotations
 
-import contextlib
+import errno
+import hashlib
 import os
 import shutil
 import subprocess
@@ -43,6 +44,11 @@ def _service(tmp_path: Path, data_dir: Path | None = None, **camera_faults: Any)
 
 def _client(service: JobService) -> TestClient:
     return TestClient(create_app(service, ApiSettings(api_key=KEY)), base_url="http://localhost")
+
+
+def _folder_digest(folder: Path) -> dict[str, str]:
+    files = sorted(p for p in folder.rglob("*") if p.is_file())
+    return {str(p.relative_to(folder)): hashlib.sha256(p.read_bytes()).hexdigest() for p in files}
 
 
 def _refuse_writes(store: JobStore, refuse: bool) -> None:
@@ -110,59 +116,87 @@ def test_a_job_whose_database_write_fails_still_ends_and_the_service_says_so(tmp
     reread.close()
 
 
-@contextlib.contextmanager
-def _tmpfs(path: Path, megabytes: int) -> Iterator[Path]:
-    path.mkdir(parents=True)
+class _Disk:
+    """A disk that can be filled: a real tmpfs (root only) or, elsewhere, an injected one whose
+    free space reads low and whose scan writes fail with ENOSPC."""
+
+    def __init__(self, folder: Path, monkeypatch: pytest.MonkeyPatch, real: bool) -> None:
+        self.folder, self.monkeypatch, self.real = folder, monkeypatch, real
+        self.ballast = folder / "ballast"
+
+    def fill(self, leave_bytes: int) -> None:
+        if self.real:
+            with self.ballast.open("wb") as f:
+                while shutil.disk_usage(self.folder).free > leave_bytes + (1 << 20):
+                    f.write(b"\0" * (1 << 20))
+                f.write(b"\0" * max(0, shutil.disk_usage(self.folder).free - leave_bytes))
+            return
+        usage = shutil.disk_usage(self.folder)
+        full = type(usage)(usage.total, usage.total - leave_bytes, leave_bytes)
+        self.monkeypatch.setattr("rig.service.space.shutil.disk_usage", lambda path: full)
+
+        def no_space(path: object, data: bytes) -> None:
+            raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC), str(path))
+
+        self.monkeypatch.setattr("rig.store.scandir.write_atomic", no_space)
+
+    def free(self) -> None:
+        if self.real:
+            self.ballast.unlink()
+        else:
+            self.monkeypatch.undo()
+
+
+@pytest.fixture(params=["tmpfs", "injected"])
+def disk(request: pytest.FixtureRequest, tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Iterator[_Disk]:
+    folder = tmp_path / "disk"
+    folder.mkdir()
+    if request.param == "injected":
+        yield _Disk(folder, monkeypatch, real=False)
+        return
     if os.geteuid() != 0:
-        pytest.skip("a real full disk needs a tmpfs, which only root can mount (the injected fault runs anyway)")
-    mounted = subprocess.run(["mount", "-t", "tmpfs", "-o", f"size={megabytes}m", "tmpfs", str(path)], check=False)
-    if mounted.returncode != 0:
+        pytest.skip("a real full disk needs a tmpfs, which only root can mount (the injected one runs anyway)")
+    size = f"size={RESERVE_BYTES // 1_000_000 + 40}m"
+    if subprocess.run(["mount", "-t", "tmpfs", "-o", size, "tmpfs", str(folder)], check=False).returncode:
         pytest.skip("this machine does not let root mount a tmpfs (a container without CAP_SYS_ADMIN)")
     try:
-        yield path
+        yield _Disk(folder, monkeypatch, real=True)
     finally:
-        subprocess.run(["umount", "-l", str(path)], check=False)
+        subprocess.run(["umount", "-l", str(folder)], check=False)
 
 
-def _fill(folder: Path, leave_bytes: int) -> Path:
-    ballast = folder / "ballast"
-    with ballast.open("wb") as f:
-        chunk = b"\0" * (1 << 20)
-        while shutil.disk_usage(folder).free > leave_bytes + len(chunk):
-            f.write(chunk)
-        f.write(b"\0" * max(0, shutil.disk_usage(folder).free - leave_bytes))
-    return ballast
+def test_a_full_disk_refuses_scans_with_507_and_fails_the_one_that_fills_it(tmp_path: Path, disk: _Disk) -> None:
+    service = _service(tmp_path, disk.folder / "data")
+    try:
+        with _client(service) as client:
+            stored = wait_done(client, client.post("/v1/scans", json={}, headers=AUTH).json()["id"])["id"]
+            before = _folder_digest(service.scans_dir / stored)
+            disk.fill(RESERVE_BYTES // 2)
+            refused = client.post("/v1/scans", json={}, headers=AUTH)
+            assert refused.status_code == 507 and "MB free" in refused.json()["detail"]
+            health = client.get("/v1/health").json()
+            assert health["status"] == "degraded" and any("MB free" in p for p in health["problems"])
+            disk.free()
+            progress = service.store.progress
+            filled: list[str] = []
 
+            def fill_at_store(job_id: str, stage: str, fraction: float) -> None:
+                if stage == "store" and not filled:  # the scan is about to be written: fill the disk
+                    disk.fill(0)
+                    filled.append(job_id)
+                progress(job_id, stage, fraction)
 
-def test_a_full_disk_refuses_scans_with_507_and_fails_the_one_that_fills_it(tmp_path: Path) -> None:
-    with _tmpfs(tmp_path / "disk", RESERVE_BYTES // 1_000_000 + 40) as disk:
-        service = _service(tmp_path, disk / "data")
-        try:
-            with _client(service) as client:
-                ballast = _fill(disk, RESERVE_BYTES // 2)
-                refused = client.post("/v1/scans", json={}, headers=AUTH)
-                assert refused.status_code == 507 and "MB free" in refused.json()["detail"]
-                health = client.get("/v1/health").json()
-                assert health["status"] == "degraded" and any("MB free" in p for p in health["problems"])
-                ballast.unlink()
-                progress = service.store.progress
-                filled = []
-
-                def fill_at_store(job_id: str, stage: str, fraction: float) -> None:
-                    if stage == "store" and not filled:  # the scan is about to be written: fill the disk
-                        filled.append(_fill(disk, 0))
-                    progress(job_id, stage, fraction)
-
-                service.store.progress = fill_at_store  # type: ignore[method-assign]
-                job = wait_done(client, client.post("/v1/scans", json={}, headers=AUTH).json()["id"], timeout_s=60)
-                assert filled and job["state"] == "failed" and "No space left on device" in job["error"]
-                assert not list(service.scans_dir.iterdir())  # the half-written scan is gone, its space free
-                filled[0].unlink()
-                service.store.progress = progress  # type: ignore[method-assign]
-                again = wait_done(client, client.post("/v1/scans", json={}, headers=AUTH).json()["id"], timeout_s=60)
-                assert again["state"] == "done" and client.get("/v1/health").json()["status"] == "ok"
-        finally:
-            service.shutdown(5.0)
+            service.store.progress = fill_at_store  # type: ignore[method-assign]
+            job = wait_done(client, client.post("/v1/scans", json={}, headers=AUTH).json()["id"], timeout_s=60)
+            assert filled and job["state"] == "failed" and "No space left on device" in job["error"]
+            assert [p.name for p in service.scans_dir.iterdir()] == [stored]  # the half-written one is gone
+            disk.free()
+            service.store.progress = progress  # type: ignore[method-assign]
+            again = wait_done(client, client.post("/v1/scans", json={}, headers=AUTH).json()["id"], timeout_s=60)
+            assert again["state"] == "done" and client.get("/v1/health").json()["status"] == "ok"
+            assert _folder_digest(service.scans_dir / stored) == before  # nothing stored changed
+    finally:
+        service.shutdown(5.0)
 
 
 def test_a_stale_frame_fails_the_job_and_the_rig_reports_the_fault(tmp_path: Path) -> None:
@@ -282,10 +316,6 @@ else:
 print(job.id, flush=True)
 time.sleep(120)  # killed long before
 """
-
-
-def _folder_digest(folder: Path) -> dict[str, int]:
-    return {str(p.relative_to(folder)): hash(p.read_bytes()) for p in sorted(folder.rglob("*")) if p.is_file()}
 
 
 @pytest.mark.parametrize("operation", ["scan", "reprocess", "calibration"])
