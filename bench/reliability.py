@@ -5,7 +5,8 @@ the simulated bench; prints one JSON object (and with --readme rewrites the READ
   the latency of /v1/health meanwhile (20 requests);
 - a connection that sends nothing and one whose body stalls: seconds until the daemon closes the
   first and answers the second 408 (with header_timeout_s and body_stall_s of 2 s);
-- SIGKILL at a random moment of a DELETE, then a restart: folders or records left behind;
+- SIGKILL at a random moment of a scan (capture, decode or store) and of a DELETE, then a restart:
+  whether the stored scan changed, a folder lost its record or a record its files (lost);
 - a full disk (a tmpfs, where this runs as root): the answer to a new scan, the health report,
   and the state a scan ends in when the disk fills while it is written.
 
@@ -16,6 +17,7 @@ from __future__ import annotations
 
 import argparse
 import contextlib
+import hashlib
 import json
 import os
 import platform
@@ -153,30 +155,57 @@ def connections(folder: Path) -> dict[str, Any]:
         daemon.kill()
 
 
-def kills_during_delete(folder: Path, tries: int, seed: int = 3) -> dict[str, Any]:
+def _digest(folder: Path) -> dict[str, str]:
+    files = sorted(p for p in folder.rglob("*") if p.is_file())
+    return {str(p.relative_to(folder)): hashlib.sha256(p.read_bytes()).hexdigest() for p in files}
+
+
+def _store_whole(url: str, scans: Path, keeper: str, before: dict[str, str]) -> list[str]:
+    """What a restart found wrong: the stored scan changed, a folder without a record or a record
+    of a finished scan without its folder, a half-written or half-deleted folder left."""
+    wrong = [] if _digest(scans / keeper) == before else [f"{keeper} changed"]
+    listed = {job["id"]: job for job in httpx.get(f"{url}/v1/scans", params={"limit": 100}).json()["items"]}
+    for path in scans.iterdir():
+        if path.name not in listed:
+            wrong.append(f"{path.name}: no record")
+    for job_id, job in listed.items():
+        if job["state"] == "done" and not all((scans / job_id / name).is_file() for name in job["result"]["files"]):
+            wrong.append(f"{job_id}: files missing")
+        if job["state"] != "done" and (scans / job_id).exists():
+            wrong.append(f"{job_id}: a folder for a job that is {job['state']}")
+    return wrong
+
+
+def kill_cycles(folder: Path, operation: str, tries: int, seed: int = 3) -> dict[str, Any]:
+    """SIGKILL during a scan (while it captures or stores) or during a DELETE, then a restart."""
     rng = random.Random(seed)
-    data_dir = folder / "kills"
+    data_dir = folder / f"kill-{operation}"
     config = _config(folder, data_dir)
-    left = 0
+    daemon = Daemon(config, folder / "k.log")
+    keeper = _wait_done(daemon.url, httpx.post(f"{daemon.url}/v1/scans", json={}, headers=AUTH).json()["id"])["id"]
+    daemon.kill()
+    before = _digest(data_dir / "scans" / keeper)
+    lost = 0
     for attempt in range(tries):
         daemon = Daemon(config, folder / "k.log")
         job_id = httpx.post(f"{daemon.url}/v1/scans", json={"keep_frames": True}, headers=AUTH).json()["id"]
-        _wait_done(daemon.url, job_id)
-        delay = rng.uniform(0.0, 0.03)
-        with httpx.Client(base_url=daemon.url) as client, contextlib.suppress(httpx.TimeoutException):
-            client.delete(f"/v1/scans/{job_id}", headers=AUTH, timeout=delay or 0.001)
+        if operation == "scan":
+            time.sleep(rng.uniform(0.05, 1.5))  # capture, decode or store
+        else:
+            _wait_done(daemon.url, job_id)
+            with httpx.Client(base_url=daemon.url) as client, contextlib.suppress(httpx.TimeoutException):
+                client.delete(f"/v1/scans/{job_id}", headers=AUTH, timeout=rng.uniform(0.001, 0.03))
         os.kill(daemon.process.pid, signal.SIGKILL)
         daemon.process.wait(10)
         restarted = Daemon(config, folder / "k.log")
-        record = httpx.get(f"{restarted.url}/v1/scans/{job_id}").status_code
-        folders = [p.name for p in (data_dir / "scans").iterdir()]
-        if (record == 404) != (not folders) or any(name.endswith(".deleting") for name in folders):
-            left += 1  # a record without its folder, a folder without its record, a hidden leftover
-        elif record == 200:
+        wrong = _store_whole(restarted.url, data_dir / "scans", keeper, before)
+        lost += bool(wrong)
+        state = httpx.get(f"{restarted.url}/v1/scans/{job_id}").json().get("state", "deleted")
+        print(f"{operation} kill {attempt + 1}/{tries}: job {state}; {wrong or 'whole'}", file=sys.stderr)
+        if state != "deleted":
             httpx.delete(f"{restarted.url}/v1/scans/{job_id}", headers=AUTH)
         restarted.kill()
-        print(f"kill {attempt + 1}/{tries}: record {record}, folders {folders}", file=sys.stderr)
-    return {"tries": tries, "left_behind": left}
+    return {"tries": tries, "lost": lost}
 
 
 def full_disk(folder: Path) -> dict[str, Any]:
@@ -191,7 +220,10 @@ def full_disk(folder: Path) -> dict[str, Any]:
     ):
         return {"skipped": "a tmpfs needs root"}
     daemon = Daemon(_config(folder, disk / "data"), folder / "d.log")
+    scans = disk / "data" / "scans"
     try:
+        keeper = _wait_done(daemon.url, httpx.post(f"{daemon.url}/v1/scans", json={}, headers=AUTH).json()["id"])["id"]
+        before = _digest(scans / keeper)
         ballast = disk / "ballast"
         with ballast.open("wb") as f:
             while shutil.disk_usage(disk).free > RESERVE_BYTES // 2 + (1 << 20):
@@ -202,6 +234,7 @@ def full_disk(folder: Path) -> dict[str, Any]:
         after = httpx.post(f"{daemon.url}/v1/scans", json={}, headers=AUTH)
         done = _wait_done(daemon.url, after.json()["id"])["state"] if after.status_code == 202 else None
         return {
+            "lost": len(_store_whole(daemon.url, scans, keeper, before)),
             "new_scan_status": refused.status_code,
             "health": health["status"],
             "health_problem": (health.get("problems") or [""])[0][:80],
@@ -222,7 +255,8 @@ def main() -> None:
         result = {
             "machine": f"{platform.machine()}, {os.cpu_count()} cores, Python {platform.python_version()}",
             "connections": connections(folder),
-            "delete_killed": kills_during_delete(folder, args.kills),
+            "scan_killed": kill_cycles(folder, "scan", args.kills),
+            "delete_killed": kill_cycles(folder, "delete", args.kills),
             "full_disk": full_disk(folder),
         }
     print(json.dumps(result, indent=2))
@@ -231,35 +265,37 @@ def main() -> None:
 
 
 def _table(result: dict[str, Any]) -> str:
-    c, k, d = result["connections"], result["delete_killed"], result["full_disk"]
+    c, d = result["connections"], result["full_disk"]
     rows = [
         [
             "200 idle connections + a burst of 200 event streams",
-            "streams capped, health answered",
-            f"{c['streams_accepted']} accepted, {c['streams_refused_503']} refused 503; health median "
-            f"{c['health_ms_median']} ms, max {c['health_ms_max']} ms",
+            "1 burst, 20 health checks",
+            0,
+            f"{c['streams_accepted']} streams accepted, {c['streams_refused_503']} refused 503; health answered "
+            f"in {c['health_ms_median']} ms median, {c['health_ms_max']} ms at most",
         ],
+        ["a connection that sends nothing", 1, 0, f"closed after {c['silent_connection_closed_s']} s (timeout 2 s)"],
         [
-            "a connection that sends nothing (header_timeout_s 2)",
-            "closed",
-            f"after {c['silent_connection_closed_s']} s",
+            "a request body that stalls",
+            1,
+            0,
+            f"{c['stalled_body_status']} after {c['stalled_body_answered_s']} s (body_stall_s 2)",
         ],
-        [
-            "a body that stalls (body_stall_s 2)",
-            "408",
-            f"{c['stalled_body_status']} after {c['stalled_body_answered_s']} s",
-        ],
-        ["SIGKILL during DELETE, then restart", "nothing left behind", f"{k['left_behind']} of {k['tries']} left data"],
     ]
+    for key, what in (("scan_killed", "SIGKILL during a scan"), ("delete_killed", "SIGKILL during a DELETE")):
+        k = result[key]
+        rows.append([f"{what}, then a restart", k["tries"], k["lost"], "stored scan byte-identical, no orphan"])
     if "skipped" not in d:
         rows.append(
             [
                 "a full disk (tmpfs)",
-                "507, degraded, scans again once freed",
-                f"{d['new_scan_status']}, {d['health']}; next scan {d['after_freeing_space']}",
+                1,
+                d["lost"],
+                f"new scan {d['new_scan_status']}, health {d['health']}; "
+                f"once freed, the next scan {d['after_freeing_space']}",
             ]
         )
-    table = markdown_table(["fault", "promise", "measured"], rows)
+    table = markdown_table(["fault", "tries", "lost", "what held"], rows)
     return f"{table}\n\nMeasured by `python bench/reliability.py --readme` ({result['machine']})."
 
 

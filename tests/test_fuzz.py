@@ -136,7 +136,7 @@ def test_deep_nesting_is_refused_not_a_recursion_error(tmp_path: Path, depth: in
 
 COORD = st.one_of(
     st.floats(min_value=-1e6, max_value=1e6, allow_nan=False, width=32),
-    st.sampled_from([0.0, 1.0, math.nan, math.inf, -math.inf, 1e-30]),
+    st.sampled_from([0.0, 1.0, math.nan, math.inf, -math.inf, 1e-30, 3e38, -3e38]),
 )
 
 

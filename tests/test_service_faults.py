@@ -77,6 +77,39 @@ def test_a_store_that_cannot_write_keeps_states_in_memory_and_writes_them_later(
     again.close()
 
 
+def test_held_states_decide_what_is_listed_and_what_a_stop_interrupts(tmp_path: Path) -> None:
+    store = JobStore(tmp_path / DB_NAME)
+    ended = store.add("20261125-000000-aaaaaa", JobKind.SCAN, {}).id
+    waiting = store.add("20261125-000001-bbbbbb", JobKind.SCAN, {}).id
+    store.transition(ended, JobState.RUNNING)
+    _refuse_writes(store, True)
+    store.transition(ended, JobState.DONE, result={"files": []})
+    store.transition(waiting, JobState.RUNNING)  # the table still says queued
+    assert [j.id for j in store.list(JobKind.SCAN, JobState.DONE, 10, 0)[0]] == [ended]
+    assert store.list(JobKind.SCAN, JobState.QUEUED, 10, 0) == ([], 0)
+    assert store.interrupt_unfinished("the daemon stopped") == [waiting]  # not the one that ended
+    assert store.get(ended).state is JobState.DONE and store.get(ended).error is None
+    _refuse_writes(store, False)
+    assert store.flush()
+    store.close()
+    again = JobStore(tmp_path / DB_NAME)
+    assert again.get(ended).state is JobState.DONE and again.get(waiting).state is JobState.INTERRUPTED
+    again.close()
+
+
+def test_a_refused_delete_leaves_a_queued_job_queued(tmp_path: Path) -> None:
+    data = small_config_data()
+    data["output"] = {"data_dir": str(tmp_path / "data")}
+    service = JobService(load_config(write_config(tmp_path, data, "idle.yaml")))  # not started: jobs wait
+    job = service.submit_scan({})
+    _refuse_writes(service.store, True)
+    with pytest.raises(StorageFullError):
+        service.delete(job.id, JobKind.SCAN)
+    assert service.job(job.id).state is JobState.QUEUED and job.id in service._queue  # it will still run
+    _refuse_writes(service.store, False)
+    service.store.close()
+
+
 def test_a_job_whose_database_write_fails_still_ends_and_the_service_says_so(tmp_path: Path) -> None:
     service = _service(tmp_path)
     try:
@@ -251,41 +284,19 @@ def test_a_delete_killed_midway_is_finished_by_the_next_start(tmp_path: Path, ki
         restarted.shutdown(5.0)
 
 
-def test_start_removes_half_written_scans_and_folders_whose_record_is_gone(tmp_path: Path) -> None:
+def test_start_removes_half_written_folders_and_keeps_scans_it_has_no_record_of(tmp_path: Path) -> None:
     service = _service(tmp_path)
     with _client(service) as client:
         kept = wait_done(client, client.post("/v1/scans", json={}, headers=AUTH).json()["id"])["id"]
     service.shutdown(5.0)
-    orphan = service.scans_dir / "20260101-000000-abcdef"  # an older slrig deleted its record, then crashed
-    shutil.copytree(service.scans_dir / kept, orphan)
+    by_cli = service.scans_dir / "20260101-000000-abcdef"  # `slrig scan` writes here with no record
+    shutil.copytree(service.scans_dir / kept, by_cli)
     (service.scans_dir / "20260101-000001-abcdef.partial").mkdir()
-    (service.scans_dir / "notes").mkdir()  # not a job's: left alone
+    (service.calibrations_dir / "20260101-000002-abcdef.partial").mkdir(parents=True)
     restarted = _service(tmp_path)
     restarted.shutdown(5.0)
-    assert sorted(p.name for p in restarted.scans_dir.iterdir()) == sorted([kept, "notes"])
-
-
-def test_a_rig_this_machine_cannot_hold_is_refused_naming_the_resolution(tmp_path: Path) -> None:
-    from rig.assembly import open_rig
-    from rig.assembly.memory import available_memory, check_memory, scan_memory
-    from rig.errors import ConfigError
-
-    data = small_config_data()
-    data["cameras"][0]["resolution"] = [8192, 8192]  # within the documented bounds
-    config = load_config(write_config(tmp_path, data))
-    needs = scan_memory(config)
-    assert max(needs, key=needs.__getitem__) == "cameras[0].resolution"
-    with pytest.raises(ConfigError, match=r"cameras\[0\].resolution: a scan of this rig needs about"):
-        check_memory(config, available=sum(needs.values()) // 2)
-    check_memory(config, available=10 * sum(needs.values()))  # where it fits, it is not refused
-    if sum(needs.values()) > (available_memory() or 1 << 62):  # as on a 24 GiB machine
-        with pytest.raises(ConfigError, match=r"cameras\[0\].resolution"):
-            open_rig(config)  # refused before anything is allocated
-    huge = small_config_data()
-    huge["projectors"][0]["resolution"] = [16384, 16384]
-    config = load_config(write_config(tmp_path, huge, "huge.yaml"))
-    with pytest.raises(ConfigError, match=r"projectors\[0\].resolution"):
-        check_memory(config, available=1 << 30)
+    assert sorted(p.name for p in restarted.scans_dir.iterdir()) == sorted([kept, by_cli.name])
+    assert not list(restarted.calibrations_dir.iterdir())
 
 
 STORE_KILLER = """

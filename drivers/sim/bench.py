@@ -330,9 +330,11 @@ class SimBench:
         return np.rint(signal * np.float32(full_scale)).astype(dtype)
 
     def _standard_normal(self, shape: tuple[int, ...]) -> np.ndarray:
-        """A frame of independent standard normal noise: a window at a random offset into a table
-        drawn once (drawing 1.3 M normals per frame took 17 ms, most of a render). Each pixel's
-        noise is independent from frame to frame and from its neighbours, as a sensor's is."""
+        """A frame of standard normal noise: a window at a random offset into a table four frames
+        long, drawn once (drawing 1.3 M normals per frame took 17 ms, most of a render). Within a
+        frame the values are independent, and so are one pixel's from frame to frame; between two
+        frames, pixels a random offset apart (typically hundreds of rows) share values, which no
+        decoder's few-pixel neighbourhood sees."""
         size = int(np.prod(shape))
         if self._noise is None or len(self._noise) < 4 * size:
             self._noise = self._rng.standard_normal(max(4 * size, 1 << 20), dtype=np.float32)

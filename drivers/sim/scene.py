@@ -225,19 +225,22 @@ def _usable(mesh: object, path: Path) -> trimesh.Trimesh:
         raise ValueError(f"mesh file {path} has no triangles")
     if len(mesh.faces) > MAX_MESH_FACES:
         raise ValueError(f"mesh file {path} has {len(mesh.faces)} triangles, over {MAX_MESH_FACES}; decimate it first")
+    if mesh.faces.max() >= len(mesh.vertices) or mesh.faces.min() < 0:
+        raise ValueError(f"mesh file {path}: a triangle names a vertex that is not in the file")
+    mesh.remove_unreferenced_vertices()  # vertices no triangle uses do no harm, whatever they hold
     bad = ~np.isfinite(mesh.vertices).all(axis=1)
     if bad.any():
         raise ValueError(f"mesh file {path}: {int(bad.sum())} vertices are not finite numbers (NaN or infinity)")
-    if mesh.faces.max() >= len(mesh.vertices):
-        raise ValueError(f"mesh file {path}: a triangle names a vertex that is not in the file")
     extent = float(np.max(mesh.extents))
+    if not extent < 1e12:  # its areas would overflow: no scanner's unit makes such a file
+        raise ValueError(f"mesh file {path}: coordinates span {extent:g}, too large to be a mesh to scan")
     area = mesh.area_faces
     kept = area > (1e-12 * extent * extent)
     if extent <= 0 or not kept.any():
         raise ValueError(f"mesh file {path}: every triangle has zero area (its vertices coincide or lie on a line)")
     if not kept.all():
         mesh.update_faces(kept)
-    mesh.remove_unreferenced_vertices()
+        mesh.remove_unreferenced_vertices()
     mesh.merge_vertices()
     return mesh
 

@@ -17,6 +17,7 @@ from fastapi import Depends, HTTPException, Request, status
 from starlette.types import ASGIApp, Message, Receive, Scope, Send
 
 MIN_KEY_LENGTH = 16
+MIN_BODY_RATE = 65536  # bytes/s a request body must average (besides one stall's allowance)
 PLACEHOLDER_KEYS = frozenset({"changeme", "changethis", "secret", "password", "slrig"})
 
 
@@ -119,11 +120,13 @@ class BodyLimitMiddleware:
             await _reply(send, 413, f"request body larger than {limit} bytes")
             return
         body = bytearray()
+        loop = asyncio.get_running_loop()
+        deadline = loop.time() + self.stall_s + limit / MIN_BODY_RATE  # a trickle cannot hold it for ever
         while True:
             try:
-                message = await asyncio.wait_for(receive(), self.stall_s)
+                message = await asyncio.wait_for(receive(), min(self.stall_s, max(0.0, deadline - loop.time())))
             except TimeoutError:
-                await _reply(send, 408, f"the request body stalled: no data for {self.stall_s:g} s")
+                await _reply(send, 408, f"the request body stalled or came slower than {MIN_BODY_RATE} bytes/s")
                 return
             if message["type"] == "http.disconnect":
                 return  # the client went away

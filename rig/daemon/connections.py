@@ -76,10 +76,12 @@ class GuardedH11Protocol(H11Protocol):
             self.transport.close()
 
     def _evict_idle(self) -> None:
-        idle = [
-            c for c in self.connections if isinstance(c, GuardedH11Protocol) and c is not self and not c._in_request()
-        ]
-        if idle:
-            oldest = min(idle, key=lambda c: c._opened)
-            log.warning("%d connections open: closing the oldest idle one", len(self.connections))
-            oldest.transport.close()
+        """Close the oldest idle connection; with none idle, this new one (so file descriptors
+        never run out, and a request that arrives later finds room once one ends)."""
+        open_ = [c for c in self.connections if isinstance(c, GuardedH11Protocol) and not c.transport.is_closing()]
+        if len(open_) <= self.max_connections:
+            return  # others closing in this pass already made room
+        idle = [c for c in open_ if c is not self and not c._in_request()]
+        victim = min(idle, key=lambda c: c._opened) if idle else self
+        log.warning("%d connections open: closing %s", len(open_), "the oldest idle one" if idle else "a new one")
+        victim.transport.close()

@@ -13,6 +13,7 @@ import contextlib
 import errno
 import logging
 import os
+import resource
 import secrets
 import signal
 import socket
@@ -113,9 +114,8 @@ def bind(host: str, port: int) -> socket.socket:
     """The listening socket, bound before anything else starts; UsageError naming --port when
     another program holds it, --host when it is not an address of this machine."""
     try:
-        family, kind, proto, _, address = socket.getaddrinfo(
-            host.strip("[]"), port, type=socket.SOCK_STREAM, flags=socket.AI_PASSIVE
-        )[0]
+        found = socket.getaddrinfo(host.strip("[]") or None, port, type=socket.SOCK_STREAM, flags=socket.AI_PASSIVE)
+        family, kind, proto, _, address = min(found, key=lambda a: a[0] != socket.AF_INET)  # IPv4 first, as uvicorn
     except socket.gaierror as exc:
         raise UsageError(f"--host {host}: not an address this machine can listen on ({exc.strerror})") from None
     sock = socket.socket(family, kind, proto)
@@ -124,6 +124,8 @@ def bind(host: str, port: int) -> socket.socket:
         sock.bind(address)
     except OSError as exc:
         sock.close()
+        if exc.errno == errno.EACCES and port < 1024:
+            raise UsageError(f"--port {port}: ports below 1024 need privileges (CAP_NET_BIND_SERVICE)") from None
         if exc.errno == errno.EADDRINUSE:
             raise UsageError(
                 f"--port {port}: {host}:{port} is in use by another program (another slrig?); "
@@ -131,6 +133,21 @@ def bind(host: str, port: int) -> socket.socket:
             ) from None
         raise UsageError(f"--host {host}: cannot listen there ({exc.strerror})") from None
     return sock
+
+
+def _descriptors_for(max_connections: int) -> int:
+    """Raise the soft limit of open files to hold `max_connections` and the rest of the daemon;
+    where the hard limit is lower, the connections that fit it (with a warning)."""
+    spare = 256  # devices, the database, logs, frames being read
+    soft, hard = resource.getrlimit(resource.RLIMIT_NOFILE)
+    needed = max_connections + spare
+    if hard != resource.RLIM_INFINITY and hard < needed:
+        fitting = max(16, hard - spare)
+        log.warning("open files are limited to %d: serving at most %d connections (LimitNOFILE=)", hard, fitting)
+        needed, max_connections = hard, fitting
+    if soft != resource.RLIM_INFINITY and soft < needed:
+        resource.setrlimit(resource.RLIMIT_NOFILE, (needed, hard))
+    return max_connections
 
 
 class _Server(uvicorn.Server):
@@ -153,13 +170,14 @@ def serve(config: RigConfig, host: str, port: int, api_key: str) -> int:
         return service.stopping or (server is not None and server.should_exit)
 
     app = create_app(service, settings, stopping)
+    max_connections = _descriptors_for(config.service.max_connections)
     uv_config = uvicorn.Config(
         app,
         host=host,
         port=port,
         log_config=None,  # our logging: stderr, read by journald
         timeout_graceful_shutdown=2,
-        http=guarded_protocol(config.service.header_timeout_s, config.service.max_connections),  # no concurrency cap
+        http=guarded_protocol(config.service.header_timeout_s, max_connections),  # no concurrency cap
         timeout_keep_alive=5,
         lifespan="off",
     )

@@ -63,6 +63,11 @@ CREATE INDEX IF NOT EXISTS jobs_kind_created ON jobs (kind, created);
 """
 
 
+# SQLite's primary result codes for a database that cannot take a write now: busy, locked,
+# read-only, an I/O error, corrupt, full, cannot be opened, not a database.
+UNWRITABLE = frozenset({5, 6, 8, 10, 11, 13, 14, 26})
+
+
 @dataclass(frozen=True)
 class Job:
     id: str
@@ -121,10 +126,13 @@ class JobStore:
             return self._write_error if self._pending else None
 
     def _write(self, sql: str, args: tuple[Any, ...]) -> list[sqlite3.Row]:
-        """One statement under the lock held by the caller; StorageFullError if it cannot be written."""
+        """One statement under the lock held by the caller; StorageFullError if the disk or the
+        file refuses it (other errors are the program's, and propagate)."""
         try:
             return self._db.execute(sql, args).fetchall()
-        except sqlite3.OperationalError as exc:  # SQLITE_FULL, SQLITE_IOERR, a read-only file
+        except sqlite3.DatabaseError as exc:
+            if (getattr(exc, "sqlite_errorcode", 0) & 0xFF) not in UNWRITABLE:
+                raise
             self._write_error = f"the job database cannot be written: {exc}"
             raise StorageFullError(self._write_error) from exc
 
@@ -223,32 +231,44 @@ class JobStore:
         log.info("job %s: deleted", job_id)
 
     def list(self, kind: JobKind, state: JobState | None, limit: int, offset: int) -> tuple[list[Job], int]:
-        """Newest first; also the total matching, for paging."""
-        where, args = "kind = ?", [kind]
-        if state is not None:
-            where += " AND state = ?"
-            args.append(state)
+        """Newest first; also the total matching, for paging. States held in memory count."""
         with self._lock:
-            total = self._db.execute(f"SELECT COUNT(*) FROM jobs WHERE {where}", args).fetchone()[0]
-            rows = self._db.execute(
-                f"SELECT * FROM jobs WHERE {where} ORDER BY created DESC, id DESC LIMIT ? OFFSET ?",
-                (*args, limit, offset),
-            ).fetchall()
             pending = {job_id: dict(values) for job_id, values in self._pending.items()}
-        return [_job(r, pending.get(r["id"], {})) for r in rows], int(total)
+            if pending and state is not None:  # filter on the held state, not the table's
+                rows = self._db.execute(
+                    "SELECT * FROM jobs WHERE kind = ? ORDER BY created DESC, id DESC", (kind,)
+                ).fetchall()
+            else:
+                where, args = ("kind = ? AND state = ?", [kind, state]) if state else ("kind = ?", [kind])
+                total = self._db.execute(f"SELECT COUNT(*) FROM jobs WHERE {where}", args).fetchone()[0]
+                rows = self._db.execute(
+                    f"SELECT * FROM jobs WHERE {where} ORDER BY created DESC, id DESC LIMIT ? OFFSET ?",
+                    (*args, limit, offset),
+                ).fetchall()
+                return [_job(r, pending.get(r["id"], {})) for r in rows], int(total)
+        jobs = [job for r in rows if (job := _job(r, pending.get(r["id"], {}))).state is state]
+        return jobs[offset : offset + limit], len(jobs)
 
     def interrupt_unfinished(self, reason: str) -> list[str]:
-        """Mark every queued or running job interrupted, in one statement (at start-up and
-        shutdown, when a worker may finish a job at the same moment); returns their ids."""
+        """Mark every queued or running job interrupted (at start-up and shutdown, when a worker
+        may finish a job at the same moment), judged by its state held in memory where there is
+        one; held in memory too when the database cannot take it. Returns their ids."""
+        now, interrupted = time.time(), []
         with self._lock:
-            rows = self._write(
-                "UPDATE jobs SET state = 'interrupted', error = ?, finished = ? "
-                "WHERE state IN ('queued', 'running') RETURNING id, kind",
-                (reason, time.time()),
-            )
-        for row in rows:
-            log.info("%s %s: -> interrupted (%s)", row["kind"], row["id"], reason)
-        return [row["id"] for row in rows]
+            rows = self._db.execute("SELECT id, kind, state FROM jobs WHERE state IN ('queued', 'running')").fetchall()
+            unfinished = {row["id"]: row["kind"] for row in rows}
+            for job_id, values in self._pending.items():
+                if values.get("state") in TERMINAL:
+                    unfinished.pop(job_id, None)  # ended: its held state is written below or later
+                elif "state" in values:
+                    unfinished.setdefault(job_id, "job")
+            for job_id in unfinished:
+                self._update(job_id, {"state": JobState.INTERRUPTED, "error": reason, "finished": now}, others=False)
+                interrupted.append(job_id)
+            self._flush_held()
+        for job_id in interrupted:
+            log.info("%s %s: -> interrupted (%s)", unfinished[job_id], job_id, reason)
+        return interrupted
 
 
 def _job(row: sqlite3.Row, pending: dict[str, Any]) -> Job:

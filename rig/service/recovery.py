@@ -3,8 +3,7 @@
 A scan or a calibration is written to `<id>.partial` and renamed when complete: start-up removes
 every `.partial`. A deletion renames the job's folder to a hidden `.<id>.<random>.deleting` first,
 then deletes the record, then the folder: a crash at any point leaves a `.deleting` folder whose
-job start-up finishes deleting (record too). A folder named like a job with no record (left by a
-crash of an older slrig, which deleted the record first) is removed too.
+job start-up finishes deleting (record too).
 """
 
 from __future__ import annotations
@@ -19,8 +18,7 @@ from pathlib import Path
 from typing import TextIO
 
 from rig.errors import ConfigError
-from rig.service.errors import JobNotFoundError
-from rig.service.imports import JOB_ID
+from rig.service.errors import JobNotFoundError, StorageFullError
 from rig.service.jobs import JobStore
 
 log = logging.getLogger(__name__)
@@ -42,12 +40,13 @@ def lock_data_dir(data_dir: Path) -> TextIO:
     return lock_file
 
 
-def delete_folder(folder: Path, delete_record: Callable[[], None]) -> None:
-    """Delete a job: its folder out of sight, then its record, then the folder's contents. If the
-    record cannot be deleted (a full disk) the folder is put back and the error propagates."""
-    doomed = folder.with_name(f".{folder.name}.{secrets.token_hex(4)}.deleting")
+def hide_folder(folder: Path, delete_record: Callable[[], None]) -> Path | None:
+    """The first half of deleting a job: its folder out of sight, then its record. Returns the
+    hidden folder for `discard` (None when the job wrote none). If the record cannot be deleted (a
+    full disk) the folder is put back and the error propagates: nothing changed."""
+    doomed: Path | None = folder.with_name(f".{folder.name}.{secrets.token_hex(4)}.deleting")
     try:
-        folder.rename(doomed)
+        folder.rename(doomed)  # type: ignore[arg-type]
     except FileNotFoundError:  # a job that wrote no folder (failed, cancelled, queued)
         doomed = None
     try:
@@ -56,38 +55,45 @@ def delete_folder(folder: Path, delete_record: Callable[[], None]) -> None:
         if doomed is not None:
             doomed.rename(folder)
         raise
+    return doomed
+
+
+def discard(doomed: Path | None) -> None:
+    """The second half: the hidden folder's contents (a crash here is finished at start-up)."""
     if doomed is not None:
         shutil.rmtree(doomed, ignore_errors=True)
 
 
 def clear_leftovers(store: JobStore, job_dirs: tuple[Path, ...]) -> list[str]:
-    """At start-up: finish interrupted deletions, remove half-written scans and folders whose
-    record is gone. Returns what was removed (for the log and the tests)."""
+    """At start-up, before anything is written: remove half-written folders (`.partial`, which
+    frees a disk a crash left full), then finish interrupted deletions (`.deleting`: the record
+    too, unless the database cannot be written now; then the next start finishes it). A folder
+    without a record is left alone: `slrig scan` writes there too. Returns what was removed."""
     removed = []
-    for root in job_dirs:
-        for path in sorted(root.iterdir()) if root.is_dir() else []:
-            if not path.is_dir():
-                continue
-            doomed = DOOMED.match(path.name)
-            if doomed:
-                _forget(store, doomed["id"])
-            elif not (path.name.endswith(".partial") or (JOB_ID.match(path.name) and not _known(store, path.name))):
-                continue
+    folders = [p for root in job_dirs if root.is_dir() for p in sorted(root.iterdir()) if p.is_dir()]
+    for path in folders:
+        if path.name.endswith(".partial"):
             shutil.rmtree(path, ignore_errors=True)
             removed.append(path.name)
+    for path in folders:
+        doomed = DOOMED.match(path.name)
+        if doomed is None:
+            continue
+        try:
+            _forget(store, doomed["id"])
+        except StorageFullError as exc:
+            log.error("%s left for the next start: %s", path.name, exc)
+            continue
+        shutil.rmtree(path, ignore_errors=True)
+        removed.append(path.name)
     if removed:
         log.info("start-up removed what interrupted jobs and deletions left: %s", ", ".join(removed))
     return removed
 
 
-def _known(store: JobStore, job_id: str) -> bool:
+def _forget(store: JobStore, job_id: str) -> None:
     try:
         store.get(job_id)
     except JobNotFoundError:
-        return False
-    return True
-
-
-def _forget(store: JobStore, job_id: str) -> None:
-    if _known(store, job_id):
-        store.delete(job_id)  # the deletion a crash interrupted: finish it
+        return
+    store.delete(job_id)  # the deletion a crash interrupted: finish it

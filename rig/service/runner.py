@@ -37,7 +37,7 @@ from rig.service.errors import (
 from rig.service.events import EventHub
 from rig.service.imports import reconstruction_inputs, remove_leftovers
 from rig.service.jobs import Job, JobKind, JobState, JobStore
-from rig.service.recovery import clear_leftovers, delete_folder, lock_data_dir
+from rig.service.recovery import clear_leftovers, discard, hide_folder, lock_data_dir
 from rig.service.space import check_free_space, expected_scan_bytes, storage_problems
 from rig.service.status import device_views
 from rig.store.scandir import new_scan_id
@@ -76,11 +76,10 @@ class JobService:
     def start(self) -> None:
         """Take the data directory, recover from a previous run, then start the worker."""
         self._lock_file = lock_data_dir(self.data_dir)
-        self.store.flush()
+        clear_leftovers(self.store, (self.scans_dir, self.calibrations_dir))  # first: frees what a crash filled
+        remove_leftovers(self.data_dir)
         for job_id in self.store.interrupt_unfinished("the daemon stopped before this job finished; not re-run"):
             self._publish_state(job_id)
-        clear_leftovers(self.store, (self.scans_dir, self.calibrations_dir))
-        remove_leftovers(self.data_dir)
         self._worker = threading.Thread(target=self._work, name="slrig-jobs", daemon=True)
         self._worker.start()
 
@@ -191,14 +190,15 @@ class JobService:
         return self.store.get(job_id)
 
     def delete(self, job_id: str, kind: JobKind) -> None:
-        """Delete a job that is not running: its record first, then its folder."""
+        """Delete a job not running: folder hidden and record gone under the lock, contents after."""
         self.job(job_id, kind)
-        with self._cond:  # decided under the lock: the worker may be taking this job right now
+        with self._cond:
             if self._current == job_id:
                 raise JobConflictError(f"{kind} {job_id} is running; cancel it first")
-            if job_id in self._queue:
+            doomed = hide_folder(self.job_folder(Job.placeholder(job_id, kind)), lambda: self.store.delete(job_id))
+            if job_id in self._queue:  # only once the record is gone (StorageFullError: still queued)
                 self._queue.remove(job_id)
-            delete_folder(self.job_folder(Job.placeholder(job_id, kind)), lambda: self.store.delete(job_id))
+        discard(doomed)
 
     def job_folder(self, job: Job) -> Path:
         return (self.calibrations_dir if job.kind is JobKind.CALIBRATION else self.scans_dir) / job.id
@@ -299,6 +299,8 @@ class JobService:
             self.store.transition(job_id, state, **fields)
         except SlrigError as exc:  # shutdown() recorded it interrupted meanwhile
             log.warning("%s", exc)
+        except Exception:  # a database that cannot even be read: the worker goes on regardless
+            log.exception("job %s: its end (%s) could not be recorded", job_id, state)
         self._publish_state(job_id)
 
     def _checkpoint(self) -> None:
@@ -335,6 +337,9 @@ class JobService:
             job = self.store.get(job_id)
         except JobNotFoundError:
             self.events.publish(job_id, "state", {"id": job_id, "state": "deleted", "error": None})
+            return
+        except Exception:  # unreadable: streams find the state by polling once it can be read
+            log.exception("job %s: its state could not be read to publish", job_id)
             return
         self.events.publish(job_id, "state", {"id": job.id, "state": job.state, "error": job.error})
 
