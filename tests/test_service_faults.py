@@ -358,3 +358,36 @@ def test_sigkill_while_a_job_stores_loses_nothing_and_leaves_nothing(tmp_path: P
         assert _folder_digest(restarted.scans_dir / kept) == before  # the stored scan untouched
     finally:
         restarted.shutdown(5.0)
+
+
+@pytest.mark.parametrize(
+    ("own", "files", "room"),
+    [
+        (
+            "0::/system.slice/slrig.service\n",
+            {"system.slice/slrig.service/memory.max": "8000", "system.slice/slrig.service/memory.current": "3000"},
+            5000,
+        ),
+        ("0::/\n", {"memory.max": "max", "memory.current": "3000"}, None),
+        (
+            "4:memory:/lab\n0::/\n",
+            {"memory/lab/memory.limit_in_bytes": "9000", "memory/lab/memory.usage_in_bytes": "1000"},
+            8000,
+        ),
+        (
+            "4:memory:/\n",
+            {"memory/memory.limit_in_bytes": "9223372036854771712", "memory/memory.usage_in_bytes": "1"},
+            None,
+        ),
+    ],
+)
+def test_a_container_memory_limit_is_what_a_rig_must_fit(
+    tmp_path: Path, own: str, files: dict[str, str], room: int | None
+) -> None:
+    from rig.assembly.memory import _cgroup_room
+
+    for name, text in files.items():
+        (tmp_path / name).parent.mkdir(parents=True, exist_ok=True)
+        (tmp_path / name).write_text(text)
+    (tmp_path / "own").write_text(own)
+    assert _cgroup_room(str(tmp_path), str(tmp_path / "own")) == room

@@ -11,6 +11,7 @@ tables), and what the simulated bench adds per pixel (its ray cast, lighting and
 from __future__ import annotations
 
 import os
+from pathlib import Path
 
 from rig.config import RigConfig
 from rig.errors import ConfigError
@@ -52,7 +53,15 @@ def scan_memory(config: RigConfig) -> dict[str, int]:
 
 
 def available_memory() -> int | None:
-    """Memory this process can take without swapping (MemAvailable), or None where unknown."""
+    """Memory this process can take without swapping: the system's MemAvailable, or less where a
+    cgroup (a container, a systemd MemoryMax=) limits it; None where unknown."""
+    system = _meminfo_available()
+    limited = _cgroup_room()
+    known = [value for value in (system, limited) if value is not None]
+    return min(known) if known else None
+
+
+def _meminfo_available() -> int | None:
     try:
         with open("/proc/meminfo", encoding="ascii") as meminfo:
             for line in meminfo:
@@ -63,6 +72,35 @@ def available_memory() -> int | None:
     try:
         return os.sysconf("SC_AVPHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")
     except (ValueError, OSError):
+        return None
+
+
+def _cgroup_room(root: str = "/sys/fs/cgroup", own: str = "/proc/self/cgroup") -> int | None:
+    """The limit less the usage of this process's memory cgroup (v2, or v1's memory controller),
+    or None where there is no limit."""
+    try:
+        with open(own, encoding="ascii") as cgroups:
+            lines = [line.strip().split(":", 2) for line in cgroups if line.count(":") >= 2]
+    except OSError:
+        return None
+    for _, controllers, path in lines:
+        if "memory" in controllers.split(","):  # v1
+            files = (f"{root}/memory{path}".rstrip("/") + "/memory.limit_in_bytes", "memory.usage_in_bytes")
+            break
+    else:
+        path = next((p for _, c, p in lines if c == ""), None)
+        if path is None:
+            return None
+        files = (f"{root}{path}".rstrip("/") + "/memory.max", "memory.current")
+    limit_file, usage_name = files
+    try:
+        with open(limit_file, encoding="ascii") as limit:
+            text = limit.read().strip()
+        if text == "max" or int(text) >= 1 << 60:  # v1 writes "no limit" as a number near 2**63
+            return None
+        with open(str(Path(limit_file).with_name(usage_name)), encoding="ascii") as usage:
+            return max(0, int(text) - int(usage.read().strip()))
+    except (OSError, ValueError):
         return None
 
 

@@ -17,15 +17,17 @@ RESERVE_BYTES = 64 * MB  # kept free for the job database, its write-ahead log a
 # Per camera pixel of a stored scan: a PLY point (xyz and normal float32, rgb), its depth (16-bit
 # PNG), overlap mask and preview; PNG compresses, so this is an upper bound.
 STORED_BYTES_PER_PIXEL = 12 + 12 + 3 + 2 + 1 + 3
+MESH_BYTES_PER_PIXEL = 27 + 2 * 13  # a ring scan's surface: a vertex per pixel, two triangles
 
 
 def expected_scan_bytes(config: RigConfig, request: dict[str, Any]) -> int:
-    """An upper bound of what a scan request writes: the cloud and images, and the frames
-    uncompressed when kept."""
+    """An upper bound of what a scan request writes: a point per camera pixel and projector (every
+    pair measures), the images, a ring scan's surface mesh, and the frames uncompressed when kept."""
     pixels = sum(camera.resolution[0] * camera.resolution[1] for camera in config.cameras)
-    total = pixels * STORED_BYTES_PER_PIXEL
+    name = "rings" if request.get("adaptive") or request.get("plan") else request.get("codec") or config.scan.codec
+    per_pixel = STORED_BYTES_PER_PIXEL * len(config.projectors) + (MESH_BYTES_PER_PIXEL if name == "rings" else 0)
+    total = pixels * per_pixel
     if request.get("keep_frames"):
-        name = "rings" if request.get("adaptive") or request.get("plan") else request.get("codec") or config.scan.codec
         frames = sum(
             codec_class(name)(tuple(p.resolution), getattr(config.scan, name, None), None).frame_count
             for p in config.projectors

@@ -20,6 +20,7 @@ from rig.rig import Rig
 from rig.service.adaptive import adaptive_scan
 from rig.service.imports import reconstruction_inputs
 from rig.service.reconstruct import reconstruct_folder
+from rig.service.space import check_free_space, expected_scan_bytes
 from rig.store.atomic import publish_folder
 from rig.store.scandir import read_frames, write_scan
 
@@ -91,6 +92,7 @@ def reprocess_to_directory(
         data["calibration"]["file"] = str(calibration)
     data["scan"].update(overrides or {})
     config = config_from_dict(data, f"scan {manifest['scan_id']}")
+    check_free_space(target.parent, expected_scan_bytes(config, {}), "this reprocessing")
     tracker.report("decode", 0.6)
     with open_rig(config, with_devices=False) as geometry:
         result = reconstruct_frames(geometry, manifest["codec"]["name"], frames, tracker)
