@@ -28,11 +28,11 @@ PROJECTOR_BYTES_PER_PIXEL = 40  # per projector pixel: the pattern being shown, 
 SIM_PROJECTOR_BYTES_PER_PIXEL = 20  # the simulated projector's light (float32) and its blur
 
 
-def frames_per_scan(config: RigConfig, projector: int) -> int:
-    name = config.scan.codec
-    return codec_class(name)(
-        tuple(config.projectors[projector].resolution), getattr(config.scan, name, None), None
-    ).frame_count
+def frames_per_scan(config: RigConfig, projector: int, codec: str | None = None) -> int:
+    """Frames a scan with `codec` (default: the config's) projects from one projector."""
+    name = codec or config.scan.codec
+    params = getattr(config.scan, name, None)
+    return codec_class(name)(tuple(config.projectors[projector].resolution), params, None).frame_count
 
 
 def scan_memory(config: RigConfig) -> dict[str, int]:

@@ -7,8 +7,8 @@ import shutil
 from pathlib import Path
 from typing import Any
 
+from rig.assembly.memory import frames_per_scan
 from rig.config import RigConfig
-from rig.patterns.registry import codec_class
 from rig.service.errors import StorageFullError
 from rig.service.jobs import JobStore
 
@@ -28,10 +28,7 @@ def expected_scan_bytes(config: RigConfig, request: dict[str, Any]) -> int:
     per_pixel = STORED_BYTES_PER_PIXEL * len(config.projectors) + (MESH_BYTES_PER_PIXEL if name == "rings" else 0)
     total = pixels * per_pixel
     if request.get("keep_frames"):
-        frames = sum(
-            codec_class(name)(tuple(p.resolution), getattr(config.scan, name, None), None).frame_count
-            for p in config.projectors
-        )
+        frames = sum(frames_per_scan(config, p, name) for p in range(len(config.projectors)))
         for camera in config.cameras:
             channels = 3 if camera.color else 1
             depth = 2 if camera.bit_depth > 8 else 1
