@@ -3,6 +3,7 @@ here, what is particular to each driver."""
 
 from __future__ import annotations
 
+import platform
 import time
 
 import cv2
@@ -103,8 +104,14 @@ def test_oak_worker_faults_become_device_errors() -> None:
         assert time.monotonic() - start < 1.5
 
 
+DEPTHAI_WHEELS = ("x86_64", "aarch64", "AMD64", "arm64")  # where Luxonis publishes wheels (pyproject's oak extra)
+
+
 def test_oak_with_the_real_depthai_and_no_device_is_not_found() -> None:
-    pytest.importorskip("depthai", reason="depthai (96 MB) is optional; install it to pin its no-device behaviour")
+    if platform.machine() not in DEPTHAI_WHEELS:
+        pytest.skip(f"depthai publishes no wheel for {platform.machine()}; the fake backend's tests run instead")
+    import depthai  # noqa: F401  # the test extra installs it here: missing is a failure, not a skip
+
     camera = OakCamera("oak", SIZE, backend="depthai", env={"DEPTHAI_SEARCH_TIMEOUT": "1000"})
     with pytest.raises(DeviceNotFoundError):
         camera.open()
