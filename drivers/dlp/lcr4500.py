@@ -232,7 +232,7 @@ class Lcr4500Projector(Projector):
         self._validate()
 
     def _validate(self) -> None:
-        self._p.write(CMD_LUT_VALID)
+        self._p.write(CMD_LUT_VALID, bytes([0]))  # one data byte, 0x00 (TI CmdList; it was sent with none)
         deadline = time.monotonic() + self._validate_timeout_s
         while True:
             status = self._p.read(CMD_LUT_VALID, 1)[0]

@@ -12,18 +12,18 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from drivers.dlp import lcr4500 as lcr
+from drivers.dlp.commands import COMMANDS
 from drivers.fakes.faults import Fault, FaultPlan
 
-_READ_LENGTHS = {
-    lcr.CMD_VERSION: 16,
-    lcr.CMD_STATUS_HW: 1,
-    lcr.CMD_STATUS_SYS: 1,
-    lcr.CMD_STATUS_MAIN: 1,
-    lcr.CMD_DISPLAY_MODE: 1,
-    lcr.CMD_LUT_VALID: 1,
-    lcr.CMD_START_STOP: 1,
-    lcr.CMD_LED_ENABLE: 1,
-}
+
+def _refusal(command: int, data: bytes, read: bool) -> str | None:
+    """Why the DLPC350 command list refuses this report (drivers.dlp.commands), or None."""
+    known = COMMANDS.get(command)
+    if known is None:
+        return f"unknown command 0x{command:04x}"
+    if read:
+        return None if known.read_bytes is not None else f"{known.name} is not read"
+    return known.refuses(data)
 
 
 def _usb_error(code: int, text: str) -> Exception:
@@ -88,6 +88,8 @@ class FakeLcr4500:
         self.plugged = True
         self.commands = 0
         self.log: list[tuple[str, int, bytes]] = []  # ("w"/"r", command, data)
+        self.reports: list[bytes] = []  # every report as written
+        self.refused: list[str] = []  # why each refused report was refused
         self._replies: deque[bytes] = deque()
         self._pending_stale: bytes | None = None
         # controller registers
@@ -125,6 +127,7 @@ class FakeLcr4500:
         self._check_plugged()
         if endpoint != 0x01 or len(data) != 64:
             raise _usb_error(errno.EINVAL, "bad write")
+        self.reports.append(bytes(data))
         self._handle(bytes(data))
         return len(data)
 
@@ -163,11 +166,16 @@ class FakeLcr4500:
         self.log.append(("r" if read else "w", command, data))
         if f.late_reply_before is not None and self.commands == f.late_reply_before:
             self._replies.append(self._reply((sequence - 1) & 0xFF, b"\x00"))  # the previous command's, late
-        try:
-            payload = self._read(command) if read else self._write(command, data)
-            error = command in f.error_commands
-        except KeyError:
-            payload, error = b"", True  # unknown command: the error bit
+        refused = _refusal(command, data, read)
+        if refused is not None:
+            self.refused.append(refused)
+            payload, error = b"", True  # what the command list refuses: the error bit, nothing changed
+        else:
+            try:
+                payload = self._read(command) if read else self._write(command, data)
+                error = command in f.error_commands
+            except KeyError:
+                payload, error = b"", True  # a command the controller cannot do now: the error bit
         if flags & 0x40 and not silent:
             self._replies.append(self._reply(sequence, payload, error))
 

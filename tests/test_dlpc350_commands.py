@@ -1,0 +1,97 @@
+"""The LightCrafter 4500 driver checked against the DLPC350 command table (drivers.dlp.commands),
+which is written from TI's command list, not from the driver: every report the driver sends is
+encoded again here from the table's layout, and the protocol fake refuses what the table refuses."""
+
+from __future__ import annotations
+
+import struct
+
+import pytest
+
+from drivers.base import PatternSequence, SequenceEntry, TriggerMode
+from drivers.dlp import lcr4500
+from drivers.dlp.commands import COMMANDS
+from drivers.fakes.dlpc350 import FakeLcr4500
+from tests.test_projectors import _lcr
+
+# three 8-bit patterns in one video frame of a 30 Hz input (each needs 8333 us)
+VSYNC_8BIT = PatternSequence(tuple(SequenceEntry(i, 8) for i in range(3)), 8333, 8333, TriggerMode.VSYNC)
+
+
+def _golden(report: bytes) -> bytes:
+    """The report as the table says it must be: flags (read or write, reply wanted), the sequence
+    number, length = 2 + the table's data length, the command CMD3 first, the data, zeros to 64."""
+    flags, sequence, _, code = struct.unpack_from("<BBHH", report)
+    command = COMMANDS[code]
+    read = bool(flags & 0x80)
+    size = 0 if read else command.write_bytes
+    assert size is not None, f"{command.name} is written, but the table says it is not"
+    data = report[6 : 6 + size]
+    head = bytes([0xC0 if read else 0x40, sequence]) + (2 + size).to_bytes(2, "little") + code.to_bytes(2, "little")
+    return (head + data).ljust(64, b"\0")
+
+
+def test_every_command_the_driver_names_is_in_the_table_with_its_code() -> None:
+    named = {name: value for name, value in vars(lcr4500).items() if name.startswith("CMD_")}
+    assert named and all(code in COMMANDS for code in named.values()), sorted(
+        name for name, code in named.items() if code not in COMMANDS
+    )
+
+
+def test_a_3_pattern_8_bit_vsync_sequence_is_every_report_the_document_lays_out() -> None:
+    fake = FakeLcr4500(video_period_us=33334)
+    projector = _lcr(fake)
+    projector.open()
+    projector.configure_trigger_out(rising_delay_ns=0.0)
+    first = len(fake.reports)
+    projector.load_sequence(VSYNC_8BIT)
+    projector.start_sequence()
+    sent = fake.reports[first:]
+    assert not fake.refused
+    for report in fake.reports:
+        assert report == _golden(report), COMMANDS[struct.unpack_from("<H", report, 4)[0]].name
+    writes = [(COMMANDS[code].name, data) for kind, code, data in fake.log[-len(sent) :] if kind == "w"]
+    names = [name for name, _ in writes]
+    # the document's order: stop, pattern mode, source, configuration, trigger mode, exposure and
+    # period, the LUT through the mailbox, close, validate, start; each once
+    assert names[: names.index("MBOX_CONTROL")] == [
+        "PAT_START_STOP",
+        "DISP_MODE",
+        "PAT_DISP_MODE",
+        "PAT_CONFIG",
+        "PAT_TRIG_MODE",
+        "PAT_EXPO_PRD",
+    ]
+    lut = names[names.index("MBOX_CONTROL") : names.index("LUT_VALID")]
+    assert lut == ["MBOX_CONTROL", *["MBOX_ADDRESS", "MBOX_DATA"] * 3, "MBOX_CONTROL"]
+    assert names[names.index("LUT_VALID") :][0] == "LUT_VALID" and names.count("LUT_VALID") == 1
+    assert ("PAT_START_STOP", bytes([2])) in writes[names.index("LUT_VALID") :]
+    assert dict(writes)["PAT_CONFIG"] == bytes([2, 0, 2, 0])  # 3 entries, no repeat, 3 for TRIG_OUT2, 1 image
+    assert dict(writes)["PAT_TRIG_MODE"] == bytes([0])  # VSYNC
+    assert dict(writes)["LUT_VALID"] == bytes([0])  # one data byte: sent with none before this table
+    assert [(w >> 2) & 0x3F for w in fake.lut_entries] == [0, 1, 2] and all(
+        (w >> 8) & 0xF == 8 for w in fake.lut_entries
+    )
+    projector.close()
+
+
+@pytest.mark.parametrize(
+    ("code", "data", "reason"),
+    [
+        (0x1A1A, b"", "carries 1 data bytes, not 0"),  # LUT_VALID as slrig sent it before
+        (0x1A29, b"\x00" * 4, "carries 8 data bytes, not 4"),  # exposure without the period
+        (0x1A1B, b"\x02", "reserved bits"),  # display mode 2 does not exist on a DLPC350
+        (0x1A34, b"\x00\x00\x10", "reserved bits"),  # LUT entry bit 20
+        (0x1A22, b"\x01", "is not one of [0, 3]"),  # pattern source 1
+        (0x1A0C, b"\x00", "is not written"),  # a status is read, never written
+        (0x1234, b"", "unknown command"),
+    ],
+)
+def test_the_fake_refuses_what_the_document_refuses(code: int, data: bytes, reason: str) -> None:
+    fake = FakeLcr4500()
+    report = (struct.pack("<BBHH", 0x40, 9, 2 + len(data), code) + data).ljust(64, b"\0")
+    fake.write(0x01, report, 1000)
+    reply = fake.read(0x81, 64, 1000)
+    assert reply[0] & 0x20 and reply[1] == 9  # the error bit, for this sequence number
+    assert reason in fake.refused[-1]
+    assert fake.display_mode == 0 and fake.exposure_us == 0  # nothing changed
