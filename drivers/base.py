@@ -63,11 +63,16 @@ class TriggerMode(enum.Enum):
 
 @dataclass(frozen=True)
 class SequenceEntry:
-    """One pattern of a preloaded sequence: which bit-plane group of the source, its bit depth."""
+    """One pattern of a preloaded sequence: which bit-plane group of the source, its bit depth,
+    which LEDs light it ("r", "g", "b" in any mix), and whether the projector goes black after it
+    (a gap before the next pattern) or swaps its frame buffer first (None: as the sequence needs)."""
 
     pattern: int  # bit-plane group (0-24 on a DLPC350)
     bit_depth: int = 8
     invert: bool = False
+    leds: str = "rgb"
+    insert_black: bool = False
+    buffer_swap: bool | None = None
 
 
 @dataclass(frozen=True)

@@ -95,3 +95,49 @@ def test_the_fake_refuses_what_the_document_refuses(code: int, data: bytes, reas
     assert reply[0] & 0x20 and reply[1] == 9  # the error bit, for this sequence number
     assert reason in fake.refused[-1]
     assert fake.display_mode == 0 and fake.exposure_us == 0  # nothing changed
+
+
+def test_each_pattern_chooses_its_leds_black_after_it_and_its_buffer_swap() -> None:
+    fake = FakeLcr4500()
+    projector = _lcr(fake)
+    projector.open()
+    entries = (
+        SequenceEntry(0, 8, leds="r"),
+        SequenceEntry(1, 8, leds="gb", insert_black=True),
+        SequenceEntry(2, 8, leds="rgb", buffer_swap=True),
+    )
+    projector.load_sequence(PatternSequence(entries, 8333, 8333, TriggerMode.INTERNAL))
+    words = fake.lut_entries
+    assert [(w >> 12) & 0b111 for w in words] == [0b001, 0b110, 0b111]  # bit 0 red, 1 green, 2 blue
+    assert [(w >> 17) & 1 for w in words] == [0, 1, 0] and [(w >> 18) & 1 for w in words] == [0, 0, 1]
+    assert not fake.refused
+    with pytest.raises(ValueError, match="a mix of 'r', 'g' and 'b'"):
+        projector.load_sequence(PatternSequence((SequenceEntry(0, 8, leds="w"),), 8333, 8333))
+    projector.close()
+
+
+@pytest.mark.parametrize(("pattern", "depth"), [(3, 8), (24, 1), (12, 2)])
+def test_a_pattern_number_beyond_its_bit_depth_is_refused_naming_the_rule(pattern: int, depth: int) -> None:
+    projector = _lcr(FakeLcr4500())
+    projector.open()
+    with pytest.raises(ValueError, match=f"a 24-bit frame holds {24 // depth} patterns of {depth} bits"):
+        projector.load_sequence(PatternSequence((SequenceEntry(pattern, depth),), 8333, 8333))
+    projector.close()
+
+
+def test_standby_parks_the_controller_dark_and_wake_needs_a_new_sequence() -> None:
+    fake = FakeLcr4500()
+    projector = _lcr(fake)
+    projector.open()
+    projector.load_sequence(PatternSequence((SequenceEntry(0, 8),), 8333, 8333))
+    projector.start_sequence()
+    assert fake.running and not fake.dark
+    projector.standby()
+    assert fake.standby and fake.dark and not fake.running
+    assert [(COMMANDS[c].name, d) for k, c, d in fake.log if k == "w"][-1] == ("POWER_CONTROL", bytes([1]))
+    projector.wake()
+    assert not fake.standby and fake.dark  # awake, still dark
+    projector.load_sequence(PatternSequence((SequenceEntry(0, 8),), 8333, 8333))
+    projector.start_sequence()
+    assert fake.running and not fake.refused
+    projector.close()

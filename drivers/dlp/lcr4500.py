@@ -15,7 +15,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from drivers.base import PatternSequence, Projector, ProjectorMode, TriggerMode
+from drivers.base import PatternSequence, Projector, ProjectorMode, SequenceEntry, TriggerMode
 from drivers.dlp.protocol import DlpcProtocol
 from drivers.errors import DeviceError, DeviceProtocolError, DeviceStateError, DeviceTimeoutError
 from drivers.options import LIGHTCRAFTER_MIN_8BIT_PERIOD_US, LIGHTCRAFTER_RESOLUTION
@@ -66,18 +66,41 @@ class Status:
         return bool(self.main & 0x02)
 
 
+LED_BITS = {"r": 0b001, "g": 0b010, "b": 0b100}  # LUT bits 14:12 (TI DLPC350_AddToPatLut)
+
+
 def lut_entry(
-    pattern: int, bit_depth: int, trigger: int, invert: bool = False, led: int = 0b111, buffer_swap: bool = False
+    pattern: int,
+    bit_depth: int,
+    trigger: int,
+    invert: bool = False,
+    led: int = 0b111,
+    buffer_swap: bool = False,
+    insert_black: bool = False,
 ) -> bytes:
     """The 24-bit pattern LUT word (little-endian): trigger 1:0, pattern 7:2, bit depth 11:8,
-    LEDs 14:12, invert 16, buffer swap 18. A 24-bit frame holds 24 // bit_depth patterns (8-bit:
-    0 green, 1 red, 2 blue; 1-bit: planes 0..23)."""
+    LEDs 14:12, invert 16, insert black 17, buffer swap 18. A 24-bit frame holds 24 // bit_depth
+    patterns (8-bit: 0 green, 1 red, 2 blue; 1-bit: planes 0..23); ValueError names the rule broken."""
     if not 1 <= bit_depth <= 8:
-        raise ValueError(f"bit depth {bit_depth} is outside 1..8")
+        raise ValueError(f"bit depth {bit_depth} is outside 1..8 (LUT bits 11:8)")
     if not 0 <= pattern < 24 // bit_depth:
-        raise ValueError(f"pattern number {pattern} is outside 0..{24 // bit_depth - 1} for {bit_depth}-bit patterns")
-    word = trigger | (pattern << 2) | (bit_depth << 8) | (led << 12) | (int(invert) << 16) | (int(buffer_swap) << 18)
+        raise ValueError(
+            f"pattern number {pattern} is outside 0..{24 // bit_depth - 1}: a 24-bit frame holds "
+            f"{24 // bit_depth} patterns of {bit_depth} bits"
+        )
+    if not 0 <= led <= 0b111:
+        raise ValueError(f"LED selection {led:#b} is not a mix of red, green and blue (LUT bits 14:12)")
+    word = trigger | (pattern << 2) | (bit_depth << 8) | (led << 12) | (int(invert) << 16)
+    word |= (int(insert_black) << 17) | (int(buffer_swap) << 18)
     return word.to_bytes(3, "little")
+
+
+def leds_of(entry: SequenceEntry) -> int:
+    """LUT LED bits of an entry's "rgb" mix; ValueError for a letter that is not an LED."""
+    unknown = set(entry.leds) - set(LED_BITS)
+    if unknown or not entry.leds:
+        raise ValueError(f"LEDs {entry.leds!r}: a mix of 'r', 'g' and 'b'")
+    return sum(LED_BITS[c] for c in set(entry.leds))
 
 
 def _lut_words(sequence: PatternSequence) -> list[bytes]:
@@ -94,7 +117,9 @@ def _lut_words(sequence: PatternSequence) -> list[bytes]:
         else:
             trigger = LUT_TRIGGER_EXTERNAL if sequence.trigger is TriggerMode.EXTERNAL else LUT_TRIGGER_INTERNAL
             swap = False
-        words.append(lut_entry(entry.pattern, entry.bit_depth, trigger, entry.invert, buffer_swap=swap))
+        swap = swap if entry.buffer_swap is None else entry.buffer_swap
+        led, black = leds_of(entry), entry.insert_black
+        words.append(lut_entry(entry.pattern, entry.bit_depth, trigger, entry.invert, led, swap, black))
     return words
 
 
@@ -162,6 +187,23 @@ class Lcr4500Projector(Projector):
     def lights_on(self) -> None:
         """Hand the LEDs back to the sequencer, which lights them (the opposite of dark)."""
         self._p.write(CMD_LED_ENABLE, bytes([LED_SEQUENCER]))  # the sequencer drives the LEDs again
+
+    def standby(self) -> None:
+        """Dark, then the controller's standby (POWER_CONTROL 1: the DMD parked, the LEDs off);
+        a sequence must be loaded again after wake()."""
+        self._require_open()
+        self._guarded(self._power, True)
+
+    def wake(self) -> None:
+        """Out of standby (POWER_CONTROL 0), still dark."""
+        self._require_open()
+        self._guarded(self._power, False)
+
+    def _power(self, standby: bool) -> None:
+        if standby:
+            self._p.write(CMD_START_STOP, bytes([STOP]))
+            self._do_dark()
+        self._p.write(CMD_POWER, bytes([int(standby)]))
 
     def _do_show(self, pattern: np.ndarray) -> None:
         raise DeviceStateError(f"{self.name}: plays preloaded sequences; use load_sequence and start_sequence")

@@ -108,6 +108,7 @@ class FakeLcr4500:
         self.validated = False
         self._validate_reads = 0
         self.trig_out1 = bytes(3)
+        self.standby = False
 
     # --- what pyusb and usb.util call ---------------------------------------------------
     def is_kernel_driver_active(self, interface: int) -> bool:
@@ -142,7 +143,7 @@ class FakeLcr4500:
     def dark(self) -> bool:
         """No light: LEDs under manual control (bit 3 clear, as TI's SetLedEnables documents) with
         none of red, green, blue enabled. Bit 3 set gives them to the sequencer, which lights them."""
-        return not self.led_enable & lcr.LED_SEQUENCER and not self.led_enable & 0x07
+        return self.standby or (not self.led_enable & lcr.LED_SEQUENCER and not self.led_enable & 0x07)
 
     @property
     def lut_entries(self) -> list[int]:
@@ -268,15 +269,19 @@ class FakeLcr4500:
             self._validate_reads = 0
             self.validated = True
         elif command == lcr.CMD_START_STOP:
-            if data[0] == lcr.START and (not self.validated or self.display_mode != 1):
+            if data[0] == lcr.START and (not self.validated or self.display_mode != 1 or self.standby):
                 raise KeyError(command)  # starting an unvalidated sequence fails
             self.running = data[0] == lcr.START
             if self.running:
                 self.starts += 1
                 if self.on_start is not None:
                     self.on_start(self)
-        elif command in (lcr.CMD_TRIG_OUT1, lcr.CMD_POWER):
-            self.trig_out1 = bytes(data[:3]) if command == lcr.CMD_TRIG_OUT1 else self.trig_out1
+        elif command == lcr.CMD_TRIG_OUT1:
+            self.trig_out1 = bytes(data[:3])
+        elif command == lcr.CMD_POWER:
+            self.standby = data[0] == 1
+            self.running = self.running and not self.standby
+            self.validated = self.validated and not self.standby  # the LUT is loaded again after waking
         else:
             raise KeyError(command)
         return b""
