@@ -87,6 +87,7 @@ class PatternSequence:
     source: str = "video"  # "video": bit-planes of the video input; "flash": stored images
     repeat: bool = False
     images: tuple[np.ndarray, ...] | None = None  # full images, for projectors that take them
+    flash_images: tuple[int, ...] = ()  # source "flash": the stored images the patterns come from, in order
 
 
 class Device(abc.ABC):

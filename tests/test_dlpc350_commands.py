@@ -10,7 +10,7 @@ import pytest
 
 from drivers.base import PatternSequence, SequenceEntry, TriggerMode
 from drivers.dlp import lcr4500
-from drivers.dlp.commands import COMMANDS
+from drivers.dlp.commands import COMMANDS, PATTERN_LUT_ENTRY
 from drivers.fakes.dlpc350 import FakeLcr4500
 from tests.test_projectors import _lcr
 
@@ -18,17 +18,24 @@ from tests.test_projectors import _lcr
 VSYNC_8BIT = PatternSequence(tuple(SequenceEntry(i, 8) for i in range(3)), 8333, 8333, TriggerMode.VSYNC)
 
 
-def _golden(report: bytes) -> bytes:
-    """The report as the table says it must be: flags (read or write, reply wanted), the sequence
-    number, length = 2 + the table's data length, the command CMD3 first, the data, zeros to 64."""
-    flags, sequence, _, code = struct.unpack_from("<BBHH", report)
-    command = COMMANDS[code]
-    read = bool(flags & 0x80)
-    size = 0 if read else command.write_bytes
-    assert size is not None, f"{command.name} is written, but the table says it is not"
-    data = report[6 : 6 + size]
-    head = bytes([0xC0 if read else 0x40, sequence]) + (2 + size).to_bytes(2, "little") + code.to_bytes(2, "little")
-    return (head + data).ljust(64, b"\0")
+def _golden(reports: list[bytes], images: int = 0) -> list[bytes]:
+    """The reports as the table says they must be: flags (read or write, reply wanted), the
+    sequence number, length = 2 + the table's data length, the command CMD3 first, the data, zeros
+    to 64. Mailbox data is a pattern LUT entry with mailbox 2 open, `images` indices with 1 open."""
+    golden, mailbox = [], 0
+    for report in reports:
+        flags, sequence, _, code = struct.unpack_from("<BBHH", report)
+        command, read = COMMANDS[code], bool(flags & 0x80)
+        size = 0 if read else command.write_bytes
+        if code == lcr4500.CMD_MBOX_DATA and not read:
+            size = PATTERN_LUT_ENTRY.write_bytes if mailbox == 2 else images
+        assert isinstance(size, int), f"{command.name}: the table gives no length for this write"
+        data = report[6 : 6 + size]
+        if code == lcr4500.CMD_MBOX_CONTROL and not read:
+            mailbox = data[0]
+        head = bytes([0xC0 if read else 0x40, sequence]) + (2 + size).to_bytes(2, "little")
+        golden.append((head + code.to_bytes(2, "little") + data).ljust(64, b"\0"))
+    return golden
 
 
 def test_every_command_the_driver_names_is_in_the_table_with_its_code() -> None:
@@ -48,8 +55,7 @@ def test_a_3_pattern_8_bit_vsync_sequence_is_every_report_the_document_lays_out(
     projector.start_sequence()
     sent = fake.reports[first:]
     assert not fake.refused
-    for report in fake.reports:
-        assert report == _golden(report), COMMANDS[struct.unpack_from("<H", report, 4)[0]].name
+    assert fake.reports == _golden(fake.reports)
     writes = [(COMMANDS[code].name, data) for kind, code, data in fake.log[-len(sent) :] if kind == "w"]
     names = [name for name, _ in writes]
     # the document's order: stop, pattern mode, source, configuration, trigger mode, exposure and
@@ -75,13 +81,28 @@ def test_a_3_pattern_8_bit_vsync_sequence_is_every_report_the_document_lays_out(
     projector.close()
 
 
+def _send(fake: FakeLcr4500, code: int, data: bytes) -> None:
+    fake.write(0x01, (struct.pack("<BBHH", 0x40, 9, 2 + len(data), code) + data).ljust(64, b"\0"), 1000)
+
+
+def test_a_pattern_lut_entry_with_reserved_bits_is_refused() -> None:
+    fake = FakeLcr4500()
+    _send(fake, 0x1A33, b"\x02")  # the pattern LUT's mailbox
+    fake.read(0x81, 64, 1000)
+    _send(fake, 0x1A34, b"\x00\x00\x10")  # bit 20 of the entry
+    assert fake.read(0x81, 64, 1000)[0] & 0x20 and "reserved bits" in fake.refused[-1]
+    _send(fake, 0x1A34, b"\x00\x00")  # two bytes: an entry is three
+    assert fake.read(0x81, 64, 1000)[0] & 0x20 and "carries 3 data bytes, not 2" in fake.refused[-1]
+    assert fake.lut == {}
+
+
 @pytest.mark.parametrize(
     ("code", "data", "reason"),
     [
         (0x1A1A, b"", "carries 1 data bytes, not 0"),  # LUT_VALID as slrig sent it before
         (0x1A29, b"\x00" * 4, "carries 8 data bytes, not 4"),  # exposure without the period
         (0x1A1B, b"\x02", "reserved bits"),  # display mode 2 does not exist on a DLPC350
-        (0x1A34, b"\x00\x00\x10", "reserved bits"),  # LUT entry bit 20
+        (0x1A34, b"", "carries 1 to 64 data bytes, not 0"),  # mailbox data of nothing
         (0x1A22, b"\x01", "is not one of [0, 3]"),  # pattern source 1
         (0x1A0C, b"\x00", "is not written"),  # a status is read, never written
         (0x1234, b"", "unknown command"),
@@ -89,8 +110,7 @@ def test_a_3_pattern_8_bit_vsync_sequence_is_every_report_the_document_lays_out(
 )
 def test_the_fake_refuses_what_the_document_refuses(code: int, data: bytes, reason: str) -> None:
     fake = FakeLcr4500()
-    report = (struct.pack("<BBHH", 0x40, 9, 2 + len(data), code) + data).ljust(64, b"\0")
-    fake.write(0x01, report, 1000)
+    _send(fake, code, data)
     reply = fake.read(0x81, 64, 1000)
     assert reply[0] & 0x20 and reply[1] == 9  # the error bit, for this sequence number
     assert reason in fake.refused[-1]
@@ -140,4 +160,37 @@ def test_standby_parks_the_controller_dark_and_wake_needs_a_new_sequence() -> No
     projector.load_sequence(PatternSequence((SequenceEntry(0, 8),), 8333, 8333))
     projector.start_sequence()
     assert fake.running and not fake.refused
+    projector.close()
+
+
+def test_a_24_pattern_1_bit_flash_sequence_with_its_image_table() -> None:
+    fake = FakeLcr4500()
+    projector = _lcr(fake)
+    projector.open()
+    entries = tuple(SequenceEntry(plane, 1) for plane in range(24)) * 2  # 24 planes of image 5, then of image 2
+    sequence = PatternSequence(entries, 2000, 2500, TriggerMode.EXTERNAL, source="flash", flash_images=(5, 2))
+    first = len(fake.reports)
+    projector.load_sequence(sequence)
+    projector.start_sequence()
+    assert not fake.refused and fake.running
+    assert fake.reports[first:] == _golden(fake.reports[first:], images=2)
+    writes = [(COMMANDS[c].name, d) for k, c, d in fake.log[-(len(fake.reports) - first) :] if k == "w"]
+    names = [name for name, _ in writes]
+    assert dict(writes)["PAT_DISP_MODE"] == bytes([3]) and dict(writes)["PAT_CONFIG"] == bytes([47, 0, 47, 1])
+    image_table = names.index("MBOX_CONTROL", names.index("MBOX_CONTROL") + 1)  # after the pattern LUT closes
+    assert writes[image_table + 1 : image_table + 5] == [
+        ("MBOX_CONTROL", bytes([1])),
+        ("MBOX_ADDRESS", bytes([0])),
+        ("MBOX_DATA", bytes([5, 2])),
+        ("MBOX_CONTROL", bytes([0])),
+    ]
+    assert fake.image_lut == [5, 2]
+    words = fake.lut_entries
+    assert [(w >> 2) & 0x3F for w in words] == list(range(24)) * 2 and all((w >> 8) & 0xF == 1 for w in words)
+    assert [i for i, w in enumerate(words) if w >> 18 & 1] == [0, 24]  # each image's first plane swaps to it
+    assert all(w & 0x3 == 1 for w in words)  # external trigger
+    with pytest.raises(ValueError, match=r"the flash holds images 0..7; \[9\] are not there"):
+        projector.load_sequence(PatternSequence(entries[:24], 2000, 2500, source="flash", flash_images=(9,)))
+    with pytest.raises(ValueError, match="names 1 to 64 stored images"):
+        projector.load_sequence(PatternSequence(entries[:24], 2000, 2500, source="flash"))
     projector.close()

@@ -23,7 +23,7 @@ from dataclasses import dataclass, field
 class Command:
     name: str
     code: int  # CMD2 << 8 | CMD3; sent little-endian (CMD3 first)
-    write_bytes: int | None  # data bytes of a write; None: not written
+    write_bytes: int | range | None  # data bytes of a write (a range where it varies); None: not written
     read_bytes: int | None  # data bytes a read returns; None: not read
     source: str
     reserved: bytes = b""  # per data byte of a write: bits that must be 0
@@ -33,8 +33,9 @@ class Command:
         """Why the document refuses this write's data, or None."""
         if self.write_bytes is None:
             return f"{self.name} is not written"
-        if len(data) != self.write_bytes:
-            return f"{self.name} carries {self.write_bytes} data bytes, not {len(data)}"
+        fits = len(data) in self.write_bytes if isinstance(self.write_bytes, range) else len(data) == self.write_bytes
+        if not fits:
+            return f"{self.name} carries {_lengths(self.write_bytes)} data bytes, not {len(data)}"
         for index, (value, mask) in enumerate(zip(data, self.reserved, strict=False)):
             if value & mask:
                 return f"{self.name} byte {index}: reserved bits 0x{value & mask:02x} set"
@@ -42,6 +43,10 @@ class Command:
             if data[index] not in values:
                 return f"{self.name} byte {index}: {data[index]} is not one of {sorted(values)}"
         return None
+
+
+def _lengths(expected: int | range) -> str:
+    return f"{expected.start} to {expected.stop - 1}" if isinstance(expected, range) else str(expected)
 
 
 _LIST = "CmdList"
@@ -106,10 +111,14 @@ COMMANDS = {
         Command(
             "MBOX_DATA",
             0x1A34,
-            3,
+            range(1, 65),
             None,
-            f"{_LIST} (length 0: varies); DLPC350_AddToPatLut: a 24-bit LUT entry",
-            b"\x00\x00\xf0",
+            f"{_LIST} (length 0: varies with the open mailbox; see PATTERN_LUT_ENTRY and IMAGE_LUT)",
         ),
+        Command("NUM_IMAGE_IN_FLASH", 0x1A42, None, 1, f"{_LIST} (read); DLPC350_GetNumImagesInFlash"),
     )
 }
+# MBOX_DATA with mailbox 2 open: one pattern LUT entry (DLPC350_AddToPatLut; bits 23:20 reserved)
+PATTERN_LUT_ENTRY = Command("MBOX_DATA (pattern LUT)", 0x1A34, 3, None, "DLPC350_SendPatLut", b"\x00\x00\xf0")
+# MBOX_DATA with mailbox 1 open: the image indices, one byte each, all in one write (DLPC350_SendImageLut)
+IMAGE_LUT = Command("MBOX_DATA (image LUT)", 0x1A34, range(1, 65), None, "DLPC350_SendImageLut")

@@ -39,6 +39,7 @@ CMD_START_STOP = 0x1A24
 CMD_EXPOSURE_PERIOD = 0x1A29
 CMD_PATTERN_CONFIG = 0x1A31
 CMD_MBOX_ADDRESS, CMD_MBOX_CONTROL, CMD_MBOX_DATA = 0x1A32, 0x1A33, 0x1A34
+CMD_NUM_IMAGES = 0x1A42
 
 START, PAUSE, STOP = 2, 1, 0
 LED_SEQUENCER, LED_RED, LED_GREEN, LED_BLUE = 0x08, 0x01, 0x02, 0x04  # LED_ENABLE bits (TI SetLedEnables)
@@ -105,18 +106,19 @@ def leds_of(entry: SequenceEntry) -> int:
 
 def _lut_words(sequence: PatternSequence) -> list[bytes]:
     """LUT words of a sequence. Under VSYNC each video frame's first pattern waits for the frame
-    and swaps to its buffer; the frame's other patterns follow it without a trigger. A pattern
-    number not above the previous one's starts the next frame (8-bit: green, red, blue)."""
+    and swaps to its buffer; the frame's other patterns follow it without a trigger. From flash,
+    each image's first pattern swaps to the next image of the image LUT. A pattern number not
+    above the previous one's starts the next frame or image (8-bit: green, red, blue)."""
     words, previous = [], -1
     for entry in sequence.entries:
+        starts_frame = entry.pattern <= previous or not words  # of a video frame, or of a flash image
+        previous = entry.pattern
         if sequence.trigger is TriggerMode.VSYNC:
-            starts_frame = entry.pattern <= previous
-            previous = entry.pattern
-            trigger = LUT_TRIGGER_INTERNAL if starts_frame or not words else LUT_TRIGGER_CONTINUE
-            swap = starts_frame or not words
+            trigger = LUT_TRIGGER_INTERNAL if starts_frame else LUT_TRIGGER_CONTINUE
+            swap = starts_frame
         else:
             trigger = LUT_TRIGGER_EXTERNAL if sequence.trigger is TriggerMode.EXTERNAL else LUT_TRIGGER_INTERNAL
-            swap = False
+            swap = starts_frame and sequence.source == "flash"  # the next image of the image LUT
         swap = swap if entry.buffer_swap is None else entry.buffer_swap
         led, black = leds_of(entry), entry.insert_black
         words.append(lut_entry(entry.pattern, entry.bit_depth, trigger, entry.invert, led, swap, black))
@@ -257,11 +259,12 @@ class Lcr4500Projector(Projector):
         count = len(sequence.entries)
         if count > 128:
             raise ValueError(f"{self.name}: at most 128 LUT entries, got {count}")
+        images = self._flash_images(sequence)
         p = self._p
         p.write(CMD_START_STOP, bytes([STOP]))
         self.set_display_mode(True)
         p.write(CMD_PATTERN_SOURCE, bytes([SOURCE_CODES[sequence.source]]))
-        p.write(CMD_PATTERN_CONFIG, bytes([count - 1, int(sequence.repeat), count - 1, 0]))
+        p.write(CMD_PATTERN_CONFIG, bytes([count - 1, int(sequence.repeat), count - 1, max(1, len(images)) - 1]))
         p.write(CMD_TRIGGER_MODE, bytes([TRIGGER_CODES[sequence.trigger]]))
         p.write(CMD_EXPOSURE_PERIOD, struct.pack("<II", exposure, period))
         p.write(CMD_MBOX_CONTROL, bytes([2]))  # open the pattern LUT
@@ -271,7 +274,29 @@ class Lcr4500Projector(Projector):
                 p.write(CMD_MBOX_DATA, word)
         finally:
             p.write(CMD_MBOX_CONTROL, bytes([0]))
+        if images:  # the image-index table (TI DLPC350_SendImageLut: all indices in one write)
+            p.write(CMD_MBOX_CONTROL, bytes([1]))
+            try:
+                p.write(CMD_MBOX_ADDRESS, bytes([0]))
+                p.write(CMD_MBOX_DATA, bytes(images))
+            finally:
+                p.write(CMD_MBOX_CONTROL, bytes([0]))
         self._validate()
+
+    def _flash_images(self, sequence: PatternSequence) -> tuple[int, ...]:
+        """A flash sequence's image indices, each one the flash holds; ValueError naming the rule."""
+        images = sequence.flash_images
+        if sequence.source != "flash":
+            if images:
+                raise ValueError(f"{self.name}: flash_images are for a sequence whose source is flash")
+            return ()
+        if not 1 <= len(images) <= 64:
+            raise ValueError(f"{self.name}: a flash sequence names 1 to 64 stored images, not {len(images)}")
+        stored = self._p.read(CMD_NUM_IMAGES, 1)[0]
+        missing = sorted({i for i in images if not 0 <= i < stored})
+        if missing:
+            raise ValueError(f"{self.name}: the flash holds images 0..{stored - 1}; {missing} are not there")
+        return images
 
     def _validate(self) -> None:
         self._p.write(CMD_LUT_VALID, bytes([0]))  # one data byte, 0x00 (TI CmdList; it was sent with none)

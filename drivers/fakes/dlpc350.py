@@ -12,17 +12,20 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from drivers.dlp import lcr4500 as lcr
-from drivers.dlp.commands import COMMANDS
+from drivers.dlp.commands import COMMANDS, IMAGE_LUT, PATTERN_LUT_ENTRY
 from drivers.fakes.faults import Fault, FaultPlan
 
 
-def _refusal(command: int, data: bytes, read: bool) -> str | None:
-    """Why the DLPC350 command list refuses this report (drivers.dlp.commands), or None."""
+def _refusal(command: int, data: bytes, read: bool, mailbox: int) -> str | None:
+    """Why the DLPC350 command list refuses this report (drivers.dlp.commands), or None; mailbox
+    data is judged by the mailbox open (a pattern LUT entry, or the image indices)."""
     known = COMMANDS.get(command)
     if known is None:
         return f"unknown command 0x{command:04x}"
     if read:
         return None if known.read_bytes is not None else f"{known.name} is not read"
+    if command == lcr.CMD_MBOX_DATA:
+        known = {1: IMAGE_LUT, 2: PATTERN_LUT_ENTRY}.get(mailbox, known)
     return known.refuses(data)
 
 
@@ -109,6 +112,8 @@ class FakeLcr4500:
         self._validate_reads = 0
         self.trig_out1 = bytes(3)
         self.standby = False
+        self.images_in_flash = 8  # what the flash holds (the LightCrafter's factory images are fewer)
+        self.image_lut: list[int] = []
 
     # --- what pyusb and usb.util call ---------------------------------------------------
     def is_kernel_driver_active(self, interface: int) -> bool:
@@ -167,7 +172,7 @@ class FakeLcr4500:
         self.log.append(("r" if read else "w", command, data))
         if f.late_reply_before is not None and self.commands == f.late_reply_before:
             self._replies.append(self._reply((sequence - 1) & 0xFF, b"\x00"))  # the previous command's, late
-        refused = _refusal(command, data, read)
+        refused = _refusal(command, data, read, self.mailbox)
         if refused is not None:
             self.refused.append(refused)
             payload, error = b"", True  # what the command list refuses: the error bit, nothing changed
@@ -206,6 +211,8 @@ class FakeLcr4500:
             return bytes([lcr.START if self.running else lcr.STOP])
         if command == lcr.CMD_LED_ENABLE:
             return bytes([self.led_enable])
+        if command == lcr.CMD_NUM_IMAGES:
+            return bytes([self.images_in_flash])
         raise KeyError(command)
 
     def _validation_errors(self) -> int:
@@ -221,6 +228,8 @@ class FakeLcr4500:
                 bits |= 0x02
             if depth == 8 and e < lcr.MIN_8BIT_PERIOD_US:
                 bits |= 0x01
+        if self.source == 3 and (not self.image_lut or len(self.image_lut) != self.pattern_config[3] + 1):
+            bits |= 0x02  # a flash sequence's images: the table and the count in PAT_CONFIG agree
         if self.trigger_mode == 0 and self.source == 0:  # VSYNC: a video frame's patterns fit in its period
             frames = self.vsync_frames()
             if any(len(frame) * p > self.video_period_us for frame in frames):
@@ -262,9 +271,12 @@ class FakeLcr4500:
         elif command == lcr.CMD_MBOX_ADDRESS:
             self.mailbox_address = data[0]
         elif command == lcr.CMD_MBOX_DATA:
-            if self.mailbox != 2:
-                raise KeyError(command)  # writing a LUT entry with the mailbox closed fails
-            self.lut[self.mailbox_address] = bytes(data[:3])
+            if self.mailbox == 1:
+                self.image_lut = list(data)
+            elif self.mailbox == 2:
+                self.lut[self.mailbox_address] = bytes(data[:3])
+            else:
+                raise KeyError(command)  # mailbox data with the mailbox closed fails
         elif command == lcr.CMD_LUT_VALID:
             self._validate_reads = 0
             self.validated = True
