@@ -10,6 +10,10 @@ import threading
 import time
 
 from drivers.fakes.faults import Fault, FaultPlan
+from drivers.pjlink_commands import COMMANDS
+
+QUERY_ANSWERS = {"LAMP": "1200 1", "INST": "11 31 32", "NAME": "bench", "INF1": "FAKE", "INF2": "PJLINK"}
+QUERY_ANSWERS |= {"INFO": "loopback", "CLSS": "1"}
 
 
 class FakePJLinkProjector:
@@ -23,6 +27,7 @@ class FakePJLinkProjector:
         self.password = password
         self.warmup_s = warmup_s
         self.fault = fault  # "", "no-greeting", "silence", "drop", "late-once" (first reply comes 0.4 s late)
+        self.refused: list[str] = []  # command lines answered ERR2 by the command table
         self.power = "0"
         self.warm_until = 0.0
         self.input = "31"
@@ -96,9 +101,16 @@ class FakePJLinkProjector:
                     return  # the client gave up on this connection
 
     def _answer(self, line: str) -> str:
-        if not line.startswith("%1") or " " not in line:
+        if not line.startswith("%1") or line[6:7] != " ":
             return "%1ERR1"
         body, parameter = line[2:6], line[7:]
+        known = COMMANDS.get(body)
+        if known is None:
+            return f"%1{body}=ERR1"  # undefined command (the class 1 command list)
+        refused = known.refuses(parameter)
+        if refused is not None:
+            self.refused.append(line)
+            return f"%1{body}={refused}"
         warming = time.monotonic() < self.warm_until
         if body == "POWR":
             if parameter == "?":
@@ -121,4 +133,4 @@ class FakePJLinkProjector:
             return f"%1{body}=OK"
         if body == "ERST":
             return "%1ERST=000000"
-        return f"%1{body}=ERR1"
+        return f"%1{body}={QUERY_ANSWERS[body]}"

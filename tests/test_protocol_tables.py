@@ -1,0 +1,83 @@
+"""Drivers checked against the command tables written from the documents (drivers.pjlink_commands
+for PJLink class 1): every line the driver sends is encoded again here from the table's syntax,
+and the fakes refuse what the table refuses."""
+
+from __future__ import annotations
+
+import re
+import socket
+
+import pytest
+
+from drivers.errors import DeviceError
+from drivers.fakes.pjlink import FakePJLinkProjector
+from drivers.pjlink import PJLinkPowerControl
+from drivers.pjlink_commands import COMMANDS
+
+
+def _line(body: str, parameter: str) -> str:
+    """`%1` + body + space + parameter (the class 1 syntax), as the table's entry allows it."""
+    command = COMMANDS[body]
+    assert parameter == "?" or (command.sets is not None and re.fullmatch(command.sets, parameter)), (body, parameter)
+    return f"%1{body} {parameter}"
+
+
+def test_every_pjlink_line_the_driver_sends_is_the_tables() -> None:
+    with (
+        FakePJLinkProjector() as server,
+        PJLinkPowerControl("pj", "127.0.0.1", server.port, timeout_s=2.0) as device,
+    ):
+        device.power(True)
+        assert device.power_state() == "on"
+        device.select_input("31")
+        device.blank(True)
+        device.blank(False)
+        assert device.error_status()["lamp"] == "ok"
+        device.power(False)
+        sent = list(server.received)
+    expected = [
+        _line("POWR", "1"),
+        _line("POWR", "?"),
+        _line("INPT", "31"),
+        _line("AVMT", "31"),
+        _line("AVMT", "30"),
+        _line("ERST", "?"),
+        _line("POWR", "0"),
+    ]
+    assert sent == expected
+    assert all(re.fullmatch(r"%1[A-Z0-9]{4} \S+", line) for line in sent) and not server.refused
+
+
+@pytest.mark.parametrize(
+    ("line", "answer"),
+    [
+        ("%1POWR 2", "%1POWR=ERR2"),  # power is 0 or 1
+        ("%1INPT 71", "%1INPT=ERR2"),  # input types are 1-5
+        ("%1AVMT 41", "%1AVMT=ERR2"),  # mute 10/11, 20/21, 30/31
+        ("%1ERST 1", "%1ERST=ERR2"),  # error status is only queried
+        ("%1XXXX ?", "%1XXXX=ERR1"),  # not a class 1 command
+        ("%1CLSS ?", "%1CLSS=1"),  # a query the table has is answered in its shape
+    ],
+)
+def test_the_pjlink_fake_answers_by_the_table(line: str, answer: str) -> None:
+    with FakePJLinkProjector() as server, socket.create_connection(("127.0.0.1", server.port), timeout=2) as s:
+        assert s.recv(64) == b"PJLINK 0\r"
+        s.sendall(line.encode() + b"\r")
+        reply = s.recv(64).decode()
+    assert reply == answer + "\r"
+    body = line[2:6]
+    if body in COMMANDS and not answer.endswith(("ERR1", "ERR2")):
+        assert re.fullmatch(COMMANDS[body].answer, reply[7:-1])
+
+
+def test_an_input_the_table_refuses_never_leaves_the_driver() -> None:
+    with (
+        FakePJLinkProjector() as server,
+        PJLinkPowerControl("pj", "127.0.0.1", server.port, timeout_s=2.0) as device,
+    ):
+        device.power(True)
+        with pytest.raises(ValueError, match="type 1-5"):
+            device.select_input("71")
+        with pytest.raises(DeviceError):
+            device.command("AVMT", "41")  # past the driver's checks: the fake refuses it by the table
+        assert server.refused == ["%1AVMT 41"]
