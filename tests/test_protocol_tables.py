@@ -1,18 +1,22 @@
-"""Drivers checked against the command tables written from the documents (drivers.pjlink_commands
-for PJLink class 1): every line the driver sends is encoded again here from the table's syntax,
-and the fakes refuse what the table refuses."""
+"""Drivers checked against the command tables written from the documents: PJLink class 1
+(drivers.pjlink_commands) and the serial projectors (drivers.serial_commands). Every line the
+driver sends is encoded again here from the table, and the fakes refuse what the table refuses."""
 
 from __future__ import annotations
 
 import re
 import socket
+import time
 
 import pytest
+import serial
 
 from drivers.errors import DeviceError
 from drivers.fakes.pjlink import FakePJLinkProjector
 from drivers.pjlink import PJLinkPowerControl
 from drivers.pjlink_commands import COMMANDS
+from drivers.serial_commands import SERIAL_COMMANDS
+from drivers.serial_projector import COMMAND_SETS, SIM_HANDLERS
 
 
 def _line(body: str, parameter: str) -> str:
@@ -81,3 +85,36 @@ def test_an_input_the_table_refuses_never_leaves_the_driver() -> None:
         with pytest.raises(DeviceError):
             device.command("AVMT", "41")  # past the driver's checks: the fake refuses it by the table
         assert server.refused == ["%1AVMT 41"]
+
+
+@pytest.mark.parametrize("vendor", sorted(COMMAND_SETS))
+def test_every_serial_frame_a_command_set_builds_is_in_the_table(vendor: str) -> None:
+    commands = COMMAND_SETS[vendor]()
+    built = {
+        "power": {commands.power(True), commands.power(False)},
+        "power?": {commands.power_query()},
+        "input": {commands.select_input(code) for code in commands.inputs.values()},
+        "blank": {commands.blank(True), commands.blank(False)},
+    }
+    table = {c.operation: set(c.encodings()) for c in SERIAL_COMMANDS if c.vendor == vendor}
+    assert built == table
+
+
+@pytest.mark.parametrize(
+    ("vendor", "frame", "refusal"),
+    [
+        ("benq", b"\r*pow=standby#\r", b"*Illegal format#"),
+        ("epson", b"SOURCE 99\r", b"ERR"),
+        ("optoma", b"~0000 2\r", b"F"),
+    ],
+)
+def test_the_simulated_serial_projector_refuses_frames_outside_the_table(
+    vendor: str, frame: bytes, refusal: bytes
+) -> None:
+    if SIM_HANDLERS not in serial.protocol_handler_packages:
+        serial.protocol_handler_packages.append(SIM_HANDLERS)
+    port = serial.serial_for_url(f"simprojector://{vendor}", timeout=0.5)
+    port.write(frame)
+    time.sleep(0.05)
+    assert refusal in port.read(port.in_waiting or 1)
+    port.close()

@@ -14,6 +14,12 @@ import urllib.parse
 from serial.serialutil import PortNotOpenError, SerialBase, SerialException, Timeout
 
 from drivers.fakes.faults import Fault, FaultPlan
+from drivers.serial_commands import frames
+
+
+def _known(vendor: str) -> set[bytes]:
+    """The table's frames as this handler receives them (framing stripped)."""
+    return {frame.strip(b"\r").rstrip(b"#") for frame in frames(vendor)}
 
 
 class Serial(SerialBase):
@@ -104,7 +110,7 @@ class Serial(SerialBase):
     def _answer(self, command: bytes) -> bytes:
         self.received.append(command)
         text = command.decode("ascii", "replace")
-        refuse = self.fault == "refuse"
+        refuse = self.fault == "refuse" or command not in _known(self.vendor)  # the table's frames only
         if self.vendor == "benq":
             echo = (text + "#\r").encode()
             if refuse or not text.startswith("*") or "=" not in text:
