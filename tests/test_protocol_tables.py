@@ -8,15 +8,19 @@ import re
 import socket
 import time
 
+import cv2
 import pytest
 import serial
 
 from drivers.errors import DeviceError
 from drivers.fakes.pjlink import FakePJLinkProjector
+from drivers.fakes.v4l2 import FakeVideoCapture, V4l2Faults
 from drivers.pjlink import PJLinkPowerControl
 from drivers.pjlink_commands import COMMANDS
 from drivers.serial_commands import SERIAL_COMMANDS
 from drivers.serial_projector import COMMAND_SETS, SIM_HANDLERS
+from drivers.v4l2 import V4l2Camera
+from drivers.v4l2_controls import CONTROLS
 
 
 def _line(body: str, parameter: str) -> str:
@@ -118,3 +122,26 @@ def test_the_simulated_serial_projector_refuses_frames_outside_the_table(
     time.sleep(0.05)
     assert refusal in port.read(port.in_waiting or 1)
     port.close()
+
+
+def test_every_v4l2_control_the_driver_sets_is_the_tables() -> None:
+    fake = FakeVideoCapture(V4l2Faults(sizes=((1280, 1024),)))
+    camera = V4l2Camera("cam", "fake", (1280, 1024), exposure_us=8000.0, gain=4, capture_factory=lambda _: fake)
+    camera.open()
+    camera.set_exposure_us(12345.0)
+    camera.close()
+    assert not fake.refused and {prop for prop, _ in fake.sets} <= set(CONTROLS)
+    values = dict(fake.sets)  # the last value set of each
+    assert values[cv2.CAP_PROP_AUTO_EXPOSURE] == 1  # V4L2_EXPOSURE_MANUAL, not OpenCV's normalised 0.25
+    assert values[cv2.CAP_PROP_EXPOSURE] == 123  # 12345 us in 100 us units, whole
+    assert values[cv2.CAP_PROP_FOURCC] == cv2.VideoWriter_fourcc(*"GREY")  # pixelformat, four characters
+
+
+@pytest.mark.parametrize(
+    ("prop", "value"),
+    [(cv2.CAP_PROP_AUTO_EXPOSURE, 0.25), (cv2.CAP_PROP_EXPOSURE, 12.5), (cv2.CAP_PROP_BUFFERSIZE, 64), (999, 1)],
+)
+def test_the_v4l2_fake_refuses_what_the_table_refuses(prop: int, value: float) -> None:
+    fake = FakeVideoCapture()
+    before = fake.get(prop)
+    assert fake.set(prop, value) is False and fake.get(prop) == before and fake.refused

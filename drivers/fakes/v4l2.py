@@ -17,6 +17,7 @@ import cv2
 import numpy as np
 
 from drivers.fakes.faults import Fault, FaultPlan
+from drivers.v4l2_controls import refuses
 
 
 @dataclass
@@ -47,6 +48,8 @@ class FakeVideoCapture:
             cv2.CAP_PROP_GAIN: 0,
             cv2.CAP_PROP_BUFFERSIZE: 4,
         }
+        self.sets: list[tuple[int, float]] = []  # every set() the driver made
+        self.refused: list[str] = []  # why each refused set() was refused
         self.frames = 0  # grabs answered
         self.stamp_ms = 0.0  # of the buffer last grabbed
         self.released = False
@@ -58,6 +61,11 @@ class FakeVideoCapture:
         return not self.faults.absent and not self.released
 
     def set(self, prop: int, value: float) -> bool:
+        self.sets.append((prop, value))
+        reason = refuses(prop, value)
+        if reason is not None:  # what V4L2 refuses (EINVAL, ERANGE): OpenCV's set() says False
+            self.refused.append(reason)
+            return False
         if prop in (cv2.CAP_PROP_FRAME_WIDTH, cv2.CAP_PROP_FRAME_HEIGHT):
             other = cv2.CAP_PROP_FRAME_HEIGHT if prop == cv2.CAP_PROP_FRAME_WIDTH else cv2.CAP_PROP_FRAME_WIDTH
             wanted = (value, self.props[other]) if prop == cv2.CAP_PROP_FRAME_WIDTH else (self.props[other], value)
