@@ -181,10 +181,10 @@ def test_a_24_pattern_1_bit_flash_sequence_with_its_image_table() -> None:
     assert writes[image_table + 1 : image_table + 5] == [
         ("MBOX_CONTROL", bytes([1])),
         ("MBOX_ADDRESS", bytes([0])),
-        ("MBOX_DATA", bytes([5, 2])),
+        ("MBOX_DATA", bytes([2, 5])),  # two entries go backwards (TI DLPC350_SendImageLut)
         ("MBOX_CONTROL", bytes([0])),
     ]
-    assert fake.image_lut == [5, 2]
+    assert fake.image_lut == [5, 2]  # as the firmware reads them: image 5 first
     words = fake.lut_entries
     assert [(w >> 2) & 0x3F for w in words] == list(range(24)) * 2 and all((w >> 8) & 0xF == 1 for w in words)
     assert [i for i, w in enumerate(words) if w >> 18 & 1] == [0, 24]  # each image's first plane swaps to it
@@ -194,3 +194,8 @@ def test_a_24_pattern_1_bit_flash_sequence_with_its_image_table() -> None:
     with pytest.raises(ValueError, match="names 1 to 64 stored images"):
         projector.load_sequence(PatternSequence(entries[:24], 2000, 2500, source="flash"))
     projector.close()
+
+
+@pytest.mark.parametrize(("images", "written"), [((5,), b"\x05"), ((5, 2), b"\x02\x05"), ((5, 2, 7), b"\x05\x02\x07")])
+def test_only_a_two_entry_image_table_is_written_backwards(images: tuple[int, ...], written: bytes) -> None:
+    assert lcr4500.image_lut_bytes(images) == written

@@ -118,7 +118,10 @@ COMMANDS = {
         Command("NUM_IMAGE_IN_FLASH", 0x1A42, None, 1, f"{_LIST} (read); DLPC350_GetNumImagesInFlash"),
     )
 }
-# MBOX_DATA with mailbox 2 open: one pattern LUT entry (DLPC350_AddToPatLut; bits 23:20 reserved)
+# MBOX_DATA with mailbox 2 open: one pattern LUT entry (DLPC350_AddToPatLut; DLPC350 Programmer's
+# Guide table 2-65; bits 23:20 reserved). TI's SendPatLut writes every entry in one message from
+# address 0; slrig writes each entry at its address, as pycrafter4500 does.
 PATTERN_LUT_ENTRY = Command("MBOX_DATA (pattern LUT)", 0x1A34, 3, None, "DLPC350_SendPatLut", b"\x00\x00\xf0")
-# MBOX_DATA with mailbox 1 open: the image indices, one byte each, all in one write (DLPC350_SendImageLut)
+# MBOX_DATA with mailbox 1 open: the image indices, one byte each, all in one write; exactly two
+# entries are written in reverse order (DLPC350_SendImageLut, "special case of 2 entries")
 IMAGE_LUT = Command("MBOX_DATA (image LUT)", 0x1A34, range(1, 65), None, "DLPC350_SendImageLut")

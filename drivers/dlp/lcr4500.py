@@ -96,6 +96,12 @@ def lut_entry(
     return word.to_bytes(3, "little")
 
 
+def image_lut_bytes(images: tuple[int, ...]) -> bytes:
+    """The image-index table as written: TI's DLPC350_SendImageLut sends exactly two entries in
+    reverse order (the firmware reads a two-entry table backwards), any other count in order."""
+    return bytes(images[::-1] if len(images) == 2 else images)
+
+
 def leds_of(entry: SequenceEntry) -> int:
     """LUT LED bits of an entry's "rgb" mix; ValueError for a letter that is not an LED."""
     unknown = set(entry.leds) - set(LED_BITS)
@@ -278,7 +284,7 @@ class Lcr4500Projector(Projector):
             p.write(CMD_MBOX_CONTROL, bytes([1]))
             try:
                 p.write(CMD_MBOX_ADDRESS, bytes([0]))
-                p.write(CMD_MBOX_DATA, bytes(images))
+                p.write(CMD_MBOX_DATA, image_lut_bytes(images))
             finally:
                 p.write(CMD_MBOX_CONTROL, bytes([0]))
         self._validate()

@@ -271,8 +271,8 @@ class FakeLcr4500:
         elif command == lcr.CMD_MBOX_ADDRESS:
             self.mailbox_address = data[0]
         elif command == lcr.CMD_MBOX_DATA:
-            if self.mailbox == 1:
-                self.image_lut = list(data)
+            if self.mailbox == 1:  # the firmware reads a two-entry table backwards (TI DLPC350_SendImageLut)
+                self.image_lut = list(data[::-1] if len(data) == 2 else data)
             elif self.mailbox == 2:
                 self.lut[self.mailbox_address] = bytes(data[:3])
             else:
