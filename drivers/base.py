@@ -65,7 +65,8 @@ class TriggerMode(enum.Enum):
 class SequenceEntry:
     """One pattern of a preloaded sequence: which bit-plane group of the source, its bit depth,
     which LEDs light it ("r", "g", "b" in any mix), and whether the projector goes black after it
-    (a gap before the next pattern) or swaps its frame buffer first (None: as the sequence needs)."""
+    (a gap before the next pattern) or swaps its frame buffer first (None: as the sequence needs),
+    and, where a projector can vary it per pattern, its own exposure and period."""
 
     pattern: int  # bit-plane group (0-24 on a DLPC350)
     bit_depth: int = 8
@@ -73,6 +74,8 @@ class SequenceEntry:
     leds: str = "rgb"
     insert_black: bool = False
     buffer_swap: bool | None = None
+    exposure_us: int | None = None  # its own exposure and period (variable exposure) instead of the sequence's
+    period_us: int | None = None
 
 
 @dataclass(frozen=True)

@@ -199,3 +199,28 @@ def test_a_24_pattern_1_bit_flash_sequence_with_its_image_table() -> None:
 @pytest.mark.parametrize(("images", "written"), [((5,), b"\x05"), ((5, 2), b"\x02\x05"), ((5, 2, 7), b"\x05\x02\x07")])
 def test_only_a_two_entry_image_table_is_written_backwards(images: tuple[int, ...], written: bytes) -> None:
     assert lcr4500.image_lut_bytes(images) == written
+
+
+def test_patterns_with_their_own_exposure_use_the_variable_exposure_lut() -> None:
+    fake = FakeLcr4500()
+    projector = _lcr(fake)
+    projector.open()
+    entries = tuple(SequenceEntry(i, 8, exposure_us=e, period_us=e) for i, e in enumerate((8333, 10000, 12000)))
+    first = len(fake.reports)
+    projector.load_sequence(PatternSequence(entries, 8333, 8333, TriggerMode.EXTERNAL))
+    projector.start_sequence()
+    assert not fake.refused and fake.running
+    assert fake.reports[first:] == _golden(fake.reports[first:])
+    writes = [(COMMANDS[c].name, d) for k, c, d in fake.log[-(len(fake.reports) - first) :] if k == "w"]
+    names = [name for name, _ in writes]
+    assert dict(writes)["PAT_TRIG_MODE"] == bytes([3])  # variable exposure, internal or external trigger
+    assert "PAT_CONFIG" not in names and "PAT_EXPO_PRD" not in names  # their variable-exposure forms instead
+    assert dict(writes)["EXP_PAT_CONFIG"] == bytes([2, 0, 2, 0, 0, 0])  # 3 entries, 3 per TRIG_OUT_2, 1 image, once
+    data = [d for name, d in writes if name == "MBOX_EXP_DATA"]
+    assert [struct.unpack("<III", d)[1:] for d in data] == [(8333, 8333), (10000, 10000), (12000, 12000)]
+    assert fake.timings() == [(8333, 8333), (10000, 10000), (12000, 12000)]
+    assert [(w >> 2) & 0x3F for w in fake.lut_entries] == [0, 1, 2]
+    with pytest.raises(ValueError, match="pattern 1: exposure 9900 us must equal the period 10000 us"):
+        bad = (entries[0], SequenceEntry(1, 8, exposure_us=9900, period_us=10000))
+        projector.load_sequence(PatternSequence(bad, 8333, 8333, TriggerMode.EXTERNAL))
+    projector.close()

@@ -116,6 +116,23 @@ COMMANDS = {
             f"{_LIST} (length 0: varies with the open mailbox; see PATTERN_LUT_ENTRY and IMAGE_LUT)",
         ),
         Command("NUM_IMAGE_IN_FLASH", 0x1A42, None, 1, f"{_LIST} (read); DLPC350_GetNumImagesInFlash"),
+        Command(
+            "MBOX_EXP_DATA",
+            0x1A3E,
+            12,
+            None,
+            f"{_LIST}; DLPC350_SendVarExpPatLut: LUT word as uint32, exposure, period (uint32 us)",
+            b"\x00\x00\xf0\xff",
+        ),
+        Command("MBOX_EXP_ADDRESS", 0x1A3F, 2, None, f"{_LIST}; DLPC350_SetVarExpMboxAddr: uint16 0-1823", b"\x00\xf8"),
+        Command(
+            "EXP_PAT_CONFIG",
+            0x1A40,
+            6,
+            None,
+            f"{_LIST}; DLPC350_SetVarExpPatternConfig: entries-1, trig2-1 (uint16), images-1, repeat",
+            b"\x00\xf8\x00\x00\x00\xfe",
+        ),
     )
 }
 # MBOX_DATA with mailbox 2 open: one pattern LUT entry (DLPC350_AddToPatLut; DLPC350 Programmer's

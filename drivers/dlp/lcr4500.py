@@ -23,6 +23,10 @@ from drivers.dlp.lut import (  # noqa: F401  # lut_entry and the LUT constants a
     image_lut_bytes,
     lut_entry,
     lut_words,
+    timings,
+    variable_exposure,
+    variable_exposure_config,
+    variable_exposure_entry,
 )
 from drivers.dlp.protocol import DlpcProtocol
 from drivers.errors import DeviceError, DeviceProtocolError, DeviceStateError, DeviceTimeoutError
@@ -48,6 +52,7 @@ CMD_EXPOSURE_PERIOD = 0x1A29
 CMD_PATTERN_CONFIG = 0x1A31
 CMD_MBOX_ADDRESS, CMD_MBOX_CONTROL, CMD_MBOX_DATA = 0x1A32, 0x1A33, 0x1A34
 CMD_NUM_IMAGES = 0x1A42
+CMD_EXP_DATA, CMD_EXP_ADDRESS, CMD_EXP_CONFIG = 0x1A3E, 0x1A3F, 0x1A40  # variable exposure
 
 START, PAUSE, STOP = 2, 1, 0
 LED_SEQUENCER, LED_RED, LED_GREEN, LED_BLUE = 0x08, 0x01, 0x02, 0x04  # LED_ENABLE bits (TI SetLedEnables)
@@ -60,6 +65,7 @@ VALIDATE_ERRORS = {
     0x10: "frame period minus exposure under 230 us",
 }
 TRIGGER_CODES = {TriggerMode.VSYNC: 0, TriggerMode.INTERNAL: 1, TriggerMode.EXTERNAL: 1}
+VARIABLE_TRIGGER_CODES = {TriggerMode.VSYNC: 4, TriggerMode.INTERNAL: 3, TriggerMode.EXTERNAL: 3}
 SOURCE_CODES = {"video": 0, "flash": 3}
 
 
@@ -198,11 +204,12 @@ class Lcr4500Projector(Projector):
                 "its flash; this driver plays bit-planes of what the input shows"
             )
         exposure, period = sequence.exposure_us, sequence.period_us
-        if not (exposure == period or exposure <= period - MIN_DARK_GAP_US):
-            raise ValueError(
-                f"{self.name}: exposure {exposure} us must equal the period {period} us or leave "
-                f"{MIN_DARK_GAP_US} us dark"
-            )
+        for index, (e, t) in enumerate(timings(sequence)):
+            if not (e == t or e <= t - MIN_DARK_GAP_US):
+                raise ValueError(
+                    f"{self.name}: pattern {index}: exposure {e} us must equal the period {t} us or leave "
+                    f"{MIN_DARK_GAP_US} us dark"
+                )
         if sequence.source not in SOURCE_CODES:
             raise ValueError(f"{self.name}: source must be one of {sorted(SOURCE_CODES)}")
         count = len(sequence.entries)
@@ -213,24 +220,43 @@ class Lcr4500Projector(Projector):
         p.write(CMD_START_STOP, bytes([STOP]))
         self.set_display_mode(True)
         p.write(CMD_PATTERN_SOURCE, bytes([SOURCE_CODES[sequence.source]]))
+        if variable_exposure(sequence):
+            self._write_variable_exposure(sequence, images)
+            self._validate()
+            return
         p.write(CMD_PATTERN_CONFIG, bytes([count - 1, int(sequence.repeat), count - 1, max(1, len(images)) - 1]))
         p.write(CMD_TRIGGER_MODE, bytes([TRIGGER_CODES[sequence.trigger]]))
         p.write(CMD_EXPOSURE_PERIOD, struct.pack("<II", exposure, period))
-        p.write(CMD_MBOX_CONTROL, bytes([2]))  # open the pattern LUT
+        self._write_mailbox(2, list(enumerate(lut_words(sequence))), CMD_MBOX_ADDRESS, CMD_MBOX_DATA)
+        if images:  # the image-index table (TI DLPC350_SendImageLut: all indices in one write)
+            self._write_mailbox(1, [(0, image_lut_bytes(images))], CMD_MBOX_ADDRESS, CMD_MBOX_DATA)
+        self._validate()
+
+    def _write_variable_exposure(self, sequence: PatternSequence, images: tuple[int, ...]) -> None:
+        """Trigger mode 3 (internal or external) or 4 (VSYNC), then the image table, the LUT of
+        12-byte entries through mailbox 3, and EXP_PAT_CONFIG, in the order of TI's sample code."""
+        p = self._p
+        p.write(CMD_TRIGGER_MODE, bytes([VARIABLE_TRIGGER_CODES[sequence.trigger]]))
+        if images:
+            self._write_mailbox(1, [(0, image_lut_bytes(images))], CMD_EXP_ADDRESS, CMD_MBOX_DATA)
+        entries = [
+            (index, variable_exposure_entry(word, *timing))
+            for index, (word, timing) in enumerate(zip(lut_words(sequence), timings(sequence), strict=True))
+        ]
+        self._write_mailbox(3, entries, CMD_EXP_ADDRESS, CMD_EXP_DATA)
+        p.write(CMD_EXP_CONFIG, variable_exposure_config(len(entries), len(images), sequence.repeat))
+
+    def _write_mailbox(self, mailbox: int, items: list[tuple[int, bytes]], address: int, data: int) -> None:
+        """Open `mailbox`, write each item at its address (uint16 for the variable-exposure
+        address), close it whatever happens."""
+        p = self._p
+        p.write(CMD_MBOX_CONTROL, bytes([mailbox]))
         try:
-            for index, word in enumerate(lut_words(sequence)):
-                p.write(CMD_MBOX_ADDRESS, bytes([index]))
-                p.write(CMD_MBOX_DATA, word)
+            for offset, payload in items:
+                p.write(address, offset.to_bytes(2 if address == CMD_EXP_ADDRESS else 1, "little"))
+                p.write(data, payload)
         finally:
             p.write(CMD_MBOX_CONTROL, bytes([0]))
-        if images:  # the image-index table (TI DLPC350_SendImageLut: all indices in one write)
-            p.write(CMD_MBOX_CONTROL, bytes([1]))
-            try:
-                p.write(CMD_MBOX_ADDRESS, bytes([0]))
-                p.write(CMD_MBOX_DATA, image_lut_bytes(images))
-            finally:
-                p.write(CMD_MBOX_CONTROL, bytes([0]))
-        self._validate()
 
     def _flash_images(self, sequence: PatternSequence) -> tuple[int, ...]:
         """A flash sequence's image indices, each one the flash holds; ValueError naming the rule."""

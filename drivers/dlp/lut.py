@@ -3,6 +3,8 @@ Programmer's Guide table 2-65), the words of a whole sequence, and the image-ind
 
 from __future__ import annotations
 
+import struct
+
 from drivers.base import PatternSequence, SequenceEntry, TriggerMode
 
 LUT_TRIGGER_INTERNAL, LUT_TRIGGER_EXTERNAL, LUT_TRIGGER_CONTINUE = 0, 1, 3  # LUT bits 1:0 (0 is VSYNC in VSYNC mode)
@@ -70,3 +72,31 @@ def lut_words(sequence: PatternSequence) -> list[bytes]:
         led, black = leds_of(entry), entry.insert_black
         words.append(lut_entry(entry.pattern, entry.bit_depth, trigger, entry.invert, led, swap, black))
     return words
+
+
+def variable_exposure(sequence: PatternSequence) -> bool:
+    """Whether any pattern has its own exposure: the variable-exposure LUT (trigger modes 3, 4)."""
+    return any(e.exposure_us is not None or e.period_us is not None for e in sequence.entries)
+
+
+def timings(sequence: PatternSequence) -> list[tuple[int, int]]:
+    """Each pattern's (exposure, period) in us: its own, else the sequence's."""
+    return [
+        (
+            sequence.exposure_us if e.exposure_us is None else e.exposure_us,
+            sequence.period_us if e.period_us is None else e.period_us,
+        )
+        for e in sequence.entries
+    ]
+
+
+def variable_exposure_entry(word: bytes, exposure_us: int, period_us: int) -> bytes:
+    """One MBOX_EXP_DATA entry (TI DLPC350_SendVarExpPatLut): the LUT word as a uint32, then the
+    exposure and the period, uint32 little-endian each: 12 bytes."""
+    return word + b"\0" + struct.pack("<II", exposure_us, period_us)
+
+
+def variable_exposure_config(entries: int, images: int, repeat: bool) -> bytes:
+    """EXP_PAT_CONFIG (TI DLPC350_SetVarExpPatternConfig): entries - 1 and patterns per TRIG_OUT_2
+    - 1 as uint16, images - 1 and repeat as one byte each: 6 bytes."""
+    return struct.pack("<HHBB", entries - 1, entries - 1, max(1, images) - 1, int(repeat))

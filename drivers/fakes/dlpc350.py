@@ -114,6 +114,8 @@ class FakeLcr4500:
         self.standby = False
         self.images_in_flash = 8  # what the flash holds (the LightCrafter's factory images are fewer)
         self.image_lut: list[int] = []
+        self.exp_lut: dict[int, bytes] = {}  # the variable-exposure LUT: 12-byte entries
+        self.exp_config = bytes(6)
 
     # --- what pyusb and usb.util call ---------------------------------------------------
     def is_kernel_driver_active(self, interface: int) -> bool:
@@ -152,8 +154,23 @@ class FakeLcr4500:
 
     @property
     def lut_entries(self) -> list[int]:
+        if self.variable:
+            count = int.from_bytes(self.exp_config[:2], "little") + 1
+            return [int.from_bytes(self.exp_lut.get(i, bytes(12))[:3], "little") for i in range(count)]
         count = self.pattern_config[0] + 1
         return [int.from_bytes(self.lut.get(i, bytes(3)), "little") for i in range(count)]
+
+    @property
+    def variable(self) -> bool:
+        """Trigger mode 3 or 4: the variable-exposure LUT, each entry with its exposure and period."""
+        return self.trigger_mode in (3, 4)
+
+    def timings(self) -> list[tuple[int, int]]:
+        """Each LUT entry's (exposure, period) in us."""
+        if not self.variable:
+            return [(self.exposure_us, self.period_us)] * len(self.lut_entries)
+        entries = [self.exp_lut.get(i, bytes(12)) for i in range(len(self.lut_entries))]
+        return [struct.unpack_from("<II", entry, 4) for entry in entries]
 
     def _check_plugged(self) -> None:
         if not self.plugged:
@@ -217,19 +234,20 @@ class FakeLcr4500:
 
     def _validation_errors(self) -> int:
         bits = 0
-        e, p = self.exposure_us, self.period_us
-        if e <= 0 or p <= 0 or e > p:
-            bits |= 0x01
-        elif e != p and p - e < lcr.MIN_DARK_GAP_US:
-            bits |= 0x10
-        for word in self.lut_entries:
+        for word, (e, p) in zip(self.lut_entries, self.timings(), strict=True):
+            if e <= 0 or p <= 0 or e > p:
+                bits |= 0x01
+            elif e != p and p - e < lcr.MIN_DARK_GAP_US:
+                bits |= 0x10
             depth = max(1, (word >> 8) & 0xF)
             if ((word >> 2) & 0x3F) >= 24 // depth:  # e.g. an 8-bit pattern other than 0, 1, 2
                 bits |= 0x02
             if depth == 8 and e < lcr.MIN_8BIT_PERIOD_US:
                 bits |= 0x01
-        if self.source == 3 and (not self.image_lut or len(self.image_lut) != self.pattern_config[3] + 1):
-            bits |= 0x02  # a flash sequence's images: the table and the count in PAT_CONFIG agree
+        images = self.exp_config[4] if self.variable else self.pattern_config[3]
+        if self.source == 3 and (not self.image_lut or len(self.image_lut) != images + 1):
+            bits |= 0x02  # a flash sequence's images: the table and the count in the configuration agree
+        p = self.period_us
         if self.trigger_mode == 0 and self.source == 0:  # VSYNC: a video frame's patterns fit in its period
             frames = self.vsync_frames()
             if any(len(frame) * p > self.video_period_us for frame in frames):
@@ -268,8 +286,14 @@ class FakeLcr4500:
             self.pattern_config = bytes(data[:4])
         elif command == lcr.CMD_MBOX_CONTROL:
             self.mailbox = data[0]
-        elif command == lcr.CMD_MBOX_ADDRESS:
-            self.mailbox_address = data[0]
+        elif command in (lcr.CMD_MBOX_ADDRESS, lcr.CMD_EXP_ADDRESS):
+            self.mailbox_address = int.from_bytes(data, "little")
+        elif command == lcr.CMD_EXP_DATA:
+            if self.mailbox != 3:
+                raise KeyError(command)  # the variable-exposure LUT's mailbox is not open
+            self.exp_lut[self.mailbox_address] = bytes(data)
+        elif command == lcr.CMD_EXP_CONFIG:
+            self.exp_config = bytes(data)
         elif command == lcr.CMD_MBOX_DATA:
             if self.mailbox == 1:  # the firmware reads a two-entry table backwards (TI DLPC350_SendImageLut)
                 self.image_lut = list(data[::-1] if len(data) == 2 else data)
