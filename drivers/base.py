@@ -91,6 +91,7 @@ class PatternSequence:
     repeat: bool = False
     images: tuple[np.ndarray, ...] | None = None  # full images, for projectors that take them
     flash_images: tuple[int, ...] = ()  # source "flash": the stored images the patterns come from, in order
+    alternate_pairs: bool = False  # external trigger in pairs: one input toggles within a pair, another advances
 
 
 class Device(abc.ABC):

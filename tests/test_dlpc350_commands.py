@@ -224,3 +224,17 @@ def test_patterns_with_their_own_exposure_use_the_variable_exposure_lut() -> Non
         bad = (entries[0], SequenceEntry(1, 8, exposure_us=9900, period_us=10000))
         projector.load_sequence(PatternSequence(bad, 8333, 8333, TriggerMode.EXTERNAL))
     projector.close()
+
+
+def test_alternating_pairs_are_trigger_mode_2_with_an_external_trigger() -> None:
+    fake = FakeLcr4500()
+    projector = _lcr(fake)
+    projector.open()
+    entries = tuple(SequenceEntry(i, 8) for i in range(2)) * 2
+    projector.load_sequence(PatternSequence(entries, 8333, 8333, TriggerMode.EXTERNAL, alternate_pairs=True))
+    assert fake.trigger_mode == 2 and not fake.refused
+    assert all(w & 0x3 == 1 for w in fake.lut_entries)  # each pattern waits for its trigger
+    for trigger, count in ((TriggerMode.INTERNAL, 4), (TriggerMode.EXTERNAL, 3)):
+        with pytest.raises(ValueError, match="alternating pairs"):
+            projector.load_sequence(PatternSequence(entries[:count], 8333, 8333, trigger, alternate_pairs=True))
+    projector.close()

@@ -65,6 +65,7 @@ VALIDATE_ERRORS = {
     0x10: "frame period minus exposure under 230 us",
 }
 TRIGGER_CODES = {TriggerMode.VSYNC: 0, TriggerMode.INTERNAL: 1, TriggerMode.EXTERNAL: 1}
+ALTERNATE_PAIRS = 2  # trigger mode 2: TRIG_IN_1 alternates the two patterns of a pair, TRIG_IN_2 advances
 VARIABLE_TRIGGER_CODES = {TriggerMode.VSYNC: 4, TriggerMode.INTERNAL: 3, TriggerMode.EXTERNAL: 3}
 SOURCE_CODES = {"video": 0, "flash": 3}
 
@@ -216,6 +217,13 @@ class Lcr4500Projector(Projector):
         if count > 128:
             raise ValueError(f"{self.name}: at most 128 LUT entries, got {count}")
         images = self._flash_images(sequence)
+        if sequence.alternate_pairs and (
+            sequence.trigger is not TriggerMode.EXTERNAL or count % 2 or variable_exposure(sequence)
+        ):
+            raise ValueError(
+                f"{self.name}: alternating pairs (trigger mode 2) take an external trigger, an even number "
+                "of patterns and one exposure for all"
+            )
         p = self._p
         p.write(CMD_START_STOP, bytes([STOP]))
         self.set_display_mode(True)
@@ -225,7 +233,8 @@ class Lcr4500Projector(Projector):
             self._validate()
             return
         p.write(CMD_PATTERN_CONFIG, bytes([count - 1, int(sequence.repeat), count - 1, max(1, len(images)) - 1]))
-        p.write(CMD_TRIGGER_MODE, bytes([TRIGGER_CODES[sequence.trigger]]))
+        mode = ALTERNATE_PAIRS if sequence.alternate_pairs else TRIGGER_CODES[sequence.trigger]
+        p.write(CMD_TRIGGER_MODE, bytes([mode]))
         p.write(CMD_EXPOSURE_PERIOD, struct.pack("<II", exposure, period))
         self._write_mailbox(2, list(enumerate(lut_words(sequence))), CMD_MBOX_ADDRESS, CMD_MBOX_DATA)
         if images:  # the image-index table (TI DLPC350_SendImageLut: all indices in one write)
