@@ -1,7 +1,8 @@
 """Speed and memory of the simulated bench and the reconstruction; prints one JSON object.
 
 - simulated frame time at 1280x1024 after the first ray cast (median of 30 random patterns);
-- decode + triangulate of one 1280x1024 scan per codec (median of 7), and the PointSet step
+- decode + triangulate of one 1280x1024 scan per codec (median of 7), decode as a multiple of the
+  memory floor (its frames' bytes read once at the machine's copy bandwidth), and the PointSet step
   (normals, colours) and, for ring codecs, the surface and its colour between the rings separately
   (colour by the density-compensated interpolant, scan.surface.colour = area);
 - peak resident memory of a whole `slrig scan` per codec, each in a fresh process;
@@ -74,7 +75,22 @@ def frame_time() -> dict[str, float]:
     }
 
 
-def reconstruction(codec_name: str, repeats: int = 7, config: RigConfig | None = None) -> dict[str, float]:
+def copy_bandwidth_gb_s(megabytes: int = 256, repeats: int = 7) -> float:
+    """This machine's memory floor: bytes read per second by one copy of a large uint8 array
+    (np.copyto, best of `repeats`). A decoder that reads its frames once cannot beat it."""
+    source = np.ones(megabytes << 20, np.uint8)
+    target = np.empty_like(source)
+    best = float("inf")
+    for _ in range(repeats):
+        t = time.perf_counter()
+        np.copyto(target, source)
+        best = min(best, time.perf_counter() - t)
+    return source.nbytes / best / 1e9
+
+
+def reconstruction(
+    codec_name: str, repeats: int = 7, config: RigConfig | None = None, bandwidth_gb_s: float | None = None
+) -> dict[str, float]:
     """Median decode, triangulate and PointSet times of one capture, after a first untimed pass
     (which computes the per-calibration terms); `config`: another rig than the default's."""
     config = (config or load_config()).with_codec(codec_name)
@@ -96,9 +112,13 @@ def reconstruction(codec_name: str, repeats: int = 7, config: RigConfig | None =
             pointset.append(elapsed["pointset"])
             surface.append(elapsed.get("surface", 0.0))
     d, t, p, s = (statistics.median(x) * 1e3 for x in (decode, tri, pointset, surface))
+    frame_bytes = sum(f.nbytes for f in frames)
+    floor_ms = frame_bytes / ((bandwidth_gb_s or copy_bandwidth_gb_s()) * 1e9) * 1e3
     return {
         "frames": len(frames),
+        "frame_mb": round(frame_bytes / 1e6, 1),
         "decode_ms": round(d, 1),
+        "decode_over_memory_floor": round(d / floor_ms, 1),  # decode against reading its frames once
         "triangulate_ms": round(t, 1),
         "decode_triangulate_ms": round(d + t, 1),
         "pointset_ms": round(p, 1),
@@ -161,7 +181,11 @@ def main() -> None:
         "machine": platform.machine(),
         "python": platform.python_version(),
         "simulated_frame_1280x1024": frame_time(),
-        "codecs": {name: {**reconstruction(name), "scan_peak_rss_mb": peak_memory(name)} for name in codec_names()},
+        "copy_bandwidth_gb_s": round(bandwidth := copy_bandwidth_gb_s(), 2),
+        "codecs": {
+            name: {**reconstruction(name, bandwidth_gb_s=bandwidth), "scan_peak_rss_mb": peak_memory(name)}
+            for name in codec_names()
+        },
         "recognition": recognition(),
     }
     print(json.dumps(result))
@@ -172,6 +196,7 @@ def main() -> None:
                 name,
                 c["frames"],
                 c["decode_ms"],
+                c["decode_over_memory_floor"],
                 c["triangulate_ms"],
                 c["decode_triangulate_ms"],
                 c["pointset_ms"],
@@ -185,6 +210,7 @@ def main() -> None:
                 "codec",
                 "frames",
                 "decode ms",
+                "decode / memory floor",
                 "triangulate ms",
                 "decode+triangulate ms",
                 "normals+colour ms",
@@ -199,6 +225,8 @@ def main() -> None:
             f"Recognition: the descriptor of the default 32-ring scan ({r['points']} points) in {r['describe_ms']} ms; "
             f"identification against {r['gallery_entries']} gallery entries (reading the gallery, scoring each) "
             f"in {r['identify_ms']} ms.\n\n"
+            f"The memory floor is the time to read a codec's frames once at this machine's copy bandwidth "
+            f"({result['copy_bandwidth_gb_s']} GB/s, `np.copyto` of 256 MiB). "
             f"Measured on {result['cpus']} cores by `python bench/speed.py --readme`."
         )
         replace_block("speed-table", text)
