@@ -43,13 +43,12 @@ sys.path.insert(0, str(REPO))
 from _readme import markdown_table, replace_block  # noqa: E402
 
 from rig.service.space import RESERVE_BYTES  # noqa: E402
-
-KEY = "r" * 32
-AUTH = {"X-API-Key": KEY}
+from tests.conftest import small_config_data, wait_done  # noqa: E402
+from tests.test_daemon import AUTH, KEY, Daemon, status_code  # noqa: E402  # the suite's daemon in a process
 
 
 def _config(folder: Path, data_dir: Path, stall: bool = False, **service: Any) -> Path:
-    data = _small()
+    data = small_config_data()  # the suite's small bench: quick scans
     data["output"] = {"data_dir": str(data_dir)}
     data["service"] = service
     if stall:
@@ -60,59 +59,9 @@ def _config(folder: Path, data_dir: Path, stall: bool = False, **service: Any) -
     return path
 
 
-def _small() -> dict[str, Any]:
-    from tests.conftest import small_config_data  # the suite's small bench: quick scans
-
-    return small_config_data()
-
-
-class Daemon:
-    def __init__(self, config: Path, log: Path) -> None:
-        with socket.socket() as probe:
-            probe.bind(("127.0.0.1", 0))
-            self.port = probe.getsockname()[1]
-        self.url = f"http://127.0.0.1:{self.port}"
-        with log.open("ab") as err:
-            self.process = subprocess.Popen(
-                [sys.executable, "-m", "rig.cli", "serve", "--config", str(config), "--port", str(self.port)],
-                cwd=REPO,
-                env={**os.environ, "SLRIG_API_KEY": KEY, "PYTHONPATH": str(REPO)},
-                stdout=subprocess.DEVNULL,
-                stderr=err,
-            )
-        deadline = time.monotonic() + 60
-        while time.monotonic() < deadline:
-            try:
-                if httpx.get(f"{self.url}/v1/health", timeout=1).status_code == 200:
-                    return
-            except httpx.TransportError:
-                time.sleep(0.1)
-        raise RuntimeError(f"the daemon did not come up: {log.read_text()[-2000:]}")
-
-    def kill(self) -> None:
-        if self.process.poll() is None:
-            self.process.kill()
-            self.process.wait(10)
-
-
-def _wait_done(url: str, job_id: str, timeout_s: float = 120.0) -> dict[str, Any]:
-    deadline = time.monotonic() + timeout_s
-    while time.monotonic() < deadline:
-        job = httpx.get(f"{url}/v1/scans/{job_id}").json()
-        if job["state"] not in ("queued", "running"):
-            return job
-        time.sleep(0.05)
-    raise RuntimeError(f"{job_id} did not finish")
-
-
-def _status(sock: socket.socket) -> int:
-    head = b""
-    while b"\r\n" not in head:
-        chunk = sock.recv(256)
-        if not chunk:
-            return 0
-        head += chunk
-    return int(head.split(b" ", 2)[1])
+def _done(url: str, job_id: str) -> dict[str, Any]:
+    with httpx.Client(base_url=url) as client:
+        return wait_done(client, job_id)
 
 
 def connections(folder: Path) -> dict[str, Any]:
@@ -124,7 +73,7 @@ def connections(folder: Path) -> dict[str, Any]:
         request = f"GET /v1/scans/{job_id}/events HTTP/1.1\r\nHost: 127.0.0.1\r\n\r\n".encode()
         for sock in streams:
             sock.sendall(request)
-        codes = [_status(sock) for sock in streams]
+        codes = [status_code(sock) for sock in streams]
         latencies = []
         for _ in range(20):
             started = time.perf_counter()
@@ -136,7 +85,7 @@ def connections(folder: Path) -> dict[str, Any]:
             f"POST /v1/scans HTTP/1.1\r\nHost: 127.0.0.1\r\nX-API-Key: {KEY}\r\nContent-Length: 50\r\n\r\n{{".encode()
         )
         started = time.monotonic()
-        stalled_code = _status(stalled)
+        stalled_code = status_code(stalled)
         stalled_s = time.monotonic() - started
         silent.recv(1)
         silent_s = time.monotonic() - started
@@ -152,7 +101,7 @@ def connections(folder: Path) -> dict[str, Any]:
             "stalled_body_answered_s": round(stalled_s, 2),
         }
     finally:
-        daemon.kill()
+        daemon.stop()
 
 
 def _digest(folder: Path) -> dict[str, str]:
@@ -182,8 +131,8 @@ def kill_cycles(folder: Path, operation: str, tries: int, seed: int = 3) -> dict
     data_dir = folder / f"kill-{operation}"
     config = _config(folder, data_dir)
     daemon = Daemon(config, folder / "k.log")
-    keeper = _wait_done(daemon.url, httpx.post(f"{daemon.url}/v1/scans", json={}, headers=AUTH).json()["id"])["id"]
-    daemon.kill()
+    keeper = _done(daemon.url, httpx.post(f"{daemon.url}/v1/scans", json={}, headers=AUTH).json()["id"])["id"]
+    daemon.stop()
     before = _digest(data_dir / "scans" / keeper)
     lost = 0
     for attempt in range(tries):
@@ -192,7 +141,7 @@ def kill_cycles(folder: Path, operation: str, tries: int, seed: int = 3) -> dict
         if operation == "scan":
             time.sleep(rng.uniform(0.05, 1.5))  # capture, decode or store
         else:
-            _wait_done(daemon.url, job_id)
+            _done(daemon.url, job_id)
             with httpx.Client(base_url=daemon.url) as client, contextlib.suppress(httpx.TimeoutException):
                 client.delete(f"/v1/scans/{job_id}", headers=AUTH, timeout=rng.uniform(0.001, 0.03))
         os.kill(daemon.process.pid, signal.SIGKILL)
@@ -204,7 +153,7 @@ def kill_cycles(folder: Path, operation: str, tries: int, seed: int = 3) -> dict
         print(f"{operation} kill {attempt + 1}/{tries}: job {state}; {wrong or 'whole'}", file=sys.stderr)
         if state != "deleted":
             httpx.delete(f"{restarted.url}/v1/scans/{job_id}", headers=AUTH)
-        restarted.kill()
+        restarted.stop()
     return {"tries": tries, "lost": lost}
 
 
@@ -222,7 +171,7 @@ def full_disk(folder: Path) -> dict[str, Any]:
     daemon = Daemon(_config(folder, disk / "data"), folder / "d.log")
     scans = disk / "data" / "scans"
     try:
-        keeper = _wait_done(daemon.url, httpx.post(f"{daemon.url}/v1/scans", json={}, headers=AUTH).json()["id"])["id"]
+        keeper = _done(daemon.url, httpx.post(f"{daemon.url}/v1/scans", json={}, headers=AUTH).json()["id"])["id"]
         before = _digest(scans / keeper)
         ballast = disk / "ballast"
         with ballast.open("wb") as f:
@@ -232,7 +181,7 @@ def full_disk(folder: Path) -> dict[str, Any]:
         health = httpx.get(f"{daemon.url}/v1/health").json()
         ballast.unlink()
         after = httpx.post(f"{daemon.url}/v1/scans", json={}, headers=AUTH)
-        done = _wait_done(daemon.url, after.json()["id"])["state"] if after.status_code == 202 else None
+        done = _done(daemon.url, after.json()["id"])["state"] if after.status_code == 202 else None
         return {
             "lost": len(_store_whole(daemon.url, scans, keeper, before)),
             "new_scan_status": refused.status_code,
@@ -241,7 +190,7 @@ def full_disk(folder: Path) -> dict[str, Any]:
             "after_freeing_space": done,
         }
     finally:
-        daemon.kill()
+        daemon.stop()
         subprocess.run(["umount", "-l", str(disk)], check=False)
 
 

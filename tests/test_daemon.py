@@ -39,6 +39,17 @@ def _free_port() -> int:
         return int(s.getsockname()[1])
 
 
+def status_code(sock: socket.socket) -> int:
+    """The HTTP status of the response arriving on a raw socket (0: closed without one)."""
+    head = b""
+    while b"\r\n" not in head:
+        chunk = sock.recv(256)
+        if not chunk:
+            return 0
+        head += chunk
+    return int(head.split(b" ", 2)[1])
+
+
 class Daemon:
     """`python -m rig.cli serve` in its own process; its stderr goes to `log`."""
 

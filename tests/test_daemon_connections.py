@@ -16,7 +16,7 @@ import httpx
 import pytest
 
 from tests.conftest import small_config_data
-from tests.test_daemon import AUTH, KEY, REPO, Daemon, _config, _free_port
+from tests.test_daemon import AUTH, KEY, REPO, Daemon, _config, _free_port, status_code
 
 STREAMS_CAP = 64  # rig.api.app.MAX_EVENT_STREAMS, as the README states it
 
@@ -35,18 +35,7 @@ def busy(tmp_path: Path) -> Iterator[tuple[Daemon, str]]:
 
 
 def _connect(port: int) -> socket.socket:
-    sock = socket.create_connection(("127.0.0.1", port), timeout=10)
-    return sock
-
-
-def _status(sock: socket.socket) -> int:
-    head = b""
-    while b"\r\n" not in head:
-        chunk = sock.recv(256)
-        if not chunk:
-            return 0  # closed without an answer
-        head += chunk
-    return int(head.split(b" ", 2)[1])
+    return socket.create_connection(("127.0.0.1", port), timeout=10)
 
 
 def test_idle_connections_and_a_burst_of_event_streams_leave_health_answerable(busy: tuple[Daemon, str]) -> None:
@@ -56,7 +45,7 @@ def test_idle_connections_and_a_burst_of_event_streams_leave_health_answerable(b
     request = f"GET /v1/scans/{job_id}/events HTTP/1.1\r\nHost: 127.0.0.1\r\n\r\n".encode()
     for sock in streams:
         sock.sendall(request)  # all at once: the cap must hold for a burst
-    codes = [_status(sock) for sock in streams]
+    codes = [status_code(sock) for sock in streams]
     assert codes.count(200) == STREAMS_CAP and codes.count(503) == len(streams) - STREAMS_CAP
     started = time.monotonic()
     health = httpx.get(f"{daemon.url}/v1/health", timeout=5)
@@ -66,7 +55,7 @@ def test_idle_connections_and_a_burst_of_event_streams_leave_health_answerable(b
     time.sleep(0.5)
     again = _connect(daemon.port)
     again.sendall(request)
-    assert _status(again) == 200
+    assert status_code(again) == 200
     for sock in (*idle, *streams, again):
         sock.close()
 
@@ -81,7 +70,7 @@ def test_silent_connections_are_closed_and_a_stalled_body_gets_408(busy: tuple[D
     stalled.sendall(f'{head}Content-Length: 100\r\n\r\n{{"label":'.encode())
     started = time.monotonic()
     assert silent.recv(1) == b"" and slow.recv(1) == b""  # closed by the daemon, not by the 10 s timeout
-    assert _status(stalled) == 408
+    assert status_code(stalled) == 408
     assert time.monotonic() - started < 5.0
     for sock in (silent, slow, stalled):
         sock.close()

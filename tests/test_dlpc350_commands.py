@@ -11,6 +11,7 @@ import pytest
 from drivers.base import PatternSequence, SequenceEntry, TriggerMode
 from drivers.dlp import lcr4500
 from drivers.dlp.commands import COMMANDS, PATTERN_LUT_ENTRY
+from drivers.dlp.lut import image_lut_bytes
 from drivers.fakes.dlpc350 import FakeLcr4500
 from tests.test_projectors import _lcr
 
@@ -198,7 +199,7 @@ def test_a_24_pattern_1_bit_flash_sequence_with_its_image_table() -> None:
 
 @pytest.mark.parametrize(("images", "written"), [((5,), b"\x05"), ((5, 2), b"\x02\x05"), ((5, 2, 7), b"\x05\x02\x07")])
 def test_only_a_two_entry_image_table_is_written_backwards(images: tuple[int, ...], written: bytes) -> None:
-    assert lcr4500.image_lut_bytes(images) == written
+    assert image_lut_bytes(images) == written
 
 
 def test_patterns_with_their_own_exposure_use_the_variable_exposure_lut() -> None:

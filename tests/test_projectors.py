@@ -9,7 +9,8 @@ import numpy as np
 import pytest
 
 from drivers.base import PatternSequence, SequenceEntry, TriggerMode
-from drivers.dlp.lcr4500 import PRODUCT_ID, VENDOR_ID, Lcr4500Projector, lut_entry
+from drivers.dlp.lcr4500 import PRODUCT_ID, VENDOR_ID, Lcr4500Projector
+from drivers.dlp.lut import lut_entry
 from drivers.dlp.protocol import encode
 from drivers.errors import (
     DeviceDisconnectedError,

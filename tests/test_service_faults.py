@@ -16,19 +16,14 @@ from pathlib import Path
 from typing import Any
 
 import pytest
-from fastapi.testclient import TestClient
 
-from rig.api.app import create_app
-from rig.api.security import ApiSettings
 from rig.config import load_config
 from rig.service.errors import StorageFullError
 from rig.service.jobs import JobKind, JobState, JobStore
 from rig.service.runner import DB_NAME, JobService
 from rig.service.space import RESERVE_BYTES
 from tests.conftest import small_config_data, wait_done, write_config
-
-KEY = "k" * 32
-AUTH = {"X-API-Key": KEY}
+from tests.test_api import AUTH, _client
 
 
 def _service(tmp_path: Path, data_dir: Path | None = None, **camera_faults: Any) -> JobService:
@@ -40,10 +35,6 @@ def _service(tmp_path: Path, data_dir: Path | None = None, **camera_faults: Any)
     service = JobService(config)
     service.start()
     return service
-
-
-def _client(service: JobService) -> TestClient:
-    return TestClient(create_app(service, ApiSettings(api_key=KEY)), base_url="http://localhost")
 
 
 def _folder_digest(folder: Path) -> dict[str, str]:

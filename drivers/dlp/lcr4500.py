@@ -16,12 +16,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from drivers.base import PatternSequence, Projector, ProjectorMode, TriggerMode
-from drivers.dlp.lut import (  # noqa: F401  # lut_entry and the LUT constants are this driver's too
-    LUT_TRIGGER_CONTINUE,
-    LUT_TRIGGER_EXTERNAL,
-    LUT_TRIGGER_INTERNAL,
+from drivers.dlp.lut import (
     image_lut_bytes,
-    lut_entry,
     lut_words,
     timings,
     variable_exposure,

@@ -13,6 +13,7 @@ from typing import Any
 
 from drivers.dlp import lcr4500 as lcr
 from drivers.dlp.commands import COMMANDS, IMAGE_LUT, PATTERN_LUT_ENTRY
+from drivers.dlp.lut import LUT_TRIGGER_CONTINUE
 from drivers.fakes.faults import Fault, FaultPlan
 
 
@@ -264,7 +265,7 @@ class FakeLcr4500:
         """The LUT split into video frames: each starts at an entry that waits for VSYNC."""
         frames: list[list[int]] = []
         for word in self.lut_entries:
-            if word & 0x3 != lcr.LUT_TRIGGER_CONTINUE or not frames:
+            if word & 0x3 != LUT_TRIGGER_CONTINUE or not frames:
                 frames.append([])
             frames[-1].append(word)
         return frames

@@ -13,7 +13,7 @@ from __future__ import annotations
 import os
 from pathlib import Path
 
-from rig.config import RigConfig
+from rig.config import CameraConfig, RigConfig
 from rig.errors import ConfigError
 from rig.patterns.registry import codec_class
 
@@ -35,6 +35,11 @@ def frames_per_scan(config: RigConfig, projector: int, codec: str | None = None)
     return codec_class(name)(tuple(config.projectors[projector].resolution), params, None).frame_count
 
 
+def frame_sample_bytes(camera: CameraConfig) -> int:
+    """Bytes per pixel of one of the camera's frames: channels times the sample's bytes."""
+    return (3 if camera.color else 1) * (2 if camera.bit_depth > 8 else 1)
+
+
 def scan_memory(config: RigConfig) -> dict[str, int]:
     """Bytes a scan of `config` needs, by the field that causes them (beside FIXED_BYTES)."""
     simulated = config.simulated
@@ -42,8 +47,7 @@ def scan_memory(config: RigConfig) -> dict[str, int]:
     needs: dict[str, int] = {}
     for c, camera in enumerate(config.cameras):
         pixels = camera.resolution[0] * camera.resolution[1]
-        sample = (3 if camera.color else 1) * (2 if camera.bit_depth > 8 else 1)
-        held = pixels * (sum(frames) * sample + CAMERA_BYTES_PER_PIXEL * len(config.projectors))
+        held = pixels * (sum(frames) * frame_sample_bytes(camera) + CAMERA_BYTES_PER_PIXEL * len(config.projectors))
         needs[f"cameras[{c}].resolution"] = held + (pixels * SIM_CAMERA_BYTES_PER_PIXEL if simulated else 0)
     for p, projector in enumerate(config.projectors):
         pixels = projector.resolution[0] * projector.resolution[1]

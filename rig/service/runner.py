@@ -32,7 +32,6 @@ from rig.service.errors import (
     JobNotFoundError,
     QueueFullError,
     ServiceStoppingError,
-    StorageFullError,
 )
 from rig.service.events import EventHub
 from rig.service.imports import reconstruction_inputs, remove_leftovers
@@ -108,11 +107,9 @@ class JobService:
             if rig is not None:
                 rig.close()  # dark first, then close; before any bookkeeping that could fail
                 log.info("rig closed, projectors dark")
-        try:
-            self.store.flush()
-            self.store.interrupt_unfinished("the daemon stopped before this job finished")
-        except StorageFullError as exc:  # the next start marks them interrupted
-            log.error("job states not written at shutdown: %s", exc)
+        self.store.interrupt_unfinished("the daemon stopped before this job finished")
+        if self.store.unsaved:  # the next start marks them interrupted
+            log.error("job states not written at shutdown: %s", self.store.unsaved)
         if self._lock_file is not None:
             self._lock_file.close()  # and with it the lock on the data directory
             self._lock_file = None

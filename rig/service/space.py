@@ -7,7 +7,7 @@ import shutil
 from pathlib import Path
 from typing import Any
 
-from rig.assembly.memory import frames_per_scan
+from rig.assembly.memory import frame_sample_bytes, frames_per_scan
 from rig.config import RigConfig
 from rig.service.errors import StorageFullError
 from rig.service.jobs import JobStore
@@ -30,9 +30,7 @@ def expected_scan_bytes(config: RigConfig, request: dict[str, Any]) -> int:
     if request.get("keep_frames"):
         frames = sum(frames_per_scan(config, p, name) for p in range(len(config.projectors)))
         for camera in config.cameras:
-            channels = 3 if camera.color else 1
-            depth = 2 if camera.bit_depth > 8 else 1
-            total += frames * camera.resolution[0] * camera.resolution[1] * channels * depth
+            total += frames * camera.resolution[0] * camera.resolution[1] * frame_sample_bytes(camera)
     return total
 
 
