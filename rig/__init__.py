@@ -2,7 +2,7 @@
 
 __version__ = "0.1.0"
 
-from rig.pipeline.workers import tune_malloc as _tune_malloc
+from rig.workers import tune_malloc as _tune_malloc
 
 _tune_malloc()  # first: before numpy and OpenCV start their threads and allocate
 

@@ -7,7 +7,7 @@ import abc
 import dataclasses
 from collections.abc import Sequence
 from dataclasses import dataclass, field
-from typing import Annotated, ClassVar, overload
+from typing import TYPE_CHECKING, Annotated, ClassVar, overload
 
 import cv2
 import numpy as np
@@ -15,6 +15,9 @@ from pydantic import BaseModel, ConfigDict, Field
 
 from rig.errors import DecodeError
 from rig.patterns.spec import PatternSpec
+
+if TYPE_CHECKING:
+    from rig.patterns.stream import FrameStream
 
 PixelCoord = Annotated[float, Field(ge=-1e5, le=1e5)]  # a position in a projector image, pixels
 
@@ -109,10 +112,30 @@ class NormalizedFrames(Sequence[np.ndarray]):
     def __getitem__(self, index: int | slice) -> np.ndarray | NormalizedFrames:
         if isinstance(index, slice):
             return NormalizedFrames(self._frames[index], self._full_scale)
-        frame = self._frames[index]
-        if frame.ndim == 3:
-            frame = cv2.cvtColor(frame, cv2.COLOR_BGR2GRAY)
-        return frame.astype(np.float32) * np.float32(1.0 / self._full_scale)
+        return luminance(self._frames[index]).astype(np.float32) * np.float32(1.0 / self._full_scale)
+
+    def difference(self, first: int, second: int) -> np.ndarray:
+        """Frame `first` less frame `second` in fractions of full scale, from their integer
+        difference (as the streaming decoders compute it, so both read the same bits)."""
+        first_counts = luminance(self._frames[first]).astype(np.int32)
+        return fraction(first_counts - luminance(self._frames[second]), self._full_scale)
+
+
+def luminance(frame: np.ndarray) -> np.ndarray:
+    """A captured frame as one channel (colour frames are BGR), in its own integer type."""
+    return cv2.cvtColor(frame, cv2.COLOR_BGR2GRAY) if frame.ndim == 3 else frame
+
+
+def fraction(counts: np.ndarray, full_scale: int) -> np.ndarray:
+    """Integer counts (or differences of counts) as float32 fractions of full scale."""
+    return counts.astype(np.float32) * np.float32(1.0 / full_scale)
+
+
+def least_counts(threshold: float, full_scale: int) -> int:
+    """The fewest integer counts whose `fraction` reaches `threshold` (full_scale + 1: none does), so
+    that a decoder comparing counts keeps exactly the pixels one comparing fractions keeps."""
+    reaches = fraction(np.arange(full_scale + 1), full_scale) >= threshold
+    return int(np.argmax(reaches)) if reaches.any() else full_scale + 1
 
 
 class Codec(abc.ABC):
@@ -177,6 +200,14 @@ class Codec(abc.ABC):
 
     @abc.abstractmethod
     def _coded_frame_count(self) -> int: ...
+
+    def stream(self, full_scale: int) -> FrameStream:
+        """A decoder fed the frames one at a time as they are captured (rig.patterns.stream); it
+        gives what `decode` gives for the same frames. Codecs that can do each frame's work as it
+        arrives override this; the default keeps the frames and decodes them at the end."""
+        from rig.patterns.stream import BufferedStream
+
+        return BufferedStream(self, full_scale)
 
     @abc.abstractmethod
     def _decode(

@@ -4,11 +4,12 @@ from __future__ import annotations
 
 import numpy as np
 
-from rig.patterns.base import Correspondence, NormalizedFrames
+from rig.patterns.base import Correspondence, NormalizedFrames, least_counts
 from rig.patterns.graycode import bit_count, decode_gray, gray_planes, planes_with_inverses
 from rig.patterns.lines import LineCodec, LineParams
 from rig.patterns.registry import register
 from rig.patterns.spec import GrayCode, PatternSpec, ProjectorSpace
+from rig.patterns.stream import DenseBase, FrameStream, GrayBits, integer_frame
 
 
 class GrayParams(LineParams):
@@ -63,3 +64,43 @@ class GrayCodec(LineCodec):
             valid &= ok
             coords[axis] = value.astype(np.float32)
         return self.correspondence(coords, valid, white - black, texture, counts)
+
+    def stream(self, full_scale: int) -> FrameStream:
+        return GrayStream(self, full_scale)
+
+
+class GrayStream(FrameStream):
+    """The Gray decoder fed frame by frame: each (pattern, inverse) pair is read in integer counts
+    when its inverse arrives (GrayBits); the last one leaves only the coordinates to write."""
+
+    codec: GrayCodec
+
+    def __init__(self, codec: GrayCodec, full_scale: int) -> None:
+        super().__init__(codec, full_scale)
+        self._axes = [(axis, codec.extent(axis), bit_count(codec.extent(axis))) for axis in codec.axes()]
+        self._min_strength = least_counts(codec.params.white_threshold, full_scale)
+        self._reader: GrayBits | None = None
+        self._held: np.ndarray | None = None
+        self._base = DenseBase(codec, full_scale)
+        self._coords: dict[str, np.ndarray] = {}
+
+    def _consume(self, index: int, frame: np.ndarray) -> None:
+        if index < 2:
+            self._base.consume(index, frame)
+            return
+        image = integer_frame(self.codec, frame)
+        if index % 2 == 0:
+            self._held = image
+            return
+        axis, extent, bits = self._axes[len(self._coords)]
+        if self._reader is None:
+            self._reader = GrayBits(image.shape[:2], bits, image.dtype)
+        assert self._held is not None
+        self._reader.add(self._held, image)
+        self._held = None
+        if self._reader.read == bits:
+            self._coords[axis] = self._base.accept(self._reader, extent, self._min_strength, f"weak_bits_{axis}")
+            self._reader = None
+
+    def _finish(self) -> Correspondence:
+        return self._base.correspondence(self._coords, self._base.contrast())

@@ -3,9 +3,13 @@
 from __future__ import annotations
 
 import math
-from collections.abc import Iterable, Sequence
+from collections.abc import Iterable
+from typing import TYPE_CHECKING
 
 import numpy as np
+
+if TYPE_CHECKING:
+    from rig.patterns.base import NormalizedFrames
 
 
 def bit_count(values: int) -> int:
@@ -28,9 +32,9 @@ def planes_with_inverses(planes: list[np.ndarray]) -> list[np.ndarray]:
     return out
 
 
-def decode_gray(frames: Sequence[np.ndarray], bits: int) -> tuple[np.ndarray, np.ndarray]:
+def decode_gray(frames: NormalizedFrames, bits: int) -> tuple[np.ndarray, np.ndarray]:
     """Decode `bits` (pattern, inverse) frame pairs, MSB first (see read_bits)."""
-    return read_bits((frames[2 * b] - frames[2 * b + 1] for b in range(bits)), gray=True)
+    return read_bits((frames.difference(2 * b, 2 * b + 1) for b in range(bits)), gray=True)
 
 
 def read_bits(differences: Iterable[np.ndarray], gray: bool) -> tuple[np.ndarray, np.ndarray]:

@@ -15,14 +15,17 @@ from __future__ import annotations
 
 import math
 
+import cv2
 import numpy as np
 from pydantic import Field, field_validator
 
-from rig.patterns.base import Correspondence, NormalizedFrames, even_period
+from rig.patterns.base import Correspondence, NormalizedFrames, even_period, least_counts
 from rig.patterns.graycode import bit_count, decode_gray, gray_planes, planes_with_inverses
 from rig.patterns.lines import LineCodec, LineParams
 from rig.patterns.registry import register
 from rig.patterns.spec import Frequency, GrayCode, PatternSpec, PhaseShift, ProjectorSpace
+from rig.patterns.stream import DenseBase, FrameStream, GrayBits, integer_frame
+from rig.workers import in_row_strips
 
 
 class PhaseParams(LineParams):
@@ -120,3 +123,117 @@ class PhaseCodec(LineCodec):
             quality = np.minimum(quality, modulation)
             coords[axis] = x.astype(np.float32)
         return self.correspondence(coords, valid, quality, texture, counts)
+
+    def stream(self, full_scale: int) -> FrameStream:
+        return PhaseStream(self, full_scale)
+
+
+class PhaseStream(FrameStream):
+    """The phase decoder fed frame by frame: each phase step is added into the running sums as it
+    arrives, the wrapped phase is taken after the last step, each Gray pair is read in integer
+    counts (GrayBits); after the last pair only the unwrapping remains. The sums are taken in
+    another order than the batch decoder's (OpenCV's fused multiply-add): coordinates agree within
+    float rounding."""
+
+    codec: PhaseCodec
+
+    def __init__(self, codec: PhaseCodec, full_scale: int) -> None:
+        super().__init__(codec, full_scale)
+        steps = codec.params.steps
+        delta = 2 * np.pi * np.arange(steps) / steps
+        self._weights = [(np.sin(d) / full_scale, np.cos(d) / full_scale) for d in delta]
+        self._schedule = [(axis, steps, codec._gray_bits(axis)) for axis in codec.axes()]
+        self._min_strength = least_counts(codec.params.white_threshold, full_scale)
+        self._base = DenseBase(codec, full_scale)
+        self._coords: dict[str, np.ndarray] = {}
+        self._quality: np.ndarray | None = None
+        self._reset_axis()
+
+    def _reset_axis(self) -> None:
+        self._offset = 0  # frames of the current axis seen
+        self._sums: tuple[np.ndarray, np.ndarray] | None = None
+        self._wrapped: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None  # fraction, near a wrap, modulation
+        self._reader: GrayBits | None = None
+        self._held: np.ndarray | None = None
+
+    def _consume(self, index: int, frame: np.ndarray) -> None:
+        if index < 2:
+            self._base.consume(index, frame)
+            return
+        image = integer_frame(self.codec, frame)
+        axis, steps, bits = self._schedule[len(self._coords)]
+        n, self._offset = self._offset, self._offset + 1
+        if n < steps:
+            self._add_step(image, n)
+            if n == steps - 1:
+                self._wrap()
+        elif (n - steps) % 2 == 0:
+            self._held = image
+        else:
+            if self._reader is None:
+                self._reader = GrayBits(image.shape[:2], bits, image.dtype)
+            assert self._held is not None
+            self._reader.add(self._held, image)
+            if self._reader.read == bits:
+                self._coords[axis] = self._unwrap(axis)
+                self._reset_axis()
+
+    def _add_step(self, image: np.ndarray, n: int) -> None:
+        if self._sums is None:
+            self._sums = (np.zeros(image.shape, np.float32), np.zeros(image.shape, np.float32))
+        s, c = self._sums
+        weight_sin, weight_cos = self._weights[n]
+
+        def strip(rows: slice) -> None:
+            cv2.addWeighted(image[rows], weight_sin, s[rows], 1.0, 0.0, dst=s[rows], dtype=cv2.CV_32F)
+            cv2.addWeighted(image[rows], weight_cos, c[rows], 1.0, 0.0, dst=c[rows], dtype=cv2.CV_32F)
+
+        in_row_strips(image.shape[0], strip)
+
+    def _wrap(self) -> None:
+        """After the last step: the fringe modulation, and the phase as a fraction of a period
+        ready for the period index (near a wrap, the index of the code shifted by half a period)."""
+        assert self._sums is not None
+        s, c = self._sums
+        period, steps = np.float32(self.codec.params.period_px), self.codec.params.steps
+        modulation, near = np.empty_like(s), np.empty(s.shape, np.uint8)
+        two_pi = np.float32(2 * np.pi)
+
+        def strip(rows: slice) -> None:
+            sr, cr = s[rows], c[rows]
+            cv2.magnitude(sr, cr, modulation[rows])
+            modulation[rows] *= np.float32(2.0 / steps)
+            phi = np.arctan2(sr, cr)
+            np.add(phi, two_pi, out=phi, where=phi < 0)  # [0, 2 pi)
+            past = phi > np.float32(1.5 * np.pi)
+            np.bitwise_or(phi < np.float32(np.pi / 2), past, out=near[rows])
+            np.subtract(phi, two_pi, out=phi, where=past)  # past the last quarter: the next period's start
+            np.multiply(phi, period / two_pi, out=sr)  # the sums are no longer needed
+
+        in_row_strips(s.shape[0], strip)
+        self._wrapped, self._sums = (s, near, modulation), None
+
+    def _unwrap(self, axis: str) -> np.ndarray:
+        assert self._wrapped is not None and self._reader is not None
+        fraction, near, modulation = self._wrapped
+        half, strength = self._reader.value(), self._reader.strength()
+        params, extent = self.codec.params, self.codec.extent(axis)
+        period = np.float32(params.period_px)
+        ok, weak = np.empty(half.shape, bool), np.empty(half.shape, bool)
+        x = fraction  # written over, strip by strip
+
+        def strip(rows: slice) -> None:
+            k = (half[rows].astype(np.uint16) + near[rows]) >> 1
+            x[rows] += np.multiply(k, period, dtype=np.float32)
+            np.less(modulation[rows], params.min_modulation, out=weak[rows])
+            np.greater_equal(strength[rows], self._min_strength, out=ok[rows])
+            ok[rows] &= ~weak[rows] & (x[rows] > -0.5) & (x[rows] < extent - 0.5)
+
+        in_row_strips(half.shape[0], strip)
+        self._base.narrow(ok, f"low_modulation_{axis}", weak)
+        self._quality = modulation if self._quality is None else np.minimum(self._quality, modulation)
+        return x
+
+    def _finish(self) -> Correspondence:
+        assert self._quality is not None
+        return self._base.correspondence(self._coords, self._quality)

@@ -25,7 +25,7 @@ from scipy.sparse import csr_matrix
 from scipy.spatial import cKDTree
 
 from rig.pipeline.surface import RingSurface
-from rig.pipeline.workers import pool
+from rig.workers import pool
 
 ColourMethod = Literal["nearest", "idw", "area"]
 COLOUR_METHODS: tuple[str, ...] = ("nearest", "idw", "area")

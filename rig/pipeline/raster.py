@@ -7,7 +7,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from rig.pipeline.workers import batches, pool
+from rig.workers import batches, pool
 
 
 def rasterize(xy: np.ndarray, tri: np.ndarray, width: int, height: int) -> tuple[np.ndarray, np.ndarray]:

@@ -35,7 +35,7 @@ from rig.pipeline.normals import (
 )
 from rig.pipeline.raster import FaceTerms, on_triangles, rasterize
 from rig.pipeline.triangulation import delaunay
-from rig.pipeline.workers import batches, pool
+from rig.workers import batches, pool
 
 Interpolant = Literal["linear", "quadratic", "cubic"]
 INTERPOLANTS: tuple[str, ...] = ("linear", "quadratic", "cubic")

@@ -21,7 +21,7 @@ from drivers.errors import DeviceError
 from rig.assembly import open_rig
 from rig.config import RigConfig
 from rig.errors import CaptureFaultError, ConfigError, PlanError, SlrigError
-from rig.pipeline.workers import release_free_memory
+from rig.workers import release_free_memory
 from rig.progress import ProgressCallback, ProgressEvent
 from rig.rig import Rig
 from rig.service import tasks

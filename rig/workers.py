@@ -9,6 +9,7 @@ import itertools
 import os
 import sys
 import threading
+from collections.abc import Callable
 from concurrent.futures import ThreadPoolExecutor
 
 
@@ -91,3 +92,16 @@ def batches(count: int, per_thread: int = 2) -> list[tuple[int, int]]:
     n = max(1, min(count, THREADS * per_thread))
     bounds = [round(count * k / n) for k in range(n + 1)]
     return [(a, b) for a, b in itertools.pairwise(bounds) if b > a]
+
+
+def in_row_strips(rows: int, work: Callable[[slice], object], per_thread: int = 1) -> None:
+    """Run `work(rows_slice)` over horizontal strips of an image `rows` high on the pool and wait for
+    all of them. Row strips of C-ordered arrays are contiguous, so OpenCV and numpy write into them in
+    place; each strip's temporaries stay in the core's cache. Not for work already on the pool."""
+    spans = batches(rows, per_thread)
+    if len(spans) == 1:
+        work(slice(0, rows))
+        return
+    futures = [pool().submit(work, slice(a, b)) for a, b in spans]
+    for future in futures:
+        future.result()

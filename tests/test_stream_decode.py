@@ -1,0 +1,126 @@
+"""Decoding while capturing (rig.patterns.stream): every codec's stream gives what its batch
+decoder (the reference) gives for the same frames."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from rig.assembly import open_rig
+from rig.config import config_from_dict
+from rig.errors import DecodeError
+from rig.patterns import Codec, Correspondence, codec_class, codec_names
+from rig.patterns.graycode import read_bits
+from rig.patterns.stream import GrayBits
+from rig.pipeline.scan import capture, make_codec
+from rig.progress import ProgressTracker
+from tests.conftest import small_config_data
+
+# The phase stream sums its steps in another order than the batch decoder (OpenCV's fused
+# multiply-add): coordinates differ by float rounding, far below the decoder's noise.
+PHASE_TOLERANCE_PX = 1e-3
+
+
+def _captured(codec_name: str, **scan: object) -> tuple[Codec, list[np.ndarray]]:
+    data = small_config_data()
+    data["scan"]["codec"] = codec_name
+    for key, value in scan.items():
+        data["scan"].setdefault(codec_name, {})[key] = value
+    config = config_from_dict(data, "stream-test")
+    with open_rig(config) as rig:
+        codec = make_codec(rig, 0)
+        return codec, capture(rig, [codec], ProgressTracker(None))[(0, 0)]
+
+
+def _streamed(codec: Codec, frames: list[np.ndarray], full_scale: int = 255) -> Correspondence:
+    stream = codec.stream(full_scale)
+    for frame in frames:
+        stream.add(frame)
+    return stream.finish()
+
+
+def _assert_same(reference: Correspondence, streamed: Correspondence, tolerance_px: float = 0.0) -> None:
+    assert reference.counts == streamed.counts
+    np.testing.assert_array_equal(reference.valid, streamed.valid)
+    assert streamed.texture is reference.texture or np.array_equal(streamed.texture, reference.texture)
+    for axis in ("u", "v"):
+        expected, got = getattr(reference, axis), getattr(streamed, axis)
+        assert (expected is None) == (got is None), axis
+        if expected is None:
+            continue
+        assert got.dtype == expected.dtype
+        np.testing.assert_array_equal(np.isnan(expected), np.isnan(got))
+        if tolerance_px == 0.0:
+            np.testing.assert_array_equal(expected, got)
+        else:
+            assert float(np.nanmax(np.abs(expected - got))) <= tolerance_px
+    np.testing.assert_allclose(streamed.quality, reference.quality, rtol=1e-5, atol=1e-6)
+    if reference.samples is not None:
+        assert streamed.samples is not None
+        np.testing.assert_array_equal(reference.samples.camera_xy, streamed.samples.camera_xy)
+
+
+@pytest.mark.parametrize("name", codec_names())
+def test_every_codec_streams_what_its_batch_decoder_decodes(name: str) -> None:
+    codec, frames = _captured(name)
+    reference = codec.decode(frames, 255)
+    assert reference.counts.get("decoded", 1) > 0
+    _assert_same(reference, _streamed(codec, frames), PHASE_TOLERANCE_PX if name == "phase" else 0.0)
+
+
+@pytest.mark.parametrize("name", ["gray", "phase"])
+def test_both_directions_stream_like_the_batch(name: str) -> None:
+    codec, frames = _captured(name, directions="both")
+    _assert_same(codec.decode(frames, 255), _streamed(codec, frames), PHASE_TOLERANCE_PX if name == "phase" else 0.0)
+
+
+@pytest.mark.parametrize("name", ["gray", "phase"])
+def test_noise_frames_stream_like_the_batch(name: str) -> None:
+    """Random frames put pixels at every threshold and every tie of a pattern with its inverse."""
+    codec = codec_class(name)((64, 48))
+    rng = np.random.default_rng(3)
+    frames = [rng.integers(0, 256, (40, 50), dtype=np.uint8) for _ in range(codec.frame_count)]
+    reference = codec.decode(frames, 255)
+    assert 0 < reference.counts["decoded"] < 40 * 50
+    _assert_same(reference, _streamed(codec, frames), PHASE_TOLERANCE_PX if name == "phase" else 0.0)
+
+
+@pytest.mark.parametrize("name", ["gray", "phase"])
+def test_sixteen_bit_and_colour_frames_stream_like_the_batch(name: str) -> None:
+    codec, frames = _captured(name)
+    deep = [(frame.astype(np.uint16) * 16 + 7) for frame in frames]  # 12-bit counts
+    tolerance = PHASE_TOLERANCE_PX if name == "phase" else 0.0
+    _assert_same(codec.decode(deep, 4095), _streamed(codec, deep, 4095), tolerance)
+    colour = [np.dstack([frame, frame // 2, frame]) for frame in frames]
+    _assert_same(codec.decode(colour, 255), _streamed(codec, colour), tolerance)
+
+
+def test_gray_bits_read_what_read_bits_reads() -> None:
+    rng = np.random.default_rng(5)
+    for bits in (1, 7, 8, 9, 12):
+        pairs = [
+            (rng.integers(0, 256, (9, 11), np.uint8), rng.integers(0, 256, (9, 11), np.uint8)) for _ in range(bits)
+        ]
+        reader = GrayBits((9, 11), bits, np.dtype(np.uint8))
+        for pattern, inverse in pairs:
+            reader.add(pattern, inverse)
+        value, strength = read_bits((p.astype(np.int32) - i for p, i in pairs), gray=True)
+        np.testing.assert_array_equal(reader.value(), value)
+        np.testing.assert_array_equal(np.minimum(reader.strength(), 255), np.minimum(strength, 255))
+
+
+def test_a_stream_refuses_other_sizes_and_counts() -> None:
+    codec = codec_class("gray")((64, 48))
+    frame = np.zeros((40, 50), np.uint8)
+    stream = codec.stream(255)
+    stream.add(frame)
+    with pytest.raises(DecodeError, match="differ in size"):
+        stream.add(np.zeros((41, 50), np.uint8))
+    with pytest.raises(DecodeError, match=f"expected {codec.frame_count} frames, got 1"):
+        stream.finish()
+    for _ in range(codec.frame_count - 1):
+        stream.add(frame)
+    with pytest.raises(DecodeError, match="got more"):
+        stream.add(frame)
+    with pytest.raises(DecodeError, match="8- or 16-bit"):
+        codec.stream(255).add(frame.astype(np.float32))
