@@ -1,11 +1,16 @@
 """Speed and memory of the simulated bench and the reconstruction; prints one JSON object.
 
 - simulated frame time at 1280x1024 after the first ray cast (median of 30 random patterns);
-- decode + triangulate of one 1280x1024 scan per codec (median of 7), decode as a multiple of the
-  memory floor (its frames' bytes read once at the machine's copy bandwidth), and the PointSet step
-  (normals, colours) and, for ring codecs, the surface and its colour between the rings separately
+- per codec, one 1280x1024 capture (medians of 7): the last frame to the cloud with the frames
+  arriving at the projector's rate (120 Hz, a LightCrafter's 8-bit patterns) and decoded as they
+  arrive (the cloud: the organised cloud of rig.pipeline.organised where it covers the pair, points,
+  normals and colours; else the PointSet, with the surface between the rings); the stream decoder fed
+  every frame back to back, as a multiple of the memory floor (its frames' bytes read once at the
+  machine's copy bandwidth), the batch (reference) decoder, triangulation (with normals on the fast
+  path), the PointSet step and, for ring codecs, the surface and its colour between the rings
   (colour by the density-compensated interpolant, scan.surface.colour = area);
-- peak resident memory of a whole `slrig scan` per codec, each in a fresh process;
+- peak resident memory of a whole `slrig scan` per codec, each in a fresh process, and its ratio to
+  the bytes of the scan's frames;
 - recognition: the descriptor of the default 32-ring scan (its cloud and the surface between its
   rings, as `slrig identify` reads it; median of 5), and identification against a gallery of 1000
   entries (reading the SQLite gallery and scoring every entry; median of 20).
@@ -36,12 +41,15 @@ from _readme import markdown_table, replace_block
 
 from rig.assembly import open_rig
 from rig.config import RigConfig, config_from_dict, load_config
-from rig.patterns import codec_names
-from rig.pipeline.scan import capture, make_codec, reconstruct_pair, run_scan
+from rig.patterns import Codec, Correspondence, codec_names
+from rig.pipeline.scan import capture, make_codec, pair_cloud, reconstruct_pair, run_scan
 from rig.progress import ProgressTracker
 from rig.recognition.descriptor import describe
 from rig.recognition.gallery import Gallery
 from rig.recognition.identify import identify
+from rig.rig import Rig
+
+RATE_HZ = 120.0  # a DLP LightCrafter 4500 showing 8-bit patterns
 
 _PEAK_SNIPPET = """
 import json, resource, sys
@@ -88,11 +96,47 @@ def copy_bandwidth_gb_s(megabytes: int = 256, repeats: int = 7) -> float:
     return source.nbytes / best / 1e9
 
 
+def streamed(codec: Codec, frames: list[np.ndarray]) -> Correspondence:
+    """The frames decoded as a scan decodes them: fed one by one to the codec's stream."""
+    stream = codec.stream(255)
+    for frame in frames:
+        stream.add(frame)
+    return stream.finish()
+
+
+def cloud_now(rig: Rig, corr: Correspondence) -> object:
+    """The pair's cloud: the organised cloud where the fast path covers the pair, else the PointSet."""
+    fast = pair_cloud(rig, 0, 0, corr)
+    return fast if fast is not None else reconstruct_pair(rig, 0, 0, corr, source=0)
+
+
+def last_frame_to_cloud(rig: Rig, codec: Codec, frames: list[np.ndarray], rate_hz: float, repeats: int) -> float:
+    """Median ms from the arrival of the last frame to the cloud, the frames arriving at `rate_hz`
+    and each decoded as it arrives (a decoder that falls behind the rate adds its backlog)."""
+    period, latencies = 1.0 / rate_hz, []
+    for _ in range(repeats):
+        stream = codec.stream(255)
+        start = time.perf_counter()
+        for k, frame in enumerate(frames):
+            arrival = start + k * period
+            while (wait := arrival - time.perf_counter()) > 0:
+                time.sleep(wait)
+            stream.add(frame)
+        cloud_now(rig, stream.finish())
+        latencies.append(time.perf_counter() - arrival)
+    return statistics.median(latencies) * 1e3
+
+
 def reconstruction(
-    codec_name: str, repeats: int = 7, config: RigConfig | None = None, bandwidth_gb_s: float | None = None
+    codec_name: str,
+    repeats: int = 7,
+    config: RigConfig | None = None,
+    bandwidth_gb_s: float | None = None,
+    rate_hz: float = RATE_HZ,
 ) -> dict[str, float]:
     """Median decode, triangulate and PointSet times of one capture, after a first untimed pass
-    (which computes the per-calibration terms); `config`: another rig than the default's."""
+    (which computes the per-calibration terms), and the last frame to the cloud with the frames
+    arriving at `rate_hz`; `config`: another rig than the default's."""
     config = (config or load_config()).with_codec(codec_name)
     data = config.model_dump(mode="json")
     data["scan"]["surface"]["colour"] = "area"  # ring codecs: time the colour between the rings too
@@ -100,24 +144,31 @@ def reconstruction(
     with open_rig(config) as rig:
         codec = make_codec(rig, 0)
         frames = capture(rig, [codec], ProgressTracker(None))[(0, 0)]
-        reconstruct_pair(rig, 0, 0, codec.decode(frames, 255), source=0)
-        decode, tri, pointset, surface = [], [], [], []
+        reconstruct_pair(rig, 0, 0, streamed(codec, frames), source=0)
+        decode, batch, tri, pointset, surface = [], [], [], [], []
         for _ in range(repeats):
             elapsed: dict[str, float] = {}
             t0 = time.perf_counter()
-            corr = codec.decode(frames, 255)
+            codec.decode(frames, 255)
+            batch.append(time.perf_counter() - t0)
+            t0 = time.perf_counter()
+            corr = streamed(codec, frames)
             decode.append(time.perf_counter() - t0)
             reconstruct_pair(rig, 0, 0, corr, source=0, elapsed=elapsed)
             tri.append(elapsed["triangulate"])
             pointset.append(elapsed["pointset"])
             surface.append(elapsed.get("surface", 0.0))
-    d, t, p, s = (statistics.median(x) * 1e3 for x in (decode, tri, pointset, surface))
+        latency = last_frame_to_cloud(rig, codec, frames, rate_hz, repeats)
+    d, b, t, p, s = (statistics.median(x) * 1e3 for x in (decode, batch, tri, pointset, surface))
     frame_bytes = sum(f.nbytes for f in frames)
     floor_ms = frame_bytes / ((bandwidth_gb_s or copy_bandwidth_gb_s()) * 1e9) * 1e3
     return {
         "frames": len(frames),
         "frame_mb": round(frame_bytes / 1e6, 1),
-        "decode_ms": round(d, 1),
+        "last_frame_to_cloud_ms": round(latency, 1),
+        "rate_hz": rate_hz,
+        "decode_ms": round(d, 1),  # the stream a scan uses, fed every frame back to back
+        "batch_decode_ms": round(b, 1),  # the reference decoder
         "decode_over_memory_floor": round(d / floor_ms, 1),  # decode against reading its frames once
         "triangulate_ms": round(t, 1),
         "decode_triangulate_ms": round(d + t, 1),
@@ -171,6 +222,12 @@ def peak_memory(codec_name: str) -> float:
     return round(json.loads(out.stdout.strip().splitlines()[-1])["peak_rss_mb"], 1)
 
 
+def codec_row(name: str, bandwidth_gb_s: float) -> dict[str, float]:
+    row = reconstruction(name, bandwidth_gb_s=bandwidth_gb_s)
+    peak = peak_memory(name)
+    return {**row, "scan_peak_rss_mb": peak, "scan_peak_rss_over_frames": round(peak / row["frame_mb"], 1)}
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__)
     parser.add_argument("--readme", action="store_true", help="rewrite the speed table in README.md")
@@ -182,10 +239,7 @@ def main() -> None:
         "python": platform.python_version(),
         "simulated_frame_1280x1024": frame_time(),
         "copy_bandwidth_gb_s": round(bandwidth := copy_bandwidth_gb_s(), 2),
-        "codecs": {
-            name: {**reconstruction(name, bandwidth_gb_s=bandwidth), "scan_peak_rss_mb": peak_memory(name)}
-            for name in codec_names()
-        },
+        "codecs": {name: codec_row(name, bandwidth) for name in codec_names()},
         "recognition": recognition(),
     }
     print(json.dumps(result))
@@ -195,13 +249,15 @@ def main() -> None:
             [
                 name,
                 c["frames"],
+                c["last_frame_to_cloud_ms"],
                 c["decode_ms"],
                 c["decode_over_memory_floor"],
+                c["batch_decode_ms"],
                 c["triangulate_ms"],
-                c["decode_triangulate_ms"],
                 c["pointset_ms"],
                 c["surface_ms"] or "",
                 c["scan_peak_rss_mb"],
+                c["scan_peak_rss_over_frames"],
             ]
             for name, c in result["codecs"].items()
         ]  # type: ignore[union-attr]
@@ -209,13 +265,15 @@ def main() -> None:
             [
                 "codec",
                 "frames",
+                f"last frame to cloud ms (frames at {RATE_HZ:g} Hz)",
                 "decode ms",
                 "decode / memory floor",
-                "triangulate ms",
-                "decode+triangulate ms",
-                "normals+colour ms",
+                "batch decode ms (reference)",
+                "triangulate + normals ms",
+                "PointSet ms",
                 "surface + colour between rings ms",
                 "whole scan peak RSS MB",
+                "peak RSS / frame bytes",
             ],
             rows,
         )

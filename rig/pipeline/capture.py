@@ -9,6 +9,7 @@ timestamp). A device fault darkens every projector and fails the scan.
 from __future__ import annotations
 
 import logging
+from collections.abc import Callable
 
 import numpy as np
 
@@ -20,6 +21,7 @@ from rig.progress import ProgressTracker
 from rig.rig import Rig
 
 Frames = dict[tuple[int, int], list[np.ndarray]]
+FrameSink = Callable[[int, int, np.ndarray], None]  # (projector, camera, image)
 
 log = logging.getLogger(__name__)
 STAMP_TOLERANCE_S = 0.0005  # V4L2 stamps reach us in milliseconds
@@ -36,10 +38,18 @@ class _Progress:
         self.tracker.report("capture", 0.6 * self.done / self.total)
 
 
-def capture(rig: Rig, codecs: list[Codec], tracker: ProgressTracker) -> Frames:
-    """Frames per (projector, camera); every projector is dark while another one projects."""
+def capture(rig: Rig, codecs: list[Codec], tracker: ProgressTracker, on_frame: FrameSink | None = None) -> Frames:
+    """Frames per (projector, camera); every projector is dark while another one projects.
+    `on_frame(projector, camera, image)` is called with each coded frame as it arrives (decoding
+    while capturing: rig.patterns.stream)."""
     progress = _Progress(tracker, sum(c.frame_count for c in codecs))
     frames: Frames = {}
+
+    def deliver(p: int, c: int, image: np.ndarray) -> None:
+        frames[(p, c)].append(image)
+        if on_frame is not None:
+            on_frame(p, c, image)
+
     last_sequence = [-1] * len(rig.cameras)  # across projectors: a frame repeated at a switch is stale too
     try:
         rig.all_dark()
@@ -47,9 +57,9 @@ def capture(rig: Rig, codecs: list[Codec], tracker: ProgressTracker) -> Frames:
             for c in range(len(rig.cameras)):
                 frames[(p, c)] = []
             if projector.mode is ProjectorMode.SEQUENCE:
-                _capture_sequence(rig, p, codec.patterns(), frames, last_sequence, progress)
+                _capture_sequence(rig, p, codec.patterns(), deliver, last_sequence, progress)
             else:
-                _capture_streaming(rig, p, codec.patterns(), frames, last_sequence, progress)
+                _capture_streaming(rig, p, codec.patterns(), deliver, last_sequence, progress)
             projector.dark()
         if wants_overlap_cue(rig):
             _capture_overlap_cue(rig, frames, last_sequence)
@@ -128,7 +138,7 @@ def _take_lit(rig: Rig, c: int, timeout_s: float, last_sequence: list[int], lit_
 
 
 def _capture_streaming(
-    rig: Rig, p: int, patterns: list[np.ndarray], frames: Frames, last_sequence: list[int], progress: _Progress
+    rig: Rig, p: int, patterns: list[np.ndarray], deliver: FrameSink, last_sequence: list[int], progress: _Progress
 ) -> None:
     projector = rig.projectors[p]
     latency = rig.latency_s(p)
@@ -141,7 +151,7 @@ def _capture_streaming(
         for camera in rig.cameras:
             camera.flush()  # frames exposed before that are the previous pattern
         for c in range(len(rig.cameras)):
-            frames[(p, c)].append(_take_lit(rig, c, timeout, last_sequence, lit_from).image)
+            deliver(p, c, _take_lit(rig, c, timeout, last_sequence, lit_from).image)
         progress.step()
 
 
@@ -159,7 +169,7 @@ def _check_follows(name: str, before: Frame | None, frame: Frame, period_s: floa
 
 
 def _capture_sequence(
-    rig: Rig, p: int, patterns: list[np.ndarray], frames: Frames, last_sequence: list[int], progress: _Progress
+    rig: Rig, p: int, patterns: list[np.ndarray], deliver: FrameSink, last_sequence: list[int], progress: _Progress
 ) -> None:
     """Frame k belongs to pattern k: sequence numbers must follow one another and timestamps be one
     pattern period apart, or a trigger was missed and the scan fails."""
@@ -188,7 +198,7 @@ def _capture_sequence(
                     _check_follows(rig.cameras[c].name, previous[c], frame, period_s)
                     previous[c] = frame
                     if taken < len(patterns):  # later ones are the projector's padding
-                        frames[(p, c)].append(frame.image)
+                        deliver(p, c, frame.image)
                 if taken < len(patterns):
                     progress.step()
                 taken += 1

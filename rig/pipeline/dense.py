@@ -28,8 +28,9 @@ class PairTriangulator:
         self.camera = camera
         self.projector = projector
         self._terms: dict[str, tuple[np.ndarray, ...]] = {}
+        self.derived: dict[str, object] = {}  # terms other paths derive from these (rig.pipeline.organised)
 
-    def _plane_terms(self, axis: str) -> tuple[np.ndarray, ...]:
+    def plane_terms(self, axis: str) -> tuple[np.ndarray, ...]:
         if axis not in self._terms:
             make = self.projector.plane_through_column if axis == "u" else self.projector.plane_through_row
             n0, c0 = make(np.zeros(1))
@@ -61,7 +62,7 @@ class PairTriangulator:
             return self._ray_plane_iterative(corr, axis, coded, shape)
         # Fast path: whole-grid arithmetic, invalid pixels are NaN throughout.
         x = self._normalized_linear(np.where(corr.valid, coded, np.nan).ravel().astype(np.float64), axis)
-        nd_a, nd_b, no_a, no_b, c0, c1 = self._plane_terms(axis)
+        nd_a, nd_b, no_a, no_b, c0, c1 = self.plane_terms(axis)
         denom = nd_a + x * nd_b
         ok = np.abs(denom) >= 1e-3 * np.sqrt(1 + x * x)
         s = (c0 + x * c1 - no_a - x * no_b) / denom
@@ -118,7 +119,7 @@ class PairTriangulator:
         projector = self.projector
         idx = np.flatnonzero(corr.valid.ravel())
         coded = coded_grid.ravel()[idx].astype(np.float64)
-        nd_a, nd_b, no_a, no_b, c0, c1 = (t[idx] if np.ndim(t) else t for t in self._plane_terms(axis))
+        nd_a, nd_b, no_a, no_b, c0, c1 = (t[idx] if np.ndim(t) else t for t in self.plane_terms(axis))
         origins, directions = self.camera.pixel_rays
         o, d = origins[idx], directions[idx]
         other = np.full(len(coded), projector.K[1, 2] if axis == "u" else projector.K[0, 2])
@@ -213,8 +214,14 @@ def reject_isolated(
     limit (grazing views, whose points are the least accurate anyway).
     """
     depth = (grid @ camera.axis - camera.center @ camera.axis).astype(np.float32)  # NaN where invalid
-    support = np.zeros(valid.shape, dtype=np.uint8)
-    h, w = valid.shape
+    return valid & (support_counts(depth, max_jump_mm) >= min_support)
+
+
+def support_counts(depth: np.ndarray, max_jump_mm: float) -> np.ndarray:
+    """For each pixel of a depth image (NaN where none), how many of its 8 neighbours lie within
+    `max_jump_mm` of its depth (uint8)."""
+    support = np.zeros(depth.shape, dtype=np.uint8)
+    h, w = depth.shape
     with np.errstate(invalid="ignore"):
         # Each neighbour pair is compared once and counts for both of its pixels.
         for dy, dx in ((0, 1), (1, 0), (1, 1), (1, -1)):
@@ -224,4 +231,4 @@ def reject_isolated(
             close = np.abs(depth[rows_p, cols_p] - depth[rows_q, cols_q]) <= max_jump_mm
             support[rows_p, cols_p] += close
             support[rows_q, cols_q] += close
-    return valid & (support >= min_support)
+    return support

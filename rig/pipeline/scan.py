@@ -10,12 +10,14 @@ import numpy as np
 
 from rig.errors import DecodeError, ScanError
 from rig.patterns import Codec, Correspondence, codec_class
+from rig.patterns.stream import FrameStream
 from rig.pipeline.capture import CUE, capture
 from rig.pipeline.colour import interpolate_colour, sample_colours
 from rig.pipeline.dense import PairTriangulator, pair_pointset, reject_isolated, texture_rgb
 from rig.pipeline.icp import AlignmentRefusedError, point_to_plane
 from rig.pipeline.merge import expected_error_mm, local_noise_mm, merge, triangulation_angles
 from rig.pipeline.mesh import Mesh, grid_mesh
+from rig.pipeline.organised import OrganisedCloud, fast_terms, organised_cloud
 from rig.pipeline.overlap import overlap_from_cue
 from rig.pipeline.pointset import PointSet
 from rig.pipeline.rings import (
@@ -91,6 +93,9 @@ def reconstruct_pair(
             counts["rejected_depth_jump"] = int((rings.kept & ~supported).sum())
             rings = dataclasses.replace(rings, kept=supported)
             counts["ring_points"] = int(supported.sum())
+    elif (fast := pair_cloud(rig, projector, camera, corr)) is not None:
+        cloud, cloud_counts = fast
+        counts.update(cloud_counts)
     else:
         grid, valid = triangulator(rig, projector, camera).triangulate(corr)
         limit = rig.config.scan.max_depth_jump_mm
@@ -102,6 +107,8 @@ def reconstruct_pair(
     t_mid = time.perf_counter()
     if rings is not None:
         points, grid, valid = ring_pointset(rings, model, corr, source=source)
+    elif fast is not None:
+        points, grid = cloud.pointset(source), cloud.grid()
     else:
         points = pair_pointset(grid, valid, model, corr, source=source)
     angles = triangulation_angles(points.points, model, rig.projector_models[projector])
@@ -154,6 +161,23 @@ def ring_bands(corr: Correspondence) -> RingBands | None:
     return RingBands(corr.extra["annulus"], corr.extra["angle"], samples.ring_radii_px, samples.center_px)
 
 
+def pair_cloud(
+    rig: Rig, projector: int, camera: int, corr: Correspondence
+) -> tuple[OrganisedCloud, dict[str, int]] | None:
+    """A dense correspondence's organised cloud by the fast path (rig.pipeline.organised): points,
+    normals and colours as camera images; None where the pair needs the general path."""
+    if corr.samples is not None or (corr.u is None) == (corr.v is None):
+        return None
+    axis = "u" if corr.u is not None else "v"
+    terms = fast_terms(triangulator(rig, projector, camera), axis)
+    if terms is None:
+        return None
+    coded = corr.u if corr.u is not None else corr.v
+    assert coded is not None
+    origin = rig.camera_models[camera].center
+    return organised_cloud(terms, origin, corr, coded, rig.config.scan.max_depth_jump_mm)
+
+
 def triangulator(rig: Rig, projector: int, camera: int) -> PairTriangulator:
     """The pair's triangulator; its per-pixel terms are computed on first use and kept with the rig."""
     key = ("triangulator", projector, camera)
@@ -170,10 +194,21 @@ def run_scan(
     tracker = ProgressTracker(progress)
     name = codec_name or rig.config.scan.codec
     codecs = [make_codec(rig, p, name) for p in range(len(rig.config.projectors))]
+    streams = {
+        (p, c): codecs[p].stream((1 << rig.config.cameras[c].bit_depth) - 1)
+        for p in range(len(codecs))
+        for c in range(len(rig.cameras))
+        if _reconstructed(rig, (p, c))
+    }
+
+    def decode_now(p: int, c: int, image: np.ndarray) -> None:  # decoding while capturing
+        if (p, c) in streams:
+            streams[(p, c)].add(image)
+
     t0 = time.perf_counter()
-    frames = capture(rig, codecs, tracker)
+    frames = capture(rig, codecs, tracker, decode_now)
     capture_ms = (time.perf_counter() - t0) * 1e3
-    result = reconstruct_frames(rig, name, frames, tracker, keep_frames)
+    result = reconstruct_frames(rig, name, frames, tracker, keep_frames, streams)
     result.timings_ms = {"capture_ms": capture_ms, **result.timings_ms}
     return result
 
@@ -184,18 +219,23 @@ def reconstruct_frames(
     frames: dict[tuple[int, int], list[np.ndarray]],
     tracker: ProgressTracker,
     keep_frames: bool = False,
+    streams: dict[tuple[int, int], FrameStream] | None = None,
 ) -> ScanResult:
-    """Decode and triangulate captured frames (fresh from the devices, or stored with a scan)."""
+    """Decode and triangulate captured frames (fresh from the devices, or stored with a scan);
+    `streams`: pairs whose frames were fed to their decoder as they were captured, to finish."""
     codecs = [make_codec(rig, p, codec_name) for p in range(len(rig.config.projectors))]
     pairs: list[PairResult] = []
     elapsed = {"decode": 0.0, "triangulate": 0.0, "pointset": 0.0}
-    chosen = rig.config.scan.merge.pairs
-    wanted = None if chosen is None else {tuple(pair) for pair in chosen}
-    selected = sorted(k for k in frames if k[0] != CUE and (wanted is None or k in wanted))
+    selected = sorted(k for k in frames if _reconstructed(rig, k))
     for i, (p, c) in enumerate(selected):
         t = time.perf_counter()
         try:
-            corr = codecs[p].decode(frames[(p, c)], (1 << rig.config.cameras[c].bit_depth) - 1)
+            stream = (streams or {}).get((p, c))
+            if stream is None:
+                stream = codecs[p].stream((1 << rig.config.cameras[c].bit_depth) - 1)
+                for image in frames[(p, c)]:
+                    stream.add(image)
+            corr = stream.finish()
         except DecodeError as exc:  # the frames the devices delivered do not fit: a failed scan
             raise ScanError(f"{rig.config.cameras[c].name}: {exc}") from exc
         elapsed["decode"] += time.perf_counter() - t
@@ -236,6 +276,13 @@ def reconstruct_frames(
         overlap=overlap,
         mesh=mesh,
     )
+
+
+def _reconstructed(rig: Rig, pair: tuple[int, int]) -> bool:
+    """Whether a (projector, camera) pair's frames are reconstructed (the cue's are not; the config
+    may choose the pairs)."""
+    chosen = rig.config.scan.merge.pairs
+    return pair[0] != CUE and (chosen is None or pair in {tuple(chosen_pair) for chosen_pair in chosen})
 
 
 def _descriptions(codecs: list[Codec]) -> dict[int, dict[str, object]]:

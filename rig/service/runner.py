@@ -21,7 +21,6 @@ from drivers.errors import DeviceError
 from rig.assembly import open_rig
 from rig.config import RigConfig
 from rig.errors import CaptureFaultError, ConfigError, PlanError, SlrigError
-from rig.workers import release_free_memory
 from rig.progress import ProgressCallback, ProgressEvent
 from rig.rig import Rig
 from rig.service import tasks
@@ -40,6 +39,7 @@ from rig.service.recovery import clear_leftovers, discard, hide_folder, lock_dat
 from rig.service.space import check_free_space, expected_scan_bytes, storage_problems
 from rig.service.status import device_views
 from rig.store.scandir import new_scan_id
+from rig.workers import release_free_memory
 
 log = logging.getLogger(__name__)
 

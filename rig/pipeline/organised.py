@@ -1,0 +1,184 @@
+"""The fast path from a dense correspondence to a cloud: one pair's points, normals and colours as
+camera images (an organised cloud), computed on row strips in parallel from per-pixel terms the
+pair computes once; the PointSet and the stored scan are built from it afterwards.
+
+It computes what rig.pipeline.dense computes (PairTriangulator.triangulate, reject_isolated,
+grid_normals, texture_rgb), in float32 and relative to the camera centre: points agree within
+float32 rounding of the stored coordinates. It covers a pinhole camera and a projector coding one
+axis without distortion or skew (the default benches); other pairs take the general path.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from rig.geometry import CameraModel
+from rig.patterns import Correspondence
+from rig.pipeline.dense import PairTriangulator, support_counts, texture_rgb
+from rig.pipeline.pointset import PointSet
+from rig.workers import in_row_strips
+
+_MIN_SUPPORT = 3  # as reject_isolated: neighbours within the depth-jump limit a point needs
+_NORMAL_STEP = 2  # as grid_normals: neighbours this many pixels away span the tangent plane
+_CHUNK_ROWS = 32  # rows worked at a time: the temporaries of a chunk stay in a core's cache
+
+
+@dataclass(frozen=True, eq=False)
+class OrganisedCloud:
+    """One pair's cloud as camera images (H, W): the points relative to the camera centre
+    `origin` and their normals as three float32 planes (3, H, W), NaN where `valid` is False."""
+
+    origin: np.ndarray  # (3,) float64, world mm
+    xyz: np.ndarray  # (3, H, W) float32: point - origin
+    normals: np.ndarray  # (3, H, W) float32, unit, facing the camera
+    valid: np.ndarray  # (H, W) bool
+    colours: np.ndarray  # (H, W, 3) uint8 RGB
+    quality: np.ndarray  # (H, W) float32
+
+    def grid(self) -> np.ndarray:
+        """World points (H, W, 3) float64, NaN where not valid (PairResult.grid)."""
+        return np.moveaxis(self.xyz, 0, -1).astype(np.float64) + self.origin
+
+    def pointset(self, source: int) -> PointSet:
+        idx = np.flatnonzero(self.valid.ravel())
+        return PointSet(
+            points=self.xyz.reshape(3, -1)[:, idx].T.astype(np.float64) + self.origin,
+            normals=np.ascontiguousarray(self.normals.reshape(3, -1)[:, idx].T),
+            colors=self.colours.reshape(-1, 3)[idx],
+            quality=self.quality.ravel()[idx].astype(np.float32),
+            source=np.full(len(idx), source, dtype=np.uint8),
+            pixel=idx.astype(np.int64),
+        )
+
+
+class PlaneTerms:
+    """Per-pixel terms of a pair whose camera ray meets the plane of a projector column (or row)
+    x: the ray parameter is s = (a + b x) / (c + d x), with the ray direction and its component
+    along the camera axis (for depth jumps), all float32 (H, W)."""
+
+    def __init__(self, camera: CameraModel, terms: tuple[np.ndarray, ...], scale: float, shift: float) -> None:
+        """`terms`: PairTriangulator's plane terms (nd_a, nd_b, no_a, no_b, c0, c1) of a camera whose
+        rays all leave its centre; x normalised = scale * coded + shift."""
+        nd_a, nd_b, no_a, no_b, c0, c1 = terms
+        shape = (camera.height, camera.width)
+        # s = (c0 - no_a + (c1 - no_b) x) / (nd_a + nd_b x), with x = scale * coded + shift
+        self.a = np.broadcast_to(c0 - no_a + (c1 - no_b) * shift, shape[0] * shape[1]).astype(np.float32).reshape(shape)
+        self.b = np.broadcast_to((c1 - no_b) * scale, shape[0] * shape[1]).astype(np.float32).reshape(shape)
+        self.c = (nd_a + nd_b * shift).astype(np.float32).reshape(shape)
+        self.d = (nd_b * scale).astype(np.float32).reshape(shape)
+        self.scale, self.shift = np.float32(scale), np.float32(shift)
+        directions = camera.pixel_rays[1]
+        self.directions = np.ascontiguousarray(directions.T.astype(np.float32)).reshape(3, *shape)
+        self.along_axis = (directions @ camera.axis).astype(np.float32).reshape(shape)
+        self.away = -self.directions  # grid_normals turns normals against the camera rays
+
+
+def fast_terms(triangulator: PairTriangulator, axis: str) -> PlaneTerms | None:
+    """The pair's PlaneTerms for a code of one `axis` (computed once, kept with the triangulator),
+    or None where the pair needs the general path: a projector with distortion or skew, a camera
+    whose rays do not all leave its centre."""
+    projector, camera = triangulator.projector, triangulator.camera
+    if projector.has_distortion or projector.projection != "pinhole" or camera.projection != "pinhole":
+        return None
+    if axis == "u" and projector.K[0, 1] != 0:
+        return None
+    key = f"plane_terms_{axis}"
+    if key not in triangulator.derived:
+        K = projector.K
+        focal, centre = (K[0, 0], K[0, 2]) if axis == "u" else (K[1, 1], K[1, 2])
+        triangulator.derived[key] = PlaneTerms(camera, triangulator.plane_terms(axis), 1.0 / focal, -centre / focal)
+    found = triangulator.derived[key]
+    assert isinstance(found, PlaneTerms)
+    return found
+
+
+def organised_cloud(
+    terms: PlaneTerms, origin: np.ndarray, corr: Correspondence, coded: np.ndarray, max_jump_mm: float | None
+) -> tuple[OrganisedCloud, dict[str, int]]:
+    """Triangulate, drop isolated points (depth jumps over `max_jump_mm`, None: none dropped),
+    normals and colours; the counts as reconstruct_pair reports them."""
+    height, width = coded.shape
+    s = np.empty((height, width), np.float32)
+    depth = np.empty_like(s)
+    decoded = np.empty((height, width), bool)
+
+    def triangulate(rows: slice) -> None:
+        x = coded[rows]
+        np.multiply(x, terms.b[rows], out=s[rows])
+        s[rows] += terms.a[rows]
+        denominator = terms.c[rows] + terms.d[rows] * x
+        s[rows] /= denominator
+        normalised = x * terms.scale + terms.shift
+        with np.errstate(invalid="ignore"):
+            ok = np.abs(denominator) >= np.float32(1e-3) * np.sqrt(1 + normalised * normalised)
+            ok &= s[rows] > 0
+        ok &= corr.valid[rows]
+        decoded[rows] = ok
+        np.copyto(s[rows], np.float32(np.nan), where=~ok)
+        np.multiply(s[rows], terms.along_axis[rows], out=depth[rows])
+
+    in_row_strips(height, triangulate, chunk_rows=_CHUNK_ROWS)
+    counts: dict[str, int] = {}
+    keep = decoded
+    if max_jump_mm is not None:
+        keep = np.empty_like(decoded)
+
+        def reject(rows: slice) -> None:
+            top, bottom = max(rows.start - 1, 0), min(rows.stop + 1, height)
+            support = support_counts(depth[top:bottom], max_jump_mm)
+            inner = slice(rows.start - top, rows.stop - top)
+            np.logical_and(decoded[rows], support[inner] >= _MIN_SUPPORT, out=keep[rows])
+
+        in_row_strips(height, reject, chunk_rows=_CHUNK_ROWS)
+        counts["rejected_depth_jump"] = int(np.count_nonzero(decoded)) - int(np.count_nonzero(keep))
+    xyz = np.empty((3, height, width), np.float32)
+
+    def place(rows: slice) -> None:
+        kept = np.where(keep[rows], s[rows], np.float32(np.nan))
+        for axis in range(3):
+            np.multiply(kept, terms.directions[axis, rows], out=xyz[axis, rows])
+
+    in_row_strips(height, place, chunk_rows=_CHUNK_ROWS)
+    normals = np.empty_like(xyz)
+    in_row_strips(height, lambda rows: _normals(xyz, terms.away, normals, rows), chunk_rows=_CHUNK_ROWS)
+    cloud = OrganisedCloud(origin, xyz, normals, keep, texture_rgb(corr), corr.quality)
+    return cloud, counts
+
+
+def _normals(xyz: np.ndarray, away: np.ndarray, out: np.ndarray, rows: slice) -> None:
+    """grid_normals for `rows`: the cross product of the differences `_NORMAL_STEP` pixels across
+    and down, facing the camera (against the rays, `away` = -rays); `away` where a neighbour is
+    missing or off the image."""
+    step, (_, height, width) = _NORMAL_STEP, xyz.shape
+    top, bottom = max(rows.start, step), min(rows.stop, height - step)
+    for axis in range(3):  # the image border: no neighbours there
+        out[axis, rows.start : top] = away[axis, rows.start : top]
+        out[axis, bottom : rows.stop] = away[axis, bottom : rows.stop]
+        out[axis, rows, :step] = away[axis, rows, :step]
+        out[axis, rows, width - step :] = away[axis, rows, width - step :]
+    if bottom <= top:
+        return
+    columns = slice(step, width - step)
+    below, above = slice(top + step, bottom + step), slice(top - step, bottom - step)
+    ux, uy, uz = (xyz[a, top:bottom, 2 * step :] - xyz[a, top:bottom, : -2 * step] for a in range(3))
+    vx, vy, vz = (xyz[a, below, columns] - xyz[a, above, columns] for a in range(3))
+    nx, ny, nz = uy * vz, uz * vx, ux * vy
+    nx -= uz * vy
+    ny -= ux * vz
+    nz -= uy * vx
+    scale = nx * nx
+    scale += ny * ny
+    scale += nz * nz
+    np.sqrt(scale, out=scale)
+    np.reciprocal(scale, out=scale)
+    facing = nx * away[0, top:bottom, columns]
+    facing += ny * away[1, top:bottom, columns]
+    facing += nz * away[2, top:bottom, columns]
+    np.negative(scale, out=scale, where=facing < 0)  # turned toward the camera
+    missing = np.isnan(scale)
+    for axis, n in enumerate((nx, ny, nz)):
+        target = out[axis, top:bottom, columns]
+        np.multiply(n, scale, out=target)
+        np.copyto(target, away[axis, top:bottom, columns], where=missing)

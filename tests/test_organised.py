@@ -1,0 +1,68 @@
+"""The organised fast path (rig.pipeline.organised) against the general one (rig.pipeline.dense):
+the same points, normals, colours and rejections."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+import pytest
+
+from rig.assembly import open_rig
+from rig.config import config_from_dict
+from rig.pipeline.dense import pair_pointset, reject_isolated
+from rig.pipeline.scan import capture, make_codec, pair_cloud, reconstruct_pair, triangulator
+from rig.progress import ProgressTracker
+from tests.conftest import small_config_data
+
+# float32 coordinates relative to the camera centre against float64 world coordinates: the
+# difference is float32 rounding (a PLY stores float32 anyway).
+POINT_TOLERANCE_MM = 1e-3
+NORMAL_TOLERANCE = 1e-3
+
+
+def _small(codec: str, **scan: Any) -> dict[str, Any]:
+    data = small_config_data()
+    data["scan"]["codec"] = codec
+    data["scan"].update(scan)
+    return data
+
+
+@pytest.mark.parametrize(("codec", "jump"), [("phase", 2.0), ("gray", 2.0), ("phase", None)])
+def test_the_fast_path_gives_the_general_paths_cloud(codec: str, jump: float | None) -> None:
+    config = config_from_dict(_small(codec, max_depth_jump_mm=jump), "organised-test")
+    with open_rig(config) as rig:
+        codec_ = make_codec(rig, 0)
+        corr = codec_.decode(capture(rig, [codec_], ProgressTracker(None))[(0, 0)], 255)
+        found = pair_cloud(rig, 0, 0, corr)
+        assert found is not None
+        cloud, counts = found
+        model = rig.camera_models[0]
+        grid, valid = triangulator(rig, 0, 0).triangulate(corr)
+        if jump is not None:
+            keep = reject_isolated(grid, valid, model, jump)
+            assert counts["rejected_depth_jump"] == int((valid & ~keep).sum()) > 0
+            grid[valid & ~keep] = np.nan
+            valid = keep
+        reference = pair_pointset(grid, valid, model, corr, source=3)
+    np.testing.assert_array_equal(cloud.valid, valid)
+    got = cloud.pointset(source=3)
+    assert len(got) == len(reference) > 10_000
+    assert float(np.abs(got.points - reference.points).max()) < POINT_TOLERANCE_MM
+    assert float(np.abs(got.normals - reference.normals).max()) < NORMAL_TOLERANCE
+    for name in ("colors", "quality", "source", "pixel"):
+        np.testing.assert_array_equal(getattr(got, name), getattr(reference, name))
+    np.testing.assert_allclose(cloud.grid(), grid, atol=POINT_TOLERANCE_MM)
+
+
+def test_pairs_the_fast_path_does_not_cover_take_the_general_path() -> None:
+    both = config_from_dict(_small("gray", gray={"directions": "both"}), "organised-both")
+    distorted_data = _small("gray")
+    distorted_data["projectors"][0]["geometry"]["distortion"] = [0.05, 0.0, 0.0, 0.0, 0.0]
+    distorted = config_from_dict(distorted_data, "organised-distorted")
+    for config in (both, distorted):
+        with open_rig(config) as rig:
+            codec = make_codec(rig, 0)
+            corr = codec.decode(capture(rig, [codec], ProgressTracker(None))[(0, 0)], 255)
+            assert pair_cloud(rig, 0, 0, corr) is None
+            assert len(reconstruct_pair(rig, 0, 0, corr, source=0).points) > 10_000
