@@ -229,15 +229,7 @@ def reconstruct_frames(
     selected = sorted(k for k in frames if _reconstructed(rig, k))
     for i, (p, c) in enumerate(selected):
         t = time.perf_counter()
-        try:
-            stream = (streams or {}).get((p, c))
-            if stream is None:
-                stream = codecs[p].stream((1 << rig.config.cameras[c].bit_depth) - 1)
-                for image in frames[(p, c)]:
-                    stream.add(image)
-            corr = stream.finish()
-        except DecodeError as exc:  # the frames the devices delivered do not fit: a failed scan
-            raise ScanError(f"{rig.config.cameras[c].name}: {exc}") from exc
+        corr = _decoded(rig, codecs[p], c, frames[(p, c)], (streams or {}).get((p, c)))
         elapsed["decode"] += time.perf_counter() - t
         tracker.report("decode", 0.6 + 0.3 * (i + 0.5) / len(selected))
         pairs.append(reconstruct_pair(rig, p, c, corr, source=i, elapsed=elapsed))
@@ -276,6 +268,21 @@ def reconstruct_frames(
         overlap=overlap,
         mesh=mesh,
     )
+
+
+def _decoded(
+    rig: Rig, codec: Codec, camera: int, frames: list[np.ndarray], stream: FrameStream | None
+) -> Correspondence:
+    """A pair's correspondence: its stream finished, or (frames stored with a scan) every frame
+    streamed now."""
+    try:
+        if stream is None:
+            stream = codec.stream((1 << rig.config.cameras[camera].bit_depth) - 1)
+            for image in frames:
+                stream.add(image)
+        return stream.finish()
+    except DecodeError as exc:  # the frames the devices delivered do not fit: a failed scan
+        raise ScanError(f"{rig.config.cameras[camera].name}: {exc}") from exc
 
 
 def _reconstructed(rig: Rig, pair: tuple[int, int]) -> bool:
