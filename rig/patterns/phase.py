@@ -15,10 +15,10 @@ from __future__ import annotations
 
 import math
 
-import cv2
 import numpy as np
 from pydantic import Field, field_validator
 
+from rig import fused
 from rig.patterns.base import Correspondence, NormalizedFrames, even_period, least_counts
 from rig.patterns.graycode import bit_count, decode_gray, gray_planes, planes_with_inverses
 from rig.patterns.lines import LineCodec, LineParams
@@ -141,7 +141,7 @@ class PhaseStream(FrameStream):
         super().__init__(codec, full_scale)
         steps = codec.params.steps
         delta = 2 * np.pi * np.arange(steps) / steps
-        self._weights = [(np.sin(d) / full_scale, np.cos(d) / full_scale) for d in delta]
+        self._weights = [(np.float32(np.sin(d) / full_scale), np.float32(np.cos(d) / full_scale)) for d in delta]
         self._schedule = [(axis, steps, codec._gray_bits(axis)) for axis in codec.axes()]
         self._min_strength = least_counts(codec.params.white_threshold, full_scale)
         self._base = DenseBase(codec, full_scale)
@@ -183,53 +183,54 @@ class PhaseStream(FrameStream):
             self._sums = (np.zeros(image.shape, np.float32), np.zeros(image.shape, np.float32))
         s, c = self._sums
         weight_sin, weight_cos = self._weights[n]
-
-        def strip(rows: slice) -> None:
-            cv2.addWeighted(image[rows], weight_sin, s[rows], 1.0, 0.0, dst=s[rows], dtype=cv2.CV_32F)
-            cv2.addWeighted(image[rows], weight_cos, c[rows], 1.0, 0.0, dst=c[rows], dtype=cv2.CV_32F)
-
-        in_row_strips(image.shape[0], strip)
+        in_row_strips(
+            image.shape[0], lambda rows: fused.phase_step(image, weight_sin, weight_cos, s, c, rows.start, rows.stop)
+        )
 
     def _wrap(self) -> None:
         """After the last step: the fringe modulation, and the phase as a fraction of a period
         ready for the period index (near a wrap, the index of the code shifted by half a period)."""
         assert self._sums is not None
         s, c = self._sums
-        period, steps = np.float32(self.codec.params.period_px), self.codec.params.steps
+        params = self.codec.params
+        amplitude, period = np.float32(2.0 / params.steps), np.float32(params.period_px)
         modulation, near = np.empty_like(s), np.empty(s.shape, np.uint8)
-        two_pi = np.float32(2 * np.pi)
+        fraction = s  # each pixel's sum is read before its fraction is written over it
 
         def strip(rows: slice) -> None:
-            sr, cr = s[rows], c[rows]
-            cv2.magnitude(sr, cr, modulation[rows])
-            modulation[rows] *= np.float32(2.0 / steps)
-            phi = np.arctan2(sr, cr)
-            np.add(phi, two_pi, out=phi, where=phi < 0)  # [0, 2 pi)
-            past = phi > np.float32(1.5 * np.pi)
-            np.bitwise_or(phi < np.float32(np.pi / 2), past, out=near[rows])
-            np.subtract(phi, two_pi, out=phi, where=past)  # past the last quarter: the next period's start
-            np.multiply(phi, period / two_pi, out=sr)  # the sums are no longer needed
+            phi = np.arctan2(s[rows], c[rows])
+            fused.phase_wrap(s, c, phi, amplitude, period, modulation, near, fraction, rows.start, rows.stop)
 
         in_row_strips(s.shape[0], strip)
-        self._wrapped, self._sums = (s, near, modulation), None
+        self._wrapped, self._sums = (fraction, near, modulation), None
 
     def _unwrap(self, axis: str) -> np.ndarray:
         assert self._wrapped is not None and self._reader is not None
         fraction, near, modulation = self._wrapped
         half, strength = self._reader.value(), self._reader.strength()
-        params, extent = self.codec.params, self.codec.extent(axis)
-        period = np.float32(params.period_px)
+        params = self.codec.params
+        period, extent = np.float32(params.period_px), self.codec.extent(axis)
         ok, weak = np.empty(half.shape, bool), np.empty(half.shape, bool)
-        x = fraction  # written over, strip by strip
-
-        def strip(rows: slice) -> None:
-            k = (half[rows].astype(np.uint16) + near[rows]) >> 1
-            x[rows] += np.multiply(k, period, dtype=np.float32)
-            np.less(modulation[rows], params.min_modulation, out=weak[rows])
-            np.greater_equal(strength[rows], self._min_strength, out=ok[rows])
-            ok[rows] &= ~weak[rows] & (x[rows] > -0.5) & (x[rows] < extent - 0.5)
-
-        in_row_strips(half.shape[0], strip)
+        x = fraction  # each pixel's fraction is read before its coordinate is written over it
+        in_row_strips(
+            half.shape[0],
+            lambda rows: fused.phase_unwrap(
+                half,
+                near,
+                fraction,
+                modulation,
+                strength,
+                period,
+                params.min_modulation,
+                self._min_strength,
+                extent,
+                x,
+                ok,
+                weak,
+                rows.start,
+                rows.stop,
+            ),
+        )
         self._base.narrow(ok, f"low_modulation_{axis}", weak)
         self._quality = modulation if self._quality is None else np.minimum(self._quality, modulation)
         return x

@@ -13,9 +13,9 @@ import abc
 import dataclasses
 from typing import TYPE_CHECKING
 
-import cv2
 import numpy as np
 
+from rig import fused
 from rig.errors import DecodeError
 from rig.patterns.base import Correspondence, luminance
 from rig.workers import in_row_strips
@@ -86,7 +86,8 @@ def integer_frame(codec: Codec, frame: np.ndarray) -> np.ndarray:
 
 class GrayBits:
     """A Gray code read one (pattern, inverse) pair at a time, most significant bit first, in
-    integer counts (one pass of a few OpenCV operations per pair, on row strips in parallel).
+    integer counts: one pass over the two frames per pair (rig.fused.gray_pair), a band of rows per
+    thread.
 
     Gives what rig.patterns.graycode.read_bits gives: the binary value, and the second-smallest
     |pattern - inverse| over the bits (in counts)."""
@@ -96,9 +97,8 @@ class GrayBits:
             raise ValueError(f"1 to 16 bits, got {bits}")
         self.bits = bits
         self.read = 0
-        self._rows = shape[0]
-        self._prefix = np.zeros(shape, np.uint8)  # 255 where the binary value's bit so far is 1
-        self._bytes = [np.zeros(shape, np.uint8) for _ in range((bits + 7) // 8)]  # the value, low byte first
+        self._value = np.zeros(shape, np.uint16)
+        self._prefix = np.zeros(shape, np.uint8)  # the binary value's bit so far: XOR of the Gray bits
         top = np.iinfo(dtype).max
         self._weakest = np.full(shape, top, dtype)
         self._second = np.full(shape, top, dtype)
@@ -106,36 +106,19 @@ class GrayBits:
     def add(self, pattern: np.ndarray, inverse: np.ndarray) -> None:
         if self.read >= self.bits:
             raise ValueError("every bit has been read")
-        weight = self.bits - 1 - self.read
-        target, mask = self._bytes[weight // 8], 1 << (weight % 8)
-
-        def strip(rows: slice) -> None:
-            a, b = pattern[rows], inverse[rows]
-            prefix, byte = self._prefix[rows], target[rows]
-            cv2.bitwise_xor(prefix, cv2.compare(a, b, cv2.CMP_GT), dst=prefix)  # binary bit: XOR of the Gray bits
-            cv2.bitwise_or(byte, cv2.bitwise_and(prefix, mask), dst=byte)
-            strength = cv2.absdiff(a, b)
-            weakest, second = self._weakest[rows], self._second[rows]
-            cv2.min(second, cv2.max(weakest, strength), dst=second)
-            cv2.min(weakest, strength, dst=weakest)
-
-        in_row_strips(self._rows, strip)
+        weight = np.uint16(1 << (self.bits - 1 - self.read))
+        value, prefix, weakest, second = self._value, self._prefix, self._weakest, self._second
+        in_row_strips(
+            value.shape[0],
+            lambda rows: fused.gray_pair(
+                pattern, inverse, weight, value, prefix, weakest, second, rows.start, rows.stop
+            ),
+        )
         self.read += 1
 
     def value(self) -> np.ndarray:
-        """The binary value (uint8 up to 8 bits, uint16 beyond)."""
-        if len(self._bytes) == 1:
-            return self._bytes[0]
-        value = self._bytes[1].astype(np.uint16)
-        value <<= 8
-        value |= self._bytes[0]
-        return value
-
-    def value_into(self, out: np.ndarray, rows: slice) -> None:
-        """The binary value of `rows` written into `out[rows]` (a float array of the frame's shape)."""
-        np.copyto(out[rows], self._bytes[0][rows])
-        if len(self._bytes) > 1:
-            out[rows] += self._bytes[1][rows] * out.dtype.type(256)
+        """The binary value (uint16)."""
+        return self._value
 
     def strength(self) -> np.ndarray:
         """The second-smallest |pattern - inverse| over the bits, in counts (the frames' type)."""
@@ -166,14 +149,10 @@ class DenseBase:
         white, scale = self._white, np.float32(1.0 / self.full_scale)
         contrast, lit = np.empty(image.shape, np.float32), np.empty(image.shape, bool)
         threshold = self.codec.params.black_threshold
-
-        def strip(rows: slice) -> None:
-            # As the batch decoder computes it (each frame in fractions, then the difference): the same floats.
-            np.multiply(white[rows], scale, out=contrast[rows], dtype=np.float32)
-            contrast[rows] -= image[rows].astype(np.float32) * scale
-            np.greater_equal(contrast[rows], threshold, out=lit[rows])
-
-        in_row_strips(image.shape[0], strip)
+        in_row_strips(
+            image.shape[0],
+            lambda rows: fused.contrast_and_lit(white, image, scale, threshold, contrast, lit, rows.start, rows.stop),
+        )
         self._contrast, self._white, self.lit, self.valid = contrast, None, lit, lit.copy()
         self.counts["lit"] = int(np.count_nonzero(self.lit))
 
@@ -192,16 +171,14 @@ class DenseBase:
     def accept(self, reader: GrayBits, extent: int, min_strength: int, count_name: str) -> np.ndarray:
         """A Gray-coded axis read whole: its coordinate (float32), the pixels with a weak bit or a
         code beyond `extent` dropped."""
-        strength = reader.strength()
-        ok = np.empty(strength.shape, bool)
-        coordinate = np.empty(strength.shape, np.float32)
-
-        def strip(rows: slice) -> None:
-            reader.value_into(coordinate, rows)
-            np.greater_equal(strength[rows], min_strength, out=ok[rows])
-            ok[rows] &= coordinate[rows] < extent
-
-        in_row_strips(strength.shape[0], strip)
+        value, strength = reader.value(), reader.strength()
+        ok, coordinate = np.empty(value.shape, bool), np.empty(value.shape, np.float32)
+        in_row_strips(
+            value.shape[0],
+            lambda rows: fused.gray_accept(
+                value, strength, min_strength, extent, coordinate, ok, rows.start, rows.stop
+            ),
+        )
         self.narrow(ok, count_name)
         return coordinate
 

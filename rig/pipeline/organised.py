@@ -3,8 +3,9 @@ camera images (an organised cloud), computed on row strips in parallel from per-
 pair computes once; the PointSet and the stored scan are built from it afterwards.
 
 It computes what rig.pipeline.dense computes (PairTriangulator.triangulate, reject_isolated,
-grid_normals, texture_rgb), in float32 and relative to the camera centre: points agree within
-float32 rounding of the stored coordinates. It covers a pinhole camera and a projector coding one
+grid_normals, texture_rgb), in float32 and relative to the camera centre, each step one pass of a
+compiled loop (rig.fused) per band of rows: points agree within float32 rounding of the stored
+coordinates. It covers a pinhole camera and a projector coding one
 axis without distortion or skew (the default benches); other pairs take the general path.
 """
 
@@ -14,15 +15,15 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from rig import fused
 from rig.geometry import CameraModel
 from rig.patterns import Correspondence
-from rig.pipeline.dense import PairTriangulator, support_counts, texture_rgb
+from rig.pipeline.dense import PairTriangulator, texture_rgb
 from rig.pipeline.pointset import PointSet
 from rig.workers import in_row_strips
 
 _MIN_SUPPORT = 3  # as reject_isolated: neighbours within the depth-jump limit a point needs
 _NORMAL_STEP = 2  # as grid_normals: neighbours this many pixels away span the tangent plane
-_CHUNK_ROWS = 32  # rows worked at a time: the temporaries of a chunk stay in a core's cache
 
 
 @dataclass(frozen=True, eq=False)
@@ -100,85 +101,28 @@ def organised_cloud(
     """Triangulate, drop isolated points (depth jumps over `max_jump_mm`, None: none dropped),
     normals and colours; the counts as reconstruct_pair reports them."""
     height, width = coded.shape
-    s = np.empty((height, width), np.float32)
-    depth = np.empty_like(s)
-    decoded = np.empty((height, width), bool)
-
-    def triangulate(rows: slice) -> None:
-        x = coded[rows]
-        np.multiply(x, terms.b[rows], out=s[rows])
-        s[rows] += terms.a[rows]
-        denominator = terms.c[rows] + terms.d[rows] * x
-        s[rows] /= denominator
-        normalised = x * terms.scale + terms.shift
-        with np.errstate(invalid="ignore"):
-            ok = np.abs(denominator) >= np.float32(1e-3) * np.sqrt(1 + normalised * normalised)
-            ok &= s[rows] > 0
-        ok &= corr.valid[rows]
-        decoded[rows] = ok
-        np.copyto(s[rows], np.float32(np.nan), where=~ok)
-        np.multiply(s[rows], terms.along_axis[rows], out=depth[rows])
-
-    in_row_strips(height, triangulate, chunk_rows=_CHUNK_ROWS)
+    xyz, normals = np.empty((3, height, width), np.float32), np.empty((3, height, width), np.float32)
+    depth, decoded = np.empty((height, width), np.float32), np.empty((height, width), bool)
+    in_row_strips(
+        height,
+        lambda rows: fused.plane_triangulate(
+            coded, corr.valid, terms.a, terms.b, terms.c, terms.d, terms.scale, terms.shift,
+            terms.along_axis, terms.directions, xyz, depth, decoded, rows.start, rows.stop,
+        ),
+    )  # fmt: skip
     counts: dict[str, int] = {}
     keep = decoded
     if max_jump_mm is not None:
-        keep = np.empty_like(decoded)
-
-        def reject(rows: slice) -> None:
-            top, bottom = max(rows.start - 1, 0), min(rows.stop + 1, height)
-            support = support_counts(depth[top:bottom], max_jump_mm)
-            inner = slice(rows.start - top, rows.stop - top)
-            np.logical_and(decoded[rows], support[inner] >= _MIN_SUPPORT, out=keep[rows])
-
-        in_row_strips(height, reject, chunk_rows=_CHUNK_ROWS)
-        counts["rejected_depth_jump"] = int(np.count_nonzero(decoded)) - int(np.count_nonzero(keep))
-    xyz = np.empty((3, height, width), np.float32)
-
-    def place(rows: slice) -> None:
-        kept = np.where(keep[rows], s[rows], np.float32(np.nan))
-        for axis in range(3):
-            np.multiply(kept, terms.directions[axis, rows], out=xyz[axis, rows])
-
-    in_row_strips(height, place, chunk_rows=_CHUNK_ROWS)
-    normals = np.empty_like(xyz)
-    in_row_strips(height, lambda rows: _normals(xyz, terms.away, normals, rows), chunk_rows=_CHUNK_ROWS)
+        keep, jump, dropped = np.empty_like(decoded), np.float32(max_jump_mm), []
+        in_row_strips(
+            height,
+            lambda rows: dropped.append(
+                fused.reject_isolated(depth, decoded, jump, _MIN_SUPPORT, keep, xyz, rows.start, rows.stop)
+            ),
+        )
+        counts["rejected_depth_jump"] = sum(dropped)
+    in_row_strips(
+        height, lambda rows: fused.grid_normals(xyz, terms.away, _NORMAL_STEP, normals, rows.start, rows.stop)
+    )
     cloud = OrganisedCloud(origin, xyz, normals, keep, texture_rgb(corr), corr.quality)
     return cloud, counts
-
-
-def _normals(xyz: np.ndarray, away: np.ndarray, out: np.ndarray, rows: slice) -> None:
-    """grid_normals for `rows`: the cross product of the differences `_NORMAL_STEP` pixels across
-    and down, facing the camera (against the rays, `away` = -rays); `away` where a neighbour is
-    missing or off the image."""
-    step, (_, height, width) = _NORMAL_STEP, xyz.shape
-    top, bottom = max(rows.start, step), min(rows.stop, height - step)
-    for axis in range(3):  # the image border: no neighbours there
-        out[axis, rows.start : top] = away[axis, rows.start : top]
-        out[axis, bottom : rows.stop] = away[axis, bottom : rows.stop]
-        out[axis, rows, :step] = away[axis, rows, :step]
-        out[axis, rows, width - step :] = away[axis, rows, width - step :]
-    if bottom <= top:
-        return
-    columns = slice(step, width - step)
-    below, above = slice(top + step, bottom + step), slice(top - step, bottom - step)
-    ux, uy, uz = (xyz[a, top:bottom, 2 * step :] - xyz[a, top:bottom, : -2 * step] for a in range(3))
-    vx, vy, vz = (xyz[a, below, columns] - xyz[a, above, columns] for a in range(3))
-    nx, ny, nz = uy * vz, uz * vx, ux * vy
-    nx -= uz * vy
-    ny -= ux * vz
-    nz -= uy * vx
-    scale = nx * nx
-    scale += ny * ny
-    scale += nz * nz
-    np.sqrt(scale, out=scale)
-    np.reciprocal(scale, out=scale)
-    facing = nx * away[0, top:bottom, columns]
-    facing += ny * away[1, top:bottom, columns]
-    facing += nz * away[2, top:bottom, columns]
-    np.negative(scale, out=scale, where=facing < 0)  # turned toward the camera
-    missing = np.isnan(scale)
-    for axis, n in enumerate((nx, ny, nz)):
-        target = out[axis, top:bottom, columns]
-        np.multiply(n, scale, out=target)
-        np.copyto(target, away[axis, top:bottom, columns], where=missing)
