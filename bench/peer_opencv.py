@@ -38,6 +38,7 @@ from _readme import markdown_table, replace_block
 from rig.assembly import open_rig
 from rig.config import config_from_dict, load_config
 from rig.patterns import codec_class
+from rig.patterns.stream import decode_streamed
 from rig.pipeline.capture import capture
 from rig.progress import ProgressTracker
 
@@ -167,10 +168,7 @@ def slrig_decode(codec: Any, frames: list[np.ndarray]) -> tuple[float, Any]:
     times, corr = [], None
     for _ in range(8):
         t = time.perf_counter()
-        stream = codec.stream(255)
-        for frame in frames:
-            stream.add(frame)
-        corr = stream.finish()
+        corr = decode_streamed(codec, frames, 255)
         times.append(time.perf_counter() - t)
     return statistics.median(times[1:]), corr
 

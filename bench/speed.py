@@ -42,6 +42,7 @@ from _readme import markdown_table, replace_block
 from rig.assembly import open_rig
 from rig.config import RigConfig, config_from_dict, load_config
 from rig.patterns import Codec, Correspondence, codec_names
+from rig.patterns.stream import decode_streamed
 from rig.pipeline.scan import capture, make_codec, pair_cloud, reconstruct_pair, run_scan
 from rig.progress import ProgressTracker
 from rig.recognition.descriptor import describe
@@ -96,14 +97,6 @@ def copy_bandwidth_gb_s(megabytes: int = 256, repeats: int = 7) -> float:
     return source.nbytes / best / 1e9
 
 
-def streamed(codec: Codec, frames: list[np.ndarray]) -> Correspondence:
-    """The frames decoded as a scan decodes them: fed one by one to the codec's stream."""
-    stream = codec.stream(255)
-    for frame in frames:
-        stream.add(frame)
-    return stream.finish()
-
-
 def cloud_now(rig: Rig, corr: Correspondence) -> object:
     """The pair's cloud: the organised cloud where the fast path covers the pair, else the PointSet."""
     fast = pair_cloud(rig, 0, 0, corr)
@@ -144,7 +137,7 @@ def reconstruction(
     with open_rig(config) as rig:
         codec = make_codec(rig, 0)
         frames = capture(rig, [codec], ProgressTracker(None))[(0, 0)]
-        reconstruct_pair(rig, 0, 0, streamed(codec, frames), source=0)
+        reconstruct_pair(rig, 0, 0, decode_streamed(codec, frames, 255), source=0)
         decode, batch, tri, pointset, surface = [], [], [], [], []
         for _ in range(repeats):
             elapsed: dict[str, float] = {}
@@ -152,7 +145,7 @@ def reconstruction(
             codec.decode(frames, 255)
             batch.append(time.perf_counter() - t0)
             t0 = time.perf_counter()
-            corr = streamed(codec, frames)
+            corr = decode_streamed(codec, frames, 255)
             decode.append(time.perf_counter() - t0)
             reconstruct_pair(rig, 0, 0, corr, source=0, elapsed=elapsed)
             tri.append(elapsed["triangulate"])

@@ -246,16 +246,16 @@ def reject_isolated(
 
 
 @njit(**_KERNEL)
-def grid_normals(xyz: Image, away: Image, step: int, out: Image, top: int, bottom: int) -> None:
+def grid_normals(xyz: Image, rays: Image, step: int, out: Image, top: int, bottom: int) -> None:
     """rig.pipeline.dense.grid_normals: the cross product of the differences `step` pixels across
-    and down, unit, turned toward the camera (against the ray, `away` = -ray); `away` where a
-    neighbour is missing or off the image."""
+    and down, unit, turned toward the camera (against its `rays`); -ray where a neighbour is missing
+    or off the image."""
     height, width = xyz.shape[1], xyz.shape[2]
     for y in range(top, bottom):
         for x in range(width):
             if y < step or y >= height - step or x < step or x >= width - step:
                 for axis in range(3):
-                    out[axis, y, x] = away[axis, y, x]
+                    out[axis, y, x] = -rays[axis, y, x]
                 continue
             ux = xyz[0, y, x + step] - xyz[0, y, x - step]
             uy = xyz[1, y, x + step] - xyz[1, y, x - step]
@@ -267,9 +267,9 @@ def grid_normals(xyz: Image, away: Image, step: int, out: Image, top: int, botto
             norm = np.sqrt(nx * nx + ny * ny + nz * nz)
             if not np.isfinite(norm):
                 for axis in range(3):
-                    out[axis, y, x] = away[axis, y, x]
+                    out[axis, y, x] = -rays[axis, y, x]
                 continue
             scale = np.float32(1) / norm
-            if nx * away[0, y, x] + ny * away[1, y, x] + nz * away[2, y, x] < 0:
+            if nx * rays[0, y, x] + ny * rays[1, y, x] + nz * rays[2, y, x] > 0:
                 scale = -scale
             out[0, y, x], out[1, y, x], out[2, y, x] = nx * scale, ny * scale, nz * scale

@@ -94,23 +94,14 @@ def batches(count: int, per_thread: int = 2) -> list[tuple[int, int]]:
     return [(a, b) for a, b in itertools.pairwise(bounds) if b > a]
 
 
-def in_row_strips(rows: int, work: Callable[[slice], object], per_thread: int = 1, chunk_rows: int = 0) -> None:
+def in_row_strips(rows: int, work: Callable[[slice], object], per_thread: int = 1) -> None:
     """Run `work(rows_slice)` over horizontal strips of an image `rows` high on the pool and wait for
-    all of them. Row strips of C-ordered arrays are contiguous, so OpenCV and numpy write into them in
-    place. `chunk_rows`: each strip is worked `chunk_rows` rows at a time, so that work with many
-    temporaries keeps them in the core's cache. Not for work already on the pool."""
-
-    def strip(span: slice) -> None:
-        if chunk_rows <= 0:
-            work(span)
-            return
-        for top in range(span.start, span.stop, chunk_rows):
-            work(slice(top, min(span.stop, top + chunk_rows)))
-
+    all of them. Row strips of C-ordered arrays are contiguous, so numpy and the compiled loops
+    (rig.fused) write into them in place. Not for work already on the pool."""
     spans = batches(rows, per_thread)
     if len(spans) == 1:
-        strip(slice(0, rows))
+        work(slice(0, rows))
         return
-    futures = [pool().submit(strip, slice(a, b)) for a, b in spans]
+    futures = [pool().submit(work, slice(a, b)) for a, b in spans]
     for future in futures:
         future.result()

@@ -11,7 +11,7 @@ from rig.config import config_from_dict
 from rig.errors import DecodeError
 from rig.patterns import Codec, Correspondence, codec_class, codec_names
 from rig.patterns.graycode import read_bits
-from rig.patterns.stream import GrayBits
+from rig.patterns.stream import GrayBits, decode_streamed
 from rig.pipeline.scan import capture, make_codec
 from rig.progress import ProgressTracker
 from tests.conftest import small_config_data
@@ -30,13 +30,6 @@ def _captured(codec_name: str, **scan: object) -> tuple[Codec, list[np.ndarray]]
     with open_rig(config) as rig:
         codec = make_codec(rig, 0)
         return codec, capture(rig, [codec], ProgressTracker(None))[(0, 0)]
-
-
-def _streamed(codec: Codec, frames: list[np.ndarray], full_scale: int = 255) -> Correspondence:
-    stream = codec.stream(full_scale)
-    for frame in frames:
-        stream.add(frame)
-    return stream.finish()
 
 
 def _assert_same(reference: Correspondence, streamed: Correspondence, tolerance_px: float = 0.0) -> None:
@@ -65,13 +58,15 @@ def test_every_codec_streams_what_its_batch_decoder_decodes(name: str) -> None:
     codec, frames = _captured(name)
     reference = codec.decode(frames, 255)
     assert reference.counts.get("decoded", 1) > 0
-    _assert_same(reference, _streamed(codec, frames), PHASE_TOLERANCE_PX if name == "phase" else 0.0)
+    _assert_same(reference, decode_streamed(codec, frames, 255), PHASE_TOLERANCE_PX if name == "phase" else 0.0)
 
 
 @pytest.mark.parametrize("name", ["gray", "phase"])
 def test_both_directions_stream_like_the_batch(name: str) -> None:
     codec, frames = _captured(name, directions="both")
-    _assert_same(codec.decode(frames, 255), _streamed(codec, frames), PHASE_TOLERANCE_PX if name == "phase" else 0.0)
+    _assert_same(
+        codec.decode(frames, 255), decode_streamed(codec, frames, 255), PHASE_TOLERANCE_PX if name == "phase" else 0.0
+    )
 
 
 @pytest.mark.parametrize("name", ["gray", "phase"])
@@ -82,7 +77,7 @@ def test_noise_frames_stream_like_the_batch(name: str) -> None:
     frames = [rng.integers(0, 256, (40, 50), dtype=np.uint8) for _ in range(codec.frame_count)]
     reference = codec.decode(frames, 255)
     assert 0 < reference.counts["decoded"] < 40 * 50
-    _assert_same(reference, _streamed(codec, frames), PHASE_TOLERANCE_PX if name == "phase" else 0.0)
+    _assert_same(reference, decode_streamed(codec, frames, 255), PHASE_TOLERANCE_PX if name == "phase" else 0.0)
 
 
 @pytest.mark.parametrize("name", ["gray", "phase"])
@@ -90,9 +85,9 @@ def test_sixteen_bit_and_colour_frames_stream_like_the_batch(name: str) -> None:
     codec, frames = _captured(name)
     deep = [(frame.astype(np.uint16) * 16 + 7) for frame in frames]  # 12-bit counts
     tolerance = PHASE_TOLERANCE_PX if name == "phase" else 0.0
-    _assert_same(codec.decode(deep, 4095), _streamed(codec, deep, 4095), tolerance)
+    _assert_same(codec.decode(deep, 4095), decode_streamed(codec, deep, 4095), tolerance)
     colour = [np.dstack([frame, frame // 2, frame]) for frame in frames]
-    _assert_same(codec.decode(colour, 255), _streamed(codec, colour), tolerance)
+    _assert_same(codec.decode(colour, 255), decode_streamed(codec, colour, 255), tolerance)
 
 
 def test_gray_bits_read_what_read_bits_reads() -> None:

@@ -80,7 +80,6 @@ class GrayStream(FrameStream):
         self._axes = [(axis, codec.extent(axis), bit_count(codec.extent(axis))) for axis in codec.axes()]
         self._min_strength = least_counts(codec.params.white_threshold, full_scale)
         self._reader: GrayBits | None = None
-        self._held: np.ndarray | None = None
         self._base = DenseBase(codec, full_scale)
         self._coords: dict[str, np.ndarray] = {}
 
@@ -89,16 +88,10 @@ class GrayStream(FrameStream):
             self._base.consume(index, frame)
             return
         image = integer_frame(self.codec, frame)
-        if index % 2 == 0:
-            self._held = image
-            return
         axis, extent, bits = self._axes[len(self._coords)]
         if self._reader is None:
             self._reader = GrayBits(image.shape[:2], bits, image.dtype)
-        assert self._held is not None
-        self._reader.add(self._held, image)
-        self._held = None
-        if self._reader.read == bits:
+        if self._reader.take(image):
             self._coords[axis] = self._base.accept(self._reader, extent, self._min_strength, f"weak_bits_{axis}")
             self._reader = None
 

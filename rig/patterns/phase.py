@@ -154,7 +154,6 @@ class PhaseStream(FrameStream):
         self._sums: tuple[np.ndarray, np.ndarray] | None = None
         self._wrapped: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None  # fraction, near a wrap, modulation
         self._reader: GrayBits | None = None
-        self._held: np.ndarray | None = None
 
     def _consume(self, index: int, frame: np.ndarray) -> None:
         if index < 2:
@@ -167,14 +166,10 @@ class PhaseStream(FrameStream):
             self._add_step(image, n)
             if n == steps - 1:
                 self._wrap()
-        elif (n - steps) % 2 == 0:
-            self._held = image
         else:
             if self._reader is None:
                 self._reader = GrayBits(image.shape[:2], bits, image.dtype)
-            assert self._held is not None
-            self._reader.add(self._held, image)
-            if self._reader.read == bits:
+            if self._reader.take(image):
                 self._coords[axis] = self._unwrap(axis)
                 self._reset_axis()
 

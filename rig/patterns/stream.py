@@ -61,6 +61,14 @@ class FrameStream(abc.ABC):
     def _finish(self) -> Correspondence: ...
 
 
+def decode_streamed(codec: Codec, frames: list[np.ndarray], full_scale: int) -> Correspondence:
+    """`frames` fed one by one to the codec's stream, as a scan decodes them."""
+    stream = codec.stream(full_scale)
+    for frame in frames:
+        stream.add(frame)
+    return stream.finish()
+
+
 class BufferedStream(FrameStream):
     """Keeps the frames and decodes them with the batch decoder at the end (codecs whose work
     cannot start before the last frame)."""
@@ -97,11 +105,22 @@ class GrayBits:
             raise ValueError(f"1 to 16 bits, got {bits}")
         self.bits = bits
         self.read = 0
+        self._held: np.ndarray | None = None  # a pattern waiting for its inverse
         self._value = np.zeros(shape, np.uint16)
         self._prefix = np.zeros(shape, np.uint8)  # the binary value's bit so far: XOR of the Gray bits
         top = np.iinfo(dtype).max
         self._weakest = np.full(shape, top, dtype)
         self._second = np.full(shape, top, dtype)
+
+    def take(self, image: np.ndarray) -> bool:
+        """The next frame of the code: a pattern is held until its inverse comes and the pair is
+        read. True once every bit is read."""
+        if self._held is None:
+            self._held = image
+        else:
+            self.add(self._held, image)
+            self._held = None
+        return self.read == self.bits
 
     def add(self, pattern: np.ndarray, inverse: np.ndarray) -> None:
         if self.read >= self.bits:

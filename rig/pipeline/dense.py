@@ -47,6 +47,11 @@ class PairTriangulator:
             )
         return self._terms[axis]
 
+    def planes_affine(self, axis: str) -> bool:
+        """Whether the plane of a projector column (or row) is affine in its normalised coordinate
+        (the `plane_terms` hold): no projector distortion, no skew across the columns."""
+        return not self.projector.has_distortion and (axis == "v" or self.projector.K[0, 1] == 0)
+
     def triangulate(self, corr: Correspondence) -> tuple[np.ndarray, np.ndarray]:
         """World points per camera pixel (H, W, 3), NaN where invalid, and the validity mask."""
         camera = self.camera
@@ -58,7 +63,7 @@ class PairTriangulator:
         axis = "u" if corr.u is not None else "v"
         coded = corr.u if corr.u is not None else corr.v
         assert coded is not None
-        if self.projector.has_distortion or (axis == "u" and self.projector.K[0, 1] != 0):
+        if not self.planes_affine(axis):
             return self._ray_plane_iterative(corr, axis, coded, shape)
         # Fast path: whole-grid arithmetic, invalid pixels are NaN throughout.
         x = self._normalized_linear(np.where(corr.valid, coded, np.nan).ravel().astype(np.float64), axis)
@@ -214,14 +219,8 @@ def reject_isolated(
     limit (grazing views, whose points are the least accurate anyway).
     """
     depth = (grid @ camera.axis - camera.center @ camera.axis).astype(np.float32)  # NaN where invalid
-    return valid & (support_counts(depth, max_jump_mm) >= min_support)
-
-
-def support_counts(depth: np.ndarray, max_jump_mm: float) -> np.ndarray:
-    """For each pixel of a depth image (NaN where none), how many of its 8 neighbours lie within
-    `max_jump_mm` of its depth (uint8)."""
-    support = np.zeros(depth.shape, dtype=np.uint8)
-    h, w = depth.shape
+    support = np.zeros(valid.shape, dtype=np.uint8)
+    h, w = valid.shape
     with np.errstate(invalid="ignore"):
         # Each neighbour pair is compared once and counts for both of its pixels.
         for dy, dx in ((0, 1), (1, 0), (1, 1), (1, -1)):
@@ -231,4 +230,4 @@ def support_counts(depth: np.ndarray, max_jump_mm: float) -> np.ndarray:
             close = np.abs(depth[rows_p, cols_p] - depth[rows_q, cols_q]) <= max_jump_mm
             support[rows_p, cols_p] += close
             support[rows_q, cols_q] += close
-    return support
+    return valid & (support >= min_support)

@@ -1,12 +1,12 @@
 """The fast path from a dense correspondence to a cloud: one pair's points, normals and colours as
-camera images (an organised cloud), computed on row strips in parallel from per-pixel terms the
+camera images (an organised cloud), computed a band of rows per thread from per-pixel terms the
 pair computes once; the PointSet and the stored scan are built from it afterwards.
 
 It computes what rig.pipeline.dense computes (PairTriangulator.triangulate, reject_isolated,
 grid_normals, texture_rgb), in float32 and relative to the camera centre, each step one pass of a
 compiled loop (rig.fused) per band of rows: points agree within float32 rounding of the stored
-coordinates. It covers a pinhole camera and a projector coding one
-axis without distortion or skew (the default benches); other pairs take the general path.
+coordinates. It covers a pinhole camera and a projector coding one axis without distortion or skew
+(the default benches); other pairs take the general path.
 """
 
 from __future__ import annotations
@@ -73,7 +73,6 @@ class PlaneTerms:
         directions = camera.pixel_rays[1]
         self.directions = np.ascontiguousarray(directions.T.astype(np.float32)).reshape(3, *shape)
         self.along_axis = (directions @ camera.axis).astype(np.float32).reshape(shape)
-        self.away = -self.directions  # grid_normals turns normals against the camera rays
 
 
 def fast_terms(triangulator: PairTriangulator, axis: str) -> PlaneTerms | None:
@@ -81,9 +80,7 @@ def fast_terms(triangulator: PairTriangulator, axis: str) -> PlaneTerms | None:
     or None where the pair needs the general path: a projector with distortion or skew, a camera
     whose rays do not all leave its centre."""
     projector, camera = triangulator.projector, triangulator.camera
-    if projector.has_distortion or projector.projection != "pinhole" or camera.projection != "pinhole":
-        return None
-    if axis == "u" and projector.K[0, 1] != 0:
+    if projector.projection != "pinhole" or camera.projection != "pinhole" or not triangulator.planes_affine(axis):
         return None
     key = f"plane_terms_{axis}"
     if key not in triangulator.derived:
@@ -122,7 +119,7 @@ def organised_cloud(
         )
         counts["rejected_depth_jump"] = sum(dropped)
     in_row_strips(
-        height, lambda rows: fused.grid_normals(xyz, terms.away, _NORMAL_STEP, normals, rows.start, rows.stop)
+        height, lambda rows: fused.grid_normals(xyz, terms.directions, _NORMAL_STEP, normals, rows.start, rows.stop)
     )
     cloud = OrganisedCloud(origin, xyz, normals, keep, texture_rgb(corr), corr.quality)
     return cloud, counts

@@ -10,7 +10,7 @@ import numpy as np
 
 from rig.errors import DecodeError, ScanError
 from rig.patterns import Codec, Correspondence, codec_class
-from rig.patterns.stream import FrameStream
+from rig.patterns.stream import FrameStream, decode_streamed
 from rig.pipeline.capture import CUE, capture
 from rig.pipeline.colour import interpolate_colour, sample_colours
 from rig.pipeline.dense import PairTriangulator, pair_pointset, reject_isolated, texture_rgb
@@ -277,9 +277,7 @@ def _decoded(
     streamed now."""
     try:
         if stream is None:
-            stream = codec.stream((1 << rig.config.cameras[camera].bit_depth) - 1)
-            for image in frames:
-                stream.add(image)
+            return decode_streamed(codec, frames, (1 << rig.config.cameras[camera].bit_depth) - 1)
         return stream.finish()
     except DecodeError as exc:  # the frames the devices delivered do not fit: a failed scan
         raise ScanError(f"{rig.config.cameras[camera].name}: {exc}") from exc
