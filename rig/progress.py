@@ -17,6 +17,16 @@ class ProgressEvent:
     remaining_s: float | None
     message: str = ""
 
+    def as_dict(self) -> dict[str, object]:
+        """As the API's progress events carry it."""
+        remaining = None if self.remaining_s is None else round(self.remaining_s, 3)
+        return {
+            "stage": self.stage,
+            "fraction": self.fraction,
+            "elapsed_s": round(self.elapsed_s, 3),
+            "remaining_s": remaining,
+        }
+
 
 ProgressCallback = Callable[[ProgressEvent], None]
 

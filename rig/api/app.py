@@ -17,6 +17,7 @@ from starlette.exceptions import HTTPException as StarletteHTTPException
 from starlette.middleware.trustedhost import TrustedHostMiddleware
 
 from rig import __version__
+from rig.api.live import live_router
 from rig.api.models import (
     FILE_NAME_PATTERN,
     JOB_ID_PATTERN,
@@ -35,6 +36,7 @@ from rig.api.problems import method_not_allowed, validation_problem
 from rig.api.recognition import recognition_router
 from rig.api.reconstructions import UPLOADS, reconstruction_router
 from rig.api.security import MUTATING, READING, ApiSettings, BodyLimitMiddleware
+from rig.api.streams import SSE_PING_S, event_stream, sse
 from rig.errors import (
     CalibrationError,
     ConfigError,
@@ -63,8 +65,6 @@ log = logging.getLogger(__name__)
 JobId = Annotated[str, Path(pattern=JOB_ID_PATTERN, description="a job id, e.g. 20261121-105227-a1b2c3")]
 FileName = Annotated[str, Path(pattern=FILE_NAME_PATTERN, description="a file its result lists")]
 SSE_POLL_S = 0.1
-SSE_PING_S = 15.0
-MAX_EVENT_STREAMS = 64  # each holds a connection and polls the job store
 ERRORS: dict[int | str, dict[str, Any]] = {
     code: {"model": Problem} for code in (400, 401, 403, 404, 409, 413, 429, 503, 507)
 }
@@ -115,6 +115,7 @@ def create_app(service: JobService, settings: ApiSettings, stopping: Callable[[]
     app.include_router(_jobs(service, JobKind.CALIBRATION, "calibrations", is_stopping), prefix="/v1")
     app.include_router(recognition_router(service, ERRORS), prefix="/v1")
     app.include_router(reconstruction_router(service, ERRORS), prefix="/v1")
+    app.include_router(live_router(service, ERRORS, is_stopping), prefix="/v1")
     return app
 
 
@@ -276,34 +277,7 @@ def _result_routes(router: APIRouter, service: JobService, kind: JobKind, stoppi
             last = max(0, int(request.headers.get("last-event-id", "0")))
         except ValueError:
             last = 0
-        state = request.app.state
-        if state.event_streams >= MAX_EVENT_STREAMS:
-            raise ServiceStoppingError(f"{MAX_EVENT_STREAMS} event streams are open; poll the job instead")
-        state.event_streams += 1  # taken with the check (no await between): a burst cannot overshoot
-
-        def release() -> None:
-            state.event_streams -= 1
-
-        return _CountedStream(
-            _event_stream(service, job_id, last, request, stopping),
-            release,
-            media_type="text/event-stream",
-            headers={"Cache-Control": "no-cache", "X-Accel-Buffering": "no"},
-        )
-
-
-class _CountedStream(StreamingResponse):
-    """Gives its event-stream slot back however the response ends (also before its first byte)."""
-
-    def __init__(self, content: AsyncIterator[bytes], release: Callable[[], None], **kwargs: Any) -> None:
-        super().__init__(content, **kwargs)
-        self._release = release
-
-    async def __call__(self, scope: Any, receive: Any, send: Any) -> None:
-        try:
-            await super().__call__(scope, receive, send)
-        finally:
-            self._release()
+        return event_stream(request, lambda: _event_stream(service, job_id, last, request, stopping))
 
 
 async def _event_stream(
@@ -315,7 +289,7 @@ async def _event_stream(
         fresh = service.events.since(job_id, last)
         for event in fresh:
             last = event.id
-            yield f"id: {event.id}\nevent: {event.type}\ndata: {json.dumps(event.data)}\n\n".encode()
+            yield sse(event.type, json.dumps(event.data), event.id)
             if event.type == "state" and event.data["state"] not in (JobState.QUEUED, JobState.RUNNING):
                 return
         if fresh:
@@ -333,6 +307,6 @@ async def _event_stream(
                 job = None
             if job is None or job.terminal:
                 data = {"id": job_id, "state": job.state if job else "deleted", "error": job.error if job else None}
-                yield f"event: state\ndata: {json.dumps(data)}\n\n".encode()
+                yield sse("state", json.dumps(data))
                 return
         await asyncio.sleep(SSE_POLL_S)

@@ -168,7 +168,7 @@ class QueueView(BaseModel):
 class RigView(BaseModel):
     name: str
     simulated: bool
-    state: Literal["idle", "busy", "fault"]
+    state: Literal["idle", "busy", "live", "fault"]
     running: str | None
     last_error: str | None
     queue: QueueView
@@ -183,3 +183,31 @@ class CodecView(BaseModel):
 
 class Problem(BaseModel):
     detail: str
+
+
+class LiveRequest(_Request):
+    codec: CodecName | None = Field(None, description="the codec live mode repeats; default: scan.live's")
+    seconds: float | None = Field(None, gt=0, le=86400, description="stop after this long; default: when stopped")
+
+
+class LiveLatency(BaseModel):
+    median: float
+    p95: float
+    max: float
+
+
+class LiveView(BaseModel):
+    state: Literal["off", "starting", "running", "paused", "failed"] = Field(
+        description="paused: a job is running (live mode resumes after it); failed: see reason"
+    )
+    reason: str | None
+    session: int = Field(description="counts live sessions; a new codec starts a new one")
+    codec: str
+    params: dict[str, Any]
+    seconds_left: float | None = Field(description="until its time limit; none: until stopped")
+    sequences: int = Field(description="sequences reconstructed in this session")
+    seconds: float = Field(description="from the session's first sequence to its latest")
+    clouds_per_s: float = Field(description="over the last 32 sequences")
+    latency_ms: LiveLatency | None = Field(description="from a sequence's last frame to its depth images")
+    sequence_ms_median: float | None
+    points: int = Field(description="points of the latest sequence")

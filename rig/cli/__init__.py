@@ -21,6 +21,7 @@ EXIT_BAD_INPUT = 2
 COMMANDS = {
     "scan": ("rig.cli.scanning", "cmd_scan"),
     "eval": ("rig.cli.scanning", "cmd_eval"),
+    "live": ("rig.cli.live", "cmd_live"),
     "calibrate": ("rig.cli.bench_setup", "cmd_calibrate"),
     "devices": ("rig.cli.bench_setup", "cmd_devices"),
     "doctor": ("rig.cli.bench_setup", "cmd_doctor"),

@@ -42,6 +42,15 @@ def _scan_command(sub: argparse._SubParsersAction) -> None:  # type: ignore[type
     scan.add_argument("--save-plan", type=Path, default=None, help="--adaptive: also write the plan to this file")
 
 
+def _live_command(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
+    live = sub.add_parser(
+        "live", help="repeat a short sequence and report a depth image per sequence (clouds/s, latency)"
+    )
+    _common(live)
+    live.add_argument("--seconds", type=float, default=None, help="stop after this long (default: at Ctrl-C)")
+    live.add_argument("--depth-png", type=Path, default=None, help="write the last sequence's depth (camera 0) here")
+
+
 def _evaluate_command(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     evaluate = sub.add_parser("eval", help="scan the simulated bench and measure it against ground truth")
     _common(evaluate)
@@ -216,7 +225,7 @@ def parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="slrig", description="Structured-light 3D scanning rig.")
     parser.add_argument("--version", action="version", version=f"slrig {__version__}")
     sub = parser.add_subparsers(dest="command", required=True)
-    commands = (_scan_command, _evaluate_command, _plan_command, _serve_command, _devices_command, _doctor_command)
-    for add in (*commands, _cal_command, _recognition_commands, _reconstruct_command):
+    commands = (_scan_command, _live_command, _evaluate_command, _plan_command, _serve_command, _devices_command)
+    for add in (*commands, _doctor_command, _cal_command, _recognition_commands, _reconstruct_command):
         add(sub)
     return parser

@@ -74,18 +74,26 @@ class RigConfig(Strict):
         for k, (p, c) in enumerate(self.scan.merge.pairs or []):
             if not (0 <= p < len(self.projectors) and 0 <= c < len(self.cameras)):
                 raise ValueError(f"scan.merge.pairs[{k}]: ({p}, {c}) names no projector and camera of this rig")
-        params = getattr(self.scan, self.scan.codec, None)
-        for i, projector in enumerate(self.projectors):
-            try:  # codec parameters that only fail against a projector's size (e.g. ring spacing)
-                codec_class(self.scan.codec)(projector.resolution, params)
-            except ValueError as exc:
-                raise ValueError(f"scan.{self.scan.codec} (for projectors[{i}]): {exc}") from None
+        _check_codec_fits(self, self.scan.codec, f"scan.{self.scan.codec}", getattr(self.scan, self.scan.codec, None))
+        try:
+            live = self.scan.live_params()
+        except ValidationError as exc:
+            found = "; ".join(problems(exc))
+            raise ValueError(f"scan.live.params (for codec {self.scan.live.codec}): {found}") from None
+        _check_codec_fits(self, self.scan.live.codec, "scan.live", live)
         return self
 
     def with_codec(self, codec: str) -> RigConfig:
         """A copy that scans with `codec`, validated like the file."""
         data = self.model_dump()
         data["scan"]["codec"] = codec
+        return validate_rig(data, "--codec")
+
+    def with_live(self, codec: str) -> RigConfig:
+        """A copy whose live mode repeats `codec` (with scan.live's parameters when it already did)."""
+        data = self.model_dump()
+        if data["scan"]["live"]["codec"] != codec:
+            data["scan"]["live"] = {"codec": codec, "params": None}
         return validate_rig(data, "--codec")
 
     def with_scene(self, scene: dict[str, object], source: str = "--scene") -> RigConfig:
@@ -102,6 +110,15 @@ def validate_rig(data: object, source: str) -> RigConfig:
         return RigConfig.model_validate(data)
     except ValidationError as exc:
         raise ConfigError(source, problems(exc)) from None
+
+
+def _check_codec_fits(config: RigConfig, codec: str, field: str, params: object) -> None:
+    """Codec parameters that only fail against a projector's size (e.g. ring spacing)."""
+    for i, projector in enumerate(config.projectors):
+        try:
+            codec_class(codec)(projector.resolution, params)
+        except ValueError as exc:
+            raise ValueError(f"{field} (for projectors[{i}]): {exc}") from None
 
 
 def _check_ring_model(config: RigConfig) -> None:

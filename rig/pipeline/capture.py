@@ -38,15 +38,25 @@ class _Progress:
         self.tracker.report("capture", 0.6 * self.done / self.total)
 
 
-def capture(rig: Rig, codecs: list[Codec], tracker: ProgressTracker, on_frame: FrameSink | None = None) -> Frames:
+def capture(
+    rig: Rig,
+    codecs: list[Codec],
+    tracker: ProgressTracker,
+    on_frame: FrameSink | None = None,
+    keep_frames: bool = True,
+    overlap_cue: bool = True,
+) -> Frames:
     """Frames per (projector, camera); every projector is dark while another one projects.
     `on_frame(projector, camera, image)` is called with each coded frame as it arrives (decoding
-    while capturing: rig.patterns.stream)."""
+    while capturing: rig.patterns.stream). Without `keep_frames` the coded frames are only handed
+    on (their lists stay empty: a scan then holds one frame at a time); the overlap cue's frames,
+    taken where the rig wants them and `overlap_cue` allows, are always kept."""
     progress = _Progress(tracker, sum(c.frame_count for c in codecs))
     frames: Frames = {}
 
     def deliver(p: int, c: int, image: np.ndarray) -> None:
-        frames[(p, c)].append(image)
+        if keep_frames:
+            frames[(p, c)].append(image)
         if on_frame is not None:
             on_frame(p, c, image)
 
@@ -61,7 +71,7 @@ def capture(rig: Rig, codecs: list[Codec], tracker: ProgressTracker, on_frame: F
             else:
                 _capture_streaming(rig, p, codec.patterns(), deliver, last_sequence, progress)
             projector.dark()
-        if wants_overlap_cue(rig):
+        if overlap_cue and wants_overlap_cue(rig):
             _capture_overlap_cue(rig, frames, last_sequence)
     except DeviceError as exc:
         rig.all_dark()

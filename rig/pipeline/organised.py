@@ -33,10 +33,15 @@ class OrganisedCloud:
 
     origin: np.ndarray  # (3,) float64, world mm
     xyz: np.ndarray  # (3, H, W) float32: point - origin
+    depth: np.ndarray  # (H, W) float32: distance along the camera axis, NaN where not decoded
     normals: np.ndarray  # (3, H, W) float32, unit, facing the camera
     valid: np.ndarray  # (H, W) bool
     colours: np.ndarray  # (H, W, 3) uint8 RGB
     quality: np.ndarray  # (H, W) float32
+
+    def depth_image(self) -> np.ndarray:
+        """Depth along the camera axis (H, W) float32 in mm, NaN where there is no point."""
+        return np.where(self.valid, self.depth, np.float32(np.nan))
 
     def grid(self) -> np.ndarray:
         """World points (H, W, 3) float64, NaN where not valid (PairResult.grid)."""
@@ -121,5 +126,5 @@ def organised_cloud(
     in_row_strips(
         height, lambda rows: fused.grid_normals(xyz, terms.directions, _NORMAL_STEP, normals, rows.start, rows.stop)
     )
-    cloud = OrganisedCloud(origin, xyz, normals, keep, texture_rgb(corr), corr.quality)
+    cloud = OrganisedCloud(origin, xyz, depth, normals, keep, texture_rgb(corr), corr.quality)
     return cloud, counts

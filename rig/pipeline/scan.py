@@ -9,7 +9,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from rig.errors import DecodeError, ScanError
-from rig.patterns import Codec, Correspondence, codec_class
+from rig.patterns import Codec, CodecParams, Correspondence, codec_class
 from rig.patterns.stream import FrameStream, decode_streamed
 from rig.pipeline.capture import CUE, capture
 from rig.pipeline.colour import interpolate_colour, sample_colours
@@ -66,10 +66,11 @@ class ScanResult:
     descriptions: dict[int, dict[str, object]] = field(default_factory=dict)  # kept frames: projector -> spec
 
 
-def make_codec(rig: Rig, projector: int, name: str | None = None) -> Codec:
+def make_codec(rig: Rig, projector: int, name: str | None = None, params: CodecParams | None = None) -> Codec:
+    """The codec `name` (default: the config's) for one projector, with `params` or the config's."""
     name = name or rig.config.scan.codec
     cls = codec_class(name)
-    params = getattr(rig.config.scan, name, None)
+    params = params if params is not None else getattr(rig.config.scan, name, None)
     lut = rig.response_luts[projector] if rig.response_luts else None
     return cls(tuple(rig.config.projectors[projector].resolution), params, lut)
 
@@ -198,7 +199,7 @@ def run_scan(
         (p, c): codecs[p].stream((1 << rig.config.cameras[c].bit_depth) - 1)
         for p in range(len(codecs))
         for c in range(len(rig.cameras))
-        if _reconstructed(rig, (p, c))
+        if is_reconstructed(rig, (p, c))
     }
 
     def decode_now(p: int, c: int, image: np.ndarray) -> None:  # decoding while capturing
@@ -226,7 +227,7 @@ def reconstruct_frames(
     codecs = [make_codec(rig, p, codec_name) for p in range(len(rig.config.projectors))]
     pairs: list[PairResult] = []
     elapsed = {"decode": 0.0, "triangulate": 0.0, "pointset": 0.0}
-    selected = sorted(k for k in frames if _reconstructed(rig, k))
+    selected = sorted(k for k in frames if is_reconstructed(rig, k))
     for i, (p, c) in enumerate(selected):
         t = time.perf_counter()
         corr = _decoded(rig, codecs[p], c, frames[(p, c)], (streams or {}).get((p, c)))
@@ -283,7 +284,7 @@ def _decoded(
         raise ScanError(f"{rig.config.cameras[camera].name}: {exc}") from exc
 
 
-def _reconstructed(rig: Rig, pair: tuple[int, int]) -> bool:
+def is_reconstructed(rig: Rig, pair: tuple[int, int]) -> bool:
     """Whether a (projector, camera) pair's frames are reconstructed (the cue's are not; the config
     may choose the pairs)."""
     chosen = rig.config.scan.merge.pairs

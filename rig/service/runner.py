@@ -35,9 +35,10 @@ from rig.service.errors import (
 from rig.service.events import EventHub
 from rig.service.imports import reconstruction_inputs, remove_leftovers
 from rig.service.jobs import Job, JobKind, JobState, JobStore
+from rig.service.live import LiveMode
 from rig.service.recovery import clear_leftovers, discard, hide_folder, lock_data_dir
 from rig.service.space import check_free_space, expected_scan_bytes, storage_problems
-from rig.service.status import device_views
+from rig.service.status import device_views, result_file
 from rig.store.scandir import new_scan_id
 from rig.workers import release_free_memory
 
@@ -61,6 +62,7 @@ class JobService:
         self.store = JobStore(self.data_dir / DB_NAME)
         self.events = EventHub()
         self._cond = threading.Condition()
+        self.live = LiveMode(config, self._cond)
         self._queue: deque[str] = deque()
         self._current: str | None = None
         self._cancel = threading.Event()
@@ -90,6 +92,7 @@ class JobService:
         """Accept no more jobs and cancel the running one (its projectors go dark)."""
         with self._cond:
             self._stopping = True
+            self.live.interrupted("the daemon is stopping")
             self._cancel.set()
             self._cond.notify_all()
 
@@ -203,20 +206,13 @@ class JobService:
     def file_path(self, job_id: str, kind: JobKind, name: str) -> Path:
         """A result file of a finished job, by a name its result lists (never a path)."""
         job = self.job(job_id, kind)
-        if job.state is not JobState.DONE:
-            raise JobConflictError(f"{kind} {job_id} is {job.state}; files exist once it is done")
-        files = (job.result or {}).get("files", [])
-        if name not in files:
-            raise JobNotFoundError(f"{kind} {job_id} has no file {name!r}; it has {', '.join(files)}")
-        path = self.job_folder(job) / name
-        if not path.is_file():
-            raise JobNotFoundError(f"{kind} {job_id}: {name} is missing from the store")
-        return path
+        return result_file(job, self.job_folder(job), name)
 
     def rig_status(self) -> dict[str, Any]:
         with self._cond:
             queued, current = len(self._queue), self._current
-        state = "busy" if current else ("fault" if self._rig_error else "idle")
+        live = self.live.view()["state"] == "running"
+        state = "busy" if current else "live" if live else ("fault" if self._rig_error else "idle")
         return {
             "name": self.config.name,
             "simulated": self.config.simulated,
@@ -231,17 +227,18 @@ class JobService:
     def _work(self) -> None:
         while True:
             with self._cond:
-                self._cond.wait_for(lambda: self._stopping or bool(self._queue), timeout=1.0)
+                self._cond.wait_for(lambda: self._stopping or bool(self._queue) or self.live.wanted(), timeout=1.0)
                 self._heartbeat = time.monotonic()
                 if self._stopping:
                     return
-                if not self._queue:
-                    if self.store.unsaved:  # the disk may take the held job states again
-                        self.store.flush()
-                    continue
-                job_id = self._queue.popleft()
+                job_id = self._queue.popleft() if self._queue else None
                 self._current = job_id
                 self._cancel.clear()
+            if job_id is None:  # no job waits: live mode if wanted, else flush what the disk refused
+                if self.store.unsaved:
+                    self.store.flush()
+                self._live()
+                continue
             try:
                 self._run(job_id)
             except Exception:  # the worker must outlive any job
@@ -316,16 +313,7 @@ class JobService:
             if event.stage != last["stage"] or now - last["t"] >= PROGRESS_EVERY_S or event.fraction >= 1.0:
                 last["t"], last["stage"] = now, event.stage
                 self.store.progress(job_id, event.stage, event.fraction)
-                self.events.publish(
-                    job_id,
-                    "progress",
-                    {
-                        "stage": event.stage,
-                        "fraction": event.fraction,
-                        "elapsed_s": round(event.elapsed_s, 3),
-                        "remaining_s": None if event.remaining_s is None else round(event.remaining_s, 3),
-                    },
-                )
+                self.events.publish(job_id, "progress", event.as_dict())
 
         return on_progress
 
@@ -339,6 +327,20 @@ class JobService:
             log.exception("job %s: its state could not be read to publish", job_id)
             return
         self.events.publish(job_id, "state", {"id": job.id, "state": job.state, "error": job.error})
+
+    def _live(self) -> None:
+        """Live mode while it is wanted and no job waits (rig.service.live)."""
+        if not self.live.wanted():
+            return
+        try:
+            self.live.run(self._open(), lambda: bool(self._queue) or self._stopping, self._checkpoint)
+        except JobCancelledError:
+            self._darken()
+        except Exception as exc:
+            if isinstance(exc, (DeviceError, CaptureFaultError)) or isinstance(exc.__cause__, DeviceError):
+                self._rig_error = str(exc)
+            log.error("live mode failed: %s", exc)
+            self._drop_rig()
 
     def _open(self) -> Rig:
         if self._rig is None:

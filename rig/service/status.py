@@ -1,12 +1,16 @@
-"""The rig as the service reports it: each configured device, its driver, and whether it is open."""
+"""What the service reports: each configured device, its driver and whether it is open; a finished
+job's result files."""
 
 from __future__ import annotations
 
+from pathlib import Path
 from typing import Any
 
 from drivers.base import Device
 from rig.config import DeviceKind, RigConfig
 from rig.rig import Rig
+from rig.service.errors import JobConflictError, JobNotFoundError
+from rig.service.jobs import Job, JobState
 
 
 def device_views(config: RigConfig, rig: Rig | None) -> list[dict[str, Any]]:
@@ -30,3 +34,16 @@ def device_views(config: RigConfig, rig: Rig | None) -> list[dict[str, Any]]:
     for i, c in enumerate(config.cameras):
         add(c.name, DeviceKind.CAMERA, c.driver, list(c.resolution), live(rig.cameras if rig else [], i))
     return out
+
+
+def result_file(job: Job, folder: Path, name: str) -> Path:
+    """The file `name` of a finished job stored in `folder`, when its result lists it."""
+    if job.state is not JobState.DONE:
+        raise JobConflictError(f"{job.kind} {job.id} is {job.state}; files exist once it is done")
+    files = (job.result or {}).get("files", [])
+    if name not in files:
+        raise JobNotFoundError(f"{job.kind} {job.id} has no file {name!r}; it has {', '.join(files)}")
+    path = folder / name
+    if not path.is_file():
+        raise JobNotFoundError(f"{job.kind} {job.id}: {name} is missing from the store")
+    return path

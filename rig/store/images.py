@@ -12,11 +12,18 @@ from rig.pipeline.pointset import PointSet
 def depth_png(grid: np.ndarray, camera: CameraModel) -> bytes:
     """16-bit PNG of camera-frame depth in millimetres (rounded), 0 = no point."""
     valid = np.isfinite(grid).all(axis=2)
-    depth = np.zeros(valid.shape, dtype=np.uint16)
+    depth = np.full(valid.shape, np.nan, dtype=np.float32)
     if valid.any():
-        _, z = camera.project(grid[valid])
-        depth[valid] = np.clip(np.rint(z), 0, 65535).astype(np.uint16)
-    return _png(depth)
+        _, depth[valid] = camera.project(grid[valid])
+    return depth_image_png(depth)
+
+
+def depth_image_png(depth: np.ndarray, unit_mm: float = 1.0) -> bytes:
+    """16-bit PNG of a depth image (mm, NaN = no point) in steps of `unit_mm` (rounded), 0 = no point."""
+    valid = np.isfinite(depth)
+    counts = np.zeros(depth.shape, dtype=np.uint16)
+    counts[valid] = np.clip(np.rint(depth[valid] / unit_mm), 0, 65535).astype(np.uint16)
+    return _png(counts)
 
 
 def preview_png(cloud: PointSet, view: CameraModel, max_width: int = 960, own_colors: bool = False) -> bytes:

@@ -1,0 +1,143 @@
+"""Live mode over REST: POST /v1/live starts it, DELETE stops it, GET streams it (server-sent
+events: a `state` event when it changes, a `depth` event per sequence a client is ready for),
+GET /v1/live/status reports it and GET /v1/live/depth.png gives the newest depth image.
+
+Each stream sends the newest frame whenever its client has taken the previous one, so a slow
+client skips sequences; the rig never waits for a client (rig.service.live).
+"""
+
+from __future__ import annotations
+
+import asyncio
+import base64
+import json
+import threading
+from collections.abc import AsyncIterator, Callable
+from typing import Annotated, Any
+
+from fastapi import APIRouter, Query, Request, Response, status
+from fastapi.responses import StreamingResponse
+
+from rig.api.models import LiveRequest, LiveView
+from rig.api.security import MUTATING, READING
+from rig.api.streams import SSE_PING_S, event_stream, sse
+from rig.pipeline.live import LiveFrame
+from rig.service.errors import JobNotFoundError, ServiceStoppingError
+from rig.service.runner import JobService
+from rig.store.images import depth_image_png
+
+LIVE_POLL_S = 0.01  # a stream looks for a newer frame this often
+DEPTH_UNIT_MM = 0.1  # live depth PNGs count tenths of a millimetre (to 6.5 m)
+
+Stride = Annotated[int, Query(ge=1, le=16, description="send every stride-th pixel of each row and column")]
+Camera = Annotated[int, Query(ge=0, le=15, description="the camera's index in the config")]
+
+
+Errors = dict[int | str, dict[str, Any]]
+
+
+def live_router(service: JobService, errors: Errors, stopping: Callable[[], bool]) -> APIRouter:
+    router = APIRouter(prefix="/live", tags=["live"], responses=errors)
+    encoded = _EncodedFrames()
+
+    @router.post("", status_code=status.HTTP_202_ACCEPTED, response_model=LiveView, dependencies=MUTATING)
+    def start_live(body: LiveRequest) -> dict[str, Any]:
+        if service.stopping:
+            raise ServiceStoppingError("the daemon is shutting down")
+        return service.live.start(body.codec, body.seconds)
+
+    @router.delete("", response_model=LiveView, dependencies=MUTATING)
+    def stop_live() -> dict[str, Any]:
+        return service.live.stop()
+
+    @router.get("/status", response_model=LiveView, dependencies=READING)
+    def live_status() -> dict[str, Any]:
+        return service.live.view()
+
+    @router.get(
+        "",
+        dependencies=READING,
+        response_class=StreamingResponse,
+        responses={200: {"content": {"text/event-stream": {}}, "description": "state and depth events"}},
+    )
+    async def watch_live(request: Request, stride: Stride = 4) -> StreamingResponse:
+        return event_stream(request, lambda: _live_stream(service, encoded, stride, request, stopping))
+
+    @router.get("/depth.png", dependencies=READING, responses={200: {"content": {"image/png": {}}}})
+    async def live_depth(camera: Camera = 0) -> Response:
+        _, frame = service.live.latest
+        if frame is None:
+            raise JobNotFoundError("live mode has no depth image yet; POST /v1/live starts it")
+        if camera >= len(frame.depths):
+            raise JobNotFoundError(f"camera {camera}: this rig has {len(frame.depths)} cameras")
+        png = await asyncio.to_thread(depth_image_png, frame.depths[camera], DEPTH_UNIT_MM)
+        headers = {"X-Depth-Unit-Mm": str(DEPTH_UNIT_MM), "X-Live-Sequence": str(frame.sequence)}
+        return Response(png, media_type="image/png", headers=headers)
+
+    return router
+
+
+class _EncodedFrames:
+    """The newest frame's depth event per stride, encoded once however many clients watch."""
+
+    def __init__(self) -> None:
+        self._lock = threading.Lock()
+        self._frame: LiveFrame | None = None
+        self._events: dict[int, str] = {}
+
+    def event(self, service: JobService, frame: LiveFrame, stride: int) -> str:
+        with self._lock:
+            if frame is not self._frame:
+                self._frame, self._events = frame, {}
+            if stride not in self._events:
+                self._events[stride] = json.dumps(_depth_event(service, frame, stride))
+            return self._events[stride]
+
+
+def _depth_event(service: JobService, frame: LiveFrame, stride: int) -> dict[str, Any]:
+    cameras = []
+    for config, depth in zip(service.config.cameras, frame.depths, strict=True):
+        sampled = depth[::stride, ::stride]
+        png = depth_image_png(sampled, DEPTH_UNIT_MM)
+        cameras.append(
+            {
+                "name": config.name,
+                "width": sampled.shape[1],
+                "height": sampled.shape[0],
+                "stride": stride,
+                "png_base64": base64.b64encode(png).decode("ascii"),
+            }
+        )
+    return {
+        "sequence": frame.sequence,
+        "points": frame.points,
+        "latency_ms": round(frame.latency_ms, 2),
+        "sequence_ms": round(frame.sequence_ms, 1),
+        "depth_unit_mm": DEPTH_UNIT_MM,
+        "cameras": cameras,
+    }
+
+
+async def _live_stream(
+    service: JobService, encoded: _EncodedFrames, stride: int, request: Request, stopping: Callable[[], bool]
+) -> AsyncIterator[bytes]:
+    """State changes and, whenever the client has taken the last one, the newest depth frame."""
+    told: tuple[str, str | None, int] | None = None
+    sent: tuple[int, int] = (0, 0)  # (session, sequence)
+    idle = 0.0
+    while not stopping() and not await request.is_disconnected():
+        state = service.live.state()
+        if state != told:
+            told, idle = state, 0.0
+            yield sse("state", json.dumps(service.live.view()))
+        session, frame = service.live.latest
+        if frame is not None and (session, frame.sequence) != sent:
+            data = await asyncio.to_thread(encoded.event, service, frame, stride)
+            sent, idle = (session, frame.sequence), 0.0
+            yield sse("depth", data, frame.sequence)
+            continue
+        await asyncio.sleep(LIVE_POLL_S)
+        idle += LIVE_POLL_S
+        if idle >= SSE_PING_S:
+            idle = 0.0
+            yield b": ping\n\n"

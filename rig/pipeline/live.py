@@ -1,0 +1,179 @@
+"""Live mode: the rig repeats a short sequence (scan.live: 4-step phase by default) and hands on a
+depth image per camera for every sequence, as fast as projector and cameras allow.
+
+Each sequence is decoded while it is captured (rig.patterns.stream) and triangulated by the
+organised fast path where the pair allows it, so a sequence's depth images are ready a few
+milliseconds after its last frame. Nothing is stored. Whoever watches takes the newest frame
+(`publish` must not block): a slow reader skips sequences and never slows the rig.
+"""
+
+from __future__ import annotations
+
+import statistics
+import time
+from collections import deque
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from rig.config.scan import ScanConfig
+from rig.errors import DecodeError, ScanError
+from rig.patterns import Codec, Correspondence
+from rig.patterns.lines import LineCodec
+from rig.pipeline.capture import capture
+from rig.pipeline.organised import fast_terms
+from rig.pipeline.scan import is_reconstructed, make_codec, pair_cloud, reconstruct_pair, triangulator
+from rig.progress import ProgressTracker
+from rig.rig import Rig
+
+LATENCIES_KEPT = 256  # the summary's latency figures are over the last this many sequences
+RATE_OVER = 32  # clouds per second: over the last this many sequences
+
+
+@dataclass(frozen=True, eq=False)
+class LiveFrame:
+    """One live sequence's result."""
+
+    sequence: int  # counts up from 1 over a live session
+    depths: tuple[np.ndarray, ...]  # per camera: (H, W) float32 mm along its axis, NaN where no point
+    points: int  # points over every pair
+    latency_ms: float  # from the sequence's last frame arriving to its depth images ready
+    sequence_ms: float  # from its first pattern to its depth images ready
+    ready_s: float  # time.monotonic() when ready
+
+
+@dataclass
+class LiveStats:
+    """Running figures of a live session: clouds per second and latency."""
+
+    started_s: float = field(default_factory=time.monotonic)  # reset when the first sequence starts
+    last_ready_s: float | None = None
+    sequences: int = 0
+    points: int = 0
+    latencies_ms: deque[float] = field(default_factory=lambda: deque(maxlen=LATENCIES_KEPT))
+    ready_s: deque[float] = field(default_factory=lambda: deque(maxlen=RATE_OVER))
+    sequence_ms: deque[float] = field(default_factory=lambda: deque(maxlen=LATENCIES_KEPT))
+
+    def add(self, frame: LiveFrame) -> None:
+        self.sequences = frame.sequence
+        self.last_ready_s = frame.ready_s
+        self.ready_s.append(frame.ready_s)
+        self.points = frame.points
+        self.latencies_ms.append(frame.latency_ms)
+        self.sequence_ms.append(frame.sequence_ms)
+
+    def recent_rate(self) -> float:
+        """Sequences per second over the last RATE_OVER (from the first sequence's start while
+        there is only one)."""
+        if len(self.ready_s) >= 2:
+            return (len(self.ready_s) - 1) / max(self.ready_s[-1] - self.ready_s[0], 1e-9)
+        elapsed = (self.last_ready_s or self.started_s) - self.started_s
+        return self.sequences / elapsed if elapsed > 0 else 0.0
+
+    def as_dict(self) -> dict[str, object]:
+        seconds = (self.last_ready_s or self.started_s) - self.started_s
+        latencies = sorted(self.latencies_ms)
+        return {
+            "sequences": self.sequences,
+            "seconds": round(seconds, 3),
+            "clouds_per_s": round(self.recent_rate(), 3),
+            "latency_ms": None
+            if not latencies
+            else {
+                "median": round(statistics.median(latencies), 2),
+                "p95": round(latencies[min(len(latencies) - 1, int(0.95 * len(latencies)))], 2),
+                "max": round(latencies[-1], 2),
+            },
+            "sequence_ms_median": round(statistics.median(self.sequence_ms), 1) if self.sequence_ms else None,
+            "points": self.points,
+        }
+
+
+def live_codecs(rig: Rig, scan: ScanConfig | None = None) -> list[Codec]:
+    """One codec per projector: `scan.live`'s codec with its parameters (default: the rig's config)."""
+    scan = scan or rig.config.scan
+    params = scan.live_params()
+    return [make_codec(rig, p, scan.live.codec, params) for p in range(len(rig.projectors))]
+
+
+def run_live(
+    rig: Rig,
+    publish: Callable[[LiveFrame], None],
+    keep_going: Callable[[], bool],
+    stats: LiveStats | None = None,
+    scan: ScanConfig | None = None,
+) -> LiveStats:
+    """Repeat the live sequence of `scan.live` (default: the rig's config) while `keep_going()`
+    (asked before each one), handing each result to `publish`; projectors dark at the end,
+    however it ends."""
+    codecs = live_codecs(rig, scan)
+    _prepare(rig, codecs)
+    stats = stats if stats is not None else LiveStats()
+    if stats.sequences == 0:
+        stats.started_s = time.monotonic()  # the rate counts sequences, not the preparation
+    try:
+        while keep_going():
+            frame = live_sequence(rig, codecs, stats.sequences + 1)
+            stats.add(frame)
+            publish(frame)
+    finally:
+        rig.all_dark()
+    return stats
+
+
+def live_sequence(rig: Rig, codecs: list[Codec], sequence: int) -> LiveFrame:
+    """Show the sequence once, decoding as frames arrive; triangulate every pair."""
+    full_scale = [(1 << camera.bit_depth) - 1 for camera in rig.config.cameras]
+    pairs = [(p, c) for p in range(len(codecs)) for c in range(len(rig.cameras)) if is_reconstructed(rig, (p, c))]
+    streams = {(p, c): codecs[p].stream(full_scale[c]) for p, c in pairs}
+    arrived = [0.0]
+
+    def decode_now(p: int, c: int, image: np.ndarray) -> None:
+        arrived[0] = time.perf_counter()
+        if (p, c) in streams:
+            streams[(p, c)].add(image)
+
+    start = time.perf_counter()
+    capture(rig, codecs, ProgressTracker(None), decode_now, keep_frames=False, overlap_cue=False)
+    depths: dict[int, np.ndarray] = {}
+    points = 0
+    for p, c in pairs:
+        try:
+            corr = streams[(p, c)].finish()
+        except DecodeError as exc:
+            raise ScanError(f"{rig.config.cameras[c].name}: {exc}") from exc
+        depth = _pair_depth(rig, p, c, corr)
+        points += int(np.isfinite(depth).sum())
+        depths.setdefault(c, depth)  # a camera's depth image: from the first projector that lights it
+    ready = time.perf_counter()
+    empty = [np.full((cam.resolution[1], cam.resolution[0]), np.nan, np.float32) for cam in rig.config.cameras]
+    return LiveFrame(
+        sequence=sequence,
+        depths=tuple(depths.get(c, empty[c]) for c in range(len(rig.cameras))),
+        points=points,
+        latency_ms=(ready - arrived[0]) * 1e3,
+        sequence_ms=(ready - start) * 1e3,
+        ready_s=time.monotonic(),
+    )
+
+
+def _prepare(rig: Rig, codecs: list[Codec]) -> None:
+    """Compute each pair's per-pixel triangulation terms now, so the first sequence is as quick as
+    the others."""
+    for p, codec in enumerate(codecs):
+        axes = codec.axes() if isinstance(codec, LineCodec) else []
+        for c in range(len(rig.cameras)):
+            if len(axes) == 1 and is_reconstructed(rig, (p, c)):
+                fast_terms(triangulator(rig, p, c), axes[0])
+
+
+def _pair_depth(rig: Rig, projector: int, camera: int, corr: Correspondence) -> np.ndarray:
+    """The pair's depth image: the organised fast path, or the general triangulation where the pair
+    needs it."""
+    fast = pair_cloud(rig, projector, camera, corr)
+    if fast is not None:
+        return fast[0].depth_image()
+    model = rig.camera_models[camera]
+    grid = reconstruct_pair(rig, projector, camera, corr, source=0).grid
+    return ((grid - model.center) @ model.axis).astype(np.float32)

@@ -1,0 +1,212 @@
+"""Live mode: depth images per repeated sequence, from the CLI, the service and over HTTP with a
+client too slow to take every frame."""
+
+from __future__ import annotations
+
+import contextlib
+import io
+import itertools
+import json
+import socket
+import time
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Any
+
+import cv2
+import httpx
+import numpy as np
+import pytest
+from fastapi.testclient import TestClient
+
+from rig.api.app import create_app
+from rig.api.security import ApiSettings
+from rig.assembly import open_rig
+from rig.cli import main
+from rig.config import RigConfig, load_config
+from rig.errors import ConfigError
+from rig.pipeline.live import LiveFrame, run_live
+from rig.service.runner import JobService
+from tests.conftest import small_config_data, wait_done, write_config
+from tests.test_daemon import KEY, Daemon
+
+AUTH = {"X-API-Key": KEY}
+
+
+def _sequences(rig_config: RigConfig, count: int) -> list[LiveFrame]:
+    frames: list[LiveFrame] = []
+    with open_rig(rig_config) as rig:
+        run_live(rig, frames.append, lambda: len(frames) < count)
+        assert all(p.is_dark for p in rig.projectors)  # type: ignore[attr-defined]
+        truth = rig.truth.ground_truth(0, 0)  # type: ignore[union-attr]
+    frames.append(LiveFrame(0, (truth.depth.astype(np.float32),), 0, 0.0, 0.0, 0.0))  # the truth, last
+    return frames
+
+
+def test_live_depth_images_follow_the_surface(small_config: RigConfig) -> None:
+    *frames, truth = _sequences(small_config, 3)
+    assert [f.sequence for f in frames] == [1, 2, 3]
+    true_depth = truth.depths[0]
+    for frame in frames:
+        depth = frame.depths[0]
+        found = np.isfinite(depth)
+        assert frame.points == int(found.sum())
+        assert found.mean() > 0.7  # the short sequence decodes most of the lit bench
+        error = np.abs(depth[found] - true_depth[found])
+        assert np.median(error) < 0.15 and np.percentile(error, 99) < 1.0  # mm (measured 0.08 and 0.66)
+        assert 0 < frame.latency_ms < frame.sequence_ms
+
+
+def test_live_config_is_checked_like_the_file(tmp_path: Path) -> None:
+    data = small_config_data()
+    data["scan"]["live"] = {"codec": "gray", "params": {"steps": 3}}
+    with pytest.raises(ConfigError, match=r"scan\.live\.params \(for codec gray\): steps"):
+        load_config(write_config(tmp_path, data))
+    data["scan"]["live"] = {"codec": "gray"}  # without params: gray's own
+    assert load_config(write_config(tmp_path, data)).scan.live_params().model_dump()["directions"] == "columns"  # type: ignore[union-attr]
+
+
+def test_slrig_live_reports_rate_and_latency(small_config_path: Path, tmp_path: Path) -> None:
+    out = io.StringIO()
+    with contextlib.redirect_stdout(out):
+        code = main(
+            [
+                "live",
+                "--config",
+                str(small_config_path),
+                "--seconds",
+                "1.5",
+                "--json",
+                "--depth-png",
+                str(tmp_path / "d.png"),
+            ]
+        )
+    assert code == 0
+    report = json.loads(out.getvalue())
+    assert report["codec"] == "phase" and report["params"]["steps"] == 4
+    assert report["sequences"] >= 2 and report["clouds_per_s"] > 0
+    assert 0 < report["latency_ms"]["median"] < report["sequence_ms_median"]
+    depth = cv2.imread(str(tmp_path / "d.png"), cv2.IMREAD_UNCHANGED)
+    assert depth.dtype == np.uint16 and depth.shape == (256, 320)
+    assert 450 < np.median(depth[depth > 0]) < 650  # mm: the bench lies about 600 mm below the camera
+
+
+def _service(tmp_path: Path) -> JobService:
+    data = small_config_data()
+    data["output"] = {"data_dir": str(tmp_path / "data")}
+    config = load_config(write_config(tmp_path, data, "serve.yaml"))
+    service = JobService(config, config.service.max_queue)
+    service.start()
+    return service
+
+
+@pytest.fixture
+def client(tmp_path: Path) -> Iterator[tuple[TestClient, JobService]]:
+    service = _service(tmp_path)
+    with TestClient(create_app(service, ApiSettings(api_key=KEY)), base_url="http://localhost") as c:
+        yield c, service
+    service.shutdown(5.0)
+
+
+def _wait_live(client: TestClient, check: Any, timeout_s: float = 60.0) -> dict[str, Any]:
+    deadline = time.monotonic() + timeout_s
+    while time.monotonic() < deadline:
+        view = client.get("/v1/live/status").json()
+        if check(view):
+            return view
+        time.sleep(0.05)
+    raise AssertionError(f"live mode never got there: {view}")
+
+
+def test_a_queued_scan_pauses_live_mode_which_then_resumes(client: tuple[TestClient, JobService]) -> None:
+    c, service = client
+    assert c.post("/v1/live", json={}).status_code == 401  # starting drives the projector: the key
+    assert c.post("/v1/live", json={"codec": "nope"}, headers=AUTH).status_code == 422
+    assert c.post("/v1/live", json={"seconds": 0}, headers=AUTH).status_code == 422
+    assert c.get("/v1/live/depth.png").status_code == 404  # nothing yet
+    started = c.post("/v1/live", json={}, headers=AUTH)
+    assert started.status_code == 202 and started.json()["params"]["steps"] == 4
+    _wait_live(c, lambda v: v["state"] == "running" and v["sequences"] >= 2)
+    assert c.get("/v1/rig").json()["state"] == "live"
+    depth = c.get("/v1/live/depth.png")
+    assert depth.status_code == 200 and depth.headers["x-depth-unit-mm"] == "0.1"
+    image = cv2.imdecode(np.frombuffer(depth.content, np.uint8), cv2.IMREAD_UNCHANGED)
+    assert image.shape == (256, 320) and 4500 < np.median(image[image > 0]) < 6500  # tenths of a mm
+    scan = c.post("/v1/scans", json={"codec": "gray"}, headers=AUTH).json()
+    assert wait_done(c, scan["id"])["state"] == "done"  # a triggered scan never waits for live mode
+    before = c.get("/v1/live/status").json()["sequences"]
+    _wait_live(c, lambda v: v["state"] == "running" and v["sequences"] > before + 1)  # resumed
+    stopped = c.delete("/v1/live", headers=AUTH).json()
+    assert stopped["state"] in ("running", "off") and stopped["reason"] == "stopped by request"
+    _wait_live(c, lambda v: v["state"] == "off")
+    deadline = time.monotonic() + 10
+    while c.get("/v1/rig").json()["state"] != "idle" and time.monotonic() < deadline:
+        time.sleep(0.05)
+    assert all(p.is_dark for p in service._rig.projectors)  # type: ignore[union-attr, attr-defined]
+
+
+def test_live_mode_stops_at_its_time_limit(client: tuple[TestClient, JobService]) -> None:
+    c, _ = client
+    assert c.post("/v1/live", json={"seconds": 1.0}, headers=AUTH).status_code == 202
+    view = _wait_live(c, lambda v: v["state"] == "off" and v["sequences"] > 0)
+    assert view["reason"] == "its time limit passed"
+
+
+def _events(chunk: bytes) -> list[dict[str, Any]]:
+    """The depth events (sequence numbers) in a stretch of an event stream."""
+    found = []
+    for block in chunk.split(b"\n\n"):
+        lines = block.split(b"\n")
+        if b"event: depth" in lines:
+            found.append(int(next(line for line in lines if line.startswith(b"id: "))[4:]))
+    return [{"sequence": s} for s in found]
+
+
+def _status(url: str) -> dict[str, Any]:
+    return httpx.get(f"{url}/v1/live/status", timeout=5).json()
+
+
+def _rate(url: str, seconds: float) -> float:
+    first = _status(url)["sequences"]
+    t = time.monotonic()
+    time.sleep(seconds)
+    return (_status(url)["sequences"] - first) / (time.monotonic() - t)
+
+
+def test_a_slow_client_drops_frames_and_never_slows_the_rig(tmp_path: Path) -> None:
+    data = small_config_data()
+    data["output"] = {"data_dir": str(tmp_path / "data")}
+    config = write_config(tmp_path, data, "serve.yaml")
+    daemon = Daemon(config, tmp_path / "daemon.log")
+    try:
+        assert httpx.post(f"{daemon.url}/v1/live", json={}, headers=AUTH, timeout=5).status_code == 202
+        deadline = time.monotonic() + 60
+        while _status(daemon.url)["sequences"] < 3:
+            assert time.monotonic() < deadline, "live mode did not start"
+            time.sleep(0.1)
+        alone = _rate(daemon.url, 3.0)
+        # A client with a tiny receive window asking for full-size depth images, then not reading.
+        slow = socket.socket()
+        slow.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 4096)
+        slow.connect(("127.0.0.1", daemon.port))
+        slow.sendall(b"GET /v1/live?stride=1 HTTP/1.1\r\nHost: 127.0.0.1\r\n\r\n")
+        slow.settimeout(10)
+        first = slow.recv(4096)
+        assert b" 200 " in first.split(b"\r\n", 1)[0]
+        stalled = _rate(daemon.url, 3.0)  # the client reads nothing meanwhile
+        assert stalled >= 0.6 * alone, f"the rig slowed from {alone:.1f} to {stalled:.1f} sequences/s"
+        # It reads again: what it gets skips sequences and soon reaches the newest.
+        received = b""
+        slow.settimeout(5)
+        end = time.monotonic() + 3
+        while time.monotonic() < end:
+            received += slow.recv(1 << 20)
+        slow.close()
+        newest = _status(daemon.url)["sequences"]
+        sequences = [e["sequence"] for e in _events(received)]
+        assert len(sequences) >= 2
+        assert max(b - a for a, b in itertools.pairwise(sequences)) > 1  # dropped
+        assert newest - sequences[-1] <= 0.5 * newest  # not replaying a backlog
+        assert httpx.delete(f"{daemon.url}/v1/live", headers=AUTH, timeout=5).json()["reason"] == "stopped by request"
+    finally:
+        daemon.stop()
