@@ -26,15 +26,17 @@ sys.path.insert(0, str(REPO))
 from rig.assembly.memory import FIXED_BYTES, scan_memory  # noqa: E402
 from rig.config import load_config  # noqa: E402
 
+# VmHWM: this process image's peak (ru_maxrss would carry the parent's across fork and exec)
 CHILD = """
-import json, resource, sys
+import json, sys
 from rig.assembly import open_rig
 from rig.config import load_config
 from rig.pipeline.scan import run_scan
 config = load_config(sys.argv[1])
 with open_rig(config) as rig:
     run_scan(rig, config.scan.codec)
-print(json.dumps({"peak": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024}))
+peak_kb = next(int(line.split()[1]) for line in open("/proc/self/status") if line.startswith("VmHWM:"))
+print(json.dumps({"peak": peak_kb * 1024}))
 """
 
 

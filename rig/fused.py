@@ -23,26 +23,19 @@ Image = np.ndarray  # (H, W), or (3, H, W) for points, directions and normals
 
 @njit(**_KERNEL)
 def gray_pair(
-    pattern: Image,
-    inverse: Image,
-    weight: int,
-    value: Image,
-    prefix: Image,
-    weakest: Image,
-    second: Image,
-    top: int,
-    bottom: int,
+    pattern: Image, inverse: Image, shift: int, value: Image, weakest: Image, second: Image, top: int, bottom: int
 ) -> None:
-    """One Gray bit of rows [top, bottom): the binary value gains `weight` where the XOR of the Gray
-    bits so far (`prefix`, 0/1) is 1; `weakest` and `second` keep the two smallest |pattern - inverse|."""
+    """One Gray bit of rows [top, bottom): the binary value's bit `shift` is the Gray bit XOR the
+    binary bit above it (read before); `weakest` and `second` keep the two smallest
+    |pattern - inverse|. Arithmetic in uint16 (an int64 shift stops the loop vectorising: 28 ms
+    against 0.35 for a 1280x1024 pair on one core)."""
+    one, zero, at = np.uint16(1), np.uint16(0), np.uint16(shift)
     for y in range(top, bottom):
         for x in range(pattern.shape[1]):
             a, b = pattern[y, x], inverse[y, x]
-            bit = np.uint8(1) if a > b else np.uint8(0)
-            p = prefix[y, x] ^ bit
-            prefix[y, x] = p
-            if p:
-                value[y, x] |= weight
+            v = value[y, x]
+            bit = ((v >> (at + one)) & one) ^ (one if a > b else zero)
+            value[y, x] = v | (bit << at)
             strength = a - b if a > b else b - a
             w = weakest[y, x]
             if strength < w:
@@ -54,28 +47,57 @@ def gray_pair(
 
 @njit(**_KERNEL)
 def contrast_and_lit(
-    white: Image, black: Image, scale: np.float32, threshold: float, contrast: Image, lit: Image, top: int, bottom: int
-) -> None:
+    white: Image,
+    black: Image,
+    scale: np.float32,
+    threshold: float,
+    contrast: Image,
+    lit: Image,
+    valid: Image,
+    top: int,
+    bottom: int,
+) -> int:
     """(white - black) in fractions of full scale (each frame scaled first, as the batch decoder
-    does) and whether it reaches `threshold`."""
+    does) and whether it reaches `threshold` (`lit`, and `valid` the same to start from). Returns
+    how many pixels are lit."""
+    count = 0
     for y in range(top, bottom):
         for x in range(white.shape[1]):
             value = np.float32(white[y, x]) * scale - np.float32(black[y, x]) * scale
             contrast[y, x] = value
-            lit[y, x] = value >= threshold
+            on = value >= threshold
+            lit[y, x] = on
+            valid[y, x] = on
+            count += on
+    return count
 
 
 @njit(**_KERNEL)
 def gray_accept(
-    value: Image, second: Image, min_strength: int, extent: int, coordinate: Image, ok: Image, top: int, bottom: int
-) -> None:
-    """A Gray-coded axis read whole: its coordinate, and whether the bits are strong enough (the
-    second-weakest |pattern - inverse| reaches `min_strength` counts) and the code within `extent`."""
+    value: Image,
+    second: Image,
+    min_strength: int,
+    extent: int,
+    lit: Image,
+    valid: Image,
+    coordinate: Image,
+    top: int,
+    bottom: int,
+) -> int:
+    """A Gray-coded axis read whole, in one pass: a pixel stays valid where its bits are strong
+    enough (the second-weakest |pattern - inverse| reaches `min_strength` counts) and its code is
+    within `extent`; its coordinate, NaN where not valid. Returns how many lit pixels it drops."""
+    nan, dropped = np.float32(np.nan), 0
     for y in range(top, bottom):
         for x in range(value.shape[1]):
             v = value[y, x]
-            coordinate[y, x] = np.float32(v)
-            ok[y, x] = second[y, x] >= min_strength and v < extent
+            ok = second[y, x] >= min_strength and v < extent
+            if lit[y, x] and not ok:
+                dropped += 1
+            keep = valid[y, x] and ok
+            valid[y, x] = keep
+            coordinate[y, x] = np.float32(v) if keep else nan
+    return dropped
 
 
 @njit(**_KERNEL)

@@ -96,12 +96,15 @@ def test_gray_bits_read_what_read_bits_reads() -> None:
         pairs = [
             (rng.integers(0, 256, (9, 11), np.uint8), rng.integers(0, 256, (9, 11), np.uint8)) for _ in range(bits)
         ]
-        reader = GrayBits((9, 11), bits, np.dtype(np.uint8))
-        for pattern, inverse in pairs:
-            reader.add(pattern, inverse)
         value, strength = read_bits((p.astype(np.int32) - i for p, i in pairs), gray=True)
-        np.testing.assert_array_equal(reader.value(), value)
-        np.testing.assert_array_equal(np.minimum(reader.strength(), 255), np.minimum(strength, 255))
+        by_pairs, by_frames = GrayBits((9, 11), bits, np.dtype(np.uint8)), GrayBits((9, 11), bits, np.dtype(np.uint8))
+        for pattern, inverse in pairs:
+            by_pairs.add(pattern, inverse)
+            by_frames.take(pattern)
+            by_frames.take(inverse)
+        for reader in (by_pairs, by_frames):
+            np.testing.assert_array_equal(reader.value(), value)
+            np.testing.assert_array_equal(np.minimum(reader.strength(), 255), np.minimum(strength, 255))
 
 
 def test_a_stream_refuses_other_sizes_and_counts() -> None:

@@ -95,7 +95,8 @@ def integer_frame(codec: Codec, frame: np.ndarray) -> np.ndarray:
 class GrayBits:
     """A Gray code read one (pattern, inverse) pair at a time, most significant bit first, in
     integer counts: one pass over the two frames per pair (rig.fused.gray_pair), a band of rows per
-    thread.
+    thread. The binary value's bits so far give the XOR of the Gray bits, so the pass reads and
+    writes only the value and the two weakest strengths.
 
     Gives what rig.patterns.graycode.read_bits gives: the binary value, and the second-smallest
     |pattern - inverse| over the bits (in counts)."""
@@ -107,7 +108,6 @@ class GrayBits:
         self.read = 0
         self._held: np.ndarray | None = None  # a pattern waiting for its inverse
         self._value = np.zeros(shape, np.uint16)
-        self._prefix = np.zeros(shape, np.uint8)  # the binary value's bit so far: XOR of the Gray bits
         top = np.iinfo(dtype).max
         self._weakest = np.full(shape, top, dtype)
         self._second = np.full(shape, top, dtype)
@@ -125,13 +125,11 @@ class GrayBits:
     def add(self, pattern: np.ndarray, inverse: np.ndarray) -> None:
         if self.read >= self.bits:
             raise ValueError("every bit has been read")
-        weight = np.uint16(1 << (self.bits - 1 - self.read))
-        value, prefix, weakest, second = self._value, self._prefix, self._weakest, self._second
+        shift = self.bits - 1 - self.read
+        value, weakest, second = self._value, self._weakest, self._second
         in_row_strips(
             value.shape[0],
-            lambda rows: fused.gray_pair(
-                pattern, inverse, weight, value, prefix, weakest, second, rows.start, rows.stop
-            ),
+            lambda rows: fused.gray_pair(pattern, inverse, shift, value, weakest, second, rows.start, rows.stop),
         )
         self.read += 1
 
@@ -157,6 +155,7 @@ class DenseBase:
         self.counts: dict[str, int] = {}
         self._white: np.ndarray | None = None
         self._contrast: np.ndarray | None = None
+        self._current: list[np.ndarray] = []  # coordinates already NaN wherever valid is False now
 
     def consume(self, index: int, frame: np.ndarray) -> None:
         """The white (0) or the dark (1) frame."""
@@ -166,14 +165,20 @@ class DenseBase:
             return
         assert self._white is not None
         white, scale = self._white, np.float32(1.0 / self.full_scale)
-        contrast, lit = np.empty(image.shape, np.float32), np.empty(image.shape, bool)
-        threshold = self.codec.params.black_threshold
+        contrast, lit, valid = (
+            np.empty(image.shape, np.float32),
+            np.empty(image.shape, bool),
+            np.empty(image.shape, bool),
+        )
+        threshold, counts = self.codec.params.black_threshold, []
         in_row_strips(
             image.shape[0],
-            lambda rows: fused.contrast_and_lit(white, image, scale, threshold, contrast, lit, rows.start, rows.stop),
+            lambda rows: counts.append(
+                fused.contrast_and_lit(white, image, scale, threshold, contrast, lit, valid, rows.start, rows.stop)
+            ),
         )
-        self._contrast, self._white, self.lit, self.valid = contrast, None, lit, lit.copy()
-        self.counts["lit"] = int(np.count_nonzero(self.lit))
+        self._contrast, self._white, self.lit, self.valid = contrast, None, lit, valid
+        self.counts["lit"] = sum(counts)
 
     def contrast(self) -> np.ndarray:
         assert self._contrast is not None
@@ -184,21 +189,24 @@ class DenseBase:
         `ok` drops)."""
         assert self.valid is not None and self.lit is not None
         self.valid &= ok
+        self._current = []  # coordinates written before are NaN where valid was, not where it is
         if count_name is not None:
             self.counts[count_name] = int(np.count_nonzero(self.lit & (~ok if counted is None else counted)))
 
     def accept(self, reader: GrayBits, extent: int, min_strength: int, count_name: str) -> np.ndarray:
-        """A Gray-coded axis read whole: its coordinate (float32), the pixels with a weak bit or a
-        code beyond `extent` dropped."""
-        value, strength = reader.value(), reader.strength()
-        ok, coordinate = np.empty(value.shape, bool), np.empty(value.shape, np.float32)
+        """A Gray-coded axis read whole: its coordinate (float32, NaN where not valid), the pixels
+        with a weak bit or a code beyond `extent` dropped, in one pass (rig.fused.gray_accept)."""
+        value, strength, lit, valid = reader.value(), reader.strength(), self.lit, self.valid
+        assert lit is not None and valid is not None
+        coordinate, dropped = np.empty(value.shape, np.float32), []
         in_row_strips(
             value.shape[0],
-            lambda rows: fused.gray_accept(
-                value, strength, min_strength, extent, coordinate, ok, rows.start, rows.stop
+            lambda rows: dropped.append(
+                fused.gray_accept(value, strength, min_strength, extent, lit, valid, coordinate, rows.start, rows.stop)
             ),
         )
-        self.narrow(ok, count_name)
+        self.counts[count_name] = sum(dropped)
+        self._current = [coordinate]  # it narrowed valid: coordinates written before are stale
         return coordinate
 
     def correspondence(self, coords: dict[str, np.ndarray], quality: np.ndarray) -> Correspondence:
@@ -206,10 +214,11 @@ class DenseBase:
         valid, texture = self.valid, self.texture
         assert valid is not None and texture is not None
         nan = np.float32(np.nan)
+        stale = [c for c in coords.values() if not any(c is current for current in self._current)]
 
         def strip(rows: slice) -> None:
             invalid = ~valid[rows]
-            for coordinate in coords.values():
+            for coordinate in stale:
                 np.copyto(coordinate[rows], nan, where=invalid)
 
         in_row_strips(valid.shape[0], strip)

@@ -202,15 +202,21 @@ def run_scan(
         if is_reconstructed(rig, (p, c))
     }
 
+    captured = [0]
+
     def decode_now(p: int, c: int, image: np.ndarray) -> None:  # decoding while capturing
+        captured[0] += image.nbytes
         if (p, c) in streams:
             streams[(p, c)].add(image)
 
     t0 = time.perf_counter()
-    frames = capture(rig, codecs, tracker, decode_now)
+    # every reconstructed pair decodes as it captures: frames are kept only to be stored
+    frames = capture(rig, codecs, tracker, decode_now, keep_frames=keep_frames)
     capture_ms = (time.perf_counter() - t0) * 1e3
     result = reconstruct_frames(rig, name, frames, tracker, keep_frames, streams)
     result.timings_ms = {"capture_ms": capture_ms, **result.timings_ms}
+    cue_bytes = sum(img.nbytes for (p, _), images in frames.items() if p == CUE for img in images)
+    result.bytes_captured = captured[0] + cue_bytes
     return result
 
 
