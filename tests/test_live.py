@@ -124,6 +124,8 @@ def test_a_queued_scan_pauses_live_mode_which_then_resumes(client: tuple[TestCli
     assert c.post("/v1/live", json={"codec": "nope"}, headers=AUTH).status_code == 422
     assert c.post("/v1/live", json={"seconds": 0}, headers=AUTH).status_code == 422
     assert c.get("/v1/live/depth.png").status_code == 404  # nothing yet
+    ended = c.get("/v1/live").text  # live mode is off: its state, then the stream ends
+    assert ended.startswith("event: state\n") and '"state": "off"' in ended and "retry: 2000" in ended
     started = c.post("/v1/live", json={}, headers=AUTH)
     assert started.status_code == 202 and started.json()["params"]["steps"] == 4
     _wait_live(c, lambda v: v["state"] == "running" and v["sequences"] >= 2)

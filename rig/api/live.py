@@ -3,7 +3,8 @@ events: a `state` event when it changes, a `depth` event per sequence a client i
 GET /v1/live/status reports it and GET /v1/live/depth.png gives the newest depth image.
 
 Each stream sends the newest frame whenever its client has taken the previous one, so a slow
-client skips sequences; the rig never waits for a client (rig.service.live).
+client skips sequences; the rig never waits for a client (rig.service.live). A stream ends when
+live mode stops (a browser's EventSource reconnects by itself).
 """
 
 from __future__ import annotations
@@ -28,6 +29,8 @@ from rig.store.images import depth_image_png
 
 LIVE_POLL_S = 0.01  # a stream looks for a newer frame this often
 DEPTH_UNIT_MM = 0.1  # live depth PNGs count tenths of a millimetre (to 6.5 m)
+ENDED = ("off", "failed")  # a stream ends with live mode
+RECONNECT_MS = 2000
 
 Stride = Annotated[int, Query(ge=1, le=16, description="send every stride-th pixel of each row and column")]
 Camera = Annotated[int, Query(ge=0, le=15, description="the camera's index in the config")]
@@ -121,7 +124,8 @@ def _depth_event(service: JobService, frame: LiveFrame, stride: int) -> dict[str
 async def _live_stream(
     service: JobService, encoded: _EncodedFrames, stride: int, request: Request, stopping: Callable[[], bool]
 ) -> AsyncIterator[bytes]:
-    """State changes and, whenever the client has taken the last one, the newest depth frame."""
+    """State changes and, whenever the client has taken the last one, the newest depth frame;
+    the stream ends when live mode is off or has failed (at once, if it is off already)."""
     told: tuple[str, str | None, int] | None = None
     sent: tuple[int, int] = (0, 0)  # (session, sequence)
     idle = 0.0
@@ -130,6 +134,9 @@ async def _live_stream(
         if state != told:
             told, idle = state, 0.0
             yield sse("state", json.dumps(service.live.view()))
+            if state[0] in ENDED:  # an EventSource reconnects after `retry` ms, to find it started
+                yield f"retry: {RECONNECT_MS}\n\n".encode()
+                return
         session, frame = service.live.latest
         if frame is not None and (session, frame.sequence) != sent:
             data = await asyncio.to_thread(encoded.event, service, frame, stride)
