@@ -34,15 +34,15 @@ def cmd_live(args: argparse.Namespace) -> int:
         now = time.monotonic()
         if not args.json and now - last_report[0] >= REPORT_EVERY_S:
             last_report[0] = now
-            figures = stats.as_dict()
             print(
-                f"sequence {frame.sequence}: {figures['clouds_per_s']} clouds/s, "
+                f"sequence {frame.sequence}: {stats.recent_rate():.2f} clouds/s, "
                 f"latency {frame.latency_ms:.1f} ms, {frame.points} points",
                 flush=True,
             )
 
     with open_rig(config) as rig:
-        codec = live_codecs(rig)[0]
+        codecs = live_codecs(rig)
+        codec = codecs[0]
         deadline = None if args.seconds is None else time.monotonic() + args.seconds
         try:
             run_live(rig, publish, lambda: deadline is None or time.monotonic() < deadline, stats)
@@ -51,7 +51,7 @@ def cmd_live(args: argparse.Namespace) -> int:
         summary = {
             "codec": codec.name,
             "params": codec.params.model_dump(mode="json"),
-            "frames_per_sequence": sum(c.frame_count for c in live_codecs(rig)),
+            "frames_per_sequence": sum(c.frame_count for c in codecs),
             **stats.as_dict(),
         }
         if args.depth_png is not None and latest:

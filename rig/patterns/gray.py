@@ -9,7 +9,7 @@ from rig.patterns.graycode import bit_count, decode_gray, gray_planes, planes_wi
 from rig.patterns.lines import LineCodec, LineParams
 from rig.patterns.registry import register
 from rig.patterns.spec import GrayCode, PatternSpec, ProjectorSpace
-from rig.patterns.stream import DenseBase, FrameStream, GrayBits, integer_frame
+from rig.patterns.stream import DenseBase, FrameStream, GrayBits
 
 
 class GrayParams(LineParams):
@@ -84,10 +84,9 @@ class GrayStream(FrameStream):
         self._coords: dict[str, np.ndarray] = {}
 
     def _consume(self, index: int, frame: np.ndarray) -> None:
-        if index < 2:
-            self._base.consume(index, frame)
+        image = self._base.coded_frame(index, frame)
+        if image is None:
             return
-        image = integer_frame(self.codec, frame)
         axis, extent, bits = self._axes[len(self._coords)]
         if self._reader is None:
             self._reader = GrayBits(image.shape[:2], bits, image.dtype)

@@ -24,7 +24,7 @@ from rig.patterns.graycode import bit_count, decode_gray, gray_planes, planes_wi
 from rig.patterns.lines import LineCodec, LineParams
 from rig.patterns.registry import register
 from rig.patterns.spec import Frequency, GrayCode, PatternSpec, PhaseShift, ProjectorSpace
-from rig.patterns.stream import DenseBase, FrameStream, GrayBits, integer_frame
+from rig.patterns.stream import DenseBase, FrameStream, GrayBits
 from rig.workers import in_row_strips
 
 
@@ -156,10 +156,9 @@ class PhaseStream(FrameStream):
         self._reader: GrayBits | None = None
 
     def _consume(self, index: int, frame: np.ndarray) -> None:
-        if index < 2:
-            self._base.consume(index, frame)
+        image = self._base.coded_frame(index, frame)
+        if image is None:
             return
-        image = integer_frame(self.codec, frame)
         axis, steps, bits = self._schedule[len(self._coords)]
         n, self._offset = self._offset, self._offset + 1
         if n < steps:

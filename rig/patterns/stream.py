@@ -157,6 +157,14 @@ class DenseBase:
         self._contrast: np.ndarray | None = None
         self._current: list[np.ndarray] = []  # coordinates already NaN wherever valid is False now
 
+    def coded_frame(self, index: int, frame: np.ndarray) -> np.ndarray | None:
+        """Frame `index` of the codec's sequence: the white (0) and dark (1) frames are taken here
+        (None); a coded frame comes back in integer counts (integer_frame)."""
+        if index < 2:
+            self.consume(index, frame)
+            return None
+        return integer_frame(self.codec, frame)
+
     def consume(self, index: int, frame: np.ndarray) -> None:
         """The white (0) or the dark (1) frame."""
         image = integer_frame(self.codec, frame)

@@ -147,15 +147,20 @@ def live_sequence(rig: Rig, codecs: list[Codec], sequence: int) -> LiveFrame:
         points += int(np.isfinite(depth).sum())
         depths.setdefault(c, depth)  # a camera's depth image: from the first projector that lights it
     ready = time.perf_counter()
-    empty = [np.full((cam.resolution[1], cam.resolution[0]), np.nan, np.float32) for cam in rig.config.cameras]
     return LiveFrame(
         sequence=sequence,
-        depths=tuple(depths.get(c, empty[c]) for c in range(len(rig.cameras))),
+        depths=tuple(depths[c] if c in depths else _no_depth(rig, c) for c in range(len(rig.cameras))),
         points=points,
         latency_ms=(ready - arrived[0]) * 1e3,
         sequence_ms=(ready - start) * 1e3,
         ready_s=time.monotonic(),
     )
+
+
+def _no_depth(rig: Rig, camera: int) -> np.ndarray:
+    """The depth image of a camera no pair reconstructs: no point anywhere."""
+    width, height = rig.config.cameras[camera].resolution
+    return np.full((height, width), np.nan, np.float32)
 
 
 def _prepare(rig: Rig, codecs: list[Codec]) -> None:

@@ -202,10 +202,11 @@ def run_scan(
         if is_reconstructed(rig, (p, c))
     }
 
-    captured = [0]
+    passed = [0]  # bytes of the frames handed on and not kept
 
     def decode_now(p: int, c: int, image: np.ndarray) -> None:  # decoding while capturing
-        captured[0] += image.nbytes
+        if not keep_frames:
+            passed[0] += image.nbytes
         if (p, c) in streams:
             streams[(p, c)].add(image)
 
@@ -213,10 +214,8 @@ def run_scan(
     # every reconstructed pair decodes as it captures: frames are kept only to be stored
     frames = capture(rig, codecs, tracker, decode_now, keep_frames=keep_frames)
     capture_ms = (time.perf_counter() - t0) * 1e3
-    result = reconstruct_frames(rig, name, frames, tracker, keep_frames, streams)
+    result = reconstruct_frames(rig, name, frames, tracker, keep_frames, streams, passed[0])
     result.timings_ms = {"capture_ms": capture_ms, **result.timings_ms}
-    cue_bytes = sum(img.nbytes for (p, _), images in frames.items() if p == CUE for img in images)
-    result.bytes_captured = captured[0] + cue_bytes
     return result
 
 
@@ -227,9 +226,11 @@ def reconstruct_frames(
     tracker: ProgressTracker,
     keep_frames: bool = False,
     streams: dict[tuple[int, int], FrameStream] | None = None,
+    passed_bytes: int = 0,
 ) -> ScanResult:
     """Decode and triangulate captured frames (fresh from the devices, or stored with a scan);
-    `streams`: pairs whose frames were fed to their decoder as they were captured, to finish."""
+    `streams`: pairs whose frames were fed to their decoder as they were captured, to finish;
+    `passed_bytes`: the bytes of captured frames that were decoded and not kept."""
     codecs = [make_codec(rig, p, codec_name) for p in range(len(rig.config.projectors))]
     pairs: list[PairResult] = []
     elapsed = {"decode": 0.0, "triangulate": 0.0, "pointset": 0.0}
@@ -258,7 +259,7 @@ def reconstruct_frames(
         report.update(merged.as_dict())
         report["overlap_cue_pixels"] = {rig.config.cameras[c].name: int(m.sum()) for c, m in overlap.items()}
         elapsed["merge"] = time.perf_counter() - t
-    bytes_captured = sum(img.nbytes for images in frames.values() for img in images)
+    bytes_captured = passed_bytes + sum(img.nbytes for images in frames.values() for img in images)
     mesh = scan_mesh(rig, pairs, elapsed)
     return ScanResult(
         codec=codec_name,

@@ -86,9 +86,7 @@ class LiveMode:
 
         def keep_going() -> bool:
             beat()
-            with self._lock:
-                current = self._session == session and self._wanted is not None
-            return current and self.wanted() and not jobs_waiting()
+            return self.wanted() and self._session == session and not jobs_waiting()
 
         try:
             run_live(rig, lambda frame: self._publish(frame, session), keep_going, stats, config.scan)
