@@ -17,11 +17,11 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-_KERNEL = {"nogil": True, "cache": True}
+KERNEL = {"nogil": True, "cache": True}
 Image = np.ndarray  # (H, W), or (3, H, W) for points, directions and normals
 
 
-@njit(**_KERNEL)
+@njit(**KERNEL)
 def gray_pair(
     pattern: Image, inverse: Image, shift: int, value: Image, weakest: Image, second: Image, top: int, bottom: int
 ) -> None:
@@ -45,7 +45,7 @@ def gray_pair(
                 second[y, x] = strength
 
 
-@njit(**_KERNEL)
+@njit(**KERNEL)
 def contrast_and_lit(
     white: Image,
     black: Image,
@@ -58,13 +58,15 @@ def contrast_and_lit(
     bottom: int,
 ) -> int:
     """(white - black) in fractions of full scale (each frame scaled first, as the batch decoder
-    does) and whether it reaches `threshold` (`lit`, and `valid` the same to start from). Returns
-    how many pixels are lit."""
-    count = 0
+    does) and whether it reaches `threshold` (`lit`, and `valid` the same to start from); the
+    contrast is written only where `contrast` is an image (an empty one: the codec does not use it).
+    Returns how many pixels are lit."""
+    count, keep = 0, contrast.size > 0
     for y in range(top, bottom):
         for x in range(white.shape[1]):
             value = np.float32(white[y, x]) * scale - np.float32(black[y, x]) * scale
-            contrast[y, x] = value
+            if keep:
+                contrast[y, x] = value
             on = value >= threshold
             lit[y, x] = on
             valid[y, x] = on
@@ -72,7 +74,7 @@ def contrast_and_lit(
     return count
 
 
-@njit(**_KERNEL)
+@njit(**KERNEL)
 def gray_accept(
     value: Image,
     second: Image,
@@ -91,91 +93,15 @@ def gray_accept(
     for y in range(top, bottom):
         for x in range(value.shape[1]):
             v = value[y, x]
-            ok = second[y, x] >= min_strength and v < extent
-            if lit[y, x] and not ok:
-                dropped += 1
-            keep = valid[y, x] and ok
+            ok = (second[y, x] >= min_strength) & (v < extent)
+            dropped += np.int32(lit[y, x] & (not ok))
+            keep = valid[y, x] & ok
             valid[y, x] = keep
             coordinate[y, x] = np.float32(v) if keep else nan
     return dropped
 
 
-@njit(**_KERNEL)
-def phase_step(
-    image: Image, weight_sin: np.float32, weight_cos: np.float32, s: Image, c: Image, top: int, bottom: int
-) -> None:
-    """Add one phase step into the running sums: s += image * weight_sin, c += image * weight_cos."""
-    for y in range(top, bottom):
-        for x in range(image.shape[1]):
-            value = np.float32(image[y, x])
-            s[y, x] += value * weight_sin
-            c[y, x] += value * weight_cos
-
-
-@njit(**_KERNEL)
-def phase_wrap(
-    s: Image,
-    c: Image,
-    phi: Image,
-    amplitude: np.float32,
-    period: np.float32,
-    modulation: Image,
-    near: Image,
-    fraction: Image,
-    top: int,
-    bottom: int,
-) -> None:
-    """After the last step: the modulation (amplitude * |(s, c)|), the phase phi = atan2(s, c) (given
-    for rows [top, bottom) from row `top`: numpy's vectorised atan2 is several times numba's) in
-    [0, 2 pi) as a fraction of a period, minus one period past 3 pi / 2 (there the period index read
-    is one more), and whether phi is near a wrap (below pi / 2 or past 3 pi / 2)."""
-    two_pi, quarter, three_quarters = np.float32(2 * np.pi), np.float32(np.pi / 2), np.float32(1.5 * np.pi)
-    per_radian = period / two_pi
-    for y in range(top, bottom):
-        for x in range(s.shape[1]):
-            sy, cx = s[y, x], c[y, x]
-            modulation[y, x] = np.sqrt(sy * sy + cx * cx) * amplitude
-            angle = phi[y - top, x]
-            if angle < 0:
-                angle += two_pi
-            past = angle > three_quarters
-            near[y, x] = 1 if (angle < quarter or past) else 0
-            if past:
-                angle -= two_pi
-            fraction[y, x] = angle * per_radian
-
-
-@njit(**_KERNEL)
-def phase_unwrap(
-    half: Image,
-    near: Image,
-    fraction: Image,
-    modulation: Image,
-    second: Image,
-    period: np.float32,
-    min_modulation: float,
-    min_strength: int,
-    extent: int,
-    x_out: Image,
-    ok: Image,
-    weak: Image,
-    top: int,
-    bottom: int,
-) -> None:
-    """The projector coordinate from the half-period index and the wrapped phase, and whether it is
-    kept: modulation and Gray bits strong enough, within [-0.5, extent - 0.5)."""
-    for y in range(top, bottom):
-        for x in range(half.shape[1]):
-            k = (np.int32(half[y, x]) + np.int32(near[y, x])) >> 1
-            coordinate = fraction[y, x] + np.float32(k) * period
-            x_out[y, x] = coordinate
-            low = modulation[y, x] < min_modulation
-            weak[y, x] = low
-            inside = coordinate > np.float32(-0.5) and coordinate < extent - np.float32(0.5)
-            ok[y, x] = (not low) and second[y, x] >= min_strength and inside
-
-
-@njit(**_KERNEL)
+@njit(**KERNEL)
 def plane_triangulate(
     coded: Image,
     valid: Image,
@@ -215,7 +141,7 @@ def plane_triangulate(
                 xyz[axis, y, x] = s * directions[axis, y, x]
 
 
-@njit(**_KERNEL)
+@njit(**KERNEL)
 def _support_at_border(depth: Image, y: int, x: int, max_jump: np.float32) -> int:
     """How many of pixel (y, x)'s neighbours on the image lie within `max_jump` of its depth."""
     height, width = depth.shape
@@ -227,7 +153,7 @@ def _support_at_border(depth: Image, y: int, x: int, max_jump: np.float32) -> in
     return support
 
 
-@njit(**_KERNEL)
+@njit(**KERNEL)
 def _support_row(depth: Image, y: int, max_jump: np.float32, support: np.ndarray) -> None:
     """How many of the 8 neighbours of each pixel of row y lie within `max_jump` of its depth."""
     height, width = depth.shape
@@ -247,7 +173,7 @@ def _support_row(depth: Image, y: int, max_jump: np.float32, support: np.ndarray
         support[x] = count
 
 
-@njit(**_KERNEL)
+@njit(**KERNEL)
 def reject_isolated(
     depth: Image, decoded: Image, max_jump: np.float32, min_support: int, keep: Image, xyz: Image, top: int, bottom: int
 ) -> int:
@@ -267,7 +193,7 @@ def reject_isolated(
     return dropped
 
 
-@njit(**_KERNEL)
+@njit(**KERNEL)
 def grid_normals(xyz: Image, rays: Image, step: int, out: Image, top: int, bottom: int) -> None:
     """rig.pipeline.dense.grid_normals: the cross product of the differences `step` pixels across
     and down, unit, turned toward the camera (against its `rays`); -ray where a neighbour is missing

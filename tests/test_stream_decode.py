@@ -122,3 +122,19 @@ def test_a_stream_refuses_other_sizes_and_counts() -> None:
         stream.add(frame)
     with pytest.raises(DecodeError, match="8- or 16-bit"):
         codec.stream(255).add(frame.astype(np.float32))
+
+
+def test_the_phase_streams_atan2_is_within_float_rounding_of_atan2() -> None:
+    """rig.fused_phase.atan2 (a polynomial, so that the phase loop vectorises) against atan2 in
+    float64, over every direction and the axes, where float32 itself rounds by up to 2.4e-7 rad."""
+    from rig.fused_phase import atan2
+
+    angles = np.linspace(-np.pi, np.pi, 200_001)
+    radii = np.geomspace(1e-6, 1e3, angles.size)
+    ys, xs = (radii * np.sin(angles)).astype(np.float32), (radii * np.cos(angles)).astype(np.float32)
+    axes = np.array([[0, 1], [1, 0], [0, -1], [-1, 0], [0, 0], [2, 2], [-3, -3]], np.float32)
+    ys, xs = np.concatenate([ys, axes[:, 0]]), np.concatenate([xs, axes[:, 1]])
+    got = np.array([atan2(y, x) for y, x in zip(ys, xs, strict=True)], np.float64)
+    error = np.abs(got - np.arctan2(ys.astype(np.float64), xs.astype(np.float64)))
+    error = np.minimum(error, 2 * np.pi - error)  # -pi and pi are the same direction
+    assert float(error.max()) < 3.5e-7

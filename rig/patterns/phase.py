@@ -18,7 +18,8 @@ import math
 import numpy as np
 from pydantic import Field, field_validator
 
-from rig import fused
+from rig import fused_phase
+from rig.errors import DecodeError
 from rig.patterns.base import Correspondence, NormalizedFrames, even_period, least_counts
 from rig.patterns.graycode import bit_count, decode_gray, gray_planes, planes_with_inverses
 from rig.patterns.lines import LineCodec, LineParams
@@ -129,11 +130,11 @@ class PhaseCodec(LineCodec):
 
 
 class PhaseStream(FrameStream):
-    """The phase decoder fed frame by frame: each phase step is added into the running sums as it
-    arrives, the wrapped phase is taken after the last step, each Gray pair is read in integer
-    counts (GrayBits); after the last pair only the unwrapping remains. The sums are taken in
-    another order than the batch decoder's (OpenCV's fused multiply-add): coordinates agree within
-    float rounding."""
+    """The phase decoder fed frame by frame: a period's steps are held until its last step arrives
+    and are then read in one pass into the wrapped phase and the modulation (rig.fused_phase), each
+    Gray pair is read in integer counts as it arrives (GrayBits); after the last pair only the
+    unwrapping remains. The steps are summed in the batch decoder's order, but with weights scaled
+    by full scale and the phase from a polynomial atan2: coordinates agree within float rounding."""
 
     codec: PhaseCodec
 
@@ -141,17 +142,17 @@ class PhaseStream(FrameStream):
         super().__init__(codec, full_scale)
         steps = codec.params.steps
         delta = 2 * np.pi * np.arange(steps) / steps
-        self._weights = [(np.float32(np.sin(d) / full_scale), np.float32(np.cos(d) / full_scale)) for d in delta]
+        self._weight_sin = (np.sin(delta) / full_scale).astype(np.float32)
+        self._weight_cos = (np.cos(delta) / full_scale).astype(np.float32)
         self._schedule = [(axis, steps, codec._gray_bits(axis)) for axis in codec.axes()]
         self._min_strength = least_counts(codec.params.white_threshold, full_scale)
-        self._base = DenseBase(codec, full_scale)
+        self._base = DenseBase(codec, full_scale, keep_contrast=False)
         self._coords: dict[str, np.ndarray] = {}
         self._quality: np.ndarray | None = None
         self._reset_axis()
 
     def _reset_axis(self) -> None:
-        self._offset = 0  # frames of the current axis seen
-        self._sums: tuple[np.ndarray, np.ndarray] | None = None
+        self._steps: list[np.ndarray] = []  # the current period's steps, until its last one
         self._wrapped: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None  # fraction, near a wrap, modulation
         self._reader: GrayBits | None = None
 
@@ -160,74 +161,71 @@ class PhaseStream(FrameStream):
         if image is None:
             return
         axis, steps, bits = self._schedule[len(self._coords)]
-        n, self._offset = self._offset, self._offset + 1
-        if n < steps:
-            self._add_step(image, n)
-            if n == steps - 1:
+        if self._wrapped is None:
+            if self._steps and image.dtype != self._steps[0].dtype:
+                raise DecodeError(f"{self.codec.name}: frames differ in type: {self._steps[0].dtype}, {image.dtype}")
+            self._steps.append(np.ascontiguousarray(image))
+            if len(self._steps) == steps:
                 self._wrap()
-        else:
-            if self._reader is None:
-                self._reader = GrayBits(image.shape[:2], bits, image.dtype)
-            if self._reader.take(image):
-                self._coords[axis] = self._unwrap(axis)
-                self._reset_axis()
-
-    def _add_step(self, image: np.ndarray, n: int) -> None:
-        if self._sums is None:
-            self._sums = (np.zeros(image.shape, np.float32), np.zeros(image.shape, np.float32))
-        s, c = self._sums
-        weight_sin, weight_cos = self._weights[n]
-        in_row_strips(
-            image.shape[0], lambda rows: fused.phase_step(image, weight_sin, weight_cos, s, c, rows.start, rows.stop)
-        )
+            return
+        if self._reader is None:
+            self._reader = GrayBits(image.shape[:2], bits, image.dtype)
+        if self._reader.take(image):
+            self._coords[axis] = self._unwrap(axis)
+            self._reset_axis()
 
     def _wrap(self) -> None:
-        """After the last step: the fringe modulation, and the phase as a fraction of a period
+        """After a period's last step: the modulation, and the phase as a fraction of a period
         ready for the period index (near a wrap, the index of the code shifted by half a period)."""
-        assert self._sums is not None
-        s, c = self._sums
+        steps, self._steps = tuple(self._steps), []
         params = self.codec.params
         amplitude, period = np.float32(2.0 / params.steps), np.float32(params.period_px)
-        modulation, near = np.empty_like(s), np.empty(s.shape, np.uint8)
-        fraction = s  # each pixel's sum is read before its fraction is written over it
-
-        def strip(rows: slice) -> None:
-            phi = np.arctan2(s[rows], c[rows])
-            fused.phase_wrap(s, c, phi, amplitude, period, modulation, near, fraction, rows.start, rows.stop)
-
-        in_row_strips(s.shape[0], strip)
-        self._wrapped, self._sums = (fraction, near, modulation), None
+        shape = steps[0].shape
+        fraction, modulation, near = np.empty(shape, np.float32), np.empty(shape, np.float32), np.empty(shape, np.uint8)
+        weight_sin, weight_cos = self._weight_sin, self._weight_cos
+        in_row_strips(
+            shape[0],
+            lambda rows: fused_phase.phase_wrap(
+                steps, weight_sin, weight_cos, amplitude, period, modulation, near, fraction, rows.start, rows.stop
+            ),
+        )
+        self._wrapped = (fraction, near, modulation)
 
     def _unwrap(self, axis: str) -> np.ndarray:
         assert self._wrapped is not None and self._reader is not None
         fraction, near, modulation = self._wrapped
         half, strength = self._reader.value(), self._reader.strength()
-        params = self.codec.params
+        params, base = self.codec.params, self._base
+        assert base.lit is not None and base.valid is not None
+        lit, valid = base.lit, base.valid
         period, extent = np.float32(params.period_px), self.codec.extent(axis)
-        ok, weak = np.empty(half.shape, bool), np.empty(half.shape, bool)
-        x = fraction  # each pixel's fraction is read before its coordinate is written over it
+        quality = modulation if self._quality is None else self._quality
+        low: list[int] = []
         in_row_strips(
             half.shape[0],
-            lambda rows: fused.phase_unwrap(
-                half,
-                near,
-                fraction,
-                modulation,
-                strength,
-                period,
-                params.min_modulation,
-                self._min_strength,
-                extent,
-                x,
-                ok,
-                weak,
-                rows.start,
-                rows.stop,
+            lambda rows: low.append(
+                fused_phase.phase_unwrap(
+                    half,
+                    near,
+                    fraction,
+                    modulation,
+                    strength,
+                    period,
+                    params.min_modulation,
+                    self._min_strength,
+                    extent,
+                    lit,
+                    valid,
+                    quality,
+                    quality is not modulation,
+                    rows.start,
+                    rows.stop,
+                )
             ),
         )
-        self._base.narrow(ok, f"low_modulation_{axis}", weak)
-        self._quality = modulation if self._quality is None else np.minimum(self._quality, modulation)
-        return x
+        base.narrowed(f"low_modulation_{axis}", sum(low), fraction)
+        self._quality = quality
+        return fraction  # now the coordinate
 
     def _finish(self) -> Correspondence:
         assert self._quality is not None

@@ -146,9 +146,10 @@ class DenseBase:
     """What the streams of per-pixel codecs share: the white and dark frames (texture, lit mask,
     contrast), the validity mask each coded axis narrows, the counts, and the Correspondence."""
 
-    def __init__(self, codec: Codec, full_scale: int) -> None:
+    def __init__(self, codec: Codec, full_scale: int, keep_contrast: bool = True) -> None:
         self.codec = codec
         self.full_scale = full_scale
+        self.keep_contrast = keep_contrast
         self.texture: np.ndarray | None = None
         self.lit: np.ndarray | None = None
         self.valid: np.ndarray | None = None
@@ -174,7 +175,7 @@ class DenseBase:
         assert self._white is not None
         white, scale = self._white, np.float32(1.0 / self.full_scale)
         contrast, lit, valid = (
-            np.empty(image.shape, np.float32),
+            np.empty(image.shape if self.keep_contrast else (0, 0), np.float32),
             np.empty(image.shape, bool),
             np.empty(image.shape, bool),
         )
@@ -189,17 +190,8 @@ class DenseBase:
         self.counts["lit"] = sum(counts)
 
     def contrast(self) -> np.ndarray:
-        assert self._contrast is not None
+        assert self._contrast is not None and self.keep_contrast
         return self._contrast
-
-    def narrow(self, ok: np.ndarray, count_name: str | None = None, counted: np.ndarray | None = None) -> None:
-        """Keep only the pixels `ok`; `count_name` counts the lit pixels `counted` (by default, those
-        `ok` drops)."""
-        assert self.valid is not None and self.lit is not None
-        self.valid &= ok
-        self._current = []  # coordinates written before are NaN where valid was, not where it is
-        if count_name is not None:
-            self.counts[count_name] = int(np.count_nonzero(self.lit & (~ok if counted is None else counted)))
 
     def accept(self, reader: GrayBits, extent: int, min_strength: int, count_name: str) -> np.ndarray:
         """A Gray-coded axis read whole: its coordinate (float32, NaN where not valid), the pixels
@@ -213,9 +205,14 @@ class DenseBase:
                 fused.gray_accept(value, strength, min_strength, extent, lit, valid, coordinate, rows.start, rows.stop)
             ),
         )
-        self.counts[count_name] = sum(dropped)
-        self._current = [coordinate]  # it narrowed valid: coordinates written before are stale
+        self.narrowed(count_name, sum(dropped), coordinate)
         return coordinate
+
+    def narrowed(self, count_name: str, count: int, coordinate: np.ndarray) -> None:
+        """A compiled pass has narrowed `valid` itself, counting `count`, and written `coordinate`
+        NaN wherever it is not valid now (coordinates written before are stale)."""
+        self.counts[count_name] = count
+        self._current = [coordinate]
 
     def correspondence(self, coords: dict[str, np.ndarray], quality: np.ndarray) -> Correspondence:
         """The Correspondence, coordinates NaN where not valid (as LineCodec.correspondence)."""
