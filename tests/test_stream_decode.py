@@ -48,9 +48,17 @@ def _assert_same(reference: Correspondence, streamed: Correspondence, tolerance_
         else:
             assert float(np.nanmax(np.abs(expected - got))) <= tolerance_px
     np.testing.assert_allclose(streamed.quality, reference.quality, rtol=1e-5, atol=1e-6)
+    assert reference.extra.keys() == streamed.extra.keys()
+    for name, expected in reference.extra.items():
+        np.testing.assert_array_equal(streamed.extra[name], expected, err_msg=name)
+    assert (reference.samples is None) == (streamed.samples is None)
     if reference.samples is not None:
         assert streamed.samples is not None
-        np.testing.assert_array_equal(reference.samples.camera_xy, streamed.samples.camera_xy)
+        for name in ("camera_xy", "ring", "theta", "contrast", "fine_phase", "fine_periods"):
+            expected, got = getattr(reference.samples, name), getattr(streamed.samples, name)
+            assert (expected is None) == (got is None), name
+            if expected is not None:
+                np.testing.assert_array_equal(got, expected, err_msg=name)
 
 
 @pytest.mark.parametrize("name", codec_names())
@@ -69,18 +77,30 @@ def test_both_directions_stream_like_the_batch(name: str) -> None:
     )
 
 
-@pytest.mark.parametrize("name", ["gray", "phase"])
+@pytest.mark.parametrize("name", ["gray", "phase", "rings", "radial"])
 def test_noise_frames_stream_like_the_batch(name: str) -> None:
     """Random frames put pixels at every threshold and every tie of a pattern with its inverse."""
-    codec = codec_class(name)((64, 48))
+    cls = codec_class(name)
+    codec = cls((64, 48), cls.Params(rings=4) if name == "rings" else None)  # type: ignore[call-arg]
     rng = np.random.default_rng(3)
     frames = [rng.integers(0, 256, (40, 50), dtype=np.uint8) for _ in range(codec.frame_count)]
     reference = codec.decode(frames, 255)
-    assert 0 < reference.counts["decoded"] < 40 * 50
+    decoded = reference.counts["ring_samples"] if name == "rings" else reference.counts["decoded"]
+    assert 0 < decoded < 40 * 50
     _assert_same(reference, decode_streamed(codec, frames, 255), PHASE_TOLERANCE_PX if name == "phase" else 0.0)
 
 
-@pytest.mark.parametrize("name", ["gray", "phase"])
+@pytest.mark.parametrize(
+    "scan", [{"tangential_period_px": None}, {"angle_steps": 3, "tangential_steps": 5}, {"rings": 12}]
+)
+def test_rings_without_the_fine_code_or_with_other_rings_stream_like_the_batch(scan: dict[str, object]) -> None:
+    codec, frames = _captured("rings", **scan)
+    reference = codec.decode(frames, 255)
+    assert reference.counts["ring_samples"] > 1000
+    _assert_same(reference, decode_streamed(codec, frames, 255))
+
+
+@pytest.mark.parametrize("name", ["gray", "phase", "rings", "radial"])
 def test_sixteen_bit_and_colour_frames_stream_like_the_batch(name: str) -> None:
     codec, frames = _captured(name)
     deep = [(frame.astype(np.uint16) * 16 + 7) for frame in frames]  # 12-bit counts

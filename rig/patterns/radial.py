@@ -21,11 +21,12 @@ import math
 import numpy as np
 from pydantic import Field, field_validator
 
-from rig.patterns.base import CodecParams, Correspondence, NormalizedFrames, PixelCoord, even_period
+from rig.patterns.base import CodecParams, Correspondence, NormalizedFrames, PixelCoord, even_period, least_counts
 from rig.patterns.circular import CircularCodec
-from rig.patterns.fringes import fringe_images, phase_sums
+from rig.patterns.fringes import RunningSums, fringe_images
 from rig.patterns.graycode import bit_count, decode_gray, gray_planes, planes_with_inverses
 from rig.patterns.registry import register
+from rig.patterns.stream import DenseBase, FrameStream, GrayBits
 
 
 class RadialParams(CodecParams):
@@ -58,10 +59,10 @@ class RadialParams(CodecParams):
     _even_period = field_validator("period_px")(even_period)
 
 
-def _phase(frames: NormalizedFrames, first: int, steps: int) -> tuple[np.ndarray, np.ndarray]:
-    """Wrapped phase in [0, 2 pi) and modulation of `steps` frames from index `first`."""
-    s, c = phase_sums(frames, first, steps)
-    return np.mod(np.arctan2(s, c), 2 * np.pi), (2.0 / steps) * np.sqrt(s * s + c * c)
+def _phase(sums: RunningSums) -> tuple[np.ndarray, np.ndarray]:
+    """Wrapped phase in [0, 2 pi) and modulation of a level's summed steps."""
+    s, c = sums.s, sums.c
+    return np.mod(np.arctan2(s, c), 2 * np.pi), (2.0 / sums.steps) * np.sqrt(s * s + c * c)
 
 
 def _unwrap(wrapped: np.ndarray, reference: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -102,41 +103,74 @@ class RadialCodec(CircularCodec):
         self, frames: NormalizedFrames, white: np.ndarray, black: np.ndarray, lit: np.ndarray, texture: np.ndarray
     ) -> Correspondence:
         p = self.params
-        phi, radial_mod = _phase(frames, 0, p.steps)
+        radial = RunningSums(p.steps)
+        for n in range(p.steps):
+            radial.add(frames[n])
         bits = self._gray_bits()
-        first = p.steps
-        half, strength = decode_gray(frames[first : first + 2 * bits], bits)
-        first += 2 * bits
+        half, strength = decode_gray(frames[p.steps : p.steps + 2 * bits], bits)
+        decoding = RadialDecoding(self, lit, radial, half, strength >= p.white_threshold)
+        first = p.steps + 2 * bits
+        for periods, steps in self._angular_levels():
+            level = RunningSums(steps)
+            for n in range(steps):
+                level.add(frames[first + n])
+            first += steps
+            decoding.add_level(periods, level)
+        return decoding.correspondence(texture)
+
+    def stream(self, full_scale: int) -> FrameStream:
+        return RadialStream(self, full_scale)
+
+
+class RadialDecoding:
+    """The radial decode a level at a time, as the batch decoder and the stream both feed it: the
+    radius from the radial phase and its Gray code, then theta refined by each angular level."""
+
+    def __init__(
+        self, codec: RadialCodec, lit: np.ndarray, radial: RunningSums, half: np.ndarray, gray_strong: np.ndarray
+    ) -> None:
+        self.codec, self.lit, self.gray_strong = codec, lit, gray_strong
+        period = codec.params.period_px
+        phi, self.radial_mod = _phase(radial)
         k1, k2 = half >> 1, (half + 1) >> 1
         k = np.where(phi < np.pi / 2, k2, np.where(phi > 1.5 * np.pi, k2 - 1, k1))
-        radius = (k + phi / (2 * np.pi)) * p.period_px
-        theta = np.zeros(lit.shape, dtype=np.float64)
-        consistent = np.ones(lit.shape, dtype=bool)
-        angular_mod = np.full(lit.shape, np.inf, dtype=np.float32)
-        for level, (periods, steps) in enumerate(self._angular_levels()):
-            wrapped, modulation = _phase(frames, first, steps)
-            first += steps
-            if level == 0:
-                theta, angular_mod = wrapped.astype(np.float64), modulation
-                continue
-            usable = 2 * np.pi * radius / periods >= p.min_fringe_period_px
-            refined, disagreement = _unwrap(wrapped, theta * periods)
-            theta = np.where(usable, refined / periods, theta)
-            angular_mod = np.where(usable, np.minimum(angular_mod, modulation), angular_mod)
-            consistent &= ~usable | (disagreement <= p.max_unwrap_disagreement)
+        self.radius = (k + phi / (2 * np.pi)) * period
+        self.theta = np.zeros(lit.shape, dtype=np.float64)
+        self.consistent = np.ones(lit.shape, dtype=bool)
+        self.angular_mod = np.full(lit.shape, np.inf, dtype=np.float32)
+        self.levels = 0
+
+    def add_level(self, periods: int, sums: RunningSums) -> None:
+        """An angular level's summed steps: the first gives theta, each later one refines it where
+        its fringes are coarse enough to read."""
+        p = self.codec.params
+        wrapped, modulation = _phase(sums)
+        self.levels += 1
+        if self.levels == 1:
+            self.theta, self.angular_mod = wrapped.astype(np.float64), modulation
+            return
+        usable = 2 * np.pi * self.radius / periods >= p.min_fringe_period_px
+        refined, disagreement = _unwrap(wrapped, self.theta * periods)
+        self.theta = np.where(usable, refined / periods, self.theta)
+        self.angular_mod = np.where(usable, np.minimum(self.angular_mod, modulation), self.angular_mod)
+        self.consistent &= ~usable | (disagreement <= p.max_unwrap_disagreement)
+
+    def correspondence(self, texture: np.ndarray) -> Correspondence:
+        codec, p, lit = self.codec, self.codec.params, self.lit
+        radial_mod, angular_mod, radius, theta = self.radial_mod, self.angular_mod, self.radius, self.theta
         ok = lit & (radial_mod >= p.min_modulation) & (angular_mod >= p.min_modulation)
-        ok &= (strength >= p.white_threshold) & (radius > 0) & consistent
-        cu, cv = self.center
+        ok &= self.gray_strong & (radius > 0) & self.consistent
+        cu, cv = codec.center
         u = (cu + radius * np.cos(theta)).astype(np.float32)
         v = (cv + radius * np.sin(theta)).astype(np.float32)
-        ok &= (u > -0.5) & (u < self.width - 0.5) & (v > -0.5) & (v < self.height - 0.5)
+        ok &= (u > -0.5) & (u < codec.width - 0.5) & (v > -0.5) & (v < codec.height - 0.5)
         for coord in (u, v):
             coord[~ok] = np.nan
         counts = {
             "lit": int(lit.sum()),
             "low_radial_modulation": int((lit & (radial_mod < p.min_modulation)).sum()),
             "low_angular_modulation": int((lit & (angular_mod < p.min_modulation)).sum()),
-            "inconsistent_angle_levels": int((lit & ~consistent).sum()),
+            "inconsistent_angle_levels": int((lit & ~self.consistent).sum()),
             "decoded": int(ok.sum()),
         }
         return Correspondence(
@@ -148,3 +182,51 @@ class RadialCodec(CircularCodec):
             extra={"radius": radius.astype(np.float32), "theta": np.mod(theta, 2 * np.pi).astype(np.float32)},
             counts=counts,
         )
+
+
+class RadialStream(FrameStream):
+    """The radial decoder fed frame by frame: every phase step is added into its level's running
+    sums as it arrives, the Gray code read pair by pair in integer counts (GrayBits), each level
+    decoded after its last step (RadialDecoding, as the batch decoder does: the same results bit
+    for bit). After the last frame only the finest level and the coordinates remain."""
+
+    codec: RadialCodec
+
+    def __init__(self, codec: RadialCodec, full_scale: int) -> None:
+        super().__init__(codec, full_scale)
+        p = codec.params
+        self._base = DenseBase(codec, full_scale, keep_contrast=False)
+        self._scale = np.float32(1.0 / full_scale)
+        self._bits = codec._gray_bits()
+        self._levels = list(codec._angular_levels())
+        self._min_strength = least_counts(p.white_threshold, full_scale)
+        self._sums = RunningSums(p.steps)
+        self._reader: GrayBits | None = None
+        self._decoding: RadialDecoding | None = None
+
+    def _consume(self, index: int, frame: np.ndarray) -> None:
+        image = self._base.coded_frame(index, frame)
+        if image is None:
+            return
+        if self._decoding is None and self._sums.done:  # the radial phase's Gray code
+            if self._reader is None:
+                self._reader = GrayBits(image.shape[:2], self._bits, image.dtype)
+            if self._reader.take(image):
+                lit, reader = self._base.lit, self._reader
+                assert lit is not None
+                half = reader.value().astype(np.int32)  # as the batch decoder reads it
+                self._decoding = RadialDecoding(
+                    self.codec, lit, self._sums, half, reader.strength() >= self._min_strength
+                )
+                self._sums = RunningSums(self._levels[0][1])
+            return
+        self._sums.add(image.astype(np.float32) * self._scale)  # as NormalizedFrames converts it
+        if self._sums.done and self._decoding is not None:
+            periods, _ = self._levels.pop(0)
+            self._decoding.add_level(periods, self._sums)
+            if self._levels:
+                self._sums = RunningSums(self._levels[0][1])
+
+    def _finish(self) -> Correspondence:
+        assert self._decoding is not None and self._base.texture is not None
+        return self._decoding.correspondence(self._base.texture)

@@ -32,9 +32,12 @@ from pydantic import Field, model_validator
 
 from rig.patterns.base import CodecParams, Correspondence, NormalizedFrames, PixelCoord, RingSamples
 from rig.patterns.circular import CircularCodec
-from rig.patterns.fringes import fringe_images, phase_sums
+from rig.patterns.crossings import Crossings
+from rig.patterns.fringes import PointSums, fringe_images, phase_sums
 from rig.patterns.graycode import bit_count, decode_gray, gray_planes, planes_with_inverses
 from rig.patterns.registry import register
+from rig.patterns.rings_stream import RingsStream
+from rig.patterns.stream import FrameStream
 
 # A crossing whose step is more than this many times the scan's median is a jump, not a ramp.
 _RAMP_MEDIAN_FACTOR = 1.5
@@ -190,30 +193,66 @@ class RingsCodec(CircularCodec):
     ) -> Correspondence:
         p = self.params
         edge = frames[0] - frames[1]
+        candidates = Crossings.candidates(edge, p.min_edge_contrast)
         bits = self._zone_bits()
         zone, strength = decode_gray(frames[2 : 2 + 2 * bits], bits)
-        zone_ok = lit & (strength >= p.min_edge_contrast * 0.5) & (zone < len(self.radii))
-        found = _Crossings.find(edge, zone, zone_ok, p.min_edge_contrast)
-        # A ring edge is a ramp; a depth edge across an annulus is a jump (see max_edge_step).
-        ramp = found.ramp(edge / np.maximum(white - black, 1e-6))
-        limit = max(p.max_edge_step, _RAMP_MEDIAN_FACTOR * float(np.median(ramp))) if len(ramp) else 1.0
-        crossings = found.select(ramp <= limit)
         first = 2 + 2 * bits
         coarse = phase_sums(frames, first, p.angle_steps)  # at the crossings, and everywhere for _bands
+        found = self.locate(candidates, edge, white - black, zone, strength >= p.min_edge_contrast * 0.5, lit, coarse)
+        fine = None
+        if self.fine_periods is not None:
+            fine = PointSums(found.ends, p.tangential_steps)
+            for n in range(p.tangential_steps):
+                fine.add(frames[first + p.angle_steps + n][fine.pixels])
+        return self.correspondence(found, fine, white - black, lit, texture)
+
+    def locate(
+        self,
+        candidates: Crossings,
+        edge: np.ndarray,
+        contrast: np.ndarray,
+        zone: np.ndarray,
+        zone_strong: np.ndarray,
+        lit: np.ndarray,
+        coarse: tuple[np.ndarray, np.ndarray],
+    ) -> RingPoints:
+        """The ring points among the edge pattern's sign changes, once the ring index (`zone`, read
+        strongly enough where `zone_strong`) and the coarse angle's sums are known."""
+        p = self.params
+        zone_ok = lit & zone_strong & (zone < len(self.radii))
+        found = candidates.within_zones(zone, zone_ok)
+        # A ring edge is a ramp; a depth edge across an annulus is a jump (see max_edge_step).
+        ramp = found.ramp(edge, contrast)
+        limit = max(p.max_edge_step, _RAMP_MEDIAN_FACTOR * float(np.median(ramp))) if len(ramp) else 1.0
+        crossings = found.select(ramp <= limit)
+        assert crossings.ring is not None
         theta = np.arctan2(*crossings.between(*coarse))
         on_frame = self._on_frame(crossings.ring, theta)
-        crossings, theta = crossings.select(on_frame), theta[on_frame]
+        return RingPoints(
+            crossings=crossings.select(on_frame),
+            theta=theta[on_frame].astype(np.float64),
+            counts={"rejected_edge_jump": int((ramp > limit).sum()), "rejected_off_frame": int((~on_frame).sum())},
+            bands=self._bands(edge, zone, zone_ok, coarse, lit),
+        )
+
+    def correspondence(
+        self, found: RingPoints, fine: PointSums | None, contrast: np.ndarray, lit: np.ndarray, texture: np.ndarray
+    ) -> Correspondence:
+        """The ring points as samples, with the fine angle's phase where the fine code was read
+        (its sums at each crossing's two pixels)."""
+        p, crossings = self.params, found.crossings
+        assert crossings.ring is not None
         phase, periods = None, None
-        if self.fine_periods is not None:
-            fs, fc = crossings.between(*phase_sums(frames, first + p.angle_steps, p.tangential_steps))
+        if fine is not None:
+            fs, fc = crossings.interpolate(*fine.at_ends())
             phase = np.arctan2(fs, fc).astype(np.float64)
             phase[(2.0 / p.tangential_steps) * np.hypot(fs, fc) < p.min_edge_contrast] = np.nan  # unreadable
-            periods = self.fine_periods[crossings.ring]
+            periods = self.fine_periods[crossings.ring] if self.fine_periods is not None else None
         samples = RingSamples(
             camera_xy=crossings.xy,
             ring=crossings.ring,
             radius_px=self.radii[crossings.ring],
-            theta=theta.astype(np.float64),
+            theta=found.theta,
             contrast=np.abs(crossings.step).astype(np.float32),
             center_px=self.center,
             ring_radii_px=self.radii,
@@ -233,15 +272,16 @@ class RingsCodec(CircularCodec):
             "lit": int(lit.sum()),
             "ring_samples": len(samples),
             "rings_seen": len(np.unique(crossings.ring)),
-            "rejected_edge_jump": int((ramp > limit).sum()),
-            "rejected_off_frame": int((~on_frame).sum()),
+            **found.counts,
         }
         if phase is not None:
             counts["no_fine_angle"] = int(np.isnan(phase).sum())
-        extra = self._bands(edge, zone, zone_ok, coarse, lit)
         return Correspondence(
-            valid=valid, quality=white - black, texture=texture, samples=samples, counts=counts, extra=extra
+            valid=valid, quality=contrast, texture=texture, samples=samples, counts=counts, extra=found.bands
         )
+
+    def stream(self, full_scale: int) -> FrameStream:
+        return RingsStream(self, full_scale)
 
     def _on_frame(self, ring: np.ndarray, theta: np.ndarray) -> np.ndarray:
         """Whether each ring's edge is shown whole (_shown_within) at the polar angle read, or within
@@ -289,65 +329,17 @@ class RingsCodec(CircularCodec):
 
 
 @dataclass(frozen=True, eq=False)
-class _Crossings:
-    """Sign changes of pattern - inverse between neighbouring camera pixels a and b (index arrays),
-    a fraction `t` of the way from a to b, with the ring index and the step d(a) - d(b)."""
+class RingPoints:
+    """The ring points a decode has located before the fine angle: their crossings, coarse polar
+    angle, what was rejected, and the coarse bands every pixel lies in (RingsCodec._bands)."""
 
-    a: tuple[np.ndarray, np.ndarray]
-    b: tuple[np.ndarray, np.ndarray]
-    t: np.ndarray
-    step: np.ndarray
-    ring: np.ndarray
-
-    @classmethod
-    def find(cls, edge: np.ndarray, zone: np.ndarray, zone_ok: np.ndarray, min_contrast: float) -> _Crossings:
-        gy, gx = np.gradient(edge)
-        steep = np.abs(gy) >= np.abs(gx)  # the edge crosses columns more than rows
-        parts = []
-        for axis in (0, 1):  # crossings between vertical, then horizontal neighbours
-            a = (slice(None, -1), slice(None)) if axis == 0 else (slice(None), slice(None, -1))
-            b = (slice(1, None), slice(None)) if axis == 0 else (slice(None), slice(1, None))
-            d1, d2 = edge[a], edge[b]
-            step = d1 - d2
-            # A sign change, counting 0 as positive: a pixel exactly on the ring (common in 8-bit
-            # captures) still yields its crossing, and each crossing is found once.
-            found = ((d1 >= 0) != (d2 >= 0)) & zone_ok[a] & zone_ok[b] & (zone[a] == zone[b])
-            found &= np.abs(step) >= min_contrast
-            # Search across the edge, not along it: each point once, from the better-conditioned pair.
-            found &= steep[a] if axis == 0 else ~steep[a]
-            rows, cols = np.nonzero(found)
-            t = d1[rows, cols] / step[rows, cols]
-            parts.append(((rows, cols), (rows + (axis == 0), cols + (axis == 1)), t, step[rows, cols]))
-        a = tuple(np.concatenate([part[0][k] for part in parts]) for k in range(2))
-        b = tuple(np.concatenate([part[1][k] for part in parts]) for k in range(2))
-        return cls(
-            a,  # type: ignore[arg-type]
-            b,  # type: ignore[arg-type]
-            np.concatenate([part[2] for part in parts]).astype(np.float64),
-            np.concatenate([part[3] for part in parts]),
-            zone[a].astype(np.int64),
-        )
+    crossings: Crossings
+    theta: np.ndarray
+    counts: dict[str, int]
+    bands: dict[str, np.ndarray]
 
     @property
-    def xy(self) -> np.ndarray:
-        """Sub-pixel camera positions (M, 2): x, y."""
-        return np.column_stack(
-            [self.a[1] + self.t * (self.b[1] - self.a[1]), self.a[0] + self.t * (self.b[0] - self.a[0])]
-        )
-
-    def between(self, *images: np.ndarray) -> tuple[np.ndarray, ...]:
-        """Each image interpolated at the crossings."""
-        return tuple((1 - self.t) * image[self.a] + self.t * image[self.b] for image in images)
-
-    def ramp(self, normalized: np.ndarray) -> np.ndarray:
-        """Half the step of `normalized` pattern - inverse (in [-1, 1]) across each crossing."""
-        return 0.5 * np.abs(normalized[self.a] - normalized[self.b])
-
-    def select(self, keep: np.ndarray) -> _Crossings:
-        return _Crossings(
-            (self.a[0][keep], self.a[1][keep]),
-            (self.b[0][keep], self.b[1][keep]),
-            self.t[keep],
-            self.step[keep],
-            self.ring[keep],
-        )
+    def ends(self) -> tuple[np.ndarray, np.ndarray]:
+        """The crossings' two pixels, a then b, as one index of 2M pixels."""
+        a, b = self.crossings.a, self.crossings.b
+        return np.concatenate([a[0], b[0]]), np.concatenate([a[1], b[1]])

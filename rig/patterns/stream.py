@@ -179,7 +179,7 @@ class DenseBase:
             np.empty(image.shape, bool),
             np.empty(image.shape, bool),
         )
-        threshold, counts = self.codec.params.black_threshold, []
+        threshold, counts = np.float32(self.codec.params.black_threshold), []  # as numpy compares float32
         in_row_strips(
             image.shape[0],
             lambda rows: counts.append(

@@ -1,0 +1,85 @@
+"""Ring edges in a camera image: where the edge pattern less its inverse changes sign between
+neighbouring pixels (rig.patterns.rings). Found in two steps, so that a stream can look for them
+as soon as the edge pair arrives: every sign change first (`Crossings.candidates`), then those
+whose two pixels read the same ring index (`within_zones`), once the index code has come."""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass
+
+import numpy as np
+
+
+@dataclass(frozen=True, eq=False)
+class Crossings:
+    """Sign changes of pattern - inverse between neighbouring camera pixels a and b (index arrays),
+    a fraction `t` of the way from a to b, with the step d(a) - d(b) and (once read) the ring index."""
+
+    a: tuple[np.ndarray, np.ndarray]
+    b: tuple[np.ndarray, np.ndarray]
+    t: np.ndarray
+    step: np.ndarray
+    ring: np.ndarray | None = None
+
+    @classmethod
+    def candidates(cls, edge: np.ndarray, min_contrast: float) -> Crossings:
+        """Every sign change of `edge` stepping by at least `min_contrast`, in row-major order of a,
+        vertical neighbours first; each from the pair of neighbours across the edge."""
+        gy, gx = np.gradient(edge)
+        steep = np.abs(gy) >= np.abs(gx)  # the edge crosses columns more than rows
+        parts = []
+        for axis in (0, 1):  # crossings between vertical, then horizontal neighbours
+            a = (slice(None, -1), slice(None)) if axis == 0 else (slice(None), slice(None, -1))
+            b = (slice(1, None), slice(None)) if axis == 0 else (slice(None), slice(1, None))
+            d1, d2 = edge[a], edge[b]
+            step = d1 - d2
+            # A sign change, counting 0 as positive: a pixel exactly on the ring (common in 8-bit
+            # captures) still yields its crossing, and each crossing is found once.
+            found = ((d1 >= 0) != (d2 >= 0)) & (np.abs(step) >= min_contrast)
+            # Search across the edge, not along it: each point once, from the better-conditioned pair.
+            found &= steep[a] if axis == 0 else ~steep[a]
+            rows, cols = np.nonzero(found)
+            t = d1[rows, cols] / step[rows, cols]
+            parts.append(((rows, cols), (rows + (axis == 0), cols + (axis == 1)), t, step[rows, cols]))
+        return cls(
+            (np.concatenate([p[0][0] for p in parts]), np.concatenate([p[0][1] for p in parts])),
+            (np.concatenate([p[1][0] for p in parts]), np.concatenate([p[1][1] for p in parts])),
+            np.concatenate([p[2] for p in parts]).astype(np.float64),
+            np.concatenate([p[3] for p in parts]),
+        )
+
+    def within_zones(self, zone: np.ndarray, zone_ok: np.ndarray) -> Crossings:
+        """The crossings whose two pixels read the same ring index, both readable (`zone_ok`)."""
+        keep = zone_ok[self.a] & zone_ok[self.b] & (zone[self.a] == zone[self.b])
+        return dataclasses.replace(self.select(keep), ring=zone[self.a][keep].astype(np.int64))
+
+    @property
+    def xy(self) -> np.ndarray:
+        """Sub-pixel camera positions (M, 2): x, y."""
+        return np.column_stack(
+            [self.a[1] + self.t * (self.b[1] - self.a[1]), self.a[0] + self.t * (self.b[0] - self.a[0])]
+        )
+
+    def between(self, *images: np.ndarray) -> tuple[np.ndarray, ...]:
+        """Each image interpolated at the crossings."""
+        return self.interpolate(*((image[self.a], image[self.b]) for image in images))
+
+    def interpolate(self, *at_ends: tuple[np.ndarray, np.ndarray]) -> tuple[np.ndarray, ...]:
+        """Values given at each crossing's two pixels (a, b), interpolated at the crossing."""
+        return tuple((1 - self.t) * at_a + self.t * at_b for at_a, at_b in at_ends)
+
+    def ramp(self, edge: np.ndarray, contrast: np.ndarray) -> np.ndarray:
+        """Half the step across each crossing of the edge pattern as a fraction of the white - black
+        `contrast` there (in [-1, 1] on each side)."""
+        a, b = (edge[end] / np.maximum(contrast[end], 1e-6) for end in (self.a, self.b))
+        return 0.5 * np.abs(a - b)
+
+    def select(self, keep: np.ndarray) -> Crossings:
+        return Crossings(
+            (self.a[0][keep], self.a[1][keep]),
+            (self.b[0][keep], self.b[1][keep]),
+            self.t[keep],
+            self.step[keep],
+            None if self.ring is None else self.ring[keep],
+        )
