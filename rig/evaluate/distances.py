@@ -10,6 +10,7 @@ from rig.rig import PixelTruth
 # Within this distance of the pixel's own true point the surface is treated as its tangent plane;
 # farther points are measured to the nearest true surface sample instead.
 LOCAL_MM = 2.0
+BLOCK_POINTS = 1 << 16
 
 
 def surface_distances(grid: np.ndarray, valid: np.ndarray, truth: PixelTruth) -> np.ndarray:
@@ -20,16 +21,17 @@ def surface_distances(grid: np.ndarray, valid: np.ndarray, truth: PixelTruth) ->
     seen by the camera, which overestimates by at most the sample spacing.
     """
     idx = np.flatnonzero(valid.ravel())
-    rec = grid.reshape(-1, 3)[idx]
-    true = truth.points.reshape(-1, 3)[idx]
-    normal = truth.normals.reshape(-1, 3)[idx]
-    offset = rec - true
-    has_truth = truth.hit.ravel()[idx]
-    local = has_truth & (np.linalg.norm(np.nan_to_num(offset, nan=np.inf), axis=1) <= LOCAL_MM)
-    dist = np.empty(len(idx))
-    dist[local] = np.abs(np.einsum("ij,ij->i", offset[local], normal[local]))
-    far = ~local
+    points, true_points, true_normals = grid.reshape(-1, 3), truth.points.reshape(-1, 3), truth.normals.reshape(-1, 3)
+    has_truth = truth.hit.ravel()
+    dist, far = np.empty(len(idx)), np.zeros(len(idx), bool)
+    for start in range(0, len(idx), BLOCK_POINTS):  # a block at a time: no (N, 3) copies of the cloud
+        part = slice(start, start + BLOCK_POINTS)
+        at = idx[part]
+        offset = points[at] - true_points[at]
+        local = has_truth[at] & (np.linalg.norm(np.nan_to_num(offset, nan=np.inf), axis=1) <= LOCAL_MM)
+        dist[part][local] = np.abs(np.einsum("ij,ij->i", offset[local], true_normals[at][local]))
+        far[part] = ~local
     if far.any():
-        samples = truth.points.reshape(-1, 3)[truth.hit.ravel()]
-        dist[far], _ = cKDTree(samples).query(rec[far])
+        samples = true_points[has_truth]
+        dist[far], _ = cKDTree(samples).query(points[idx[far]])
     return dist

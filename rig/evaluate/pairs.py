@@ -6,12 +6,13 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from rig.evaluate.colour import colour_metrics
+from rig.evaluate.distances import BLOCK_POINTS, surface_distances
 from rig.evaluate.distances import LOCAL_MM as _LOCAL_MM
-from rig.evaluate.distances import surface_distances
 from rig.evaluate.rings import ring_coverage_on_bench
 from rig.evaluate.surface import surface_metrics
 from rig.geometry import CameraModel
-from rig.pipeline.scan import PairResult, moved_pair
+from rig.pipeline.realign import moved_pair
+from rig.pipeline.scan import PairResult
 from rig.rig import GroundTruth, PixelTruth, Rig
 
 COMPLETE_WITHIN_MM = 1.0
@@ -39,7 +40,8 @@ def point_distances(pair: PairResult, truth: PixelTruth, source: GroundTruth | N
         if source is None:
             raise ValueError("measuring ring points needs the ground truth's ray casts")
         return ring_distances(pair, source, truth)
-    return surface_distances(pair.grid, np.isfinite(pair.grid).all(axis=2), truth)
+    grid = pair.grid  # built once: a fast-path pair makes it from its points
+    return surface_distances(grid, np.isfinite(grid).all(axis=2), truth)
 
 
 def ray_errors(pair: PairResult, truth: PixelTruth, source: GroundTruth | None = None) -> np.ndarray:
@@ -52,8 +54,13 @@ def ray_errors(pair: PairResult, truth: PixelTruth, source: GroundTruth | None =
         keep = pair.rings.kept
         true, _ = source.cast(pair.rings.origins[keep], pair.rings.directions[keep])
         return np.linalg.norm(pair.rings.points[keep] - true, axis=1)
-    idx = np.flatnonzero(np.isfinite(pair.grid).all(axis=2).ravel())
-    return np.linalg.norm(pair.grid.reshape(-1, 3)[idx] - truth.points.reshape(-1, 3)[idx], axis=1)
+    grid = pair.grid
+    idx = np.flatnonzero(np.isfinite(grid).all(axis=2).ravel())
+    points, true_points, out = grid.reshape(-1, 3), truth.points.reshape(-1, 3), np.empty(len(idx))
+    for start in range(0, len(idx), BLOCK_POINTS):  # a block at a time: no (N, 3) copies of the cloud
+        at = idx[start : start + BLOCK_POINTS]
+        out[start : start + BLOCK_POINTS] = np.linalg.norm(points[at] - true_points[at], axis=1)
+    return out
 
 
 def evaluate_pair(

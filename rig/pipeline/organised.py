@@ -45,17 +45,21 @@ class OrganisedCloud:
 
     def grid(self) -> np.ndarray:
         """World points (H, W, 3) float64, NaN where not valid (PairResult.grid)."""
-        return np.moveaxis(self.xyz, 0, -1).astype(np.float64) + self.origin
+        grid = np.moveaxis(self.xyz, 0, -1).astype(np.float64)
+        grid += self.origin  # in place: one (H, W, 3) array, not two
+        return grid
 
     def pointset(self, source: int) -> PointSet:
         idx = np.flatnonzero(self.valid.ravel())
+        points = self.xyz.reshape(3, -1)[:, idx].T.astype(np.float64)
+        points += self.origin
         return PointSet(
-            points=self.xyz.reshape(3, -1)[:, idx].T.astype(np.float64) + self.origin,
+            points=points,
             normals=np.ascontiguousarray(self.normals.reshape(3, -1)[:, idx].T),
             colors=self.colours.reshape(-1, 3)[idx],
             quality=self.quality.ravel()[idx].astype(np.float32),
             source=np.full(len(idx), source, dtype=np.uint8),
-            pixel=idx.astype(np.int64),
+            pixel=idx,
         )
 
 

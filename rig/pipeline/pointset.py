@@ -47,6 +47,9 @@ class PointSet:
 
     @staticmethod
     def concatenate(sets: list[PointSet]) -> PointSet:
+        """The sets one after another (a single set is returned itself, not copied)."""
         if not sets:
             return PointSet.empty()
+        if len(sets) == 1:
+            return sets[0]
         return PointSet(*(np.concatenate([getattr(s, f) for s in sets]) for f in PointSet.FIELDS))

@@ -14,12 +14,12 @@ from rig.patterns.stream import FrameStream, decode_streamed
 from rig.pipeline.capture import CUE, capture
 from rig.pipeline.colour import interpolate_colour, sample_colours
 from rig.pipeline.dense import PairTriangulator, pair_pointset, reject_isolated, texture_rgb
-from rig.pipeline.icp import AlignmentRefusedError, point_to_plane
 from rig.pipeline.merge import expected_error_mm, local_noise_mm, merge, triangulation_angles
 from rig.pipeline.mesh import Mesh, grid_mesh
 from rig.pipeline.organised import OrganisedCloud, fast_terms, organised_cloud
 from rig.pipeline.overlap import overlap_from_cue
 from rig.pipeline.pointset import PointSet
+from rig.pipeline.realign import align_pairs
 from rig.pipeline.rings import (
     RingPoints,
     across_ring_support,
@@ -40,12 +40,23 @@ class PairResult:
     projector: int
     camera: int
     correspondence: Correspondence
-    grid: np.ndarray  # (H, W, 3) organised points, NaN where none
+    stored_grid: np.ndarray | None  # (H, W, 3) organised points, NaN where none; None: from `points` (grid)
     points: PointSet
     rings: RingPoints | None = None  # sparse ring codecs: every triangulated sample, with diagnostics
     counts: dict[str, int] = field(default_factory=dict)
     ring_coverage: dict[str, object] | None = None  # sparse ring codecs: rig.pipeline.rings.ring_coverage
     surface: RingSurface | None = None  # sparse ring codecs: the surface interpolated between the rings
+
+    @property
+    def grid(self) -> np.ndarray:
+        """Organised points (H, W, 3) float64, NaN where none. A dense pair of the fast path keeps
+        only its PointSet (one point per pixel, by `pixel`) and builds this when asked, so that a
+        scan does not hold its points twice."""
+        if self.stored_grid is not None:
+            return self.stored_grid
+        grid = np.full((*self.correspondence.valid.shape, 3), np.nan)
+        grid.reshape(-1, 3)[self.points.pixel] = self.points.points
+        return grid
 
 
 @dataclass(eq=False)
@@ -109,7 +120,7 @@ def reconstruct_pair(
     if rings is not None:
         points, grid, valid = ring_pointset(rings, model, corr, source=source)
     elif fast is not None:
-        points, grid = cloud.pointset(source), cloud.grid()
+        points, grid = cloud.pointset(source), None
     else:
         points = pair_pointset(grid, valid, model, corr, source=source)
     angles = triangulation_angles(points.points, model, rig.projector_models[projector])
@@ -346,55 +357,3 @@ def overlap_masks(rig: Rig, frames: dict[tuple[int, int], list[np.ndarray]]) -> 
         for (p, c), images in frames.items()
         if p == CUE
     }
-
-
-def moved_pair(pair: PairResult, rotation: np.ndarray, shift: np.ndarray) -> PairResult:
-    """The pair's results moved rigidly by x -> rotation x + shift: grid, points, normals, rings."""
-
-    def move(points: np.ndarray) -> np.ndarray:
-        return points @ rotation.T + shift
-
-    rings = pair.rings
-    if rings is not None:
-        rings = dataclasses.replace(
-            rings,
-            points=move(rings.points),
-            other_root=move(rings.other_root),
-            origins=move(rings.origins),
-            directions=rings.directions @ rotation.T,
-        )
-    points = dataclasses.replace(
-        pair.points,
-        points=move(pair.points.points),
-        normals=(pair.points.normals @ rotation.T).astype(np.float32),
-    )
-    surface = pair.surface
-    if surface is not None:
-        surface = dataclasses.replace(
-            surface,
-            vertices=move(surface.vertices),
-            normals=surface.normals @ rotation.T,
-            grid=move(surface.grid),
-        )
-    return dataclasses.replace(pair, grid=move(pair.grid), rings=rings, points=points, surface=surface)
-
-
-def align_pairs(rig: Rig, pairs: list[PairResult], max_distance_mm: float) -> dict[str, object]:
-    """Realign every pair to those before it (the first stays) by point-to-plane ICP, replacing
-    the pairs in the list by their moved results. A pair whose overlap cannot fix the motion (too
-    small, flat, symmetric) stays as calibrated and the report says why."""
-    report: dict[str, object] = {}
-    for k in range(1, len(pairs)):
-        pair = pairs[k]
-        name = f"{rig.config.projectors[pair.projector].name}/{rig.config.cameras[pair.camera].name}"
-        reference = PointSet.concatenate([p.points for p in pairs[:k]])
-        try:
-            found = point_to_plane(
-                pair.points.points, pair.points.normals, reference.points, reference.normals, max_distance_mm
-            )
-        except AlignmentRefusedError as exc:
-            report[name] = f"left as calibrated: {exc}"
-            continue
-        pairs[k] = moved_pair(pair, found.rotation, found.translation)
-        report[name] = found.as_dict()
-    return report

@@ -8,13 +8,17 @@ import numpy as np
 from rig.geometry import CameraModel
 from rig.pipeline.pointset import PointSet
 
+BLOCK_ROWS = 64  # rows of a grid, or points of a cloud (x 1024), projected at a time: no copy of the whole
+
 
 def depth_png(grid: np.ndarray, camera: CameraModel) -> bytes:
     """16-bit PNG of camera-frame depth in millimetres (rounded), 0 = no point."""
-    valid = np.isfinite(grid).all(axis=2)
-    depth = np.full(valid.shape, np.nan, dtype=np.float32)
-    if valid.any():
-        _, depth[valid] = camera.project(grid[valid])
+    depth = np.full(grid.shape[:2], np.nan, dtype=np.float32)
+    for top in range(0, grid.shape[0], BLOCK_ROWS):
+        rows = grid[top : top + BLOCK_ROWS]
+        valid = np.isfinite(rows).all(axis=2)
+        if valid.any():
+            _, depth[top : top + BLOCK_ROWS][valid] = camera.project(rows[valid])
     return depth_image_png(depth)
 
 
@@ -35,18 +39,26 @@ def preview_png(cloud: PointSet, view: CameraModel, max_width: int = 960, own_co
     image = np.full((height, width, 3), 32, dtype=np.uint8)
     if len(cloud) == 0:
         return _png(image)
-    uv, z = view.project(cloud.points)
-    uv *= scale
-    col = np.rint(uv[:, 0]).astype(np.int64)
-    row = np.rint(uv[:, 1]).astype(np.int64)
-    inside = (z > 0) & (col >= 0) & (col < width) & (row >= 0) & (row < height)
-    order = np.flatnonzero(inside)[np.argsort(-z[inside])]  # far first, so near points win
     to_light = view.R.T @ np.array([-0.4, -0.6, -0.7])  # up-left of the viewer, toward it
     to_light /= np.linalg.norm(to_light)
-    shade = np.clip(cloud.normals.astype(np.float64) @ to_light, 0.0, 1.0)
-    intensity = 0.18 + 0.82 * shade
-    tint = cloud.colors.astype(np.float64) if own_colors else np.array([235, 225, 205], dtype=np.float64)  # plaster
-    colors = (intensity[:, None] * tint).astype(np.uint8)
+    n = len(cloud)
+    z, col, row = np.empty(n), np.empty(n, np.int32), np.empty(n, np.int32)
+    colors = np.empty((n, 3), np.uint8)
+    block = BLOCK_ROWS * 1024
+    for start in range(0, n, block):
+        part = slice(start, start + block)
+        uv, z[part] = view.project(cloud.points[part])
+        uv *= scale
+        # clipped to one pixel off the image before the cast, so that a far point cannot wrap into it
+        col[part] = np.clip(np.rint(uv[:, 0]), -1, width)
+        row[part] = np.clip(np.rint(uv[:, 1]), -1, height)
+        shade = np.clip(cloud.normals[part].astype(np.float64) @ to_light, 0.0, 1.0)
+        intensity = 0.18 + 0.82 * shade
+        plaster = np.array([235, 225, 205], dtype=np.float64)
+        tint = cloud.colors[part].astype(np.float64) if own_colors else plaster
+        colors[part] = (intensity[:, None] * tint).astype(np.uint8)
+    inside = (z > 0) & (col >= 0) & (col < width) & (row >= 0) & (row < height)
+    order = np.flatnonzero(inside)[np.argsort(-z[inside])]  # far first, so near points win
     image[row[order], col[order]] = colors[order]
     return _png(cv2.cvtColor(image, cv2.COLOR_RGB2BGR))
 

@@ -4,6 +4,8 @@ CloudCompare read (they keep the extra properties as scalar fields)."""
 
 from __future__ import annotations
 
+from collections.abc import Iterator
+
 import numpy as np
 
 from rig.errors import StoreError
@@ -28,21 +30,34 @@ _VERTEX = np.dtype(
 )
 
 
+PLY_CHUNK_POINTS = 1 << 16  # points converted at a time: a 2 MB buffer, not a copy of the cloud
+
+
 def ply_bytes(cloud: PointSet, comment: str = "slrig") -> bytes:
+    return b"".join(ply_chunks(cloud, comment))
+
+
+def ply_chunks(cloud: PointSet, comment: str = "slrig") -> Iterator[bytes]:
+    """The binary PLY of `cloud` in pieces: its header, then PLY_CHUNK_POINTS vertices at a time
+    (written to a file one by one, a large cloud never has a second copy in memory)."""
     n = len(cloud)
-    vertex = np.empty(n, dtype=_VERTEX)
-    for i, axis in enumerate("xyz"):
-        vertex[axis] = cloud.points[:, i]
-        vertex["n" + axis] = cloud.normals[:, i]
-    for i, channel in enumerate(("red", "green", "blue")):
-        vertex[channel] = cloud.colors[:, i]
-    vertex["quality"] = cloud.quality
-    vertex["source"] = cloud.source
-    vertex["angle"] = cloud.angle
     lines = ["ply", "format binary_little_endian 1.0", f"comment {comment}", f"element vertex {n}"]
     lines += [f"property {'float' if _VERTEX[name].kind == 'f' else 'uchar'} {name}" for name in _VERTEX.names]
     lines.append("end_header")
-    return ("\n".join(lines) + "\n").encode("ascii") + vertex.tobytes()
+    yield ("\n".join(lines) + "\n").encode("ascii")
+    vertex = np.empty(min(n, PLY_CHUNK_POINTS), dtype=_VERTEX)
+    for start in range(0, n, PLY_CHUNK_POINTS):
+        part = slice(start, min(n, start + PLY_CHUNK_POINTS))
+        out = vertex[: part.stop - part.start]
+        for i, axis in enumerate("xyz"):
+            out[axis] = cloud.points[part, i]
+            out["n" + axis] = cloud.normals[part, i]
+        for i, channel in enumerate(("red", "green", "blue")):
+            out[channel] = cloud.colors[part, i]
+        out["quality"] = cloud.quality[part]
+        out["source"] = cloud.source[part]
+        out["angle"] = cloud.angle[part]
+        yield out.tobytes()
 
 
 _MESH_VERTEX = np.dtype([("x", "<f4"), ("y", "<f4"), ("z", "<f4"), ("red", "u1"), ("green", "u1"), ("blue", "u1")])

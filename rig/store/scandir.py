@@ -26,7 +26,7 @@ from rig.pipeline.scan import PairResult, ScanResult
 from rig.rig import Rig
 from rig.store.atomic import fsync_dir, publish_folder, write_atomic
 from rig.store.images import depth_png, mask_png, preview_png
-from rig.store.ply import mesh_ply_bytes, ply_bytes
+from rig.store.ply import mesh_ply_bytes, ply_chunks
 
 DESCRIPTION_NAME = "patterns.yaml"  # beside kept frames: what they show, for `slrig reconstruct`
 
@@ -137,15 +137,18 @@ def _depth_grid(result: ScanResult, camera: int, surface: bool = False) -> np.nd
     """Organised points of a camera (or, with `surface`, of the surface interpolated between its
     rings), filled from each projector in turn (None: no pair has it)."""
     grid: np.ndarray | None = None
+    copied = False  # a pair's own grid is read, copied only when a second pair fills it in
     for pair in result.pairs:
         found = _pair_grid(pair, surface)
         if pair.camera != camera or found is None:
             continue
         if grid is None:
-            grid = found.copy()
-        else:
-            missing = ~np.isfinite(grid).all(axis=2)
-            grid[missing] = found[missing]
+            grid = found
+            continue
+        if not copied:
+            grid, copied = grid.copy(), True
+        missing = ~np.isfinite(grid).all(axis=2)
+        grid[missing] = found[missing]
     return grid
 
 
@@ -168,7 +171,7 @@ def write_scan(
             shutil.rmtree(partial)  # left by an interrupted write of this same id: incomplete
         partial.mkdir()
         files: dict[str, Any] = {"cloud": "cloud.ply", "preview": "preview.png", "depth": {}}
-        write_atomic(partial / "cloud.ply", ply_bytes(result.cloud, comment=f"slrig scan {scan_id}"))
+        write_atomic(partial / "cloud.ply", ply_chunks(result.cloud, comment=f"slrig scan {scan_id}"))
         for c, camera in enumerate(the_rig.config.cameras):
             grid = _depth_grid(result, c)
             if grid is None:  # scan.merge.pairs left this camera out
@@ -176,6 +179,7 @@ def write_scan(
             name = f"depth_{camera.name}.png"
             write_atomic(partial / name, depth_png(grid, the_rig.camera_models[c]))
             files["depth"][camera.name] = name
+            del grid  # a fast-path pair's grid is built for this image alone
         write_atomic(partial / "preview.png", preview_png(result.cloud, the_rig.camera_models[0]))
         if result.mesh is not None:
             files["surface"] = _write_surface(the_rig, result, partial, scan_id)
