@@ -61,12 +61,38 @@ RATE_HZ = 120.0  # a DLP LightCrafter 4500 showing 8-bit patterns
 
 # VmHWM, not ru_maxrss: Linux keeps ru_maxrss across fork and exec, so a child of this (large)
 # process would report the parent's size (1.3 GB against 0.9 measured alone)
+# A scan's memory: peak RSS of a whole `slrig scan` (VmHWM: ru_maxrss carries a large parent's size
+# across fork and exec); then, on one open rig as the daemon holds it, a scan after a first one, its
+# peak (VmHWM reset by writing 5 to clear_refs) less what the process held before it (the fixed
+# overhead: imports, numba's loops, the simulator and its ray casts, the pair's per-calibration terms).
 _PEAK_SNIPPET = """
 import json, sys
 from rig.cli import main
-code = main(["scan", "--codec", sys.argv[1], "--out", sys.argv[2], "--json"])
-peak_kb = next(int(line.split()[1]) for line in open("/proc/self/status") if line.startswith("VmHWM:"))
-print(json.dumps({"exit": code, "peak_rss_mb": peak_kb / 1024}))
+from rig.workers import release_free_memory
+def status_mb(key):
+    return next(int(line.split()[1]) for line in open("/proc/self/status") if line.startswith(key + ":")) / 1024
+code = main(["scan", "--codec", sys.argv[1], "--out", sys.argv[2] + "-first", "--json"])
+whole = status_mb("VmHWM")
+release_free_memory()
+fixed = status_mb("VmRSS")
+try:
+    with open("/proc/self/clear_refs", "w") as f:
+        f.write("5")
+except OSError:
+    fixed = None
+from pathlib import Path
+from rig.assembly import open_rig
+from rig.config import load_config
+from rig.service.tasks import scan_to_directory
+with open_rig(load_config().with_codec(sys.argv[1])) as rig:
+    scan_to_directory(rig, Path(sys.argv[2] + "-warm"), "warm")
+    release_free_memory()
+    fixed = status_mb("VmRSS") if fixed is not None else None
+    with open("/proc/self/clear_refs", "w") as f:
+        f.write("5")
+    scan_to_directory(rig, Path(sys.argv[2]), "measured")
+    second = status_mb("VmHWM")
+print(json.dumps({"exit": code, "peak_rss_mb": whole, "fixed_mb": fixed, "second_peak_mb": second}))
 """
 
 
@@ -247,7 +273,7 @@ def live(seconds: float = 5.0) -> dict[str, object]:
     return {"codec": codec.name, "steps": getattr(codec.params, "steps", None), **stats.as_dict()}
 
 
-def peak_memory(codec_name: str) -> float:
+def peak_memory(codec_name: str) -> dict[str, float | None]:
     with tempfile.TemporaryDirectory() as tmp:
         out = subprocess.run(
             [sys.executable, "-c", _PEAK_SNIPPET, codec_name, os.path.join(tmp, "scan")],
@@ -256,13 +282,27 @@ def peak_memory(codec_name: str) -> float:
             check=True,
             timeout=600,
         )
-    return round(json.loads(out.stdout.strip().splitlines()[-1])["peak_rss_mb"], 1)
+    measured = json.loads(out.stdout.strip().splitlines()[-1])
+    if measured["exit"]:
+        raise RuntimeError(f"slrig scan --codec {codec_name} failed: {out.stderr[-2000:]}")
+    peak, fixed = measured["peak_rss_mb"], measured["fixed_mb"]
+    return {
+        "scan_peak_rss_mb": round(peak, 1),
+        "fixed_overhead_mb": None if fixed is None else round(fixed, 1),
+        "per_scan_mb": None if fixed is None else round(measured["second_peak_mb"] - fixed, 1),
+    }
 
 
-def codec_row(name: str, bandwidth_gb_s: float) -> dict[str, float]:
+def codec_row(name: str, bandwidth_gb_s: float) -> dict[str, float | None]:
     row = reconstruction(name, bandwidth_gb_s=bandwidth_gb_s)
-    peak = peak_memory(name)
-    return {**row, "scan_peak_rss_mb": peak, "scan_peak_rss_over_frames": round(peak / row["frame_mb"], 1)}
+    memory = peak_memory(name)
+    per_scan = memory["per_scan_mb"]
+    return {
+        **row,
+        **memory,
+        "scan_peak_rss_over_frames": round(memory["scan_peak_rss_mb"] / row["frame_mb"], 1),  # type: ignore[operator]
+        "per_scan_over_frames": None if per_scan is None else round(per_scan / row["frame_mb"], 1),
+    }
 
 
 def main() -> None:
@@ -301,7 +341,9 @@ def readme_text(result: dict[str, Any]) -> str:
             c["pointset_ms"],
             c["surface_ms"] or "",
             c["scan_peak_rss_mb"],
-            c["scan_peak_rss_over_frames"],
+            c["fixed_overhead_mb"],
+            c["per_scan_mb"],
+            c["per_scan_over_frames"],
         ]
         for name, c in result["codecs"].items()
     ]  # type: ignore[union-attr]
@@ -317,8 +359,10 @@ def readme_text(result: dict[str, Any]) -> str:
             "triangulate + normals ms",
             "PointSet ms",
             "surface + colour between rings ms",
-            "whole scan peak RSS MB",
-            "peak RSS / frame bytes",
+            "`slrig scan` peak RSS MB",
+            "fixed overhead MB",
+            "a scan on an open rig MB",
+            "that / frame bytes",
         ],
         rows,
     )
@@ -331,6 +375,10 @@ def readme_text(result: dict[str, Any]) -> str:
         f"Recognition: the descriptor of the default 32-ring scan ({r['points']} points) in {r['describe_ms']} ms; "
         f"identification against {r['gallery_entries']} gallery entries (reading the gallery, scoring each) "
         f"in {r['identify_ms']} ms.\n\n"
+        "A scan's memory: the peak RSS of a whole `slrig scan`; then, on a rig kept open as the daemon keeps it, "
+        "what the process holds after a first scan (the fixed overhead: Python and its libraries, numba's "
+        "compiled loops, the simulator and its ray casts, each pair's per-calibration terms) and how far a "
+        "second scan raises the peak above it, also as a multiple of the bytes of the scan's frames.\n\n"
         f"The memory floor is the time to read a codec's frames once at this machine's copy bandwidth "
         f"({result['copy_bandwidth_gb_s']} GB/s, `np.copyto` of 256 MiB). "
         f"Measured on {result['cpus']} cores by `python bench/speed.py --readme`."
