@@ -117,7 +117,7 @@ def test_gray_bits_read_what_read_bits_reads() -> None:
             (rng.integers(0, 256, (9, 11), np.uint8), rng.integers(0, 256, (9, 11), np.uint8)) for _ in range(bits)
         ]
         value, strength = read_bits((p.astype(np.int32) - i for p, i in pairs), gray=True)
-        by_pairs, by_frames = GrayBits((9, 11), bits, np.dtype(np.uint8)), GrayBits((9, 11), bits, np.dtype(np.uint8))
+        by_pairs, by_frames = GrayBits(bits), GrayBits(bits)
         for pattern, inverse in pairs:
             by_pairs.add(pattern, inverse)
             by_frames.take(pattern)
@@ -134,6 +134,8 @@ def test_a_stream_refuses_other_sizes_and_counts() -> None:
     stream.add(frame)
     with pytest.raises(DecodeError, match="differ in size"):
         stream.add(np.zeros((41, 50), np.uint8))
+    with pytest.raises(DecodeError, match="differ in type"):
+        stream.add(np.zeros((40, 50), np.uint16))
     with pytest.raises(DecodeError, match=f"expected {codec.frame_count} frames, got 1"):
         stream.finish()
     for _ in range(codec.frame_count - 1):

@@ -45,7 +45,7 @@ def measure_response(rig: Rig, projector: int) -> tuple[np.ndarray, np.ndarray]:
         rig.all_dark()
     samples = []
     for c, frames in enumerate(captures):
-        full = float((1 << rig.config.cameras[c].bit_depth) - 1)
+        full = float(rig.config.cameras[c].full_scale)
         stack = np.stack([f if f.ndim == 2 else f.mean(axis=2) for f in frames]) / full
         black, white = stack[0], stack[-1]
         usable = (white - black > MIN_RANGE) & (white < MAX_WHITE)

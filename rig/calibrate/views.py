@@ -155,7 +155,7 @@ def _analyse(rig: Rig, board: Board, index: int, frames: dict[tuple[int | None, 
         if p is None or c not in view.camera:
             continue
         codec = calibration_codec(rig.projectors[p].resolution)
-        corr = codec.decode(images, (1 << rig.config.cameras[c].bit_depth) - 1)
+        corr = codec.decode(images, rig.config.cameras[c].full_scale)
         corners = projector_corners(corr, view.camera[c])
         if len(corners):
             view.projector[(p, c)] = corners

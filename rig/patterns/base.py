@@ -112,7 +112,7 @@ class NormalizedFrames(Sequence[np.ndarray]):
     def __getitem__(self, index: int | slice) -> np.ndarray | NormalizedFrames:
         if isinstance(index, slice):
             return NormalizedFrames(self._frames[index], self._full_scale)
-        return luminance(self._frames[index]).astype(np.float32) * np.float32(1.0 / self._full_scale)
+        return fraction(luminance(self._frames[index]), self._full_scale)
 
     def difference(self, first: int, second: int) -> np.ndarray:
         """Frame `first` less frame `second` in fractions of full scale, from their integer

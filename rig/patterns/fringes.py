@@ -6,7 +6,7 @@ import math
 
 import numpy as np
 
-from rig.patterns.base import NormalizedFrames
+from rig.patterns.base import NormalizedFrames, fraction
 
 
 def fringe_images(phase: np.ndarray, steps: int) -> list[np.ndarray]:
@@ -17,10 +17,16 @@ def fringe_images(phase: np.ndarray, steps: int) -> list[np.ndarray]:
 def phase_sums(frames: NormalizedFrames, first: int, steps: int) -> tuple[np.ndarray, np.ndarray]:
     """S = sum I_n sin(d_n) and C = sum I_n cos(d_n) of `steps` frames from index `first`
     (d_n = 2 pi n / steps): the phase is atan2(S, C), the modulation (2 / steps) |(S, C)|."""
+    sums = summed(frames, first, steps)
+    return sums.s, sums.c
+
+
+def summed(frames: NormalizedFrames, first: int, steps: int) -> RunningSums:
+    """`steps` frames from index `first` added into running sums, all at once."""
     sums = RunningSums(steps)
     for n in range(steps):
         sums.add(frames[first + n])
-    return sums.s, sums.c
+    return sums
 
 
 class RunningSums:
@@ -69,7 +75,7 @@ class PointSums(RunningSums):
     def values_in(self, counts: np.ndarray, full_scale: int) -> np.ndarray:
         """An integer frame's values at `pixels` in fractions of full scale, as NormalizedFrames
         converts them."""
-        return counts[self.pixels].astype(np.float32) * np.float32(1.0 / full_scale)
+        return fraction(counts[self.pixels], full_scale)
 
     def at_ends(self) -> tuple[tuple[np.ndarray, np.ndarray], tuple[np.ndarray, np.ndarray]]:
         """S and C, each split into its first and second half of the pixels (a crossing's two ends)."""

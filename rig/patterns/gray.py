@@ -77,9 +77,9 @@ class GrayStream(FrameStream):
 
     def __init__(self, codec: GrayCodec, full_scale: int) -> None:
         super().__init__(codec, full_scale)
-        self._axes = [(axis, codec.extent(axis), bit_count(codec.extent(axis))) for axis in codec.axes()]
+        # the axes still to read, in order, each with its extent and the reader of its code
+        self._pending = [(axis, codec.extent(axis), GrayBits(bit_count(codec.extent(axis)))) for axis in codec.axes()]
         self._min_strength = least_counts(codec.params.white_threshold, full_scale)
-        self._reader: GrayBits | None = None
         self._base = DenseBase(codec, full_scale)
         self._coords: dict[str, np.ndarray] = {}
 
@@ -87,12 +87,10 @@ class GrayStream(FrameStream):
         image = self._base.coded_frame(index, frame)
         if image is None:
             return
-        axis, extent, bits = self._axes[len(self._coords)]
-        if self._reader is None:
-            self._reader = GrayBits(image.shape[:2], bits, image.dtype)
-        if self._reader.take(image):
-            self._coords[axis] = self._base.accept(self._reader, extent, self._min_strength, f"weak_bits_{axis}")
-            self._reader = None
+        axis, extent, reader = self._pending[0]
+        if reader.take(image):
+            self._coords[axis] = self._base.accept(reader, extent, self._min_strength, f"weak_bits_{axis}")
+            self._pending.pop(0)  # its images go with it
 
     def _finish(self) -> Correspondence:
         return self._base.correspondence(self._coords, self._base.contrast())

@@ -19,7 +19,6 @@ import numpy as np
 from pydantic import Field, field_validator
 
 from rig import fused_phase
-from rig.errors import DecodeError
 from rig.patterns.base import Correspondence, NormalizedFrames, even_period, least_counts
 from rig.patterns.graycode import bit_count, decode_gray, gray_planes, planes_with_inverses
 from rig.patterns.lines import LineCodec, LineParams
@@ -144,7 +143,7 @@ class PhaseStream(FrameStream):
         delta = 2 * np.pi * np.arange(steps) / steps
         self._weight_sin = (np.sin(delta) / full_scale).astype(np.float32)
         self._weight_cos = (np.cos(delta) / full_scale).astype(np.float32)
-        self._schedule = [(axis, steps, codec._gray_bits(axis)) for axis in codec.axes()]
+        self._pending = [(axis, GrayBits(codec._gray_bits(axis))) for axis in codec.axes()]  # axes still to read
         self._min_strength = least_counts(codec.params.white_threshold, full_scale)
         self._base = DenseBase(codec, full_scale, keep_contrast=False)
         self._coords: dict[str, np.ndarray] = {}
@@ -154,24 +153,19 @@ class PhaseStream(FrameStream):
     def _reset_axis(self) -> None:
         self._steps: list[np.ndarray] = []  # the current period's steps, until its last one
         self._wrapped: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None  # fraction, near a wrap, modulation
-        self._reader: GrayBits | None = None
 
     def _consume(self, index: int, frame: np.ndarray) -> None:
         image = self._base.coded_frame(index, frame)
         if image is None:
             return
-        axis, steps, bits = self._schedule[len(self._coords)]
+        axis, reader = self._pending[0]
         if self._wrapped is None:
-            if self._steps and image.dtype != self._steps[0].dtype:
-                raise DecodeError(f"{self.codec.name}: frames differ in type: {self._steps[0].dtype}, {image.dtype}")
             self._steps.append(np.ascontiguousarray(image))
-            if len(self._steps) == steps:
+            if len(self._steps) == self.codec.params.steps:
                 self._wrap()
-            return
-        if self._reader is None:
-            self._reader = GrayBits(image.shape[:2], bits, image.dtype)
-        if self._reader.take(image):
-            self._coords[axis] = self._unwrap(axis)
+        elif reader.take(image):
+            self._coords[axis] = self._unwrap(axis, reader)
+            self._pending.pop(0)
             self._reset_axis()
 
     def _wrap(self) -> None:
@@ -191,10 +185,10 @@ class PhaseStream(FrameStream):
         )
         self._wrapped = (fraction, near, modulation)
 
-    def _unwrap(self, axis: str) -> np.ndarray:
-        assert self._wrapped is not None and self._reader is not None
+    def _unwrap(self, axis: str, reader: GrayBits) -> np.ndarray:
+        assert self._wrapped is not None
         fraction, near, modulation = self._wrapped
-        half, strength = self._reader.value(), self._reader.strength()
+        half, strength = reader.value(), reader.strength()
         params, base = self.codec.params, self._base
         assert base.lit is not None and base.valid is not None
         lit, valid = base.lit, base.valid

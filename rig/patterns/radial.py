@@ -21,9 +21,17 @@ import math
 import numpy as np
 from pydantic import Field, field_validator
 
-from rig.patterns.base import CodecParams, Correspondence, NormalizedFrames, PixelCoord, even_period, least_counts
+from rig.patterns.base import (
+    CodecParams,
+    Correspondence,
+    NormalizedFrames,
+    PixelCoord,
+    even_period,
+    fraction,
+    least_counts,
+)
 from rig.patterns.circular import CircularCodec
-from rig.patterns.fringes import RunningSums, fringe_images
+from rig.patterns.fringes import RunningSums, fringe_images, summed
 from rig.patterns.graycode import bit_count, decode_gray, gray_planes, planes_with_inverses
 from rig.patterns.registry import register
 from rig.patterns.stream import DenseBase, FrameStream, GrayBits
@@ -103,19 +111,13 @@ class RadialCodec(CircularCodec):
         self, frames: NormalizedFrames, white: np.ndarray, black: np.ndarray, lit: np.ndarray, texture: np.ndarray
     ) -> Correspondence:
         p = self.params
-        radial = RunningSums(p.steps)
-        for n in range(p.steps):
-            radial.add(frames[n])
         bits = self._gray_bits()
         half, strength = decode_gray(frames[p.steps : p.steps + 2 * bits], bits)
-        decoding = RadialDecoding(self, lit, radial, half, strength >= p.white_threshold)
+        decoding = RadialDecoding(self, lit, summed(frames, 0, p.steps), half, strength >= p.white_threshold)
         first = p.steps + 2 * bits
         for periods, steps in self._angular_levels():
-            level = RunningSums(steps)
-            for n in range(steps):
-                level.add(frames[first + n])
+            decoding.add_level(periods, summed(frames, first, steps))
             first += steps
-            decoding.add_level(periods, level)
         return decoding.correspondence(texture)
 
     def stream(self, full_scale: int) -> FrameStream:
@@ -196,12 +198,10 @@ class RadialStream(FrameStream):
         super().__init__(codec, full_scale)
         p = codec.params
         self._base = DenseBase(codec, full_scale, keep_contrast=False)
-        self._scale = np.float32(1.0 / full_scale)
-        self._bits = codec._gray_bits()
         self._levels = list(codec._angular_levels())
         self._min_strength = least_counts(p.white_threshold, full_scale)
         self._sums = RunningSums(p.steps)
-        self._reader: GrayBits | None = None
+        self._reader = GrayBits(codec._gray_bits())
         self._decoding: RadialDecoding | None = None
 
     def _consume(self, index: int, frame: np.ndarray) -> None:
@@ -209,8 +209,6 @@ class RadialStream(FrameStream):
         if image is None:
             return
         if self._decoding is None and self._sums.done:  # the radial phase's Gray code
-            if self._reader is None:
-                self._reader = GrayBits(image.shape[:2], self._bits, image.dtype)
             if self._reader.take(image):
                 lit, reader = self._base.lit, self._reader
                 assert lit is not None
@@ -220,7 +218,7 @@ class RadialStream(FrameStream):
                 )
                 self._sums = RunningSums(self._levels[0][1])
             return
-        self._sums.add(image.astype(np.float32) * self._scale)  # as NormalizedFrames converts it
+        self._sums.add(fraction(image, self.full_scale))  # as NormalizedFrames converts it
         if self._sums.done and self._decoding is not None:
             periods, _ = self._levels.pop(0)
             self._decoding.add_level(periods, self._sums)

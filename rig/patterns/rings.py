@@ -198,13 +198,14 @@ class RingsCodec(CircularCodec):
         zone, strength = decode_gray(frames[2 : 2 + 2 * bits], bits)
         first = 2 + 2 * bits
         coarse = phase_sums(frames, first, p.angle_steps)  # at the crossings, and everywhere for _bands
-        found = self.locate(candidates, edge, white - black, zone, strength >= p.min_edge_contrast * 0.5, lit, coarse)
+        contrast = white - black
+        found = self.locate(candidates, edge, contrast, zone, strength >= p.min_edge_contrast * 0.5, lit, coarse)
         fine = None
         if self.fine_periods is not None:
             fine = PointSums(found.ends, p.tangential_steps)
             for n in range(p.tangential_steps):
                 fine.add(frames[first + p.angle_steps + n][fine.pixels])
-        return self.correspondence(found, fine, white - black, lit, texture)
+        return self.correspondence(found, fine, contrast, lit, texture)
 
     def locate(
         self,

@@ -32,14 +32,14 @@ class RingsStream(FrameStream):
         super().__init__(codec, full_scale)
         p = codec.params
         self._base = DenseBase(codec, full_scale)
-        self._bits = codec._zone_bits()
-        self._coarse_from = 2 + 2 * self._bits  # coded frames before the coarse angle's first step
+        bits = codec._zone_bits()
+        self._coarse_from = 2 + 2 * bits  # coded frames before the coarse angle's first step
         self._fine_from = self._coarse_from + p.angle_steps
         self._min_zone_counts = least_counts(p.min_edge_contrast * 0.5, full_scale)
         self._held: list[np.ndarray] = []  # the edge pattern, then the coarse angle's steps
         self._edge: np.ndarray | None = None
         self._candidates: Crossings | None = None
-        self._reader: GrayBits | None = None
+        self._reader: GrayBits | None = GrayBits(bits)
         self._found: RingPoints | None = None
         self._fine: PointSums | None = None
 
@@ -53,8 +53,7 @@ class RingsStream(FrameStream):
             if coded == 1:
                 self._edge_pair()
         elif coded < self._coarse_from:
-            if self._reader is None:
-                self._reader = GrayBits(image.shape[:2], self._bits, image.dtype)
+            assert self._reader is not None
             self._reader.take(image)
         elif coded < self._fine_from:
             self._held.append(image)

@@ -27,13 +27,14 @@ if TYPE_CHECKING:
 class FrameStream(abc.ABC):
     """One (projector, camera) pair's frames decoded as they arrive: `add` each frame in pattern
     order, then `finish` for the Correspondence. Raises DecodeError for a frame too many, too few,
-    or of another size than the first."""
+    or of another size or sample type than the first."""
 
     def __init__(self, codec: Codec, full_scale: int) -> None:
         self.codec = codec
         self.full_scale = full_scale
         self.added = 0
         self.shape: tuple[int, int] | None = None
+        self.dtype: np.dtype | None = None
 
     def add(self, frame: np.ndarray) -> None:
         expected = self.codec.frame_count
@@ -41,9 +42,11 @@ class FrameStream(abc.ABC):
             raise DecodeError(f"{self.codec.name}: expected {expected} frames, got more")
         size = (int(frame.shape[0]), int(frame.shape[1]))
         if self.shape is None:
-            self.shape = size
+            self.shape, self.dtype = size, frame.dtype
         elif size != self.shape:
             raise DecodeError(f"{self.codec.name}: frames differ in size: {sorted({self.shape, size})}")
+        elif frame.dtype != self.dtype:
+            raise DecodeError(f"{self.codec.name}: frames differ in type: {self.dtype}, {frame.dtype}")
         self._consume(self.added, frame)
         self.added += 1
 
@@ -99,18 +102,18 @@ class GrayBits:
     writes only the value and the two weakest strengths.
 
     Gives what rig.patterns.graycode.read_bits gives: the binary value, and the second-smallest
-    |pattern - inverse| over the bits (in counts)."""
+    |pattern - inverse| over the bits (in counts). Its images are made when the first pair comes,
+    in the frames' size and type."""
 
-    def __init__(self, shape: tuple[int, int], bits: int, dtype: np.dtype) -> None:
+    def __init__(self, bits: int) -> None:
         if not 1 <= bits <= 16:
             raise ValueError(f"1 to 16 bits, got {bits}")
         self.bits = bits
         self.read = 0
         self._held: np.ndarray | None = None  # a pattern waiting for its inverse
-        self._value = np.zeros(shape, np.uint16)
-        top = np.iinfo(dtype).max
-        self._weakest = np.full(shape, top, dtype)
-        self._second = np.full(shape, top, dtype)
+        self._value: np.ndarray | None = None
+        self._weakest: np.ndarray | None = None
+        self._second: np.ndarray | None = None
 
     def take(self, image: np.ndarray) -> bool:
         """The next frame of the code: a pattern is held until its inverse comes and the pair is
@@ -126,6 +129,10 @@ class GrayBits:
         if self.read >= self.bits:
             raise ValueError("every bit has been read")
         shift = self.bits - 1 - self.read
+        if self._value is None:
+            shape, top = pattern.shape[:2], np.iinfo(pattern.dtype).max
+            self._value = np.zeros(shape, np.uint16)
+            self._weakest, self._second = np.full(shape, top, pattern.dtype), np.full(shape, top, pattern.dtype)
         value, weakest, second = self._value, self._weakest, self._second
         in_row_strips(
             value.shape[0],
@@ -135,10 +142,12 @@ class GrayBits:
 
     def value(self) -> np.ndarray:
         """The binary value (uint16)."""
+        assert self._value is not None, "no pair read"
         return self._value
 
     def strength(self) -> np.ndarray:
         """The second-smallest |pattern - inverse| over the bits, in counts (the frames' type)."""
+        assert self._second is not None, "no pair read"
         return self._second
 
 

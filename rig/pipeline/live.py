@@ -124,7 +124,7 @@ def run_live(
 
 def live_sequence(rig: Rig, codecs: list[Codec], sequence: int) -> LiveFrame:
     """Show the sequence once, decoding as frames arrive; triangulate every pair."""
-    full_scale = [(1 << camera.bit_depth) - 1 for camera in rig.config.cameras]
+    full_scale = [camera.full_scale for camera in rig.config.cameras]
     pairs = [(p, c) for p in range(len(codecs)) for c in range(len(rig.cameras)) if is_reconstructed(rig, (p, c))]
     streams = {(p, c): codecs[p].stream(full_scale[c]) for p, c in pairs}
     arrived = [0.0]

@@ -207,7 +207,7 @@ def run_scan(
     name = codec_name or rig.config.scan.codec
     codecs = [make_codec(rig, p, name) for p in range(len(rig.config.projectors))]
     streams = {
-        (p, c): codecs[p].stream((1 << rig.config.cameras[c].bit_depth) - 1)
+        (p, c): codecs[p].stream(rig.config.cameras[c].full_scale)
         for p in range(len(codecs))
         for c in range(len(rig.cameras))
         if is_reconstructed(rig, (p, c))
@@ -296,7 +296,7 @@ def _decoded(
     streamed now."""
     try:
         if stream is None:
-            return decode_streamed(codec, frames, (1 << rig.config.cameras[camera].bit_depth) - 1)
+            return decode_streamed(codec, frames, rig.config.cameras[camera].full_scale)
         return stream.finish()
     except DecodeError as exc:  # the frames the devices delivered do not fit: a failed scan
         raise ScanError(f"{rig.config.cameras[camera].name}: {exc}") from exc
@@ -353,7 +353,7 @@ def overlap_masks(rig: Rig, frames: dict[tuple[int, int], list[np.ndarray]]) -> 
     """Per camera, the pixels the intensity cue finds lit by several projectors."""
     ratio = rig.config.scan.merge.cue_ratio
     return {
-        c: overlap_from_cue(images, (1 << rig.config.cameras[c].bit_depth) - 1, ratio)
+        c: overlap_from_cue(images, rig.config.cameras[c].full_scale, ratio)
         for (p, c), images in frames.items()
         if p == CUE
     }
