@@ -60,6 +60,10 @@ class PixelTruth(Protocol):
     albedo: np.ndarray  # (H, W, 3) linear RGB of the surface seen (0 where no hit)
     white_irradiance: np.ndarray  # (H, W) light on the surface under the projector's white frame
 
+    def nearest_distance(self, points: np.ndarray) -> np.ndarray:
+        """(N,) distance (mm) of each point (N, 3) to the nearest true surface point the camera sees."""
+        ...
+
 
 class GroundTruth(Protocol):
     """What the scene really is: the devices' true geometry, per-pixel truth, and ray casts."""

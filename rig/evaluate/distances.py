@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import numpy as np
-from scipy.spatial import cKDTree
 
 from rig.rig import PixelTruth
 
@@ -32,6 +31,5 @@ def surface_distances(grid: np.ndarray, valid: np.ndarray, truth: PixelTruth) ->
         dist[part][local] = np.abs(np.einsum("ij,ij->i", offset[local], true_normals[at][local]))
         far[part] = ~local
     if far.any():
-        samples = true_points[has_truth]
-        dist[far], _ = cKDTree(samples).query(points[idx[far]])
+        dist[far] = truth.nearest_distance(points[idx[far]])
     return dist

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import numpy as np
-from scipy.spatial import cKDTree
 
 from rig.evaluate.colour import colour_metrics
 from rig.evaluate.distances import BLOCK_POINTS, surface_distances
@@ -29,8 +28,7 @@ def ring_distances(pair: PairResult, source: GroundTruth, truth: PixelTruth) -> 
     dist = np.empty(len(rec))
     dist[local] = np.abs(np.einsum("ij,ij->i", offset[local], normal[local]))
     if (~local).any():
-        samples = truth.points.reshape(-1, 3)[truth.hit.ravel()]
-        dist[~local], _ = cKDTree(samples).query(rec[~local])
+        dist[~local] = truth.nearest_distance(rec[~local])
     return dist
 
 
