@@ -36,31 +36,31 @@ def preview_png(cloud: PointSet, view: CameraModel, max_width: int = 960, own_co
     white, or the points' own colours."""
     scale = min(1.0, max_width / view.width)
     width, height = int(view.width * scale), int(view.height * scale)
-    image = np.full((height, width, 3), 32, dtype=np.uint8)
-    if len(cloud) == 0:
-        return _png(image)
+    image = np.full((height * width, 3), 32, dtype=np.uint8)
+    nearest = np.full(height * width, np.inf)  # the z-buffer: a block of points at a time, no sort of the whole
     to_light = view.R.T @ np.array([-0.4, -0.6, -0.7])  # up-left of the viewer, toward it
     to_light /= np.linalg.norm(to_light)
-    n = len(cloud)
-    z, col, row = np.empty(n), np.empty(n, np.int32), np.empty(n, np.int32)
-    colors = np.empty((n, 3), np.uint8)
+    plaster = np.array([235, 225, 205], dtype=np.float64)
     block = BLOCK_ROWS * 1024
-    for start in range(0, n, block):
+    for start in range(0, len(cloud), block):
         part = slice(start, start + block)
-        uv, z[part] = view.project(cloud.points[part])
+        uv, z = view.project(cloud.points[part])
         uv *= scale
         # clipped to one pixel off the image before the cast, so that a far point cannot wrap into it
-        col[part] = np.clip(np.rint(uv[:, 0]), -1, width)
-        row[part] = np.clip(np.rint(uv[:, 1]), -1, height)
-        shade = np.clip(cloud.normals[part].astype(np.float64) @ to_light, 0.0, 1.0)
-        intensity = 0.18 + 0.82 * shade
-        plaster = np.array([235, 225, 205], dtype=np.float64)
-        tint = cloud.colors[part].astype(np.float64) if own_colors else plaster
-        colors[part] = (intensity[:, None] * tint).astype(np.uint8)
-    inside = (z > 0) & (col >= 0) & (col < width) & (row >= 0) & (row < height)
-    order = np.flatnonzero(inside)[np.argsort(-z[inside])]  # far first, so near points win
-    image[row[order], col[order]] = colors[order]
-    return _png(cv2.cvtColor(image, cv2.COLOR_RGB2BGR))
+        col = np.clip(np.rint(uv[:, 0]), -1, width).astype(np.int64)
+        row = np.clip(np.rint(uv[:, 1]), -1, height).astype(np.int64)
+        inside = np.flatnonzero((z > 0) & (col >= 0) & (col < width) & (row >= 0) & (row < height))
+        pixel = row[inside] * width + col[inside]
+        nearer = z[inside] <= nearest[pixel]
+        inside, pixel = inside[nearer], pixel[nearer]
+        # far first, so that of a pixel's points the nearest is written last (at equal depth the last in the cloud)
+        order = np.argsort(-z[inside], kind="stable")
+        inside, pixel = inside[order], pixel[order]
+        nearest[pixel] = z[inside]
+        shade = np.clip(cloud.normals[part][inside].astype(np.float64) @ to_light, 0.0, 1.0)
+        tint = cloud.colors[part][inside].astype(np.float64) if own_colors else plaster
+        image[pixel] = ((0.18 + 0.82 * shade)[:, None] * tint).astype(np.uint8)
+    return _png(cv2.cvtColor(image.reshape(height, width, 3), cv2.COLOR_RGB2BGR))
 
 
 def _png(image: np.ndarray) -> bytes:
