@@ -73,10 +73,11 @@ def cases(identities: int) -> list[Case]:
     return found
 
 
-def face_config(case: Case, folder: Path, rings: int | None) -> Any:
-    """The default bench with the face on its plane (and `rings` evenly spaced rings when given)."""
+def face_config(case: Case, folder: Path, rings: int | None, bench: Path | None = None) -> Any:
+    """The bench (`bench`, a rig config; default: the default bench) with the face on its plane
+    (and `rings` evenly spaced rings when given)."""
     path = case.face().write_ply(folder / f"{case.name}.ply")
-    data = load_config().model_dump(mode="json")
+    data = load_config(bench).model_dump(mode="json")
     data["simulation"]["scene"] = {"kind": "mesh", "path": str(path), "position_mm": list(case.position_mm())}
     if rings is not None:
         data["scan"]["codec"] = "rings"
@@ -84,15 +85,15 @@ def face_config(case: Case, folder: Path, rings: int | None) -> Any:
     return config_from_dict(data, case.name)
 
 
-def scan(case: Case, rings: int, cache: Path) -> FaceScan:
-    """The face of `case` scanned with `rings` rings (from the cache where it is there)."""
-    stored = cache / f"{case.name}-{rings}rings.npz"
+def scan(case: Case, rings: int, cache: Path, bench: Path | None = None) -> FaceScan:
+    """The face of `case` scanned with `rings` rings on `bench` (from the cache where it is there)."""
+    stored = cache / f"{bench.stem if bench else 'sim'}-{case.name}-{rings}rings.npz"
     if stored.exists():
         with np.load(stored) as kept:
             return FaceScan(case, rings, kept["points"].astype(float), kept["toward_viewer"], float(kept["seconds"]))
     with tempfile.TemporaryDirectory() as folder:
         t0 = time.perf_counter()
-        with open_rig(face_config(case, Path(folder), rings)) as rig:
+        with open_rig(face_config(case, Path(folder), rings, bench)) as rig:
             result = run_scan(rig, "rings")
             parts = [result.cloud.points] + ([result.mesh.vertices] if result.mesh is not None else [])
             axis = -np.asarray(rig.projector_models[0].axis, float)

@@ -129,9 +129,9 @@ def evaluate(score: np.ndarray, cases: list[_face_scans.Case], gallery: list[int
     }
 
 
-def measure_count(cases: list[_face_scans.Case], rings: int, cache: Path) -> dict[str, Any]:
+def measure_count(cases: list[_face_scans.Case], rings: int, cache: Path, bench: Path | None = None) -> dict[str, Any]:
     t0 = time.perf_counter()
-    scans = [_face_scans.scan(c, rings, cache) for c in cases]
+    scans = [_face_scans.scan(c, rings, cache, bench) for c in cases]
     scan_s = time.perf_counter() - t0
     gallery = [i for i, c in enumerate(cases) if c.group == "gallery"]
     probes = [i for i, c in enumerate(cases) if c.group != "gallery"]
@@ -194,6 +194,7 @@ def main() -> None:
     parser.add_argument("--identities", type=int, default=10)
     parser.add_argument("--counts", default=",".join(str(c) for c in COUNTS), help="comma-separated ring counts")
     parser.add_argument("--cache", type=Path, help="keep the face scans here (default: a temporary directory)")
+    parser.add_argument("--bench", type=Path, help="the rig config to set the faces on (default: the default bench)")
     args = parser.parse_args()
     counts = sorted({int(c) for c in args.counts.split(",") if c})
     main_count = MAIN_COUNT if MAIN_COUNT in counts else counts[-1]
@@ -202,7 +203,7 @@ def main() -> None:
     with tempfile.TemporaryDirectory() as scratch:
         cache = args.cache or Path(scratch)
         planned = _face_scans.planned_rings(cases[0])
-        measured = [measure_count(cases, n, cache) for n in counts]
+        measured = [measure_count(cases, n, cache, args.bench) for n in counts]
     features = next(m.pop("_features") for m in measured if m["rings"] == main_count)
     for m in measured:
         m.pop("_features", None)

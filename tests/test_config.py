@@ -7,6 +7,7 @@ from pathlib import Path
 import pytest
 
 from rig.config import load_config
+from rig.config.loading import REPO_CONFIG_DIR
 from rig.errors import ConfigError
 from tests.conftest import default_config_data, write_config
 
@@ -24,6 +25,14 @@ def _problems(tmp_path: Path, data: dict) -> list[str]:  # type: ignore[type-arg
     with pytest.raises(ConfigError) as info:
         load_config(write_config(tmp_path, data))
     return info.value.problems
+
+
+@pytest.mark.parametrize("name", sorted(p.name for p in REPO_CONFIG_DIR.glob("*.yaml")))
+def test_every_shipped_config_loads_and_its_mesh_is_there(name: str) -> None:
+    config = load_config(REPO_CONFIG_DIR / name)
+    scene = config.simulation.scene if config.simulation is not None else None
+    if scene is not None and scene.kind == "mesh":
+        assert scene.path.is_file()
 
 
 def test_every_error_is_listed_with_its_field(tmp_path: Path) -> None:

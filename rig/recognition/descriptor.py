@@ -29,7 +29,9 @@ from rig.recognition.geodesic import HeightField, fill_holes, geodesic_distances
 MAX_MISSING = 0.05  # the fraction of ring samples that may fall in holes (filled along the ring)
 _APEX_SUPPORT = 8  # the apex is the nearest point to the viewer with this many points within ...
 _APEX_RADIUS_MM = 1.5  # ... this distance: a lone outlier is not an apex
-FRAME_ITERATIONS = 6  # the balanced frame's axis settles within 0.1 deg in 3 to 4 on faces
+FRAME_ITERATIONS = 12  # steps toward the balanced frame's axis at most (3 to 6 on faces)
+_FRAME_SETTLED_DEG = 0.05  # the rings' slope at which the frame is balanced
+_FRAME_MAX_STEP_DEG = 5.0  # the largest tilt of one step
 FRAME_CELL_MM = 2.0  # the balanced frame's rings are sampled on a coarser field
 _APEX_REACH_MM = 15.0  # a re-centred apex stays on the feature it started on
 
@@ -127,29 +129,58 @@ def balanced_frame(
 ) -> tuple[np.ndarray, np.ndarray]:
     """The reference point and axis a small tilt of the object does not change: the axis about
     which the surface's heights on the rings have no first harmonic (a tilt adds r tan(t) cos(a)
-    to them: a plane fitted to the ring samples), the apex along it near where it was; repeated
-    until the axis settles."""
-    for _ in range(FRAME_ITERATIONS):
-        field = height_field(points, reference, axis, settings.outer_mm + FRAME_CELL_MM, FRAME_CELL_MM)
-        on_rings = ring_points(field, reference, settings).reshape(-1, 3)
-        on_rings = on_rings[np.isfinite(on_rings[:, 0])]
-        if len(on_rings) < 3 * settings.rings:
-            raise RecognitionError(
-                f"too little surface around the reference point: {len(on_rings)} ring samples "
-                f"within {settings.outer_mm:g} mm"
-            )
-        local = (on_rings - reference) @ field.axes.T
-        design = np.column_stack([np.ones(len(local)), local[:, :2]])
-        _, slope_u, slope_v = np.linalg.lstsq(design, local[:, 2], rcond=None)[0]
-        tilted = field.axes[2] - slope_u * field.axes[0] - slope_v * field.axes[1]
-        tilted /= np.linalg.norm(tilted)
-        settled = tilted @ axis > np.cos(np.radians(0.1))
-        axis = tilted
-        near = np.linalg.norm(np.cross(points - reference, axis), axis=1) <= _APEX_REACH_MM
-        reference = apex(points[near], axis)
-        if settled:
+    to them: a plane fitted to the ring samples), with the apex along it near where it was.
+
+    The balancing tilt is the root of the rings' slope as a function of the tilt. Tilting by the
+    slope itself (the fixed-point step) assumes the slope falls one for one with the tilt, but the
+    apex follows the axis: on faces it slides along the nose, and that step swung between two axes
+    ever further apart (10 degrees after six steps). Broyden's method learns the response from the
+    steps taken; a step is at most `_FRAME_MAX_STEP_DEG`, and the most balanced frame seen is kept."""
+    start = np.asarray(axis, float) / np.linalg.norm(axis)
+    across = np.linalg.svd(start[None, :])[2][1:]  # (2, 3): an orthonormal basis across the start axis
+    tilt, response = np.zeros(2), np.eye(2)
+    best = (np.inf, reference, start)
+    previous: tuple[np.ndarray, np.ndarray] | None = None
+    for step in range(FRAME_ITERATIONS):
+        axis = start + tilt @ across
+        axis /= np.linalg.norm(axis)
+        if step > 0:  # the apex along the new axis, on the feature it started on
+            near = np.linalg.norm(np.cross(points - reference, axis), axis=1) <= _APEX_REACH_MM
+            reference = apex(points[near], axis)
+        slope = across @ ring_slope(points, reference, axis, settings)
+        if np.linalg.norm(slope) < best[0]:
+            best = (float(np.linalg.norm(slope)), reference, axis)
+        if np.linalg.norm(slope) < np.tan(np.radians(_FRAME_SETTLED_DEG)):
             break
-    return reference, axis
+        if previous is not None:  # Broyden's update: the response that explains the last step
+            moved, changed = tilt - previous[0], slope - previous[1]
+            response += np.outer(changed - response @ moved, moved) / max(float(moved @ moved), 1e-18)
+        try:
+            change = -np.linalg.solve(response, slope)
+        except np.linalg.LinAlgError:
+            change = -slope
+        limit = np.tan(np.radians(_FRAME_MAX_STEP_DEG))
+        change *= min(1.0, limit / max(float(np.linalg.norm(change)), 1e-18))
+        previous = (tilt, slope)
+        tilt = tilt + change
+    return best[1], best[2]
+
+
+def ring_slope(points: np.ndarray, reference: np.ndarray, axis: np.ndarray, settings: DescriptorSettings) -> np.ndarray:
+    """(3,) the slope of the plane fitted to the surface's heights along `axis` on the rings about
+    `reference`, as a vector across the axis: the tilt the rings see."""
+    field = height_field(points, reference, axis, settings.outer_mm + FRAME_CELL_MM, FRAME_CELL_MM)
+    on_rings = ring_points(field, reference, settings).reshape(-1, 3)
+    on_rings = on_rings[np.isfinite(on_rings[:, 0])]
+    if len(on_rings) < 3 * settings.rings:
+        raise RecognitionError(
+            f"too little surface around the reference point: {len(on_rings)} ring samples "
+            f"within {settings.outer_mm:g} mm"
+        )
+    local = (on_rings - reference) @ field.axes.T
+    design = np.column_stack([np.ones(len(local)), local[:, :2]])
+    _, slope_u, slope_v = np.linalg.lstsq(design, local[:, 2], rcond=None)[0]
+    return slope_u * field.axes[0] + slope_v * field.axes[1]
 
 
 def ring_points(field: HeightField, reference: np.ndarray, settings: DescriptorSettings) -> np.ndarray:
