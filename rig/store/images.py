@@ -11,15 +11,25 @@ from rig.pipeline.pointset import PointSet
 BLOCK_ROWS = 64  # rows of a grid, or points of a cloud (x 1024), projected at a time: no copy of the whole
 
 
-def depth_png(grid: np.ndarray, camera: CameraModel) -> bytes:
-    """16-bit PNG of camera-frame depth in millimetres (rounded), 0 = no point."""
+def grid_depth(grid: np.ndarray, camera: CameraModel) -> np.ndarray:
+    """(H, W) float32 camera-frame depth of organised points (H, W, 3), NaN where none."""
     depth = np.full(grid.shape[:2], np.nan, dtype=np.float32)
     for top in range(0, grid.shape[0], BLOCK_ROWS):
         rows = grid[top : top + BLOCK_ROWS]
         valid = np.isfinite(rows).all(axis=2)
         if valid.any():
             _, depth[top : top + BLOCK_ROWS][valid] = camera.project(rows[valid])
-    return depth_image_png(depth)
+    return depth
+
+
+def point_depth(points: np.ndarray, pixel: np.ndarray, shape: tuple[int, ...], camera: CameraModel) -> np.ndarray:
+    """(H, W) float32 camera-frame depth of points (N, 3) at flat pixels `pixel` (N,), NaN elsewhere:
+    what grid_depth gives for the organised grid of those points, a block of points at a time."""
+    depth = np.full(int(np.prod(shape)), np.nan, dtype=np.float32)
+    block = BLOCK_ROWS * 1024
+    for start in range(0, len(points), block):
+        _, depth[pixel[start : start + block]] = camera.project(points[start : start + block])
+    return depth.reshape(shape)
 
 
 def depth_image_png(depth: np.ndarray, unit_mm: float = 1.0) -> bytes:

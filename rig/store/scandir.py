@@ -21,11 +21,12 @@ import yaml
 
 import rig
 from rig.errors import StoreError
+from rig.geometry import CameraModel
 from rig.pipeline.capture import CUE
 from rig.pipeline.scan import PairResult, ScanResult
 from rig.rig import Rig
 from rig.store.atomic import fsync_dir, publish_folder, write_atomic
-from rig.store.images import depth_png, mask_png, preview_png
+from rig.store.images import depth_image_png, grid_depth, mask_png, point_depth, preview_png
 from rig.store.ply import mesh_ply_bytes, ply_chunks
 
 DESCRIPTION_NAME = "patterns.yaml"  # beside kept frames: what they show, for `slrig reconstruct`
@@ -127,29 +128,33 @@ def _surface_summary(the_rig: Rig, result: ScanResult) -> dict[str, Any]:
     }
 
 
-def _pair_grid(pair: PairResult, surface: bool) -> np.ndarray | None:
-    if not surface:
-        return pair.grid
-    return None if pair.surface is None else pair.surface.grid
+def _pair_depth(pair: PairResult, camera: CameraModel, surface: bool) -> np.ndarray | None:
+    """Camera-frame depth (H, W) float32 of a pair's points (with `surface`, of the surface between
+    its rings), NaN where none. A fast-path pair's points are projected a block at a time, without
+    its organised grid."""
+    if surface:
+        return None if pair.surface is None else grid_depth(pair.surface.grid, camera)
+    if pair.stored_grid is not None:
+        return grid_depth(pair.stored_grid, camera)
+    return point_depth(pair.points.points, pair.points.pixel, pair.correspondence.valid.shape, camera)
 
 
-def _depth_grid(result: ScanResult, camera: int, surface: bool = False) -> np.ndarray | None:
-    """Organised points of a camera (or, with `surface`, of the surface interpolated between its
-    rings), filled from each projector in turn (None: no pair has it)."""
-    grid: np.ndarray | None = None
-    copied = False  # a pair's own grid is read, copied only when a second pair fills it in
+def _depth_image(result: ScanResult, camera: CameraModel, index: int, surface: bool = False) -> np.ndarray | None:
+    """Depth of a camera's points (see _pair_depth), filled from each projector in turn (None: no
+    pair has that camera)."""
+    depth: np.ndarray | None = None
     for pair in result.pairs:
-        found = _pair_grid(pair, surface)
-        if pair.camera != camera or found is None:
+        if pair.camera != index:
             continue
-        if grid is None:
-            grid = found
+        found = _pair_depth(pair, camera, surface)
+        if found is None:
             continue
-        if not copied:
-            grid, copied = grid.copy(), True
-        missing = ~np.isfinite(grid).all(axis=2)
-        grid[missing] = found[missing]
-    return grid
+        if depth is None:
+            depth = found
+        else:
+            missing = np.isnan(depth)
+            depth[missing] = found[missing]
+    return depth
 
 
 def write_scan(
@@ -173,13 +178,12 @@ def write_scan(
         files: dict[str, Any] = {"cloud": "cloud.ply", "preview": "preview.png", "depth": {}}
         write_atomic(partial / "cloud.ply", ply_chunks(result.cloud, comment=f"slrig scan {scan_id}"))
         for c, camera in enumerate(the_rig.config.cameras):
-            grid = _depth_grid(result, c)
-            if grid is None:  # scan.merge.pairs left this camera out
+            depth = _depth_image(result, the_rig.camera_models[c], c)
+            if depth is None:  # scan.merge.pairs left this camera out
                 continue
             name = f"depth_{camera.name}.png"
-            write_atomic(partial / name, depth_png(grid, the_rig.camera_models[c]))
+            write_atomic(partial / name, depth_image_png(depth))
             files["depth"][camera.name] = name
-            del grid  # a fast-path pair's grid is built for this image alone
         write_atomic(partial / "preview.png", preview_png(result.cloud, the_rig.camera_models[0]))
         if result.mesh is not None:
             files["surface"] = _write_surface(the_rig, result, partial, scan_id)
@@ -206,11 +210,11 @@ def _write_surface(the_rig: Rig, result: ScanResult, partial: Path, scan_id: str
     write_atomic(partial / "mesh.ply", mesh_ply_bytes(result.mesh, comment=f"slrig surface {scan_id}"))
     out: dict[str, Any] = {"mesh": "mesh.ply", "depth": {}}
     for c, camera in enumerate(the_rig.config.cameras):
-        grid = _depth_grid(result, c, surface=True)
-        if grid is None:
+        depth = _depth_image(result, the_rig.camera_models[c], c, surface=True)
+        if depth is None:
             continue
         name = f"surface_depth_{camera.name}.png"
-        write_atomic(partial / name, depth_png(grid, the_rig.camera_models[c]))
+        write_atomic(partial / name, depth_image_png(depth))
         out["depth"][camera.name] = name
     return out
 
