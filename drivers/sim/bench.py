@@ -15,11 +15,11 @@ from typing import Protocol
 
 import cv2
 import numpy as np
-from scipy.spatial import cKDTree
 
 from drivers.options import CameraSettings, SimCameraOptions, SimProjectorOptions
 from drivers.sim.raycast import RayCaster
 from drivers.sim.scene import Scene
+from drivers.sim.truth import PixelTruth, SeenSurface
 
 _SHADOW_EPS_MM = 0.02
 _LIGHTING_CHUNK = 1 << 18
@@ -43,42 +43,6 @@ class ViewModel(Protocol):
     def pixel_rays(self) -> tuple[np.ndarray, np.ndarray]: ...
 
     def project(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]: ...
-
-
-@dataclass(frozen=True, eq=False)
-class PixelTruth:
-    """Ground truth per camera pixel for one (camera, projector) pair; arrays are (H, W[, k])."""
-
-    hit: np.ndarray  # a surface is seen
-    points: np.ndarray  # world points, mm (NaN where no hit)
-    normals: np.ndarray  # unit normals facing the camera
-    depth: np.ndarray  # camera-frame z, mm (0 where no hit)
-    projector_uv: np.ndarray  # projector pixel coordinates of the surface point
-    lit: np.ndarray  # inside the projector's image, unshadowed and facing it
-    albedo: np.ndarray  # (H, W, 3) float32 linear RGB of the surface seen (0 where no hit)
-    white_irradiance: np.ndarray  # (H, W) float32: light on the surface under this projector's white frame
-    seen: SeenSurface
-
-    def nearest_distance(self, points: np.ndarray) -> np.ndarray:
-        """(N,) distance (mm) of each point (N, 3) to the nearest true surface point the camera sees."""
-        return self.seen.nearest_distance(points)
-
-
-class SeenSurface:
-    """The true points one camera sees, searched for the nearest. The search tree is built on the
-    first query and kept with the camera's view, as its ray casts are: a scan's evaluation then
-    costs no tree of its own (a 1.3 MP camera's is about 60 MB)."""
-
-    def __init__(self, points: np.ndarray) -> None:
-        self._points = points
-        self._tree: cKDTree | None = None
-
-    def nearest_distance(self, points: np.ndarray) -> np.ndarray:
-        if len(points) == 0:
-            return np.zeros(0)
-        if self._tree is None:
-            self._tree = cKDTree(self._points)
-        return self._tree.query(points)[0]
 
 
 @dataclass(frozen=True, eq=False)
