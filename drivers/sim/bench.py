@@ -166,8 +166,7 @@ class SimBench:
             mono = albedo @ np.array([0.114, 0.587, 0.299], dtype=np.float32)  # BGR luminance weights
             depth = np.zeros(len(hit))
             depth[hit] = points[hit] @ model.axis - model.axis @ model.center  # device-frame z
-            seen = SeenSurface(points[hit])
-            self._views[camera] = _CameraView(hit, points, normals, albedo, mono, depth, seen)
+            self._views[camera] = _CameraView(hit, points, normals, albedo, mono, depth, SeenSurface(points, hit))
         return self._views[camera]
 
     def _paint_textures(self, albedo: np.ndarray, points: np.ndarray, faces: np.ndarray, model: ViewModel) -> None:

@@ -28,17 +28,18 @@ class PixelTruth:
 
 
 class SeenSurface:
-    """The true points one camera sees, searched for the nearest. The search tree is built on the
-    first query and kept with the camera's view, as its ray casts are: a scan's evaluation then
-    costs no tree of its own (a 1.3 MP camera's is about 60 MB)."""
+    """The true points one camera sees (`points` (N, 3) of its pixels where `hit`), searched for the
+    nearest. The search tree is built on the first query and kept with the camera's view, as its
+    ray casts are: a scan's evaluation then costs no tree of its own (a 1.3 MP camera's is about
+    60 MB), and a rig that never evaluates builds none."""
 
-    def __init__(self, points: np.ndarray) -> None:
-        self._points = points
+    def __init__(self, points: np.ndarray, hit: np.ndarray) -> None:
+        self._points, self._hit = points, hit
         self._tree: cKDTree | None = None
 
     def nearest_distance(self, points: np.ndarray) -> np.ndarray:
         if len(points) == 0:
             return np.zeros(0)
         if self._tree is None:
-            self._tree = cKDTree(self._points)
+            self._tree = cKDTree(self._points[self._hit])
         return self._tree.query(points)[0]

@@ -32,27 +32,32 @@ def ring_distances(pair: PairResult, source: GroundTruth, truth: PixelTruth) -> 
     return dist
 
 
-def point_distances(pair: PairResult, truth: PixelTruth, source: GroundTruth | None = None) -> np.ndarray:
-    """Distance (mm) of each of the pair's points to the true surface, in PointSet order."""
+def point_distances(
+    pair: PairResult, truth: PixelTruth, source: GroundTruth | None = None, grid: np.ndarray | None = None
+) -> np.ndarray:
+    """Distance (mm) of each of the pair's points to the true surface, in PointSet order. `grid`:
+    the pair's organised points, when the caller has them (a fast-path pair builds them anew)."""
     if pair.rings is not None:
         if source is None:
             raise ValueError("measuring ring points needs the ground truth's ray casts")
         return ring_distances(pair, source, truth)
-    grid = pair.grid  # built once: a fast-path pair makes it from its points
+    grid = pair.grid if grid is None else grid
     return surface_distances(grid, np.isfinite(grid).all(axis=2), truth)
 
 
-def ray_errors(pair: PairResult, truth: PixelTruth, source: GroundTruth | None = None) -> np.ndarray:
+def ray_errors(
+    pair: PairResult, truth: PixelTruth, source: GroundTruth | None = None, grid: np.ndarray | None = None
+) -> np.ndarray:
     """Distance (mm) of each of the pair's points, in PointSet order, from where its own camera ray
     (the pixel's centre; a ring sample's sub-pixel position) first meets the true surface: the error
-    along the ray. NaN where the ray meets no surface."""
+    along the ray. NaN where the ray meets no surface. `grid`: as for point_distances."""
     if pair.rings is not None:
         if source is None:
             raise ValueError("measuring ring points needs the ground truth's ray casts")
         keep = pair.rings.kept
         true, _ = source.cast(pair.rings.origins[keep], pair.rings.directions[keep])
         return np.linalg.norm(pair.rings.points[keep] - true, axis=1)
-    grid = pair.grid
+    grid = pair.grid if grid is None else grid
     idx = np.flatnonzero(np.isfinite(grid).all(axis=2).ravel())
     points, true_points, out = grid.reshape(-1, 3), truth.points.reshape(-1, 3), np.empty(len(idx))
     for start in range(0, len(idx), BLOCK_POINTS):  # a block at a time: no (N, 3) copies of the cloud
@@ -70,9 +75,10 @@ def evaluate_pair(
     pixels that see a lit, unshadowed true surface and got a point within 1 mm of it. Ring points are
     measured on their sub-pixel rays, which needs the truth's `source` (its ray casts), and add ring
     coverage (rig.evaluate.rings). `dist`: the distances of the pair's points, when already measured."""
-    valid = np.isfinite(pair.grid).all(axis=2)
+    grid = pair.grid  # built once here: a fast-path pair makes it from its points on every call
+    valid = np.isfinite(grid).all(axis=2)
     if dist is None:
-        dist = point_distances(pair, truth, source)
+        dist = point_distances(pair, truth, source, grid)
     pixels = pair.points.pixel if pair.rings is not None else np.flatnonzero(valid.ravel())
     target = truth.hit & truth.lit
     good = np.zeros(valid.size, dtype=bool)
@@ -80,7 +86,7 @@ def evaluate_pair(
     covered = good.reshape(valid.shape) & target
     n = max(1, len(dist))
     empty = len(dist) == 0  # no points: no distances (None, which JSON can carry; NaN it cannot)
-    along = ray_errors(pair, truth, source)
+    along = ray_errors(pair, truth, source, grid)
     along = np.where(np.isfinite(along), along, dist)  # a ray that meets nothing: its surface distance
     metrics = {
         "points": len(dist),

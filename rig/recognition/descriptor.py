@@ -141,6 +141,7 @@ def balanced_frame(
     tilt, response = np.zeros(2), np.eye(2)
     best = (np.inf, reference, start)
     previous: tuple[np.ndarray, np.ndarray] | None = None
+    settled, limit = np.tan(np.radians(_FRAME_SETTLED_DEG)), np.tan(np.radians(_FRAME_MAX_STEP_DEG))
     for step in range(FRAME_ITERATIONS):
         axis = start + tilt @ across
         axis /= np.linalg.norm(axis)
@@ -148,9 +149,10 @@ def balanced_frame(
             near = np.linalg.norm(np.cross(points - reference, axis), axis=1) <= _APEX_REACH_MM
             reference = apex(points[near], axis)
         slope = across @ ring_slope(points, reference, axis, settings)
-        if np.linalg.norm(slope) < best[0]:
-            best = (float(np.linalg.norm(slope)), reference, axis)
-        if np.linalg.norm(slope) < np.tan(np.radians(_FRAME_SETTLED_DEG)):
+        size = float(np.linalg.norm(slope))
+        if size < best[0]:
+            best = (size, reference, axis)
+        if size < settled:
             break
         if previous is not None:  # Broyden's update: the response that explains the last step
             moved, changed = tilt - previous[0], slope - previous[1]
@@ -159,7 +161,6 @@ def balanced_frame(
             change = -np.linalg.solve(response, slope)
         except np.linalg.LinAlgError:
             change = -slope
-        limit = np.tan(np.radians(_FRAME_MAX_STEP_DEG))
         change *= min(1.0, limit / max(float(np.linalg.norm(change)), 1e-18))
         previous = (tilt, slope)
         tilt = tilt + change
