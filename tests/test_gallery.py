@@ -105,6 +105,22 @@ def test_standardising_removes_what_every_entry_shares() -> None:
     assert np.argmax(standardised) == 2 and np.sort(standardised)[-2] < 0.5 < standardised[2]
 
 
+def test_features_the_gallery_barely_varies_do_not_outweigh_the_shape() -> None:
+    # 30 features that tell the entries apart, 10 that the gallery happens to hold almost constant
+    # (a high harmonic of a smooth ring) and that a probe's scan noise moves: divided by their own
+    # tiny spread they would decide the match on noise alone
+    rng = np.random.default_rng(4)
+    shape = rng.normal(0, 1.0, (10, 30))
+    quiet = 5.0 + rng.normal(0, 0.01, (10, 10))
+    gallery = np.hstack([shape, quiet])
+    wins = 0
+    for trial in range(20):
+        target = trial % 10
+        probe = gallery[target] + np.concatenate([rng.normal(0, 0.3, 30), rng.normal(0, 0.1, 10)])
+        wins += int(np.argmax(scores(probe, gallery, "standardised")) == target)
+    assert wins >= 19  # divided by the plain spread: 8 of 20
+
+
 def test_a_gallery_too_small_to_standardise_is_compared_raw_against_the_raw_threshold(tmp_path: Path) -> None:
     with Gallery(tmp_path / "gallery.db") as gallery:
         for i, label in enumerate(["alice", "bob"]):

@@ -1,8 +1,8 @@
 """Identification: a probe's descriptor against the gallery's, ranked by correlation.
 
 Two comparisons:
-- `standardised` (default): each feature less the gallery's mean and divided by its spread over
-  the gallery before the correlation, so that what every surface shares (a face is a face: the
+- `standardised` (default): each feature less the gallery's mean and divided by its (moderated)
+  spread over the gallery before the correlation, so that what every surface shares (a face is a face: the
   rings' mean excess, the nose's harmonics) does not make every pair look alike (raw correlations
   between different faces are above 0.99);
 - `raw`: the published comparison, Pearson correlation of the features as they are.
@@ -58,10 +58,18 @@ def compared_as(comparison: Comparison, entries: int) -> Comparison:
 
 
 def standardised(features: np.ndarray, gallery: np.ndarray) -> np.ndarray:
-    """`features` (..., F) less the gallery's (N, F) mean, over its spread (features the gallery
-    holds constant: 0)."""
+    """`features` (..., F) less the gallery's (N, F) mean, over its moderated spread: each feature's
+    spread s is taken as sqrt(s^2 + s0^2), s0 the median spread over the features (features the
+    gallery holds constant: 0).
+
+    A spread estimated from a few entries is itself uncertain, and a feature that happens to vary
+    little over the gallery (a high harmonic of a smooth ring) would be multiplied up to the weight
+    of the shape's own harmonics, and with it the scan noise it holds in a probe. Adding a common
+    s0 to every spread, the median (the fudge factor of the SAM statistic, Tusher et al. 2001),
+    weighs such features down and leaves those that vary well above the median as they were."""
     spread = gallery.std(axis=0)
-    spread = np.where(spread > 1e-9 * max(float(spread.max()), 1e-300), spread, np.inf)
+    floor = float(np.median(spread))
+    spread = np.where(spread > 1e-9 * max(float(spread.max()), 1e-300), np.hypot(spread, floor), np.inf)
     return (features - gallery.mean(axis=0)) / spread
 
 
