@@ -13,23 +13,31 @@ BLOCK_POINTS = 1 << 16
 
 
 def surface_distances(grid: np.ndarray, valid: np.ndarray, truth: PixelTruth) -> np.ndarray:
-    """Distance (mm) of each valid reconstructed point (H, W, 3) to the true surface, per valid pixel.
+    """Distance (mm) of each valid reconstructed point (H, W, 3) to the true surface, per valid pixel
+    (pixel_distances)."""
+    idx = np.flatnonzero(valid.ravel())
+    return pixel_distances(grid.reshape(-1, 3), idx, truth, rows=idx)
+
+
+def pixel_distances(points: np.ndarray, pixel: np.ndarray, truth: PixelTruth, rows: np.ndarray | None = None) -> np.ndarray:
+    """Distance (mm) to the true surface of each point `points[rows]` (all points without `rows`),
+    seen at flat camera pixel `pixel`.
 
     A point near its pixel's true point is measured along the true normal (exact for planes, and
     for smooth surfaces to second order); a far one (an outlier) to the nearest true sample point
     seen by the camera, which overestimates by at most the sample spacing.
     """
-    idx = np.flatnonzero(valid.ravel())
-    points, true_points, true_normals = grid.reshape(-1, 3), truth.points.reshape(-1, 3), truth.normals.reshape(-1, 3)
+    true_points, true_normals = truth.points.reshape(-1, 3), truth.normals.reshape(-1, 3)
     has_truth = truth.hit.ravel()
-    dist, far = np.empty(len(idx)), np.zeros(len(idx), bool)
-    for start in range(0, len(idx), BLOCK_POINTS):  # a block at a time: no (N, 3) copies of the cloud
+    dist, far = np.empty(len(pixel)), np.zeros(len(pixel), bool)
+    for start in range(0, len(pixel), BLOCK_POINTS):  # a block at a time: no (N, 3) copies of the cloud
         part = slice(start, start + BLOCK_POINTS)
-        at = idx[part]
-        offset = points[at] - true_points[at]
+        at = pixel[part]
+        offset = (points[part] if rows is None else points[rows[part]]) - true_points[at]
         local = has_truth[at] & (np.linalg.norm(np.nan_to_num(offset, nan=np.inf), axis=1) <= LOCAL_MM)
         dist[part][local] = np.abs(np.einsum("ij,ij->i", offset[local], true_normals[at][local]))
         far[part] = ~local
     if far.any():
-        dist[far] = truth.nearest_distance(points[idx[far]])
+        outliers = np.flatnonzero(far)
+        dist[outliers] = truth.nearest_distance(points[outliers] if rows is None else points[rows[outliers]])
     return dist

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from rig.evaluate.colour import colour_metrics
-from rig.evaluate.distances import BLOCK_POINTS, surface_distances
+from rig.evaluate.distances import BLOCK_POINTS, pixel_distances
 from rig.evaluate.distances import LOCAL_MM as _LOCAL_MM
 from rig.evaluate.rings import ring_coverage_on_bench
 from rig.evaluate.surface import surface_metrics
@@ -32,37 +32,30 @@ def ring_distances(pair: PairResult, source: GroundTruth, truth: PixelTruth) -> 
     return dist
 
 
-def point_distances(
-    pair: PairResult, truth: PixelTruth, source: GroundTruth | None = None, grid: np.ndarray | None = None
-) -> np.ndarray:
-    """Distance (mm) of each of the pair's points to the true surface, in PointSet order. `grid`:
-    the pair's organised points, when the caller has them (a fast-path pair builds them anew)."""
+def point_distances(pair: PairResult, truth: PixelTruth, source: GroundTruth | None = None) -> np.ndarray:
+    """Distance (mm) of each of the pair's points to the true surface, in PointSet order."""
     if pair.rings is not None:
         if source is None:
             raise ValueError("measuring ring points needs the ground truth's ray casts")
         return ring_distances(pair, source, truth)
-    grid = pair.grid if grid is None else grid
-    return surface_distances(grid, np.isfinite(grid).all(axis=2), truth)
+    return pixel_distances(pair.points.points, pair.points.pixel, truth)
 
 
-def ray_errors(
-    pair: PairResult, truth: PixelTruth, source: GroundTruth | None = None, grid: np.ndarray | None = None
-) -> np.ndarray:
+def ray_errors(pair: PairResult, truth: PixelTruth, source: GroundTruth | None = None) -> np.ndarray:
     """Distance (mm) of each of the pair's points, in PointSet order, from where its own camera ray
     (the pixel's centre; a ring sample's sub-pixel position) first meets the true surface: the error
-    along the ray. NaN where the ray meets no surface. `grid`: as for point_distances."""
+    along the ray. NaN where the ray meets no surface."""
     if pair.rings is not None:
         if source is None:
             raise ValueError("measuring ring points needs the ground truth's ray casts")
         keep = pair.rings.kept
         true, _ = source.cast(pair.rings.origins[keep], pair.rings.directions[keep])
         return np.linalg.norm(pair.rings.points[keep] - true, axis=1)
-    grid = pair.grid if grid is None else grid
-    idx = np.flatnonzero(np.isfinite(grid).all(axis=2).ravel())
-    points, true_points, out = grid.reshape(-1, 3), truth.points.reshape(-1, 3), np.empty(len(idx))
-    for start in range(0, len(idx), BLOCK_POINTS):  # a block at a time: no (N, 3) copies of the cloud
-        at = idx[start : start + BLOCK_POINTS]
-        out[start : start + BLOCK_POINTS] = np.linalg.norm(points[at] - true_points[at], axis=1)
+    points, pixel = pair.points.points, pair.points.pixel
+    true_points, out = truth.points.reshape(-1, 3), np.empty(len(pixel))
+    for start in range(0, len(pixel), BLOCK_POINTS):  # a block at a time: no (N, 3) copies of the cloud
+        part = slice(start, start + BLOCK_POINTS)
+        out[part] = np.linalg.norm(points[part] - true_points[pixel[part]], axis=1)
     return out
 
 
@@ -75,18 +68,15 @@ def evaluate_pair(
     pixels that see a lit, unshadowed true surface and got a point within 1 mm of it. Ring points are
     measured on their sub-pixel rays, which needs the truth's `source` (its ray casts), and add ring
     coverage (rig.evaluate.rings). `dist`: the distances of the pair's points, when already measured."""
-    grid = pair.grid  # built once here: a fast-path pair makes it from its points on every call
-    valid = np.isfinite(grid).all(axis=2)
     if dist is None:
-        dist = point_distances(pair, truth, source, grid)
-    pixels = pair.points.pixel if pair.rings is not None else np.flatnonzero(valid.ravel())
+        dist = point_distances(pair, truth, source)
     target = truth.hit & truth.lit
-    good = np.zeros(valid.size, dtype=bool)
-    good[pixels[dist <= COMPLETE_WITHIN_MM]] = True
-    covered = good.reshape(valid.shape) & target
+    good = np.zeros(target.size, dtype=bool)
+    good[pair.points.pixel[dist <= COMPLETE_WITHIN_MM]] = True
+    covered = good.reshape(target.shape) & target
     n = max(1, len(dist))
     empty = len(dist) == 0  # no points: no distances (None, which JSON can carry; NaN it cannot)
-    along = ray_errors(pair, truth, source, grid)
+    along = ray_errors(pair, truth, source)
     along = np.where(np.isfinite(along), along, dist)  # a ray that meets nothing: its surface distance
     metrics = {
         "points": len(dist),
