@@ -51,11 +51,13 @@ class OrganisedCloud:
 
     def pointset(self, source: int) -> PointSet:
         idx = np.flatnonzero(self.valid.ravel())
-        points = self.xyz.reshape(3, -1)[:, idx].T.astype(np.float64)
-        points += self.origin
+        points, normals = np.empty((len(idx), 3)), np.empty((len(idx), 3), np.float32)
+        for k in range(3):  # a coordinate at a time: no (3, N) gathers to transpose and copy
+            np.add(self.xyz[k].ravel()[idx], self.origin[k], out=points[:, k])
+            normals[:, k] = self.normals[k].ravel()[idx]
         return PointSet(
             points=points,
-            normals=np.ascontiguousarray(self.normals.reshape(3, -1)[:, idx].T),
+            normals=normals,
             colors=self.colours.reshape(-1, 3)[idx],
             quality=self.quality.ravel()[idx].astype(np.float32),
             source=np.full(len(idx), source, dtype=np.uint8),
