@@ -19,7 +19,9 @@ def surface_distances(grid: np.ndarray, valid: np.ndarray, truth: PixelTruth) ->
     return pixel_distances(grid.reshape(-1, 3), idx, truth, rows=idx)
 
 
-def pixel_distances(points: np.ndarray, pixel: np.ndarray, truth: PixelTruth, rows: np.ndarray | None = None) -> np.ndarray:
+def pixel_distances(
+    points: np.ndarray, pixel: np.ndarray, truth: PixelTruth, rows: np.ndarray | None = None
+) -> np.ndarray:
     """Distance (mm) to the true surface of each point `points[rows]` (all points without `rows`),
     seen at flat camera pixel `pixel`.
 
