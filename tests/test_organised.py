@@ -46,13 +46,15 @@ def test_the_fast_path_gives_the_general_paths_cloud(codec: str, jump: float | N
             valid = keep
         reference = pair_pointset(grid, valid, model, corr, source=3)
     np.testing.assert_array_equal(cloud.valid, valid)
-    got = cloud.pointset(source=3)
+    np.testing.assert_allclose(cloud.grid(), grid, atol=POINT_TOLERANCE_MM)
+    got = cloud.into_pointset(source=3)
     assert len(got) == len(reference) > 10_000
     assert float(np.abs(got.points - reference.points).max()) < POINT_TOLERANCE_MM
     assert float(np.abs(got.normals - reference.normals).max()) < NORMAL_TOLERANCE
     for name in ("colors", "quality", "source", "pixel"):
         np.testing.assert_array_equal(getattr(got, name), getattr(reference, name))
-    np.testing.assert_allclose(cloud.grid(), grid, atol=POINT_TOLERANCE_MM)
+    with pytest.raises(RuntimeError, match="already made into its PointSet"):
+        cloud.into_pointset(source=3)  # its images are gone: a second PointSet would be empty
 
 
 def test_pairs_the_fast_path_does_not_cover_take_the_general_path() -> None:

@@ -120,7 +120,7 @@ def reconstruct_pair(
     if rings is not None:
         points, grid, valid = ring_pointset(rings, model, corr, source=source)
     elif fast is not None:
-        points, grid = cloud.pointset(source), None
+        points, grid = cloud.into_pointset(source), None
     else:
         points = pair_pointset(grid, valid, model, corr, source=source)
     angles = triangulation_angles(points.points, model, rig.projector_models[projector])
