@@ -59,12 +59,11 @@ from rig.rig import Rig
 
 RATE_HZ = 120.0  # a DLP LightCrafter 4500 showing 8-bit patterns
 
-# VmHWM, not ru_maxrss: Linux keeps ru_maxrss across fork and exec, so a child of this (large)
-# process would report the parent's size (1.3 GB against 0.9 measured alone)
-# A scan's memory: peak RSS of a whole `slrig scan` (VmHWM: ru_maxrss carries a large parent's size
-# across fork and exec); then, on one open rig as the daemon holds it, a scan after a first one, its
+# A scan's memory: peak RSS of a whole `slrig scan` (VmHWM, not ru_maxrss: Linux keeps ru_maxrss
+# across fork and exec, so a child of this large process reported the parent's size, 1.3 GB against
+# 0.9 measured alone); then, on one open rig as the daemon holds it, a scan after a first one, its
 # peak (VmHWM reset by writing 5 to clear_refs) less what the process held before it (the fixed
-# overhead: imports, numba's loops, the simulator and its ray casts, the pair's per-calibration terms).
+# overhead: imports, numba's loops, the simulator, its ray casts and ground truth, the pair's terms).
 _PEAK_SNIPPET = """
 import json, sys
 from rig.cli import main
@@ -346,7 +345,7 @@ def readme_text(result: dict[str, Any]) -> str:
             c["per_scan_over_frames"],
         ]
         for name, c in result["codecs"].items()
-    ]  # type: ignore[union-attr]
+    ]
     table = markdown_table(
         [
             "codec",
@@ -367,18 +366,18 @@ def readme_text(result: dict[str, Any]) -> str:
         rows,
     )
     text = (
-        f"Simulated 1280x1024 frame: {f['frame_ms_median']} ms median ({f['frame_ms_p90']} ms p90) after "  # type: ignore[index]
-        f"the first, which casts the rays: {f['first_frame_s']} s.\n\n{table}\n\n"  # type: ignore[index]
-        f"Live mode ({lv['codec']}, {lv['steps']} steps): {lv['clouds_per_s']} depth images per second on the "  # type: ignore[index]
-        f"simulated bench (the simulator's frame rate bounds it), {lv['latency_ms']['median']} ms median from a "  # type: ignore[index]
-        f"sequence's last frame to its depth image ({lv['latency_ms']['p95']} ms p95).\n\n"  # type: ignore[index]
+        f"Simulated 1280x1024 frame: {f['frame_ms_median']} ms median ({f['frame_ms_p90']} ms p90) after "
+        f"the first, which casts the rays: {f['first_frame_s']} s.\n\n{table}\n\n"
+        f"Live mode ({lv['codec']}, {lv['steps']} steps): {lv['clouds_per_s']} depth images per second on the "
+        f"simulated bench (the simulator's frame rate bounds it), {lv['latency_ms']['median']} ms median from a "
+        f"sequence's last frame to its depth image ({lv['latency_ms']['p95']} ms p95).\n\n"
         f"Recognition: the descriptor of the default 32-ring scan ({r['points']} points) in {r['describe_ms']} ms; "
         f"identification against {r['gallery_entries']} gallery entries (reading the gallery, scoring each) "
         f"in {r['identify_ms']} ms.\n\n"
         "A scan's memory: the peak RSS of a whole `slrig scan`; then, on a rig kept open as the daemon keeps it, "
         "what the process holds after a first scan (the fixed overhead: Python and its libraries, numba's "
-        "compiled loops, the simulator and its ray casts, each pair's per-calibration terms) and how far a "
-        "second scan raises the peak above it, also as a multiple of the bytes of the scan's frames.\n\n"
+        "compiled loops, the simulator, its ray casts and ground truth, each pair's per-calibration terms) and "
+        "how far a second scan raises the peak above it, also as a multiple of the bytes of the scan's frames.\n\n"
         f"The memory floor is the time to read a codec's frames once at this machine's copy bandwidth "
         f"({result['copy_bandwidth_gb_s']} GB/s, `np.copyto` of 256 MiB). "
         f"Measured on {result['cpus']} cores by `python bench/speed.py --readme`."

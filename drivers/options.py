@@ -27,6 +27,11 @@ class CameraSettings(_Strict):
     bit_depth: Literal[8, 10, 12, 16] = 8
     color: bool = Field(False, description="colour sensor (BGR frames); decoding uses their luminance")
 
+    @property
+    def full_scale(self) -> int:
+        """The largest count of one of its samples (bit_depth bits): what decoders divide by."""
+        return (1 << self.bit_depth) - 1
+
 
 class HdmiOptions(_Strict):
     """A projector as a display: which output, through which SDL video driver."""

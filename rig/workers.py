@@ -9,7 +9,7 @@ import itertools
 import os
 import sys
 import threading
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from concurrent.futures import ThreadPoolExecutor
 
 
@@ -85,6 +85,15 @@ def _glibc() -> ctypes.CDLL | None:
     except (OSError, AttributeError):
         return None
     return libc
+
+
+BLOCK_POINTS = 1 << 16  # points a pass over a cloud takes at a time: a few MB of temporaries, never a copy
+
+
+def point_blocks(count: int, size: int = BLOCK_POINTS) -> Iterator[slice]:
+    """Consecutive slices of at most `size` items covering `count` (a cloud's points a block at a time)."""
+    for start in range(0, count, size):
+        yield slice(start, min(count, start + size))
 
 
 def batches(count: int, per_thread: int = 2) -> list[tuple[int, int]]:

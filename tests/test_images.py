@@ -24,12 +24,12 @@ def _cloud(points: np.ndarray, colours: np.ndarray) -> PointSet:
     )
 
 
-@pytest.mark.parametrize("block_rows", [64, 1])
+@pytest.mark.parametrize("block_points", [1 << 16, 1024])
 def test_the_preview_shows_the_nearest_point_of_each_pixel_whatever_their_order(
-    monkeypatch: pytest.MonkeyPatch, block_rows: int
+    monkeypatch: pytest.MonkeyPatch, block_points: int
 ) -> None:
-    # block_rows 1: 1024 points per block, so the near and the far points fall in different blocks
-    monkeypatch.setattr(images, "BLOCK_ROWS", block_rows)
+    # 1024 points per block: the near and the far points fall in different blocks
+    monkeypatch.setattr(images, "BLOCK_POINTS", block_points)
     rng = np.random.default_rng(4)
     count = 3000
     xy = rng.uniform(-0.45, 0.45, (count, 2))  # all within the image

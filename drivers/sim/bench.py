@@ -314,7 +314,7 @@ class SimBench:
         signal = np.clip(electrons * np.float32(gain / params.full_well_e), 0.0, 1.0)
         if params.gamma != 1.0:
             signal = signal ** np.float32(1.0 / params.gamma)
-        full_scale = (1 << sensor.bit_depth) - 1
+        full_scale = sensor.full_scale
         dtype = np.uint8 if sensor.bit_depth <= 8 else np.uint16
         self.clock_s += max(params.frame_period_s, exposure * 1e-6)
         return np.rint(signal * np.float32(full_scale)).astype(dtype)

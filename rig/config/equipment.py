@@ -72,11 +72,6 @@ class CameraConfig(CameraSettings, Strict):
     )
     oak: OakOptions = OakOptions()
 
-    @property
-    def full_scale(self) -> int:
-        """The largest count of one of its samples (bit_depth bits): what decoders divide by."""
-        return (1 << self.bit_depth) - 1
-
     @model_validator(mode="after")
     def _driver_fits(self) -> CameraConfig:
         check_device(DeviceKind.CAMERA, self)

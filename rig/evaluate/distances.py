@@ -5,11 +5,11 @@ from __future__ import annotations
 import numpy as np
 
 from rig.rig import PixelTruth
+from rig.workers import point_blocks
 
 # Within this distance of the pixel's own true point the surface is treated as its tangent plane;
 # farther points are measured to the nearest true surface sample instead.
 LOCAL_MM = 2.0
-BLOCK_POINTS = 1 << 16
 
 
 def surface_distances(grid: np.ndarray, valid: np.ndarray, truth: PixelTruth) -> np.ndarray:
@@ -32,8 +32,7 @@ def pixel_distances(
     true_points, true_normals = truth.points.reshape(-1, 3), truth.normals.reshape(-1, 3)
     has_truth = truth.hit.ravel()
     dist, far = np.empty(len(pixel)), np.zeros(len(pixel), bool)
-    for start in range(0, len(pixel), BLOCK_POINTS):  # a block at a time: no (N, 3) copies of the cloud
-        part = slice(start, start + BLOCK_POINTS)
+    for part in point_blocks(len(pixel)):  # a block at a time: no (N, 3) copies of the cloud
         at = pixel[part]
         offset = (points[part] if rows is None else points[rows[part]]) - true_points[at]
         local = has_truth[at] & (np.linalg.norm(np.nan_to_num(offset, nan=np.inf), axis=1) <= LOCAL_MM)

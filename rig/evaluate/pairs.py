@@ -5,14 +5,15 @@ from __future__ import annotations
 import numpy as np
 
 from rig.evaluate.colour import colour_metrics
-from rig.evaluate.distances import BLOCK_POINTS, pixel_distances
 from rig.evaluate.distances import LOCAL_MM as _LOCAL_MM
+from rig.evaluate.distances import pixel_distances
 from rig.evaluate.rings import ring_coverage_on_bench
 from rig.evaluate.surface import surface_metrics
 from rig.geometry import CameraModel
 from rig.pipeline.realign import moved_pair
 from rig.pipeline.scan import PairResult
 from rig.rig import GroundTruth, PixelTruth, Rig
+from rig.workers import point_blocks
 
 COMPLETE_WITHIN_MM = 1.0
 
@@ -53,8 +54,7 @@ def ray_errors(pair: PairResult, truth: PixelTruth, source: GroundTruth | None =
         return np.linalg.norm(pair.rings.points[keep] - true, axis=1)
     points, pixel = pair.points.points, pair.points.pixel
     true_points, out = truth.points.reshape(-1, 3), np.empty(len(pixel))
-    for start in range(0, len(pixel), BLOCK_POINTS):  # a block at a time: no (N, 3) copies of the cloud
-        part = slice(start, start + BLOCK_POINTS)
+    for part in point_blocks(len(pixel)):  # a block at a time: no (N, 3) copies of the cloud
         out[part] = np.linalg.norm(points[part] - true_points[pixel[part]], axis=1)
     return out
 
@@ -72,8 +72,7 @@ def evaluate_pair(
         dist = point_distances(pair, truth, source)
     target = truth.hit & truth.lit
     good = np.zeros(target.size, dtype=bool)
-    for start in range(0, len(dist), BLOCK_POINTS):  # a block at a time: no gather of every close point's pixel
-        part = slice(start, start + BLOCK_POINTS)
+    for part in point_blocks(len(dist)):  # a block at a time: no gather of every close point's pixel
         good[pair.points.pixel[part][dist[part] <= COMPLETE_WITHIN_MM]] = True
     covered = good.reshape(target.shape) & target
     n = max(1, len(dist))

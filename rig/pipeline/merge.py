@@ -23,6 +23,7 @@ from scipy.spatial import cKDTree
 
 from rig.geometry import CameraModel
 from rig.pipeline.pointset import PointSet
+from rig.workers import point_blocks
 
 RADIUS_IN_SAMPLINGS = 2.0
 
@@ -54,9 +55,6 @@ class MergeReport:
         }
 
 
-_BLOCK_POINTS = 1 << 16
-
-
 def _ray_directions(model: CameraModel, points: np.ndarray) -> np.ndarray:
     """Unit directions of the device's rays through `points` (from the device to the point), in
     the points' own precision."""
@@ -70,10 +68,10 @@ def triangulation_angles(points: np.ndarray, camera: CameraModel, projector: Cam
     """Angle (degrees, float32) between the camera's and the projector's rays at each point
     (float32 throughout: a thousandth of a degree is plenty, and it halves the time)."""
     out = np.empty(len(points), np.float32)
-    for start in range(0, len(points), _BLOCK_POINTS):  # a block at a time: no (N, 3) temporaries
-        p = points[start : start + _BLOCK_POINTS].astype(np.float32)
+    for part in point_blocks(len(points)):  # a block at a time: no (N, 3) temporaries
+        p = points[part].astype(np.float32)
         cos = np.einsum("ij,ij->i", _ray_directions(camera, p), _ray_directions(projector, p))
-        out[start : start + _BLOCK_POINTS] = np.degrees(np.arccos(np.clip(cos, -1.0, 1.0)))
+        out[part] = np.degrees(np.arccos(np.clip(cos, -1.0, 1.0)))
     return out
 
 

@@ -7,8 +7,9 @@ import numpy as np
 
 from rig.geometry import CameraModel
 from rig.pipeline.pointset import PointSet
+from rig.workers import BLOCK_POINTS, point_blocks
 
-BLOCK_ROWS = 64  # rows of a grid, or points of a cloud (x 1024), projected at a time: no copy of the whole
+BLOCK_ROWS = 64  # rows of a grid projected at a time: no copy of the whole
 
 
 def grid_depth(grid: np.ndarray, camera: CameraModel) -> np.ndarray:
@@ -26,9 +27,8 @@ def point_depth(points: np.ndarray, pixel: np.ndarray, shape: tuple[int, ...], c
     """(H, W) float32 camera-frame depth of points (N, 3) at flat pixels `pixel` (N,), NaN elsewhere:
     what grid_depth gives for the organised grid of those points, a block of points at a time."""
     depth = np.full(int(np.prod(shape)), np.nan, dtype=np.float32)
-    block = BLOCK_ROWS * 1024
-    for start in range(0, len(points), block):
-        _, depth[pixel[start : start + block]] = camera.project(points[start : start + block])
+    for part in point_blocks(len(points)):
+        _, depth[pixel[part]] = camera.project(points[part])
     return depth.reshape(shape)
 
 
@@ -51,9 +51,7 @@ def preview_png(cloud: PointSet, view: CameraModel, max_width: int = 960, own_co
     to_light = view.R.T @ np.array([-0.4, -0.6, -0.7])  # up-left of the viewer, toward it
     to_light /= np.linalg.norm(to_light)
     plaster = np.array([235, 225, 205], dtype=np.float64)
-    block = BLOCK_ROWS * 1024
-    for start in range(0, len(cloud), block):
-        part = slice(start, start + block)
+    for part in point_blocks(len(cloud), BLOCK_POINTS):  # the module's: a test makes it small
         uv, z = view.project(cloud.points[part])
         uv *= scale
         # clipped to one pixel off the image before the cast, so that a far point cannot wrap into it

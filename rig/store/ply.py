@@ -11,6 +11,7 @@ import numpy as np
 from rig.errors import StoreError
 from rig.pipeline.mesh import Mesh
 from rig.pipeline.pointset import PointSet
+from rig.workers import BLOCK_POINTS, point_blocks
 
 _VERTEX = np.dtype(
     [
@@ -30,24 +31,20 @@ _VERTEX = np.dtype(
 )
 
 
-PLY_CHUNK_POINTS = 1 << 16  # points converted at a time: a 2 MB buffer, not a copy of the cloud
-
-
 def ply_bytes(cloud: PointSet, comment: str = "slrig") -> bytes:
     return b"".join(ply_chunks(cloud, comment))
 
 
 def ply_chunks(cloud: PointSet, comment: str = "slrig") -> Iterator[bytes]:
-    """The binary PLY of `cloud` in pieces: its header, then PLY_CHUNK_POINTS vertices at a time
+    """The binary PLY of `cloud` in pieces: its header, then a block of vertices at a time (2 MB)
     (written to a file one by one, a large cloud never has a second copy in memory)."""
     n = len(cloud)
     lines = ["ply", "format binary_little_endian 1.0", f"comment {comment}", f"element vertex {n}"]
     lines += [f"property {'float' if _VERTEX[name].kind == 'f' else 'uchar'} {name}" for name in _VERTEX.names]
     lines.append("end_header")
     yield ("\n".join(lines) + "\n").encode("ascii")
-    vertex = np.empty(min(n, PLY_CHUNK_POINTS), dtype=_VERTEX)
-    for start in range(0, n, PLY_CHUNK_POINTS):
-        part = slice(start, min(n, start + PLY_CHUNK_POINTS))
+    vertex = np.empty(min(n, BLOCK_POINTS), dtype=_VERTEX)
+    for part in point_blocks(n):
         out = vertex[: part.stop - part.start]
         for i, axis in enumerate("xyz"):
             out[axis] = cloud.points[part, i]
