@@ -112,16 +112,15 @@ def plane_triangulate(
     scale: np.float32,
     shift: np.float32,
     along_axis: Image,
-    directions: Image,
-    xyz: Image,
+    ray: Image,
     depth: Image,
     decoded: Image,
     top: int,
     bottom: int,
 ) -> None:
     """Camera rays against the planes of coded projector columns (or rows): the ray parameter
-    s = (a + b x) / (c + d x); the point s * direction (relative to the camera centre), its depth
-    along the camera axis, NaN where not decoded or the ray runs along the plane or behind."""
+    s = (a + b x) / (c + d x) (the point is s * direction, relative to the camera centre) and
+    its depth along the camera axis, NaN where not decoded or the ray runs along the plane or behind."""
     nan, tiny, one = np.float32(np.nan), np.float32(1e-3), np.float32(1)
     for y in range(top, bottom):
         for x in range(coded.shape[1]):
@@ -137,8 +136,7 @@ def plane_triangulate(
                     s = nan
             decoded[y, x] = ok
             depth[y, x] = s * along_axis[y, x]
-            for axis in range(3):
-                xyz[axis, y, x] = s * directions[axis, y, x]
+            ray[y, x] = s
 
 
 @njit(**KERNEL)
@@ -175,10 +173,11 @@ def _support_row(depth: Image, y: int, max_jump: np.float32, support: np.ndarray
 
 @njit(**KERNEL)
 def reject_isolated(
-    depth: Image, decoded: Image, max_jump: np.float32, min_support: int, keep: Image, xyz: Image, top: int, bottom: int
+    depth: Image, decoded: Image, max_jump: np.float32, min_support: int, keep: Image, ray: Image, top: int, bottom: int
 ) -> int:
     """Keep a decoded point with at least `min_support` of its 8 neighbours within `max_jump` in
-    depth (rig.pipeline.dense.reject_isolated); a point dropped becomes NaN. Returns the count dropped."""
+    depth (rig.pipeline.dense.reject_isolated); a point dropped gets a NaN `ray` parameter.
+    Returns the count dropped."""
     nan, dropped = np.float32(np.nan), 0
     support = np.empty(depth.shape[1], np.int32)
     for y in range(top, bottom):
@@ -188,36 +187,72 @@ def reject_isolated(
             keep[y, x] = kept
             if decoded[y, x] and not kept:
                 dropped += 1
-                for axis in range(3):
-                    xyz[axis, y, x] = nan
+                ray[y, x] = nan
     return dropped
 
 
+@njit(nogil=True, cache=True, inline="always")
+def _normal(ray: Image, directions: Image, step: int, y: int, x: int) -> tuple[float, float, float]:
+    """rig.pipeline.dense.grid_normals at one pixel of the points ray * directions: the cross
+    product of the differences `step` pixels across and down, unit, turned toward the camera;
+    -direction where a neighbour is missing or off the image. Each point is made where it is
+    needed, the same float32 product an image of them would hold."""
+    height, width = ray.shape
+    if y < step or y >= height - step or x < step or x >= width - step:
+        return -directions[0, y, x], -directions[1, y, x], -directions[2, y, x]
+    right, left, below, above = ray[y, x + step], ray[y, x - step], ray[y + step, x], ray[y - step, x]
+    ux = right * directions[0, y, x + step] - left * directions[0, y, x - step]
+    uy = right * directions[1, y, x + step] - left * directions[1, y, x - step]
+    uz = right * directions[2, y, x + step] - left * directions[2, y, x - step]
+    vx = below * directions[0, y + step, x] - above * directions[0, y - step, x]
+    vy = below * directions[1, y + step, x] - above * directions[1, y - step, x]
+    vz = below * directions[2, y + step, x] - above * directions[2, y - step, x]
+    nx, ny, nz = uy * vz - uz * vy, uz * vx - ux * vz, ux * vy - uy * vx
+    norm = np.sqrt(nx * nx + ny * ny + nz * nz)
+    if not np.isfinite(norm):
+        return -directions[0, y, x], -directions[1, y, x], -directions[2, y, x]
+    scale = np.float32(1) / norm
+    if nx * directions[0, y, x] + ny * directions[1, y, x] + nz * directions[2, y, x] > 0:
+        scale = -scale
+    return nx * scale, ny * scale, nz * scale
+
+
 @njit(**KERNEL)
-def grid_normals(xyz: Image, rays: Image, step: int, out: Image, top: int, bottom: int) -> None:
-    """rig.pipeline.dense.grid_normals: the cross product of the differences `step` pixels across
-    and down, unit, turned toward the camera (against its `rays`); -ray where a neighbour is missing
-    or off the image."""
-    height, width = xyz.shape[1], xyz.shape[2]
+def kept_normals(
+    ray: Image, directions: Image, step: int, keep: Image, first: np.ndarray, out: np.ndarray, top: int, bottom: int
+) -> None:
+    """The normals (rig.pipeline.dense.grid_normals) of the `keep` pixels only, in row-major order:
+    row y's kept pixels fill out[first[y]:first[y + 1]] of `out` (N, 3), the PointSet's own
+    normals, so no (3, H, W) image of them is made and gathered."""
     for y in range(top, bottom):
+        k = first[y]
+        for x in range(ray.shape[1]):
+            if keep[y, x]:
+                out[k, 0], out[k, 1], out[k, 2] = _normal(ray, directions, step, y, x)
+                k += 1
+
+
+@njit(**KERNEL)
+def kept_points(
+    ray: Image,
+    directions: Image,
+    keep: Image,
+    first: np.ndarray,
+    origin: np.ndarray,
+    out: np.ndarray,
+    pixel: np.ndarray,
+    top: int,
+    bottom: int,
+) -> None:
+    """The world points (float32, ray * direction + origin, the sum in float64) and flat pixel
+    indices of the `keep` pixels, in row-major order as kept_normals lays them out."""
+    width = ray.shape[1]
+    for y in range(top, bottom):
+        k = first[y]
         for x in range(width):
-            if y < step or y >= height - step or x < step or x >= width - step:
+            if keep[y, x]:
+                s = ray[y, x]
                 for axis in range(3):
-                    out[axis, y, x] = -rays[axis, y, x]
-                continue
-            ux = xyz[0, y, x + step] - xyz[0, y, x - step]
-            uy = xyz[1, y, x + step] - xyz[1, y, x - step]
-            uz = xyz[2, y, x + step] - xyz[2, y, x - step]
-            vx = xyz[0, y + step, x] - xyz[0, y - step, x]
-            vy = xyz[1, y + step, x] - xyz[1, y - step, x]
-            vz = xyz[2, y + step, x] - xyz[2, y - step, x]
-            nx, ny, nz = uy * vz - uz * vy, uz * vx - ux * vz, ux * vy - uy * vx
-            norm = np.sqrt(nx * nx + ny * ny + nz * nz)
-            if not np.isfinite(norm):
-                for axis in range(3):
-                    out[axis, y, x] = -rays[axis, y, x]
-                continue
-            scale = np.float32(1) / norm
-            if nx * rays[0, y, x] + ny * rays[1, y, x] + nz * rays[2, y, x] > 0:
-                scale = -scale
-            out[0, y, x], out[1, y, x], out[2, y, x] = nx * scale, ny * scale, nz * scale
+                    out[k, axis] = np.float32(np.float64(s * directions[axis, y, x]) + origin[axis])
+                pixel[k] = y * width + x
+                k += 1

@@ -31,7 +31,7 @@ _M_ARENA_MAX = -8
 # Arrays up to _MMAP_FROM_BYTES come from the heap, and it keeps up to _KEEP_FREED_BYTES of freed
 # memory for the next arrays (a scan frees several hundred MB at a time: at 256 MB it gained nothing).
 # Builds of glibc that refuse so high a threshold keep their default.
-_MMAP_FROM_BYTES = 1 << 30
+_MMAP_FROM_BYTES = 1 << 22
 _KEEP_FREED_BYTES = 1 << 30
 
 _lock = threading.Lock()

@@ -139,3 +139,21 @@ def test_frame_count_matches_the_patterns(name: str, params: dict) -> None:  # t
     patterns = codec.patterns()
     assert codec.frame_count == len(patterns)
     assert all(p.shape == (200, 320) and p.dtype == np.uint8 for p in patterns)
+
+
+@pytest.mark.parametrize("name", ["gray", "phase"])
+def test_line_codecs_make_each_pattern_only_when_it_is_asked_for(name: str, monkeypatch: pytest.MonkeyPatch) -> None:
+    """A streaming capture shows patterns one by one; a line codec makes each image from its 1-D
+    profile as its turn comes, so that the scan never holds the whole sequence."""
+    lut = (255 - np.arange(256)).astype(np.uint8)  # a response that shows whether it was applied
+    codec = codec_class(name)((320, 200), output_lut=lut)
+    made: list[str] = []
+    stretch = codec.stretch
+    monkeypatch.setattr(codec, "stretch", lambda line, axis: made.append(axis) or stretch(line, axis))
+    patterns = codec.iter_patterns()
+    white, black, first = next(patterns), next(patterns), next(patterns)
+    assert len(made) == 1
+    rest = list(patterns)
+    assert len(made) == codec.frame_count - 2 == len(rest) + 1
+    assert white.min() == 255 and black.max() == 0  # the lit and dark frames are not the response's
+    assert np.array_equal(first, lut[stretch(codec._coded_lines()[0][0], "u")])

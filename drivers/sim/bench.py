@@ -94,6 +94,7 @@ class SimBench:
         self._truths: dict[tuple[int, int], PixelTruth] = {}
         # what each projector emits from when: (bench time, light or None for dark), oldest first
         self._history: list[list[tuple[float, np.ndarray | None]]] = [[(0.0, None)] for _ in projectors]
+        self._recent_light: list[list[tuple[np.ndarray, np.ndarray]]] = [[] for _ in projectors]
         self.clock_s = 0.0
         self.trigger_times: list[float] = []  # pulses on the projectors' trigger outputs, bench time
 
@@ -106,7 +107,7 @@ class SimBench:
         start = self.clock_s + params.latency_s
         history = self._history[projector]
         history[:] = [entry for entry in history if entry[0] < start]  # it replaces what a sequence had scheduled
-        history.append((start, None if pattern is None else self._emission(projector, pattern)))
+        history.append((start, pattern))
         del history[:-8]
 
     def play(self, projector: int, patterns: list[np.ndarray], period_s: float) -> float:
@@ -115,7 +116,7 @@ class SimBench:
         start = self.clock_s + self.projector_options[projector].latency_s
         history = self._history[projector]
         for k, pattern in enumerate(patterns):
-            history.append((start + k * period_s, self._emission(projector, pattern)))
+            history.append((start + k * period_s, pattern))
             self.trigger_times.append(start + k * period_s)
         end = start + len(patterns) * period_s
         history.append((end, None))
@@ -125,10 +126,23 @@ class SimBench:
     def emitted_at(self, projector: int, time_s: float) -> np.ndarray | None:
         """The light a projector gives at bench time `time_s` (None: dark)."""
         current = None
-        for start, light in self._history[projector]:
+        for start, pattern in self._history[projector]:
             if start <= time_s:
-                current = light
-        return current
+                current = pattern
+        return None if current is None else self._light(projector, current)
+
+    def _light(self, projector: int, pattern: np.ndarray) -> np.ndarray:
+        """A pattern's emitted light, worked out when a frame first sees it and kept for the next
+        frames: the history holds the projector's uint8 images, not their float32 light (a scan's
+        patterns in light were 3 MB each on the default bench)."""
+        recent = self._recent_light[projector]
+        for shown, light in recent:
+            if shown is pattern:
+                return light
+        light = self._emission(projector, pattern)
+        recent.insert(0, (pattern, light))
+        del recent[2:]  # a frame exposed across a pattern change sees two
+        return light
 
     def advance(self, seconds: float) -> None:
         """Let bench time pass (the simulated equivalent of waiting)."""
@@ -277,12 +291,13 @@ class SimBench:
         cam = self.cameras[camera]
         when = self.clock_s if time_s is None else time_s
         total = np.full((cam.height, cam.width), self.ambient, dtype=np.float32)
+        scratch = np.empty_like(total)
         for p in range(len(self.projectors)):
             light = self._lighting(camera, p)
             black = self.projector_options[p].black_level
             for weight, emitted in self._segments(p, when, duration_s):
                 if emitted is None:
-                    total += np.float32(weight * black) * light.irradiance_gain
+                    total += np.multiply(light.irradiance_gain, np.float32(weight * black), out=scratch)
                     continue
                 sampled = cv2.remap(
                     emitted,
@@ -292,7 +307,9 @@ class SimBench:
                     borderMode=cv2.BORDER_CONSTANT,
                     borderValue=0,
                 )
-                total += np.float32(weight) * sampled * light.irradiance_gain
+                sampled *= np.float32(weight)  # in place, in the order (weight * light) * gain
+                sampled *= light.irradiance_gain
+                total += sampled
         return total
 
     def render(
@@ -305,19 +322,29 @@ class SimBench:
         gain = sensor.gain if gain is None else gain
         view = self._view(camera)
         irradiance = self.irradiance(camera, time_s, exposure * 1e-6 if time_s is not None else 0.0)
-        radiance = irradiance[..., None] * view.albedo if sensor.color else irradiance * view.albedo_mono
+        # each step in place where it can be: a render holds two float images, not seven
+        if sensor.color:
+            radiance = irradiance[..., None] * view.albedo
+        else:
+            radiance = np.multiply(irradiance, view.albedo_mono, out=irradiance)
         if params.blur_px > 0:
             radiance = cv2.GaussianBlur(radiance, (0, 0), params.blur_px, borderType=cv2.BORDER_REPLICATE)
-        electrons = radiance * np.float32(exposure / params.full_scale_exposure_us * params.full_well_e)
-        sigma = np.sqrt(electrons + np.float32(params.read_noise_e**2))
-        electrons += sigma * self._standard_normal(electrons.shape)
-        signal = np.clip(electrons * np.float32(gain / params.full_well_e), 0.0, 1.0)
+        electrons = np.multiply(
+            radiance, np.float32(exposure / params.full_scale_exposure_us * params.full_well_e), out=radiance
+        )
+        sigma = np.add(electrons, np.float32(params.read_noise_e**2))
+        np.sqrt(sigma, out=sigma)
+        electrons += np.multiply(sigma, self._standard_normal(electrons.shape), out=sigma)
+        del sigma
+        signal = np.multiply(electrons, np.float32(gain / params.full_well_e), out=electrons)
+        np.clip(signal, 0.0, 1.0, out=signal)
         if params.gamma != 1.0:
-            signal = signal ** np.float32(1.0 / params.gamma)
+            np.power(signal, np.float32(1.0 / params.gamma), out=signal)
         full_scale = sensor.full_scale
         dtype = np.uint8 if sensor.bit_depth <= 8 else np.uint16
         self.clock_s += max(params.frame_period_s, exposure * 1e-6)
-        return np.rint(signal * np.float32(full_scale)).astype(dtype)
+        signal *= np.float32(full_scale)
+        return np.rint(signal, out=signal).astype(dtype)
 
     def _standard_normal(self, shape: tuple[int, ...]) -> np.ndarray:
         """A frame of standard normal noise: a window at a random offset into a table four frames

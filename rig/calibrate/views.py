@@ -132,7 +132,7 @@ def _capture_view(rig: Rig, with_projectors: bool) -> dict[tuple[int | None, int
     rig.all_dark()
     if with_projectors:
         for p, projector in enumerate(rig.projectors):
-            for pattern in calibration_codec(projector.resolution).patterns():
+            for pattern in calibration_codec(projector.resolution).iter_patterns():
                 projector.show(pattern)
                 rig.wait(rig.latency_s(p))
                 for c, camera in enumerate(rig.cameras):

@@ -2,11 +2,13 @@
 
 from __future__ import annotations
 
+from collections.abc import Iterator
+
 import numpy as np
 
 from rig.evaluate.colour import colour_metrics
 from rig.evaluate.distances import LOCAL_MM as _LOCAL_MM
-from rig.evaluate.distances import pixel_distances
+from rig.evaluate.distances import pixel_distances, root_mean_square
 from rig.evaluate.rings import ring_coverage_on_bench
 from rig.evaluate.surface import surface_metrics
 from rig.geometry import CameraModel
@@ -42,21 +44,24 @@ def point_distances(pair: PairResult, truth: PixelTruth, source: GroundTruth | N
     return pixel_distances(pair.points.points, pair.points.pixel, truth)
 
 
-def ray_errors(pair: PairResult, truth: PixelTruth, source: GroundTruth | None = None) -> np.ndarray:
-    """Distance (mm) of each of the pair's points, in PointSet order, from where its own camera ray
-    (the pixel's centre; a ring sample's sub-pixel position) first meets the true surface: the error
-    along the ray. NaN where the ray meets no surface."""
+def ray_errors(
+    pair: PairResult, truth: PixelTruth, source: GroundTruth | None = None
+) -> Iterator[tuple[slice, np.ndarray]]:
+    """Distance (mm) of each of the pair's points from where its own camera ray (the pixel's
+    centre; a ring sample's sub-pixel position) first meets the true surface: the error along the
+    ray, NaN where the ray meets no surface. A block of points at a time, in PointSet order: the
+    block and its distances (float64), no array of the cloud's length."""
     if pair.rings is not None:
         if source is None:
             raise ValueError("measuring ring points needs the ground truth's ray casts")
         keep = pair.rings.kept
         true, _ = source.cast(pair.rings.origins[keep], pair.rings.directions[keep])
-        return np.linalg.norm(pair.rings.points[keep] - true, axis=1)
+        yield slice(0, len(true)), np.linalg.norm(pair.rings.points[keep] - true, axis=1)
+        return
     points, pixel = pair.points.points, pair.points.pixel
-    true_points, out = truth.points.reshape(-1, 3), np.empty(len(pixel))
-    for part in point_blocks(len(pixel)):  # a block at a time: no (N, 3) copies of the cloud
-        out[part] = np.linalg.norm(points[part] - true_points[pixel[part]], axis=1)
-    return out
+    true_points = truth.points.reshape(-1, 3)
+    for part in point_blocks(len(pixel)):
+        yield part, np.linalg.norm(points[part] - true_points[pixel[part]], axis=1)
 
 
 def evaluate_pair(
@@ -79,9 +84,9 @@ def evaluate_pair(
     empty = len(dist) == 0  # no points: no distances (None, which JSON can carry; NaN it cannot)
     metrics = {
         "points": len(dist),
-        "rms_mm": None if empty else float(np.sqrt(np.mean(dist**2))),
-        "mean_abs_mm": None if empty else float(np.mean(dist)),
-        "p95_mm": None if empty else float(np.percentile(dist, 95)),
+        "rms_mm": None if empty else root_mean_square(dist),
+        "mean_abs_mm": None if empty else float(np.mean(dist, dtype=np.float64)),
+        "p95_mm": None if empty else float(np.percentile(np.copy(dist), 95, overwrite_input=True)),
         "max_mm": None if empty else float(np.max(dist)),
         "over_1mm_fraction": float((dist > 1.0).sum() / n),
         "outliers_over_5mm": int((dist > 5.0).sum()),
@@ -89,12 +94,13 @@ def evaluate_pair(
         "completeness": float(covered.sum() / max(1, target.sum())),
         "target_pixels": int(target.sum()),
     }
-    # the figures along the rays once the others are done, in place: one more array of the cloud's length
-    along = ray_errors(pair, truth, source)
-    np.copyto(along, dist, where=~np.isfinite(along))  # a ray that meets nothing: its surface distance
-    over_1mm, over_5mm = float((along > 1.0).sum() / n), int((along > 5.0).sum())
-    metrics["ray_rms_mm"] = None if empty else float(np.sqrt(np.mean(np.square(along, out=along))))
-    metrics.update({"ray_over_1mm_fraction": over_1mm, "ray_outliers_over_5mm": over_5mm})
+    squares, over_1mm, over_5mm = 0.0, 0, 0
+    for part, along in ray_errors(pair, truth, source):
+        np.copyto(along, dist[part], where=~np.isfinite(along))  # a ray that meets nothing: its surface distance
+        over_1mm, over_5mm = over_1mm + int((along > 1.0).sum()), over_5mm + int((along > 5.0).sum())
+        squares += float(np.dot(along, along))
+    metrics["ray_rms_mm"] = None if empty else float(np.sqrt(squares / n))
+    metrics.update({"ray_over_1mm_fraction": over_1mm / n, "ray_outliers_over_5mm": over_5mm})
     if pair.rings is not None:
         metrics.update(ring_coverage_on_bench(pair, truth, dist))
     if pair.surface is not None:

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import abc
 import dataclasses
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Annotated, ClassVar, overload
 
@@ -164,12 +164,21 @@ class Codec(abc.ABC):
 
     def patterns(self) -> list[np.ndarray]:
         """All pattern images (uint8, projector resolution) in projection order."""
+        return list(self.iter_patterns())
+
+    def iter_patterns(self) -> Iterator[np.ndarray]:
+        """The pattern images of `patterns` one at a time, each made when it is asked for where the
+        codec can (line codecs, from 1-D profiles): a capture that shows them one by one then holds
+        the one it shows, not the sequence (17 MB of Gray code on the default bench)."""
         white = np.full((self.height, self.width), 255, dtype=np.uint8)
-        black = np.zeros_like(white)
-        coded = self._coded_patterns()
-        if self.output_lut is not None:
-            coded = [self.output_lut[p] for p in coded]
-        return [white, black, *coded]
+        yield white
+        yield np.zeros_like(white)
+        for pattern in self._coded_iter():
+            yield pattern if self.output_lut is None else self.output_lut[pattern]
+
+    def _coded_iter(self) -> Iterator[np.ndarray]:
+        """The coded patterns one at a time (by default made together by `_coded_patterns`)."""
+        yield from self._coded_patterns()
 
     @property
     def frame_count(self) -> int:

@@ -39,12 +39,11 @@ class GrayCodec(LineCodec):
     def _coded_frame_count(self) -> int:
         return sum(2 * bit_count(self.extent(axis)) for axis in self.axes())
 
-    def _coded_patterns(self) -> list[np.ndarray]:
-        out: list[np.ndarray] = []
+    def _coded_lines(self) -> list[tuple[np.ndarray, str]]:
+        out: list[tuple[np.ndarray, str]] = []
         for axis in self.axes():
             n = self.extent(axis)
-            for img in planes_with_inverses(gray_planes(np.arange(n), bit_count(n))):
-                out.append(self.stretch(img, axis))
+            out += [(line, axis) for line in planes_with_inverses(gray_planes(np.arange(n), bit_count(n)))]
         return out
 
     def _decode(

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import abc
+from collections.abc import Iterator
 from typing import Literal
 
 import numpy as np
@@ -40,6 +42,17 @@ class LineCodec(Codec):
     def stretch(self, line: np.ndarray, axis: str) -> np.ndarray:
         """A 1-D profile along `axis` as a full projector image."""
         return stretch(line, axis, self.width, self.height)
+
+    @abc.abstractmethod
+    def _coded_lines(self) -> list[tuple[np.ndarray, str]]:
+        """Each coded pattern as its 1-D profile (uint8) and the axis it runs along."""
+
+    def _coded_patterns(self) -> list[np.ndarray]:
+        return list(self._coded_iter())
+
+    def _coded_iter(self) -> Iterator[np.ndarray]:
+        for line, axis in self._coded_lines():  # a profile is a few hundred bytes, its image 0.8 MB
+            yield self.stretch(line, axis)
 
     @staticmethod
     def correspondence(

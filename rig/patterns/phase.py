@@ -76,17 +76,16 @@ class PhaseCodec(LineCodec):
     def _coded_frame_count(self) -> int:
         return sum(self.params.steps + 2 * self._gray_bits(axis) for axis in self.axes())
 
-    def _coded_patterns(self) -> list[np.ndarray]:
+    def _coded_lines(self) -> list[tuple[np.ndarray, str]]:
         n_steps, period = self.params.steps, self.params.period_px
-        out: list[np.ndarray] = []
+        out: list[tuple[np.ndarray, str]] = []
         for axis in self.axes():
             x = np.arange(self.extent(axis))
             for n in range(n_steps):
                 value = 0.5 + 0.5 * np.cos(2 * np.pi * x / period - 2 * np.pi * n / n_steps)
-                out.append(self.stretch(np.rint(value * 255).astype(np.uint8), axis))
+                out.append((np.rint(value * 255).astype(np.uint8), axis))
             half_index = x // (period // 2)
-            for img in planes_with_inverses(gray_planes(half_index, self._gray_bits(axis))):
-                out.append(self.stretch(img, axis))
+            out += [(line, axis) for line in planes_with_inverses(gray_planes(half_index, self._gray_bits(axis)))]
         return out
 
     def _decode(

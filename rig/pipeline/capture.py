@@ -9,7 +9,7 @@ timestamp). A device fault darkens every projector and fails the scan.
 from __future__ import annotations
 
 import logging
-from collections.abc import Callable
+from collections.abc import Callable, Iterable
 
 import numpy as np
 
@@ -69,7 +69,7 @@ def capture(
             if projector.mode is ProjectorMode.SEQUENCE:
                 _capture_sequence(rig, p, codec.patterns(), deliver, last_sequence, progress)
             else:
-                _capture_streaming(rig, p, codec.patterns(), deliver, last_sequence, progress)
+                _capture_streaming(rig, p, codec.iter_patterns(), deliver, last_sequence, progress)
             projector.dark()
         if overlap_cue and wants_overlap_cue(rig):
             _capture_overlap_cue(rig, frames, last_sequence)
@@ -148,8 +148,10 @@ def _take_lit(rig: Rig, c: int, timeout_s: float, last_sequence: list[int], lit_
 
 
 def _capture_streaming(
-    rig: Rig, p: int, patterns: list[np.ndarray], deliver: FrameSink, last_sequence: list[int], progress: _Progress
+    rig: Rig, p: int, patterns: Iterable[np.ndarray], deliver: FrameSink, last_sequence: list[int], progress: _Progress
 ) -> None:
+    """Show each pattern and take each camera's first frame lit by it; a pattern is made as its turn
+    comes (Codec.iter_patterns), so only what the projector keeps of those shown is held."""
     projector = rig.projectors[p]
     latency = rig.latency_s(p)
     timeout = rig.config.scan.capture_timeout_s

@@ -31,14 +31,18 @@ _EMPTY = np.empty(0, np.float32)  # what a used-up cloud's images are
 
 @dataclass(eq=False)
 class OrganisedCloud:
-    """One pair's cloud as camera images (H, W): the points relative to the camera centre
-    `origin` and their normals as three float32 planes (3, H, W), NaN where `valid` is False."""
+    """One pair's cloud as camera images (H, W): each pixel's point is ray * direction relative to
+    the camera centre `origin` (the pair's unit ray `directions`, (3, H, W), kept with its terms),
+    NaN where `valid` is False; the normals of the valid pixels only, in row-major order (as the
+    PointSet holds them). One float32 image of ray parameters instead of three of coordinates."""
 
     origin: np.ndarray  # (3,) float64, world mm
-    xyz: np.ndarray  # (3, H, W) float32: point - origin
+    ray: np.ndarray  # (H, W) float32: the point's distance along its pixel's unit ray
+    directions: np.ndarray  # (3, H, W) float32: the pixels' unit rays (shared, not the cloud's)
     depth: np.ndarray  # (H, W) float32: distance along the camera axis, NaN where not decoded
-    normals: np.ndarray  # (3, H, W) float32, unit, facing the camera
+    normals: np.ndarray  # (N, 3) float32, unit, facing the camera: the valid pixels', row by row
     valid: np.ndarray  # (H, W) bool
+    first: np.ndarray  # (H + 1,) int64: row y's valid pixels are normals[first[y]:first[y + 1]]
     colours: np.ndarray  # (H, W, 3) uint8 RGB
     quality: np.ndarray  # (H, W) float32
     used: bool = False  # into_pointset has taken the images
@@ -49,33 +53,33 @@ class OrganisedCloud:
 
     def grid(self) -> np.ndarray:
         """World points (H, W, 3) float64, NaN where not valid (PairResult.grid)."""
-        grid = np.moveaxis(self.xyz, 0, -1).astype(np.float64)
+        grid = np.moveaxis(self.directions * self.ray, 0, -1).astype(np.float64)
         grid += self.origin  # in place: one (H, W, 3) array, not two
         return grid
 
     def into_pointset(self, source: int) -> PointSet:
-        """The cloud's PointSet, built by using the cloud up: each image is let go as soon as its
-        field is gathered, so that a scan never holds the organised images and the whole PointSet
-        at once (about 40 MB less at its peak on the default bench). The cloud is empty after."""
+        """The cloud's PointSet, built by using the cloud up: its points and pixels are made at the
+        valid pixels by one compiled pass, its normals are the cloud's own, and each image is let
+        go once its field is gathered. The cloud is empty after."""
         if self.used:
             raise RuntimeError("this organised cloud was already made into its PointSet")
         self.used = True
-        idx = np.flatnonzero(self.valid.ravel())
-        self.depth = self.valid = _EMPTY
-        points = np.empty((len(idx), 3))
-        for k in range(3):  # a coordinate at a time: no (3, N) gathers to transpose and copy
-            np.add(self.xyz[k].ravel()[idx], self.origin[k], out=points[:, k])
-        self.xyz = _EMPTY
-        normals = np.empty((len(idx), 3), np.float32)
-        for k in range(3):
-            normals[:, k] = self.normals[k].ravel()[idx]
-        self.normals = _EMPTY
-        colors = self.colours.reshape(-1, 3)[idx]
+        count = len(self.normals)
+        points, pixel = np.empty((count, 3), np.float32), np.empty(count, np.int32)
+        in_row_strips(
+            len(self.ray),
+            lambda rows: fused.kept_points(
+                self.ray, self.directions, self.valid, self.first, self.origin, points, pixel, rows.start, rows.stop
+            ),
+        )
+        self.ray = self.depth = self.valid = _EMPTY
+        normals, self.normals = self.normals, _EMPTY
+        colors = self.colours.reshape(-1, 3)[pixel]
         self.colours = _EMPTY
-        quality = self.quality.ravel()[idx].astype(np.float32)
+        quality = self.quality.ravel()[pixel].astype(np.float32)
         self.quality = _EMPTY
-        source_index = np.full(len(idx), source, dtype=np.uint8)
-        return PointSet(points, normals, colors, quality, source_index, idx)
+        source_index = np.full(count, source, dtype=np.uint8)
+        return PointSet(points, normals, colors, quality, source_index, pixel)
 
 
 class PlaneTerms:
@@ -122,13 +126,13 @@ def organised_cloud(
     """Triangulate, drop isolated points (depth jumps over `max_jump_mm`, None: none dropped),
     normals and colours; the counts as reconstruct_pair reports them."""
     height, width = coded.shape
-    xyz, normals = np.empty((3, height, width), np.float32), np.empty((3, height, width), np.float32)
-    depth, decoded = np.empty((height, width), np.float32), np.empty((height, width), bool)
+    ray, depth = np.empty((height, width), np.float32), np.empty((height, width), np.float32)
+    decoded = np.empty((height, width), bool)
     in_row_strips(
         height,
         lambda rows: fused.plane_triangulate(
             coded, corr.valid, terms.a, terms.b, terms.c, terms.d, terms.scale, terms.shift,
-            terms.along_axis, terms.directions, xyz, depth, decoded, rows.start, rows.stop,
+            terms.along_axis, ray, depth, decoded, rows.start, rows.stop,
         ),
     )  # fmt: skip
     counts: dict[str, int] = {}
@@ -138,12 +142,18 @@ def organised_cloud(
         in_row_strips(
             height,
             lambda rows: dropped.append(
-                fused.reject_isolated(depth, decoded, jump, _MIN_SUPPORT, keep, xyz, rows.start, rows.stop)
+                fused.reject_isolated(depth, decoded, jump, _MIN_SUPPORT, keep, ray, rows.start, rows.stop)
             ),
         )
         counts["rejected_depth_jump"] = sum(dropped)
+    first = np.zeros(height + 1, np.int64)  # row y's kept pixels are normals[first[y]:first[y + 1]]
+    np.cumsum(np.count_nonzero(keep, axis=1), out=first[1:])
+    normals = np.empty((int(first[-1]), 3), np.float32)
     in_row_strips(
-        height, lambda rows: fused.grid_normals(xyz, terms.directions, _NORMAL_STEP, normals, rows.start, rows.stop)
+        height,
+        lambda rows: fused.kept_normals(
+            ray, terms.directions, _NORMAL_STEP, keep, first, normals, rows.start, rows.stop
+        ),
     )
-    cloud = OrganisedCloud(origin, xyz, depth, normals, keep, texture_rgb(corr), corr.quality)
+    cloud = OrganisedCloud(origin, ray, terms.directions, depth, normals, keep, first, texture_rgb(corr), corr.quality)
     return cloud, counts

@@ -14,19 +14,25 @@ class PointSet:
     `source` is the (projector, camera) pair index, `pixel` the flat camera pixel index the point
     came from (row * width + column) or -1, `angle` the triangulation angle in degrees (NaN where
     not known).
+
+    Points are float32, as a scan stores them (cloud.ply): 1.2e-4 mm steps 2 m from the origin,
+    a four-hundredth of the bench's accuracy, for half the memory of float64 (13 MB of a
+    default scan's 61). Arrays of other types are converted on the way in.
     """
 
     FIELDS = ("points", "normals", "colors", "quality", "source", "pixel", "angle")
 
-    points: np.ndarray  # (N, 3) float64
+    points: np.ndarray  # (N, 3) float32
     normals: np.ndarray  # (N, 3) float32
     colors: np.ndarray  # (N, 3) uint8 RGB
     quality: np.ndarray  # (N,) float32
     source: np.ndarray  # (N,) uint8
-    pixel: np.ndarray  # (N,) int64
+    pixel: np.ndarray  # (N,) int32
     angle: np.ndarray | None = None  # (N,) float32; None: not known (NaN in files)
 
     def __post_init__(self) -> None:
+        for name, dtype in (("points", np.float32), ("pixel", np.int32)):
+            object.__setattr__(self, name, np.asarray(getattr(self, name)).astype(dtype, copy=False))
         if self.angle is None:
             object.__setattr__(self, "angle", np.full(len(self.points), np.nan, np.float32))
 
@@ -36,12 +42,12 @@ class PointSet:
     @staticmethod
     def empty() -> PointSet:
         return PointSet(
-            np.zeros((0, 3)),
+            np.zeros((0, 3), np.float32),
             np.zeros((0, 3), np.float32),
             np.zeros((0, 3), np.uint8),
             np.zeros(0, np.float32),
             np.zeros(0, np.uint8),
-            np.zeros(0, np.int64),
+            np.zeros(0, np.int32),
             np.zeros(0, np.float32),
         )
 

@@ -157,6 +157,15 @@ def _depth_image(result: ScanResult, camera: CameraModel, index: int, surface: b
     return depth
 
 
+def _write_depth(path: Path, depth: np.ndarray | None) -> bool:
+    """Write a depth image (None: scan.merge.pairs left its camera out); the image is let go on
+    return, before the next one or the preview is made."""
+    if depth is None:
+        return False
+    write_atomic(path, depth_image_png(depth))
+    return True
+
+
 def write_scan(
     the_rig: Rig,
     result: ScanResult,
@@ -178,12 +187,9 @@ def write_scan(
         files: dict[str, Any] = {"cloud": "cloud.ply", "preview": "preview.png", "depth": {}}
         write_atomic(partial / "cloud.ply", ply_chunks(result.cloud, comment=f"slrig scan {scan_id}"))
         for c, camera in enumerate(the_rig.config.cameras):
-            depth = _depth_image(result, the_rig.camera_models[c], c)
-            if depth is None:  # scan.merge.pairs left this camera out
-                continue
             name = f"depth_{camera.name}.png"
-            write_atomic(partial / name, depth_image_png(depth))
-            files["depth"][camera.name] = name
+            if _write_depth(partial / name, _depth_image(result, the_rig.camera_models[c], c)):
+                files["depth"][camera.name] = name
         write_atomic(partial / "preview.png", preview_png(result.cloud, the_rig.camera_models[0]))
         if result.mesh is not None:
             files["surface"] = _write_surface(the_rig, result, partial, scan_id)
@@ -210,12 +216,9 @@ def _write_surface(the_rig: Rig, result: ScanResult, partial: Path, scan_id: str
     write_atomic(partial / "mesh.ply", mesh_ply_bytes(result.mesh, comment=f"slrig surface {scan_id}"))
     out: dict[str, Any] = {"mesh": "mesh.ply", "depth": {}}
     for c, camera in enumerate(the_rig.config.cameras):
-        depth = _depth_image(result, the_rig.camera_models[c], c, surface=True)
-        if depth is None:
-            continue
         name = f"surface_depth_{camera.name}.png"
-        write_atomic(partial / name, depth_image_png(depth))
-        out["depth"][camera.name] = name
+        if _write_depth(partial / name, _depth_image(result, the_rig.camera_models[c], c, surface=True)):
+            out["depth"][camera.name] = name
     return out
 
 
