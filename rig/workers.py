@@ -28,9 +28,9 @@ THREADS = _threads()
 _M_TRIM_THRESHOLD = -1
 _M_MMAP_THRESHOLD = -3
 _M_ARENA_MAX = -8
-# Arrays up to _MMAP_FROM_BYTES come from the heap, and it keeps up to _KEEP_FREED_BYTES of freed
-# memory for the next arrays (a scan frees several hundred MB at a time: at 256 MB it gained nothing).
-# Builds of glibc that refuse so high a threshold keep their default.
+# Arrays under _MMAP_FROM_BYTES come from the heap, and it keeps up to _KEEP_FREED_BYTES of freed
+# memory for the next arrays; larger arrays are mapped and unmapped (see tune_malloc).
+# Builds of glibc that refuse a threshold keep their default.
 _MMAP_FROM_BYTES = 1 << 22
 _KEEP_FREED_BYTES = 1 << 30
 
@@ -54,12 +54,15 @@ def tune_malloc() -> None:
 
     - One arena for every thread: glibc gives each new thread its own, and memory freed in one is
       not reused by another (a ring scan's peak RSS rose from 680 to 790 MB with this pool).
-    - Freed arrays stay in the heap for the next ones (up to _KEEP_FREED_BYTES), and arrays up to
-      _MMAP_FROM_BYTES come from the heap: by default glibc maps every large array afresh and
-      unmaps it on free, so each new array page-faults all its memory in again. On a virtual
-      machine that can cost more than the arithmetic: multiplying two 1M x 3 arrays took 45 ms
-      against 9 ms; the surface between the rings (bench/speed.py's row, three runs each) 850 ms
-      against 730 to 800, at the same peak RSS. release_free_memory() returns what a job left."""
+    - Arrays under 4 MB (frames, patterns, a block of points) come from the heap, and freed ones
+      stay there for the next ones (up to _KEEP_FREED_BYTES), without page faults. Larger arrays
+      (float images, a cloud's fields) are mapped and given back when freed: kept in the heap too,
+      their holes went to smaller arrays and a scan's peak rose above what it held. A second gray
+      scan on an open rig (bench/speed.py's peak_memory): 118 to 123 MB above the rig with every
+      array in the heap, 83 to 97 with this threshold (92 to 96 at 1 to 2 MB, 102 to 109 at 8 to
+      16 MB). The faults cost the organised cloud about 5 ms (last frame to cloud, gray 12.7 ->
+      15.6 ms, phase 12.7 -> 13.5); the ring surface's time did not change (480 and 476 ms).
+      release_free_memory() returns what a job left in the heap."""
     libc = _glibc()
     if libc is None:
         return

@@ -267,12 +267,10 @@ def ring_coverage(rings: RingPoints, samples: RingSamples, min_samples: int = 50
     }
 
 
-def ring_pointset(
-    rings: RingPoints, camera: CameraModel, corr: Correspondence, source: int
-) -> tuple[PointSet, np.ndarray, np.ndarray]:
+def ring_pointset(rings: RingPoints, camera: CameraModel, corr: Correspondence, source: int) -> PointSet:
     """The PointSet of the kept ring points (normals from their triangulation, colour of the lit
-    frame at the nearest pixel), and the organised grid (H, W, 3) and mask with each point at its
-    nearest pixel, for depth maps."""
+    frame at the nearest pixel, `pixel` that nearest pixel: PairResult.grid and the depth maps
+    place each point there, with no (H, W, 3) grid held for a few ten thousand points)."""
     keep = np.flatnonzero(rings.kept)
     points = rings.points[keep]
     xy = rings.camera_xy[keep]
@@ -289,8 +287,4 @@ def ring_pointset(
         source=np.full(len(keep), source, np.uint8),
         pixel=pixel,
     )
-    grid = np.full((camera.height * camera.width, 3), np.nan)
-    grid[pixel] = points
-    valid = np.zeros(camera.height * camera.width, dtype=bool)
-    valid[pixel] = True
-    return cloud, grid.reshape(camera.height, camera.width, 3), valid.reshape(camera.height, camera.width)
+    return cloud

@@ -118,7 +118,7 @@ def reconstruct_pair(
             valid = keep
     t_mid = time.perf_counter()
     if rings is not None:
-        points, grid, valid = ring_pointset(rings, model, corr, source=source)
+        points, grid = ring_pointset(rings, model, corr, source=source), None
     elif fast is not None:
         points, grid = cloud.into_pointset(source), None
     else:
