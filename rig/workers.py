@@ -31,7 +31,7 @@ _M_ARENA_MAX = -8
 # Arrays under _MMAP_FROM_BYTES come from the heap, and it keeps up to _KEEP_FREED_BYTES of freed
 # memory for the next arrays; larger arrays are mapped and unmapped (see tune_malloc).
 # Builds of glibc that refuse a threshold keep their default.
-_MMAP_FROM_BYTES = 1 << 22
+_MMAP_FROM_BYTES = 6 << 20  # 6 MB
 _KEEP_FREED_BYTES = 1 << 30
 
 _lock = threading.Lock()
@@ -54,14 +54,15 @@ def tune_malloc() -> None:
 
     - One arena for every thread: glibc gives each new thread its own, and memory freed in one is
       not reused by another (a ring scan's peak RSS rose from 680 to 790 MB with this pool).
-    - Arrays under 4 MB (frames, patterns, a block of points) come from the heap, and freed ones
-      stay there for the next ones (up to _KEEP_FREED_BYTES), without page faults. Larger arrays
-      (float images, a cloud's fields) are mapped and given back when freed: kept in the heap too,
+    - Arrays under 6 MB (frames, patterns, float32 images of a 1280x1024 camera) come from the heap,
+      and freed ones stay there for the next ones (up to _KEEP_FREED_BYTES), without page faults.
+      Larger arrays (a cloud's fields) are mapped and given back when freed: kept in the heap too,
       their holes went to smaller arrays and a scan's peak rose above what it held. A second gray
-      scan on an open rig (bench/speed.py's peak_memory): 118 to 123 MB above the rig with every
-      array in the heap, 83 to 97 with this threshold (92 to 96 at 1 to 2 MB, 102 to 109 at 8 to
-      16 MB). The faults cost the organised cloud about 5 ms (last frame to cloud, gray 12.7 ->
-      15.6 ms, phase 12.7 -> 13.5); the ring surface's time did not change (480 and 476 ms).
+      scan on an open rig (bench/speed.py's peak_memory) raised the peak 118 to 123 MB with every
+      array in the heap, 86 to 90 with this threshold. At 4 MB, which maps the float32 images too,
+      83 to 84, but decoding and the fast path fault their images in: gray decode 9.4 -> 10.4 ms
+      (4.3 -> 4.8 times the memory floor), last frame to cloud 10.2 -> 15.4 ms, radial decode
+      229 -> 283 ms.
       release_free_memory() returns what a job left in the heap."""
     libc = _glibc()
     if libc is None:

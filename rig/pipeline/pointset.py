@@ -33,8 +33,8 @@ class PointSet:
     def __post_init__(self) -> None:
         for name, dtype in (("points", np.float32), ("pixel", np.int32)):
             object.__setattr__(self, name, np.asarray(getattr(self, name)).astype(dtype, copy=False))
-        if self.angle is None:
-            object.__setattr__(self, "angle", np.full(len(self.points), np.nan, np.float32))
+        if self.angle is None:  # a read-only view of one NaN, not an array of the cloud's length
+            object.__setattr__(self, "angle", np.broadcast_to(np.float32(np.nan), (len(self.points),)))
 
     def __len__(self) -> int:
         return len(self.points)
