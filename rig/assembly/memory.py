@@ -18,16 +18,17 @@ from rig.errors import ConfigError
 from rig.patterns.registry import codec_class
 
 GB = 1_000_000_000
-# Fitted on the simulated bench (27 scans: gray, phase, rings; cameras 640x512 to 2560x2048,
-# projectors 512x384 to 2048x1536): 171 MB + 337.5 B per camera pixel (its ~22 frames included) +
-# 45 B per projector pixel; rounded up so that no measured peak is above the estimate.
-# numba and the compiled loops of rig.fused add 130 MB to a process (measured: 62 MB importing numba,
-# 65 MB loading a cached loop); the fit above predates them and is to be measured again.
-FIXED_BYTES = 330_000_000  # the interpreter, numpy, OpenCV, numba, the web stack: a process before a scan
-CAMERA_BYTES_PER_PIXEL = 220  # per camera pixel and projector lighting it: decode, triangulate, cloud
+# Measured on the simulated bench (`python bench/memory_model.py`, 27 scans: gray, phase, rings;
+# cameras 640x512 to 2560x2048, projectors 512x384 to 2048x1536; numba's loops and decision 0016
+# included): a least-squares fit gives 280 MB + 256 B per camera pixel (its ~22 frames included) +
+# 30 B per projector pixel. The coefficients below put every measured peak under its estimate
+# (1.04 to 1.72 times it, 1.24 on average): ring scans with a small camera and a large projector
+# (the ring plan and its patterns at the projector's resolution) set the projector's share.
+FIXED_BYTES = 300_000_000  # the interpreter, numpy, OpenCV, numba, the web stack: a process before a scan
+CAMERA_BYTES_PER_PIXEL = 150  # per camera pixel and projector lighting it: decode, triangulate, cloud
 SIM_CAMERA_BYTES_PER_PIXEL = 120  # the simulated bench per camera pixel: rays, hits, lighting, render
-PROJECTOR_BYTES_PER_PIXEL = 40  # per projector pixel: the pattern being shown, the decoder's tables
-SIM_PROJECTOR_BYTES_PER_PIXEL = 20  # the simulated projector's light (float32) and its blur
+PROJECTOR_BYTES_PER_PIXEL = 70  # per projector pixel: the patterns, the decoder's tables, ring plans
+SIM_PROJECTOR_BYTES_PER_PIXEL = 20  # the simulated projector's images and the light of the last two
 
 
 def frames_per_scan(config: RigConfig, projector: int, codec: str | None = None) -> int:
