@@ -26,6 +26,7 @@ import sys
 import tempfile
 import textwrap
 import time
+from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
@@ -108,6 +109,9 @@ class _Shown:
 
     def patterns(self) -> list[np.ndarray]:
         return self.images
+
+    def iter_patterns(self) -> Iterator[np.ndarray]:
+        return iter(self.images)
 
 
 def peer(python: Path, work: Path) -> dict[str, Any]:
