@@ -72,13 +72,6 @@ def status_mb(key):
     return next(int(line.split()[1]) for line in open("/proc/self/status") if line.startswith(key + ":")) / 1024
 code = main(["scan", "--codec", sys.argv[1], "--out", sys.argv[2] + "-first", "--json"])
 whole = status_mb("VmHWM")
-release_free_memory()
-fixed = status_mb("VmRSS")
-try:
-    with open("/proc/self/clear_refs", "w") as f:
-        f.write("5")
-except OSError:
-    fixed = None
 from pathlib import Path
 from rig.assembly import open_rig
 from rig.config import load_config
@@ -86,9 +79,12 @@ from rig.service.tasks import scan_to_directory
 with open_rig(load_config().with_codec(sys.argv[1])) as rig:
     scan_to_directory(rig, Path(sys.argv[2] + "-warm"), "warm")
     release_free_memory()
-    fixed = status_mb("VmRSS") if fixed is not None else None
-    with open("/proc/self/clear_refs", "w") as f:
-        f.write("5")
+    fixed = status_mb("VmRSS")
+    try:  # the peak starts again from what the process holds now
+        with open("/proc/self/clear_refs", "w") as f:
+            f.write("5")
+    except OSError:  # a kernel that will not reset it: no figure per scan
+        fixed = None
     scan_to_directory(rig, Path(sys.argv[2]), "measured")
     second = status_mb("VmHWM")
 print(json.dumps({"exit": code, "peak_rss_mb": whole, "fixed_mb": fixed, "second_peak_mb": second}))

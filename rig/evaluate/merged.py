@@ -8,6 +8,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial import cKDTree
 
+from rig.evaluate.distances import root_mean_square
 from rig.evaluate.pairs import COMPLETE_WITHIN_MM, evaluate_on_bench, point_errors
 from rig.pipeline.merge import sampling_distance
 from rig.pipeline.overlap import precision_recall
@@ -93,7 +94,7 @@ def evaluate_merge(rig: Rig, result: ScanResult, errors: list[np.ndarray] | None
         # the merged cloud where this pair measured: compare like with like, whatever else it covers
         distance, _ = cKDTree(pair.points.points).query(result.cloud.points, distance_upper_bound=COMPLETE_WITHIN_MM)
         here = merged_errors[np.isfinite(distance)]
-        summary["merged_rms_mm_here"] = round(float(np.sqrt(np.mean(here**2))), 5) if len(here) else None
+        summary["merged_rms_mm_here"] = round(root_mean_square(here), 5) if len(here) else None
     spacing = sampling_distance(PointSet.concatenate([p.points for p in result.pairs]))
     sampling = max(spacing.values()) if spacing else 0.0
     merged = _summary(merged_errors, coverage(surface, result.cloud.points))
@@ -113,7 +114,7 @@ def _summary(err: np.ndarray, completeness: float) -> dict[str, float | int | No
     empty = len(err) == 0
     return {
         "points": len(err),
-        "rms_mm": None if empty else round(float(np.sqrt(np.mean(err**2))), 5),
+        "rms_mm": None if empty else round(root_mean_square(err), 5),
         "p95_mm": None if empty else round(float(np.percentile(err, 95)), 5),
         "outliers_over_5mm": int((err > 5).sum()),
         "completeness": round(completeness, 4),

@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial import cKDTree
 
+from rig.evaluate.distances import root_mean_square
 from rig.pipeline.scan import PairResult
 from rig.rig import PixelTruth
 
@@ -77,7 +78,7 @@ def ring_coverage_on_bench(pair: PairResult, truth: PixelTruth, dist: np.ndarray
     wedge = rings.cos_beta[kept] < samples.min_cos_beta
 
     def rms(part: np.ndarray) -> float | None:
-        return float(np.sqrt(np.mean(dist[part] ** 2))) if part.any() else None
+        return root_mean_square(dist[part]) if part.any() else None
 
     return {
         "ring_coverage": float(recovered.sum() / max(1e-9, visible.sum())),

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from rig.config import RigConfig
-from rig.evaluate.distances import surface_distances
+from rig.evaluate.distances import root_mean_square, surface_distances
 from rig.patterns import codec_class
 from rig.pipeline.scan import PairResult, ScanResult
 from rig.rig import PixelTruth
@@ -26,7 +26,7 @@ def surface_metrics(pair: PairResult, truth: PixelTruth) -> dict[str, float | in
     empty = len(dist) == 0
     return {
         "surface_pixels": len(dist),
-        "surface_rms_mm": None if empty else float(np.sqrt(np.mean(dist**2))),
+        "surface_rms_mm": None if empty else root_mean_square(dist),
         "surface_p95_mm": None if empty else float(np.percentile(dist, 95)),
         "surface_max_mm": None if empty else float(np.max(dist)),
         "surface_over_1mm_fraction": float((dist > 1.0).sum() / max(1, len(dist))),

@@ -1,6 +1,7 @@
-"""The fast path from a dense correspondence to a cloud: one pair's points, normals and colours as
-camera images (an organised cloud), computed a band of rows per thread from per-pixel terms the
-pair computes once; the PointSet and the stored scan are built from it afterwards.
+"""The fast path from a dense correspondence to a cloud: one pair's cloud as camera images (an
+organised cloud: each pixel's distance along its ray, its depth, colour and quality, and the kept
+pixels' normals), computed a band of rows per thread from per-pixel terms the pair computes once;
+the PointSet and the stored scan are built from it afterwards.
 
 It computes what rig.pipeline.dense computes (PairTriangulator.triangulate, reject_isolated,
 grid_normals, texture_rgb), in float32 and relative to the camera centre, each step one pass of a
