@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import json
 from pathlib import Path
+from typing import Any
 
 import schemathesis
 from fastapi.testclient import TestClient
@@ -21,6 +22,9 @@ from tests.test_api import KEY, _service
 
 EXAMPLES_PER_OPERATION = 30
 POISONED_PER_OPERATION = 15
+# The same cases on every run (a suite that passes passes again); bench/reliability.py runs longer,
+# randomised ones.
+DETERMINISTIC = {"derandomize": True, "database": None}
 UNREPRESENTABLE_NUMBERS = ["NaN", "Infinity", "-Infinity", "1e999"]
 UNREPRESENTABLE_STRINGS = ['"\\ud800"', '"scan\\udfff"']
 
@@ -40,10 +44,19 @@ def _poisoned(value: object, draw: st.DrawFn) -> str:
 
 
 def test_every_operation_conforms_to_the_schema(tmp_path: Path) -> None:
+    operations, failures = schema_failures(tmp_path, EXAMPLES_PER_OPERATION, POISONED_PER_OPERATION, DETERMINISTIC)
+    assert operations >= 14
+    assert not failures, "\n\n".join(failures)
+
+
+def schema_failures(tmp_path: Path, examples: int, poisoned: int, randomness: dict[str, Any]) -> tuple[int, list[str]]:
+    """Every operation's generated requests (and, with a JSON body, poisoned ones) against an app
+    with no worker; the operations tried and each one's failure."""
     service = _service(tmp_path, start=False, max_queue=4)  # no worker: requests only, no scans running
     app = create_app(service, ApiSettings(api_key=KEY, allowed_hosts=("testserver", "localhost")))
     schema = schemathesis.openapi.from_asgi("/openapi.json", app)
     client = TestClient(app, base_url="http://localhost")
+    common = {"deadline": None, "suppress_health_check": list(HealthCheck), **randomness}
     failures: list[str] = []
     operations = 0
     try:
@@ -55,25 +68,24 @@ def test_every_operation_conforms_to_the_schema(tmp_path: Path) -> None:
             )
 
             @given(case=cases)
-            @settings(max_examples=EXAMPLES_PER_OPERATION, deadline=None, suppress_health_check=list(HealthCheck))
+            @settings(**common, max_examples=examples)
             def check(case: schemathesis.Case) -> None:
                 case.call_and_validate(headers={"X-API-Key": KEY})
 
             try:
                 check()
                 if operation.body:  # a JSON body: again with values JSON cannot carry back
-                    _poison_bodies(operation, client)
+                    _poison_bodies(operation, client, settings(**common, max_examples=poisoned))
             except Exception as exc:  # collect every operation's failure, then report them all
                 failures.append(f"{operation.method.upper()} {operation.path}: {exc}")
     finally:
         service.store.close()
-    assert operations >= 14
-    assert not failures, "\n\n".join(failures)
+    return operations, failures
 
 
-def _poison_bodies(operation: schemathesis.APIOperation, client: TestClient) -> None:
+def _poison_bodies(operation: schemathesis.APIOperation, client: TestClient, chosen: settings) -> None:
     @given(case=operation.as_strategy(generation_mode=GenerationMode.POSITIVE), data=st.data())
-    @settings(max_examples=POISONED_PER_OPERATION, deadline=None, suppress_health_check=list(HealthCheck))
+    @chosen
     def check(case: schemathesis.Case, data: st.DataObject) -> None:
         if not isinstance(case.body, (dict, list)):
             return

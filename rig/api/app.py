@@ -49,6 +49,7 @@ from rig.errors import (
 )
 from rig.patterns import codec_class, codec_names
 from rig.service.errors import (
+    IllegalTransitionError,
     ImportNotFoundError,
     ImportRefusedError,
     JobConflictError,
@@ -128,6 +129,7 @@ def _error_handlers(app: FastAPI) -> None:
 
     app.add_exception_handler(JobNotFoundError, handler(404))
     app.add_exception_handler(JobConflictError, handler(409))
+    app.add_exception_handler(IllegalTransitionError, handler(409))  # a damaged record's unknown state
     app.add_exception_handler(QueueFullError, handler(429, {"Retry-After": "5"}))
     app.add_exception_handler(ServiceStoppingError, handler(503))
     app.add_exception_handler(StorageFullError, handler(507))  # nothing changed; free some space

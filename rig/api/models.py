@@ -3,14 +3,18 @@
 from __future__ import annotations
 
 import datetime as dt
-from typing import Any, Literal
+import re
+import typing
+from types import UnionType
+from typing import Any, Literal, Union
 
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import BaseModel, ConfigDict, Field, ValidationInfo, field_validator
 
 from rig.config import DeviceKind
 from rig.patterns import codec_names
 from rig.recognition.gallery import LABEL
 from rig.service.jobs import Job, JobKind, JobState
+from rig.store.portable import json_problem
 
 JOB_ID_PATTERN = r"^[0-9]{8}-[0-9]{6}-[0-9a-f]{6}$"
 FILE_NAME_PATTERN = r"^[A-Za-z0-9][A-Za-z0-9_.-]{0,99}$"
@@ -22,7 +26,27 @@ MAX_REST_VIEWS = 40  # about 3 s of capture and analysis per view of the default
 
 
 class _Request(BaseModel):
-    model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
+    """A request body: strict types (no `true` for a number, no "1" for an integer), and nothing
+    anywhere in it, free-form objects included, that could not be stored and served back
+    (rig.store.portable: finite numbers, no lone surrogates, bounded depth and size)."""
+
+    model_config = ConfigDict(extra="forbid", allow_inf_nan=False, strict=True)
+
+    @field_validator("*", mode="before")
+    @classmethod
+    def _portable(cls, value: Any, info: ValidationInfo) -> Any:
+        problem = json_problem(value, info.field_name or "")
+        if problem:
+            raise ValueError(problem)
+        if isinstance(value, float) and value.is_integer() and _integer_field(cls, info.field_name):
+            return int(value)  # JSON Schema's integer includes 11.0; strict mode alone would refuse it
+        return value
+
+
+def _integer_field(model: type[BaseModel], name: str | None) -> bool:
+    annotation = model.model_fields[name].annotation if name in model.model_fields else None
+    kinds = set(typing.get_args(annotation)) if typing.get_origin(annotation) in (Union, UnionType) else {annotation}
+    return int in kinds and float not in kinds
 
 
 class ScanRequest(_Request):
@@ -102,7 +126,7 @@ class CalibrationRequest(_Request):
 class JobView(BaseModel):
     id: str
     kind: JobKind
-    state: JobState
+    state: JobState | None = Field(description="none only for a damaged record whose state is unreadable")
     created: dt.datetime
     started: dt.datetime | None
     finished: dt.datetime | None
@@ -111,21 +135,33 @@ class JobView(BaseModel):
     error: str | None
     request: dict[str, Any]
     result: dict[str, Any] | None
+    problem: str | None = Field(
+        None,
+        description="a damaged record (an older version's, a bug's, a hand edit's): what of it cannot be shown; "
+        "it can be deleted, and `slrig store check --repair` quarantines it",
+    )
     links: dict[str, str]
 
     @classmethod
     def of(cls, job: Job, base: str) -> JobView:
         def when(t: float | None) -> dt.datetime | None:
-            return None if t is None else dt.datetime.fromtimestamp(t, dt.UTC)
+            if t is None:
+                return None
+            try:
+                return dt.datetime.fromtimestamp(t, dt.UTC)
+            except (OverflowError, OSError, ValueError):  # a hand-edited time: shown as the epoch
+                return dt.datetime.fromtimestamp(0, dt.UTC)
 
         links = {"self": f"{base}/{job.id}", "events": f"{base}/{job.id}/events"}
-        if job.state is JobState.DONE:
-            for name in (job.result or {}).get("files", []):
-                links[name] = f"{base}/{job.id}/files/{name}"
+        files = (job.result or {}).get("files", [])
+        if job.state is JobState.DONE and isinstance(files, list):
+            for name in files:
+                if isinstance(name, str) and re.fullmatch(FILE_NAME_PATTERN, name):
+                    links[name] = f"{base}/{job.id}/files/{name}"
         return cls(
             id=job.id,
             kind=job.kind,
-            state=job.state,  # type: ignore[arg-type]  # a listed job has a record
+            state=job.state,
             created=when(job.created),  # type: ignore[arg-type]
             started=when(job.started),
             finished=when(job.finished),
@@ -134,6 +170,7 @@ class JobView(BaseModel):
             error=job.error,
             request=job.request,
             result=job.result,
+            problem=job.problem,
             links=links,
         )
 

@@ -30,6 +30,7 @@ COMMANDS = {
     "gallery": ("rig.cli.recognising", "cmd_gallery"),
     "identify": ("rig.cli.recognising", "cmd_identify"),
     "reconstruct": ("rig.cli.reconstructing", "cmd_reconstruct"),
+    "store": ("rig.cli.storing", "cmd_store"),
 }
 
 

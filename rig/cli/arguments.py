@@ -89,6 +89,12 @@ def _serve_command(sub: argparse._SubParsersAction) -> None:  # type: ignore[typ
     serve.add_argument("--host", default="127.0.0.1", help="address to listen on (default 127.0.0.1)")
     serve.add_argument("--port", type=int, default=8750, help="TCP port (default 8750; 0: any free port)")
     serve.add_argument("--api-key-file", type=Path, default=None, help="file holding the API key (else $SLRIG_API_KEY)")
+    serve.add_argument(
+        "--read-key-file",
+        type=Path,
+        default=None,
+        help="file holding a read-only key, for dashboards that only watch (else $SLRIG_READ_KEY; optional)",
+    )
 
 
 def _devices_command(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
@@ -221,11 +227,26 @@ def _reconstruct_command(sub: argparse._SubParsersAction) -> None:  # type: igno
     rec.add_argument("--json", action="store_true", help="print one JSON object instead of text")
 
 
+def _store_command(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
+    store = sub.add_parser("store", help="the daemon's job records, offline")
+    action = store.add_subparsers(dest="action", required=True)
+    check = action.add_parser(
+        "check",
+        help="find job records the API cannot serve as stored; --repair moves them to the quarantine table",
+        description="Exit 0: every record can be served (or --repair quarantined those that could not); "
+        "1: damaged records remain; 2: no database, or a daemon holds the data directory (--repair).",
+    )
+    check.add_argument("--config", type=Path, default=None, help="rig description (YAML): its output.data_dir")
+    check.add_argument("--data-dir", type=Path, default=None, help="the data directory (instead of --config's)")
+    check.add_argument("--repair", action="store_true", help="quarantine damaged records (stop the daemon first)")
+    check.add_argument("--json", action="store_true", help="print one JSON object")
+
+
 def parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="slrig", description="Structured-light 3D scanning rig.")
     parser.add_argument("--version", action="version", version=f"slrig {__version__}")
     sub = parser.add_subparsers(dest="command", required=True)
     commands = (_scan_command, _live_command, _evaluate_command, _plan_command, _serve_command, _devices_command)
-    for add in (*commands, _doctor_command, _cal_command, _recognition_commands, _reconstruct_command):
+    for add in (*commands, _doctor_command, _cal_command, _recognition_commands, _reconstruct_command, _store_command):
         add(sub)
     return parser

@@ -14,13 +14,18 @@ import logging
 import sqlite3
 import threading
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 from rig.service.errors import IllegalTransitionError, JobNotFoundError, StorageFullError
+from rig.store.portable import json_problem
 
 log = logging.getLogger(__name__)
+
+
+DB_NAME = "slrig.db"  # in output.data_dir
 
 
 class JobState(enum.StrEnum):
@@ -72,7 +77,7 @@ UNWRITABLE = frozenset({5, 6, 8, 10, 11, 13, 14, 26})
 class Job:
     id: str
     kind: JobKind
-    state: JobState | None  # None: a placeholder for a record that is gone
+    state: JobState | None  # None: a placeholder for a record that is gone, or a state unreadable (see problem)
     request: dict[str, Any]
     created: float
     started: float | None
@@ -81,6 +86,7 @@ class Job:
     fraction: float
     error: str | None
     result: dict[str, Any] | None
+    problem: str | None = None  # why the record cannot be served as stored (then shown without that part)
 
     @property
     def terminal(self) -> bool:
@@ -151,7 +157,7 @@ class JobStore:
             pending = dict(self._pending.get(job_id, {}))
         if row is None:
             raise JobNotFoundError(f"no job {job_id}")
-        return _job(row, pending)
+        return job_from_row(row, pending)
 
     def transition(self, job_id: str, state: JobState, **fields: Any) -> Job:
         """Move a job to `state`, setting `error`, `result`, `stage` or `fraction` too; held in
@@ -161,7 +167,10 @@ class JobStore:
             row = self._db.execute("SELECT kind, state FROM jobs WHERE id = ?", (job_id,)).fetchone()
             if row is None:
                 raise JobNotFoundError(f"no job {job_id}")
-            current = JobState(self._pending.get(job_id, {}).get("state", row["state"]))
+            stored = self._pending.get(job_id, {}).get("state", row["state"])
+            if stored not in set(JobState):
+                raise IllegalTransitionError(f"job {job_id}: its stored state {stored!r} is not one this version knows")
+            current = JobState(stored)
             if state not in TRANSITIONS.get(current, frozenset()):
                 raise IllegalTransitionError(f"job {job_id}: {current} -> {state} is not allowed")
             updates: dict[str, Any] = {"state": state}
@@ -245,8 +254,8 @@ class JobStore:
                     f"SELECT * FROM jobs WHERE {where} ORDER BY created DESC, id DESC LIMIT ? OFFSET ?",
                     (*args, limit, offset),
                 ).fetchall()
-                return [_job(r, pending.get(r["id"], {})) for r in rows], int(total)
-        jobs = [job for r in rows if (job := _job(r, pending.get(r["id"], {}))).state is state]
+                return [job_from_row(r, pending.get(r["id"], {})) for r in rows], int(total)
+        jobs = [job for r in rows if (job := job_from_row(r, pending.get(r["id"], {}))).state is state]
         return jobs[offset : offset + limit], len(jobs)
 
     def interrupt_unfinished(self, reason: str) -> list[str]:
@@ -271,18 +280,51 @@ class JobStore:
         return interrupted
 
 
-def _job(row: sqlite3.Row, pending: dict[str, Any]) -> Job:
-    row = {**dict(row), **pending}  # type: ignore[assignment]  # held in memory wins over the table
+def job_from_row(row: sqlite3.Row, pending: dict[str, Any]) -> Job:
+    """A record as it can be served: a column that cannot (unreadable JSON, a value JSON cannot
+    carry back, a state or kind this version does not know) is left out and named in `problem`,
+    so one bad record (an older version's, a bug's, a hand edit's) never breaks a listing."""
+    values = {**dict(row), **pending}
+    problems: list[str] = []
+
+    def column(name: str, decode: Callable[[Any], Any], fallback: Any) -> Any:
+        try:
+            decoded = decode(values[name])
+        except (ValueError, TypeError, RecursionError) as exc:
+            problems.append(f"{name}: {exc}")
+            return fallback
+        found = json_problem(decoded, name)
+        if found:
+            problems.append(found)
+            return fallback
+        return decoded
+
+    def number(value: Any) -> float:
+        if isinstance(value, bool) or not isinstance(value, int | float):
+            raise TypeError(f"{value!r} is not a number")
+        return float(value)
+
+    def optional(decode: Callable[[Any], Any]) -> Callable[[Any], Any]:
+        return lambda value: None if value is None else decode(value)
+
+    def record(text: Any) -> Any:
+        decoded = json.loads(text)
+        if not isinstance(decoded, dict):
+            raise TypeError(f"not a JSON object but a {type(decoded).__name__}")
+        return decoded
+
+    job_id = str(values["id"])
     return Job(
-        id=row["id"],
-        kind=JobKind(row["kind"]),
-        state=JobState(row["state"]),
-        request=json.loads(row["request"]),
-        created=row["created"],
-        started=row["started"],
-        finished=row["finished"],
-        stage=row["stage"],
-        fraction=row["fraction"],
-        error=row["error"],
-        result=json.loads(row["result"]) if row["result"] else None,
+        id=job_id if json_problem(job_id) is None else repr(job_id),
+        kind=column("kind", JobKind, JobKind.SCAN),
+        state=column("state", JobState, None),
+        request=column("request", record, {}),
+        created=column("created", number, 0.0),
+        started=column("started", optional(number), None),
+        finished=column("finished", optional(number), None),
+        stage=column("stage", optional(str), None),
+        fraction=column("fraction", number, 0.0),
+        error=column("error", optional(str), None),
+        result=column("result", lambda text: record(text) if text else None, None),
+        problem="; ".join(problems) or None,
     )

@@ -34,7 +34,7 @@ from rig.service.errors import (
 )
 from rig.service.events import EventHub
 from rig.service.imports import reconstruction_inputs, remove_leftovers
-from rig.service.jobs import Job, JobKind, JobState, JobStore
+from rig.service.jobs import DB_NAME, Job, JobKind, JobState, JobStore
 from rig.service.live import LiveMode
 from rig.service.recovery import clear_leftovers, discard, hide_folder, lock_data_dir
 from rig.service.space import check_free_space, expected_scan_bytes, storage_problems
@@ -44,7 +44,6 @@ from rig.workers import release_free_memory
 
 log = logging.getLogger(__name__)
 
-DB_NAME = "slrig.db"
 STORING = 0.95  # from this fraction on a job is writing its results: too late to cancel
 PROGRESS_EVERY_S = 0.2  # at most this often per job, plus every stage change
 
