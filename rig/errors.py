@@ -46,7 +46,9 @@ class PatternSpecError(SlrigError):
 
 class FramesError(SlrigError):
     """Raised when a folder of frames does not hold what its description lists: a missing, extra,
-    unreadable or differently sized frame, or another number of frames. Nothing is written."""
+    unreadable or differently sized frame, or another number of frames; or when an image's header
+    (rig.store.image_header) is unknown or cut short, or gives a size over the limit or not the
+    camera's, which is found before the image is decoded. Nothing is written."""
 
 
 class ScanError(SlrigError):

@@ -201,15 +201,15 @@ def test_inputs_that_crashed_are_refused_with_exit_2(tmp_path: Path, capsys: pyt
 def test_a_key_file_others_can_read_is_warned_about(tmp_path: Path, caplog: pytest.LogCaptureFixture) -> None:
     import logging
 
-    from rig.daemon.server import load_api_key
+    from rig.daemon.keys import load_api_key
 
     key = tmp_path / "key"
     key.write_text("k" * 40)
     key.chmod(0o600)
-    with caplog.at_level(logging.WARNING, logger="rig.daemon.server"):
+    with caplog.at_level(logging.WARNING, logger="rig.daemon.keys"):
         assert load_api_key(key, tmp_path) == "k" * 40
     assert not caplog.records
     key.chmod(0o644)
-    with caplog.at_level(logging.WARNING, logger="rig.daemon.server"):
+    with caplog.at_level(logging.WARNING, logger="rig.daemon.keys"):
         assert load_api_key(key, tmp_path) == "k" * 40
     assert "can be read by users other than its owner; chmod 600 it" in caplog.text

@@ -17,6 +17,7 @@ from starlette.exceptions import HTTPException as StarletteHTTPException
 from starlette.middleware.trustedhost import TrustedHostMiddleware
 
 from rig import __version__
+from rig.api.head import HeadAsGet
 from rig.api.live import live_router
 from rig.api.models import (
     FILE_NAME_PATTERN,
@@ -36,7 +37,8 @@ from rig.api.problems import method_not_allowed, validation_problem
 from rig.api.recognition import recognition_router
 from rig.api.reconstructions import UPLOADS, reconstruction_router
 from rig.api.security import MUTATING, READING, ApiSettings, BodyLimitMiddleware
-from rig.api.streams import SSE_PING_S, event_stream, sse
+from rig.api.slots import CountedFile, Slots, client_address
+from rig.api.streams import SSE_PING_S, event_slots, event_stream, sse
 from rig.errors import (
     CalibrationError,
     ConfigError,
@@ -57,6 +59,7 @@ from rig.service.errors import (
     QueueFullError,
     ServiceStoppingError,
     StorageFullError,
+    TooManyOpenError,
 )
 from rig.service.jobs import JobKind
 from rig.service.runner import JobService
@@ -90,7 +93,8 @@ def create_app(service: JobService, settings: ApiSettings, stopping: Callable[[]
     )
     app.state.api_settings = settings
     app.state.service = service
-    app.state.event_streams = 0
+    app.state.event_streams = event_slots()
+    app.state.downloads = Slots("file downloads", settings.max_downloads, settings.max_downloads_per_client)
     if guarded:
 
         @app.get("/openapi.json", include_in_schema=False, dependencies=READING)
@@ -117,6 +121,7 @@ def create_app(service: JobService, settings: ApiSettings, stopping: Callable[[]
     app.include_router(recognition_router(service, ERRORS), prefix="/v1")
     app.include_router(reconstruction_router(service, ERRORS), prefix="/v1")
     app.include_router(live_router(service, ERRORS, is_stopping), prefix="/v1")
+    app.add_middleware(HeadAsGet)  # outermost: HEAD is a GET to everything inside
     return app
 
 
@@ -131,6 +136,7 @@ def _error_handlers(app: FastAPI) -> None:
     app.add_exception_handler(JobConflictError, handler(409))
     app.add_exception_handler(IllegalTransitionError, handler(409))  # a damaged record's unknown state
     app.add_exception_handler(QueueFullError, handler(429, {"Retry-After": "5"}))
+    app.add_exception_handler(TooManyOpenError, handler(429, {"Retry-After": "5"}))
     app.add_exception_handler(ServiceStoppingError, handler(503))
     app.add_exception_handler(StorageFullError, handler(507))  # nothing changed; free some space
     app.add_exception_handler(GalleryError, handler(409))  # a scan already in it, other settings
@@ -263,9 +269,13 @@ def _result_routes(router: APIRouter, service: JobService, kind: JobKind, stoppi
         response_class=FileResponse,
         responses={200: {"content": {"application/octet-stream": {}, "image/png": {}, "application/json": {}}}},
     )
-    def download(job_id: JobId, name: FileName) -> FileResponse:
+    def download(job_id: JobId, name: FileName, request: Request) -> FileResponse:
+        """The file, whole or the byte ranges asked for (Range); at most service.max_downloads at
+        once (max_downloads_per_client from one address), more: 429."""
         path = service.file_path(job_id, kind, name)
-        return FileResponse(path, media_type=MEDIA_TYPES.get(path.suffix, "application/octet-stream"), filename=name)
+        release = request.app.state.downloads.take(client_address(request.client))
+        media = MEDIA_TYPES.get(path.suffix, "application/octet-stream")
+        return CountedFile(release, path, media_type=media, filename=name)
 
     @router.get(
         "/{job_id}/events",

@@ -51,6 +51,8 @@ def allowed_methods(app: Any, path: str) -> list[str]:
         pattern = "".join("[^/]+" if part.startswith("{") else re.escape(part) for part in parts)
         if re.fullmatch(pattern, path):
             methods |= {method.upper() for method in operations}
+    if "GET" in methods:
+        methods.add("HEAD")  # served wherever GET is (rig.api.app), not listed in the schema
     return sorted(methods)
 
 

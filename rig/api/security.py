@@ -1,8 +1,10 @@
 """API key, Host header and request-size checks of the REST API.
 
-The key comes in `X-API-Key` or `Authorization: Bearer`, never in a query string, and is compared
-in constant time. It is needed for every mutating request, and for every request at all when the
-daemon listens beyond loopback. Missing: 401; wrong: 403. The key is never logged.
+A key comes in `X-API-Key` or `Authorization: Bearer`, never in a query string, and is compared
+in constant time. The API key is needed for every mutating request; reads need a key (the API key
+or the read-only key, for dashboards and automation that only watch) when `service.read_access`
+says so, by default when the daemon listens beyond loopback. Missing: 401; wrong, or the read-only
+key for a change: 403. No key is ever logged.
 """
 
 from __future__ import annotations
@@ -42,7 +44,10 @@ def check_key_strength(key: str) -> str | None:
 @dataclass(frozen=True)
 class ApiSettings:
     api_key: str = field(repr=False)  # repr=False: never printed with the settings
-    protect_reads: bool = False  # listening beyond loopback: every request needs the key
+    protect_reads: bool = False  # every read needs a key (service.read_access; by default beyond loopback)
+    read_key: str | None = field(default=None, repr=False)  # reads only
+    max_downloads: int = 16
+    max_downloads_per_client: int = 4
     max_body_bytes: int = 65536
     cors_origins: tuple[str, ...] = ()
     allowed_hosts: tuple[str, ...] = ("127.0.0.1", "localhost", "::1", "[::1]")
@@ -66,7 +71,19 @@ def _key_from(header: str | None, authorization: str) -> str | None:
     return token.strip() if scheme.lower() == "bearer" and token.strip() else None
 
 
-def _check(request: Request) -> None:
+def key_role(settings: ApiSettings, presented: str | None) -> str | None:
+    """The role of a presented key: admin (the API key), read (the read-only key), or None. Constant time."""
+    if presented is None:
+        return None
+    given = presented.encode()
+    if hmac.compare_digest(given, settings.api_key.encode()):
+        return "admin"
+    if settings.read_key is not None and hmac.compare_digest(given, settings.read_key.encode()):
+        return "read"
+    return None
+
+
+def _check(request: Request, changes: bool) -> None:
     settings: ApiSettings = request.app.state.api_settings
     presented = _presented_key(request)
     if presented is None:
@@ -75,19 +92,22 @@ def _check(request: Request) -> None:
             "an API key is required (header X-API-Key or Authorization: Bearer)",
             headers={"WWW-Authenticate": "Bearer"},
         )
-    if not hmac.compare_digest(presented.encode(), settings.api_key.encode()):
+    role = key_role(settings, presented)
+    if role is None:
         raise HTTPException(status.HTTP_403_FORBIDDEN, "the API key is not valid")
+    if changes and role != "admin":
+        raise HTTPException(status.HTTP_403_FORBIDDEN, "a read-only key cannot change anything; use the API key")
 
 
 def require_key(request: Request) -> None:
-    """For mutating endpoints."""
-    _check(request)
+    """For mutating endpoints: the API key."""
+    _check(request, changes=True)
 
 
 def require_key_for_reads(request: Request) -> None:
-    """For read endpoints: only when the daemon listens beyond loopback."""
+    """For read endpoints: either key, when reads are protected (service.read_access)."""
     if request.app.state.api_settings.protect_reads:
-        _check(request)
+        _check(request, changes=False)
 
 
 MUTATING = [Depends(require_key)]

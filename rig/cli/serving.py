@@ -8,7 +8,9 @@ import sys
 
 from rig.assembly.memory import check_memory
 from rig.config import load_config
-from rig.daemon.server import load_api_key, serve
+from rig.daemon.keys import load_api_keys
+from rig.daemon.logs import install_redaction
+from rig.daemon.server import serve
 from rig.errors import ConfigError
 
 
@@ -18,5 +20,6 @@ def cmd_serve(args: argparse.Namespace) -> int:
     config = load_config(args.config)
     check_memory(config)  # at start, not at the first job
     logging.basicConfig(level=logging.INFO, format="%(levelname)s %(name)s: %(message)s", stream=sys.stderr)
-    key = load_api_key(args.api_key_file, config.output.data_dir)
-    return serve(config, args.host, args.port, key)
+    keys = load_api_keys(args.api_key_file, args.read_key_file, config.output.data_dir)
+    install_redaction(keys.values())  # no key in any log line, the access log's included
+    return serve(config, args.host, args.port, keys.admin, keys.read)

@@ -4,6 +4,7 @@ stores and serves."""
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Literal
 
 from pydantic import Field, ValidationError, model_validator
 
@@ -41,7 +42,30 @@ class ServiceConfig(Strict):
     )
     body_stall_s: float = Field(10.0, ge=0.5, le=300.0, description="a request body silent this long is answered 408")
     max_connections: int = Field(
-        1000, ge=16, le=100_000, description="open connections; past this the oldest idle one is closed"
+        1000,
+        ge=16,
+        le=100_000,
+        description="open connections; past this one is closed: idle before busy, unauthenticated before "
+        "authenticated, oldest first",
+    )
+    send_timeout_s: float = Field(
+        15.0, ge=0.5, le=600.0, description="a response the client holds back is checked this often; see min_send_rate"
+    )
+    min_send_rate: int = Field(
+        1024, ge=0, le=1_000_000_000, description="bytes/s a client must take while it holds a response back; else cut"
+    )
+    max_downloads: int = Field(16, ge=1, le=10_000, description="file downloads at once; more get 429")
+    max_downloads_per_client: int = Field(4, ge=1, le=10_000, description="file downloads at once from one address")
+    read_access: Literal["auto", "key", "open"] = Field(
+        "auto",
+        description="reads (GET): key: need a key (the API key or a read-only key); open: need none; "
+        "auto: open on loopback, key beyond",
+    )
+    max_import_bytes: int = Field(
+        4 * 1024**3, ge=1024**2, le=1024**4, description="bytes of one imports folder (each file: at most 64 MiB)"
+    )
+    max_image_pixels: int = Field(
+        64_000_000, ge=1024, le=1_000_000_000, description="pixels of an uploaded frame, read from its header"
     )
 
 

@@ -1,16 +1,27 @@
 """HTTP connections that cannot exhaust the daemon.
 
-uvicorn keeps a connection that never sends a request for as long as the client likes, and with
-a concurrency limit answers every later request 503 once enough such connections are open
-(health checks included). Here a connection must deliver its request headers within
-`service.header_timeout_s` of opening (or of its previous response) or it is closed; past
-`service.max_connections` the oldest connection with no request in progress is closed to make room, so a request that
-arrives is always served. Body stalls are bounded in BodyLimitMiddleware (rig.api.security).
+uvicorn keeps a connection that never sends a request, or never reads its response, for as long as
+the client likes, and with a concurrency limit answers every later request 503 once enough such
+connections are open (health checks included). Here:
+
+- a connection must deliver its request headers within `service.header_timeout_s` of opening (or
+  of its previous response) or it is closed;
+- a response the client holds back (the send buffer full) must drain at `service.min_send_rate`
+  bytes/s, judged every `service.send_timeout_s`, or its connection is cut (a slow reader);
+- past `service.max_connections` one connection is closed to make room: idle ones before those
+  with a request in progress, unauthenticated before authenticated (a request that presented a
+  valid key), slow readers first among the busy, oldest first; the new one only when every other
+  is an authenticated request in progress. So a request that arrives, a health check among them,
+  is served.
+
+Body stalls are bounded in BodyLimitMiddleware (rig.api.security), long responses counted in
+rig.api.slots.
 """
 
 from __future__ import annotations
 
 import asyncio
+import hmac
 import logging
 import time
 from typing import Any
@@ -20,13 +31,23 @@ from uvicorn.protocols.http.h11_impl import H11Protocol
 log = logging.getLogger(__name__)
 
 
-def guarded_protocol(header_timeout_s: float, max_connections: int) -> type[H11Protocol]:
-    """The protocol class for uvicorn's `http` setting, with these bounds."""
-    return type(
-        "ConfiguredGuardedH11Protocol",
-        (GuardedH11Protocol,),
-        {"header_timeout_s": header_timeout_s, "max_connections": max_connections},
-    )
+def guarded_protocol(
+    header_timeout_s: float,
+    max_connections: int,
+    send_timeout_s: float = 15.0,
+    min_send_rate: int = 1024,
+    keys: tuple[str, ...] = (),
+) -> type[H11Protocol]:
+    """The protocol class for uvicorn's `http` setting, with these bounds; `keys` are those that
+    make a request authenticated (for the eviction order)."""
+    settings = {
+        "header_timeout_s": header_timeout_s,
+        "max_connections": max_connections,
+        "send_timeout_s": send_timeout_s,
+        "min_send_rate": min_send_rate,
+        "keys": tuple(k.encode() for k in keys),
+    }
+    return type("ConfiguredGuardedH11Protocol", (GuardedH11Protocol,), settings)
 
 
 class GuardedH11Protocol(H11Protocol):
@@ -34,11 +55,17 @@ class GuardedH11Protocol(H11Protocol):
 
     header_timeout_s = 10.0
     max_connections = 1000
+    send_timeout_s = 15.0
+    min_send_rate = 1024
+    keys: tuple[bytes, ...] = ()
 
     def __init__(self, *args: Any, **kwargs: Any) -> None:
         super().__init__(*args, **kwargs)
         self._header_deadline: asyncio.TimerHandle | None = None
+        self._send_check: asyncio.TimerHandle | None = None
+        self._send_mark = 0  # bytes waiting to be sent when the last check began
         self._opened = time.monotonic()
+        self._authenticated = False  # its latest request presented a valid key
 
     def connection_made(self, transport: asyncio.Transport) -> None:  # type: ignore[override]
         super().connection_made(transport)
@@ -48,14 +75,67 @@ class GuardedH11Protocol(H11Protocol):
 
     def connection_lost(self, exc: Exception | None) -> None:
         self._disarm()
+        self._stop_send_check()
         super().connection_lost(exc)
 
     def data_received(self, data: bytes) -> None:
         super().data_received(data)
         if self._in_request():
             self._disarm()  # the headers are in; the body has its own bound
+            self._authenticated = self._presents_key()
         elif self._header_deadline is None:
             self._arm()  # bytes of the next request's headers: they get the same deadline
+
+    # --- a client that does not read its response ---------------------------------------------
+    def pause_writing(self) -> None:
+        super().pause_writing()
+        self._start_send_check()
+
+    def resume_writing(self) -> None:
+        super().resume_writing()
+        self._stop_send_check()
+
+    def _start_send_check(self) -> None:
+        self._stop_send_check()
+        self._send_mark = self.transport.get_write_buffer_size()
+        self._send_check = self.loop.call_later(self.send_timeout_s, self._check_send_rate)
+
+    def _stop_send_check(self) -> None:
+        if self._send_check is not None:
+            self._send_check.cancel()
+            self._send_check = None
+
+    def _check_send_rate(self) -> None:
+        """While the response is held back, nothing more is written to the buffer: what left it
+        is what the client took."""
+        self._send_check = None
+        if self.transport.is_closing():
+            return
+        taken = self._send_mark - self.transport.get_write_buffer_size()
+        if taken < self.min_send_rate * self.send_timeout_s or taken <= 0:
+            log.info(
+                "cutting a connection that took %d bytes of its response in %g s (at least %d bytes/s)",
+                max(taken, 0),
+                self.send_timeout_s,
+                self.min_send_rate,
+            )
+            self.transport.abort()  # close() would wait for the buffer to drain
+            return
+        self._start_send_check()
+
+    def _slow_reader(self) -> bool:
+        return self.flow.write_paused
+
+    def _presents_key(self) -> bool:
+        if not self.keys or self.cycle is None:
+            return False
+        presented = b""
+        for name, value in self.cycle.scope["headers"]:
+            if name == b"x-api-key":
+                presented = value
+            elif name == b"authorization" and value[:7].lower() == b"bearer ":
+                presented = presented or value[7:].strip()
+        return any(hmac.compare_digest(presented, key) for key in self.keys)
 
     def _in_request(self) -> bool:
         return self.cycle is not None and not self.cycle.response_complete
@@ -75,13 +155,28 @@ class GuardedH11Protocol(H11Protocol):
             log.info("closing a connection that sent no request within %g s", self.header_timeout_s)
             self.transport.close()
 
+    def _eviction_rank(self) -> tuple[int, float]:
+        """Lower goes first: idle unauthenticated, idle authenticated, busy unauthenticated slow
+        readers, other busy unauthenticated; oldest first within each."""
+        if not self._in_request():
+            return (0 if not self._authenticated else 1, self._opened)
+        if not self._authenticated:
+            return (2 if self._slow_reader() else 3, self._opened)
+        return (4, self._opened)  # an authenticated request in progress: never evicted
+
     def _evict_idle(self) -> None:
-        """Close the oldest idle connection; with none idle, this new one (so file descriptors
-        never run out, and a request that arrives later finds room once one ends)."""
+        """Close the connection that matters least (see the module's docstring); with only
+        authenticated requests in progress besides, this new one (so file descriptors never run
+        out, and a request that arrives later finds room once one ends)."""
         open_ = [c for c in self.connections if isinstance(c, GuardedH11Protocol) and not c.transport.is_closing()]
         if len(open_) <= self.max_connections:
             return  # others closing in this pass already made room
-        idle = [c for c in open_ if c is not self and not c._in_request()]
-        victim = min(idle, key=lambda c: c._opened) if idle else self
-        log.warning("%d connections open: closing %s", len(open_), "the oldest idle one" if idle else "a new one")
-        victim.transport.close()
+        others = [c for c in open_ if c is not self and c._eviction_rank()[0] < 4]
+        victim = min(others, key=lambda c: c._eviction_rank()) if others else self
+        reasons = ("an idle one", "an idle one", "a slow reader", "an unauthenticated request")
+        label = "the new one" if victim is self else reasons[victim._eviction_rank()[0]]
+        log.warning("%d connections open: closing %s", len(open_), label)
+        if victim._in_request():
+            victim.transport.abort()  # its response would otherwise be waited out
+        else:
+            victim.transport.close()

@@ -12,18 +12,15 @@ import asyncio
 import contextlib
 import errno
 import logging
-import os
 import resource
-import secrets
 import signal
 import socket
 from collections.abc import Iterator
-from pathlib import Path
 
 import uvicorn
 
 from rig.api.app import create_app
-from rig.api.security import ApiSettings, check_key_strength, is_loopback
+from rig.api.security import ApiSettings, is_loopback
 from rig.config import RigConfig
 from rig.daemon.connections import guarded_protocol
 from rig.daemon.logs import redact_access_log
@@ -33,61 +30,13 @@ from rig.service.runner import JobService
 
 log = logging.getLogger(__name__)
 
-KEY_ENV = "SLRIG_API_KEY"
-KEY_CREDENTIAL = "slrig-api-key"  # systemd LoadCredential= name
-GENERATED_KEY = "api-key"
 WILDCARDS = ("0.0.0.0", "::", "[::]")
 
 
-def _read_key(path: Path, source: str) -> str:
-    try:
-        if path.stat().st_mode & 0o077:  # others (or the group) can read the key
-            log.warning("%s: %s can be read by users other than its owner; chmod 600 it", source, path)
-        return path.read_text(encoding="utf-8").strip()
-    except OSError as exc:
-        raise ConfigError(source, [f"{source}: cannot read {path}: {exc.strerror}"]) from None
-    except UnicodeDecodeError:
-        raise ConfigError(source, [f"{source}: {path} is not UTF-8 text (an API key is text)"]) from None
-
-
-def load_api_key(key_file: Path | None, data_dir: Path) -> str:
-    """From --api-key-file, the systemd credential or $SLRIG_API_KEY, in that order; with none of
-    them, the key in <data_dir>/api-key, generated there (mode 0600) on first start."""
-    source, key = None, None
-    credentials = os.environ.get("CREDENTIALS_DIRECTORY")
-    if key_file is not None:
-        source = "--api-key-file"
-        key = _read_key(key_file, source)
-    elif credentials and (Path(credentials) / KEY_CREDENTIAL).is_file():
-        source, key = "credential", _read_key(Path(credentials) / KEY_CREDENTIAL, "credential")
-    elif os.environ.get(KEY_ENV):
-        source, key = KEY_ENV, os.environ[KEY_ENV].strip()
-    else:
-        return _generated_key(data_dir / GENERATED_KEY)
-    problem = check_key_strength(key)
-    if problem:
-        raise ConfigError(source, [f"{source}: the API key {problem}"])
-    return key
-
-
-def _generated_key(path: Path) -> str:
-    if not path.is_file():
-        path.parent.mkdir(parents=True, exist_ok=True)
-        fd = os.open(path, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o600)
-        with os.fdopen(fd, "w") as f:
-            f.write(secrets.token_hex(32) + "\n")
-            f.flush()
-            os.fsync(f.fileno())
-        log.info("generated an API key in %s (mode 0600); clients send it as X-API-Key", path)
-    key = path.read_text().strip()
-    if check_key_strength(key):
-        raise ConfigError(str(path), [f"{path}: the stored API key is too weak; delete the file to generate one"])
-    return key
-
-
-def api_settings(config: RigConfig, host: str, api_key: str) -> ApiSettings:
-    """Loopback: reads are open, mutations need the key. Beyond: every request needs it, and Host
-    headers must name this machine as clients reach it."""
+def api_settings(config: RigConfig, host: str, api_key: str, read_key: str | None = None) -> ApiSettings:
+    """Mutations need the API key. Reads need a key (either) as service.read_access says: by
+    default open on loopback and protected beyond, where Host headers must also name this machine
+    as clients reach it."""
     loopback = is_loopback(host)
     hosts = ["127.0.0.1", "localhost", "::1", "[::1]", *config.service.allowed_hosts]
     if not loopback:
@@ -100,9 +49,16 @@ def api_settings(config: RigConfig, host: str, api_key: str) -> ApiSettings:
                 ],
             )
         hosts.append(host)
+    access = config.service.read_access
+    protect_reads = access == "key" or (access == "auto" and not loopback)
+    if not loopback and not protect_reads:
+        log.warning("service.read_access is open on %s: anyone who reaches the port can read every scan", host)
     return ApiSettings(
         api_key=api_key,
-        protect_reads=not loopback,
+        protect_reads=protect_reads,
+        read_key=read_key,
+        max_downloads=config.service.max_downloads,
+        max_downloads_per_client=config.service.max_downloads_per_client,
         max_body_bytes=config.service.max_body_bytes,
         cors_origins=tuple(config.service.cors_origins),
         allowed_hosts=tuple(hosts),
@@ -159,8 +115,8 @@ class _Server(uvicorn.Server):
         yield
 
 
-def serve(config: RigConfig, host: str, port: int, api_key: str) -> int:
-    settings = api_settings(config, host, api_key)
+def serve(config: RigConfig, host: str, port: int, api_key: str, read_key: str | None = None) -> int:
+    settings = api_settings(config, host, api_key, read_key)
     sock = bind(host, port)
     service = JobService(config, config.service.max_queue, config.service.health_stale_s)
     notifier = Notifier()
@@ -177,7 +133,13 @@ def serve(config: RigConfig, host: str, port: int, api_key: str) -> int:
         port=port,
         log_config=None,  # our logging: stderr, read by journald
         timeout_graceful_shutdown=2,
-        http=guarded_protocol(config.service.header_timeout_s, max_connections),  # no concurrency cap
+        http=guarded_protocol(  # no concurrency cap: connections are bounded in rig.daemon.connections
+            config.service.header_timeout_s,
+            max_connections,
+            config.service.send_timeout_s,
+            config.service.min_send_rate,
+            keys=tuple(key for key in (settings.api_key, settings.read_key) if key),
+        ),
         timeout_keep_alive=5,
         lifespan="off",
     )

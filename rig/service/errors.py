@@ -33,6 +33,11 @@ class StorageFullError(SlrigError):
     Nothing is changed (HTTP 507)."""
 
 
+class TooManyOpenError(SlrigError):
+    """Raised when a long response (an event stream, a file download) is asked for while every
+    slot of its kind, overall or for the client's address, is taken (HTTP 429, Retry-After)."""
+
+
 class ServiceStoppingError(SlrigError):
     """Raised when a job is submitted while the daemon shuts down (HTTP 503)."""
 
@@ -43,4 +48,5 @@ class ImportNotFoundError(SlrigError):
 
 class ImportRefusedError(SlrigError):
     """Raised when an upload or a reconstruction request names a file that is refused or missing:
-    a name that is not a plain file name, an unknown suffix, a full folder (HTTP 422)."""
+    a name that is not a plain file name, an unknown suffix, a full folder, an empty body, an
+    image larger than allowed by its header (HTTP 422)."""

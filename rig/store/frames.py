@@ -1,6 +1,7 @@
 """A folder of frames another system captured, read as its pattern description (a YAML file,
 rig.patterns.spec) lists them: in order, checked (every frame there, readable, one size), at its
-bit depth, in grey."""
+bit depth, in grey. Each frame's size is checked from its header before it is decoded, so that a
+small file that decodes to gigabytes (a decompression bomb) is refused without being decoded."""
 
 from __future__ import annotations
 
@@ -21,9 +22,12 @@ from pydantic import ValidationError
 from rig.config.problems import problems
 from rig.errors import FramesError, PatternSpecError
 from rig.patterns.spec import FrameFiles, PatternSpec
+from rig.store.image_header import ImageHeader, check_image_size, image_header, image_header_bytes
 
 _GREY = {"red": 2, "green": 1, "blue": 0}  # channels as OpenCV reads them (BGR)
 READERS = 4
+# Larger than any scanner camera's frame (a 16-bit one decodes to 128 MB); a 20000x20000 bomb is refused.
+MAX_FRAME_PIXELS = 64_000_000
 
 
 @dataclass(frozen=True, eq=False)
@@ -45,12 +49,14 @@ class FrameSet:
 class ArrivingFrames(Sequence[np.ndarray]):
     """Frames being read on threads, each one there as soon as it is read: a decoder that walks
     them in order decodes while the rest are read. A frame that cannot be read, or differs from the
-    first in size or depth, raises FramesError when it is reached."""
+    first in size or depth, raises FramesError when it is reached; the first frame's header is
+    checked at once, each other's before it is decoded."""
 
-    def __init__(self, paths: list[Path], grey: str) -> None:
+    def __init__(self, paths: list[Path], grey: str, resolution: tuple[int, int] | None = None) -> None:
         self._paths = paths
+        first = (paths[0], _checked(paths[0], _header(paths[0]), resolution, None))
         pool = ThreadPoolExecutor(max_workers=READERS)
-        self._pending = [pool.submit(_read, path, grey) for path in paths]
+        self._pending = [pool.submit(_read, path, grey, first, resolution) for path in paths]
         pool.shutdown(wait=False)  # the threads end when the last frame is read
         self._first, _ = self._pending[0].result()
 
@@ -123,18 +129,24 @@ def _matching(folder: Path, pattern: str) -> list[Path]:
     return sorted((p for p in folder.glob(pattern) if p.is_file()), key=natural_order)
 
 
-def open_frames(folder: Path, files: FrameFiles, expected: int) -> FrameSet:
-    """The frames of `folder` as they arrive (ArrivingFrames): read on threads while they are used."""
+def open_frames(folder: Path, files: FrameFiles, expected: int, resolution: tuple[int, int] | None = None) -> FrameSet:
+    """The frames of `folder` as they arrive (ArrivingFrames): read on threads while they are used.
+    `resolution` (width, height), where the caller knows the camera's, is required of every frame."""
     paths = frame_files(folder, files, expected)
-    frames = ArrivingFrames(paths, files.grey)
+    frames = ArrivingFrames(paths, files.grey, resolution)
     return FrameSet(frames, paths, 65535 if frames[0].dtype == np.uint16 else 255)
 
 
-def read_frames(folder: Path, files: FrameFiles, expected: int) -> FrameSet:
-    """The frames of `folder`, all read (on a few threads: PNG decoding releases the GIL)."""
+def read_frames(folder: Path, files: FrameFiles, expected: int, resolution: tuple[int, int] | None = None) -> FrameSet:
+    """The frames of `folder`, all read (on a few threads: PNG decoding releases the GIL), every
+    header checked before any is decoded. `resolution` (width, height), where the caller knows the
+    camera's, is required of every frame."""
     paths = frame_files(folder, files, expected)
+    head = (paths[0], _checked(paths[0], _header(paths[0]), resolution, None))
+    for path in paths[1:]:
+        _checked(path, _header(path), resolution, head)
     with ThreadPoolExecutor(max_workers=READERS) as pool:
-        loaded = list(pool.map(lambda p: _read(p, files.grey), paths))
+        loaded = list(pool.map(lambda p: _read(p, files.grey, head, resolution), paths))
     frames = [frame for frame, _ in loaded]
     first = frames[0]
     for path, frame in zip(paths, frames, strict=True):
@@ -152,11 +164,37 @@ def _kind(frame: np.ndarray) -> str:
     return f"{frame.shape[1]}x{frame.shape[0]} {8 * frame.itemsize}-bit"
 
 
-def _read(path: Path, grey: str) -> tuple[np.ndarray, str]:
+def _header(path: Path, data: bytes | None = None) -> ImageHeader:
+    """The frame's header from its file (a few KB read) or from its bytes, read already."""
+    try:
+        return image_header(path) if data is None else image_header_bytes(data, str(path))
+    except FramesError as exc:  # its message begins with the path
+        raise FramesError(f"frame {exc}") from None
+
+
+def _checked(
+    path: Path, header: ImageHeader, resolution: tuple[int, int] | None, first: tuple[Path, ImageHeader] | None
+) -> ImageHeader:
+    """`header`, if the frame is within MAX_FRAME_PIXELS, of `resolution` and of the first frame's size."""
+    check_image_size(header, f"frame {path}", resolution, MAX_FRAME_PIXELS)
+    if first is not None and header.size != first[1].size:
+        raise FramesError(f"frame {path}: {_stored(header)}, the first frame ({first[0].name}) is {_stored(first[1])}")
+    return header
+
+
+def _stored(header: ImageHeader) -> str:
+    return f"{header.width}x{header.height} {header.bits_per_sample}-bit"
+
+
+def _read(
+    path: Path, grey: str, first: tuple[Path, ImageHeader], resolution: tuple[int, int] | None
+) -> tuple[np.ndarray, str]:
     try:
         data = path.read_bytes()
     except OSError as exc:
         raise FramesError(f"frame {path}: cannot be read ({exc.strerror})") from None
+    # the bytes decoded are the bytes checked (a file may be replaced after its header was read)
+    _checked(path, _header(path, data), resolution, first)
     image = cv2.imdecode(np.frombuffer(data, np.uint8), cv2.IMREAD_UNCHANGED)
     if image is None:
         raise FramesError(f"frame {path}: not an image OpenCV can read")
