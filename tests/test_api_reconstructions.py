@@ -9,6 +9,7 @@ from pathlib import Path
 from typing import Any
 
 import cv2
+import numpy as np
 import pytest
 from fastapi.testclient import TestClient
 
@@ -120,7 +121,9 @@ def test_uploads_refuse_names_and_kinds_that_are_not_frames(client: TestClient, 
 def test_only_the_keys_holder_may_send_a_large_upload(client: TestClient) -> None:
     """A body larger than the JSON limit (64 KiB) is held for an upload only when the key is valid:
     no one else makes the daemon buffer megabytes."""
-    frame = bytes(300_000)
+    noise = np.random.default_rng(1).integers(0, 65535, (400, 400), dtype=np.uint16)
+    frame = cv2.imencode(".png", noise)[1].tobytes()  # noise: a PNG of about 320 KB
+    assert len(frame) > 65536
     assert client.put("/v1/imports/big/frame.png", content=frame).status_code == 413
     assert client.put("/v1/imports/big/frame.png", content=frame, headers={"X-API-Key": "x" * 32}).status_code == 413
     assert client.put("/v1/imports/big/frame.png", content=frame, headers=AUTH).status_code == 201

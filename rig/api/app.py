@@ -35,7 +35,7 @@ from rig.api.models import (
 )
 from rig.api.problems import method_not_allowed, validation_problem
 from rig.api.recognition import recognition_router
-from rig.api.reconstructions import UPLOADS, reconstruction_router
+from rig.api.reconstructions import reconstruction_router, upload_rule
 from rig.api.security import MUTATING, READING, ApiSettings, BodyLimitMiddleware
 from rig.api.slots import CountedFile, Slots, client_address
 from rig.api.streams import SSE_PING_S, event_slots, event_stream, sse
@@ -54,6 +54,7 @@ from rig.service.errors import (
     IllegalTransitionError,
     ImportNotFoundError,
     ImportRefusedError,
+    ImportTooLargeError,
     JobConflictError,
     JobNotFoundError,
     QueueFullError,
@@ -110,7 +111,7 @@ def create_app(service: JobService, settings: ApiSettings, stopping: Callable[[]
     app.add_middleware(
         BodyLimitMiddleware,
         limit=settings.max_body_bytes,
-        uploads=UPLOADS,
+        uploads=upload_rule(service.data_dir),
         key=settings.api_key,
         stall_s=settings.body_stall_s,
     )
@@ -144,6 +145,7 @@ def _error_handlers(app: FastAPI) -> None:
     app.add_exception_handler(GalleryFileError, handler(503))  # not a gallery, or newer: left as it is
     app.add_exception_handler(RecognitionError, handler(422))  # too little surface, an empty gallery
     app.add_exception_handler(ImportNotFoundError, handler(404))
+    app.add_exception_handler(ImportTooLargeError, handler(413))
 
     async def config_error(request: Request, exc: Exception) -> JSONResponse:
         problems = exc.problems if isinstance(exc, (ConfigError, PatternSpecError)) else [str(exc)]

@@ -4,15 +4,18 @@ result is a scan like any other (listed, downloaded, identified under /v1/scans)
 
 from __future__ import annotations
 
+from pathlib import Path as FsPath
 from typing import Annotated, Any
 
 from fastapi import APIRouter, Path, Request, Response, status
 from starlette.concurrency import run_in_threadpool
 
 from rig.api.models import FILE_NAME_PATTERN, JobView, ReconstructionRequest
-from rig.api.security import MUTATING, READING
+from rig.api.security import MUTATING, READING, UploadRule
+from rig.service.errors import StorageFullError
 from rig.service.imports import MAX_FILE_BYTES, SUFFIXES, list_imports, remove_folder, store_file
 from rig.service.runner import JobService
+from rig.service.space import check_free_space
 
 Name = Annotated[str, Path(pattern=FILE_NAME_PATTERN, description="a plain name: letters, digits, '_', '.', '-'")]
 _SUFFIXES = "|".join(s.lstrip(".") for s in SUFFIXES)
@@ -29,7 +32,22 @@ BINARY_BODY = {
         "content": {"application/octet-stream": {"schema": {"type": "string", "format": "binary"}}},
     }
 }
-UPLOADS = ("/v1/imports/", MAX_FILE_BYTES)  # the body limit of uploads (rig.api.security.BodyLimitMiddleware)
+UPLOADS = "/v1/imports/"
+
+
+def upload_rule(data_dir: FsPath) -> UploadRule:
+    """Uploads' body limit, and a declared size the disk cannot take refused before it is read."""
+
+    def refusal(declared: int) -> tuple[int, str] | None:
+        if declared == 0:
+            return 422, "the request body is empty; it must hold the file's bytes"
+        try:
+            check_free_space(data_dir, declared, "this upload")
+        except StorageFullError as exc:
+            return 507, str(exc)
+        return None
+
+    return UploadRule(UPLOADS, MAX_FILE_BYTES, refusal)
 
 
 def reconstruction_router(service: JobService, errors: dict[int | str, dict[str, Any]]) -> APIRouter:
@@ -47,7 +65,10 @@ def reconstruction_router(service: JobService, errors: dict[int | str, dict[str,
     )
     async def upload(folder: Name, file: UploadName, request: Request, response: Response) -> dict[str, Any]:
         body = await request.body()
-        stored = await run_in_threadpool(store_file, service.data_dir, folder, file, body)  # writes, hashes, fsyncs
+        limits = service.config.service
+        stored = await run_in_threadpool(  # checks, writes, hashes, fsyncs
+            store_file, service.data_dir, folder, file, body, limits.max_import_bytes, limits.max_image_pixels
+        )
         response.headers["Location"] = f"/v1/imports/{folder}/{file}"
         return stored
 

@@ -13,6 +13,7 @@ import asyncio
 import hmac
 import ipaddress
 import json
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
 from fastapi import Depends, HTTPException, Request, status
@@ -114,17 +115,27 @@ MUTATING = [Depends(require_key)]
 READING = [Depends(require_key_for_reads)]
 
 
+@dataclass(frozen=True)
+class UploadRule:
+    """File uploads under `prefix`: bodies up to `limit` for the API key's holder, and
+    `refusal(declared bytes)`, the (status, reason) to answer before the body is read, or None."""
+
+    prefix: str
+    limit: int
+    refusal: Callable[[int], tuple[int, str] | None] = lambda declared: None
+
+
 class BodyLimitMiddleware:
     """413 for a request body over `limit` bytes, declared or streamed (chunked): the body is read
     here, up to the limit, before the application sees the request."""
 
     def __init__(
-        self, app: ASGIApp, limit: int, uploads: tuple[str, int] | None = None, key: str = "", stall_s: float = 10.0
+        self, app: ASGIApp, limit: int, uploads: UploadRule | None = None, key: str = "", stall_s: float = 10.0
     ) -> None:
         self.app = app
         self.limit = limit
         self.stall_s = stall_s
-        self.uploads = uploads  # (path prefix, its limit): file uploads, larger than any JSON body
+        self.uploads = uploads  # file uploads, larger than any JSON body
         self.key = key
 
     async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
@@ -139,6 +150,11 @@ class BodyLimitMiddleware:
         if declared is not None and int(declared) > limit:
             await _reply(send, 413, f"request body larger than {limit} bytes")
             return
+        if declared is not None and self._is_upload(scope):
+            refused = self.uploads.refusal(int(declared))  # type: ignore[union-attr]
+            if refused is not None:  # before a byte of it is read (a full disk: 507)
+                await _reply(send, *refused)
+                return
         body = bytearray()
         loop = asyncio.get_running_loop()
         deadline = loop.time() + self.stall_s + limit / MIN_BODY_RATE  # a trickle cannot hold it for ever
@@ -170,10 +186,13 @@ class BodyLimitMiddleware:
     def _limit(self, scope: Scope) -> int:
         """The body limit of this request: an upload's, for the key's holder only (no one else
         makes the daemon hold a large body), else the JSON bodies'."""
-        if self.uploads is None or scope["method"] != "PUT" or not scope["path"].startswith(self.uploads[0]):
+        if not self._is_upload(scope):
             return self.limit
         presented = (_header_key(scope) or "").encode()
-        return self.uploads[1] if self.key and hmac.compare_digest(presented, self.key.encode()) else self.limit
+        return self.uploads.limit if self.key and hmac.compare_digest(presented, self.key.encode()) else self.limit  # type: ignore[union-attr]
+
+    def _is_upload(self, scope: Scope) -> bool:
+        return self.uploads is not None and scope["method"] == "PUT" and scope["path"].startswith(self.uploads.prefix)
 
 
 async def _reply(send: Send, status_code: int, detail: str) -> None:

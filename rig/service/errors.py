@@ -46,6 +46,11 @@ class ImportNotFoundError(SlrigError):
     """Raised when an imports folder named by a request is not there (HTTP 404)."""
 
 
+class ImportTooLargeError(SlrigError):
+    """Raised when an upload would make its imports folder larger than service.max_import_bytes;
+    nothing is written (HTTP 413)."""
+
+
 class ImportRefusedError(SlrigError):
     """Raised when an upload or a reconstruction request names a file that is refused or missing:
     a name that is not a plain file name, an unknown suffix, a full folder, an empty body, an

@@ -1,10 +1,13 @@
 """Files a client uploads for reconstruction (`PUT /v1/imports/{folder}/{file}`): frames, a pattern
 description, a calibration file, kept in <data_dir>/imports/<folder>/ until the folder is deleted.
 Each file is written atomically; a name is a plain file name with a known suffix, so no upload
-can reach outside its folder."""
+can reach outside its folder. An upload is refused before it is written when its body is empty,
+its folder would grow past its limit, the disk would keep less than the job records' reserve, or
+an image's header gives more pixels than allowed (a decompression bomb is never decoded)."""
 
 from __future__ import annotations
 
+import errno
 import hashlib
 import re
 import shutil
@@ -18,15 +21,18 @@ from rig.calibrate.foreign import ForeignCalibrationOptions
 from rig.config.problems import problems
 from rig.errors import FramesError, PatternSpecError
 from rig.patterns.spec import PatternSpec
-from rig.service.errors import ImportNotFoundError, ImportRefusedError
+from rig.service.errors import ImportNotFoundError, ImportRefusedError, ImportTooLargeError, StorageFullError
+from rig.service.space import check_free_space
 from rig.store.atomic import write_atomic
 from rig.store.frames import frame_files, load_pattern_spec
+from rig.store.image_header import check_image_size, image_header_bytes
 
 IMPORTS = "imports"
 NAME = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_.-]{0,99}$")
 SUFFIXES = (".png", ".bmp", ".tif", ".tiff", ".jpg", ".jpeg", ".yaml", ".yml", ".json", ".xml")
 MAX_FILE_BYTES = 64 * 1024 * 1024  # a 16-bit 4K frame as TIFF is about 50 MB
 MAX_FILES = 2000  # per folder
+IMAGE_SUFFIXES = (".png", ".bmp", ".tif", ".tiff", ".jpg", ".jpeg")
 JOB_ID = re.compile(r"^[0-9]{8}-[0-9]{6}-[0-9a-f]{6}$")
 
 
@@ -50,19 +56,45 @@ def file_in(data_dir: Path, folder: str, name: str, what: str) -> Path:
     return path
 
 
-def store_file(data_dir: Path, folder: str, name: str, data: bytes) -> dict[str, Any]:
-    """Write one uploaded file; ImportRefusedError for a name or suffix that is refused, or a full
-    folder. (A file that is not an image is named when the frames are read.)"""
+def store_file(
+    data_dir: Path,
+    folder: str,
+    name: str,
+    data: bytes,
+    max_folder_bytes: int = 4 * 1024**3,
+    max_image_pixels: int = 64_000_000,
+) -> dict[str, Any]:
+    """Write one uploaded file. Refused, with nothing written: a name or suffix that is refused, an
+    empty body, a full folder (ImportRefusedError); a folder that would hold more than
+    `max_folder_bytes` (ImportTooLargeError); an image whose header is unreadable or gives more
+    than `max_image_pixels` (FramesError); too little free space (StorageFullError)."""
     for label, value in (("folder", folder), ("file", name)):
         if not NAME.match(value):
             raise ImportRefusedError(f"{label} {value!r}: letters, digits, '_', '.', '-', at most 100 characters")
     if not name.lower().endswith(SUFFIXES):
         raise ImportRefusedError(f"file {name!r}: the suffix must be one of {', '.join(SUFFIXES)}")
+    if not data:
+        raise ImportRefusedError(f"file {name!r}: the request body is empty; it must hold the file's bytes")
+    if name.lower().endswith(IMAGE_SUFFIXES):
+        check_image_size(image_header_bytes(data, name), name, None, max_image_pixels)
     target = imports_dir(data_dir) / folder
-    target.mkdir(parents=True, exist_ok=True)
-    if not (target / name).exists() and sum(1 for _ in target.iterdir()) >= MAX_FILES:
+    others = [p for p in target.iterdir() if p.name != name] if target.is_dir() else []
+    if len(others) >= MAX_FILES:
         raise ImportRefusedError(f"folder {folder!r} holds {MAX_FILES} files already")
-    write_atomic(target / name, data)
+    held = sum(p.stat().st_size for p in others if p.is_file())
+    if held + len(data) > max_folder_bytes:
+        raise ImportTooLargeError(
+            f"folder {folder!r} holds {held} bytes; with {name!r} ({len(data)} bytes) it would pass its limit "
+            f"of {max_folder_bytes} bytes (service.max_import_bytes)"
+        )
+    check_free_space(data_dir, len(data), f"file {name!r}")
+    target.mkdir(parents=True, exist_ok=True)
+    try:
+        write_atomic(target / name, data)
+    except OSError as exc:  # the disk filled meanwhile: the temporary file is gone, the old file kept
+        if exc.errno not in (errno.ENOSPC, errno.EDQUOT):
+            raise
+        raise StorageFullError(f"file {name!r}: the disk is full ({exc.strerror}); nothing was stored") from None
     return {"folder": folder, "file": name, "bytes": len(data), "sha256": hashlib.sha256(data).hexdigest()}
 
 

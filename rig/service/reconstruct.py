@@ -29,7 +29,8 @@ from rig.patterns.spec import PatternSpec
 from rig.pipeline.scan import ScanResult, reconstruct_pair
 from rig.progress import ProgressCallback, ProgressTracker
 from rig.rig import Rig
-from rig.store.frames import FrameSet, load_pattern_spec, open_frames
+from rig.store.frames import FrameSet, frame_files, load_pattern_spec, open_frames
+from rig.store.image_header import image_header
 from rig.store.scandir import write_scan
 
 CODEC_NAME = "described"
@@ -52,7 +53,12 @@ def reconstruct_folder(
     options = options or ForeignCalibrationOptions()
     spec = patterns if isinstance(patterns, PatternSpec) else load_pattern_spec(patterns)
     ProgressTracker(progress).report("read", 0.05)
-    frames = open_frames(frames_dir, spec.frames, len(spec.roles()))  # decoded as they are read
+    # The calibrated camera's size, required of every frame from its header before it is decoded:
+    # frames of another size (or a decompression bomb) cost no memory.
+    camera, _, _ = calibration_models(calibration, options)
+    first = frame_files(frames_dir, spec.frames, len(spec.roles()))[0]
+    check_resolution(camera, image_header(first).size, "camera", "the frames are", calibration)
+    frames = open_frames(frames_dir, spec.frames, len(spec.roles()), (camera.width, camera.height))
     inputs = {
         "frames": str(frames_dir),
         "patterns": "inline" if isinstance(patterns, PatternSpec) else str(patterns),

@@ -35,8 +35,10 @@ def expected_scan_bytes(config: RigConfig, request: dict[str, Any]) -> int:
 
 
 def check_free_space(data_dir: Path, needed: int, what: str) -> None:
-    """StorageFullError unless `data_dir` has room for `needed` bytes and the reserve."""
-    free = shutil.disk_usage(data_dir).free
+    """StorageFullError unless `data_dir` (or, before it is made, the folder it will be made in)
+    has room for `needed` bytes and the reserve."""
+    existing = next(p for p in (data_dir.absolute(), *data_dir.absolute().parents) if p.is_dir())
+    free = shutil.disk_usage(existing).free
     if free < needed + RESERVE_BYTES:
         raise StorageFullError(
             f"{data_dir} has {free / MB:.0f} MB free; {what} needs up to {needed / MB:.0f} MB "
