@@ -8,7 +8,6 @@ import os
 import re
 import subprocess
 import sys
-import time
 from pathlib import Path
 
 import cv2
@@ -94,13 +93,11 @@ def test_a_frames_folder_with_a_bomb_is_refused_without_decoding_it(
         f"frame {folder}/frame_{min(at)}.png: 20000x20000 pixels (400.0 megapixels), "
         f"more than the limit of {MAX_FRAME_PIXELS}"
     )
-    started = time.perf_counter()
     with pytest.raises(FramesError, match=refusal):
         read_frames(folder, FILES, 6)
     assert decoded == []  # every header checked before any frame is decoded
     with pytest.raises(FramesError, match=refusal):  # the first at once, the others when reached
         list(open_frames(folder, FILES, 6).frames)
-    assert time.perf_counter() - started < 2.0
     assert bomb.stat().st_size not in decoded
 
 
