@@ -172,3 +172,80 @@ def test_store_repair_refuses_while_a_daemon_holds_the_data_directory(tmp_path: 
         assert main(["store", "check", "--data-dir", str(service.data_dir)]) == 0  # reading is fine
     finally:
         service.shutdown(5.0)
+
+
+PLAN = {"format": "slrig-ring-plan/1", "tolerance_mm": 0.2, "center_px": [128, 96], "radii_px": [20, 40, 60]}
+
+
+@pytest.mark.parametrize(
+    ("plan", "status"),
+    [
+        ({**PLAN, "radii_px": [10**400]}, 422),  # beyond what JSON numbers carry exactly
+        ({**PLAN, "tolerance_mm": 2**60}, 422),
+        ({**PLAN, "profile": [1, 2]}, 409),
+        ({**PLAN, "criteria": "abc"}, 409),
+        ({**PLAN, "criteria": [[1]]}, 409),
+        ({**PLAN, "radii_px": {"50": 1}}, 409),
+        ({**PLAN, "center_px": "12"}, 409),
+        ({**PLAN, "radii_px": ["20", 40]}, 409),
+        ({**PLAN, "tolerance_mm": True}, 409),
+    ],
+)
+def test_a_plan_of_the_wrong_shape_is_refused_naming_its_field(
+    idle: tuple[JobService, TestClient], plan: dict[str, object], status: int
+) -> None:
+    _, client = idle
+    answer = client.post("/v1/scans", json={"plan": plan}, headers=AUTH)
+    assert answer.status_code == status, answer.text
+    assert client.get("/v1/scans").json()["total"] == 0
+    assert client.post("/v1/scans", json={"plan": PLAN}, headers=AUTH).status_code == 202  # the same, well formed
+
+
+def _edit(service: JobService, sql: str, *args: object) -> None:
+    db = sqlite3.connect(service.data_dir / DB_NAME)
+    with db:
+        db.execute(sql, args)
+    db.close()
+
+
+def test_records_damaged_in_every_column_are_listed_named_and_deletable(tmp_path: Path) -> None:
+    service = _service(tmp_path, start=False)
+    try:
+        ids = [service.submit_scan({}).id for _ in range(4)]
+        _edit(service, "UPDATE jobs SET request = CAST(X'7B2278223A2022FF227D' AS TEXT) WHERE id = ?", ids[0])
+        _edit(service, "UPDATE jobs SET kind = 'hologram' WHERE id = ?", ids[1])
+        _edit(service, "UPDATE jobs SET created = 1e300 WHERE id = ?", ids[2])
+        _edit(service, "UPDATE jobs SET id = 'hand-edited' WHERE id = ?", ids[3])
+        with _client(service) as client:
+            listing = client.get("/v1/scans")
+            assert listing.status_code == 200
+            items = {item["id"]: item for item in listing.json()["items"]}
+            assert set(items) == {*ids[:3], "hand-edited"}
+            assert "request" in items[ids[0]]["problem"] and "surrogate" in items[ids[0]]["problem"]
+            assert "kind" in items[ids[1]]["problem"] and "created" in items[ids[2]]["problem"]
+            assert "store check --repair" in items["hand-edited"]["problem"]
+            for job_id in ids[:3]:
+                assert client.get(f"/v1/scans/{job_id}").status_code == 200
+                assert client.delete(f"/v1/scans/{job_id}", headers=AUTH).status_code == 204
+            assert [item["id"] for item in client.get("/v1/scans").json()["items"]] == ["hand-edited"]
+    finally:
+        service.store.close()
+
+
+def test_the_event_stream_of_a_record_whose_state_is_unreadable_ends(tmp_path: Path) -> None:
+    service = _service(tmp_path, start=False)
+    try:
+        job_id = service.submit_scan({}).id
+        _edit(service, "UPDATE jobs SET state = 'exploded' WHERE id = ?", job_id)
+        with _client(service) as client, client.stream("GET", f"/v1/scans/{job_id}/events") as events:
+            text = "".join(events.iter_text())  # ends: no job will move it
+        assert "event: state" in text and '"state": null' in text
+    finally:
+        service.store.close()
+
+
+def test_store_check_refuses_a_file_that_is_not_a_database(tmp_path: Path) -> None:
+    from rig.cli import main
+
+    (tmp_path / DB_NAME).write_bytes(b"this is not SQLite" * 100)
+    assert main(["store", "check", "--data-dir", str(tmp_path)]) == 2

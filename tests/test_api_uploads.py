@@ -87,3 +87,32 @@ def test_free_space_is_checked_before_the_body_is_read_and_the_reserve_kept(
     chunked = client.put("/v1/imports/f/streamed.yaml", content=iter([b"y" * 100_000, b"y" * 100_000]), headers=AUTH)
     assert chunked.status_code == 507  # no declared length: judged once the body is in, before writing
     assert _stored(service, "f") == ["small.yaml"]
+
+
+def test_without_the_key_an_upload_is_refused_before_anything_is_judged(
+    uploads: tuple[JobService, TestClient], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    _, client = uploads
+    real = shutil.disk_usage(client.app.state.service.data_dir)  # type: ignore[attr-defined]
+    monkeypatch.setattr(space.shutil, "disk_usage", lambda path: real._replace(free=RESERVE_BYTES // 2))
+    for body in (b"", b"y" * 1000):  # not 422 (empty) nor 507 (full): nothing is told without the key
+        assert client.put("/v1/imports/f/a.yaml", content=body).status_code == 401
+        assert client.put("/v1/imports/f/a.yaml", content=body, headers={"X-API-Key": "x" * 32}).status_code == 403
+
+
+def test_concurrent_uploads_cannot_pass_a_limit_together(tmp_path: Path) -> None:
+    from concurrent.futures import ThreadPoolExecutor
+
+    from rig.errors import SlrigError
+    from rig.service.imports import store_file
+
+    def upload(k: int) -> bool:
+        try:
+            store_file(tmp_path, "f", f"part{k}.yaml", b"z" * 1_000_000, max_folder_bytes=2_500_000)
+        except SlrigError:
+            return False
+        return True
+
+    with ThreadPoolExecutor(8) as pool:
+        stored = list(pool.map(upload, range(8)))
+    assert sum(stored) == 2 and len(list((tmp_path / "imports" / "f").iterdir())) == 2

@@ -18,7 +18,8 @@ import pytest
 from tests.conftest import small_config_data
 from tests.test_daemon import AUTH, KEY, REPO, Daemon, _config, _free_port, status_code
 
-STREAMS_CAP = 64  # rig.api.app.MAX_EVENT_STREAMS, as the README states it
+STREAMS_CAP = 64  # rig.api.streams.MAX_EVENT_STREAMS, as the README states it
+PER_CLIENT_CAP = 16  # rig.api.streams.MAX_EVENT_STREAMS_PER_CLIENT
 
 
 @pytest.fixture
@@ -34,14 +35,14 @@ def busy(tmp_path: Path) -> Iterator[tuple[Daemon, str]]:
     daemon.stop()
 
 
-def _connect(port: int) -> socket.socket:
-    return socket.create_connection(("127.0.0.1", port), timeout=10)
+def _connect(port: int, source: str = "127.0.0.1") -> socket.socket:
+    return socket.create_connection(("127.0.0.1", port), timeout=10, source_address=(source, 0))
 
 
 def test_idle_connections_and_a_burst_of_event_streams_leave_health_answerable(busy: tuple[Daemon, str]) -> None:
     daemon, job_id = busy
     idle = [_connect(daemon.port) for _ in range(200)]  # never send a byte (uvicorn's old cap was 128)
-    streams = [_connect(daemon.port) for _ in range(200)]
+    streams = [_connect(daemon.port, f"127.0.0.{1 + k % 20}") for k in range(200)]  # 10 from each of 20 addresses
     request = f"GET /v1/scans/{job_id}/events HTTP/1.1\r\nHost: 127.0.0.1\r\n\r\n".encode()
     for sock in streams:
         sock.sendall(request)  # all at once: the cap must hold for a burst
@@ -56,6 +57,21 @@ def test_idle_connections_and_a_burst_of_event_streams_leave_health_answerable(b
     again.sendall(request)
     assert status_code(again) == 200
     for sock in (*idle, *streams, again):
+        sock.close()
+
+
+def test_one_address_cannot_hold_every_event_stream(busy: tuple[Daemon, str]) -> None:
+    daemon, job_id = busy
+    request = f"GET /v1/scans/{job_id}/events HTTP/1.1\r\nHost: 127.0.0.1\r\n\r\n".encode()
+    mine = [_connect(daemon.port, "127.0.0.2") for _ in range(PER_CLIENT_CAP + 4)]
+    for sock in mine:
+        sock.sendall(request)
+    codes = [status_code(sock) for sock in mine]
+    assert codes.count(200) == PER_CLIENT_CAP and codes.count(503) == 4
+    other = _connect(daemon.port, "127.0.0.3")
+    other.sendall(request)
+    assert status_code(other) == 200  # another address still finds a slot
+    for sock in (*mine, other):
         sock.close()
 
 

@@ -279,3 +279,23 @@ def test_check_image_size_names_the_file_its_size_and_the_limit() -> None:
         check_image_size(header, "frame a.png", None, 64_000_000)
     with pytest.raises(FramesError, match=re.escape("frame a.png: 20000x20000 pixels, expected 640x480")):
         check_image_size(header, "frame a.png", (640, 480), 400_000_000)
+
+
+def _tiff_of(entries: list[tuple[int, int, int]]) -> bytes:
+    """A little-endian TIFF whose first IFD holds these (tag, type, value) entries, one value each."""
+    ifd = struct.pack("<H", len(entries)) + b"".join(struct.pack("<HHII", t, k, 1, v) for t, k, v in entries)
+    return b"II*\0" + struct.pack("<I", 8) + ifd + b"\0\0\0\0"
+
+
+@pytest.mark.parametrize(
+    ("entries", "reason"),
+    [
+        ([(256, 4, 20000), (257, 4, 20000), (256, 3, 10), (257, 3, 10)], "tag 256 twice"),  # libtiff reads the first
+        ([(256, 5, 10), (257, 4, 10)], "type 5"),  # a RATIONAL width: read otherwise by a decoder
+        ([(256, 3, 10), (257, 3, 10)] + [(300 + k, 3, 0) for k in range(300)], "entries"),
+    ],
+)
+def test_a_tiff_cannot_hide_its_size(entries: list[tuple[int, int, int]], reason: str) -> None:
+    with pytest.raises(FramesError, match=reason):
+        image_header_bytes(_tiff_of(entries), "hidden.tif")
+    assert image_header_bytes(_tiff_of([(256, 4, 20000), (257, 3, 10)]), "plain.tif").size == (20000, 10)

@@ -17,7 +17,7 @@ from starlette.exceptions import HTTPException as StarletteHTTPException
 from starlette.middleware.trustedhost import TrustedHostMiddleware
 
 from rig import __version__
-from rig.api.head import HeadAsGet
+from rig.api.head import HeadAsGet, head_only
 from rig.api.live import live_router
 from rig.api.models import (
     FILE_NAME_PATTERN,
@@ -275,7 +275,8 @@ def _result_routes(router: APIRouter, service: JobService, kind: JobKind, stoppi
         """The file, whole or the byte ranges asked for (Range); at most service.max_downloads at
         once (max_downloads_per_client from one address), more: 429."""
         path = service.file_path(job_id, kind, name)
-        release = request.app.state.downloads.take(client_address(request.client))
+        slots: Slots = request.app.state.downloads
+        release = (lambda: None) if head_only(request.scope) else slots.take(client_address(request.client))
         media = MEDIA_TYPES.get(path.suffix, "application/octet-stream")
         return CountedFile(release, path, media_type=media, filename=name)
 
@@ -319,7 +320,7 @@ async def _event_stream(
                 job = await asyncio.to_thread(service.store.get, job_id)
             except JobNotFoundError:
                 job = None
-            if job is None or job.terminal:
+            if job is None or job.terminal or job.state is None:  # None: a damaged record, which never moves
                 data = {"id": job_id, "state": job.state if job else "deleted", "error": job.error if job else None}
                 yield sse("state", json.dumps(data))
                 return

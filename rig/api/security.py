@@ -150,7 +150,7 @@ class BodyLimitMiddleware:
         if declared is not None and int(declared) > limit:
             await _reply(send, 413, f"request body larger than {limit} bytes")
             return
-        if declared is not None and self._is_upload(scope):
+        if declared is not None and self._is_upload(scope) and self._holds_key(scope):  # others: 401/403 first
             refused = self.uploads.refusal(int(declared))  # type: ignore[union-attr]
             if refused is not None:  # before a byte of it is read (a full disk: 507)
                 await _reply(send, *refused)
@@ -186,10 +186,13 @@ class BodyLimitMiddleware:
     def _limit(self, scope: Scope) -> int:
         """The body limit of this request: an upload's, for the key's holder only (no one else
         makes the daemon hold a large body), else the JSON bodies'."""
-        if not self._is_upload(scope):
+        if not self._is_upload(scope) or not self._holds_key(scope):
             return self.limit
+        return self.uploads.limit  # type: ignore[union-attr]
+
+    def _holds_key(self, scope: Scope) -> bool:
         presented = (_header_key(scope) or "").encode()
-        return self.uploads.limit if self.key and hmac.compare_digest(presented, self.key.encode()) else self.limit  # type: ignore[union-attr]
+        return bool(self.key) and hmac.compare_digest(presented, self.key.encode())
 
     def _is_upload(self, scope: Scope) -> bool:
         return self.uploads is not None and scope["method"] == "PUT" and scope["path"].startswith(self.uploads.prefix)

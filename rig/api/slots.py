@@ -4,6 +4,7 @@ ends (also before its first byte)."""
 
 from __future__ import annotations
 
+import threading
 from collections import Counter
 from collections.abc import Callable
 from typing import Any
@@ -22,6 +23,7 @@ class Slots:
         self.total = total
         self.per_client = per_client
         self._taken: Counter[str] = Counter()
+        self._lock = threading.Lock()  # taken in worker threads (sync routes), given back on the event loop
 
     @property
     def taken(self) -> int:
@@ -29,22 +31,23 @@ class Slots:
 
     def take(self, client: str) -> Callable[[], None]:
         """A slot for `client`, and the call that gives it back (once); TooManyOpenError when none
-        is free. Taken with the check, no await between: a burst cannot
-        overshoot."""
-        if self.taken >= self.total:
-            raise TooManyOpenError(f"{self.total} {self.what} are open; try again shortly")
-        if self.per_client is not None and self._taken[client] >= self.per_client:
-            raise TooManyOpenError(f"{self.per_client} {self.what} are open from {client}; finish one first")
-        self._taken[client] += 1
+        is free. Taken with the check under one lock: a burst cannot overshoot."""
+        with self._lock:
+            if self.taken >= self.total:
+                raise TooManyOpenError(f"{self.total} {self.what} are open; try again shortly")
+            if self.per_client is not None and self._taken[client] >= self.per_client:
+                raise TooManyOpenError(f"{self.per_client} {self.what} are open from {client}; finish one first")
+            self._taken[client] += 1
         given_back = False
 
         def release() -> None:
             nonlocal given_back
-            if not given_back:
-                given_back = True
-                self._taken[client] -= 1
-                if self._taken[client] <= 0:
-                    del self._taken[client]
+            with self._lock:
+                if not given_back:
+                    given_back = True
+                    self._taken[client] -= 1
+                    if self._taken[client] <= 0:
+                        del self._taken[client]
 
         return release
 

@@ -14,11 +14,12 @@ from rig.service.errors import ServiceStoppingError, TooManyOpenError
 
 SSE_PING_S = 15.0  # a comment line this often keeps proxies from closing a quiet stream
 MAX_EVENT_STREAMS = 64  # each holds a connection and polls
+MAX_EVENT_STREAMS_PER_CLIENT = 16  # so one address cannot hold them all
 SSE_HEADERS = {"Cache-Control": "no-cache", "X-Accel-Buffering": "no"}
 
 
 def event_slots() -> Slots:
-    return Slots("event streams", MAX_EVENT_STREAMS)
+    return Slots("event streams", MAX_EVENT_STREAMS, MAX_EVENT_STREAMS_PER_CLIENT)
 
 
 def event_stream(request: Request, content: Callable[[], AsyncIterator[bytes]]) -> StreamingResponse:
@@ -29,8 +30,8 @@ def event_stream(request: Request, content: Callable[[], AsyncIterator[bytes]]) 
     slots: Slots = request.app.state.event_streams
     try:
         release = slots.take(client_address(request.client))
-    except TooManyOpenError:
-        raise ServiceStoppingError(f"{MAX_EVENT_STREAMS} event streams are open; poll instead") from None
+    except TooManyOpenError as exc:
+        raise ServiceStoppingError(f"{exc}; poll instead") from None
     return CountedStream(release, content(), media_type="text/event-stream", headers=SSE_HEADERS)
 
 

@@ -107,9 +107,10 @@ class GuardedH11Protocol(H11Protocol):
 
     def _check_send_rate(self) -> None:
         """While the response is held back, nothing more is written to the buffer: what left it
-        is what the client took."""
+        is what the client took. Also once the connection is closing: close() waits for the
+        buffer to drain, which a client that never reads would make for ever."""
         self._send_check = None
-        if self.transport.is_closing():
+        if self.transport.get_write_buffer_size() == 0:
             return
         taken = self._send_mark - self.transport.get_write_buffer_size()
         if taken < self.min_send_rate * self.send_timeout_s or taken <= 0:
@@ -153,11 +154,30 @@ class GuardedH11Protocol(H11Protocol):
         self._header_deadline = None
         if not self._in_request() and not self.transport.is_closing():
             log.info("closing a connection that sent no request within %g s", self.header_timeout_s)
+            self._close()
+
+    def on_response_complete(self) -> None:
+        super().on_response_complete()
+        if self.transport.get_write_buffer_size() and self._send_check is None:
+            self._start_send_check()  # its last bytes, too, must leave at min_send_rate
+
+    def _close(self) -> None:
+        """Close, or abort when bytes still wait for a client that may never read them."""
+        if self.transport.get_write_buffer_size():
+            self.transport.abort()
+        else:
             self.transport.close()
 
+    def _lingering(self) -> bool:
+        """Closing, but holding bytes the client has not taken (its socket and buffer stay)."""
+        return self.transport.is_closing() and self.transport.get_write_buffer_size() > 0
+
     def _eviction_rank(self) -> tuple[int, float]:
-        """Lower goes first: idle unauthenticated, idle authenticated, busy unauthenticated slow
-        readers, other busy unauthenticated; oldest first within each."""
+        """Lower goes first: closing ones still holding unread bytes, idle unauthenticated, idle
+        authenticated, busy unauthenticated slow readers, other busy unauthenticated; oldest
+        first within each."""
+        if self._lingering():
+            return (-1, self._opened)
         if not self._in_request():
             return (0 if not self._authenticated else 1, self._opened)
         if not self._authenticated:
@@ -168,15 +188,19 @@ class GuardedH11Protocol(H11Protocol):
         """Close the connection that matters least (see the module's docstring); with only
         authenticated requests in progress besides, this new one (so file descriptors never run
         out, and a request that arrives later finds room once one ends)."""
-        open_ = [c for c in self.connections if isinstance(c, GuardedH11Protocol) and not c.transport.is_closing()]
+        open_ = [
+            c
+            for c in self.connections
+            if isinstance(c, GuardedH11Protocol) and (not c.transport.is_closing() or c._lingering())
+        ]
         if len(open_) <= self.max_connections:
             return  # others closing in this pass already made room
         others = [c for c in open_ if c is not self and c._eviction_rank()[0] < 4]
         victim = min(others, key=lambda c: c._eviction_rank()) if others else self
-        reasons = ("an idle one", "an idle one", "a slow reader", "an unauthenticated request")
+        reasons = {-1: "one closing", 0: "an idle one", 1: "an idle one", 2: "a slow reader", 3: "a request"}
         label = "the new one" if victim is self else reasons[victim._eviction_rank()[0]]
         log.warning("%d connections open: closing %s", len(open_), label)
-        if victim._in_request():
+        if victim._in_request() or victim._lingering():
             victim.transport.abort()  # its response would otherwise be waited out
         else:
-            victim.transport.close()
+            victim._close()

@@ -257,10 +257,14 @@ def _generated_key(path: Path) -> str:
         except OSError as exc:
             raise ConfigError(source, [f"{source}: cannot create the API key file: {exc.strerror}"]) from None
         else:
-            with os.fdopen(fd, "w") as f:
-                f.write(secrets.token_hex(32) + "\n")
-                f.flush()
-                os.fsync(f.fileno())
+            try:
+                with os.fdopen(fd, "w") as f:
+                    f.write(secrets.token_hex(32) + "\n")
+                    f.flush()
+                    os.fsync(f.fileno())
+            except OSError as exc:  # a full disk: no half-written key left for the next start
+                path.unlink(missing_ok=True)
+                raise ConfigError(source, [f"{source}: cannot write the API key file: {exc.strerror}"]) from None
             log.info("generated an API key in %s (mode 0600); clients send it as X-API-Key", path)
     key = _file_key(path, source)
     if check_key_strength(key):

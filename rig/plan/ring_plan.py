@@ -7,6 +7,7 @@ came from, and what the pilot was. A scan takes a plan's radii as its rings code
 from __future__ import annotations
 
 import json
+import math
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -70,28 +71,26 @@ class RingPlan:
 
     @staticmethod
     def from_dict(data: Any, source: str = "plan") -> RingPlan:
-        """A plan read back; raises PlanError naming the field that is missing or wrong."""
+        """A plan read back; raises PlanError naming the field that is missing or wrong (numbers
+        must be JSON numbers, not strings or booleans; criteria, profile and pilot objects)."""
         if not isinstance(data, dict) or data.get("format") != PLAN_FORMAT:
             raise PlanError(f"{source}: not a ring plan (format must be {PLAN_FORMAT!r})")
         try:
-            radii = [float(r) for r in data["radii_px"]]
-            center = (float(data["center_px"][0]), float(data["center_px"][1]))
-            tolerance = float(data["tolerance_mm"])
-        except (KeyError, TypeError, ValueError, IndexError) as exc:
-            raise PlanError(f"{source}: radii_px, center_px and tolerance_mm must be numbers ({exc!r})") from None
+            radii = [_number(r, "radii_px") for r in _array(data.get("radii_px"), "radii_px")]
+            center_px = _array(data.get("center_px"), "center_px")
+            if len(center_px) != 2:
+                raise ValueError(f"center_px: {len(center_px)} numbers, not 2")
+            center = (_number(center_px[0], "center_px"), _number(center_px[1], "center_px"))
+            tolerance = _number(data.get("tolerance_mm"), "tolerance_mm")
+            parts = {name: _object(data.get(name, {}), name) for name in ("criteria", "profile", "pilot")}
+        except ValueError as exc:
+            raise PlanError(f"{source}: {exc}") from None
         try:  # the rings codec's own checks on radii and centre
             RingsParams(radii_px=radii, center_px=center)
         except ValidationError as exc:
             problems = "; ".join(f"{'.'.join(map(str, e['loc'])) or 'radii_px'}: {e['msg']}" for e in exc.errors())
             raise PlanError(f"{source}: {problems}") from None
-        return RingPlan(
-            tolerance,
-            center,
-            radii,
-            dict(data.get("criteria", {})),
-            dict(data.get("profile", {})),
-            data.get("pilot", {}),
-        )
+        return RingPlan(tolerance, center, radii, parts["criteria"], parts["profile"], parts["pilot"])
 
     @staticmethod
     def load(path: Path) -> RingPlan:
@@ -205,3 +204,28 @@ def pilot_views(result: ScanResult, cameras: list[CameraModel], projectors: list
         )
         for pair in result.pairs
     ]
+
+
+def _number(value: Any, name: str) -> float:
+    """A finite JSON number as a float; ValueError naming the field otherwise."""
+    if isinstance(value, bool) or not isinstance(value, int | float):
+        raise ValueError(f"{name}: {value!r} is not a number")
+    try:
+        number = float(value)
+    except OverflowError:
+        raise ValueError(f"{name}: {value!r} is too large") from None
+    if not math.isfinite(number):
+        raise ValueError(f"{name}: {value!r} is not a finite number")
+    return number
+
+
+def _array(value: Any, name: str) -> list[Any]:
+    if not isinstance(value, list):
+        raise ValueError(f"{name}: must be a list of numbers")
+    return value
+
+
+def _object(value: Any, name: str) -> dict[str, Any]:
+    if not isinstance(value, dict):
+        raise ValueError(f"{name}: must be an object")
+    return dict(value)

@@ -19,8 +19,9 @@ class JobConflictError(SlrigError):
 
 
 class IllegalTransitionError(SlrigError):
-    """Raised when a job record would move between states the state machine does not allow; a
-    programming error, never the client's."""
+    """Raised when a job record would move between states the state machine does not allow: a
+    programming error, or a damaged record whose stored state this version does not know (HTTP
+    409: it can only be deleted)."""
 
 
 class JobCancelledError(SlrigError):

@@ -11,6 +11,7 @@ import errno
 import hashlib
 import re
 import shutil
+import threading
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
@@ -33,6 +34,7 @@ SUFFIXES = (".png", ".bmp", ".tif", ".tiff", ".jpg", ".jpeg", ".yaml", ".yml", "
 MAX_FILE_BYTES = 64 * 1024 * 1024  # a 16-bit 4K frame as TIFF is about 50 MB
 MAX_FILES = 2000  # per folder
 IMAGE_SUFFIXES = (".png", ".bmp", ".tif", ".tiff", ".jpg", ".jpeg")
+_STORING = threading.Lock()
 JOB_ID = re.compile(r"^[0-9]{8}-[0-9]{6}-[0-9a-f]{6}$")
 
 
@@ -77,6 +79,11 @@ def store_file(
         raise ImportRefusedError(f"file {name!r}: the request body is empty; it must hold the file's bytes")
     if name.lower().endswith(IMAGE_SUFFIXES):
         check_image_size(image_header_bytes(data, name), name, None, max_image_pixels)
+    with _STORING:  # the limits judge what is on disk: one upload checked and written at a time
+        return _store_checked(data_dir, folder, name, data, max_folder_bytes)
+
+
+def _store_checked(data_dir: Path, folder: str, name: str, data: bytes, max_folder_bytes: int) -> dict[str, Any]:
     target = imports_dir(data_dir) / folder
     others = [p for p in target.iterdir() if p.name != name] if target.is_dir() else []
     if len(others) >= MAX_FILES:

@@ -8,9 +8,11 @@ marks every job it finds queued or running as interrupted: hardware is never re-
 from __future__ import annotations
 
 import contextlib
+import datetime as dt
 import enum
 import json
 import logging
+import re
 import sqlite3
 import threading
 import time
@@ -68,6 +70,11 @@ CREATE INDEX IF NOT EXISTS jobs_kind_created ON jobs (kind, created);
 """
 
 
+# A listing's rows: a record of a kind this version does not know is listed with the scans (as a
+# damaged record, so that it can be seen and deleted).
+_KIND_MATCH = {JobKind.SCAN: "kind != 'calibration'", JobKind.CALIBRATION: "kind = 'calibration'"}
+JOB_ID = re.compile(r"^[0-9]{8}-[0-9]{6}-[0-9a-f]{6}$")
+
 # SQLite's primary result codes for a database that cannot take a write now: busy, locked,
 # read-only, an I/O error, corrupt, full, cannot be opened, not a database.
 UNWRITABLE = frozenset({5, 6, 8, 10, 11, 13, 14, 26})
@@ -111,6 +118,7 @@ class JobStore:
         self._lock = threading.Lock()
         self._db = sqlite3.connect(str(path), check_same_thread=False, isolation_level=None, timeout=10.0)
         self._db.row_factory = sqlite3.Row
+        self._db.text_factory = text_of  # a hand edit's invalid UTF-8 is a named problem, not an error
         self._db.execute("PRAGMA journal_mode=WAL")
         self._db.execute("PRAGMA synchronous=FULL")  # a commit survives power loss
         self._db.executescript(_SCHEMA)
@@ -161,7 +169,9 @@ class JobStore:
 
     def transition(self, job_id: str, state: JobState, **fields: Any) -> Job:
         """Move a job to `state`, setting `error`, `result`, `stage` or `fraction` too; held in
-        memory when the database cannot be written."""
+        memory when the database cannot be written. JobNotFoundError for no such job,
+        IllegalTransitionError for a move the state machine does not allow (or from a state
+        this version does not know)."""
         now = time.time()
         with self._lock:
             row = self._db.execute("SELECT kind, state FROM jobs WHERE id = ?", (job_id,)).fetchone()
@@ -245,10 +255,10 @@ class JobStore:
             pending = {job_id: dict(values) for job_id, values in self._pending.items()}
             if pending and state is not None:  # filter on the held state, not the table's
                 rows = self._db.execute(
-                    "SELECT * FROM jobs WHERE kind = ? ORDER BY created DESC, id DESC", (kind,)
+                    f"SELECT * FROM jobs WHERE {_KIND_MATCH[kind]} ORDER BY created DESC, id DESC"
                 ).fetchall()
             else:
-                where, args = ("kind = ? AND state = ?", [kind, state]) if state else ("kind = ?", [kind])
+                where, args = (f"{_KIND_MATCH[kind]} AND state = ?", [state]) if state else (_KIND_MATCH[kind], [])
                 total = self._db.execute(f"SELECT COUNT(*) FROM jobs WHERE {where}", args).fetchone()[0]
                 rows = self._db.execute(
                     f"SELECT * FROM jobs WHERE {where} ORDER BY created DESC, id DESC LIMIT ? OFFSET ?",
@@ -280,6 +290,12 @@ class JobStore:
         return interrupted
 
 
+def text_of(raw: bytes) -> str:
+    """A TEXT column as Python reads it: bytes that are not UTF-8 kept as lone surrogates, which
+    `json_problem` then names, so one bad byte never makes the table unreadable."""
+    return raw.decode("utf-8", "surrogateescape")
+
+
 def job_from_row(row: sqlite3.Row, pending: dict[str, Any]) -> Job:
     """A record as it can be served: a column that cannot (unreadable JSON, a value JSON cannot
     carry back, a state or kind this version does not know) is left out and named in `problem`,
@@ -304,6 +320,14 @@ def job_from_row(row: sqlite3.Row, pending: dict[str, Any]) -> Job:
             raise TypeError(f"{value!r} is not a number")
         return float(value)
 
+    def moment(value: Any) -> float:
+        seconds = number(value)
+        try:
+            dt.datetime.fromtimestamp(seconds, dt.UTC)
+        except (OverflowError, OSError):
+            raise ValueError(f"{value!r} is not a time") from None
+        return seconds
+
     def optional(decode: Callable[[Any], Any]) -> Callable[[Any], Any]:
         return lambda value: None if value is None else decode(value)
 
@@ -314,14 +338,16 @@ def job_from_row(row: sqlite3.Row, pending: dict[str, Any]) -> Job:
         return decoded
 
     job_id = str(values["id"])
+    if not JOB_ID.match(job_id):
+        problems.append(f"id: {job_id!r} is not a job id the API serves; `slrig store check --repair` quarantines it")
     return Job(
         id=job_id if json_problem(job_id) is None else repr(job_id),
         kind=column("kind", JobKind, JobKind.SCAN),
         state=column("state", JobState, None),
         request=column("request", record, {}),
-        created=column("created", number, 0.0),
-        started=column("started", optional(number), None),
-        finished=column("finished", optional(number), None),
+        created=column("created", moment, 0.0),
+        started=column("started", optional(moment), None),
+        finished=column("finished", optional(moment), None),
         stage=column("stage", optional(str), None),
         fraction=column("fraction", number, 0.0),
         error=column("error", optional(str), None),

@@ -16,7 +16,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from rig.errors import ConfigError
-from rig.service.jobs import DB_NAME, job_from_row
+from rig.service.jobs import DB_NAME, job_from_row, text_of
 from rig.service.recovery import lock_data_dir
 
 _QUARANTINE = """
@@ -63,6 +63,7 @@ def check_store(data_dir: Path, repair: bool = False) -> StoreReport:
     try:
         db = sqlite3.connect(str(database), isolation_level=None, timeout=10.0)
         db.row_factory = sqlite3.Row
+        db.text_factory = text_of
         with contextlib.closing(db):
             report.integrity = str(db.execute("PRAGMA integrity_check").fetchone()[0])
             rows = db.execute(f"SELECT {_COLUMNS}, rowid FROM jobs").fetchall()
@@ -75,6 +76,8 @@ def check_store(data_dir: Path, repair: bool = False) -> StoreReport:
                     damaged.append(row["rowid"])
             if repair and damaged:
                 report.quarantined = _quarantine(db, damaged, report.damaged)
+    except sqlite3.DatabaseError as exc:  # not a database, or one SQLite cannot read at all
+        raise ConfigError("output.data_dir", [f"output.data_dir: {database} cannot be read: {exc}"]) from None
     finally:
         if lock is not None:
             lock.close()

@@ -3,12 +3,31 @@
 from __future__ import annotations
 
 import contextlib
+import contextvars
 import ctypes
 import errno
 import os
+import shutil
 import tempfile
-from collections.abc import Iterable
+from collections.abc import Callable, Iterable, Iterator
 from pathlib import Path
+
+# Who may let a folder appear, in this thread: the job service's worker publishes through its gate,
+# which refuses once the daemon is stopping (the job is then recorded interrupted, and no finished
+# folder may appear behind that record). Elsewhere (the CLI) folders are published directly.
+PublishGate = Callable[[Callable[[], None]], None]
+_gate: contextvars.ContextVar[PublishGate | None] = contextvars.ContextVar("publish_gate", default=None)
+
+
+@contextlib.contextmanager
+def publishing_through(gate: PublishGate) -> Iterator[None]:
+    """Within this block (in this thread), publish_folder renames through `gate(rename)`, which
+    either calls `rename` or raises to refuse."""
+    token = _gate.set(gate)
+    try:
+        yield
+    finally:
+        _gate.reset(token)
 
 
 def fsync_dir(path: Path) -> None:
@@ -78,7 +97,24 @@ def rename_no_replace(src: Path, dst: Path) -> None:
 
 def publish_folder(partial: Path, target: Path) -> None:
     """Make a completely written folder visible under its final name, durably; FileExistsError
-    rather than replace one that is there."""
+    rather than replace one that is there, and whatever a gate (publishing_through) raises to
+    refuse it (then `partial` is removed)."""
     fsync_dir(partial)
-    rename_no_replace(partial, target)
+    gate = _gate.get()
+    if gate is None:
+        rename_no_replace(partial, target)
+    else:
+        asked = False
+
+        def rename() -> None:
+            nonlocal asked
+            asked = True
+            rename_no_replace(partial, target)
+
+        try:
+            gate(rename)
+        except BaseException:
+            if not asked:  # refused: what was written will never be published
+                shutil.rmtree(partial, ignore_errors=True)
+            raise
     fsync_dir(target.parent)

@@ -195,7 +195,10 @@ def _read(
         raise FramesError(f"frame {path}: cannot be read ({exc.strerror})") from None
     # the bytes decoded are the bytes checked (a file may be replaced after its header was read)
     _checked(path, _header(path, data), resolution, first)
-    image = cv2.imdecode(np.frombuffer(data, np.uint8), cv2.IMREAD_UNCHANGED)
+    try:
+        image = cv2.imdecode(np.frombuffer(data, np.uint8), cv2.IMREAD_UNCHANGED)
+    except cv2.error as exc:  # OpenCV's own limits (drivers/__init__.py), past the header's check
+        raise FramesError(f"frame {path}: OpenCV refused to decode it ({exc.err.strip() or exc})") from None
     if image is None:
         raise FramesError(f"frame {path}: not an image OpenCV can read")
     if image.dtype not in (np.uint8, np.uint16):

@@ -148,13 +148,20 @@ def _tiff(reader: _Reader, order: str) -> ImageHeader:
         raise reader.error("its BigTIFF header gives an offset size other than 8")
     (ifd,) = struct.unpack(offset_format, reader.at(8 if big else 4, inline, "TIFF header"))
     (count,) = struct.unpack(order + ("Q" if big else "H"), reader.at(ifd, inline if big else 2, "first IFD"))
-    count = min(count, MAX_IFD_ENTRIES)  # tags come in ascending order: the ones needed are early
+    if count > MAX_IFD_ENTRIES:  # not truncated: a tag past the cut could be the one a decoder reads
+        raise reader.error(f"its first TIFF IFD has {count} entries (at most {MAX_IFD_ENTRIES})")
     entries = reader.at(ifd + (8 if big else 2), count * entry_size, "first IFD")
     tags: dict[int, tuple[int, ...]] = {}
     for start in range(0, len(entries), entry_size):
         tag, kind = struct.unpack(order + "HH", entries[start : start + 4])
-        if tag not in (256, 257, 258, 277) or kind not in _TIFF_TYPES:
+        if tag not in (256, 257, 258, 277):
             continue
+        # A size given twice, or in a type read here otherwise than by a decoder, could hide the
+        # size the decoder uses (libtiff keeps the first of repeated tags): refused, not guessed.
+        if tag in tags:
+            raise reader.error(f"its first TIFF IFD gives tag {tag} twice")
+        if kind not in _TIFF_TYPES:
+            raise reader.error(f"TIFF tag {tag} has type {kind}, not SHORT, LONG or LONG8")
         (n,) = struct.unpack(offset_format, entries[start + 4 : start + 4 + inline])
         code, size = _TIFF_TYPES[kind]
         if not 1 <= n <= 16:  # one value each; BitsPerSample one per sample
