@@ -1,7 +1,9 @@
 """The device interfaces every projector and camera implements, real or simulated.
 
 Public methods hold the shared logic (state checks, validation, keeping the projector dark after a
-fault) and call the `_do_*` methods that each driver implements.
+fault) and call the `_do_*` methods that each driver implements. One thread drives a device; a
+projector may also be darkened and closed from another (a daemon stopping while its worker computes),
+and a camera's wait for a frame cut short from another (Camera.capture's `cancel`).
 """
 
 from __future__ import annotations
@@ -9,13 +11,14 @@ from __future__ import annotations
 import abc
 import contextlib
 import enum
+import threading
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
 
-from drivers.errors import DeviceStateError
+from drivers.errors import DeviceCancelledError, DeviceStateError
 
 
 class ProjectorMode(enum.Enum):
@@ -136,12 +139,38 @@ class Device(abc.ABC):
 
 
 class Projector(Device):
-    """A projector shows 8-bit grayscale patterns of its native resolution."""
+    """A projector shows 8-bit grayscale patterns of its native resolution. Its calls run one at a
+    time, whichever thread makes them, so that `shut` from another thread neither interleaves with a
+    pattern being sent nor is undone by one sent after it (a closed projector shows nothing)."""
 
     mode: ProjectorMode = ProjectorMode.STREAMING
     # When the last pattern reached the output, on the clock of Frame.timestamp_s; None if the
     # driver cannot tell. Light is on the scene from here plus the display latency.
     last_present_s: float | None = None
+
+    def __init__(self, name: str) -> None:
+        super().__init__(name)
+        self._calls = threading.RLock()  # re-entrant: close() darkens, a fault in show() darkens
+
+    def close(self) -> None:
+        with self._calls:
+            super().close()
+
+    def shut(self, timeout_s: float) -> bool:
+        """Dark and closed, from any thread: waits up to `timeout_s` for a call in flight to end.
+        False when none ended in time (a wedged driver): then it is darkened and closed regardless,
+        since light matters more than that call (decision 0002)."""
+        got = self._calls.acquire(timeout=max(0.0, timeout_s))
+        try:  # the driver's steps, not dark() and close(): without the lock those would wait for it
+            if self._open:
+                with contextlib.suppress(Exception):  # darkening never raises
+                    self._do_dark()
+            with contextlib.suppress(Exception):
+                Device.close(self)
+        finally:
+            if got:
+                self._calls.release()
+        return got
 
     @property
     @abc.abstractmethod
@@ -163,16 +192,24 @@ class Projector(Device):
     def dark(self) -> None:
         """Show black. Safe to call at any time, also after a fault; never raises for a closed
         device."""
-        if self._open:
-            self._do_dark()
+        with self._calls:
+            if self._open:
+                self._do_dark()
 
     def _guarded(self, action: Callable[..., None], *args: object) -> None:
-        try:
-            action(*args)
-        except Exception:
-            with contextlib.suppress(Exception):  # the first fault is the one to report
-                self._do_dark()
-            raise
+        """Run a driver step that may light the projector: only while open (checked again under the
+        lock: `shut` may have closed it meanwhile), and dark again if it fails."""
+        with self._calls:
+            self._require_open()
+            try:
+                action(*args)
+            except Exception:
+                with contextlib.suppress(Exception):  # the first fault is the one to report
+                    self._do_dark()
+                raise
+            if not self._open:  # shut regardless while this call hung: what it lit goes dark
+                with contextlib.suppress(Exception):
+                    self._do_dark()
 
     def load_sequence(self, sequence: PatternSequence) -> None:
         """Preload a sequence (SEQUENCE projectors). Goes dark if the device fails."""
@@ -201,8 +238,9 @@ class Projector(Device):
         self._guarded(self._do_start_sequence, group)
 
     def stop_sequence(self) -> None:
-        if self._open and self.mode is ProjectorMode.SEQUENCE:
-            self._guarded(self._do_stop_sequence)
+        with self._calls:
+            if self._open and self.mode is ProjectorMode.SEQUENCE:
+                self._guarded(self._do_stop_sequence)
 
     @abc.abstractmethod
     def _do_show(self, pattern: np.ndarray) -> None: ...
@@ -271,14 +309,32 @@ class Camera(Device):
     def _do_flush(self) -> None:
         """Drivers that buffer frames drop them here."""
 
-    def capture(self, timeout_s: float = 2.0) -> Frame:
+    _cancel: threading.Event | None = None  # the running capture's, for _wait_until
+
+    def capture(self, timeout_s: float = 2.0, cancel: threading.Event | None = None) -> Frame:
         """Capture one frame, taken after this call began; raise DeviceTimeoutError past
-        `timeout_s`."""
+        `timeout_s`, and DeviceCancelledError once `cancel` is set (set before the call, or, for
+        drivers that wait through _wait_until, while it waits)."""
         self._require_open()
         if timeout_s <= 0:
             raise ValueError(f"{self.name}: timeout_s must be > 0")
+        if cancel is not None and cancel.is_set():
+            raise DeviceCancelledError(f"{self.name}: capture cancelled")
         deadline = time.monotonic() + timeout_s
-        return self._do_capture(deadline)
+        self._cancel = cancel
+        try:
+            return self._do_capture(deadline)
+        finally:
+            self._cancel = None
+
+    def _wait_until(self, deadline: float) -> None:
+        """Drivers that wait for a frame in Python wait here: until `deadline` (monotonic), or
+        DeviceCancelledError as soon as the capture's `cancel` is set."""
+        remaining = deadline - time.monotonic()
+        if self._cancel is None:
+            time.sleep(max(0.0, remaining))
+        elif self._cancel.wait(max(0.0, remaining)):
+            raise DeviceCancelledError(f"{self.name}: capture cancelled while waiting for a frame")
 
     @abc.abstractmethod
     def _do_capture(self, deadline: float) -> Frame: ...

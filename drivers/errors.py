@@ -34,3 +34,8 @@ class DeviceProtocolError(DeviceError):
 class DeviceAuthenticationError(DeviceError):
     """Raised when a device refuses the credentials it was given, or asks for some and none were
     configured (a PJLink password)."""
+
+
+class DeviceCancelledError(DeviceError):
+    """Raised when a wait for a device (a frame) is cut short because the caller cancelled it: the
+    `cancel` Event given to Camera.capture was set. Not a fault of the device."""

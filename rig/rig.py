@@ -14,6 +14,8 @@ from __future__ import annotations
 
 import contextlib
 import json
+import logging
+import threading
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
@@ -21,10 +23,13 @@ from typing import Any, Protocol
 
 import numpy as np
 
-from drivers.base import Camera, Device, Projector
+from drivers.base import Camera, Device, Frame, Projector
+from drivers.errors import DeviceCancelledError
 from rig.config import RigConfig
 from rig.errors import ConfigError
 from rig.geometry import CameraModel
+
+log = logging.getLogger(__name__)
 
 LATENCY_FILE = "latency.json"  # in the data directory: `slrig doctor --latency` writes, `latency_s: measured` reads
 
@@ -106,6 +111,8 @@ class Rig:
     extras: list[Device] = field(default_factory=list)  # housekeeping (projector power), opened first
     # Called at every wait for light: the daemon's heartbeat and cancel check in long sessions.
     checkpoint: Callable[[], None] | None = field(default=None, repr=False)
+    # Set from another thread to cut a wait for a frame short (then the checkpoint raises).
+    cancel: threading.Event | None = field(default=None, repr=False)
     # Terms computed from the geometry once and kept between scans (per-pixel rays of each pair).
     memo: dict[object, object] = field(default_factory=dict, repr=False)
     _closed: bool = field(default=False, repr=False)
@@ -133,10 +140,41 @@ class Rig:
             self.checkpoint()
         self.clock.sleep(seconds)
 
+    def capture(self, camera: int, timeout_s: float) -> Frame:
+        """A frame from camera `camera` (Camera.capture); when `cancel` cuts its wait, the
+        checkpoint raises the canceller's exception (else DeviceCancelledError propagates)."""
+        device = self.cameras[camera]
+        try:
+            if self.cancel is None:
+                return device.capture(timeout_s=timeout_s)
+            return device.capture(timeout_s=timeout_s, cancel=self.cancel)
+        except DeviceCancelledError:
+            if self.checkpoint is not None:
+                self.checkpoint()
+            raise
+
     def all_dark(self) -> None:
         for projector in self.projectors:
             with contextlib.suppress(Exception):  # darkening the others matters more than this error
                 projector.dark()
+
+    def shut_projectors(self, timeout_s: float) -> list[str]:
+        """From a thread other than the one using the rig: every projector dark and closed (nothing
+        the other thread does lights it again) and the power controls let go, waiting at most
+        `timeout_s` in all for calls in flight. Cameras stay as they are: closing one under a
+        capture is not safe in every driver. Returns the projectors that still report light."""
+        deadline = time.monotonic() + timeout_s
+        for projector in self.projectors:
+            if not projector.shut(deadline - time.monotonic()):
+                log.error("%s: a call did not end within the shutdown timeout; darkened regardless", projector.name)
+        for device in self.extras:
+            with contextlib.suppress(Exception):
+                device.close()
+        return self.lit()
+
+    def lit(self) -> list[str]:
+        """The projectors whose drivers report light now (those that cannot tell are not named)."""
+        return [p.name for p in self.projectors if getattr(p, "is_dark", True) is False]
 
     def close(self) -> None:
         if self._closed:

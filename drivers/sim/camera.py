@@ -73,7 +73,7 @@ class SimCamera(Camera):
         if faults.disconnect_after_frames is not None and self._sequence >= faults.disconnect_after_frames:
             raise DeviceDisconnectedError(f"{self.name}: simulated camera disconnected")
         if faults.stall_after_frames is not None and self._sequence >= faults.stall_after_frames:
-            time.sleep(max(0.0, deadline - time.monotonic()))
+            self._wait_until(deadline)  # a wedged driver, but one whose wait a cancel cuts
             raise DeviceTimeoutError(f"{self.name}: no frame before the capture deadline")
         if faults.repeat_frame_at is not None and self._captures == faults.repeat_frame_at and self._last is not None:
             return self._last

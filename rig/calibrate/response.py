@@ -40,7 +40,7 @@ def measure_response(rig: Rig, projector: int) -> tuple[np.ndarray, np.ndarray]:
             rig.wait(rig.latency_s(projector))
             for c, camera in enumerate(rig.cameras):
                 camera.flush()
-                captures[c].append(camera.capture(timeout).image.astype(np.float32))
+                captures[c].append(rig.capture(c, timeout).image.astype(np.float32))
     finally:
         rig.all_dark()
     samples = []

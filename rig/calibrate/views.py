@@ -128,7 +128,7 @@ def _capture_view(rig: Rig, with_projectors: bool) -> dict[tuple[int | None, int
     rig.wait(max((rig.latency_s(p) for p in range(len(rig.projectors))), default=0.0))
     for c, camera in enumerate(rig.cameras):
         camera.flush()  # software sync, as in a scan: frames exposed before the light are dropped
-        frames[(None, c)] = [camera.capture(timeout).image]
+        frames[(None, c)] = [rig.capture(c, timeout).image]
     rig.all_dark()
     if with_projectors:
         for p, projector in enumerate(rig.projectors):
@@ -137,7 +137,7 @@ def _capture_view(rig: Rig, with_projectors: bool) -> dict[tuple[int | None, int
                 rig.wait(rig.latency_s(p))
                 for c, camera in enumerate(rig.cameras):
                     camera.flush()
-                    frames.setdefault((p, c), []).append(camera.capture(timeout).image)
+                    frames.setdefault((p, c), []).append(rig.capture(c, timeout).image)
             projector.dark()
     return frames
 

@@ -34,7 +34,11 @@ class ServiceConfig(Strict):
         default_factory=list, description="Host headers accepted besides localhost and the bound address"
     )
     shutdown_timeout_s: float = Field(
-        8.0, ge=1.0, le=10.0, description="to stop the running job on SIGTERM (within systemd's TimeoutStopSec=15)"
+        8.0,
+        ge=1.0,
+        le=10.0,
+        description="SIGTERM: the longest wait for a projector call in flight or the job's last record (a stop "
+        "takes well under a second otherwise; within systemd's TimeoutStopSec=15)",
     )
     health_stale_s: float = Field(120.0, ge=5.0, le=3600.0, description="a running job silent this long is unhealthy")
     header_timeout_s: float = Field(

@@ -3,7 +3,8 @@
 READY=1 goes out once the socket is bound; WATCHDOG=1 at half the watchdog interval, from the
 event loop and only while the job worker is healthy (a wedged driver stops the pings and systemd
 restarts the service). On SIGTERM or SIGINT the running job is cancelled at once (projectors
-dark), event streams end, and the service stops within its shutdown timeout.
+dark), event streams end, responses still in flight are cut, and the process ends: within a
+second in every state, a stalled driver included (rig.service.stopping).
 """
 
 from __future__ import annotations
@@ -12,6 +13,7 @@ import asyncio
 import contextlib
 import errno
 import logging
+import os
 import resource
 import signal
 import socket
@@ -108,19 +110,46 @@ def _descriptors_for(max_connections: int) -> int:
 
 class _Server(uvicorn.Server):
     """uvicorn re-raises a caught SIGTERM once it has served, which would end the process before
-    the job service stops; the daemon handles the signals itself (in _run)."""
+    the job service stops; the daemon handles the signals itself (in _run). And it stops at once:
+    uvicorn looks at should_exit every 0.1 s, this server also as soon as `exit_now` is set, and
+    responses still in flight HTTP_GRACE_S after the stop began are cut (event streams end by
+    themselves; a download to a client that reads slowly would otherwise hold the exit)."""
+
+    HTTP_GRACE_S = 0.3  # a short request in flight finishes in milliseconds
+
+    def __init__(self, config: uvicorn.Config) -> None:
+        super().__init__(config)
+        self.exit_now = asyncio.Event()
 
     @contextlib.contextmanager
     def capture_signals(self) -> Iterator[None]:
         yield
 
+    async def main_loop(self) -> None:
+        """uvicorn's: a tick every 0.1 s (the date header, should_exit), but woken to stop."""
+        counter = 0
+        while not await self.on_tick(counter):
+            counter = (counter + 1) % 864000
+            with contextlib.suppress(TimeoutError):
+                await asyncio.wait_for(self.exit_now.wait(), 0.1)
+
+    def stop(self, force: bool = False) -> None:
+        """Stop serving now; `force`: cut the responses in flight too."""
+        self.force_exit = self.force_exit or force
+        self.should_exit = True
+        self.exit_now.set()
+
 
 def serve(config: RigConfig, host: str, port: int, api_key: str, read_key: str | None = None) -> int:
+    """Serve until SIGTERM or SIGINT, then stop and end the process (os._exit(0)): the job
+    service has darkened the projectors and recorded its jobs by then, and the interpreter's own
+    teardown took 0.2-0.45 s (numba, scipy, trimesh) and would wait for a worker still inside a
+    computation. Returns only when uvicorn could not start (its exit code)."""
     settings = api_settings(config, host, api_key, read_key)
     sock = bind(host, port)
     service = JobService(config, config.service.max_queue, config.service.health_stale_s)
     notifier = Notifier()
-    server: uvicorn.Server | None = None
+    server: _Server | None = None
 
     def stopping() -> bool:
         return service.stopping or (server is not None and server.should_exit)
@@ -132,7 +161,7 @@ def serve(config: RigConfig, host: str, port: int, api_key: str, read_key: str |
         host=host,
         port=port,
         log_config=None,  # our logging: stderr, read by journald
-        timeout_graceful_shutdown=2,
+        timeout_graceful_shutdown=2,  # a backstop: _run cuts responses after _Server.HTTP_GRACE_S
         http=guarded_protocol(  # no concurrency cap: connections are bounded in rig.daemon.connections
             config.service.header_timeout_s,
             max_connections,
@@ -148,29 +177,41 @@ def serve(config: RigConfig, host: str, port: int, api_key: str, read_key: str |
     service.start()
     log.info("slrig serving rig %r from %s", config.name, config.output.data_dir)
     try:
-        asyncio.run(_run(server, sock, service, notifier))
+        asyncio.run(_run(server, sock, service, notifier, config.service.shutdown_timeout_s))
     except KeyboardInterrupt:  # a signal between the event loop's end and here
         pass
     except SystemExit as exc:  # uvicorn could not start (it logged why: port in use, bad address)
         log.error("could not serve on %s:%d", host, port)
         return 1 if exc.code in (None, 0) else int(exc.code) if isinstance(exc.code, int) else 1
     finally:
-        notifier.notify("STOPPING=1")
         for signum in (signal.SIGTERM, signal.SIGINT):  # a second signal must not cut the shutdown short
             signal.signal(signum, signal.SIG_IGN)
-        service.shutdown(config.service.shutdown_timeout_s)
+        service.shutdown(config.service.shutdown_timeout_s, wait_for_worker=False)  # done in _run, unless it failed
         log.info("slrig stopped")
-    return 0
+    logging.shutdown()  # flushed: the journal has every line
+    os._exit(0)
 
 
-async def _run(server: uvicorn.Server, sock: socket.socket, service: JobService, notifier: Notifier) -> None:
+async def _run(
+    server: _Server, sock: socket.socket, service: JobService, notifier: Notifier, shutdown_timeout_s: float
+) -> None:
+    """Serve, ping the watchdog, and on a signal stop the job service beside uvicorn's shutdown."""
     loop = asyncio.get_running_loop()
+    shutting_down: list[asyncio.Future[None]] = []  # the job service's shutdown, once begun
+
+    def stop() -> None:
+        if not shutting_down:
+            log.info("stopping: cancelling the running job")
+            notifier.notify("STOPPING=1")
+            service.begin_stop()  # at once: the worker's waits are cut, it darkens and records
+            shutting_down.append(loop.run_in_executor(None, service.shutdown, shutdown_timeout_s, False))
+            loop.call_later(_Server.HTTP_GRACE_S, server.stop, True)
+        server.stop()
 
     def on_signal(signum: int) -> None:
         log.info("%s received", signal.Signals(signum).name)
-        if server.should_exit:
-            server.force_exit = True  # a second signal: do not wait for open connections
-        server.should_exit = True
+        server.stop(force=server.should_exit)  # a second signal: do not wait for open connections
+        stop()
 
     for signum in (signal.SIGTERM, signal.SIGINT):
         loop.add_signal_handler(signum, on_signal, signum)
@@ -186,9 +227,8 @@ async def _run(server: uvicorn.Server, sock: socket.socket, service: JobService,
     interval = notifier.watchdog_interval_s
     next_ping = 0.0
     while not serving.done():
-        if server.should_exit and not service.stopping:
-            log.info("stopping: cancelling the running job")
-            service.begin_stop()  # at once, while uvicorn closes connections
+        if server.should_exit:
+            stop()
         if interval is not None and loop.time() >= next_ping and not service.stopping:
             next_ping = loop.time() + interval
             if service.healthy():
@@ -196,5 +236,7 @@ async def _run(server: uvicorn.Server, sock: socket.socket, service: JobService,
             else:
                 log.error("job worker unhealthy: watchdog pings withheld")
                 notifier.notify("STATUS=job worker unhealthy")
-        await asyncio.sleep(0.05)
+        await asyncio.wait({serving}, timeout=0.05)
     await serving
+    for shutdown in shutting_down:
+        await shutdown

@@ -124,7 +124,7 @@ def _capture_overlap_cue(rig: Rig, frames: Frames, last_sequence: list[int]) -> 
 
 def _take(rig: Rig, c: int, timeout_s: float, last_sequence: list[int]) -> Frame:
     camera = rig.cameras[c]
-    frame = camera.capture(timeout_s=timeout_s)
+    frame = rig.capture(c, timeout_s)  # its wait cut short by a cancel
     if frame.sequence <= last_sequence[c]:
         raise CaptureFaultError(f"{camera.name}: stale frame (sequence {frame.sequence})")
     last_sequence[c] = frame.sequence

@@ -8,7 +8,6 @@ ends in a terminal state that names what happened; none is re-run by itself.
 
 from __future__ import annotations
 
-import contextlib
 import logging
 import threading
 import time
@@ -18,7 +17,6 @@ from pathlib import Path
 from typing import Any, TextIO
 
 from drivers.errors import DeviceError
-from rig.assembly import open_rig
 from rig.config import RigConfig
 from rig.errors import CaptureFaultError, ConfigError, PlanError, SlrigError
 from rig.progress import ProgressCallback, ProgressEvent
@@ -39,6 +37,8 @@ from rig.service.live import LiveMode
 from rig.service.recovery import clear_leftovers, discard, hide_folder, lock_data_dir
 from rig.service.space import check_free_space, expected_scan_bytes, storage_problems
 from rig.service.status import device_views, result_file
+from rig.service.stopping import WorkerRig
+from rig.store.atomic import publishing_through
 from rig.store.scandir import new_scan_id
 from rig.workers import release_free_memory
 
@@ -64,9 +64,11 @@ class JobService:
         self.live = LiveMode(config, self._cond)
         self._queue: deque[str] = deque()
         self._current: str | None = None
-        self._cancel = threading.Event()
         self._stopping = False
-        self._rig: Rig | None = None
+        self._rigs = WorkerRig(config, self._cond, lambda: self._stopping, self._checkpoint)
+        self._cancel = self._rigs.cancel
+        self._shutdown_lock = threading.Lock()
+        self._shut_down = False
         self._rig_error: str | None = None
         self._heartbeat = time.monotonic()
         self._worker: threading.Thread | None = None
@@ -95,26 +97,24 @@ class JobService:
             self._cancel.set()
             self._cond.notify_all()
 
-    def shutdown(self, timeout_s: float = 8.0) -> None:
-        """Stop within `timeout_s`: the running job is cancelled and recorded as interrupted,
-        queued ones too; projectors dark, devices closed."""
-        self.begin_stop()
-        try:
-            if self._worker is not None:
-                self._worker.join(timeout_s)
-                if self._worker.is_alive():
-                    log.error("the running job did not stop within %.1f s; recording it interrupted", timeout_s)
-        finally:
-            rig, self._rig = self._rig, None
-            if rig is not None:
-                rig.close()  # dark first, then close; before any bookkeeping that could fail
-                log.info("rig closed, projectors dark")
-        self.store.interrupt_unfinished("the daemon stopped before this job finished")
-        if self.store.unsaved:  # the next start marks them interrupted
-            log.error("job states not written at shutdown: %s", self.store.unsaved)
-        if self._lock_file is not None:
-            self._lock_file.close()  # and with it the lock on the data directory
-            self._lock_file = None
+    def shutdown(self, timeout_s: float = 8.0, wait_for_worker: bool = True) -> None:
+        """Stop: the running job is cancelled and recorded interrupted, queued ones too; projectors
+        dark first. A worker still busy after a grace is in a step that cannot be interrupted: its
+        projectors are darkened and closed from here. Then it is waited for up to `timeout_s` in all;
+        without `wait_for_worker` (the process exits next) only to record a job whose folder it has
+        just published (rig.service.stopping). Idempotent."""
+        with self._shutdown_lock:
+            if self._shut_down:
+                return
+            self._shut_down = True
+            self.begin_stop()
+            stopped = self._rigs.let_go(self._worker, timeout_s, wait_for_worker)  # dark first, before bookkeeping
+            self.store.interrupt_unfinished("the daemon stopped before this job finished")
+            if self.store.unsaved:  # the next start marks them interrupted
+                log.error("job states not written at shutdown: %s", self.store.unsaved)
+            if self._lock_file is not None and (stopped or wait_for_worker):  # else released at exit
+                self._lock_file.close()  # and with it the lock on the data directory
+                self._lock_file = None
 
     def healthy(self) -> bool:
         """The worker is alive and, when running a job, has reported progress recently."""
@@ -231,7 +231,7 @@ class JobService:
                 if self._stopping:
                     return
                 job_id = self._queue.popleft() if self._queue else None
-                self._current = job_id
+                self._current, self._rigs.published = job_id, False
                 self._cancel.clear()
             if job_id is None:  # no job waits: live mode if wanted, else flush what the disk refused
                 if self.store.unsaved:
@@ -265,22 +265,27 @@ class JobService:
         else:
             handler = self._scan
         try:
-            result = handler(job, self._progress_callback(job_id))
+            with publishing_through(self._rigs.publish):  # no folder appears once stopping
+                result = handler(job, self._progress_callback(job_id))
         except JobCancelledError:
-            self._darken()
+            self._rigs.darken()
             state = JobState.INTERRUPTED if self._stopping else JobState.CANCELLED
             reason = "the daemon stopped during the job" if self._stopping else "cancelled while running"
             self._finish(job_id, state, error=reason)
         except (SlrigError, DeviceError) as exc:
+            if self._stopping:  # its projectors were taken from it (shutdown): the stop, not a fault
+                self._rigs.darken()
+                self._finish(job_id, JobState.INTERRUPTED, error=f"the daemon stopped during the job ({exc})")
+                return
             if isinstance(exc, (DeviceError, CaptureFaultError)) or isinstance(exc.__cause__, DeviceError):
                 self._rig_error = str(exc)  # reported by /v1/rig until a job succeeds
             if not reprocess:
-                self._drop_rig()
+                self._rigs.drop()
             self._finish(job_id, JobState.FAILED, error=str(exc))
         except Exception as exc:
             log.exception("%s %s: internal error", job.kind, job_id)
             if not reprocess:
-                self._drop_rig()
+                self._rigs.drop()
             self._finish(job_id, JobState.FAILED, error=f"internal error: {type(exc).__name__}: {exc}")
         else:
             if not reprocess:
@@ -332,35 +337,24 @@ class JobService:
         if not self.live.wanted():
             return
         try:
-            self.live.run(self._open(), lambda: bool(self._queue) or self._stopping, self._checkpoint)
+            self.live.run(self._rigs.open(), lambda: bool(self._queue) or self._stopping, self._checkpoint)
         except JobCancelledError:
-            self._darken()
+            self._rigs.darken()
         except Exception as exc:
             if isinstance(exc, (DeviceError, CaptureFaultError)) or isinstance(exc.__cause__, DeviceError):
                 self._rig_error = str(exc)
             log.error("live mode failed: %s", exc)
-            self._drop_rig()
+            self._rigs.drop()
 
-    def _open(self) -> Rig:
-        if self._rig is None:
-            self._rig = open_rig(self.config)
-            self._rig.checkpoint = self._checkpoint  # calibration and response sessions wait often
-        return self._rig
-
-    def _darken(self) -> None:
-        if self._rig is not None:
-            self._rig.all_dark()
-
-    def _drop_rig(self) -> None:
-        rig, self._rig = self._rig, None
-        if rig is not None:
-            with contextlib.suppress(Exception):
-                rig.close()
+    @property
+    def _rig(self) -> Rig | None:
+        return self._rigs.rig
 
     # --- the jobs (rig.service.tasks does the work) ----------------------------------------
     def _scan(self, job: Job, progress: ProgressCallback) -> dict[str, Any]:
         check_free_space(self.data_dir, expected_scan_bytes(self.config, job.request), "this scan")
-        path, result = tasks.scan_job_to_directory(self._open(), self.scans_dir / job.id, job.id, job.request, progress)
+        target = self.scans_dir / job.id
+        path, result = tasks.scan_job_to_directory(self._rigs.open(), target, job.id, job.request, progress)
         return tasks.scan_summary(path, result)
 
     def _reprocess(self, job: Job, progress: ProgressCallback) -> dict[str, Any]:
@@ -392,7 +386,7 @@ class JobService:
     def _calibration(self, job: Job, progress: ProgressCallback) -> dict[str, Any]:
         request = job.request
         try:
-            out = self.calibrations_dir / job.id
-            return tasks.calibration_to_directory(self._open(), request["what"], out, request.get("views"), progress)
+            rig, out = self._rigs.open(), self.calibrations_dir / job.id
+            return tasks.calibration_to_directory(rig, request["what"], out, request.get("views"), progress)
         finally:
-            self._drop_rig()  # the simulated bench showed boards: a fresh rig for the next job
+            self._rigs.drop()  # the simulated bench showed boards: a fresh rig for the next job
