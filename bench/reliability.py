@@ -8,9 +8,22 @@ the simulated bench; prints one JSON object (and with --readme rewrites the READ
 - SIGKILL at a random moment of a scan (capture, decode or store) and of a DELETE, then a restart:
   whether the stored scan changed, a folder lost its record or a record its files (lost);
 - a full disk (a tmpfs, where this runs as root): the answer to a new scan, the health report,
-  and the state a scan ends in when the disk fills while it is written.
+  and the state a scan ends in when the disk fills while it is written;
+- poisoned bodies (values JSON cannot carry back, in fields and free-form objects): 5xx, bodies
+  accepted, listings that then fail; and the schema test's generated requests, randomised;
+- every typed body field sent with a value of another type: how many were accepted;
+- 1000 unauthenticated connections that ask for a 256 MB file and never read: downloads served,
+  health checks answered meanwhile, held downloads cut;
+- uploads: an empty body, a folder past its limit, and (as root, on a tmpfs) a disk filled by
+  uploads: the statuses, and whether the job records' reserve stayed free;
+- a 20000x20000 PNG bomb uploaded, and placed as every frame of a reconstruction: the statuses and
+  the daemon's peak memory before and after;
+- broken key files (BOM, non-ASCII, inner newline, empty, over 4 KiB, a directory, /dev/zero, a
+  FIFO): exit code and time of `slrig serve`; the key sent in every part of a URL: times logged;
+- SIGTERM in each state a daemon can be in (bench/stop_time.py): seconds until the process is
+  gone, and whether the projector was dark.
 
-    python bench/reliability.py [--kills 8] [--readme]
+    python bench/reliability.py [--kills 8] [--schema-examples 200] [--readme]
 """
 
 from __future__ import annotations
@@ -40,7 +53,10 @@ REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 sys.path.insert(0, str(REPO))
 
+import _attacks as attacks  # noqa: E402
 from _readme import markdown_table, replace_block  # noqa: E402
+from _reliability_rows import attack_rows  # noqa: E402
+from stop_time import stop_times  # noqa: E402
 
 from rig.service.space import RESERVE_BYTES  # noqa: E402
 from tests.conftest import small_config_data, wait_done  # noqa: E402
@@ -197,6 +213,7 @@ def full_disk(folder: Path) -> dict[str, Any]:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--kills", type=int, default=8)
+    parser.add_argument("--schema-examples", type=int, default=200, help="generated requests per operation")
     parser.add_argument("--readme", action="store_true")
     args = parser.parse_args()
     with tempfile.TemporaryDirectory() as tmp:
@@ -207,6 +224,14 @@ def main() -> None:
             "scan_killed": kill_cycles(folder, "scan", args.kills),
             "delete_killed": kill_cycles(folder, "delete", args.kills),
             "full_disk": full_disk(folder),
+            "poison": attacks.poisoned_bodies(folder, 500),
+            "schema": attacks.randomised_schema(args.schema_examples, args.schema_examples // 2),
+            "strict_types": attacks.strict_types(folder),
+            "slow_readers": attacks.slow_readers(folder),
+            "uploads": attacks.uploads(folder, RESERVE_BYTES),
+            "bombs": attacks.bombs(folder),
+            "key_files": attacks.key_files(folder),
+            "stop": stop_times(folder, 5),
         }
     print(json.dumps(result, indent=2))
     if args.readme:
@@ -244,7 +269,8 @@ def _table(result: dict[str, Any]) -> str:
                 f"once freed, the next scan {d['after_freeing_space']}",
             ]
         )
-    table = markdown_table(["fault", "tries", "lost", "what held"], rows)
+    rows += attack_rows(result)
+    table = markdown_table(["fault", "tries", "failed", "what held"], rows)
     return f"{table}\n\nMeasured by `python bench/reliability.py --readme` ({result['machine']})."
 
 
