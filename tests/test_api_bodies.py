@@ -44,9 +44,9 @@ def test_non_finite_numbers_and_lone_surrogates_are_422_naming_the_field(
 @pytest.mark.parametrize(
     ("method", "path", "allowed"),
     [
-        ("DELETE", "/v1/scans", "GET, POST"),
-        ("PATCH", "/v1/gallery", "GET, POST"),
-        ("PATCH", "/v1/scans/20261121-105227-a1b2c3", "DELETE, GET"),
+        ("DELETE", "/v1/scans", "GET, HEAD, POST"),  # HEAD wherever GET is
+        ("PATCH", "/v1/gallery", "GET, HEAD, POST"),
+        ("PATCH", "/v1/scans/20261121-105227-a1b2c3", "DELETE, GET, HEAD"),
         ("POST", "/v1/imports/board/frame.png", "PUT"),
     ],
 )

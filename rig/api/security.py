@@ -199,7 +199,9 @@ class BodyLimitMiddleware:
 
 
 async def _reply(send: Send, status_code: int, detail: str) -> None:
-    body = json.dumps({"detail": detail}).encode()
+    """A refusal in the API's shapes: a 422 as FastAPI's own (a list naming the body), else text."""
+    shaped: object = [{"loc": ["body"], "msg": detail, "type": "value_error"}] if status_code == 422 else detail
+    body = json.dumps({"detail": shaped}).encode()
     await send(
         {
             "type": "http.response.start",

@@ -14,14 +14,13 @@ from typing import Any
 MAX_DEPTH = 32  # objects and lists within each other
 MAX_NODES = 20_000  # values in all (a 64 KB body holds fewer)
 MAX_STRING = 10_000  # characters of one string or key
-MAX_EXACT_INTEGER = 2**53
 
 
 def json_problem(value: Any, where: str = "") -> str | None:
     """Why `value` cannot be stored and served as JSON (naming the place, e.g.
-    `plan.criteria.max`), or None when it can: finite numbers (integers within +-2**53),
-    strings without lone surrogates, string keys, bounded depth, size and string length; no other
-    types."""
+    `plan.criteria.max`), or None when it can: finite numbers, strings without lone surrogates,
+    string keys, bounded depth, size and string length; no other types. (Whoever reads a number as
+    a float checks its size: rig.plan.ring_plan does.)"""
     budget = [MAX_NODES]
     return _problem(value, where, 0, budget)
 
@@ -31,10 +30,8 @@ def _problem(value: Any, where: str, depth: int, budget: list[int]) -> str | Non
     if budget[0] < 0:
         return f"{where or 'the body'}: more than {MAX_NODES} values in all"
     here = where or "the body"
-    if value is None or isinstance(value, bool):
+    if value is None or isinstance(value, bool | int):  # any integer: JSON and SQLite's text carry it
         return None
-    if isinstance(value, int):  # JSON numbers are doubles to most readers: exact up to 2**53
-        return None if abs(value) <= MAX_EXACT_INTEGER else f"{here}: {value} is beyond +-2**53"
     if isinstance(value, float):
         return None if math.isfinite(value) else f"{here}: {value!r} is not a finite number"
     if isinstance(value, str):
