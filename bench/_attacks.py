@@ -18,30 +18,27 @@ from pathlib import Path
 from typing import Any
 
 import httpx
-import yaml
 
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
+
+from _daemon import daemon_config  # noqa: E402
 
 from rig.assembly import open_rig  # noqa: E402
 from rig.calibrate.foreign import write_opencv_stereo  # noqa: E402
 from rig.config import load_config  # noqa: E402
 from rig.patterns.spec import opencv_graycode  # noqa: E402
 from tests.bombs import write_png_bomb  # noqa: E402
-from tests.conftest import small_config_data, wait_done  # noqa: E402
+from tests.conftest import wait_done  # noqa: E402
 from tests.test_daemon import AUTH, KEY, Daemon, status_code  # noqa: E402
 
 POISON = ["NaN", "Infinity", "-Infinity", "1e999", '"\\ud800"', '"x\\udfff"', '{"\\udbff": 1}']
 FAKE_ID = "20260101-000000-abcdef"
 
 
-def daemon_config(folder: Path, name: str, **service: Any) -> Path:
-    data = small_config_data()  # the suite's small bench: quick scans
-    data["output"] = {"data_dir": str(folder / f"{name}-data")}
-    data["service"] = service
-    path = folder / f"{name}.yaml"
-    path.write_text(yaml.safe_dump(data))
-    return path
+def _named_config(folder: Path, name: str, **service: Any) -> Path:
+    """A daemon config keeping its data in <folder>/<name>-data."""
+    return daemon_config(folder, folder / f"{name}-data", **service)
 
 
 def _rss_peak_mb(pid: int) -> float:
@@ -68,7 +65,7 @@ def poisoned_bodies(folder: Path, count: int, seed: int = 7) -> dict[str, Any]:
     """`count` bodies, each with a poisoned value in a free-form object or a field, to every
     operation that takes a JSON body; then every listing, page and filter."""
     rng = random.Random(seed)
-    daemon = Daemon(daemon_config(folder, "poison"), folder / "poison.log")
+    daemon = Daemon(_named_config(folder, "poison"), folder / "poison.log")
     bodies = [
         ("/v1/scans", lambda v: f'{{"plan": {{"criteria": {v}, "rings": [1, 2]}}}}'),
         ("/v1/scans", lambda v: f'{{"label": {v}}}'),
@@ -121,7 +118,7 @@ def _wrong_values(kind: str) -> list[Any]:
 def strict_types(folder: Path) -> dict[str, Any]:
     """Every typed field of every JSON body, sent with values of another type (true for a number,
     "1" for an integer, 1.5 for an integer, 1 for a boolean, ...): each must be refused."""
-    daemon = Daemon(daemon_config(folder, "types"), folder / "types.log")
+    daemon = Daemon(_named_config(folder, "types"), folder / "types.log")
     tried = accepted = server_errors = 0
     try:
         with httpx.Client(base_url=daemon.url, timeout=30) as client:
@@ -157,7 +154,7 @@ def slow_readers(folder: Path, count: int = 1000, large_mb: int = 256) -> dict[s
     the default connection settings; health checked throughout."""
     soft, hard = resource.getrlimit(resource.RLIMIT_NOFILE)
     resource.setrlimit(resource.RLIMIT_NOFILE, (min(hard, max(soft, count + 512)), hard))
-    daemon = Daemon(daemon_config(folder, "slow"), folder / "slow.log")
+    daemon = Daemon(_named_config(folder, "slow"), folder / "slow.log")
     try:
         with httpx.Client(base_url=daemon.url, timeout=60) as client:
             job_id = client.post("/v1/scans", json={}, headers=AUTH).json()["id"]
@@ -206,7 +203,7 @@ def slow_readers(folder: Path, count: int = 1000, large_mb: int = 256) -> dict[s
 def uploads(folder: Path, reserve_bytes: int) -> dict[str, Any]:
     """Empty bodies, a folder past its limit, and (as root, on a small tmpfs) uploads until the
     disk is nearly full: each refusal's status, and the free space left."""
-    daemon = Daemon(daemon_config(folder, "up", max_import_bytes=8 << 20), folder / "up.log")
+    daemon = Daemon(_named_config(folder, "up", max_import_bytes=8 << 20), folder / "up.log")
     result: dict[str, Any] = {}
     try:
         with httpx.Client(base_url=daemon.url, timeout=60) as client:
@@ -229,7 +226,7 @@ def uploads(folder: Path, reserve_bytes: int) -> dict[str, Any]:
     )
     if not mounted:
         return {**result, "full_disk": "skipped: a tmpfs needs root"}
-    config = daemon_config(disk, "full")
+    config = _named_config(disk, "full")
     daemon = Daemon(config, folder / "full.log")
     try:
         statuses = []
@@ -259,7 +256,7 @@ def bombs(folder: Path) -> dict[str, Any]:
     """A 20000x20000 16-bit PNG (0.78 MB) uploaded as a frame, and the same bomb as every frame of
     an imports folder put there behind the API's back (an OpenCV Gray code sequence of the small
     bench, with its true calibration), then reconstructed: the status, and the daemon's peak memory."""
-    config = daemon_config(folder, "bomb")
+    config = _named_config(folder, "bomb")
     daemon = Daemon(config, folder / "bomb.log")
     bomb = folder / "bomb.png"
     write_png_bomb(bomb, 20000, 20000)
@@ -314,7 +311,7 @@ def key_files(folder: Path) -> dict[str, Any]:
     cases["dev_zero"] = Path("/dev/zero")
     cases["fifo"] = folder / "key-fifo"
     os.mkfifo(cases["fifo"])
-    config = daemon_config(folder, "keys")
+    config = _named_config(folder, "keys")
     outcomes = {name: _serve_with_key_file(config, path) for name, path in cases.items()}
     daemon = Daemon(config, folder / "keys.log")
     try:

@@ -47,32 +47,20 @@ from pathlib import Path
 from typing import Any
 
 import httpx
-import yaml
 
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 sys.path.insert(0, str(REPO))
 
 import _attacks as attacks  # noqa: E402
+from _daemon import daemon_config  # noqa: E402
 from _readme import markdown_table, replace_block  # noqa: E402
 from _reliability_rows import attack_rows  # noqa: E402
 from stop_time import stop_times  # noqa: E402
 
 from rig.service.space import RESERVE_BYTES  # noqa: E402
-from tests.conftest import small_config_data, wait_done  # noqa: E402
+from tests.conftest import wait_done  # noqa: E402
 from tests.test_daemon import AUTH, KEY, Daemon, status_code  # noqa: E402  # the suite's daemon in a process
-
-
-def _config(folder: Path, data_dir: Path, stall: bool = False, **service: Any) -> Path:
-    data = small_config_data()  # the suite's small bench: quick scans
-    data["output"] = {"data_dir": str(data_dir)}
-    data["service"] = service
-    if stall:
-        data["cameras"][0]["sim"]["faults"] = {"stall_after_frames": 3}
-        data.setdefault("scan", {})["capture_timeout_s"] = 60.0
-    path = folder / f"serve-{len(list(folder.glob('serve-*.yaml')))}.yaml"
-    path.write_text(yaml.safe_dump(data))
-    return path
 
 
 def _done(url: str, job_id: str) -> dict[str, Any]:
@@ -81,7 +69,9 @@ def _done(url: str, job_id: str) -> dict[str, Any]:
 
 
 def connections(folder: Path) -> dict[str, Any]:
-    daemon = Daemon(_config(folder, folder / "conn", stall=True, header_timeout_s=2, body_stall_s=2), folder / "c.log")
+    daemon = Daemon(
+        daemon_config(folder, folder / "conn", stall=True, header_timeout_s=2, body_stall_s=2), folder / "c.log"
+    )
     try:
         job_id = httpx.post(f"{daemon.url}/v1/scans", json={}, headers=AUTH).json()["id"]
         idle = [socket.create_connection(("127.0.0.1", daemon.port), timeout=30) for _ in range(200)]
@@ -145,7 +135,7 @@ def kill_cycles(folder: Path, operation: str, tries: int, seed: int = 3) -> dict
     """SIGKILL during a scan (while it captures or stores) or during a DELETE, then a restart."""
     rng = random.Random(seed)
     data_dir = folder / f"kill-{operation}"
-    config = _config(folder, data_dir)
+    config = daemon_config(folder, data_dir)
     daemon = Daemon(config, folder / "k.log")
     keeper = _done(daemon.url, httpx.post(f"{daemon.url}/v1/scans", json={}, headers=AUTH).json()["id"])["id"]
     daemon.stop()
@@ -184,7 +174,7 @@ def full_disk(folder: Path) -> dict[str, Any]:
         ).returncode
     ):
         return {"skipped": "a tmpfs needs root"}
-    daemon = Daemon(_config(folder, disk / "data"), folder / "d.log")
+    daemon = Daemon(daemon_config(folder, disk / "data"), folder / "d.log")
     scans = disk / "data" / "scans"
     try:
         keeper = _done(daemon.url, httpx.post(f"{daemon.url}/v1/scans", json={}, headers=AUTH).json()["id"])["id"]

@@ -30,32 +30,22 @@ from pathlib import Path
 from typing import Any
 
 import httpx
-import yaml
 
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+from _daemon import daemon_config  # noqa: E402
 
 from rig.service.jobs import JobStore  # noqa: E402
 from rig.service.runner import DB_NAME  # noqa: E402
-from tests.conftest import default_config_data, small_config_data  # noqa: E402
+from tests.conftest import default_config_data  # noqa: E402
 from tests.test_daemon import AUTH, Daemon  # noqa: E402  # the suite's daemon in a process
 
 STATE_TIMEOUT_S = 120.0  # to reach a state (a cold daemon's first scan takes seconds)
 POLL_S = 0.005
 DARK = "projectors dark"
 LIT = "still lit"
-
-
-def _config(folder: Path, data_dir: Path, small: bool = False, stall: bool = False) -> Path:
-    data = small_config_data() if small else default_config_data()
-    data["output"] = {"data_dir": str(data_dir)}
-    data["service"] = {"max_queue": 8}
-    if stall:
-        data["cameras"][0]["sim"]["faults"] = {"stall_after_frames": 3}
-        data.setdefault("scan", {})["capture_timeout_s"] = 60.0
-    path = folder / f"stop-{len(list(folder.glob('stop-*.yaml')))}.yaml"
-    path.write_text(yaml.safe_dump(data))
-    return path
 
 
 def _until(check: Callable[[], bool], what: str) -> None:
@@ -157,7 +147,8 @@ def stop_once(folder: Path, state: str) -> dict[str, Any]:
     small, stall, reach = STATES[state]
     data_dir = folder / f"data-{state}-{time.monotonic_ns()}"
     log = folder / f"{data_dir.name}.log"
-    daemon = Daemon(_config(folder, data_dir, small, stall), log)
+    data = None if small else default_config_data()
+    daemon = Daemon(daemon_config(folder, data_dir, data, stall, max_queue=8), log)
     held: list[socket.socket] = []
     try:
         reached = reach(daemon)

@@ -23,15 +23,6 @@ from tests.bombs import write_png_bomb
 from tests.conftest import REPO
 
 BOMB_SIZE = 20000  # 20000 x 20000 at 16 bits: 800 MB of pixels in a 0.78 MB file
-SIZES = [(1, 1), (7, 5), (640, 480), (3, 1000)]
-# (suffix, numpy depth, channels) that OpenCV writes as such: BMP and JPEG only 8-bit, JPEG no alpha
-WRITTEN = [
-    (suffix, depth, channels)
-    for suffix in (".png", ".tif", ".bmp", ".jpg")
-    for depth in (np.uint8, np.uint16)
-    for channels in (1, 3, 4)
-    if not (suffix in (".bmp", ".jpg") and depth == np.uint16) and not (suffix == ".jpg" and channels == 4)
-]
 
 
 @pytest.fixture(scope="module")
