@@ -180,6 +180,7 @@ def test_a_slow_client_drops_frames_and_never_slows_the_rig(tmp_path: Path) -> N
     data["output"] = {"data_dir": str(tmp_path / "data")}
     config = write_config(tmp_path, data, "serve.yaml")
     daemon = Daemon(config, tmp_path / "daemon.log")
+    stack = contextlib.ExitStack()  # the slow client's socket, closed however the test ends
     try:
         assert httpx.post(f"{daemon.url}/v1/live", json={}, headers=AUTH, timeout=5).status_code == 202
         deadline = time.monotonic() + 60
@@ -188,7 +189,7 @@ def test_a_slow_client_drops_frames_and_never_slows_the_rig(tmp_path: Path) -> N
             time.sleep(0.1)
         alone = _rate(daemon.url, 3.0)
         # A client with a tiny receive window asking for full-size depth images, then not reading.
-        slow = socket.socket()
+        slow = stack.enter_context(socket.socket())
         slow.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 4096)
         slow.connect(("127.0.0.1", daemon.port))
         slow.sendall(b"GET /v1/live?stride=1 HTTP/1.1\r\nHost: 127.0.0.1\r\n\r\n")
@@ -196,7 +197,9 @@ def test_a_slow_client_drops_frames_and_never_slows_the_rig(tmp_path: Path) -> N
         first = slow.recv(4096)
         assert b" 200 " in first.split(b"\r\n", 1)[0]
         stalled = _rate(daemon.url, 3.0)  # the client reads nothing meanwhile
-        assert stalled >= 0.6 * alone, f"the rig slowed from {alone:.1f} to {stalled:.1f} sequences/s"
+        # A rig that waited for the client would stop within a buffer's worth of frames; the
+        # margin is for a machine whose other work (another test, another process) takes a core.
+        assert stalled >= 0.25 * alone, f"the rig slowed from {alone:.1f} to {stalled:.1f} sequences/s"
         # It reads again: what it gets skips sequences and soon reaches the newest.
         received = b""
         slow.settimeout(5)
@@ -211,4 +214,5 @@ def test_a_slow_client_drops_frames_and_never_slows_the_rig(tmp_path: Path) -> N
         assert newest - sequences[-1] <= 0.5 * newest  # not replaying a backlog
         assert httpx.delete(f"{daemon.url}/v1/live", headers=AUTH, timeout=5).json()["reason"] == "stopped by request"
     finally:
+        stack.close()
         daemon.stop()
