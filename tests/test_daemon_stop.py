@@ -7,7 +7,11 @@ camera's capture timeout nor the shutdown timeout. bench/stop_time.py measures t
 
 from __future__ import annotations
 
+import os
 import signal
+import socket
+import subprocess
+import sys
 import threading
 import time
 from pathlib import Path
@@ -26,7 +30,7 @@ from rig.service import tasks
 from rig.service.jobs import JobKind, JobState, JobStore
 from rig.service.runner import DB_NAME, JobService
 from tests.conftest import default_config_data, small_config_data, write_config
-from tests.test_daemon import AUTH, Daemon, _config
+from tests.test_daemon import AUTH, KEY, REPO, Daemon, _config, _free_port
 
 STUCK_S = 60.0  # the stalled camera's capture timeout: a stop must not wait it out
 SHUTDOWN_S = 10.0  # service.shutdown_timeout_s (its largest): nor this
@@ -215,3 +219,31 @@ def test_a_projector_shut_from_another_thread_stays_dark() -> None:
     projector.release.set()
     hung.join(STUCK_S)
     assert not hung.is_alive() and not projector.lit  # the late pattern was darkened by its own call
+
+
+def test_a_stop_in_the_moment_the_daemon_starts_listening_is_a_stop_not_a_failure(tmp_path: Path) -> None:
+    """SIGTERM as soon as the port takes connections (uvicorn still starting, or just started):
+    exit 0 and no traceback, as for any stop (it was exit 1, "could not serve", or an IndexError)."""
+    config = _config(tmp_path, small_config_data())
+    for attempt, delay in enumerate((0.0, 0.005, 0.01, 0.02, 0.04)):
+        port = _free_port()
+        log = tmp_path / f"early-{attempt}.log"
+        with log.open("wb") as err:
+            process = subprocess.Popen(
+                [sys.executable, "-m", "rig.cli", "serve", "--config", str(config), "--port", str(port)],
+                cwd=REPO,
+                env={**os.environ, "SLRIG_API_KEY": KEY},
+                stdout=subprocess.DEVNULL,
+                stderr=err,
+            )
+        deadline = time.monotonic() + 60
+        while process.poll() is None and time.monotonic() < deadline:
+            try:
+                socket.create_connection(("127.0.0.1", port), timeout=1).close()
+                break
+            except OSError:
+                time.sleep(0.002)
+        time.sleep(delay)
+        process.send_signal(signal.SIGTERM)
+        assert process.wait(30) == 0, log.read_text()
+        assert "Traceback" not in log.read_text() and "could not serve" not in log.read_text()

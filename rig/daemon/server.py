@@ -218,12 +218,14 @@ async def _run(
     serving = asyncio.create_task(server.serve(sockets=[sock]))
     while not server.started and not serving.done():
         await asyncio.sleep(0.02)
-    if serving.done():  # could not bind: uvicorn logged why (and raised SystemExit)
+    if serving.done() and not server.started and not shutting_down:  # could not bind: uvicorn said why
         await serving
         raise SystemExit(1)
-    address = server.servers[0].sockets[0].getsockname()
-    log.info("listening on http://%s:%d", address[0], address[1])
-    notifier.notify("READY=1", f"STATUS=serving on {address[0]}:{address[1]}")
+    listening = [s for srv in server.servers for s in srv.sockets] if not server.should_exit else []
+    if listening:  # (none: a signal in the moment after the start has stopped it already)
+        address = listening[0].getsockname()
+        log.info("listening on http://%s:%d", address[0], address[1])
+        notifier.notify("READY=1", f"STATUS=serving on {address[0]}:{address[1]}")
     interval = notifier.watchdog_interval_s
     next_ping = 0.0
     while not serving.done():
