@@ -64,19 +64,29 @@ class TriggerMode(enum.Enum):
     VSYNC = "vsync"  # each frame of the video input
 
 
+class EntryTrigger(enum.Enum):
+    """What starts one pattern of a sequence, where it differs from the sequence's TriggerMode."""
+
+    INTERNAL = "internal"  # the projector's own clock
+    EXTERNAL = "external"  # a pulse on its trigger input
+    CONTINUE = "continue"  # no trigger of its own: it follows the previous pattern's
+
+
 @dataclass(frozen=True)
 class SequenceEntry:
     """One pattern of a preloaded sequence: which bit-plane group of the source, its bit depth,
-    which LEDs light it ("r", "g", "b" in any mix), and whether the projector goes black after it
-    (a gap before the next pattern) or swaps its frame buffer first (None: as the sequence needs),
-    and, where a projector can vary it per pattern, its own exposure and period."""
+    which LEDs light it ("r", "g", "b" in any mix), what starts it (None: the sequence's trigger
+    mode), whether the projector goes black after it (a gap before the next pattern) or swaps its
+    frame buffer first (None for either: as the projector's own software would set it), and, where
+    a projector can vary it per pattern, its own exposure and period."""
 
-    pattern: int  # bit-plane group (0-24 on a DLPC350)
+    pattern: int  # bit-plane group (0-24 on a DLPC350; 1-bit pattern 24 is black)
     bit_depth: int = 8
     invert: bool = False
     leds: str = "rgb"
-    insert_black: bool = False
+    insert_black: bool | None = None
     buffer_swap: bool | None = None
+    trigger: EntryTrigger | None = None
     exposure_us: int | None = None  # its own exposure and period (variable exposure) instead of the sequence's
     period_us: int | None = None
 

@@ -137,11 +137,11 @@ def test_each_pattern_chooses_its_leds_black_after_it_and_its_buffer_swap() -> N
     projector.close()
 
 
-@pytest.mark.parametrize(("pattern", "depth"), [(3, 8), (24, 1), (12, 2)])
-def test_a_pattern_number_beyond_its_bit_depth_is_refused_naming_the_rule(pattern: int, depth: int) -> None:
+@pytest.mark.parametrize(("pattern", "depth", "last"), [(3, 8, 2), (25, 1, 24), (12, 2, 11), (4, 5, 3), (3, 7, 2)])
+def test_a_pattern_number_beyond_its_bit_depth_is_refused_naming_the_rule(pattern: int, depth: int, last: int) -> None:
     projector = _lcr(FakeLcr4500())
     projector.open()
-    with pytest.raises(ValueError, match=f"a 24-bit frame holds {24 // depth} patterns of {depth} bits"):
+    with pytest.raises(ValueError, match=rf"outside 0\.\.{last} for {depth}-bit patterns"):
         projector.load_sequence(PatternSequence((SequenceEntry(pattern, depth),), 8333, 8333))
     projector.close()
 

@@ -92,7 +92,7 @@ def test_each_video_frame_plays_its_patterns_on_vsync(kit: _Kit) -> None:
     assert (fake.display_mode, fake.source, fake.trigger_mode) == (1, 0, 0)  # pattern mode, video port, VSYNC
     words = fake.lut_entries
     assert [(w >> 2) & 0x3F for w in words] == [0, 1]  # one frame's LUT: green, then red
-    assert [w & 0x3 for w in words] == [0, 3]  # the first waits for VSYNC, the second follows it
+    assert [w & 0x3 for w in words] == [1, 3]  # the first waits for VSYNC (trigger 1, as TI's GUI), the second follows
     assert [bool(w & (1 << 18)) for w in words] == [True, False]  # the frame's buffer is swapped in once
     assert projector.sequence_groups(5) == [2, 2, 2]
     for group in range(3):

@@ -8,6 +8,7 @@ whatever the input shows, no light. Bit 3 set hands the LEDs to the sequencer, w
 
 from __future__ import annotations
 
+import logging
 import struct
 import time
 from collections.abc import Callable
@@ -17,6 +18,7 @@ import numpy as np
 
 from drivers.base import PatternSequence, Projector, ProjectorMode, TriggerMode
 from drivers.dlp.lut import (
+    buffer_swaps,
     image_lut_bytes,
     lut_words,
     timings,
@@ -28,6 +30,8 @@ from drivers.dlp.protocol import DlpcProtocol
 from drivers.errors import DeviceError, DeviceProtocolError, DeviceStateError, DeviceTimeoutError
 from drivers.options import LIGHTCRAFTER_MIN_8BIT_PERIOD_US, LIGHTCRAFTER_RESOLUTION
 from drivers.usbhid import HidTransport, PyUsbHidTransport
+
+log = logging.getLogger(__name__)
 
 VENDOR_ID, PRODUCT_ID = 0x0451, 0x6401
 RESOLUTION = LIGHTCRAFTER_RESOLUTION
@@ -53,11 +57,12 @@ CMD_EXP_DATA, CMD_EXP_ADDRESS, CMD_EXP_CONFIG = 0x1A3E, 0x1A3F, 0x1A40  # variab
 START, PAUSE, STOP = 2, 1, 0
 LED_SEQUENCER, LED_RED, LED_GREEN, LED_BLUE = 0x08, 0x01, 0x02, 0x04  # LED_ENABLE bits (TI SetLedEnables)
 VALIDATE_BUSY = 0x80
+# LUT_VALID status bits (TI DLPC350 API, DLPC350_CheckPatLutValidate's comments); bit 7: busy.
 VALIDATE_ERRORS = {
     0x01: "exposure or frame period invalid",
     0x02: "pattern number invalid",
     0x04: "TRIG_OUT1 continuous or overlapping black",
-    0x08: "post-vector warning",
+    0x08: "post vector (black) not inserted before an externally triggered pattern",
     0x10: "frame period minus exposure under 230 us",
 }
 TRIGGER_CODES = {TriggerMode.VSYNC: 0, TriggerMode.INTERNAL: 1, TriggerMode.EXTERNAL: 1}
@@ -228,7 +233,10 @@ class Lcr4500Projector(Projector):
             self._write_variable_exposure(sequence, images)
             self._validate()
             return
-        p.write(CMD_PATTERN_CONFIG, bytes([count - 1, int(sequence.repeat), count - 1, max(1, len(images)) - 1]))
+        # images - 1: the flash images, or (video port) the frames, counted as TI's GUI counts them:
+        # the LUT's buffer swaps (on_pushButton_PatSeqSendLUT_clicked; the API calls it ignored there)
+        frames = len(images) if images else sum(buffer_swaps(sequence))
+        p.write(CMD_PATTERN_CONFIG, bytes([count - 1, int(sequence.repeat), count - 1, max(1, frames) - 1]))
         mode = ALTERNATE_PAIRS if sequence.alternate_pairs else TRIGGER_CODES[sequence.trigger]
         p.write(CMD_TRIGGER_MODE, bytes([mode]))
         p.write(CMD_EXPOSURE_PERIOD, struct.pack("<II", exposure, period))
@@ -290,7 +298,11 @@ class Lcr4500Projector(Projector):
                     f"{self.name}: sequence validation still busy after {self._validate_timeout_s:g} s"
                 )
             time.sleep(0.01)
-        problems = [text for bit, text in VALIDATE_ERRORS.items() if status & bit and bit in (0x01, 0x02, 0x10)]
+        # TI's SDK refuses any status bit; its GUI only bits 0 and 1. slrig refuses all but bit 2
+        # (it never shares TRIG_OUT1 between patterns), and logs that one.
+        if status & 0x04:
+            log.warning("%s: validation warning: %s", self.name, VALIDATE_ERRORS[0x04])
+        problems = [text for bit, text in VALIDATE_ERRORS.items() if status & bit and bit != 0x04]
         if problems:
             raise DeviceProtocolError(f"{self.name}: the controller rejected the sequence: {'; '.join(problems)}")
 

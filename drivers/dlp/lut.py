@@ -1,16 +1,39 @@
 """The DLPC350 pattern LUT: entries packed as TI's DLPC350_AddToPatLut packs them (DLPC350
-Programmer's Guide table 2-65), the words of a whole sequence, and the image-index table."""
+Programmer's Guide table 2-65), the words of a whole sequence by TI's own rules, and the
+image-index table. Each rule names its source; docs/protocols/dlpc350.md lists them all.
+
+Sources (public copies of TI's code; read for facts):
+- GUI: TI's LightCrafter 4500 Control Software, mainwindow.cpp (as vendored in
+  ethz-asl/lightcrafter_4500_gui), on_pushButton_PatSeqAddPatToLut_clicked.
+- SDK: TI's DLP ALC LightCrafter SDK, lcr4500.cpp, LCr4500::CreateSendStartSequenceLut (as in
+  jiawenxue1004/DLP-ALC-LIGHTCRAFTER-SDK-for-Ubuntu).
+- API: TI's DLPC350 API, dlpc350_api.cpp, DLPC350_AddToPatLut and its comments.
+"""
 
 from __future__ import annotations
 
 import struct
 
-from drivers.base import PatternSequence, SequenceEntry, TriggerMode
+from drivers.base import EntryTrigger, PatternSequence, SequenceEntry, TriggerMode
 
-LUT_TRIGGER_INTERNAL, LUT_TRIGGER_EXTERNAL, LUT_TRIGGER_CONTINUE = 0, 1, 3  # LUT bits 1:0 (0 is VSYNC in VSYNC mode)
+# LUT bits 1:0 (API, DLPC350_AddToPatLut's comment): 0 internal, 1 external positive, 2 external
+# negative, 3 no input trigger (continue from the previous; the pattern keeps its full exposure).
+LUT_TRIGGER_INTERNAL, LUT_TRIGGER_EXTERNAL, LUT_TRIGGER_CONTINUE = 0, 1, 3
+_TRIGGERS = {
+    EntryTrigger.INTERNAL: LUT_TRIGGER_INTERNAL,
+    EntryTrigger.EXTERNAL: LUT_TRIGGER_EXTERNAL,
+    EntryTrigger.CONTINUE: LUT_TRIGGER_CONTINUE,
+}
+LED_BITS = {"r": 0b001, "g": 0b010, "b": 0b100}  # LUT bits 14:12 (API, DLPC350_AddToPatLut)
+# The shortest exposure per bit depth 1..8, us (GUI min_pat_exposure; SDK Exposure::MININUM).
+MIN_EXPOSURE_US = (235, 700, 1570, 1700, 2000, 2500, 4500, 8333)
+BLACK_PATTERN = 24  # a 1-bit pattern number showing black (SDK lcr4500.hpp Mono_1BPP::BLACK; the GUI accepts it)
 
 
-LED_BITS = {"r": 0b001, "g": 0b010, "b": 0b100}  # LUT bits 14:12 (TI DLPC350_AddToPatLut)
+def patterns_of_depth(bit_depth: int) -> int:
+    """How many pattern numbers a bit depth has (GUI .ini loader; SDK lcr4500.hpp): 24 // depth,
+    but 5-bit 4 and 7-bit 3 (stored at 6- and 8-plane slots), and 1-bit 25 (24: black)."""
+    return {1: 25, 5: 4, 7: 3}.get(bit_depth, 24 // bit_depth)
 
 
 def lut_entry(
@@ -23,14 +46,15 @@ def lut_entry(
     insert_black: bool = False,
 ) -> bytes:
     """The 24-bit pattern LUT word (little-endian): trigger 1:0, pattern 7:2, bit depth 11:8,
-    LEDs 14:12, invert 16, insert black 17, buffer swap 18. A 24-bit frame holds 24 // bit_depth
-    patterns (8-bit: 0 green, 1 red, 2 blue; 1-bit: planes 0..23); ValueError names the rule broken."""
+    LEDs 14:12, invert 16, insert black 17, buffer swap 18 (API, DLPC350_AddToPatLut); ValueError
+    names the rule broken."""
     if not 1 <= bit_depth <= 8:
         raise ValueError(f"bit depth {bit_depth} is outside 1..8 (LUT bits 11:8)")
-    if not 0 <= pattern < 24 // bit_depth:
+    count = patterns_of_depth(bit_depth)
+    if not 0 <= pattern < count:
         raise ValueError(
-            f"pattern number {pattern} is outside 0..{24 // bit_depth - 1}: a 24-bit frame holds "
-            f"{24 // bit_depth} patterns of {bit_depth} bits"
+            f"pattern number {pattern} is outside 0..{count - 1} for {bit_depth}-bit patterns"
+            + (" (24 is black)" if bit_depth == 1 else "")
         )
     if not 0 <= led <= 0b111:
         raise ValueError(f"LED selection {led:#b} is not a mix of red, green and blue (LUT bits 14:12)")
@@ -54,24 +78,74 @@ def leds_of(entry: SequenceEntry) -> int:
 
 
 def lut_words(sequence: PatternSequence) -> list[bytes]:
-    """LUT words of a sequence. Under VSYNC each video frame's first pattern waits for the frame
-    and swaps to its buffer; the frame's other patterns follow it without a trigger. From flash,
-    each image's first pattern swaps to the next image of the image LUT. A pattern number not
-    above the previous one's starts the next frame or image (8-bit: green, red, blue)."""
-    words, previous = [], -1
+    """LUT words of a sequence, by TI's rules (see entry_triggers, black_after)."""
+    triggers, swaps = entry_triggers(sequence), buffer_swaps(sequence)
+    black = black_after(sequence, triggers)
+    return [
+        lut_entry(e.pattern, e.bit_depth, t, e.invert, leds_of(e), swap, b)
+        for e, t, swap, b in zip(sequence.entries, triggers, swaps, black, strict=True)
+    ]
+
+
+def _frame_starts(sequence: PatternSequence) -> list[bool]:
+    """Which entries begin a video frame or flash image: the first, and each whose pattern number
+    is not above the previous one's (8-bit: green 0, red 1, blue 2). TI's GUI takes the frame index
+    from its user; slrig's sequences number patterns within a frame from 0."""
+    starts, previous = [], -1
     for entry in sequence.entries:
-        starts_frame = entry.pattern <= previous or not words  # of a video frame, or of a flash image
+        starts.append(entry.pattern <= previous or not starts)
         previous = entry.pattern
-        if sequence.trigger is TriggerMode.VSYNC:
-            trigger = LUT_TRIGGER_INTERNAL if starts_frame else LUT_TRIGGER_CONTINUE
-            swap = starts_frame
+    return starts
+
+
+def entry_triggers(sequence: PatternSequence) -> list[int]:
+    """Each entry's LUT trigger type.
+    - VSYNC (video port): a frame's first entry 1 (external positive), the rest 3 (no trigger): GUI,
+      "In streaming mode, first item has to be triggered by vsync"; DLPU010 section 4.2's example
+      words 0x062101, 0x021107 (quoted on TI E2E thread 311314).
+    - internal or external: 0 or 1 for every entry (GUI: the trigger combo box; SDK: per pattern).
+    - an entry's own trigger (SequenceEntry.trigger), where given, in any mode (SDK: per pattern;
+      GUI: a trigger removed from an item makes it 3)."""
+    starts = _frame_starts(sequence)
+    out = []
+    for entry, starts_frame in zip(sequence.entries, starts, strict=True):
+        if entry.trigger is not None:
+            out.append(_TRIGGERS[entry.trigger])
+        elif sequence.trigger is TriggerMode.VSYNC:
+            out.append(LUT_TRIGGER_EXTERNAL if starts_frame else LUT_TRIGGER_CONTINUE)
         else:
-            trigger = LUT_TRIGGER_EXTERNAL if sequence.trigger is TriggerMode.EXTERNAL else LUT_TRIGGER_INTERNAL
-            swap = starts_frame and sequence.source == "flash"  # the next image of the image LUT
-        swap = swap if entry.buffer_swap is None else entry.buffer_swap
-        led, black = leds_of(entry), entry.insert_black
-        words.append(lut_entry(entry.pattern, entry.bit_depth, trigger, entry.invert, led, swap, black))
-    return words
+            out.append(LUT_TRIGGER_EXTERNAL if sequence.trigger is TriggerMode.EXTERNAL else LUT_TRIGGER_INTERNAL)
+    return out
+
+
+def buffer_swaps(sequence: PatternSequence) -> list[bool]:
+    """Whether each entry swaps the frame buffer first: the first entry always, then each entry of
+    a new video frame (VSYNC) or flash image (GUI: bufSwap = frame index changed; SDK: the image
+    differs from the previous); within one video frame under an internal or external trigger, none.
+    An entry's own buffer_swap, where given, wins."""
+    starts = _frame_starts(sequence)
+    swaps_frames = sequence.trigger is TriggerMode.VSYNC or sequence.source == "flash"
+    return [
+        (starts_frame and swaps_frames) if entry.buffer_swap is None else entry.buffer_swap
+        for entry, starts_frame in zip(sequence.entries, starts, strict=True)
+    ]
+
+
+def black_after(sequence: PatternSequence, triggers: list[int]) -> list[bool]:
+    """Whether each entry inserts black after its exposure.
+    - VSYNC: as the entry asks, else none (GUI: "Insert black" off for the video port).
+    - internal or external: where exposure differs from period or the entry is not internally
+      triggered, and on the entry before an externally triggered one (SDK,
+      CreateSendStartSequenceLut; the validator's bit 3, "post vector was not inserted prior to
+      external triggered vector"). An entry's own insert_black, where given, wins."""
+    times = timings(sequence)
+    if sequence.trigger is TriggerMode.VSYNC:
+        return [bool(e.insert_black) for e in sequence.entries]
+    black = [e != p or t != LUT_TRIGGER_INTERNAL for (e, p), t in zip(times, triggers, strict=True)]
+    for k in range(1, len(black)):
+        if triggers[k] == LUT_TRIGGER_EXTERNAL:
+            black[k - 1] = True
+    return [b if e.insert_black is None else e.insert_black for e, b in zip(sequence.entries, black, strict=True)]
 
 
 def variable_exposure(sequence: PatternSequence) -> bool:

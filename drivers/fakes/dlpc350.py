@@ -13,7 +13,7 @@ from typing import Any
 
 from drivers.dlp import lcr4500 as lcr
 from drivers.dlp.commands import COMMANDS, IMAGE_LUT, PATTERN_LUT_ENTRY
-from drivers.dlp.lut import LUT_TRIGGER_CONTINUE
+from drivers.dlp.lut import LUT_TRIGGER_CONTINUE, MIN_EXPOSURE_US, patterns_of_depth
 from drivers.fakes.faults import Fault, FaultPlan
 
 
@@ -234,22 +234,31 @@ class FakeLcr4500:
         raise KeyError(command)
 
     def _validation_errors(self) -> int:
+        """The LUT_VALID status as the controller reports it (TI DLPC350 API's bit meanings): 0x01
+        exposure or period (exposure above the period, below its bit depth's minimum), 0x02 a
+        pattern number (TI GUI's ranges per depth), 0x08 no black before an externally triggered
+        pattern or after one shorter than its period (outside VSYNC), 0x10 dark time under 230 us.
+        0x04 (TRIG_OUT1 shared with black) is not modelled: slrig never shares it."""
         bits = 0
-        for word, (e, p) in zip(self.lut_entries, self.timings(), strict=True):
-            if e <= 0 or p <= 0 or e > p:
+        vsync = self.trigger_mode == 0 and self.source == 0
+        words, times = self.lut_entries, self.timings()
+        for k, (word, (e, p)) in enumerate(zip(words, times, strict=True)):
+            depth = max(1, (word >> 8) & 0xF)
+            black = bool(word & (1 << 17))
+            if e <= 0 or p <= 0 or e > p or e < MIN_EXPOSURE_US[min(depth, 8) - 1]:
                 bits |= 0x01
             elif e != p and p - e < lcr.MIN_DARK_GAP_US:
                 bits |= 0x10
-            depth = max(1, (word >> 8) & 0xF)
-            if ((word >> 2) & 0x3F) >= 24 // depth:  # e.g. an 8-bit pattern other than 0, 1, 2
+            if ((word >> 2) & 0x3F) >= patterns_of_depth(min(depth, 8)):  # e.g. an 8-bit pattern other than 0, 1, 2
                 bits |= 0x02
-            if depth == 8 and e < lcr.MIN_8BIT_PERIOD_US:
-                bits |= 0x01
+            next_external = k + 1 < len(words) and words[k + 1] & 0x3 in (1, 2)
+            if not vsync and not black and (next_external or e < p):
+                bits |= 0x08
         images = self.exp_config[4] if self.variable else self.pattern_config[3]
         if self.source == 3 and (not self.image_lut or len(self.image_lut) != images + 1):
             bits |= 0x02  # a flash sequence's images: the table and the count in the configuration agree
         p = self.period_us
-        if self.trigger_mode == 0 and self.source == 0:  # VSYNC: a video frame's patterns fit in its period
+        if vsync:  # a video frame's patterns fit in its period
             frames = self.vsync_frames()
             if any(len(frame) * p > self.video_period_us for frame in frames):
                 bits |= 0x01
