@@ -125,3 +125,21 @@ def test_a_video_port_sequence_counts_its_frames_as_tis_gui_does() -> None:
         assert fake.pattern_config == bytes([3, 0, 3, 1])
     finally:
         projector.close()
+
+
+def test_standby_goes_through_video_mode_as_tis_gui_does() -> None:
+    from drivers.dlp.commands import COMMANDS
+
+    fake = FakeLcr4500()
+    projector = _lcr(fake)
+    projector.open()
+    try:
+        projector.load_sequence(PatternSequence(_entries([0, 1], 8), 8333, 8333, TriggerMode.EXTERNAL))
+        start = len(fake.log)
+        projector.standby()
+        writes = [(COMMANDS[code].name, data) for kind, code, data in fake.log[start:] if kind == "w"]
+        names = [name for name, _ in writes]
+        assert names.index("DISP_MODE") < names.index("POWER_CONTROL")
+        assert dict(writes)["DISP_MODE"] == bytes([0]) and dict(writes)["POWER_CONTROL"] == bytes([1])
+    finally:
+        projector.close()

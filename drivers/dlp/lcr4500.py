@@ -159,9 +159,10 @@ class Lcr4500Projector(Projector):
         self._guarded(self._power, False)
 
     def _power(self, standby: bool) -> None:
-        if standby:
+        if standby:  # as TI's GUI: stopped, then video mode, then standby
             self._p.write(CMD_START_STOP, bytes([STOP]))
             self._do_dark()
+            self.set_display_mode(False)
         self._p.write(CMD_POWER, bytes([int(standby)]))
 
     def _do_show(self, pattern: np.ndarray) -> None:
