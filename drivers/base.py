@@ -87,6 +87,7 @@ class SequenceEntry:
     insert_black: bool | None = None
     buffer_swap: bool | None = None
     trigger: EntryTrigger | None = None
+    shares_exposure: bool = False  # lit within the previous pattern's exposure (no trigger, no TRIG_OUT1 of its own)
     exposure_us: int | None = None  # its own exposure and period (variable exposure) instead of the sequence's
     period_us: int | None = None
 

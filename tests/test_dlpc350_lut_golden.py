@@ -143,3 +143,24 @@ def test_standby_goes_through_video_mode_as_tis_gui_does() -> None:
         assert dict(writes)["DISP_MODE"] == bytes([0]) and dict(writes)["POWER_CONTROL"] == bytes([1])
     finally:
         projector.close()
+
+
+def test_patterns_that_share_an_exposure() -> None:
+    """The second and third 1-bit patterns lit within the first's exposure: trigger 3 and
+    trigger-out-previous (bit 19), and no black inside the shared exposure (TI's SDK and GUI)."""
+    entries = (
+        SequenceEntry(0, 1),
+        SequenceEntry(1, 1, shares_exposure=True),
+        SequenceEntry(2, 1, shares_exposure=True),
+    )
+    sequence = PatternSequence(entries, 8333, 8333)
+    assert " ".join(word.hex() for word in lut_words(sequence)) == "007100 077108 0b7108"
+    forced = (SequenceEntry(0, 1, insert_black=True), *entries[1:])  # black asked for anyway: bit 2
+    projector = _lcr(FakeLcr4500())
+    projector.open()
+    try:
+        projector.load_sequence(sequence)
+        with pytest.raises(DeviceProtocolError, match="overlapping black"):
+            projector.load_sequence(PatternSequence(forced, 8333, 8333))
+    finally:
+        projector.close()

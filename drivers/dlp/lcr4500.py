@@ -8,7 +8,6 @@ whatever the input shows, no light. Bit 3 set hands the LEDs to the sequencer, w
 
 from __future__ import annotations
 
-import logging
 import struct
 import time
 from collections.abc import Callable
@@ -30,8 +29,6 @@ from drivers.dlp.protocol import DlpcProtocol
 from drivers.errors import DeviceError, DeviceProtocolError, DeviceStateError, DeviceTimeoutError
 from drivers.options import LIGHTCRAFTER_MIN_8BIT_PERIOD_US, LIGHTCRAFTER_RESOLUTION
 from drivers.usbhid import HidTransport, PyUsbHidTransport
-
-log = logging.getLogger(__name__)
 
 VENDOR_ID, PRODUCT_ID = 0x0451, 0x6401
 RESOLUTION = LIGHTCRAFTER_RESOLUTION
@@ -57,6 +54,7 @@ CMD_EXP_DATA, CMD_EXP_ADDRESS, CMD_EXP_CONFIG = 0x1A3E, 0x1A3F, 0x1A40  # variab
 START, PAUSE, STOP = 2, 1, 0
 LED_SEQUENCER, LED_RED, LED_GREEN, LED_BLUE = 0x08, 0x01, 0x02, 0x04  # LED_ENABLE bits (TI SetLedEnables)
 VALIDATE_BUSY = 0x80
+_STATUS_BITS = (0x01, 0x02, 0x04, 0x08, 0x10, 0x20, 0x40)
 # LUT_VALID status bits (TI DLPC350 API, DLPC350_CheckPatLutValidate's comments); bit 7: busy.
 VALIDATE_ERRORS = {
     0x01: "exposure or frame period invalid",
@@ -299,11 +297,9 @@ class Lcr4500Projector(Projector):
                     f"{self.name}: sequence validation still busy after {self._validate_timeout_s:g} s"
                 )
             time.sleep(0.01)
-        # TI's SDK refuses any status bit; its GUI only bits 0 and 1. slrig refuses all but bit 2
-        # (it never shares TRIG_OUT1 between patterns), and logs that one.
-        if status & 0x04:
-            log.warning("%s: validation warning: %s", self.name, VALIDATE_ERRORS[0x04])
-        problems = [text for bit, text in VALIDATE_ERRORS.items() if status & bit and bit != 0x04]
+        # TI's SDK refuses any status bit (CreateSendStartSequenceLut); its GUI only bits 0 and 1.
+        # slrig refuses any, as the SDK: each names a sequence the controller may not play as meant.
+        problems = [VALIDATE_ERRORS.get(bit, f"status bit {bit:#04x}") for bit in _STATUS_BITS if status & bit]
         if problems:
             raise DeviceProtocolError(f"{self.name}: the controller rejected the sequence: {'; '.join(problems)}")
 

@@ -44,10 +44,11 @@ def lut_entry(
     led: int = 0b111,
     buffer_swap: bool = False,
     insert_black: bool = False,
+    trigger_out_previous: bool = False,
 ) -> bytes:
     """The 24-bit pattern LUT word (little-endian): trigger 1:0, pattern 7:2, bit depth 11:8,
-    LEDs 14:12, invert 16, insert black 17, buffer swap 18 (API, DLPC350_AddToPatLut); ValueError
-    names the rule broken."""
+    LEDs 14:12, invert 16, insert black 17, buffer swap 18, trigger-out-previous 19 (the exposure
+    shared with the previous pattern) (API, DLPC350_AddToPatLut); ValueError names the rule broken."""
     if not 1 <= bit_depth <= 8:
         raise ValueError(f"bit depth {bit_depth} is outside 1..8 (LUT bits 11:8)")
     count = patterns_of_depth(bit_depth)
@@ -59,7 +60,7 @@ def lut_entry(
     if not 0 <= led <= 0b111:
         raise ValueError(f"LED selection {led:#b} is not a mix of red, green and blue (LUT bits 14:12)")
     word = trigger | (pattern << 2) | (bit_depth << 8) | (led << 12) | (int(invert) << 16)
-    word |= (int(insert_black) << 17) | (int(buffer_swap) << 18)
+    word |= (int(insert_black) << 17) | (int(buffer_swap) << 18) | (int(trigger_out_previous) << 19)
     return word.to_bytes(3, "little")
 
 
@@ -82,7 +83,7 @@ def lut_words(sequence: PatternSequence) -> list[bytes]:
     triggers, swaps = entry_triggers(sequence), buffer_swaps(sequence)
     black = black_after(sequence, triggers)
     return [
-        lut_entry(e.pattern, e.bit_depth, t, e.invert, leds_of(e), swap, b)
+        lut_entry(e.pattern, e.bit_depth, t, e.invert, leds_of(e), swap, b, e.shares_exposure)
         for e, t, swap, b in zip(sequence.entries, triggers, swaps, black, strict=True)
     ]
 
@@ -105,12 +106,15 @@ def entry_triggers(sequence: PatternSequence) -> list[int]:
       words 0x062101, 0x021107 (quoted on TI E2E thread 311314).
     - internal or external: 0 or 1 for every entry (GUI: the trigger combo box; SDK: per pattern).
     - an entry's own trigger (SequenceEntry.trigger), where given, in any mode (SDK: per pattern;
-      GUI: a trigger removed from an item makes it 3)."""
+      GUI: a trigger removed from an item makes it 3); an entry that shares the previous one's
+      exposure, 3 (SDK: the green and blue thirds of an RGB pattern, trigger NONE)."""
     starts = _frame_starts(sequence)
     out = []
     for entry, starts_frame in zip(sequence.entries, starts, strict=True):
         if entry.trigger is not None:
             out.append(_TRIGGERS[entry.trigger])
+        elif entry.shares_exposure:
+            out.append(LUT_TRIGGER_CONTINUE)
         elif sequence.trigger is TriggerMode.VSYNC:
             out.append(LUT_TRIGGER_EXTERNAL if starts_frame else LUT_TRIGGER_CONTINUE)
         else:
@@ -137,7 +141,10 @@ def black_after(sequence: PatternSequence, triggers: list[int]) -> list[bool]:
     - internal or external: where exposure differs from period or the entry is not internally
       triggered, and on the entry before an externally triggered one (SDK,
       CreateSendStartSequenceLut; the validator's bit 3, "post vector was not inserted prior to
-      external triggered vector"). An entry's own insert_black, where given, wins."""
+      external triggered vector"). Never on an entry that shares the previous one's exposure
+      (SDK: trigger_out_share_prev clears it), nor on the entry whose exposure the next one shares
+      (GUI: "previous pattern has black-fill pattern inserted" is refused; the validator's bit 2,
+      overlapping black). An entry's own insert_black, where given, wins."""
     times = timings(sequence)
     if sequence.trigger is TriggerMode.VSYNC:
         return [bool(e.insert_black) for e in sequence.entries]
@@ -145,6 +152,11 @@ def black_after(sequence: PatternSequence, triggers: list[int]) -> list[bool]:
     for k in range(1, len(black)):
         if triggers[k] == LUT_TRIGGER_EXTERNAL:
             black[k - 1] = True
+    for k, entry in enumerate(sequence.entries):
+        if entry.shares_exposure:
+            black[k] = False
+            if k > 0:
+                black[k - 1] = False
     return [b if e.insert_black is None else e.insert_black for e, b in zip(sequence.entries, black, strict=True)]
 
 

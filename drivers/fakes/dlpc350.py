@@ -237,8 +237,9 @@ class FakeLcr4500:
         """The LUT_VALID status as the controller reports it (TI DLPC350 API's bit meanings): 0x01
         exposure or period (exposure above the period, below its bit depth's minimum), 0x02 a
         pattern number (TI GUI's ranges per depth), 0x08 no black before an externally triggered
-        pattern or after one shorter than its period (outside VSYNC), 0x10 dark time under 230 us.
-        0x04 (TRIG_OUT1 shared with black) is not modelled: slrig never shares it."""
+        pattern or after one shorter than its period (outside VSYNC, and but for a pattern whose
+        exposure the next shares), 0x10 dark time under 230 us,
+        0x04 black inside an exposure two patterns share (trigger-out-previous)."""
         bits = 0
         vsync = self.trigger_mode == 0 and self.source == 0
         words, times = self.lut_entries, self.timings()
@@ -252,8 +253,11 @@ class FakeLcr4500:
             if ((word >> 2) & 0x3F) >= patterns_of_depth(min(depth, 8)):  # e.g. an 8-bit pattern other than 0, 1, 2
                 bits |= 0x02
             next_external = k + 1 < len(words) and words[k + 1] & 0x3 in (1, 2)
-            if not vsync and not black and (next_external or e < p):
+            shared_next = k + 1 < len(words) and bool(words[k + 1] & (1 << 19))
+            if not vsync and not black and not shared_next and (next_external or e < p):
                 bits |= 0x08
+            if black and (word & (1 << 19) or shared_next):  # black inside a shared exposure
+                bits |= 0x04
         images = self.exp_config[4] if self.variable else self.pattern_config[3]
         if self.source == 3 and (not self.image_lut or len(self.image_lut) != images + 1):
             bits |= 0x02  # a flash sequence's images: the table and the count in the configuration agree
