@@ -64,6 +64,11 @@ GOLDEN = {
         PatternSequence(_entries([0, 1, 2, 0, 1, 2], 8), 8333, 8333, source="flash", flash_images=(5, 2)),
         "007804 047800 087800 007804 047800 087800",
     ),
+    # repeating: the last pattern is the one before the externally triggered first
+    "external then internal, repeating": (
+        PatternSequence(_entries([0, 1], 8, [EXT, INT]), 8333, 8333, repeat=True),
+        "017802 047802",
+    ),
     "1-bit black (pattern 24)": (PatternSequence(_entries([24], 1), 8333, 8333), "607100"),
     "red only": (PatternSequence((SequenceEntry(0, 8, leds="r"),), 8333, 8333), "001800"),
 }
@@ -147,14 +152,16 @@ def test_standby_goes_through_video_mode_as_tis_gui_does() -> None:
 
 def test_patterns_that_share_an_exposure() -> None:
     """The second and third 1-bit patterns lit within the first's exposure: trigger 3 and
-    trigger-out-previous (bit 19), and no black inside the shared exposure (TI's SDK and GUI)."""
+    trigger-out-previous (bit 19); no black inside the shared exposure (TI's GUI refuses black on
+    an entry the next one shares), black after the group's last (the SDK's rule for a pattern not
+    internally triggered, as on the blue third of its RGB patterns)."""
     entries = (
         SequenceEntry(0, 1),
         SequenceEntry(1, 1, shares_exposure=True),
         SequenceEntry(2, 1, shares_exposure=True),
     )
     sequence = PatternSequence(entries, 8333, 8333)
-    assert " ".join(word.hex() for word in lut_words(sequence)) == "007100 077108 0b7108"
+    assert " ".join(word.hex() for word in lut_words(sequence)) == "007100 077108 0b710a"
     forced = (SequenceEntry(0, 1, insert_black=True), *entries[1:])  # black asked for anyway: bit 2
     projector = _lcr(FakeLcr4500())
     projector.open()
@@ -162,5 +169,32 @@ def test_patterns_that_share_an_exposure() -> None:
         projector.load_sequence(sequence)
         with pytest.raises(DeviceProtocolError, match="overlapping black"):
             projector.load_sequence(PatternSequence(forced, 8333, 8333))
+    finally:
+        projector.close()
+
+
+@pytest.mark.parametrize(
+    ("sequence", "refusal"),
+    [
+        (PatternSequence(_entries([0, 1], 8, [CONT, INT]), 8333, 8333), "first pattern must have a trigger"),
+        (PatternSequence((SequenceEntry(0, 1, shares_exposure=True),), 8333, 8333), "first pattern must have"),
+        (PatternSequence(_entries([0, 1], 8, [None, EXT]), 8333, 8333, TriggerMode.VSYNC), "follows its frame"),
+    ],
+)
+def test_what_tis_software_refuses_to_write_is_refused(sequence: PatternSequence, refusal: str) -> None:
+    with pytest.raises(ValueError, match=refusal):
+        lut_words(sequence)
+
+
+def test_a_repeating_sequence_needs_black_before_its_triggered_first_pattern() -> None:
+    projector = _lcr(FakeLcr4500())
+    projector.open()
+    try:
+        entries = (SequenceEntry(0, 8, trigger=EXT), SequenceEntry(1, 8, trigger=INT))
+        projector.load_sequence(PatternSequence(entries, 8333, 8333))  # once through: nothing before the first
+        projector.load_sequence(PatternSequence(entries, 8333, 8333, repeat=True))  # the rule puts black on the last
+        forced = (entries[0], SequenceEntry(1, 8, trigger=INT, insert_black=False))
+        with pytest.raises(DeviceProtocolError, match="post vector"):
+            projector.load_sequence(PatternSequence(forced, 8333, 8333, repeat=True))
     finally:
         projector.close()

@@ -8,6 +8,7 @@ whatever the input shows, no light. Bit 3 set hands the LEDs to the sequencer, w
 
 from __future__ import annotations
 
+import logging
 import struct
 import time
 from collections.abc import Callable
@@ -29,6 +30,8 @@ from drivers.dlp.protocol import DlpcProtocol
 from drivers.errors import DeviceError, DeviceProtocolError, DeviceStateError, DeviceTimeoutError
 from drivers.options import LIGHTCRAFTER_MIN_8BIT_PERIOD_US, LIGHTCRAFTER_RESOLUTION
 from drivers.usbhid import HidTransport, PyUsbHidTransport
+
+log = logging.getLogger(__name__)
 
 VENDOR_ID, PRODUCT_ID = 0x0451, 0x6401
 RESOLUTION = LIGHTCRAFTER_RESOLUTION
@@ -230,7 +233,7 @@ class Lcr4500Projector(Projector):
         p.write(CMD_PATTERN_SOURCE, bytes([SOURCE_CODES[sequence.source]]))
         if variable_exposure(sequence):
             self._write_variable_exposure(sequence, images)
-            self._validate()
+            self._validate(sequence.trigger is TriggerMode.VSYNC)
             return
         # images - 1: the flash images, or (video port) the frames, counted as TI's GUI counts them:
         # the LUT's buffer swaps (on_pushButton_PatSeqSendLUT_clicked; the API calls it ignored there)
@@ -242,7 +245,7 @@ class Lcr4500Projector(Projector):
         self._write_mailbox(2, list(enumerate(lut_words(sequence))), CMD_MBOX_ADDRESS, CMD_MBOX_DATA)
         if images:  # the image-index table (TI DLPC350_SendImageLut: all indices in one write)
             self._write_mailbox(1, [(0, image_lut_bytes(images))], CMD_MBOX_ADDRESS, CMD_MBOX_DATA)
-        self._validate()
+        self._validate(sequence.trigger is TriggerMode.VSYNC)
 
     def _write_variable_exposure(self, sequence: PatternSequence, images: tuple[int, ...]) -> None:
         """Trigger mode 3 (internal or external) or 4 (VSYNC), then the image table, the LUT of
@@ -256,7 +259,8 @@ class Lcr4500Projector(Projector):
             for index, (word, timing) in enumerate(zip(lut_words(sequence), timings(sequence), strict=True))
         ]
         self._write_mailbox(3, entries, CMD_EXP_ADDRESS, CMD_EXP_DATA)
-        p.write(CMD_EXP_CONFIG, variable_exposure_config(len(entries), len(images), sequence.repeat))
+        frames = len(images) if images else sum(buffer_swaps(sequence))  # as PAT_CONFIG's (TI's GUI)
+        p.write(CMD_EXP_CONFIG, variable_exposure_config(len(entries), frames, sequence.repeat))
 
     def _write_mailbox(self, mailbox: int, items: list[tuple[int, bytes]], address: int, data: int) -> None:
         """Open `mailbox`, write each item at its address (uint16 for the variable-exposure
@@ -285,7 +289,7 @@ class Lcr4500Projector(Projector):
             raise ValueError(f"{self.name}: the flash holds images 0..{stored - 1}; {missing} are not there")
         return images
 
-    def _validate(self) -> None:
+    def _validate(self, vsync: bool = False) -> None:
         self._p.write(CMD_LUT_VALID, bytes([0]))  # one data byte, 0x00 (TI CmdList; it was sent with none)
         deadline = time.monotonic() + self._validate_timeout_s
         while True:
@@ -297,9 +301,16 @@ class Lcr4500Projector(Projector):
                     f"{self.name}: sequence validation still busy after {self._validate_timeout_s:g} s"
                 )
             time.sleep(0.01)
-        # TI's SDK refuses any status bit (CreateSendStartSequenceLut); its GUI only bits 0 and 1.
-        # slrig refuses any, as the SDK: each names a sequence the controller may not play as meant.
-        problems = [VALIDATE_ERRORS.get(bit, f"status bit {bit:#04x}") for bit in _STATUS_BITS if status & bit]
+        # TI's SDK refuses any status bit (CreateSendStartSequenceLut); its GUI only bits 0 and 1, and
+        # the API calls bits 2-4 warnings. slrig refuses any, as the SDK, but for bit 3 under VSYNC:
+        # a video frame's first pattern waits for the frame, and TI's own VSYNC LUTs (the GUI's,
+        # whose "Insert black" is off there) leave no black before it.
+        tolerated = 0x08 if vsync else 0
+        if status & tolerated:
+            log.info("%s: validation: %s (expected under VSYNC)", self.name, VALIDATE_ERRORS[0x08])
+        problems = [
+            VALIDATE_ERRORS.get(bit, f"status bit {bit:#04x}") for bit in _STATUS_BITS if status & bit & ~tolerated
+        ]
         if problems:
             raise DeviceProtocolError(f"{self.name}: the controller rejected the sequence: {'; '.join(problems)}")
 

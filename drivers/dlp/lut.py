@@ -79,8 +79,13 @@ def leds_of(entry: SequenceEntry) -> int:
 
 
 def lut_words(sequence: PatternSequence) -> list[bytes]:
-    """LUT words of a sequence, by TI's rules (see entry_triggers, black_after)."""
-    triggers, swaps = entry_triggers(sequence), buffer_swaps(sequence)
+    """LUT words of a sequence, by TI's rules (see entry_triggers, buffer_swaps, black_after);
+    ValueError for a first pattern with no trigger of its own (TI's GUI: "First Item must be
+    triggered")."""
+    swaps = buffer_swaps(sequence)
+    triggers = entry_triggers(sequence, swaps)
+    if triggers and triggers[0] == LUT_TRIGGER_CONTINUE:
+        raise ValueError("the first pattern must have a trigger of its own (not continue, not a shared exposure)")
     black = black_after(sequence, triggers)
     return [
         lut_entry(e.pattern, e.bit_depth, t, e.invert, leds_of(e), swap, b, e.shares_exposure)
@@ -99,34 +104,39 @@ def _frame_starts(sequence: PatternSequence) -> list[bool]:
     return starts
 
 
-def entry_triggers(sequence: PatternSequence) -> list[int]:
+def entry_triggers(sequence: PatternSequence, swaps: list[bool]) -> list[int]:
     """Each entry's LUT trigger type.
-    - VSYNC (video port): a frame's first entry 1 (external positive), the rest 3 (no trigger): GUI,
-      "In streaming mode, first item has to be triggered by vsync"; DLPU010 section 4.2's example
-      words 0x062101, 0x021107 (quoted on TI E2E thread 311314).
+    - VSYNC (video port): an entry that swaps to a new frame 1 (external positive), the rest 3 (no
+      trigger): GUI on_pushButton_PatSeqAddPatToLut_clicked, "In streaming mode, first item has to
+      be triggered by vsync" (trigger 1 exactly where bufSwap); DLPU010 section 4.2's example words
+      0x062101, 0x021107 (quoted on TI E2E thread 311314). An entry cannot name its own here.
     - internal or external: 0 or 1 for every entry (GUI: the trigger combo box; SDK: per pattern).
-    - an entry's own trigger (SequenceEntry.trigger), where given, in any mode (SDK: per pattern;
-      GUI: a trigger removed from an item makes it 3); an entry that shares the previous one's
-      exposure, 3 (SDK: the green and blue thirds of an RGB pattern, trigger NONE)."""
-    starts = _frame_starts(sequence)
+    - an entry's own trigger (SequenceEntry.trigger), where given (SDK: per pattern; GUI: a
+      trigger removed from an item makes it 3); an entry that shares the previous one's exposure,
+      3 (SDK: the green and blue thirds of an RGB pattern, trigger NONE)."""
     out = []
-    for entry, starts_frame in zip(sequence.entries, starts, strict=True):
-        if entry.trigger is not None:
+    for entry, swap in zip(sequence.entries, swaps, strict=True):
+        if sequence.trigger is TriggerMode.VSYNC:
+            if entry.trigger is not None or entry.shares_exposure:
+                raise ValueError(
+                    "under VSYNC each pattern's trigger follows its frame: no trigger or shared exposure of its own"
+                )
+            out.append(LUT_TRIGGER_EXTERNAL if swap else LUT_TRIGGER_CONTINUE)
+        elif entry.trigger is not None:
             out.append(_TRIGGERS[entry.trigger])
         elif entry.shares_exposure:
             out.append(LUT_TRIGGER_CONTINUE)
-        elif sequence.trigger is TriggerMode.VSYNC:
-            out.append(LUT_TRIGGER_EXTERNAL if starts_frame else LUT_TRIGGER_CONTINUE)
         else:
             out.append(LUT_TRIGGER_EXTERNAL if sequence.trigger is TriggerMode.EXTERNAL else LUT_TRIGGER_INTERNAL)
     return out
 
 
 def buffer_swaps(sequence: PatternSequence) -> list[bool]:
-    """Whether each entry swaps the frame buffer first: the first entry always, then each entry of
-    a new video frame (VSYNC) or flash image (GUI: bufSwap = frame index changed; SDK: the image
-    differs from the previous); within one video frame under an internal or external trigger, none.
-    An entry's own buffer_swap, where given, wins."""
+    """Whether each entry swaps the frame buffer first: under VSYNC or from flash, the first entry
+    and each that starts a new video frame or flash image (GUI: bufSwap = frame index changed, true
+    on the first item; SDK: the image differs from the previous, always on the first); the video
+    port under an internal or external trigger (a pairing TI's GUI does not offer: it ties them to
+    flash) plays one frame and swaps none. An entry's own buffer_swap, where given, wins."""
     starts = _frame_starts(sequence)
     swaps_frames = sequence.trigger is TriggerMode.VSYNC or sequence.source == "flash"
     return [
@@ -137,27 +147,29 @@ def buffer_swaps(sequence: PatternSequence) -> list[bool]:
 
 def black_after(sequence: PatternSequence, triggers: list[int]) -> list[bool]:
     """Whether each entry inserts black after its exposure.
-    - VSYNC: as the entry asks, else none (GUI: "Insert black" off for the video port).
-    - internal or external: where exposure differs from period or the entry is not internally
-      triggered, and on the entry before an externally triggered one (SDK,
-      CreateSendStartSequenceLut; the validator's bit 3, "post vector was not inserted prior to
-      external triggered vector"). Never on an entry that shares the previous one's exposure
-      (SDK: trigger_out_share_prev clears it), nor on the entry whose exposure the next one shares
-      (GUI: "previous pattern has black-fill pattern inserted" is refused; the validator's bit 2,
-      overlapping black). An entry's own insert_black, where given, wins."""
-    times = timings(sequence)
+    - VSYNC: as the entry asks, else none (GUI: "Insert black" unchecked by default for the video
+      port; the controller then reports the validator's bit 3, a warning there: see lcr4500).
+    - internal or external (SDK, CreateSendStartSequenceLut, written for flash in variable-exposure
+      mode 3 and applied here to both LUTs): where exposure differs from period or the entry is not
+      internally triggered; not on an entry whose exposure the next one shares (GUI, variable
+      exposure: "previous pattern has black-fill pattern inserted" is refused; validator bit 2);
+      then on the entry before an externally triggered one (validator bit 3, "post vector was not
+      inserted prior to external triggered vector"), and, in a repeating sequence whose first
+      entry is externally triggered, on the last (the entry before it; DLPU018 says so of the
+      DLPC900, and a single VSYNC entry without black is reported with bit 3 on a DLPC350).
+    An entry's own insert_black, where given, wins."""
+    entries, times = sequence.entries, timings(sequence)
     if sequence.trigger is TriggerMode.VSYNC:
-        return [bool(e.insert_black) for e in sequence.entries]
+        return [bool(e.insert_black) for e in entries]
     black = [e != p or t != LUT_TRIGGER_INTERNAL for (e, p), t in zip(times, triggers, strict=True)]
-    for k in range(1, len(black)):
-        if triggers[k] == LUT_TRIGGER_EXTERNAL:
-            black[k - 1] = True
-    for k, entry in enumerate(sequence.entries):
-        if entry.shares_exposure:
+    for k in range(len(black) - 1):
+        if entries[k + 1].shares_exposure:
             black[k] = False
-            if k > 0:
-                black[k - 1] = False
-    return [b if e.insert_black is None else e.insert_black for e, b in zip(sequence.entries, black, strict=True)]
+    for k in range(len(black)):
+        follower = k + 1 if k + 1 < len(black) else (0 if sequence.repeat else None)
+        if follower is not None and triggers[follower] == LUT_TRIGGER_EXTERNAL:
+            black[k] = True
+    return [b if e.insert_black is None else e.insert_black for e, b in zip(entries, black, strict=True)]
 
 
 def variable_exposure(sequence: PatternSequence) -> bool:

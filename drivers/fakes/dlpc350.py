@@ -236,13 +236,18 @@ class FakeLcr4500:
     def _validation_errors(self) -> int:
         """The LUT_VALID status as the controller reports it (TI DLPC350 API's bit meanings): 0x01
         exposure or period (exposure above the period, below its bit depth's minimum), 0x02 a
-        pattern number (TI GUI's ranges per depth), 0x08 no black before an externally triggered
-        pattern or after one shorter than its period (outside VSYNC, and but for a pattern whose
-        exposure the next shares), 0x10 dark time under 230 us,
-        0x04 black inside an exposure two patterns share (trigger-out-previous)."""
+        pattern number (TI GUI's ranges per depth), 0x04 black inside an exposure the next pattern
+        shares (trigger-out-previous), 0x08 no black before an externally triggered pattern (the
+        last entry counting as the one before the first where the LUT plays round: repeating, or
+        under VSYNC,
+        where a frame's first entry is triggered: a DLPC350 reports it for a single VSYNC entry
+        without black) or, outside VSYNC, after one shorter than its period, 0x10 dark time under
+        230 us."""
         bits = 0
-        vsync = self.trigger_mode == 0 and self.source == 0
+        vsync = self.trigger_mode in (0, 4) and self.source == 0
         words, times = self.lut_entries, self.timings()
+        repeat = bool(self.exp_config[5] if self.variable else self.pattern_config[1])
+        plays_round = repeat or vsync  # video frames keep coming
         for k, (word, (e, p)) in enumerate(zip(words, times, strict=True)):
             depth = max(1, (word >> 8) & 0xF)
             black = bool(word & (1 << 17))
@@ -252,11 +257,13 @@ class FakeLcr4500:
                 bits |= 0x10
             if ((word >> 2) & 0x3F) >= patterns_of_depth(min(depth, 8)):  # e.g. an 8-bit pattern other than 0, 1, 2
                 bits |= 0x02
-            next_external = k + 1 < len(words) and words[k + 1] & 0x3 in (1, 2)
+            following = words[(k + 1) % len(words)] if k + 1 < len(words) or plays_round else None
             shared_next = k + 1 < len(words) and bool(words[k + 1] & (1 << 19))
-            if not vsync and not black and not shared_next and (next_external or e < p):
+            if not black and following is not None and following & 0x3 in (1, 2):
                 bits |= 0x08
-            if black and (word & (1 << 19) or shared_next):  # black inside a shared exposure
+            if not vsync and not black and not shared_next and e < p:
+                bits |= 0x08
+            if black and shared_next:  # black inside an exposure two patterns share
                 bits |= 0x04
         images = self.exp_config[4] if self.variable else self.pattern_config[3]
         if self.source == 3 and (not self.image_lut or len(self.image_lut) != images + 1):
