@@ -1,6 +1,6 @@
 """What bench/reliability.py tries against a real daemon as a hostile or careless client would:
 poisoned bodies, wrongly typed fields, slow readers, uploads past the limits, decompression bombs
-and broken key files. Each function returns the figures of one row of the README's table."""
+and broken key files. Each function returns the figures of one row of the manual's table."""
 
 from __future__ import annotations
 

@@ -1,4 +1,5 @@
-"""Replace a marked block of README.md with a table a benchmark produced."""
+"""Replace a marked block of the manual (README.md or a page of docs/) with a table a benchmark
+produced. (`--readme` keeps its name: the tables lived in the README before the manual moved.)"""
 
 from __future__ import annotations
 
@@ -8,17 +9,21 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-README = Path(__file__).resolve().parent.parent / "README.md"
+REPO = Path(__file__).resolve().parent.parent
+README = REPO / "README.md"
 
 
 def replace_block(name: str, text: str) -> None:
+    """Rewrite the block `name` in whichever page of the manual holds it."""
     start, end = f"<!-- {name}:start -->", f"<!-- {name}:end -->"
-    content = README.read_text()
-    if start not in content or end not in content:
-        raise SystemExit(f"README.md has no {start} ... {end} block")
-    head, rest = content.split(start, 1)
-    _, tail = rest.split(end, 1)
-    README.write_text(f"{head}{start}\n{text.strip()}\n{end}{tail}")
+    for page in (README, *sorted((REPO / "docs").rglob("*.md"))):
+        content = page.read_text()
+        if start in content and end in content:
+            head, rest = content.split(start, 1)
+            _, tail = rest.split(end, 1)
+            page.write_text(f"{head}{start}\n{text.strip()}\n{end}{tail}")
+            return
+    raise SystemExit(f"no page of the manual (README.md, docs/) has a {start} ... {end} block")
 
 
 def markdown_table(header: list[str], rows: list[list[object]]) -> str:
@@ -61,9 +66,9 @@ def accuracy_cells(r: dict[str, Any], completeness_digits: int) -> list[object]:
 
 def run(doc: str, block: str, measure: Callable[[], dict[str, Any]], table: Callable[[dict[str, Any]], str]) -> None:
     """A benchmark's command line: measure, print one JSON object, and with --readme rewrite the
-    README block `block` with the table made from the measurement."""
+    manual's block `block` with the table made from the measurement."""
     parser = argparse.ArgumentParser(description=doc.splitlines()[0])
-    parser.add_argument("--readme", action="store_true", help=f"rewrite the {block} block of README.md")
+    parser.add_argument("--readme", action="store_true", help=f"rewrite the {block} block of the manual")
     args = parser.parse_args()
     measured = measure()
     print(json.dumps(measured))

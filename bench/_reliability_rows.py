@@ -1,4 +1,4 @@
-"""The README reliability table's rows for bench/_attacks.py's figures (fault, tries, failed,
+"""The manual's reliability table rows for bench/_attacks.py's figures (fault, tries, failed,
 what held), written from the figures alone."""
 
 from __future__ import annotations

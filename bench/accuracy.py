@@ -1,7 +1,7 @@
 """Accuracy of every codec on several simulated scenes; prints one JSON object.
 
 python bench/accuracy.py            # JSON
-python bench/accuracy.py --readme   # also rewrite the accuracy table in README.md
+python bench/accuracy.py --readme   # also rewrite the accuracy table in the manual (docs/)
 """
 
 from __future__ import annotations

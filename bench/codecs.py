@@ -2,7 +2,7 @@
 dissertation compares codecs by data size. Prints one JSON object.
 
     python bench/codecs.py            # JSON
-    python bench/codecs.py --readme   # also rewrite the codec table in README.md
+    python bench/codecs.py --readme   # also rewrite the codec table in the manual (docs/)
 """
 
 from __future__ import annotations

@@ -1,7 +1,7 @@
 """Captures in other systems' conventions, made on the simulated bench, read back by `slrig
 reconstruct`: every family of the pattern description against slrig's own codec of the same family,
 and the time a folder takes against reading its PNG frames plus reconstructing them in memory.
-Prints one JSON object; with --readme rewrites the foreign-roundtrip table in README.md.
+Prints one JSON object; with --readme rewrites the foreign-roundtrip table in the manual (docs/).
 
     python bench/foreign_roundtrip.py [--readme]
 

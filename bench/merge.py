@@ -3,7 +3,7 @@ cloud measured on the same visible surface, the intensity cue's overlap against 
 the time merging takes. Prints one JSON object.
 
     python bench/merge.py            # JSON
-    python bench/merge.py --readme   # also rewrite the merge table in README.md
+    python bench/merge.py --readme   # also rewrite the merge table in the manual (docs/)
 """
 
 from __future__ import annotations

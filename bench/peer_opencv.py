@@ -13,7 +13,7 @@ default simulated bench (1024x768 projector) and seen by its camera and a second
 - agreement: of the pixels both decode, those with the same projector column and row.
 
     python bench/peer_opencv.py            # JSON
-    python bench/peer_opencv.py --readme   # also rewrite the peer table in README.md
+    python bench/peer_opencv.py --readme   # also rewrite the peer table in the manual (docs/)
 """
 
 from __future__ import annotations
@@ -179,7 +179,7 @@ def slrig_decode(codec: Any, frames: list[np.ndarray]) -> tuple[float, Any]:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__)
-    parser.add_argument("--readme", action="store_true", help="rewrite the peer table in README.md")
+    parser.add_argument("--readme", action="store_true", help="rewrite the peer table in the manual (docs/)")
     args = parser.parse_args()
     with tempfile.TemporaryDirectory(prefix="slrig-peer-") as tmp:
         work = Path(tmp)

@@ -2,7 +2,7 @@
 GrayCodePattern captures, a 1024x768 projector), reconstructed by `slrig reconstruct` with the
 authors' calibration_result.xml and with slrig's own calibration of the same poses (`slrig
 calibrate --images --patterns`), and measured by what a board must be: flat, and where the camera
-alone puts it. Prints one JSON object; with --readme rewrites the procam-board table in README.md.
+alone puts it. Prints one JSON object; with --readme rewrites the procam-board table in the manual (docs/).
 
     python bench/procam_board.py [--readme]      # data: ../shared/data or $SLRIG_TEST_DATA
 

@@ -1,7 +1,7 @@
 """slrig's calibration of real captures no one here made, against the authors' own: kamino410/
 procam-calibration's five board poses (OpenCV GrayCodePattern frames, a 1024x768 projector counted
 two pixels per code, a 10x8-square board of 75-unit squares) and its calibration_result.xml.
-Prints one JSON object; with --readme rewrites the procam-calibration table in README.md.
+Prints one JSON object; with --readme rewrites the procam-calibration table in the manual (docs/).
 
     python bench/procam_calibration.py [--readme]      # data: ../shared/data or $SLRIG_TEST_DATA
 

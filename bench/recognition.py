@@ -1,7 +1,7 @@
 """Recognition of scanned faces (dissertation ch.8): rank-1 identification and equal error rate of
 the geodesic ring descriptor, the published variant, the Euclidean one and an eigen-depth (PCA)
 baseline, on the synthetic face set scanned with rings on the simulated bench, for several ring
-counts. Prints one JSON object; with --readme also rewrites the recognition tables in README.md
+counts. Prints one JSON object; with --readme also rewrites the recognition tables in the manual (docs/)
 and draws docs/images/recognition_rank1.png and docs/images/recognition_correlation.png.
 
     python bench/recognition.py [--readme] [--identities 10] [--counts 12,16,24,32,48,64] [--cache DIR]
@@ -40,7 +40,7 @@ from rig.recognition.identify import Comparison, scores
 
 ROOT = Path(__file__).resolve().parent.parent
 COUNTS = [12, 16, 24, 32, 48, 64]
-MAIN_COUNT = 32  # the bench's default ring count: the README's main table
+MAIN_COUNT = 32  # the bench's default ring count: the manual's main table
 
 
 @dataclass(frozen=True)

@@ -1,5 +1,5 @@
 """Reliability of `slrig serve` under faults and hostile clients, measured against a real daemon on
-the simulated bench; prints one JSON object (and with --readme rewrites the README's table).
+the simulated bench; prints one JSON object (and with --readme rewrites the manual's table).
 
 - 200 idle connections and a burst of 200 event streams: streams accepted against the cap, and
   the latency of /v1/health meanwhile (20 requests);

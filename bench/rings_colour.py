@@ -2,7 +2,7 @@
 samples alone (L-NN, inverse distance, density-compensated), against the true albedo, beside the
 white frame's colour at every pixel (the upper bound), on textured versions of the default bench.
 The rings are the plan for `--tolerance` (non-uniform radii) and as many evenly spaced rings.
-Prints one JSON object; with --readme also rewrites the colour table in README.md.
+Prints one JSON object; with --readme also rewrites the colour table in the manual (docs/).
 
     python bench/rings_colour.py [--readme] [--tolerance 0.1] [--neighbours 8]
 

@@ -1,7 +1,7 @@
 """Error of the surface interpolated between the rings against the ring count, on the sphere, the
 terrain and the face relief (config/meshes/face.ply): N evenly spaced rings for N = 4 ... 64, and
 the planned non-uniform rings for several tolerances, with the planner's N_min by each criterion.
-Prints one JSON object; with --readme also rewrites the economy table in README.md and draws
+Prints one JSON object; with --readme also rewrites the economy table in the manual (docs/) and draws
 docs/images/rings_economy.png.
 
     python bench/rings_economy.py [--readme] [--scenes sphere,terrain,face]

@@ -2,7 +2,7 @@
 scan costs over REST compared with the same scan in process. Prints one JSON object.
 
     python bench/service.py            # JSON
-    python bench/service.py --readme   # also rewrite the service table in README.md
+    python bench/service.py --readme   # also rewrite the service table in the manual (docs/)
 """
 
 from __future__ import annotations

@@ -20,7 +20,7 @@
   entries (reading the SQLite gallery and scoring every entry; median of 20).
 
     python bench/speed.py            # JSON
-    python bench/speed.py --readme   # also rewrite the speed table in README.md
+    python bench/speed.py --readme   # also rewrite the speed table in the manual (docs/)
 """
 
 from __future__ import annotations
@@ -302,7 +302,7 @@ def codec_row(name: str, bandwidth_gb_s: float) -> dict[str, float | None]:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__)
-    parser.add_argument("--readme", action="store_true", help="rewrite the speed table in README.md")
+    parser.add_argument("--readme", action="store_true", help="rewrite the speed table in the manual (docs/)")
     args = parser.parse_args()
     result = {
         "benchmark": "speed",
@@ -321,7 +321,7 @@ def main() -> None:
 
 
 def readme_text(result: dict[str, Any]) -> str:
-    """The README's speed section from a measurement."""
+    """The manual's speed section from a measurement."""
     f, r, lv = result["simulated_frame_1280x1024"], result["recognition"], result["live"]
     rows = [
         [
