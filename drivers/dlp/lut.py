@@ -33,7 +33,7 @@ BLACK_PATTERN = 24  # a 1-bit pattern number showing black (SDK lcr4500.hpp Mono
 def patterns_of_depth(bit_depth: int) -> int:
     """How many pattern numbers a bit depth has (GUI .ini loader; SDK lcr4500.hpp): 24 // depth,
     but 5-bit 4 and 7-bit 3 (stored at 6- and 8-plane slots), and 1-bit 25 (24: black)."""
-    return {1: 25, 5: 4, 7: 3}.get(bit_depth, 24 // bit_depth)
+    return {1: BLACK_PATTERN + 1, 5: 4, 7: 3}.get(bit_depth, 24 // bit_depth)
 
 
 def lut_entry(
@@ -55,7 +55,7 @@ def lut_entry(
     if not 0 <= pattern < count:
         raise ValueError(
             f"pattern number {pattern} is outside 0..{count - 1} for {bit_depth}-bit patterns"
-            + (" (24 is black)" if bit_depth == 1 else "")
+            + (f" ({BLACK_PATTERN} is black)" if bit_depth == 1 else "")
         )
     if not 0 <= led <= 0b111:
         raise ValueError(f"LED selection {led:#b} is not a mix of red, green and blue (LUT bits 14:12)")

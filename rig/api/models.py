@@ -13,10 +13,10 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationInfo, field_validat
 from rig.config import DeviceKind
 from rig.patterns import codec_names
 from rig.recognition.gallery import LABEL
-from rig.service.jobs import Job, JobKind, JobState
+from rig.service.jobs import JOB_ID, Job, JobKind, JobState
 from rig.store.portable import json_problem
 
-JOB_ID_PATTERN = r"^[0-9]{8}-[0-9]{6}-[0-9a-f]{6}$"
+JOB_ID_PATTERN = JOB_ID.pattern
 FILE_NAME_PATTERN = r"^[A-Za-z0-9][A-Za-z0-9_.-]{0,99}$"
 LABEL_PATTERN = f"^{LABEL.pattern}$"
 CodecName = Literal[tuple(codec_names())]  # type: ignore[valid-type]
@@ -144,13 +144,8 @@ class JobView(BaseModel):
 
     @classmethod
     def of(cls, job: Job, base: str) -> JobView:
-        def when(t: float | None) -> dt.datetime | None:
-            if t is None:
-                return None
-            try:
-                return dt.datetime.fromtimestamp(t, dt.UTC)
-            except (OverflowError, OSError, ValueError):  # a hand-edited time: shown as the epoch
-                return dt.datetime.fromtimestamp(0, dt.UTC)
+        def when(t: float | None) -> dt.datetime | None:  # job_from_row checked that it is a time
+            return None if t is None else dt.datetime.fromtimestamp(t, dt.UTC)
 
         links = {"self": f"{base}/{job.id}", "events": f"{base}/{job.id}/events"}
         files = (job.result or {}).get("files", [])

@@ -13,7 +13,7 @@ import asyncio
 import hmac
 import ipaddress
 import json
-from collections.abc import Callable
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
 
 from fastapi import Depends, HTTPException, Request, status
@@ -59,9 +59,9 @@ def _presented_key(request: Request) -> str | None:
     return _key_from(request.headers.get("x-api-key"), request.headers.get("authorization", ""))
 
 
-def _header_key(scope: Scope) -> str | None:
-    """The key a raw ASGI request presents (before the application parses it)."""
-    headers = {name.decode("latin-1").lower(): value.decode("latin-1") for name, value in scope["headers"]}
+def header_key(raw_headers: Iterable[tuple[bytes, bytes]]) -> str | None:
+    """The key a raw request presents in its ASGI headers (before the application parses them)."""
+    headers = {name.decode("latin-1").lower(): value.decode("latin-1") for name, value in raw_headers}
     return _key_from(headers.get("x-api-key"), headers.get("authorization", ""))
 
 
@@ -191,7 +191,7 @@ class BodyLimitMiddleware:
         return self.uploads.limit  # type: ignore[union-attr]
 
     def _holds_key(self, scope: Scope) -> bool:
-        presented = (_header_key(scope) or "").encode()
+        presented = (header_key(scope["headers"]) or "").encode()
         return bool(self.key) and hmac.compare_digest(presented, self.key.encode())
 
     def _is_upload(self, scope: Scope) -> bool:

@@ -28,6 +28,8 @@ from typing import Any
 
 from uvicorn.protocols.http.h11_impl import H11Protocol
 
+from rig.api.security import header_key
+
 log = logging.getLogger(__name__)
 
 
@@ -130,12 +132,7 @@ class GuardedH11Protocol(H11Protocol):
     def _presents_key(self) -> bool:
         if not self.keys or self.cycle is None:
             return False
-        presented = b""
-        for name, value in self.cycle.scope["headers"]:
-            if name == b"x-api-key":
-                presented = value
-            elif name == b"authorization" and value[:7].lower() == b"bearer ":
-                presented = presented or value[7:].strip()
+        presented = (header_key(self.cycle.scope["headers"]) or "").encode()
         return any(hmac.compare_digest(presented, key) for key in self.keys)
 
     def _in_request(self) -> bool:

@@ -23,6 +23,7 @@ from rig.config.problems import problems
 from rig.errors import FramesError, PatternSpecError
 from rig.patterns.spec import PatternSpec
 from rig.service.errors import ImportNotFoundError, ImportRefusedError, ImportTooLargeError, StorageFullError
+from rig.service.jobs import JOB_ID
 from rig.service.space import check_free_space
 from rig.store.atomic import write_atomic
 from rig.store.frames import frame_files, load_pattern_spec
@@ -35,7 +36,6 @@ MAX_FILE_BYTES = 64 * 1024 * 1024  # a 16-bit 4K frame as TIFF is about 50 MB
 MAX_FILES = 2000  # per folder
 IMAGE_SUFFIXES = (".png", ".bmp", ".tif", ".tiff", ".jpg", ".jpeg")
 _STORING = threading.Lock()
-JOB_ID = re.compile(r"^[0-9]{8}-[0-9]{6}-[0-9a-f]{6}$")
 
 
 def imports_dir(data_dir: Path) -> Path:

@@ -55,7 +55,8 @@ def reconstruct_folder(
     ProgressTracker(progress).report("read", 0.05)
     # The calibrated camera's size, required of every frame from its header before it is decoded:
     # frames of another size (or a decompression bomb) cost no memory.
-    camera, _, _ = calibration_models(calibration, options)
+    models = calibration_models(calibration, options)
+    camera = models[0]
     first = frame_files(frames_dir, spec.frames, len(spec.roles()))[0]
     check_resolution(camera, image_header(first).size, "camera", "the frames are", calibration)
     frames = open_frames(frames_dir, spec.frames, len(spec.roles()), (camera.width, camera.height))
@@ -64,7 +65,7 @@ def reconstruct_folder(
         "patterns": "inline" if isinstance(patterns, PatternSpec) else str(patterns),
         "patterns_sha256": _spec_hash(spec) if isinstance(patterns, PatternSpec) else _file_hash(patterns),
     }
-    return reconstruct_frames(frames, spec, calibration, target, scan_id, config, options, inputs, progress)
+    return reconstruct_frames(frames, spec, calibration, target, scan_id, config, options, inputs, progress, models)
 
 
 def reconstruct_frames(
@@ -77,13 +78,15 @@ def reconstruct_frames(
     options: ForeignCalibrationOptions,
     inputs: dict[str, Any],
     progress: ProgressCallback | None = None,
+    models: tuple[CameraModel, CameraModel, str] | None = None,
 ) -> tuple[Path, ScanResult]:
     """The in-memory part of reconstruct_folder: frames read, decoded, triangulated, written;
-    `inputs` (where the frames and description came from) goes into the manifest."""
+    `inputs` (where the frames and description came from) goes into the manifest; `models`: the
+    calibration's camera, projector and hash where the caller has read them already."""
     tracker = ProgressTracker(progress)  # each report is a point where a job can be cancelled
     tracker.report("decode", 0.3)
     height, width = frames.frames[0].shape
-    camera, projector, digest = calibration_models(calibration, options)
+    camera, projector, digest = models or calibration_models(calibration, options)
     check_resolution(camera, (width, height), "camera", "the frames are", calibration)
     check_resolution(projector, spec.projector.resolution, "projector", "the pattern description's is", calibration)
     correspondence = decode_described(frames.frames, spec, frames.full_scale)
