@@ -312,6 +312,28 @@ class Camera(Device):
     def _do_set_exposure_us(self, exposure_us: float) -> None:
         """Drivers send the exposure to an open device here (default: nothing to send)."""
 
+    _gain: float | None = None  # None: the driver leaves the sensor's gain as it is
+    has_gain: bool = False  # the driver can set the sensor's analogue gain
+
+    @property
+    def gain(self) -> float | None:
+        """The gain as the driver counts it (1.0 = unity where the sensor says so), or None."""
+        return self._gain
+
+    def set_gain(self, gain: float) -> None:
+        """Analogue gain (0 to 64); sent to the device when it is open. DeviceStateError from a
+        driver without the control, naming it."""
+        if not self.has_gain:
+            raise DeviceStateError(f"{self.name}: this camera's driver has no gain control")
+        if not 0.0 <= gain <= 64.0:
+            raise ValueError(f"{self.name}: gain must be in [0, 64], got {gain}")
+        if self._open:
+            self._do_set_gain(float(gain))
+        self._gain = float(gain)
+
+    def _do_set_gain(self, gain: float) -> None:
+        """Drivers with has_gain send the gain to an open device here."""
+
     def flush(self) -> None:
         """Drop frames the driver already holds, so the next capture is exposed after this call."""
         self._require_open()

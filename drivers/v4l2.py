@@ -101,6 +101,11 @@ class V4l2Camera(Camera):
     def _do_set_exposure_us(self, exposure_us: float) -> None:
         self._set_checked(cv2.CAP_PROP_EXPOSURE, round(exposure_us / V4L2_EXPOSURE_UNIT_US), "exposure (100 us)")
 
+    has_gain = True  # V4L2_CID_GAIN; a camera without it refuses the value (_set_checked)
+
+    def _do_set_gain(self, gain: float) -> None:
+        self._set_checked(cv2.CAP_PROP_GAIN, gain, "gain")
+
     def _do_open(self) -> None:
         if self.device.startswith("/dev/") and not os.path.exists(self.device):
             raise DeviceNotFoundError(f"{self.name}: {self.device} does not exist (see `slrig devices`)")
@@ -121,7 +126,7 @@ class V4l2Camera(Camera):
             self._set_checked(cv2.CAP_PROP_AUTO_EXPOSURE, V4L2_MANUAL_EXPOSURE, "manual exposure mode")
             self._do_set_exposure_us(self._exposure_us)
             if self._gain is not None:
-                self._set_checked(cv2.CAP_PROP_GAIN, self._gain, "gain")
+                self._do_set_gain(self._gain)
         except Exception:
             cap.release()
             self._cap = None

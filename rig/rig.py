@@ -113,6 +113,8 @@ class Rig:
     checkpoint: Callable[[], None] | None = field(default=None, repr=False)
     # Set from another thread to cut a wait for a frame short (then the checkpoint raises).
     cancel: threading.Event | None = field(default=None, repr=False)
+    # Handed every frame captured (the daemon's camera views): must return at once, copy nothing.
+    tap: Callable[[int, Frame], None] | None = field(default=None, repr=False)
     # Terms computed from the geometry once and kept between scans (per-pixel rays of each pair).
     memo: dict[object, object] = field(default_factory=dict, repr=False)
     _closed: bool = field(default=False, repr=False)
@@ -146,12 +148,16 @@ class Rig:
         device = self.cameras[camera]
         try:
             if self.cancel is None:
-                return device.capture(timeout_s=timeout_s)
-            return device.capture(timeout_s=timeout_s, cancel=self.cancel)
+                frame = device.capture(timeout_s=timeout_s)
+            else:
+                frame = device.capture(timeout_s=timeout_s, cancel=self.cancel)
         except DeviceCancelledError:
             if self.checkpoint is not None:
                 self.checkpoint()
             raise
+        if self.tap is not None:
+            self.tap(camera, frame)
+        return frame
 
     def all_dark(self) -> None:
         for projector in self.projectors:

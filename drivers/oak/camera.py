@@ -119,6 +119,19 @@ class OakCamera(WorkerDevice, Camera):
     def _do_set_exposure_us(self, exposure_us: float) -> None:
         self._request(5.0, cmd="exposure", exposure_us=round(exposure_us), iso=self.iso)
 
+    has_gain = True  # as ISO: gain 1.0 is ISO 100 (depthai's manual exposure takes both together)
+
+    @property
+    def gain(self) -> float:
+        return self.iso / 100.0
+
+    def set_gain(self, gain: float) -> None:
+        super().set_gain(gain)
+        self.iso = _iso(gain)  # what the next start sends, open or not
+
+    def _do_set_gain(self, gain: float) -> None:
+        self._request(5.0, cmd="exposure", exposure_us=round(self._exposure_us), iso=_iso(gain))
+
     def _do_flush(self) -> None:
         self._request(5.0, cmd="drain")
 
@@ -141,3 +154,7 @@ class OakCamera(WorkerDevice, Camera):
             gain=float(self.iso) / 100.0,
             bit_depth=8,
         )
+
+
+def _iso(gain: float) -> int:
+    return max(100, min(1600, round(gain * 100)))  # the range depthai's setManualExposure takes

@@ -14,6 +14,8 @@ from drivers.sim.bench import SimBench
 class SimCamera(Camera):
     """A camera that renders the simulated scene under the projectors' current light."""
 
+    has_gain = True
+
     def __init__(self, name: str, bench: SimBench, index: int, faults: SimFaults | None = None) -> None:
         super().__init__(name)
         self._bench = bench
@@ -85,14 +87,15 @@ class SimCamera(Camera):
             if faults.early_frame_at == self._captures:  # a driver that kept one more frame than it said
                 exposed -= self._params.frame_period_s
         stamp = exposed + self._exposure_us * 1e-6
-        image = self._bench.render(self._index, self._exposure_us, self._gain, exposed)
+        gain = self._sensor.gain if self._gain is None else self._gain
+        image = self._bench.render(self._index, self._exposure_us, gain, exposed)
         self._sequence += 1
         self._last = Frame(
             image=image,
             timestamp_s=stamp,
             sequence=self._sequence,
             exposure_us=self._exposure_us,
-            gain=self._gain,
+            gain=gain,
             bit_depth=self._sensor.bit_depth,
         )
         return self._last

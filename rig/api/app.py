@@ -17,6 +17,7 @@ from starlette.exceptions import HTTPException as StarletteHTTPException
 from starlette.middleware.trustedhost import TrustedHostMiddleware
 
 from rig import __version__
+from rig.api.aiming import aiming_router
 from rig.api.head import HeadAsGet, head_only
 from rig.api.live import live_router
 from rig.api.models import (
@@ -59,6 +60,7 @@ from rig.service.errors import (
     JobNotFoundError,
     QueueFullError,
     ServiceStoppingError,
+    SetupRefusedError,
     StorageFullError,
     TooManyOpenError,
 )
@@ -122,6 +124,7 @@ def create_app(service: JobService, settings: ApiSettings, stopping: Callable[[]
     app.include_router(recognition_router(service, ERRORS), prefix="/v1")
     app.include_router(reconstruction_router(service, ERRORS), prefix="/v1")
     app.include_router(live_router(service, ERRORS, is_stopping), prefix="/v1")
+    app.include_router(aiming_router(service, ERRORS), prefix="/v1")
     app.add_middleware(HeadAsGet)  # outermost: HEAD is a GET to everything inside
     return app
 
@@ -156,7 +159,7 @@ def _error_handlers(app: FastAPI) -> None:
     app.add_exception_handler(StarletteHTTPException, method_not_allowed)  # 405: Allow lists every method
     app.add_exception_handler(ConfigError, config_error)
     # what a reconstruction request names, refused in the shape of FastAPI's own 422
-    for refused in (PatternSpecError, ImportRefusedError, FramesError, CalibrationError):
+    for refused in (PatternSpecError, ImportRefusedError, FramesError, CalibrationError, SetupRefusedError):
         app.add_exception_handler(refused, config_error)
 
 

@@ -200,7 +200,7 @@ class QueueView(BaseModel):
 class RigView(BaseModel):
     name: str
     simulated: bool
-    state: Literal["idle", "busy", "live", "fault"]
+    state: Literal["idle", "busy", "live", "aim", "fault"]
     running: str | None
     last_error: str | None
     queue: QueueView

@@ -56,3 +56,9 @@ class ImportRefusedError(SlrigError):
     """Raised when an upload or a reconstruction request names a file that is refused or missing:
     a name that is not a plain file name, an unknown suffix, a full folder, an empty body, an
     image larger than allowed by its header (HTTP 422)."""
+
+
+class SetupRefusedError(SlrigError):
+    """Raised when an aim or camera-settings request names what this rig does not have (a
+    projector, camera or codec pattern) or a driver refuses a value (out of its range, no gain
+    control); nothing changed."""

@@ -23,6 +23,8 @@ from rig.progress import ProgressCallback, ProgressEvent
 from rig.rig import Rig
 from rig.service import tasks
 from rig.service.adaptive import check_scan_request
+from rig.service.aim import AimMode
+from rig.service.camera_settings import CameraSettings
 from rig.service.errors import (
     JobCancelledError,
     JobConflictError,
@@ -31,6 +33,8 @@ from rig.service.errors import (
     ServiceStoppingError,
 )
 from rig.service.events import EventHub
+from rig.service.frames import FrameTap
+from rig.service.idle import IdleWork
 from rig.service.imports import reconstruction_inputs, remove_leftovers
 from rig.service.jobs import DB_NAME, Job, JobKind, JobState, JobStore
 from rig.service.live import LiveMode
@@ -62,11 +66,18 @@ class JobService:
         self.events = EventHub()
         self._cond = threading.Condition()
         self.live = LiveMode(config, self._cond)
+        self.aim = AimMode(config, self._cond)
+        self.frames = FrameTap()
+        self.camera_settings = CameraSettings(config, self._cond)
         self._queue: deque[str] = deque()
         self._current: str | None = None
         self._stopping = False
         self._rigs = WorkerRig(config, self._cond, lambda: self._stopping, self._checkpoint)
         self._cancel = self._rigs.cancel
+        self._rigs.on_open = self._opened
+        self._idle = IdleWork(
+            self._rigs, self.live, self.aim, self.camera_settings, self._checkpoint, self._jobs_waiting, self._fault
+        )
         self._shutdown_lock = threading.Lock()
         self._shut_down = False
         self._rig_error: str | None = None
@@ -94,6 +105,7 @@ class JobService:
         with self._cond:
             self._stopping = True
             self.live.interrupted("the daemon is stopping")
+            self.aim.interrupted("the daemon is stopping")
             self._cancel.set()
             self._cond.notify_all()
 
@@ -210,8 +222,8 @@ class JobService:
     def rig_status(self) -> dict[str, Any]:
         with self._cond:
             queued, current = len(self._queue), self._current
-        live = self.live.view()["state"] == "running"
-        state = "busy" if current else "live" if live else ("fault" if self._rig_error else "idle")
+        live, aim = self.live.view()["state"] == "running", self.aim.view()["state"] == "running"
+        state = "busy" if current else "live" if live else "aim" if aim else ("fault" if self._rig_error else "idle")
         return {
             "name": self.config.name,
             "simulated": self.config.simulated,
@@ -219,24 +231,24 @@ class JobService:
             "running": current,
             "last_error": self._rig_error,
             "queue": {"queued": queued, "max": self.max_queue},
-            "devices": device_views(self.config, self._rig),
+            "devices": device_views(self.config, self.open_rig),
         }
 
     # --- the worker ------------------------------------------------------------------------
     def _work(self) -> None:
         while True:
             with self._cond:
-                self._cond.wait_for(lambda: self._stopping or bool(self._queue) or self.live.wanted(), timeout=1.0)
+                self._cond.wait_for(lambda: self._stopping or bool(self._queue) or self._idle.wanted(), timeout=1.0)
                 self._heartbeat = time.monotonic()
                 if self._stopping:
                     return
                 job_id = self._queue.popleft() if self._queue else None
                 self._current, self._rigs.published = job_id, False
                 self._cancel.clear()
-            if job_id is None:  # no job waits: live mode if wanted, else flush what the disk refused
+            if job_id is None:  # no job waits: settings, live or aim mode if wanted; what the disk refused
                 if self.store.unsaved:
                     self.store.flush()
-                self._live()
+                self._idle.run()
                 continue
             try:
                 self._run(job_id)
@@ -332,22 +344,19 @@ class JobService:
             return
         self.events.publish(job_id, "state", {"id": job.id, "state": job.state, "error": job.error})
 
-    def _live(self) -> None:
-        """Live mode while it is wanted and no job waits (rig.service.live)."""
-        if not self.live.wanted():
-            return
-        try:
-            self.live.run(self._rigs.open(), lambda: bool(self._queue) or self._stopping, self._checkpoint)
-        except JobCancelledError:
-            self._rigs.darken()
-        except Exception as exc:
-            if isinstance(exc, (DeviceError, CaptureFaultError)) or isinstance(exc.__cause__, DeviceError):
-                self._rig_error = str(exc)
-            log.error("live mode failed: %s", exc)
-            self._rigs.drop()
+    def _opened(self, rig: Rig) -> None:
+        rig.tap = self.frames.publish
+        self.camera_settings.apply_kept(rig)
+
+    def _jobs_waiting(self) -> bool:
+        return bool(self._queue) or self._stopping
+
+    def _fault(self, reason: str) -> None:
+        self._rig_error = reason
 
     @property
-    def _rig(self) -> Rig | None:
+    def open_rig(self) -> Rig | None:
+        """The rig the worker holds open now, if any (read-only use: only the worker drives it)."""
         return self._rigs.rig
 
     # --- the jobs (rig.service.tasks does the work) ----------------------------------------

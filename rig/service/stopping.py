@@ -47,6 +47,7 @@ class WorkerRig:
         self._cond, self._stopping, self._checkpoint = cond, stopping, checkpoint
         self.cancel = threading.Event()  # set to cut the worker's waits for frames
         self.published = False  # the running job's folder is in place (the worker resets it per job)
+        self.on_open: Callable[[Rig], None] | None = None  # the service's settings for a rig just opened
 
     def open(self) -> Rig:
         """The open rig, opened if need be; JobCancelledError once stopping (then no rig is taken
@@ -55,6 +56,12 @@ class WorkerRig:
         if rig is None:
             rig = open_rig(self.config)
             rig.checkpoint, rig.cancel = self._checkpoint, self.cancel  # long waits check, and are cut
+            if self.on_open is not None:
+                try:
+                    self.on_open(rig)
+                except BaseException:
+                    rig.close()  # dark and closed: nothing half set up stays open
+                    raise
             with self._cond:
                 refused = self._stopping()
                 if not refused:

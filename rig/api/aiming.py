@@ -1,0 +1,145 @@
+"""Setting up the bench over REST: aim mode (POST/DELETE/GET /v1/aim: the projectors show a setup
+pattern while the cameras run), each camera's settings (GET /v1/cameras, PUT
+/v1/cameras/{camera}/settings) and its newest frame (GET /v1/cameras/{camera}/frame.jpg).
+
+A frame request names the last frame its client has (`after`) and is answered once a newer one
+exists (or 204 after `wait_s`): a client asks for the next when it has shown the last, so a slow
+one gets fewer frames, and the rig never waits for any (rig.service.frames).
+"""
+
+from __future__ import annotations
+
+import asyncio
+from typing import Annotated, Any, Literal
+
+from fastapi import APIRouter, Path, Query, Request, Response, status
+from pydantic import BaseModel, Field
+
+from rig.api.frame_views import FrameViews
+from rig.api.models import CodecName, _Request
+from rig.api.security import MUTATING, READING
+from rig.api.slots import Slots, client_address
+from rig.patterns.setup import SETUP_PATTERNS
+from rig.service.aim import AimRequest
+from rig.service.errors import SetupRefusedError
+from rig.service.frames import TappedFrame
+from rig.service.runner import JobService
+
+Errors = dict[int | str, dict[str, Any]]
+CameraIndex = Annotated[int, Path(ge=0, le=15, description="the camera's index in the config")]
+PatternName = Literal[(*SETUP_PATTERNS, "codec")]  # type: ignore[valid-type]
+MAX_FRAME_WAITERS = 32
+FRAME_POLL_S = 0.005  # on the event loop: a waiting viewer holds no thread
+
+
+class AimStart(_Request):
+    pattern: PatternName = Field("white", description="a setup pattern, or `codec`: pattern `index` of `codec`")
+    projector: int | None = Field(None, ge=0, le=15, description="the projector that shows it (others dark); all")
+    square_px: int = Field(32, ge=1, le=4096, description="checkerboard square, projector pixels")
+    codec: CodecName | None = Field(None, description="with pattern codec; default: the config's")
+    index: int = Field(0, ge=0, le=100_000, description="with pattern codec: which of its patterns")
+    seconds: float = Field(60.0, gt=0, le=3600, description="dark again after this long unless renewed")
+
+
+class AimView(BaseModel):
+    state: Literal["off", "starting", "running", "paused", "failed"]
+    reason: str | None
+    pattern: dict[str, Any] | None
+    seconds_left: float | None
+
+
+class CameraSettingsRequest(_Request):
+    exposure_us: float | None = Field(None, ge=1, le=10_000_000, description="manual exposure, microseconds")
+    gain: float | None = Field(None, ge=0, le=64, description="analogue gain (the driver's units; OAK: ISO/100)")
+
+
+class CameraView(BaseModel):
+    index: int
+    name: str
+    driver: str
+    resolution: list[int]
+    exposure_us: float
+    gain: float | None = Field(description="none: the driver leaves it as the camera has it")
+    has_gain: bool | None = Field(description="the driver has a gain control (none: the rig has not been opened)")
+    frame: int | None = Field(description="the newest frame's number (frame.jpg?after= it waits for a newer)")
+    fps: float = Field(description="frames per second reaching the daemon now")
+
+
+def aiming_router(service: JobService, errors: Errors) -> APIRouter:
+    router = APIRouter(tags=["aim"], responses=errors)
+    views = FrameViews()
+    waiters = Slots("frame requests", MAX_FRAME_WAITERS, 8)
+
+    @router.post("/aim", status_code=status.HTTP_202_ACCEPTED, response_model=AimView, dependencies=MUTATING)
+    def start_aim(body: AimStart) -> dict[str, Any]:
+        fields = body.model_dump(exclude={"seconds"})
+        live = service.live.view()["state"] in ("starting", "running")
+        return service.aim.start(AimRequest(**fields), body.seconds, live)
+
+    @router.delete("/aim", response_model=AimView, dependencies=MUTATING)
+    def stop_aim() -> dict[str, Any]:
+        return service.aim.stop()
+
+    @router.get("/aim", response_model=AimView, dependencies=READING)
+    def aim_status() -> dict[str, Any]:
+        return service.aim.view()
+
+    @router.get("/cameras", response_model=list[CameraView], dependencies=READING)
+    def cameras() -> list[dict[str, Any]]:
+        out = service.camera_settings.views(service.open_rig)
+        for view in out:
+            newest = service.frames.newest(view["index"])
+            view["frame"] = None if newest is None else newest.count
+            view["fps"] = round(service.frames.rate(view["index"]), 2)
+        return out
+
+    @router.put("/cameras/{camera}/settings", response_model=CameraView, dependencies=MUTATING)
+    def camera_settings(camera: CameraIndex, body: CameraSettingsRequest) -> dict[str, Any]:
+        if camera >= len(service.config.cameras):
+            raise SetupRefusedError(f"camera: this rig has {len(service.config.cameras)} cameras")
+        values = body.model_dump(exclude_none=True)
+        service.camera_settings.request(camera, values, service.rig_status()["running"])
+        view = service.camera_settings.views(service.open_rig)[camera]
+        newest = service.frames.newest(camera)
+        return {**view, "frame": None if newest is None else newest.count, "fps": service.frames.rate(camera)}
+
+    @router.get(
+        "/cameras/{camera}/frame.jpg",
+        dependencies=READING,
+        responses={200: {"content": {"image/jpeg": {}}}, 204: {"description": "no newer frame within wait_s"}},
+    )
+    async def camera_frame(
+        camera: CameraIndex,
+        request: Request,
+        after: Annotated[int, Query(ge=0, description="the newest frame number the client has")] = 0,
+        width: Annotated[int | None, Query(ge=16, le=8192, description="downscale to this width")] = None,
+        overlay: Annotated[bool, Query(description="saturated pixels red, too-dark ones blue")] = False,
+        wait_s: Annotated[float, Query(ge=0, le=10, description="how long to wait for a newer frame")] = 2.0,
+    ) -> Response:
+        if camera >= len(service.config.cameras):
+            raise SetupRefusedError(f"camera: this rig has {len(service.config.cameras)} cameras")
+        release = waiters.take(client_address(request.client))
+        try:
+            tapped = await _newer_frame(service, camera, after, wait_s, request)
+            if tapped is None:
+                return Response(status_code=status.HTTP_204_NO_CONTENT, headers={"Cache-Control": "no-store"})
+            view = await asyncio.to_thread(views.view, camera, tapped, width, overlay)
+        finally:
+            release()
+        return Response(view.jpeg, media_type="image/jpeg", headers=view.headers)
+
+    return router
+
+
+async def _newer_frame(
+    service: JobService, camera: int, after: int, wait_s: float, request: Request
+) -> TappedFrame | None:
+    loop = asyncio.get_running_loop()
+    deadline = loop.time() + wait_s
+    while True:
+        newest = service.frames.newest(camera)
+        if newest is not None and newest.count > after:
+            return newest
+        if loop.time() >= deadline or await request.is_disconnected():
+            return None
+        await asyncio.sleep(FRAME_POLL_S)

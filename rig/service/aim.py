@@ -1,0 +1,196 @@
+"""Aim mode: the projectors show a setup pattern and every camera captures as fast as it delivers,
+for aiming, focusing and setting exposure in the console's camera views (rig.service.frames).
+
+Run by the job worker, like live mode, whenever no job waits; a queued job pauses it. It needs a
+time limit (the console renews it while its page is open), so a closed browser never leaves a
+test pattern lit: when it passes, the projectors go dark.
+"""
+
+from __future__ import annotations
+
+import threading
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from drivers.base import ProjectorMode
+from drivers.errors import DeviceStateError
+from rig.config import RigConfig
+from rig.errors import ConfigError
+from rig.patterns import codec_class
+from rig.patterns.setup import SETUP_PATTERNS, setup_pattern
+from rig.rig import Rig
+from rig.service.errors import JobConflictError, SetupRefusedError
+
+MAX_AIM_S = 3600.0
+FRAME_TIMEOUT_S = 2.0
+
+
+@dataclass(frozen=True)
+class AimRequest:
+    """What the projectors show: a setup pattern, or pattern `index` of `codec`'s scan; on
+    projector `projector` (the others dark), or on all of them (None)."""
+
+    pattern: str = "white"
+    projector: int | None = None
+    square_px: int = 32
+    codec: str | None = None
+    index: int = 0
+
+    def images(self, config: RigConfig) -> list[np.ndarray]:
+        """The image per projector; SetupRefusedError (or a setup pattern's ValueError) naming what does not fit."""
+        out = []
+        for p, projector in enumerate(config.projectors):
+            size = (int(projector.resolution[0]), int(projector.resolution[1]))
+            if self.projector is not None and p != self.projector:
+                out.append(setup_pattern("black", size))
+            elif self.pattern == "codec":
+                out.append(_codec_pattern(config, size, self.codec, self.index))
+            else:
+                out.append(setup_pattern(self.pattern, size, self.square_px))
+        return out
+
+
+def _codec_pattern(config: RigConfig, size: tuple[int, int], codec: str | None, index: int) -> np.ndarray:
+    name = codec or config.scan.codec
+    try:
+        scan = config.with_codec(name).scan
+    except ConfigError as exc:
+        raise SetupRefusedError(f"codec: {name} does not fit this rig: {'; '.join(exc.problems)}") from None
+    instance = codec_class(name)(size, getattr(scan, name, None))
+    if not 0 <= index < instance.frame_count:
+        raise SetupRefusedError(f"index: {name} has patterns 0 to {instance.frame_count - 1}, not {index}")
+    for k, image in enumerate(instance.iter_patterns()):
+        if k == index:
+            return image
+    raise SetupRefusedError(f"index: {name} made fewer patterns than it counts")  # pragma: no cover - a codec's bug
+
+
+class AimMode:
+    """Whether aim mode is wanted (and until when), what it shows, and its state (thread-safe)."""
+
+    def __init__(self, config: RigConfig, worker: threading.Condition) -> None:
+        self.config = config
+        self._worker = worker
+        self._lock = threading.Lock()
+        self._wanted: AimRequest | None = None
+        self._version = 0
+        self._deadline = 0.0
+        self._state, self._reason = "off", None
+        self._images: list[np.ndarray] = []
+
+    def start(self, request: AimRequest, seconds: float, live_running: bool) -> dict[str, Any]:
+        """Want aim mode showing `request` for `seconds`; starting again changes the pattern and
+        renews the time limit. JobConflictError while live mode runs (both need the whole rig),
+        SetupRefusedError for a pattern that does not fit the rig."""
+        if live_running:
+            raise JobConflictError("live mode is running; stop it (DELETE /v1/live) to aim")
+        if request.pattern not in (*SETUP_PATTERNS, "codec"):
+            raise SetupRefusedError(f"pattern: one of {', '.join(SETUP_PATTERNS)} or codec, not {request.pattern!r}")
+        if request.projector is not None and not 0 <= request.projector < len(self.config.projectors):
+            raise SetupRefusedError(f"projector: this rig has {len(self.config.projectors)} projectors")
+        try:
+            images = request.images(self.config)
+        except ValueError as exc:  # a setup pattern's size
+            raise SetupRefusedError(str(exc)) from None
+        with self._lock:
+            if request != self._wanted:
+                self._version += 1
+                self._images = images
+            self._wanted = request
+            self._deadline = time.monotonic() + min(seconds, MAX_AIM_S)
+            if self._state in ("off", "failed"):
+                self._state, self._reason = "starting", None
+        with self._worker:
+            self._worker.notify_all()
+        return self.view()
+
+    def stop(self, reason: str = "stopped by request") -> dict[str, Any]:
+        with self._lock:
+            self._wanted = None
+            if self._state != "running":
+                self._state, self._reason = "off", reason
+            else:
+                self._reason = reason  # the worker darkens and turns it off after its frame
+        return self.view()
+
+    def wanted(self) -> bool:
+        with self._lock:
+            if self._wanted is not None and time.monotonic() >= self._deadline:
+                self._wanted, self._reason = None, "its time limit passed"
+                if self._state != "running":
+                    self._state = "off"
+            return self._wanted is not None
+
+    def run(self, rig: Rig, jobs_waiting: Callable[[], bool], between: Callable[[], None]) -> None:
+        """Show the pattern and capture every camera in turn while wanted and no job waits;
+        `between` runs before each round (heartbeat, camera settings). Projectors dark at the end."""
+        shown, period = -1, frame_period_s(self.config)
+        with self._lock:
+            self._state = "running"
+        try:
+            while True:
+                between()
+                with self._lock:
+                    version, images = self._version, self._images
+                if not self.wanted() or jobs_waiting():
+                    break
+                if version != shown:
+                    _show(rig, images)
+                    shown = version
+                started = time.monotonic()
+                for camera in range(len(rig.cameras)):
+                    rig.capture(camera, FRAME_TIMEOUT_S)
+                time.sleep(max(0.0, period - (time.monotonic() - started)))  # the simulator renders faster
+        except BaseException as exc:
+            with self._lock:
+                self._wanted, self._state, self._reason = None, "failed", str(exc) or type(exc).__name__
+            raise
+        finally:
+            rig.all_dark()
+        with self._lock:
+            if self._wanted is not None:
+                self._state, self._reason = "paused", "a job is running"
+            else:
+                self._state = "off"
+
+    def interrupted(self, reason: str) -> None:
+        with self._lock:
+            self._wanted, self._state, self._reason = None, "off", reason
+
+    def view(self) -> dict[str, Any]:
+        with self._lock:
+            wanted = self._wanted
+            left = max(0.0, self._deadline - time.monotonic()) if wanted is not None else None
+            return {
+                "state": self._state,
+                "reason": self._reason,
+                "pattern": None if wanted is None else wanted.__dict__,
+                "seconds_left": None if left is None else round(left, 3),
+            }
+
+
+def _show(rig: Rig, images: list[np.ndarray]) -> None:
+    for projector, image in zip(rig.projectors, images, strict=True):
+        if projector.mode is not ProjectorMode.STREAMING:
+            raise DeviceStateError(
+                f"{projector.name}: plays preloaded sequences only; setup patterns need a projector "
+                "that shows images as they come (HDMI, the simulated bench)"
+            )
+        projector.show(image)
+
+
+def frame_period_s(config: RigConfig) -> float:
+    """The fastest configured camera's frame period: aim mode captures no faster."""
+    periods = []
+    for camera in config.cameras:
+        if camera.driver == "oak":
+            periods.append(1.0 / camera.oak.fps)
+        elif camera.driver == "v4l2" and camera.v4l2 is not None:
+            periods.append(camera.v4l2.frame_period_s)
+        else:
+            periods.append(camera.sim.frame_period_s)
+    return min(periods, default=1 / 30)
