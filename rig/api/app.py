@@ -18,6 +18,8 @@ from starlette.middleware.trustedhost import TrustedHostMiddleware
 
 from rig import __version__
 from rig.api.aiming import aiming_router
+from rig.api.clouds import cloud_router
+from rig.api.console import add_console
 from rig.api.head import HeadAsGet, head_only
 from rig.api.live import live_router
 from rig.api.models import (
@@ -37,7 +39,8 @@ from rig.api.models import (
 from rig.api.problems import method_not_allowed, validation_problem
 from rig.api.recognition import recognition_router
 from rig.api.reconstructions import reconstruction_router, upload_rule
-from rig.api.security import MUTATING, READING, ApiSettings, BodyLimitMiddleware
+from rig.api.security import MUTATING, READING, ApiSettings, BodyLimitMiddleware, key_role
+from rig.api.sessions import Sessions, session_router
 from rig.api.slots import CountedFile, Slots, client_address
 from rig.api.streams import SSE_PING_S, event_slots, event_stream, sse
 from rig.errors import (
@@ -91,12 +94,13 @@ def create_app(service: JobService, settings: ApiSettings, stopping: Callable[[]
         description="Structured-light scans on a calibrated projector-camera rig.",
         generate_unique_id_function=_operation_id,
         openapi_url=None if guarded else "/openapi.json",
-        docs_url=None if guarded else "/docs",
+        docs_url=None,  # rig.api.console serves them without a CDN
         redoc_url=None,
     )
     app.state.api_settings = settings
     app.state.service = service
     app.state.event_streams = event_slots()
+    app.state.sessions = Sessions()
     app.state.downloads = Slots("file downloads", settings.max_downloads, settings.max_downloads_per_client)
     if guarded:
 
@@ -125,6 +129,9 @@ def create_app(service: JobService, settings: ApiSettings, stopping: Callable[[]
     app.include_router(reconstruction_router(service, ERRORS), prefix="/v1")
     app.include_router(live_router(service, ERRORS, is_stopping), prefix="/v1")
     app.include_router(aiming_router(service, ERRORS), prefix="/v1")
+    app.include_router(cloud_router(service, ERRORS), prefix="/v1")
+    app.include_router(session_router(ERRORS, lambda key: key_role(settings, key)), prefix="/v1")
+    add_console(app, docs=not guarded)
     app.add_middleware(HeadAsGet)  # outermost: HEAD is a GET to everything inside
     return app
 

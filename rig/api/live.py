@@ -25,7 +25,7 @@ from rig.api.streams import SSE_PING_S, event_stream, sse
 from rig.pipeline.live import LiveFrame
 from rig.service.errors import JobNotFoundError, ServiceStoppingError
 from rig.service.runner import JobService
-from rig.store.images import depth_image_png
+from rig.store.images import depth_colour_jpeg, depth_image_png
 
 LIVE_POLL_S = 0.01  # a stream looks for a newer frame this often
 DEPTH_UNIT_MM = 0.1  # live depth PNGs count tenths of a millimetre (to 6.5 m)
@@ -34,6 +34,7 @@ RECONNECT_MS = 2000
 
 Stride = Annotated[int, Query(ge=1, le=16, description="send every stride-th pixel of each row and column")]
 Camera = Annotated[int, Query(ge=0, le=15, description="the camera's index in the config")]
+Colour = Annotated[bool, Query(description="depth as a colour-mapped JPEG to look at (jpeg_base64, range_mm)")]
 
 
 Errors = dict[int | str, dict[str, Any]]
@@ -63,8 +64,9 @@ def live_router(service: JobService, errors: Errors, stopping: Callable[[], bool
         response_class=StreamingResponse,
         responses={200: {"content": {"text/event-stream": {}}, "description": "state and depth events"}},
     )
-    async def watch_live(request: Request, stride: Stride = 4) -> StreamingResponse:
-        return event_stream(request, lambda: _live_stream(service, encoded, stride, request, stopping))
+    async def watch_live(request: Request, stride: Stride = 4, colour: Colour = False) -> StreamingResponse:
+        form = (stride, colour)
+        return event_stream(request, lambda: _live_stream(service, encoded, form, request, stopping))
 
     @router.get("/depth.png", dependencies=READING, responses={200: {"content": {"image/png": {}}}})
     async def live_depth(camera: Camera = 0) -> Response:
@@ -86,31 +88,28 @@ class _EncodedFrames:
     def __init__(self) -> None:
         self._lock = threading.Lock()
         self._frame: LiveFrame | None = None
-        self._events: dict[int, str] = {}
+        self._events: dict[tuple[int, bool], str] = {}
 
-    def event(self, service: JobService, frame: LiveFrame, stride: int) -> str:
+    def event(self, service: JobService, frame: LiveFrame, form: tuple[int, bool]) -> str:
         with self._lock:
             if frame is not self._frame:
                 self._frame, self._events = frame, {}
-            if stride not in self._events:
-                self._events[stride] = json.dumps(_depth_event(service, frame, stride))
-            return self._events[stride]
+            if form not in self._events:
+                self._events[form] = json.dumps(_depth_event(service, frame, *form))
+            return self._events[form]
 
 
-def _depth_event(service: JobService, frame: LiveFrame, stride: int) -> dict[str, Any]:
+def _depth_event(service: JobService, frame: LiveFrame, stride: int, colour: bool = False) -> dict[str, Any]:
     cameras = []
     for config, depth in zip(service.config.cameras, frame.depths, strict=True):
         sampled = depth[::stride, ::stride]
-        png = depth_image_png(sampled, DEPTH_UNIT_MM)
-        cameras.append(
-            {
-                "name": config.name,
-                "width": sampled.shape[1],
-                "height": sampled.shape[0],
-                "stride": stride,
-                "png_base64": base64.b64encode(png).decode("ascii"),
-            }
-        )
+        image: dict[str, Any] = {"name": config.name, "width": sampled.shape[1], "height": sampled.shape[0]}
+        if colour:
+            jpeg, range_mm = depth_colour_jpeg(sampled)
+            image |= {"jpeg_base64": base64.b64encode(jpeg).decode("ascii"), "range_mm": range_mm}
+        else:
+            image["png_base64"] = base64.b64encode(depth_image_png(sampled, DEPTH_UNIT_MM)).decode("ascii")
+        cameras.append({**image, "stride": stride})
     return {
         "sequence": frame.sequence,
         "points": frame.points,
@@ -122,7 +121,11 @@ def _depth_event(service: JobService, frame: LiveFrame, stride: int) -> dict[str
 
 
 async def _live_stream(
-    service: JobService, encoded: _EncodedFrames, stride: int, request: Request, stopping: Callable[[], bool]
+    service: JobService,
+    encoded: _EncodedFrames,
+    form: tuple[int, bool],
+    request: Request,
+    stopping: Callable[[], bool],
 ) -> AsyncIterator[bytes]:
     """State changes and, whenever the client has taken the last one, the newest depth frame;
     the stream ends when live mode is off or has failed (at once, if it is off already)."""
@@ -139,7 +142,7 @@ async def _live_stream(
                 return
         session, frame = service.live.latest
         if frame is not None and (session, frame.sequence) != sent:
-            data = await asyncio.to_thread(encoded.event, service, frame, stride)
+            data = await asyncio.to_thread(encoded.event, service, frame, form)
             sent, idle = (session, frame.sequence), 0.0
             yield sse("depth", data, frame.sequence)
             continue

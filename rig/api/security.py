@@ -1,7 +1,8 @@
 """API key, Host header and request-size checks of the REST API.
 
 A key comes in `X-API-Key` or `Authorization: Bearer`, never in a query string, and is compared
-in constant time. The API key is needed for every mutating request; reads need a key (the API key
+in constant time; the console's session cookie stands for the key it logged in with
+(rig.api.sessions). The API key is needed for every mutating request; reads need a key (the API key
 or the read-only key, for dashboards and automation that only watch) when `service.read_access`
 says so, by default when the daemon listens beyond loopback. Missing: 401; wrong, or the read-only
 key for a change: 403. No key is ever logged.
@@ -18,6 +19,8 @@ from dataclasses import dataclass, field
 
 from fastapi import Depends, HTTPException, Request, status
 from starlette.types import ASGIApp, Message, Receive, Scope, Send
+
+from rig.api.sessions import session_role
 
 MIN_KEY_LENGTH = 16
 MIN_BODY_RATE = 65536  # bytes/s a request body must average (besides one stall's allowance)
@@ -88,6 +91,11 @@ def _check(request: Request, changes: bool) -> None:
     settings: ApiSettings = request.app.state.api_settings
     presented = _presented_key(request)
     if presented is None:
+        session = session_role(request, changes)  # the console's cookie (rig.api.sessions)
+        if session == "admin" or (session == "read" and not changes):
+            return
+        if session == "read":
+            raise HTTPException(status.HTTP_403_FORBIDDEN, "a read-only key cannot change anything; use the API key")
         raise HTTPException(
             status.HTTP_401_UNAUTHORIZED,
             "an API key is required (header X-API-Key or Authorization: Bearer)",

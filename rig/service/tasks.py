@@ -3,6 +3,7 @@ stored result. The CLI runs these directly; the job service runs them in its wor
 
 from __future__ import annotations
 
+import json
 import shutil
 from collections.abc import Callable
 from pathlib import Path
@@ -143,9 +144,19 @@ def calibration_to_directory(
 
 def scan_summary(path: Path, result: ScanResult) -> dict[str, Any]:
     """What a finished scan job reports: counts, timings, and the files it wrote."""
+    manifest = json.loads((path / "manifest.json").read_text())
+    metrics = manifest.get("metrics") or {}
+    cloud = metrics.get("merged") or (next(iter(metrics.values())) if len(metrics) == 1 else None)
     return {
         "points": len(result.cloud),
         "frames_projected": result.frames_projected,
         "timings_ms": {k: round(v, 1) for k, v in result.timings_ms.items()},
         "files": sorted(p.name for p in path.iterdir() if p.is_file()),
+        "codec": manifest.get("codec", {}).get("name") if isinstance(manifest.get("codec"), dict) else None,
+        "economy": manifest.get("economy"),
+        # against the simulator's ground truth (none on a real bench): the cloud's, as the manifest's metrics
+        "metrics": None if not isinstance(cloud, dict) else {k: cloud.get(k) for k in _SUMMARY_METRICS if k in cloud},
     }
+
+
+_SUMMARY_METRICS = ("rms_mm", "p95_mm", "completeness", "points")

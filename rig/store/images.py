@@ -81,3 +81,21 @@ def _png(image: np.ndarray) -> bytes:
 def mask_png(mask: np.ndarray) -> bytes:
     """A boolean mask as an 8-bit PNG: white where set."""
     return _png(np.where(mask, 255, 0).astype(np.uint8))
+
+
+def depth_colour_jpeg(depth: np.ndarray) -> tuple[bytes, list[float] | None]:
+    """Depth (mm, NaN or 0 where none) as a colour-mapped JPEG to look at (near red, far blue,
+    none black) over its 1st to 99th percentile, and that range in mm (None without depth)."""
+    found = np.isfinite(depth) & (depth > 0)
+    image = np.zeros((*depth.shape, 3), np.uint8)
+    span = None
+    if found.any():
+        low, high = (float(v) for v in np.percentile(depth[found], [1, 99]))
+        scaled = np.clip((high - depth[found]) / max(high - low, 1e-6), 0, 1)
+        colours = cv2.applyColorMap((scaled * 255).astype(np.uint8).reshape(-1, 1), cv2.COLORMAP_TURBO)
+        image[found] = colours.reshape(-1, 3)
+        span = [round(low, 2), round(high, 2)]
+    ok, encoded = cv2.imencode(".jpg", image, [cv2.IMWRITE_JPEG_QUALITY, 85])
+    if not ok:  # pragma: no cover - OpenCV encodes any uint8 image
+        raise RuntimeError("JPEG encoding failed")
+    return encoded.tobytes(), span

@@ -99,6 +99,25 @@ def read_mesh_vertices(data: bytes, source: str = "mesh.ply") -> np.ndarray:
     return np.column_stack([vertex[a] for a in "xyz"]).astype(np.float64)
 
 
+def read_mesh_ply(data: bytes, source: str = "mesh.ply") -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Vertices (V, 3) float32, colours (V, 3) uint8 and triangles (F, 3) int32 of a mesh written
+    by `mesh_ply_bytes`; StoreError for any other layout or an index out of range."""
+    vertex = _read_vertices(data, source, _MESH_VERTEX, "a mesh")
+    header = data[: data.find(b"end_header\n")].decode("ascii", errors="replace").splitlines()
+    faces = next((int(line.split()[2]) for line in header if line.startswith("element face ")), 0)
+    start = data.find(b"end_header\n") + len(b"end_header\n") + vertex.nbytes
+    if len(data) < start + faces * _FACE.itemsize:
+        raise StoreError(f"{source}: truncated ({faces} faces)")
+    face = np.frombuffer(data, dtype=_FACE, count=faces, offset=start)
+    if faces and (
+        (face["count"] != 3).any() or face["vertex_indices"].min() < 0 or face["vertex_indices"].max() >= len(vertex)
+    ):
+        raise StoreError(f"{source}: faces are not triangles of its vertices")
+    points = np.column_stack([vertex[a] for a in "xyz"]).astype(np.float32)
+    colors = np.column_stack([vertex[c] for c in ("red", "green", "blue")])
+    return points, colors, face["vertex_indices"].astype(np.int32)
+
+
 def _read_vertices(data: bytes, source: str, dtype: np.dtype, what: str) -> np.ndarray:
     """The vertex element of a binary PLY whose vertex properties are exactly `dtype`'s."""
     end = data.find(b"end_header\n")

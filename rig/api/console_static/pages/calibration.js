@@ -1,0 +1,80 @@
+// Calibration: run one (simulated views on the simulated bench, or the rig's board views), then
+// its report: reprojection error per device and per view, the model, the quality warnings and
+// where the board's corners fell.
+import { get, post } from "../api.js";
+import { act, add, field, fill, fmt, h, select } from "../ui.js";
+import { follow } from "./scan.js";
+
+export async function render(main, [id]) {
+  const what = select("what", [["rig", "rig (cameras and projectors)"], "camera", "projector", ["response", "projector response"]], "rig");
+  const views = h("input", { type: "number", name: "views", min: 3, max: 40, placeholder: "the config's" });
+  const start = h("button", { type: "submit", class: "admin" }, "Calibrate");
+  const progress = h("section", { class: "card", hidden: true });
+  const form = h("form", { class: "card" }, h("div", { class: "row" }, field("What", what), field("Views", views)), h("p", { class: "actions" }, start));
+  const list = h("section", { class: "card" });
+  const report = h("section", { class: "card", hidden: true });
+  add(main, h("h1", {}, "Calibration"), form, progress, report, list);
+  let close = null;
+  form.addEventListener("submit", (e) => {
+    e.preventDefault();
+    act(async () => {
+      const body = { what: what.value };
+      if (views.value) body.views = Number(views.value);
+      const job = await post("/v1/calibrations", body);
+      if (close) close();
+      close = follow(job, progress);
+    }, start);
+  });
+  const page = await get("/v1/calibrations?limit=20");
+  add(list, h("h2", {}, "Calibrations"), h("ul", {}, page.items.map((j) => h("li", {},
+    j.state === "done" ? h("a", { href: `#/calibration/${j.id}` }, j.id) : j.id, ` · ${j.request.what} · ${j.state}`,
+    j.result && j.result.report ? ` · ${Object.values(j.result.report.devices).map((d) => `${fmt.int(d.views_used.length)} views`).join(", ")}` : ""))));
+  if (id) showReport(report, await get(`/v1/calibrations/${id}`));
+  return () => { if (close) close(); };
+}
+
+function showReport(box, job) {
+  const r = job.result || {};
+  const devices = (r.report && r.report.devices) || {};
+  box.hidden = false;
+  fill(box, h("h2", {}, `Calibration ${job.id}`),
+    r.report && r.report.warnings.length ? h("ul", { class: "problems" }, r.report.warnings.map((w) => h("li", {}, w))) : h("p", {}, "No quality warnings."),
+    ...Object.entries(devices).map(([name, d]) => h("div", { class: "device" },
+      h("h3", {}, `${name} (${d.kind}): rms ${d.rms_px.toFixed(3)} px, model ${d.model}`),
+      h("p", {}, `coverage ${fmt.pct(d.coverage)}`, d.stereo_rms_px === null ? "" : ` · stereo rms ${d.stereo_rms_px.toFixed(3)} px`,
+        d.held_out_rms_px === null || d.held_out_rms_px === undefined ? "" : ` · held-out rms ${Number(d.held_out_rms_px).toFixed(3)} px`),
+      barChart(d.per_view_rms_px, d.rejected_views, `${name}: reprojection error per view (px)`),
+      (r.files || []).filter((f) => f.startsWith("coverage") && f.includes(name)).map((f) => h("img", { src: `${job.links.self}/files/${f}`, alt: `${name}: corners of every view`, class: "preview" })))));
+}
+
+// Reprojection error per view as bars (rejected views grey), drawn as SVG.
+function barChart(perView, rejected, title) {
+  const ns = "http://www.w3.org/2000/svg";
+  const entries = Object.entries(perView);
+  const peak = Math.max(0.001, ...entries.map(([, v]) => v));
+  const svg = document.createElementNS(ns, "svg");
+  const width = Math.max(200, entries.length * 24), height = 140;
+  svg.setAttribute("viewBox", `0 0 ${width} ${height}`);
+  svg.setAttribute("class", "chart");
+  svg.setAttribute("role", "img");
+  svg.setAttribute("aria-label", title);
+  entries.forEach(([view, value], i) => {
+    const bar = document.createElementNS(ns, "rect");
+    const barHeight = (value / peak) * (height - 30);
+    bar.setAttribute("x", String(i * 24 + 4)); bar.setAttribute("width", "18");
+    bar.setAttribute("y", String(height - 16 - barHeight)); bar.setAttribute("height", String(barHeight));
+    bar.setAttribute("class", view in rejected ? "rejected" : "bar");
+    const tip = document.createElementNS(ns, "title");
+    tip.textContent = `view ${view}: ${value.toFixed(3)} px${view in rejected ? ` (rejected: ${rejected[view]})` : ""}`;
+    bar.append(tip);
+    const label = document.createElementNS(ns, "text");
+    label.setAttribute("x", String(i * 24 + 13)); label.setAttribute("y", String(height - 3));
+    label.textContent = view;
+    svg.append(bar, label);
+  });
+  const top = document.createElementNS(ns, "text");
+  top.setAttribute("x", "4"); top.setAttribute("y", "12");
+  top.textContent = `max ${peak.toFixed(3)} px`;
+  svg.append(top);
+  return h("figure", {}, svg, h("figcaption", {}, title));
+}

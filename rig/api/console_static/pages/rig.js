@@ -1,0 +1,42 @@
+// Rig: the devices and their state, health, and the job queue with cancel.
+import { get, post } from "../api.js";
+import { act, add, every, fill, fmt, h, table } from "../ui.js";
+
+export async function render(main) {
+  const status = h("section", { class: "card" });
+  const devices = h("section", { class: "card" });
+  const jobs = h("section", { class: "card" });
+  add(main, h("h1", {}, "Rig"), h("div", { class: "grid" }, status, devices), jobs);
+
+  const refresh = async () => {
+    const [health, rig, scans, calibrations] = await Promise.all([
+      get("/v1/health"), get("/v1/rig"),
+      get("/v1/scans?limit=10"), get("/v1/calibrations?limit=5"),
+    ]);
+    fill(status, 
+      h("h2", {}, rig.name),
+      h("p", {}, h("span", { class: `state ${rig.state}` }, rig.state), rig.simulated ? " · simulated bench" : " · hardware"),
+      h("p", {}, `daemon ${health.version}: `, h("strong", {}, health.status)),
+      health.problems.length ? h("ul", { class: "problems" }, health.problems.map((p) => h("li", {}, p))) : null,
+      rig.last_error ? h("p", { class: "notice error" }, `last device fault: ${rig.last_error}`) : null,
+      h("p", {}, `queue: ${rig.queue.queued} of ${rig.queue.max}`, rig.running ? ` · running ${rig.running}` : ""),
+    );
+    fill(devices, h("h2", {}, "Devices"), table(
+      ["name", "kind", "driver", "resolution", "open"],
+      rig.devices.map((d) => [d.name, d.kind, d.driver, d.resolution ? d.resolution.join(" × ") : "–", d.open ? "yes" : "no"]),
+    ));
+    const active = [...scans.items, ...calibrations.items].filter((j) => j.state === "queued" || j.state === "running");
+    const recent = [...scans.items, ...calibrations.items].sort((a, b) => (a.created < b.created ? 1 : -1)).slice(0, 8);
+    fill(jobs, 
+      h("h2", {}, "Jobs"),
+      active.length ? null : h("p", { class: "muted" }, "Nothing queued or running."),
+      table(["job", "kind", "state", "stage", "progress", ""], recent.map((j) => [
+        j.id, j.kind, h("span", { class: `state ${j.state}` }, j.state), j.stage || "–", fmt.pct(j.fraction),
+        j.state === "queued" || j.state === "running"
+          ? h("button", { type: "button", class: "admin", onclick: (e) => act(() => post(`${j.links.self}/cancel`), e.target) }, "Cancel")
+          : "",
+      ])),
+    );
+  };
+  return every(2000, refresh);
+}

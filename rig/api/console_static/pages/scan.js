@@ -1,0 +1,84 @@
+// Scan: codec and options, a ring plan or adaptive, start; progress by stage with the time left
+// from the job's events; cancel; the result when it is done.
+import { events, get, post } from "../api.js";
+import { act, add, field, fill, fmt, h, notice, select } from "../ui.js";
+
+export async function render(main) {
+  const codecs = await get("/v1/codecs");
+  const codec = select("codec", codecs.map((c) => [c.name, `${c.name} · ${c.frames} patterns`]), codecs.find((c) => c.default)?.name);
+  const label = h("input", { name: "label", maxlength: 200, placeholder: "free text kept with the scan" });
+  const keep = h("input", { type: "checkbox", name: "keep_frames" });
+  const adaptive = h("input", { type: "checkbox", name: "adaptive" });
+  const tolerance = h("input", { type: "number", name: "tolerance_mm", min: 0.001, step: "any", placeholder: "the config's" });
+  const plan = h("textarea", { name: "plan", rows: 3, placeholder: "a ring plan (JSON, as slrig plan rings --out writes it); empty: none" });
+  const start = h("button", { type: "submit", class: "admin" }, "Start scan");
+  const form = h("form", { class: "card" },
+    h("div", { class: "row" }, field("Codec", codec), field("Label", label)),
+    h("div", { class: "row" }, field("Keep the raw frames (to reprocess)", keep), field("Adaptive rings (pilot, plan, rings)", adaptive), field("Tolerance (mm)", tolerance)),
+    field("Ring plan", plan), h("p", { class: "actions" }, start));
+  const progress = h("section", { class: "card", hidden: true });
+  add(main, h("h1", {}, "Scan"), form, progress);
+
+  let close = null;
+  form.addEventListener("submit", (e) => {
+    e.preventDefault();
+    act(async () => {
+      const body = { codec: codec.value, keep_frames: keep.checked, adaptive: adaptive.checked };
+      if (label.value) body.label = label.value;
+      if (adaptive.checked && tolerance.value) body.tolerance_mm = Number(tolerance.value);
+      if (plan.value.trim()) {
+        try { body.plan = JSON.parse(plan.value); } catch { throw new Error("plan: not JSON"); }
+      }
+      const job = await post("/v1/scans", body);
+      if (close) close();
+      close = follow(job, progress);
+    }, start);
+  });
+  return () => { if (close) close(); };
+}
+
+// Show a job's progress until it ends; returns the function that stops following it.
+export function follow(job, box) {
+  const bar = h("progress", { max: 1, value: 0, "aria-label": "progress" });
+  const stage = h("p", { class: "stage" }, "queued");
+  const cancel = h("button", { type: "button", class: "admin" }, "Cancel");
+  const result = h("div", { class: "result" });
+  box.hidden = false;
+  fill(box, h("h2", {}, `Scan ${job.id}`), bar, stage, h("p", { class: "actions" }, cancel), result);
+  box.dataset.state = job.state;
+  cancel.addEventListener("click", () => act(() => post(`${job.links.self}/cancel`), cancel));
+  return events(job.links.events, {
+    progress: (p) => {
+      bar.value = p.fraction;
+      const left = p.remaining_s === null ? "" : ` · about ${fmt.s(p.remaining_s)} left`;
+      stage.textContent = `${p.stage} · ${fmt.pct(p.fraction)} · ${fmt.s(p.elapsed_s)} so far${left}`;
+    },
+    state: async (s, e) => {
+      box.dataset.state = s.state;
+      if (s.state === "queued" || s.state === "running") { stage.textContent = s.state; return; }
+      e.target.close();
+      cancel.hidden = true;
+      if (s.state !== "done") { stage.textContent = `${s.state}${s.error ? `: ${s.error}` : ""}`; return; }
+      bar.value = 1;
+      const done = await get(job.links.self);
+      stage.textContent = "done";
+      fill(result, summary(done));
+      notice(`Scan ${job.id} is done.`);
+    },
+  });
+}
+
+export function summary(job) {
+  const r = job.result || {};
+  const files = r.files || [];
+  return h("div", { class: "row" },
+    files.includes("preview.png") ? h("img", { src: `${job.links.self}/files/preview.png`, alt: `preview of ${job.id}`, class: "preview" }) : null,
+    h("dl", {},
+      h("dt", {}, "points"), h("dd", {}, fmt.int(r.points)),
+      h("dt", {}, "codec"), h("dd", {}, r.codec || job.request.codec || "–"),
+      h("dt", {}, "patterns"), h("dd", {}, fmt.int(r.frames_projected)),
+      h("dt", {}, "rms against the truth"), h("dd", {}, r.metrics ? fmt.mm(r.metrics.rms_mm) : "– (no ground truth)"),
+      h("dt", {}, "files"), h("dd", {}, files.map((f) => h("a", { href: `${job.links.self}/files/${f}`, download: f }, f, " "))),
+    ),
+    h("p", {}, h("a", { href: `#/viewer/${job.id}`, class: "button" }, "Open in the 3D viewer")));
+}
