@@ -126,3 +126,28 @@ def test_oak_late_answer_is_never_taken_for_the_next_frame() -> None:
             camera.capture(timeout_s=0.3)  # its answer comes late ...
         with pytest.raises(DeviceDisconnectedError, match="not running"):
             camera.capture(timeout_s=0.3)  # ... so the worker was abandoned, not read out of step
+
+
+# --- gain, as the console sets it ----------------------------------------------------------------
+def test_gain_reaches_each_driver_that_has_it_and_one_without_says_so() -> None:
+    fake = FakeVideoCapture()
+    with V4l2Camera("v4l2", "fake", SIZE, capture_factory=lambda device: fake) as v4l2:
+        v4l2.set_gain(6.0)
+        assert fake.props[cv2.CAP_PROP_GAIN] == 6.0 and v4l2.capture().gain == 6.0
+    sim = _sim()
+    with sim:
+        dim = float(sim.capture().image.mean())
+        sim.set_gain(4.0)
+        frame = sim.capture()
+        assert frame.gain == 4.0 and float(frame.image.mean()) > 2.5 * dim  # the sensor model amplifies
+    with _oak() as oak:
+        oak.set_gain(2.0)
+        assert oak.iso == 200 and oak.capture().gain == 2.0
+    with pytest.raises(ValueError, match="gain must be in"):
+        sim.set_gain(100.0)
+
+    class NoGain(SimCamera):
+        has_gain = False
+
+    with pytest.raises(DeviceError, match="no gain control"):
+        NoGain("plain", sim._bench, 0).set_gain(2.0)

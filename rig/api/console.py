@@ -1,5 +1,5 @@
 """The operator's console: static pages served from inside the package (`/` and `/console/...`)
-and the API's docs (`/docs`) with Swagger UI's files from the swagger-ui-bundle wheel, so that
+and the API's docs (`/docs`) with Swagger UI's files from the swagger-ui-bundle-v2 wheel, so that
 nothing is loaded from another host: the console works on a lab network without internet.
 
 Every page answers with a Content-Security-Policy that allows only this origin's scripts,
@@ -22,7 +22,7 @@ CSP = (
 )
 DOCS_CSP = CSP.replace("style-src 'self'", "style-src 'self' 'unsafe-inline'")  # Swagger UI styles its widgets
 DOCS_PAGE = """<!doctype html>
-<html lang="en"><head><meta charset="utf-8"><title>slrig API</title>
+<html lang="en"><head><meta charset="utf-8"><title>slrig API</title><link rel="icon" href="data:,">
 <link rel="stylesheet" href="/console/vendor/swagger/swagger-ui.css"></head>
 <body><div id="swagger-ui"></div>
 <script src="/console/vendor/swagger/swagger-ui-bundle.js"></script>
@@ -31,7 +31,7 @@ DOCS_PAGE = """<!doctype html>
 
 
 def swagger_dir() -> Path | None:
-    """Swagger UI's files as the swagger-ui-bundle wheel ships them, or None without it."""
+    """Swagger UI's files as the swagger-ui-bundle-v2 wheel ships them, or None without it."""
     try:
         import swagger_ui_bundle
     except ImportError:

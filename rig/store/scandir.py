@@ -84,9 +84,9 @@ def build_manifest(
                     "driver": c.driver,
                     "resolution": list(c.resolution),
                     "bit_depth": c.bit_depth,
-                    "exposure_us": c.exposure_us,
+                    "exposure_us": _exposure_us(the_rig, i, c.exposure_us),
                 }
-                for c in config.cameras
+                for i, c in enumerate(config.cameras)
             ],
         },
         "calibration_sha256": calibration_hashes(the_rig),
@@ -164,6 +164,12 @@ def _write_depth(path: Path, depth: np.ndarray | None) -> bool:
         return False
     write_atomic(path, depth_image_png(depth))
     return True
+
+
+def _exposure_us(the_rig: Rig, camera: int, configured: float) -> float:
+    """The exposure the camera had (an operator may have set it while aiming), else the config's."""
+    devices = the_rig.cameras
+    return devices[camera].exposure_us if camera < len(devices) else configured
 
 
 def write_scan(

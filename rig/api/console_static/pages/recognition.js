@@ -8,9 +8,9 @@ export async function render(main) {
   const scan = select("scan", scans.items.map((j) => [j.id, `${j.id}${j.request.label ? ` · ${j.request.label}` : ""}`]), scans.items[0]?.id);
   const identify = h("button", { type: "submit", class: "admin" }, "Identify");
   const label = h("input", { name: "label", pattern: "[A-Za-z0-9._-]+", placeholder: "label" });
-  const add = h("button", { type: "button", class: "admin" }, "Add to the gallery");
+  const addEntry = h("button", { type: "button", class: "admin" }, "Add to the gallery");
   const result = h("div", {});
-  const form = h("form", { class: "card" }, h("div", { class: "row" }, field("Scan", scan), identify, field("Label", label), add), result);
+  const form = h("form", { class: "card" }, h("div", { class: "row" }, field("Scan", scan), identify, field("Label", label), addEntry), result);
   add(main, h("h1", {}, "Recognition"), form,
     h("section", { class: "card" }, h("h2", {}, `Gallery: ${entries.length} entries`),
       table(["entry", "label", "scan"], entries.map((e) => [e.id ?? "–", e.label ?? "–", e.scan_id ?? "–"]))));
@@ -24,6 +24,6 @@ export async function render(main) {
         table(["rank", "label", "score", ""], ranked.map((m, i) => [i + 1, m.label, Number(m.score).toFixed(3), m.score >= answer.threshold ? "above the threshold" : "below"])));
     }, identify);
   });
-  add.addEventListener("click", () => act(async () => { await post("/v1/gallery", { scan_id: scan.value, label: label.value }); location.reload(); }, add));
+  addEntry.addEventListener("click", () => act(async () => { await post("/v1/gallery", { scan_id: scan.value, label: label.value }); location.reload(); }, addEntry));
   return null;
 }
