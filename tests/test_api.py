@@ -231,7 +231,7 @@ def test_a_running_scan_can_be_cancelled_and_the_projector_goes_dark(tmp_path: P
             assert answer.status_code == 202 and answer.json()["state"] == "running"  # it stops at its next step
             job = wait_done(c, job_id)
             assert job["state"] == "cancelled" and job["error"] == "cancelled while running"
-            assert all(p.is_dark for p in s._rig.projectors)  # type: ignore[union-attr, attr-defined]
+            assert all(p.is_dark for p in s.open_rig.projectors)  # type: ignore[union-attr, attr-defined]
             assert not (s.scans_dir / job_id).exists() and not list(s.scans_dir.glob("*.partial"))
             assert c.delete(f"/v1/scans/{job_id}", headers=AUTH).status_code == 204
     finally:
@@ -366,7 +366,7 @@ def test_a_device_fault_fails_the_scan_and_the_daemon_goes_on(tmp_path: Path) ->
             assert failed["state"] == "failed" and "disconnected" in failed["error"]
             rig = c.get("/v1/rig").json()
             assert rig["state"] == "fault" and "disconnected" in rig["last_error"]
-            assert s._rig is None  # closed (dark) after the fault, reopened by the next job
+            assert s.open_rig is None  # closed (dark) after the fault, reopened by the next job
             again = wait_done(c, c.post("/v1/scans", json={}, headers=AUTH).json()["id"])
             assert again["state"] == "failed"  # the simulated camera fails the same way: still answered
             assert c.get("/v1/health").json()["status"] == "ok"

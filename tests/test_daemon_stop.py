@@ -137,7 +137,7 @@ def test_a_stalled_scan_is_cancelled_before_its_capture_timeout(tmp_path: Path) 
         while service.job(job_id).state is JobState.RUNNING and time.monotonic() < deadline:
             time.sleep(0.01)
         assert service.job(job_id).state is JobState.CANCELLED  # the wait was cut, not timed out
-        assert all(p.is_dark for p in service._rig.projectors)  # type: ignore[union-attr, attr-defined]
+        assert all(p.is_dark for p in service.open_rig.projectors)  # type: ignore[union-attr, attr-defined]
     finally:
         service.shutdown(5.0)
 
@@ -159,7 +159,7 @@ def test_a_worker_that_cannot_be_interrupted_is_not_waited_for(tmp_path: Path, m
     service.start()
     job_id = service.submit_scan({}).id
     assert computing.wait(STUCK_S)
-    rig = service._rig
+    rig = service.open_rig
     assert rig is not None
     service.shutdown(SHUTDOWN_S, wait_for_worker=False)
     try:

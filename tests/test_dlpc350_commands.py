@@ -8,11 +8,11 @@ import struct
 
 import pytest
 
-from drivers.base import PatternSequence, SequenceEntry, TriggerMode
 from drivers.dlp import lcr4500
 from drivers.dlp.commands import COMMANDS, PATTERN_LUT_ENTRY
 from drivers.dlp.lut import image_lut_bytes
 from drivers.fakes.dlpc350 import FakeLcr4500
+from drivers.sequences import PatternSequence, SequenceEntry, TriggerMode
 from tests.test_projectors import _lcr
 
 # three 8-bit patterns in one video frame of a 30 Hz input (each needs 8333 us)

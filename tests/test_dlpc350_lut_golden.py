@@ -8,10 +8,10 @@ from __future__ import annotations
 
 import pytest
 
-from drivers.base import EntryTrigger, PatternSequence, SequenceEntry, TriggerMode
 from drivers.dlp.lut import lut_words
 from drivers.errors import DeviceProtocolError
 from drivers.fakes.dlpc350 import FakeLcr4500
+from drivers.sequences import EntryTrigger, PatternSequence, SequenceEntry, TriggerMode
 from tests.test_projectors import _lcr
 
 INT, EXT, CONT = EntryTrigger.INTERNAL, EntryTrigger.EXTERNAL, EntryTrigger.CONTINUE

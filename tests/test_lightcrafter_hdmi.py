@@ -12,12 +12,13 @@ from typing import Any
 import numpy as np
 import pytest
 
-from drivers.base import PatternSequence, ProjectorMode, SequenceEntry, TriggerMode
+from drivers.base import ProjectorMode
 from drivers.dlp.hdmi_patterns import CHANNEL_OF_PATTERN, LightCrafterHdmiProjector, pack_frames
 from drivers.dlp.lcr4500 import PRODUCT_ID, RESOLUTION, VENDOR_ID, Lcr4500Projector
 from drivers.errors import DeviceProtocolError
 from drivers.fakes.dlpc350 import FakeLcr4500, finder_for
 from drivers.hdmi.projector import HdmiProjector
+from drivers.sequences import PatternSequence, SequenceEntry, TriggerMode
 from drivers.sim.bench import SimBench
 from drivers.usbhid import PyUsbHidTransport
 from rig.assembly import open_rig

@@ -144,7 +144,7 @@ def test_a_queued_scan_pauses_live_mode_which_then_resumes(client: tuple[TestCli
     deadline = time.monotonic() + 10
     while c.get("/v1/rig").json()["state"] != "idle" and time.monotonic() < deadline:
         time.sleep(0.05)
-    assert all(p.is_dark for p in service._rig.projectors)  # type: ignore[union-attr, attr-defined]
+    assert all(p.is_dark for p in service.open_rig.projectors)  # type: ignore[union-attr, attr-defined]
 
 
 def test_live_mode_stops_at_its_time_limit(client: tuple[TestClient, JobService]) -> None:

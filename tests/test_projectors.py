@@ -8,7 +8,6 @@ import time
 import numpy as np
 import pytest
 
-from drivers.base import PatternSequence, SequenceEntry, TriggerMode
 from drivers.dlp.lcr4500 import PRODUCT_ID, VENDOR_ID, Lcr4500Projector
 from drivers.dlp.lut import lut_entry
 from drivers.dlp.protocol import encode
@@ -21,6 +20,7 @@ from drivers.errors import (
 )
 from drivers.fakes.dlpc350 import FakeLcr4500, Faults, finder_for
 from drivers.hdmi.projector import HdmiProjector
+from drivers.sequences import PatternSequence, SequenceEntry, TriggerMode
 from drivers.usbhid import PyUsbHidTransport
 
 SEQUENCE = PatternSequence(tuple(SequenceEntry(i % 3, 8) for i in range(6)), 8333, 8333, TriggerMode.EXTERNAL)

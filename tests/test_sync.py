@@ -96,7 +96,7 @@ def test_hardware_trigger_path_gives_the_same_cloud(tmp_path: Path, capsys: pyte
 
 
 def test_a_missed_trigger_fails_the_scan(tmp_path: Path) -> None:
-    from drivers.base import TriggerMode
+    from drivers.sequences import TriggerMode
     from rig.errors import ScanError
     from rig.pipeline.scan import run_scan
 

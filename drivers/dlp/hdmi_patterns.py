@@ -26,10 +26,11 @@ import time
 
 import numpy as np
 
-from drivers.base import PatternSequence, Projector, ProjectorMode, SequenceEntry, TriggerMode
+from drivers.base import Projector, ProjectorMode
 from drivers.dlp.lcr4500 import Lcr4500Projector
 from drivers.errors import DeviceStateError
 from drivers.hdmi.projector import HdmiProjector
+from drivers.sequences import PatternSequence, SequenceEntry, TriggerMode
 
 CHANNEL_OF_PATTERN = (1, 0, 2)  # 8-bit pattern k of a frame is green, red, blue (RGB indices)
 PATTERN_BIT_DEPTH = 8

@@ -16,7 +16,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from drivers.base import PatternSequence, Projector, ProjectorMode, TriggerMode
+from drivers.base import Projector, ProjectorMode
 from drivers.dlp.lut import (
     buffer_swaps,
     image_lut_bytes,
@@ -29,6 +29,7 @@ from drivers.dlp.lut import (
 from drivers.dlp.protocol import DlpcProtocol
 from drivers.errors import DeviceError, DeviceProtocolError, DeviceStateError, DeviceTimeoutError
 from drivers.options import LIGHTCRAFTER_MIN_8BIT_PERIOD_US, LIGHTCRAFTER_RESOLUTION
+from drivers.sequences import PatternSequence, TriggerMode
 from drivers.usbhid import HidTransport, PyUsbHidTransport
 
 log = logging.getLogger(__name__)

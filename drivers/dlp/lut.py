@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import struct
 
-from drivers.base import EntryTrigger, PatternSequence, SequenceEntry, TriggerMode
+from drivers.sequences import EntryTrigger, PatternSequence, SequenceEntry, TriggerMode
 
 # LUT bits 1:0 (API, DLPC350_AddToPatLut's comment): 0 internal, 1 external positive, 2 external
 # negative, 3 no input trigger (continue from the previous; the pattern keeps its full exposure).

@@ -9,7 +9,7 @@ from typing import Any
 
 import numpy as np
 
-from drivers.base import Camera, Frame, TriggerMode
+from drivers.base import Camera, Frame
 from drivers.childproc import WorkerDevice, WorkerProcess
 from drivers.errors import (
     DeviceDisconnectedError,
@@ -18,6 +18,7 @@ from drivers.errors import (
     DeviceProtocolError,
     DeviceTimeoutError,
 )
+from drivers.sequences import TriggerMode
 
 _ERRORS: dict[str, type[DeviceError]] = {
     "notfound": DeviceNotFoundError,

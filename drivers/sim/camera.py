@@ -4,10 +4,11 @@ from __future__ import annotations
 
 import time
 
-from drivers.base import Camera, Frame, TriggerMode
+from drivers.base import Camera, Frame
 from drivers.errors import DeviceDisconnectedError, DeviceTimeoutError
 from drivers.fakes.faults import Fault, FaultPlan
 from drivers.options import SimFaults
+from drivers.sequences import TriggerMode
 from drivers.sim.bench import SimBench
 
 

@@ -4,8 +4,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from drivers.base import PatternSequence, Projector, ProjectorMode
+from drivers.base import Projector, ProjectorMode
 from drivers.errors import DeviceStateError
+from drivers.sequences import PatternSequence
 from drivers.sim.bench import SimBench
 
 

@@ -6,9 +6,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from drivers.base import PatternSequence, Projector, ProjectorMode, SequenceEntry, TriggerMode
+from drivers.base import Projector, ProjectorMode
 from drivers.errors import DeviceError, DeviceStateError
 from drivers.fakes.faults import Fault
+from drivers.sequences import PatternSequence, SequenceEntry, TriggerMode
 from drivers.testing.kit import FAULT_GRACE_S, Contract, Kit, fails_within
 
 SEQUENCE = PatternSequence(tuple(SequenceEntry(i % 3, 8) for i in range(6)), 8333, 8333, TriggerMode.EXTERNAL)

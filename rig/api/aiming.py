@@ -67,9 +67,12 @@ class CameraView(BaseModel):
 
 def aiming_router(service: JobService, errors: Errors) -> APIRouter:
     router = APIRouter(tags=["aim"], responses=errors)
-    views = FrameViews()
-    waiters = Slots("frame requests", MAX_FRAME_WAITERS, 8)
+    _aim_routes(router, service)
+    _camera_routes(router, service)
+    return router
 
+
+def _aim_routes(router: APIRouter, service: JobService) -> None:
     @router.post("/aim", status_code=status.HTTP_202_ACCEPTED, response_model=AimView, dependencies=MUTATING)
     def start_aim(body: AimStart) -> dict[str, Any]:
         fields = body.model_dump(exclude={"seconds"})
@@ -83,6 +86,11 @@ def aiming_router(service: JobService, errors: Errors) -> APIRouter:
     @router.get("/aim", response_model=AimView, dependencies=READING)
     def aim_status() -> dict[str, Any]:
         return service.aim.view()
+
+
+def _camera_routes(router: APIRouter, service: JobService) -> None:
+    views = FrameViews()
+    waiters = Slots("frame requests", MAX_FRAME_WAITERS, 8)
 
     @router.get("/cameras", response_model=list[CameraView], dependencies=READING)
     def cameras() -> list[dict[str, Any]]:
@@ -127,8 +135,6 @@ def aiming_router(service: JobService, errors: Errors) -> APIRouter:
         finally:
             release()
         return Response(view.jpeg, media_type="image/jpeg", headers=view.headers)
-
-    return router
 
 
 async def _newer_frame(

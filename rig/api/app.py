@@ -156,6 +156,7 @@ def _error_handlers(app: FastAPI) -> None:
     app.add_exception_handler(RecognitionError, handler(422))  # too little surface, an empty gallery
     app.add_exception_handler(ImportNotFoundError, handler(404))
     app.add_exception_handler(ImportTooLargeError, handler(413))
+    app.add_exception_handler(SetupRefusedError, handler(409))  # what this rig or its driver does not have
 
     async def config_error(request: Request, exc: Exception) -> JSONResponse:
         problems = exc.problems if isinstance(exc, (ConfigError, PatternSpecError)) else [str(exc)]
@@ -166,7 +167,7 @@ def _error_handlers(app: FastAPI) -> None:
     app.add_exception_handler(StarletteHTTPException, method_not_allowed)  # 405: Allow lists every method
     app.add_exception_handler(ConfigError, config_error)
     # what a reconstruction request names, refused in the shape of FastAPI's own 422
-    for refused in (PatternSpecError, ImportRefusedError, FramesError, CalibrationError, SetupRefusedError):
+    for refused in (PatternSpecError, ImportRefusedError, FramesError, CalibrationError):
         app.add_exception_handler(refused, config_error)
 
 

@@ -13,8 +13,9 @@ from collections.abc import Callable, Iterable
 
 import numpy as np
 
-from drivers.base import Frame, PatternSequence, ProjectorMode, SequenceEntry, TriggerMode
+from drivers.base import Frame, ProjectorMode
 from drivers.errors import DeviceError
+from drivers.sequences import PatternSequence, SequenceEntry, TriggerMode
 from rig.errors import CaptureFaultError, ScanError
 from rig.patterns import Codec
 from rig.progress import ProgressTracker

@@ -6,8 +6,10 @@ from __future__ import annotations
 import logging
 from collections.abc import Callable
 
+from drivers.base import Frame
 from drivers.errors import DeviceError
 from rig.errors import CaptureFaultError
+from rig.rig import Rig
 from rig.service.aim import AimMode
 from rig.service.camera_settings import CameraSettings
 from rig.service.errors import JobCancelledError
@@ -32,6 +34,12 @@ class IdleWork:
         report (GET /v1/rig) until a job succeeds."""
         self.rigs, self.live, self.aim, self.settings = rigs, live, aim, settings
         self._checkpoint, self._jobs_waiting, self._on_fault = checkpoint, jobs_waiting, on_fault
+
+    def prepare(self, rig: Rig, tap: Callable[[int, Frame], None]) -> None:
+        """A rig the worker has just opened: every frame it captures goes to `tap` (the camera
+        views), and the camera settings the operator set apply to it."""
+        rig.tap = tap
+        self.settings.apply_kept(rig)
 
     def wanted(self) -> bool:
         return self.settings.pending() or self.live.wanted() or self.aim.wanted()

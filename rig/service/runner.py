@@ -74,10 +74,10 @@ class JobService:
         self._stopping = False
         self._rigs = WorkerRig(config, self._cond, lambda: self._stopping, self._checkpoint)
         self._cancel = self._rigs.cancel
-        self._rigs.on_open = self._opened
         self._idle = IdleWork(
             self._rigs, self.live, self.aim, self.camera_settings, self._checkpoint, self._jobs_waiting, self._fault
         )
+        self._rigs.on_open = lambda rig: self._idle.prepare(rig, self.frames.publish)
         self._shutdown_lock = threading.Lock()
         self._shut_down = False
         self._rig_error: str | None = None
@@ -343,10 +343,6 @@ class JobService:
             log.exception("job %s: its state could not be read to publish", job_id)
             return
         self.events.publish(job_id, "state", {"id": job.id, "state": job.state, "error": job.error})
-
-    def _opened(self, rig: Rig) -> None:
-        rig.tap = self.frames.publish
-        self.camera_settings.apply_kept(rig)
 
     def _jobs_waiting(self) -> bool:
         return bool(self._queue) or self._stopping

@@ -52,6 +52,7 @@ export function viewerPanel(job) {
     info.textContent = `${fmt.int(h0.points)} of ${fmt.int(h0.total)} points · ${(buffer.byteLength / 1e6).toFixed(1)} MB in ${((performance.now() - started) / 1000).toFixed(2)} s`;
     canvas.dataset.points = String(h0.points);
     canvas.dataset.drawn = "1";
+    canvas.dataset.drawnAt = String(performance.now());  // since the page's navigation: bench/console.py
     full.hidden = h0.points >= h0.total;
   };
   full.addEventListener("click", () => load(0).catch((err) => notice(err.message, "error")));

@@ -1,0 +1,115 @@
+"""Screenshots of the console's main pages for the manual (docs/images/console_*.png), taken from a
+running daemon on the default simulated bench in Debian's headless chromium: the rig, aiming with
+the crosshair, a finished scan, its cloud in the 3D viewer, the scans list, live mode and a
+calibration report.
+
+    python bench/console_screenshots.py
+
+Prints JSON: the images written, and the scan and calibration they show.
+"""
+
+from __future__ import annotations
+
+import json
+import shutil
+import sys
+import tempfile
+import time
+from pathlib import Path
+from typing import Any
+
+REPO = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(REPO))
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+from _daemon import daemon_config  # noqa: E402
+
+from tests.conftest import default_config_data  # noqa: E402
+from tests.test_daemon import KEY, Daemon  # noqa: E402
+
+IMAGES = REPO / "docs" / "images"
+VIEWPORT = {"width": 1280, "height": 860}
+
+
+def _until(page: Any, script: str, timeout_s: float = 300.0) -> Any:
+    deadline = time.monotonic() + timeout_s
+    while time.monotonic() < deadline:
+        value = page.evaluate(script)
+        if value:
+            return value
+        time.sleep(0.1)
+    raise RuntimeError(f"not within {timeout_s} s: {script}")
+
+
+def _shoot(page: Any, name: str, written: list[str]) -> None:
+    path = IMAGES / f"console_{name}.png"
+    page.screenshot(path=str(path))
+    written.append(str(path.relative_to(REPO)))
+
+
+def take(daemon: Daemon) -> dict[str, Any]:
+    from playwright.sync_api import sync_playwright
+
+    chromium = shutil.which("chromium")
+    if chromium is None:
+        raise SystemExit("no chromium: apt-get install chromium")
+    written: list[str] = []
+    with sync_playwright() as p:
+        browser = p.chromium.launch(executable_path=chromium, args=["--no-sandbox"])
+        page = browser.new_page(viewport=VIEWPORT)
+        page.goto(daemon.url + "/")
+        page.fill("input[name=key]", KEY)
+        page.press("input[name=key]", "Enter")
+        page.wait_for_selector("h1:has-text('Rig')")
+        page.goto(daemon.url + "/#/aim")
+        page.select_option("select[name=pattern]", "crosshair")
+        page.click("text=Show pattern")
+        _until(page, "() => Number(document.querySelector('canvas.frame')?.dataset.frame) > 10")
+        page.evaluate("() => document.querySelector('.camera').scrollIntoView()")
+        _shoot(page, "aim", written)
+        page.click("text=Dark")
+        page.goto(daemon.url + "/#/scan")
+        page.fill("input[name=label]", "sphere on the plane")
+        page.click("text=Start scan")
+        _until(page, "() => document.querySelector('section[data-state]')?.dataset.state === 'done'")
+        page.evaluate("() => document.querySelector('section[data-state]').scrollIntoView()")
+        _shoot(page, "scan", written)
+        scan_id = page.evaluate("() => document.querySelector('section[data-state] h2').textContent.split(' ')[1]")
+        page.goto(f"{daemon.url}/#/viewer/{scan_id}")
+        _until(page, "() => document.querySelector('canvas.viewer')?.dataset.drawn")
+        page.select_option("select[name=mode]", "depth")
+        canvas = page.locator("canvas.viewer")
+        box = canvas.bounding_box()
+        page.mouse.move(box["x"] + box["width"] / 2, box["y"] + box["height"] / 2)
+        page.mouse.down()
+        page.mouse.move(box["x"] + box["width"] / 2 + 120, box["y"] + box["height"] / 2 + 60, steps=8)
+        page.mouse.up()
+        time.sleep(0.3)
+        _shoot(page, "viewer", written)
+        page.goto(daemon.url + "/#/live")
+        page.click("text=Start")
+        _until(page, "() => Number(document.querySelector('img.depth')?.dataset.sequence) > 2")
+        _shoot(page, "live", written)
+        page.click("text=Stop")
+        page.goto(daemon.url + "/#/scans")
+        time.sleep(1.0)
+        _shoot(page, "scans", written)
+        page.goto(daemon.url + "/#/rig")
+        time.sleep(1.0)
+        _shoot(page, "rig", written)
+        browser.close()
+    return {"images": written, "scan": scan_id}
+
+
+def main() -> None:
+    with tempfile.TemporaryDirectory() as tmp:
+        folder = Path(tmp)
+        daemon = Daemon(daemon_config(folder, folder / "data", default_config_data()), folder / "daemon.log")
+        try:
+            print(json.dumps(take(daemon), indent=2))
+        finally:
+            daemon.stop()
+
+
+if __name__ == "__main__":
+    main()
