@@ -7,7 +7,7 @@ bench, config/sim.yaml) and Debian's headless chromium driven by Playwright:
 - camera-view frames per second delivered to one and to four clients while scans run, and the scans'
   time with and without four viewers open.
 
-    python bench/console.py [--scans 3] [--readme]
+    python bench/console.py [--rounds 9] [--readme]
 
 --readme writes the table into docs/console.md. Prints JSON.
 """
@@ -87,15 +87,45 @@ class Viewers:
             t.join(35)
 
 
-def scans_with_viewers(daemon: Daemon, viewers: int, scans: int) -> dict[str, Any]:
-    watching = Viewers(daemon, viewers)
-    started = time.monotonic()
-    times = [_seconds(_scan(daemon)) for _ in range(scans)]
-    elapsed = time.monotonic() - started
-    watching.close()
-    out: dict[str, Any] = {"viewers": viewers, "scan_s_median": round(statistics.median(times), 3), "scan_s": times}
-    if viewers:
-        out["frames_per_s_per_viewer"] = [round(n / elapsed, 2) for n in watching.received]
+def interleaved(daemon: Daemon, rounds: int) -> list[dict[str, Any]]:
+    """Scans alone, with one viewer and with four, in turn, `rounds` times (so that the machine's
+    drift falls on each alike); each viewer count's median scan time and frames delivered per
+    second to each viewer while its scans ran."""
+    counts = (0, 1, 4)
+    times: dict[int, list[float]] = {n: [] for n in counts}
+    rates: dict[int, list[float]] = {n: [] for n in counts}
+    for _ in range(rounds):
+        for n in counts:
+            watching = Viewers(daemon, n)
+            started = time.monotonic()
+            times[n].append(_seconds(_scan(daemon)))
+            elapsed = time.monotonic() - started
+            watching.close()
+            rates[n] += [k / elapsed for k in watching.received]
+    return [
+        {
+            "viewers": n,
+            "scan_s_median": round(statistics.median(times[n]), 3),
+            "scan_s": times[n],
+            **({"frames_per_s_per_viewer_median": round(statistics.median(rates[n]), 2)} if n else {}),
+        }
+        for n in counts
+    ]
+
+
+def aim_rates(daemon: Daemon, seconds: float = 5.0) -> dict[str, float]:
+    """Frames per second each viewer gets in aim mode (no job running), with one and with four."""
+    httpx.post(f"{daemon.url}/v1/aim", json={"pattern": "crosshair", "seconds": 120}, headers=AUTH, timeout=30)
+    out = {}
+    for n in (1, 4):
+        watching = Viewers(daemon, n)
+        time.sleep(1.0)  # the rig open and frames flowing
+        before = list(watching.received)
+        time.sleep(seconds)
+        watching.close()
+        got = [(a - b) / seconds for a, b in zip(watching.received, before, strict=True)]
+        out[f"viewers_{n}"] = round(statistics.median(got), 2)
+    httpx.delete(f"{daemon.url}/v1/aim", headers=AUTH, timeout=30)
     return out
 
 
@@ -148,7 +178,7 @@ def _until(page: Any, script: str, timeout_s: float = 120.0) -> Any:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    parser.add_argument("--scans", type=int, default=3, help="scans per viewer count (median)")
+    parser.add_argument("--rounds", type=int, default=9, help="scans per viewer count (median), interleaved")
     parser.add_argument("--readme", action="store_true", help="write docs/console.md's table")
     args = parser.parse_args()
     with tempfile.TemporaryDirectory() as tmp:
@@ -166,7 +196,8 @@ def main() -> None:
                 ),
             }
             browser = browser_figures(daemon, first["id"])
-            runs = [scans_with_viewers(daemon, n, args.scans) for n in (0, 1, 4)]
+            runs = interleaved(daemon, args.rounds)
+            aiming = aim_rates(daemon)
         finally:
             daemon.stop()
     alone = runs[0]["scan_s_median"]
@@ -177,6 +208,7 @@ def main() -> None:
         "bytes": sizes,
         "browser": browser,
         "scans": runs,
+        "aim_frames_per_s_per_viewer": aiming,
         "scan_time_with_four_viewers": round(runs[2]["scan_s_median"] / alone, 3),
     }
     print(json.dumps(result, indent=2))
@@ -185,8 +217,8 @@ def main() -> None:
 
 
 def _table(r: dict[str, Any]) -> str:
-    b, s, runs = r["browser"], r["bytes"], r["scans"]
-    one, four = runs[1]["frames_per_s_per_viewer"], runs[2]["frames_per_s_per_viewer"]
+    b, s, runs, aim = r["browser"], r["bytes"], r["scans"], r["aim_frames_per_s_per_viewer"]
+    one, four = runs[1]["frames_per_s_per_viewer_median"], runs[2]["frames_per_s_per_viewer_median"]
     rows = [
         ("first paint of `/` (logged in)", f"{b['first_paint_ms']:.0f} ms"),
         (f"viewer drawn, {b['viewer_points']:,} of {r['scan_points']:,} points", f"{b['viewer_drawn_ms']:.0f} ms"),
@@ -196,8 +228,12 @@ def _table(r: dict[str, Any]) -> str:
             "bytes: cloud.bin at full resolution",
             f"{s['full_resolution'] / 1e6:.1f} MB (cloud.ply: {s['cloud_ply'] / 1e6:.1f} MB)",
         ),
-        ("camera view, one client, while scans run", f"{one[0]:.1f} frames/s"),
-        ("camera view, four clients, while scans run", f"{min(four):.1f} to {max(four):.1f} frames/s each"),
+        (
+            "camera view in aim mode: one client / each of four",
+            f"{aim['viewers_1']:.1f} / {aim['viewers_4']:.1f} frames/s",
+        ),
+        ("camera view, one client, while a scan runs", f"{one:.1f} frames/s"),
+        ("camera view, four clients, while a scan runs", f"{four:.1f} frames/s each"),
         (
             "scan time: alone / with four viewers",
             f"{runs[0]['scan_s_median']:.2f} s / {runs[2]['scan_s_median']:.2f} s "

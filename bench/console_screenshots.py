@@ -82,7 +82,7 @@ def take(daemon: Daemon) -> dict[str, Any]:
         box = canvas.bounding_box()
         page.mouse.move(box["x"] + box["width"] / 2, box["y"] + box["height"] / 2)
         page.mouse.down()
-        page.mouse.move(box["x"] + box["width"] / 2 + 120, box["y"] + box["height"] / 2 + 60, steps=8)
+        page.mouse.move(box["x"] + box["width"] / 2 + 50, box["y"] + box["height"] / 2 + 25, steps=8)
         page.mouse.up()
         time.sleep(0.3)
         _shoot(page, "viewer", written)

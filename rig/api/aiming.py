@@ -10,6 +10,7 @@ one gets fewer frames, and the rig never waits for any (rig.service.frames).
 from __future__ import annotations
 
 import asyncio
+import time
 from typing import Annotated, Any, Literal
 
 from fastapi import APIRouter, Path, Query, Request, Response, status
@@ -29,7 +30,7 @@ Errors = dict[int | str, dict[str, Any]]
 CameraIndex = Annotated[int, Path(ge=0, le=15, description="the camera's index in the config")]
 PatternName = Literal[(*SETUP_PATTERNS, "codec")]  # type: ignore[valid-type]
 MAX_FRAME_WAITERS = 32
-FRAME_POLL_S = 0.005  # on the event loop: a waiting viewer holds no thread
+JOB_VIEW_RATE = 5.0  # frames a second per camera for the viewers while a job runs
 
 
 class AimStart(_Request):
@@ -106,7 +107,7 @@ def _camera_routes(router: APIRouter, service: JobService) -> None:
         if camera >= len(service.config.cameras):
             raise SetupRefusedError(f"camera: this rig has {len(service.config.cameras)} cameras")
         values = body.model_dump(exclude_none=True)
-        service.camera_settings.request(camera, values, service.rig_status()["running"])
+        service.camera_settings.request(camera, values, service.running_job)
         view = service.camera_settings.views(service.open_rig)[camera]
         newest = service.frames.newest(camera)
         return {**view, "frame": None if newest is None else newest.count, "fps": service.frames.rate(camera)}
@@ -128,24 +129,24 @@ def _camera_routes(router: APIRouter, service: JobService) -> None:
             raise SetupRefusedError(f"camera: this rig has {len(service.config.cameras)} cameras")
         release = waiters.take(client_address(request.client))
         try:
-            tapped = await _newer_frame(service, camera, after, wait_s, request)
+            tapped = await _newer_frame(service, views, camera, after, wait_s)
             if tapped is None:
                 return Response(status_code=status.HTTP_204_NO_CONTENT, headers={"Cache-Control": "no-store"})
-            view = await asyncio.to_thread(views.view, camera, tapped, width, overlay)
+            figures = service.running_job is None
+            view = await asyncio.to_thread(views.view, camera, tapped, width, overlay, figures)
         finally:
             release()
         return Response(view.jpeg, media_type="image/jpeg", headers=view.headers)
 
 
 async def _newer_frame(
-    service: JobService, camera: int, after: int, wait_s: float, request: Request
+    service: JobService, views: FrameViews, camera: int, after: int, wait_s: float
 ) -> TappedFrame | None:
-    loop = asyncio.get_running_loop()
-    deadline = loop.time() + wait_s
-    while True:
-        newest = service.frames.newest(camera)
-        if newest is not None and newest.count > after:
-            return newest
-        if loop.time() >= deadline or await request.is_disconnected():
-            return None
-        await asyncio.sleep(FRAME_POLL_S)
+    """The newest frame after `after`; while a job runs, at most JOB_VIEW_RATE a second per camera
+    are encoded (whatever the clients ask), so viewers cost the scan little."""
+    tapped = await service.frames.next_after(camera, after, wait_s)
+    wait = views.last_encoded(camera) + 1.0 / JOB_VIEW_RATE - time.monotonic()
+    if tapped is not None and wait > 0 and service.running_job is not None:
+        await asyncio.sleep(wait)
+        tapped = service.frames.newest(camera) or tapped  # the newest by then
+    return tapped

@@ -7,6 +7,7 @@ Each (frame, width, overlay) is encoded once, whoever asks: four viewers cost on
 from __future__ import annotations
 
 import threading
+import time
 from dataclasses import dataclass
 
 import cv2
@@ -26,16 +27,17 @@ class FrameView:
     headers: dict[str, str]
 
 
-def frame_view(tapped: TappedFrame, width: int | None, overlay: bool) -> FrameView:
+def frame_view(tapped: TappedFrame, width: int | None, overlay: bool, figures: bool = True) -> FrameView:
+    """`figures`: the histogram and focus figure too (left out while a job runs: nobody focuses
+    while patterns flash, and they are most of a view's cost)."""
     frame = tapped.frame
     full = frame.full_scale
     image = frame.image
     mono = cv2.cvtColor(image, cv2.COLOR_BGR2GRAY) if image.ndim == 3 else image
     saturated = (image >= full).any(axis=2) if image.ndim == 3 else image >= full
     dark = mono <= full * DARK_FRACTION
-    counts, _ = np.histogram(mono, bins=HISTOGRAM_BINS, range=(0, full + 1))
     pixels = float(mono.size)
-    figures = (np.count_nonzero(saturated) / pixels, np.count_nonzero(dark) / pixels, sharpness(mono, full))
+    clipped = (np.count_nonzero(saturated) / pixels, np.count_nonzero(dark) / pixels)
     display = image if full == 255 else (image.astype(np.float32) * (255.0 / full)).astype(np.uint8)
     height, full_width = mono.shape
     if width is not None and width < full_width:
@@ -56,13 +58,20 @@ def frame_view(tapped: TappedFrame, width: int | None, overlay: bool) -> FrameVi
         "X-Exposure-Us": f"{frame.exposure_us:g}",
         "X-Gain": f"{frame.gain:g}",
         "X-Bit-Depth": str(frame.bit_depth),
-        "X-Saturated-Fraction": f"{figures[0]:.6f}",
-        "X-Dark-Fraction": f"{figures[1]:.6f}",
-        "X-Sharpness": f"{figures[2]:.2f}",
-        "X-Histogram": ",".join(str(int(c)) for c in counts),
+        "X-Saturated-Fraction": f"{clipped[0]:.6f}",
+        "X-Dark-Fraction": f"{clipped[1]:.6f}",
         "Cache-Control": "no-store",
     }
+    if figures:
+        headers["X-Sharpness"] = f"{sharpness(mono, full):.2f}"
+        headers["X-Histogram"] = ",".join(str(int(c)) for c in histogram(mono, frame.bit_depth))
     return FrameView(encoded.tobytes(), headers)
+
+
+def histogram(mono: np.ndarray, bit_depth: int) -> np.ndarray:
+    """HISTOGRAM_BINS equal bins over the full scale (2**bit_depth counts: a shift, not a division)."""
+    shift = max(0, bit_depth - 6)  # 64 bins
+    return np.bincount((mono >> shift).ravel(), minlength=1 << min(bit_depth, 6))[:HISTOGRAM_BINS]
 
 
 class FrameViews:
@@ -70,16 +79,22 @@ class FrameViews:
 
     def __init__(self) -> None:
         self._lock = threading.Lock()
-        self._views: dict[tuple[int, int, int | None, bool], FrameView] = {}
+        self._views: dict[tuple[int, int, int | None, bool, bool], FrameView] = {}
+        self._encoded: dict[int, float] = {}  # camera: when its last view was made (time.monotonic)
 
-    def view(self, camera: int, tapped: TappedFrame, width: int | None, overlay: bool) -> FrameView:
-        key = (camera, tapped.count, width, overlay)
+    def last_encoded(self, camera: int) -> float:
+        with self._lock:
+            return self._encoded.get(camera, 0.0)
+
+    def view(self, camera: int, tapped: TappedFrame, width: int | None, overlay: bool, figures: bool) -> FrameView:
+        key = (camera, tapped.count, width, overlay, figures)
         with self._lock:
             found = self._views.get(key)
         if found is not None:
             return found
-        made = frame_view(tapped, width, overlay)
+        made = frame_view(tapped, width, overlay, figures)
         with self._lock:
+            self._encoded[camera] = time.monotonic()
             stale = [k for k in self._views if k[0] == camera and k[1] < tapped.count]
             for k in stale:
                 del self._views[k]

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 
+import cv2
 import numpy as np
 
 SETUP_PATTERNS = ("white", "black", "checkerboard", "crosshair", "focus")
@@ -42,8 +43,8 @@ def _crosshair(size: Size, square: int) -> np.ndarray:
     width, height = size
     image = np.zeros((height, width), np.uint8)
     for i in range(1, 10):
-        image[:, round(i * width / 10)] = 96
-        image[round(i * height / 10), :] = 96
+        image[:, round(i * width / 10)] = 160
+        image[round(i * height / 10), :] = 160
     cx, cy = width // 2, height // 2
     thick = max(1, min(width, height) // 200)
     image[cy - thick : cy + thick + 1, :] = 255
@@ -83,6 +84,6 @@ def _focus(size: Size, square: int) -> np.ndarray:
 def sharpness(image: np.ndarray, full_scale: int = 255) -> float:
     """A focus figure: the variance of the image's Laplacian (higher is sharper), in counts²
     of an 8-bit image, so that it reads the same across bit depths."""
-    scaled = image.astype(np.float32) * np.float32(255.0 / full_scale)
-    lap = scaled[1:-1, :-2] + scaled[1:-1, 2:] + scaled[:-2, 1:-1] + scaled[2:, 1:-1] - 4 * scaled[1:-1, 1:-1]
-    return float(lap.var())
+    laplacian = cv2.Laplacian(image.astype(np.float32), cv2.CV_32F)  # the 4-neighbour kernel
+    _, deviation = cv2.meanStdDev(laplacian)
+    return float(deviation[0, 0] ** 2) * (255.0 / full_scale) ** 2

@@ -102,7 +102,7 @@ class CameraSettings:
             device = rig.cameras[i] if rig is not None and i < len(rig.cameras) else None
             kept = self.kept(i)
             exposure = kept.get("exposure_us", device.exposure_us if device else camera.exposure_us)
-            gain = kept.get("gain", device.gain if device is not None else None)
+            gain = kept.get("gain", device.gain if device is not None else camera.gain)
             out.append(
                 {
                     "index": i,

@@ -8,6 +8,8 @@ reader gets fewer frames and never a queue, and no reader ever holds up the rig.
 
 from __future__ import annotations
 
+import asyncio
+import contextlib
 import threading
 import time
 from dataclasses import dataclass
@@ -32,6 +34,7 @@ class FrameTap:
         self._count = 0
         self._frames: dict[int, TappedFrame] = {}
         self._arrivals: dict[int, list[float]] = {}
+        self._watchers: list[tuple[asyncio.AbstractEventLoop, asyncio.Event]] = []
 
     def publish(self, camera: int, frame: Frame) -> None:
         now = time.monotonic()
@@ -42,6 +45,27 @@ class FrameTap:
             recent.append(now)
             del recent[: max(0, len(recent) - 30)]
             self._cond.notify_all()
+            woken, self._watchers = self._watchers, []
+        for loop, event in woken:  # readers on an event loop: woken there, never polled
+            with contextlib.suppress(RuntimeError):  # a loop that has closed
+                loop.call_soon_threadsafe(event.set)
+
+    async def next_after(self, camera: int, after: int, timeout_s: float) -> TappedFrame | None:
+        """wait_newer for a reader on an event loop: it holds no thread while it waits."""
+        loop = asyncio.get_running_loop()
+        deadline = loop.time() + timeout_s
+        while True:
+            event = asyncio.Event()
+            with self._cond:
+                found = self._frames.get(camera)
+                if found is not None and found.count > after:
+                    return found
+                self._watchers.append((loop, event))
+            left = deadline - loop.time()
+            if left <= 0:
+                return None
+            with contextlib.suppress(TimeoutError):
+                await asyncio.wait_for(event.wait(), left)
 
     def newest(self, camera: int) -> TappedFrame | None:
         with self._cond:

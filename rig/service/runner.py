@@ -351,9 +351,12 @@ class JobService:
         self._rig_error = reason
 
     @property
-    def open_rig(self) -> Rig | None:
-        """The rig the worker holds open now, if any (read-only use: only the worker drives it)."""
+    def open_rig(self) -> Rig | None:  # read-only use: only the worker drives it
         return self._rigs.rig
+
+    @property
+    def running_job(self) -> str | None:
+        return self._current
 
     # --- the jobs (rig.service.tasks does the work) ----------------------------------------
     def _scan(self, job: Job, progress: ProgressCallback) -> dict[str, Any]:

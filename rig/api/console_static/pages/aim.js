@@ -102,11 +102,12 @@ function cameraView(camera, overlay) {
           bitmap.close();
           times.push(performance.now());
           if (times.length > 20) times.shift();
-          drawHistogram(histogram, response.headers.get("X-Histogram"));
+          if (response.headers.has("X-Histogram")) drawHistogram(histogram, response.headers.get("X-Histogram"));
           const rate = times.length > 1 ? (1000 * (times.length - 1)) / (times.at(-1) - times[0]) : 0;
           fill(figures, 
             `${rate.toFixed(1)} frames/s · exposure ${response.headers.get("X-Exposure-Us")} µs · gain ${response.headers.get("X-Gain")}`, h("br"),
-            `saturated ${fmt.pct(Number(response.headers.get("X-Saturated-Fraction")))} · too dark ${fmt.pct(Number(response.headers.get("X-Dark-Fraction")))} · focus ${Number(response.headers.get("X-Sharpness")).toFixed(0)}`);
+            `saturated ${fmt.pct(Number(response.headers.get("X-Saturated-Fraction")))} · too dark ${fmt.pct(Number(response.headers.get("X-Dark-Fraction")))}`,
+            response.headers.has("X-Sharpness") ? ` · focus ${Number(response.headers.get("X-Sharpness")).toFixed(0)}` : " · a job is running: 5 frames/s, no histogram");
           canvas.dataset.frame = String(last);
           canvas.dataset.exposure = response.headers.get("X-Exposure-Us");
         } catch (err) {
