@@ -3,6 +3,7 @@ camera views, camera settings reaching the driver, binary clouds, and pages from
 
 from __future__ import annotations
 
+import io
 import json
 import time
 from collections.abc import Iterator
@@ -229,5 +230,11 @@ def test_a_cloud_reaches_the_viewer_as_compact_binary_decimated_to_a_budget(serv
     assert np.array_equal(arrays["color"], colours)
     normals = np.column_stack([vertex[f"n{a}"] for a in "xyz"])
     assert np.abs(arrays["normal"] / 127.0 - normals).max() < 0.01
-    assert len(whole.content) < 0.6 * len(ply)
+    per_point = 12 + 3 + 3 + 1 + 4  # position, colour, normal, quality, error: no more than that
+    assert len(whole.content) <= 4 + 4096 + total * per_point + 5 * 3 and len(whole.content) < 0.65 * len(ply)
+    truth = np.load(io.BytesIO(client.get(f"/v1/scans/{job['id']}/files/truth_error_mm.npy").content))
+    assert np.array_equal(arrays["error"][:, 0], truth)  # each point's distance to the true surface
+    manifest = client.get(f"/v1/scans/{job['id']}/files/manifest.json").json()
+    rms = float(np.sqrt(np.mean(truth.astype(np.float64) ** 2)))
+    assert rms == pytest.approx(next(iter(manifest["metrics"].values()))["rms_mm"], rel=1e-3)
     assert client.get(f"/v1/scans/{job['id']}/mesh.bin").status_code == 404  # a gray scan has no ring mesh

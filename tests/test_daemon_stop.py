@@ -25,7 +25,7 @@ from drivers.base import Projector
 from drivers.errors import DeviceCancelledError, DeviceStateError
 from rig.assembly import open_rig
 from rig.config import load_config
-from rig.evaluate.merged import metrics_on_bench
+from rig.evaluate.merged import measure_on_bench
 from rig.service import tasks
 from rig.service.jobs import JobKind, JobState, JobStore
 from rig.service.runner import DB_NAME, JobService
@@ -148,12 +148,12 @@ def test_a_worker_that_cannot_be_interrupted_is_not_waited_for(tmp_path: Path, m
     returns; when the step ends, its folder is refused and removed."""
     computing, release = threading.Event(), threading.Event()
 
-    def long_step(*args: Any) -> dict[str, object]:
+    def long_step(*args: Any) -> tuple[dict[str, object], Any]:
         computing.set()
         release.wait(STUCK_S)
-        return metrics_on_bench(*args)
+        return measure_on_bench(*args)
 
-    monkeypatch.setattr(tasks, "metrics_on_bench", long_step)
+    monkeypatch.setattr(tasks, "measure_on_bench", long_step)
     data = {**small_config_data(), "output": {"data_dir": str(tmp_path / "data")}}
     service = JobService(load_config(write_config(tmp_path, data)))
     service.start()

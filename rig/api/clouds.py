@@ -5,8 +5,9 @@ time; budget=0: every point) and GET /v1/scans/{id}/mesh.bin.
 The body: a 4-byte little-endian length, a JSON header of that many bytes (spaces pad it to a
 multiple of 4), then the arrays its `arrays` list names, each at its `offset` from the end of
 the header (4-aligned) and of `count` x `components` values of `type`: positions float32 (mm), colours
-uint8 RGB, normals int8 (x127), quality uint8 (0-255 over `quality_range`), and for meshes the
-triangles uint32. A million points at full resolution are 19 MB instead of PLY's 39.
+uint8 RGB, normals int8 (x127), quality uint8 (0-255 over `quality_range`), on simulated rigs
+each point's distance to the true surface (float32 mm, `error`), and for meshes the triangles
+uint32. A million points at full resolution are about 20 MB instead of PLY's 39.
 """
 
 from __future__ import annotations
@@ -27,6 +28,7 @@ from rig.service.errors import JobNotFoundError
 from rig.service.jobs import JobKind
 from rig.service.runner import JobService
 from rig.store.ply import read_cloud_ply, read_mesh_ply
+from rig.store.scandir import TRUTH_ERRORS
 
 DEFAULT_BUDGET = 300_000  # points: a quick first view of any scan (about 5 MB)
 MEDIA_TYPE = "application/vnd.slrig.cloud"
@@ -51,8 +53,9 @@ def pack(header: dict[str, Any], arrays: list[tuple[str, np.ndarray]]) -> bytes:
 
 
 @functools.lru_cache(maxsize=4)
-def cloud_body(path: Path, stamp: float, budget: int) -> bytes:
-    """`stamp`: the file's mtime, so that a changed file is read again."""
+def cloud_body(path: Path, stamp: float, budget: int, errors_path: Path | None = None) -> bytes:
+    """`stamp`: the file's mtime, so that a changed file is read again; `errors_path`: the scan's
+    distances to the true surface (simulated rigs), sent as `error` when they fit the cloud."""
     cloud = read_cloud_ply(path.read_bytes(), path.name)
     total = len(cloud)
     rows = np.arange(total)
@@ -77,7 +80,22 @@ def cloud_body(path: Path, stamp: float, budget: int) -> bytes:
         ("normal", np.clip(np.round(cloud.normals[rows] * 127), -127, 127).astype(np.int8)),
         ("quality", scaled.astype(np.uint8)),
     ]
+    errors = _errors(errors_path, total)
+    if errors is not None:
+        arrays.append(("error", errors[rows]))
+        finite = errors[np.isfinite(errors)]
+        header["error_p95_mm"] = float(np.percentile(finite, 95)) if len(finite) else None
     return pack(header, arrays)
+
+
+def _errors(path: Path | None, count: int) -> np.ndarray | None:
+    if path is None:
+        return None
+    try:
+        errors = np.load(path, allow_pickle=False)
+    except (OSError, ValueError):
+        return None  # unreadable: the viewer goes without
+    return errors.astype(np.float32) if errors.shape == (count,) else None
 
 
 @functools.lru_cache(maxsize=2)
@@ -96,13 +114,17 @@ def mesh_body(path: Path, stamp: float) -> bytes:
 def cloud_router(service: JobService, errors: dict[int | str, dict[str, Any]]) -> APIRouter:
     router = APIRouter(prefix="/scans", tags=["scans"], responses=errors)
 
-    def stored(job_id: str, kind: str) -> Path:
+    def stored(job_id: str, name: str) -> Path:
         job = service.job(job_id, JobKind.SCAN)
-        files = (job.result or {}).get("files", [])
-        name = next((f for f in files if f == f"{kind}.ply"), None)
-        if name is None:
-            raise JobNotFoundError(f"scan {job_id} has no {kind}.ply")
+        if name not in (job.result or {}).get("files", []):
+            raise JobNotFoundError(f"scan {job_id} has no {name}")
         return service.file_path(job_id, JobKind.SCAN, name)
+
+    def errors_of(job_id: str) -> Path | None:
+        try:
+            return stored(job_id, TRUTH_ERRORS)
+        except JobNotFoundError:
+            return None
 
     @router.get("/{job_id}/cloud.bin", dependencies=READING, responses={200: {"content": {MEDIA_TYPE: {}}}})
     async def cloud_binary(
@@ -111,13 +133,14 @@ def cloud_router(service: JobService, errors: dict[int | str, dict[str, Any]]) -
             DEFAULT_BUDGET
         ),
     ) -> Response:
-        path = await asyncio.to_thread(stored, job_id, "cloud")
-        body = await asyncio.to_thread(cloud_body, path, path.stat().st_mtime, budget)
+        path = await asyncio.to_thread(stored, job_id, "cloud.ply")
+        errors = await asyncio.to_thread(errors_of, job_id)
+        body = await asyncio.to_thread(cloud_body, path, path.stat().st_mtime, budget, errors)
         return Response(body, media_type=MEDIA_TYPE, headers={"Cache-Control": "private, max-age=3600"})
 
     @router.get("/{job_id}/mesh.bin", dependencies=READING, responses={200: {"content": {MEDIA_TYPE: {}}}})
     async def mesh_binary(job_id: JobId) -> Response:
-        path = await asyncio.to_thread(stored, job_id, "mesh")
+        path = await asyncio.to_thread(stored, job_id, "mesh.ply")
         body = await asyncio.to_thread(mesh_body, path, path.stat().st_mtime)
         return Response(body, media_type=MEDIA_TYPE, headers={"Cache-Control": "private, max-age=3600"})
 

@@ -124,8 +124,14 @@ def _summary(err: np.ndarray, completeness: float) -> dict[str, float | int | No
 def metrics_on_bench(rig: Rig, result: ScanResult) -> dict[str, object]:
     """Accuracy of each pair against ground truth, keyed "projector/camera", and of the merged
     cloud when several pairs were merged (rigs with ground truth only; others: {})."""
+    return measure_on_bench(rig, result)[0]
+
+
+def measure_on_bench(rig: Rig, result: ScanResult) -> tuple[dict[str, object], np.ndarray | None]:
+    """metrics_on_bench, and the distance (mm, float32) of each point of the scan's cloud to the
+    true surface, in the cloud's order (None without ground truth)."""
     if rig.truth is None:
-        return {}
+        return {}, None
     errors = [point_errors(rig, pair) for pair in result.pairs]  # once, for the pairs and the merge
     out: dict[str, object] = {
         f"{rig.config.projectors[pair.projector].name}/{rig.config.cameras[pair.camera].name}": evaluate_on_bench(
@@ -138,4 +144,7 @@ def metrics_on_bench(rig: Rig, result: ScanResult) -> dict[str, object]:
         out["merged"] = merged["merged"]
         out["merged_pairs"] = merged["pairs"]
         out["overlap_cue"] = merged["overlap_cue"]
-    return out
+    cloud_errors = np.concatenate(errors) if errors else np.empty(0)
+    if result.merged_index is not None:
+        cloud_errors = cloud_errors[result.merged_index]
+    return out, cloud_errors.astype(np.float32)

@@ -14,9 +14,10 @@ from rig.service.jobs import JobStore
 
 MB = 1_000_000
 RESERVE_BYTES = 64 * MB  # kept free for the job database, its write-ahead log and the journal
-# Per camera pixel of a stored scan: a PLY point (xyz and normal float32, rgb), its depth (16-bit
-# PNG), overlap mask and preview; PNG compresses, so this is an upper bound.
-STORED_BYTES_PER_PIXEL = 12 + 12 + 3 + 2 + 1 + 3
+# Per camera pixel of a stored scan: a PLY point (xyz and normal float32, rgb, quality, source,
+# angle), its depth (16-bit PNG), overlap mask, preview, and its truth error (simulated rigs);
+# PNG compresses, so this is an upper bound.
+STORED_BYTES_PER_PIXEL = (12 + 12 + 3 + 4 + 1 + 4) + 2 + 1 + 3 + 4
 MESH_BYTES_PER_PIXEL = 27 + 2 * 13  # a ring scan's surface: a vertex per pixel, two triangles
 
 

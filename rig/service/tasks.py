@@ -13,7 +13,7 @@ from rig.assembly import open_rig
 from rig.calibrate.response import calibrate_response
 from rig.calibrate.session import calibrate
 from rig.config import RigConfig, config_from_dict
-from rig.evaluate.merged import metrics_on_bench
+from rig.evaluate.merged import measure_on_bench
 from rig.pipeline.scan import ScanResult, reconstruct_frames, run_scan
 from rig.plan.ring_plan import RingPlan
 from rig.progress import ProgressCallback, ProgressTracker
@@ -38,7 +38,8 @@ def scan_to_directory(
     result = run_scan(the_rig, codec, progress=progress, keep_frames=keep_frames)
     tracker = ProgressTracker(progress)
     tracker.report("store", 0.95)
-    path = write_scan(the_rig, result, target, scan_id, metrics_on_bench(the_rig, result))
+    metrics, errors = measure_on_bench(the_rig, result)
+    path = write_scan(the_rig, result, target, scan_id, metrics, errors=errors)
     tracker.report("done", 1.0)
     return path, result
 
@@ -70,7 +71,8 @@ def adaptive_scan_to_directory(
     result, plan, sparse = adaptive_scan(the_rig, tolerance_mm, plan, keep_frames, progress)
     tracker = ProgressTracker(progress)
     tracker.report("store", 0.95)
-    path = write_scan(sparse, result, target, scan_id, metrics_on_bench(sparse, result))
+    metrics, errors = measure_on_bench(sparse, result)
+    path = write_scan(sparse, result, target, scan_id, metrics, errors=errors)
     tracker.report("done", 1.0)
     return path, result, plan
 
@@ -98,7 +100,8 @@ def reprocess_to_directory(
     with open_rig(config, with_devices=False) as geometry:
         result = reconstruct_frames(geometry, manifest["codec"]["name"], frames, tracker)
         tracker.report("store", 0.95)
-        path = write_scan(geometry, result, target, scan_id, metrics_on_bench(geometry, result), origin)
+        metrics, errors = measure_on_bench(geometry, result)
+        path = write_scan(geometry, result, target, scan_id, metrics, origin, errors)
     return path, result
 
 

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import datetime as dt
 import hashlib
+import io
 import json
 import platform
 import secrets
@@ -166,6 +167,15 @@ def _write_depth(path: Path, depth: np.ndarray | None) -> bool:
     return True
 
 
+TRUTH_ERRORS = "truth_error_mm.npy"  # float32 per cloud point, in cloud.ply's order
+
+
+def _npy(array: np.ndarray) -> bytes:
+    buffer = io.BytesIO()
+    np.save(buffer, array, allow_pickle=False)
+    return buffer.getvalue()
+
+
 def _exposure_us(the_rig: Rig, camera: int, configured: float) -> float:
     """The exposure the camera had (an operator may have set it while aiming), else the config's."""
     devices = the_rig.cameras
@@ -179,8 +189,10 @@ def write_scan(
     scan_id: str,
     metrics: dict[str, Any] | None = None,
     origin: dict[str, Any] | None = None,
+    errors: np.ndarray | None = None,
 ) -> Path:
-    """Write the scan directory at `target` (which must not exist) and return it."""
+    """Write the scan directory at `target` (which must not exist) and return it. `errors`: each
+    cloud point's distance to the true surface (simulated rigs), kept as TRUTH_ERRORS for viewers."""
     target = Path(target)
     if target.exists():
         raise StoreError(f"output directory already exists, not overwriting: {target}")
@@ -205,6 +217,9 @@ def write_scan(
             files.setdefault("overlap", {})[the_rig.config.cameras[c].name] = name
         if result.frames:
             files["frames"] = _write_frames(the_rig, result, partial)
+        if errors is not None and len(errors) == len(result.cloud):
+            write_atomic(partial / TRUTH_ERRORS, _npy(errors.astype("<f4")))
+            files["truth_errors"] = TRUTH_ERRORS
         manifest = build_manifest(the_rig, result, scan_id, files, metrics, origin)
         write_atomic(partial / "manifest.json", json.dumps(manifest, indent=2, allow_nan=False).encode())
         publish_folder(partial, target)

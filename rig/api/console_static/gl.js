@@ -1,10 +1,12 @@
 // A point-cloud and mesh viewer in plain WebGL2: one buffer per attribute as the daemon sends them
 // (rig.api.clouds: float32 positions, uint8 colours, int8 normals, uint8 quality), an orbit camera,
-// colour by RGB, depth, normal or quality, and picking on the CPU (the nearest point on screen).
+// colour by RGB, depth, normal, quality or (simulated rigs) error against the truth, and picking
+// on the CPU (the nearest point on screen).
 
 const VERTEX = `#version 300 es
-in vec3 position; in vec3 color; in vec3 normal; in float quality;
+in vec3 position; in vec3 color; in vec3 normal; in float quality; in float error;
 uniform mat4 mvp; uniform mat4 view; uniform float pointSize; uniform int mode; uniform vec2 depthRange;
+uniform float errorScale;
 out vec3 vColor;
 vec3 ramp(float t) {  // blue (far) to red (near), through green and yellow
   t = clamp(t, 0.0, 1.0);
@@ -16,7 +18,8 @@ void main() {
   if (mode == 0) vColor = color;
   else if (mode == 1) vColor = ramp(1.0 - (-(view * vec4(position, 1.0)).z - depthRange.x) / max(depthRange.y - depthRange.x, 1e-6));
   else if (mode == 2) vColor = normal * 0.5 + 0.5;
-  else vColor = ramp(quality);
+  else if (mode == 3) vColor = ramp(quality);
+  else vColor = ramp(error / errorScale);  // against the simulator's truth: 0 blue, errorScale and more red
 }`;
 
 const FRAGMENT = `#version 300 es
@@ -24,7 +27,7 @@ precision mediump float;
 in vec3 vColor; out vec4 outColor;
 void main() { outColor = vec4(vColor, 1.0); }`;
 
-export const MODES = { rgb: 0, depth: 1, normal: 2, quality: 3 };
+export const MODES = { rgb: 0, depth: 1, normal: 2, quality: 3, error: 4 };
 
 export function parseBody(buffer) {
   const length = new DataView(buffer).getUint32(0, true);
@@ -67,6 +70,8 @@ export class Viewer {
     attribute("color", arrays.color, 3, gl.UNSIGNED_BYTE, true);
     attribute("normal", arrays.normal, 3, gl.BYTE, true);
     attribute("quality", arrays.quality, 1, gl.UNSIGNED_BYTE, true);
+    attribute("error", arrays.error, 1, gl.FLOAT, false);
+    this.errorScale = Math.max(1e-3, 2 * (header.error_p95_mm || 0.5));
     this.count = header.points;
     this.triangles = arrays.triangles ? arrays.triangles.length : 0;
     if (arrays.triangles) {
@@ -115,6 +120,7 @@ export class Viewer {
     gl.uniform1f(u("pointSize"), this.pointSize);
     gl.uniform1i(u("mode"), this.mode);
     gl.uniform2f(u("depthRange"), depth[0], depth[1]);
+    gl.uniform1f(u("errorScale"), this.errorScale || 1);
     gl.bindVertexArray(this.vao);
     if (this.triangles && this.showMesh) gl.drawElements(gl.TRIANGLES, this.triangles, gl.UNSIGNED_INT, 0);
     else gl.drawArrays(gl.POINTS, 0, this.count);

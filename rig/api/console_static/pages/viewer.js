@@ -25,6 +25,9 @@ export function viewerPanel(job) {
   const canvas = h("canvas", { class: "viewer", width: 960, height: 640, tabindex: 0, "aria-label": `3D view of scan ${job.id}: drag to orbit, shift-drag to pan, wheel or +/- to zoom, arrows to turn` });
   const viewer = new Viewer(canvas);
   const mode = select("mode", Object.keys(MODES), "rgb");
+  const errorOption = mode.querySelector('option[value="error"]');
+  errorOption.hidden = true;  // until the cloud says it carries its errors (simulated rigs)
+  const legend = h("p", { class: "figures legend" }, "");
   const size = h("input", { type: "range", name: "point_size", min: 1, max: 8, step: 0.5, value: 2 });
   const measure = h("input", { type: "checkbox", name: "measure" });
   const full = h("button", { type: "button" }, "Full resolution");
@@ -34,7 +37,7 @@ export function viewerPanel(job) {
   const box = h("section", { class: "card" },
     h("div", { class: "row" }, field("Colour", mode), field("Point size", size), field("Measure (click two points)", measure),
       mesh ? field("Ring mesh", mesh) : null, full),
-    canvas, info, reading);
+    canvas, info, legend, reading);
   let frame = 0;
   const redraw = () => { cancelAnimationFrame(frame); frame = requestAnimationFrame(() => viewer.draw()); };
   viewer.controls(redraw);
@@ -54,6 +57,9 @@ export function viewerPanel(job) {
     canvas.dataset.drawn = "1";
     canvas.dataset.drawnAt = String(performance.now());  // since the page's navigation: bench/console.py
     full.hidden = h0.points >= h0.total;
+    const hasError = h0.arrays.some((a) => a.name === "error");
+    errorOption.hidden = !hasError;
+    legend.textContent = hasError ? `error against the truth: 0 mm blue to ${viewer.errorScale.toFixed(3)} mm and more red (twice the 95th percentile)` : "";
   };
   full.addEventListener("click", () => load(0).catch((err) => notice(err.message, "error")));
   if (mesh) mesh.addEventListener("change", async () => {
