@@ -1,7 +1,7 @@
 """Screenshots of the console's main pages for the manual (docs/images/console_*.png), taken from a
 running daemon on the default simulated bench in Debian's headless chromium: the rig, aiming with
-the crosshair, a finished scan, its cloud in the 3D viewer, the scans list, live mode and a
-calibration report.
+the crosshair, a finished scan, its cloud in the 3D viewer, the scans list, live mode, a
+calibration report and an adaptive scan's ring plan.
 
     python bench/console_screenshots.py
 
@@ -97,6 +97,22 @@ def take(daemon: Daemon) -> dict[str, Any]:
         page.goto(daemon.url + "/#/rig")
         time.sleep(1.0)
         _shoot(page, "rig", written)
+        page.goto(daemon.url + "/#/calibration")
+        page.fill("input[name=views]", "10")
+        page.click("text=Calibrate")
+        _until(page, "() => document.querySelectorAll('img.preview').length >= 2")
+        time.sleep(0.5)
+        page.evaluate("() => document.querySelector('.device').scrollIntoView()")
+        _shoot(page, "calibration", written)
+        page.goto(daemon.url + "/#/scan")
+        page.check("input[name=adaptive]")
+        page.click("text=Start scan")
+        _until(page, "() => document.querySelector('section[data-state]')?.dataset.state === 'done'")
+        adaptive = page.evaluate("() => document.querySelector('section[data-state] h2').textContent.split(' ')[1]")
+        page.goto(f"{daemon.url}/#/rings/{adaptive}")
+        _until(page, "() => document.querySelectorAll('svg.plan circle').length")
+        page.evaluate("() => document.querySelector('svg.plan').scrollIntoView()")
+        _shoot(page, "rings", written)
         browser.close()
     return {"images": written, "scan": scan_id}
 

@@ -28,7 +28,8 @@ def test_scan_writes_a_complete_scan_directory(
     assert main(["scan", "--config", str(small_config_path), "--out", str(out), "--json"]) == 0
     summary = json.loads(capsys.readouterr().out)
     assert summary["path"] == str(out)
-    assert sorted(p.name for p in out.iterdir()) == ["cloud.ply", "depth_camera0.png", "manifest.json", "preview.png"]
+    stored = ["cloud.ply", "depth_camera0.png", "manifest.json", "preview.png", "truth_error_mm.npy"]
+    assert sorted(p.name for p in out.iterdir()) == stored
     assert not out.with_name("scan1.partial").exists()
 
     vertex = plyfile.PlyData.read(out / "cloud.ply")["vertex"]
@@ -38,6 +39,8 @@ def test_scan_writes_a_complete_scan_directory(
     normals = np.column_stack([vertex["nx"], vertex["ny"], vertex["nz"]])
     np.testing.assert_allclose(np.linalg.norm(normals, axis=1), 1.0, atol=1e-4)
     assert np.ptp(vertex["red"]) > 50  # the lit frame's texture, not a constant
+    errors = np.load(out / "truth_error_mm.npy")
+    assert errors.dtype == np.float32 and errors.shape == (vertex.count,) and np.median(errors) < 0.2
 
     depth = cv2.imread(str(out / "depth_camera0.png"), cv2.IMREAD_UNCHANGED)
     assert depth.dtype == np.uint16 and depth.shape == (256, 320)

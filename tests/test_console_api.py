@@ -238,3 +238,16 @@ def test_a_cloud_reaches_the_viewer_as_compact_binary_decimated_to_a_budget(serv
     rms = float(np.sqrt(np.mean(truth.astype(np.float64) ** 2)))
     assert rms == pytest.approx(next(iter(manifest["metrics"].values()))["rms_mm"], rel=1e-3)
     assert client.get(f"/v1/scans/{job['id']}/mesh.bin").status_code == 404  # a gray scan has no ring mesh
+
+
+def test_a_calibration_report_has_every_corners_error_and_its_plot(service: JobService) -> None:
+    client = _client(service)
+    job = client.post("/v1/calibrations", json={"what": "rig", "views": 6}, headers=AUTH).json()
+    done = wait_done(client, job["id"], "calibrations")
+    for name, device in done["result"]["report"]["devices"].items():
+        corners = device["corner_residual_px"]
+        # the corners' own errors add up to the fit's rms: residuals from the model that was kept
+        assert corners["rms"] == pytest.approx(device["rms_px"], rel=0.02, abs=2e-4)
+        assert corners["p50"] <= corners["p95"] <= corners["max"]
+        plot = client.get(f"/v1/calibrations/{job['id']}/files/residuals_{name}.png")
+        assert plot.status_code == 200 and plot.content[:8] == b"\x89PNG\r\n\x1a\n"

@@ -199,3 +199,35 @@ def test_every_page_can_be_reached_and_used_by_keyboard(console: Console) -> Non
     outline = page.evaluate("() => getComputedStyle(document.activeElement).outlineStyle")
     assert outline != "none"  # where the focus is can be seen
     assert console.errors == []
+
+
+def test_a_calibration_from_its_page_shows_its_report(console: Console) -> None:
+    console.go("calibration")
+    console.page.fill("input[name=views]", "6")
+    console.page.click("text=Calibrate")
+    console.until("() => document.querySelector('section[data-state]')?.dataset.state === 'done'", 120)
+    console.until("() => document.querySelectorAll('svg.chart rect').length >= 6")  # a bar per view
+    report = console.page.locator("section.card:has(h3)").inner_text()
+    assert "lens model" in report and "corners: median" in report and "the board as a ruler" in report
+    drawn = "() => [...document.querySelectorAll('img.preview')].filter(i => i.complete && i.naturalWidth > 0).length"
+    assert console.until(drawn) >= 2  # where the corners fell, and their errors
+    assert console.errors == []
+
+
+def test_the_rings_page_draws_an_adaptive_scans_plan(console: Console, daemon: Daemon) -> None:
+    import httpx
+
+    from tests.test_daemon import AUTH
+
+    job = httpx.post(f"{daemon.url}/v1/scans", json={"adaptive": True}, headers=AUTH).json()
+    deadline = time.monotonic() + 180
+    while httpx.get(f"{daemon.url}/v1/scans/{job['id']}").json()["state"] in ("queued", "running"):
+        assert time.monotonic() < deadline
+        time.sleep(0.2)
+    manifest = httpx.get(f"{daemon.url}/v1/scans/{job['id']}/files/manifest.json").json()
+    rings = len(manifest["adaptive"]["plan"]["radii_px"])
+    console.go(f"rings/{job['id']}")
+    assert console.until("() => document.querySelectorAll('svg.plan circle').length") == rings
+    assert console.page.locator("svg.chart circle.ring").count() == rings - 1  # a spacing per pair of rings
+    assert "chosen" in console.page.locator("table:has(caption)").inner_text()
+    assert console.errors == []

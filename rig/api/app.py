@@ -18,6 +18,7 @@ from starlette.middleware.trustedhost import TrustedHostMiddleware
 
 from rig import __version__
 from rig.api.aiming import aiming_router
+from rig.api.bench import bench_router
 from rig.api.clouds import cloud_router
 from rig.api.console import add_console
 from rig.api.head import HeadAsGet, head_only
@@ -130,6 +131,7 @@ def create_app(service: JobService, settings: ApiSettings, stopping: Callable[[]
     app.include_router(live_router(service, ERRORS, is_stopping), prefix="/v1")
     app.include_router(aiming_router(service, ERRORS), prefix="/v1")
     app.include_router(cloud_router(service, ERRORS), prefix="/v1")
+    app.include_router(bench_router(service, ERRORS), prefix="/v1")
     app.include_router(session_router(ERRORS, lambda key: key_role(settings, key)), prefix="/v1")
     add_console(app, docs=not guarded)
     app.add_middleware(HeadAsGet)  # outermost: HEAD is a GET to everything inside

@@ -81,6 +81,7 @@ def report(devices: list[DeviceCalibration]) -> dict[str, Any]:
                 "model": d.model,
                 "std": {name: round(value, 6) for name, value in d.std.items()},
                 "held_out_rms_px": d.held_out_px,
+                "corner_residual_px": _residual_summary(d),
             }
             for d in devices
         },
@@ -114,5 +115,42 @@ def coverage_png(device: DeviceCalibration, max_width: int = 640) -> bytes:
         1,
         cv2.LINE_AA,
     )
+    _ok, buf = cv2.imencode(".png", image)
+    return buf.tobytes()
+
+
+def _used_residuals(device: DeviceCalibration) -> list[tuple[int, np.ndarray]]:
+    return [(v, r) for v, r in sorted(device.residuals.items()) if v not in device.rejected and len(r)]
+
+
+def _residual_summary(device: DeviceCalibration) -> dict[str, float] | None:
+    """Each corner's reprojection error (px) over the views used: rms, median, 95th percentile, largest."""
+    used = _used_residuals(device)
+    if not used:
+        return None
+    lengths = np.linalg.norm(np.concatenate([r for _, r in used]), axis=1)
+    p50, p95 = np.percentile(lengths, [50, 95])
+    rms = float(np.sqrt(np.mean(lengths**2)))
+    return {k: round(float(v), 4) for k, v in {"rms": rms, "p50": p50, "p95": p95, "max": lengths.max()}.items()}
+
+
+def residuals_png(device: DeviceCalibration, max_width: int = 640) -> bytes:
+    """Every corner's reprojection error as an arrow from where it was found, magnified so that the
+    95th percentile is 20 image pixels long (one colour per view): a pattern in the arrows (all
+    outward at the edges, all one way in one view) is a lens model or a view that does not fit."""
+    w, h = device.resolution
+    scale = min(1.0, max_width / w)
+    image = np.full((round(h * scale), round(w * scale), 3), 28, dtype=np.uint8)
+    used = _used_residuals(device)
+    summary = _residual_summary(device)
+    gain = 20.0 / max(summary["p95"], 1e-6) if summary else 1.0
+    for i, (view, residual) in enumerate(used):
+        hue = int(180 * ((i * 0.618) % 1.0))
+        colour = cv2.cvtColor(np.uint8([[[hue, 200, 255]]]), cv2.COLOR_HSV2BGR)[0, 0].tolist()
+        for (x, y), (dx, dy) in zip(device.points[view] * scale, residual, strict=True):
+            start = (round(x), round(y))
+            cv2.arrowedLine(image, start, (round(x + dx * gain), round(y + dy * gain)), colour, 1, cv2.LINE_AA, 0, 0.3)
+    text = f"{device.name}: corner errors x{gain:.0f}" + (f", p95 {summary['p95']:.3f} px" if summary else "")
+    cv2.putText(image, text, (8, 20), cv2.FONT_HERSHEY_SIMPLEX, 0.5, (230, 230, 230), 1, cv2.LINE_AA)
     _ok, buf = cv2.imencode(".png", image)
     return buf.tobytes()

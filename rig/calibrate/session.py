@@ -12,7 +12,7 @@ from rig.calibrate.boards import Board
 from rig.calibrate.check import board_checks
 from rig.calibrate.described import BoardImage, load_described_views, view_folders
 from rig.calibrate.files import write_calibration
-from rig.calibrate.report import coverage_png, report
+from rig.calibrate.report import coverage_png, report, residuals_png
 from rig.calibrate.solve import DeviceCalibration, calibrate_cameras, calibrate_projectors
 from rig.calibrate.views import View, capture_placed_views, default_poses, load_folder_views
 from rig.config import RigConfig
@@ -123,4 +123,5 @@ def solve_and_write(
     digest = write_calibration(out, devices, summary, board.config.model_dump(mode="json"))
     for device in devices:
         write_atomic(out / f"coverage_{device.name}.png", coverage_png(device))
+        write_atomic(out / f"residuals_{device.name}.png", residuals_png(device))
     return CalibrationOutcome(devices, summary, digest, out, len(collected))

@@ -38,6 +38,7 @@ class DeviceCalibration:
     model: str = REFERENCE
     std: dict[str, float] = field(default_factory=dict)  # free parameter -> its standard deviation
     held_out_px: dict[str, float] = field(default_factory=dict)  # model -> held-out rms, when chosen
+    residuals: dict[int, np.ndarray] = field(default_factory=dict)  # view -> (N, 2) detected - reprojected, px
 
 
 def _intrinsics(
@@ -90,7 +91,7 @@ def calibrate_cameras(
                 f"{rejected.get(0, 'board not found')}"
             )
         R, t = lens.poses[0]
-        out.append(_device(name, "camera", size, lens, R, t, rejected, detections))
+        out.append(_device(name, "camera", size, lens, R, t, rejected, detections, board))
     return out
 
 
@@ -145,7 +146,7 @@ def calibrate_projectors(
         stereo_rms, R_cp, T_cp = stereo[0], stereo[5], np.ravel(stereo[6])
         R = R_cp @ camera.R
         t = R_cp @ camera.t + T_cp
-        device = _device(name, "projector", size, lens, R, t, rejected, detections)
+        device = _device(name, "projector", size, lens, R, t, rejected, detections, board)
         device.stereo_rms_px = float(stereo_rms)
         out.append(device)
     return out
@@ -160,7 +161,14 @@ def _device(
     t: np.ndarray,
     rejected: dict[int, str],
     detections: dict[int, Detection],
+    board: Board,
 ) -> DeviceCalibration:
+    residuals = {}
+    for view, (rotation, translation) in lens.poses.items():
+        objects = board.object_points(detections[view].ids).astype(np.float64)
+        rvec = cv2.Rodrigues(np.asarray(rotation, np.float64))[0]
+        projected, _ = cv2.projectPoints(objects, rvec, np.asarray(translation, np.float64), lens.K, lens.dist)
+        residuals[view] = detections[view].points - projected.reshape(-1, 2)
     return DeviceCalibration(
         name,
         kind,
@@ -176,4 +184,5 @@ def _device(
         model=lens.model.name,
         std=lens.std,
         held_out_px=lens.held_out_px,
+        residuals=residuals,
     )

@@ -1,42 +1,30 @@
 """Exposure and gain set from the console or over REST: kept by the service and given to every rig
 it opens, so a scan uses what the operator set while aiming.
 
-Only the job worker touches the devices: a request records the wanted values and waits (a bounded
-time) for the worker to send them between jobs or between aim or live frames. The driver's refusal
-(out of its range, no gain control) comes back to the request and the kept values stay as they were.
+Only the job worker touches the devices (rig.service.worker_calls): a request waits a bounded time
+for the worker to send the values. The driver's refusal (out of its range, no gain control) comes
+back to the request and the kept values stay as they were.
 """
 
 from __future__ import annotations
 
 import threading
-from dataclasses import dataclass
 from typing import Any
 
-from drivers.errors import DeviceError
 from rig.config import RigConfig
 from rig.rig import Rig
-from rig.service.errors import JobConflictError, SetupRefusedError
-
-APPLY_TIMEOUT_S = 15.0  # opening a rig takes seconds (cameras, the simulator's first ray cast)
-
-
-@dataclass
-class _Request:
-    camera: int
-    values: dict[str, float]
-    done: threading.Event
-    error: str | None = None
+from rig.service.errors import SetupRefusedError
+from rig.service.worker_calls import WorkerCalls
 
 
 class CameraSettings:
     """Per camera index: the exposure and gain the operator set (beyond the config's)."""
 
-    def __init__(self, config: RigConfig, worker: threading.Condition) -> None:
+    def __init__(self, config: RigConfig, calls: WorkerCalls) -> None:
         self.config = config
-        self._worker = worker
+        self._calls = calls
         self._lock = threading.Lock()
         self._kept: dict[int, dict[str, float]] = {}
-        self._pending: list[_Request] = []
 
     def kept(self, camera: int) -> dict[str, float]:
         with self._lock:
@@ -45,47 +33,14 @@ class CameraSettings:
     def request(self, camera: int, values: dict[str, float], busy: str | None) -> dict[str, float]:
         """Send `values` (exposure_us, gain) to camera `camera` through the worker; `busy` names the
         job running (then nothing changes: JobConflictError). SetupRefusedError with the driver's reason."""
-        if busy is not None:
-            raise JobConflictError(f"job {busy} is running; camera settings change between jobs")
-        request = _Request(camera, values, threading.Event())
-        with self._lock:
-            self._pending.append(request)
-        with self._worker:
-            self._worker.notify_all()
-        if not request.done.wait(APPLY_TIMEOUT_S):
+
+        def send(rig: Rig) -> None:
+            _send(rig, camera, values)
             with self._lock:
-                if request in self._pending:
-                    self._pending.remove(request)
-            raise JobConflictError(f"the rig did not take the settings within {APPLY_TIMEOUT_S:g} s (busy)")
-        if request.error is not None:
-            raise SetupRefusedError(request.error)
+                self._kept.setdefault(camera, {}).update(values)
+
+        self._calls.call(send, busy, "camera settings")
         return self.kept(camera)
-
-    def pending(self) -> bool:
-        with self._lock:
-            return bool(self._pending)
-
-    def apply_pending(self, rig: Rig) -> None:
-        """The worker: send waiting requests to `rig`'s cameras, then answer them."""
-        with self._lock:
-            waiting, self._pending = self._pending, []
-        for request in waiting:
-            try:
-                _send(rig, request.camera, request.values)
-            except (ValueError, DeviceError, SetupRefusedError) as exc:
-                request.error = str(exc)
-            else:
-                with self._lock:
-                    self._kept.setdefault(request.camera, {}).update(request.values)
-            request.done.set()
-
-    def fail_pending(self, reason: str) -> None:
-        """The worker could not reach the cameras: every waiting request is answered `reason`."""
-        with self._lock:
-            waiting, self._pending = self._pending, []
-        for request in waiting:
-            request.error = reason
-            request.done.set()
 
     def apply_kept(self, rig: Rig) -> None:
         """A rig just opened: every kept value to its camera (a refusal propagates)."""

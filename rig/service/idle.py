@@ -1,5 +1,6 @@
-"""What the job worker does while no job waits: send camera settings, then live mode or aim mode
-if one is wanted (live first: it was asked for to measure, aim mode only to look)."""
+"""What the job worker does while no job waits: the device calls requests wait for (camera
+settings, projector power), then live mode or aim mode if one is wanted (live first: it was asked
+for to measure, aim mode only to look)."""
 
 from __future__ import annotations
 
@@ -15,6 +16,7 @@ from rig.service.camera_settings import CameraSettings
 from rig.service.errors import JobCancelledError
 from rig.service.live import LiveMode
 from rig.service.stopping import WorkerRig
+from rig.service.worker_calls import WorkerCalls
 
 log = logging.getLogger(__name__)
 
@@ -26,13 +28,14 @@ class IdleWork:
         live: LiveMode,
         aim: AimMode,
         settings: CameraSettings,
+        calls: WorkerCalls,
         checkpoint: Callable[[], None],
         jobs_waiting: Callable[[], bool],
         on_fault: Callable[[str], None],
     ) -> None:
         """`checkpoint`: the worker's heartbeat and cancel check; `on_fault`: a device fault to
         report (GET /v1/rig) until a job succeeds."""
-        self.rigs, self.live, self.aim, self.settings = rigs, live, aim, settings
+        self.rigs, self.live, self.aim, self.settings, self.calls = rigs, live, aim, settings, calls
         self._checkpoint, self._jobs_waiting, self._on_fault = checkpoint, jobs_waiting, on_fault
 
     def prepare(self, rig: Rig, tap: Callable[[int, Frame], None]) -> None:
@@ -42,10 +45,10 @@ class IdleWork:
         self.settings.apply_kept(rig)
 
     def wanted(self) -> bool:
-        return self.settings.pending() or self.live.wanted() or self.aim.wanted()
+        return self.calls.pending() or self.live.wanted() or self.aim.wanted()
 
     def run(self) -> None:
-        for step in (self._settings, self._live, self._aim):
+        for step in (self._calls, self._live, self._aim):
             try:
                 step()
             except JobCancelledError:
@@ -60,18 +63,18 @@ class IdleWork:
 
     def _between(self) -> None:
         self._checkpoint()
-        if self.settings.pending() and self.rigs.rig is not None:
-            self.settings.apply_pending(self.rigs.rig)
+        if self.calls.pending() and self.rigs.rig is not None:
+            self.calls.run_pending(self.rigs.rig)
 
-    def _settings(self) -> None:
-        if not self.settings.pending():
+    def _calls(self) -> None:
+        if not self.calls.pending():
             return
         try:
             rig = self.rigs.open()
         except Exception as exc:
-            self.settings.fail_pending(f"the rig could not be opened: {exc}")
+            self.calls.fail_pending(f"the rig could not be opened: {exc}")
             raise
-        self.settings.apply_pending(rig)
+        self.calls.run_pending(rig)
 
     def _live(self) -> None:
         if self.live.wanted():

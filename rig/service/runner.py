@@ -42,6 +42,7 @@ from rig.service.recovery import clear_leftovers, discard, hide_folder, lock_dat
 from rig.service.space import check_free_space, expected_scan_bytes, storage_problems
 from rig.service.status import device_views, result_file
 from rig.service.stopping import WorkerRig
+from rig.service.worker_calls import WorkerCalls
 from rig.store.atomic import publishing_through
 from rig.store.scandir import new_scan_id
 from rig.workers import release_free_memory
@@ -68,15 +69,16 @@ class JobService:
         self.live = LiveMode(config, self._cond)
         self.aim = AimMode(config, self._cond)
         self.frames = FrameTap()
-        self.camera_settings = CameraSettings(config, self._cond)
+        self.calls = WorkerCalls(self._cond)
+        self.camera_settings = CameraSettings(config, self.calls)
         self._queue: deque[str] = deque()
         self._current: str | None = None
         self._stopping = False
         self._rigs = WorkerRig(config, self._cond, lambda: self._stopping, self._checkpoint)
         self._cancel = self._rigs.cancel
-        self._idle = IdleWork(
-            self._rigs, self.live, self.aim, self.camera_settings, self._checkpoint, self._jobs_waiting, self._fault
-        )
+        waiting = lambda: bool(self._queue) or self._stopping  # noqa: E731 - a job waits: live and aim mode pause
+        pieces = (self._rigs, self.live, self.aim, self.camera_settings, self.calls)
+        self._idle = IdleWork(*pieces, self._checkpoint, waiting, self._fault)
         self._rigs.on_open = lambda rig: self._idle.prepare(rig, self.frames.publish)
         self._shutdown_lock = threading.Lock()
         self._shut_down = False
@@ -343,9 +345,6 @@ class JobService:
             log.exception("job %s: its state could not be read to publish", job_id)
             return
         self.events.publish(job_id, "state", {"id": job.id, "state": job.state, "error": job.error})
-
-    def _jobs_waiting(self) -> bool:
-        return bool(self._queue) or self._stopping
 
     def _fault(self, reason: str) -> None:
         self._rig_error = reason

@@ -2,7 +2,7 @@
 // its report: reprojection error per device and per view, the model, the quality warnings and
 // where the board's corners fell.
 import { get, post } from "../api.js";
-import { act, add, field, fill, fmt, h, select } from "../ui.js";
+import { act, add, field, fill, fmt, h, select, table } from "../ui.js";
 import { follow } from "./scan.js";
 
 export async function render(main, [id]) {
@@ -22,7 +22,7 @@ export async function render(main, [id]) {
       if (views.value) body.views = Number(views.value);
       const job = await post("/v1/calibrations", body);
       if (close) close();
-      close = follow(job, progress);
+      close = follow(job, progress, (finished) => { showReport(report, finished); return h("p", {}, "The report is below."); });
     }, start);
   });
   const page = await get("/v1/calibrations?limit=20");
@@ -36,15 +36,32 @@ export async function render(main, [id]) {
 function showReport(box, job) {
   const r = job.result || {};
   const devices = (r.report && r.report.devices) || {};
+  const files = r.files || [];
+  const image = (name, alt) => (files.includes(name) ? h("img", { src: `${job.links.self}/files/${name}`, alt, class: "preview" }) : null);
   box.hidden = false;
   fill(box, h("h2", {}, `Calibration ${job.id}`),
-    r.report && r.report.warnings.length ? h("ul", { class: "problems" }, r.report.warnings.map((w) => h("li", {}, w))) : h("p", {}, "No quality warnings."),
+    r.report && r.report.warnings.length ? h("ul", { class: "problems" }, r.report.warnings.map((w) => h("li", {}, w))) : h("p", {}, "The quality gates passed: no warnings."),
     ...Object.entries(devices).map(([name, d]) => h("div", { class: "device" },
-      h("h3", {}, `${name} (${d.kind}): rms ${d.rms_px.toFixed(3)} px, model ${d.model}`),
-      h("p", {}, `coverage ${fmt.pct(d.coverage)}`, d.stereo_rms_px === null ? "" : ` · stereo rms ${d.stereo_rms_px.toFixed(3)} px`,
-        d.held_out_rms_px === null || d.held_out_rms_px === undefined ? "" : ` · held-out rms ${Number(d.held_out_rms_px).toFixed(3)} px`),
+      h("h3", {}, `${name} (${d.kind}): rms ${d.rms_px.toFixed(3)} px, lens model ${d.model}`),
+      h("p", {}, `${d.views_used.length} views used · coverage ${fmt.pct(d.coverage)}`,
+        d.stereo_rms_px === null ? "" : ` · stereo rms ${d.stereo_rms_px.toFixed(3)} px`,
+        d.corner_residual_px ? ` · corners: median ${d.corner_residual_px.p50.toFixed(3)}, 95 % ${d.corner_residual_px.p95.toFixed(3)}, largest ${d.corner_residual_px.max.toFixed(3)} px` : ""),
+      Object.keys(d.held_out_rms_px || {}).length
+        ? h("p", { class: "muted" }, "models compared on views left out: ", Object.entries(d.held_out_rms_px).map(([m, e]) => `${m} ${Number(e).toFixed(4)} px`).join(", "), ` → ${d.model}`)
+        : null,
       barChart(d.per_view_rms_px, d.rejected_views, `${name}: reprojection error per view (px)`),
-      (r.files || []).filter((f) => f.startsWith("coverage") && f.includes(name)).map((f) => h("img", { src: `${job.links.self}/files/${f}`, alt: `${name}: corners of every view`, class: "preview" })))));
+      h("div", { class: "row" },
+        h("figure", {}, image(`coverage_${name}.png`, `${name}: where the board's corners fell, every view`), h("figcaption", {}, "corners of every view, and the 8 × 8 cells they cover")),
+        h("figure", {}, image(`residuals_${name}.png`, `${name}: each corner's reprojection error, magnified`), h("figcaption", {}, "each corner's error as an arrow, magnified"))))),
+    boardCheck(r.report && r.report.board_check));
+}
+
+// The board as a ruler: its square measured from the calibration, and its flatness, per pair.
+function boardCheck(check) {
+  if (!check || !Object.keys(check).length) return null;
+  return table(["pair", "square (mm)", "error of the square", "worst view", "plane rms (mm)"],
+    Object.entries(check).map(([pair, c]) => [pair, c.square, `${c.square_error_pct} %`, `${c.worst_view_square_error_pct} %`, c.plane_rms]),
+    "the board as a ruler");
 }
 
 // Reprojection error per view as bars (rejected views grey), drawn as SVG.

@@ -40,3 +40,31 @@ export async function render(main) {
   };
   return every(2000, refresh);
 }
+
+// What this machine lacks for the config (slrig doctor, without opening a device).
+async function showDoctor(box) {
+  const { problems } = await get("/v1/doctor");
+  fill(box, h("h2", {}, "Doctor"),
+    problems.length
+      ? h("ul", { class: "problems" }, problems.map((p) => h("li", {}, h("strong", {}, p.device), `: ${p.problem}`)))
+      : h("p", {}, "This machine has what the config needs."));
+}
+
+// Power and input of the projectors whose config names a power control (RS-232, PJLink).
+function showPower(box, projectors) {
+  if (!projectors.length) return;
+  box.hidden = false;
+  fill(box, h("h2", {}, "Projector power"), projectors.map((name) => {
+    const state = h("span", { class: "state" }, "–");
+    const input = h("input", { name: `${name}-input`, placeholder: "hdmi, vga; PJLink: 31", size: 12 });
+    const show = (view) => { state.textContent = view.state; };
+    const call = (method, path, body) => (e) => act(async () => show(await method(`/v1/projectors/${name}/${path}`, body && body())), e.target);
+    return h("div", { class: "row power" },
+      h("strong", {}, name), state,
+      h("button", { type: "button", onclick: call(get, "power") }, "Read state"),
+      h("button", { type: "button", class: "admin", onclick: call(put, "power", () => ({ on: true })) }, "On"),
+      h("button", { type: "button", class: "admin", onclick: call(put, "power", () => ({ on: false })) }, "Off"),
+      field("Input", input),
+      h("button", { type: "button", class: "admin", onclick: call(put, "input", () => ({ input: input.value })) }, "Select"));
+  }));
+}

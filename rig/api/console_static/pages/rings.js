@@ -17,7 +17,7 @@ export async function render(main, [id]) {
   add(main, h("section", { class: "card" }, h("h2", {}, `Plan of ${id}: ${plan.radii_px.length} rings, tolerance ${fmt.mm(plan.tolerance_mm)}`),
     h("div", { class: "row" }, drawing(plan, size),
       table(["ring", "radius (px)"], plan.radii_px.map((r, i) => [i + 1, r.toFixed(1)]))),
-    criteria(plan)));
+    profile(plan), criteria(plan)));
   return null;
 }
 
@@ -39,7 +39,43 @@ function drawing(plan, [width, height]) {
   return svg;
 }
 
+// Each way of planning the rings: how many it needs and, where rehearsed on the pilot, the error it
+// predicts between the rings (the chosen one marked).
 function criteria(plan) {
-  const rows = Object.entries(plan.criteria || {}).map(([name, c]) => [name, JSON.stringify(c)]);
-  return rows.length ? table(["criterion", "value"], rows, "what the plan was made to meet") : null;
+  const rows = Object.entries(plan.criteria || {}).map(([name, c]) => [
+    name.replaceAll("_", " "), c.rings ?? "–", c.rms_mm === undefined ? "–" : `${Number(c.rms_mm).toFixed(4)} mm`,
+    c.met === undefined ? "–" : c.met ? "yes" : "no", c.chosen ? "chosen" : "",
+  ]);
+  return rows.length ? table(["criterion", "rings", "predicted rms", "within tolerance", ""], rows, "rings each criterion needs, and the error it predicts") : null;
+}
+
+// The spacing the surface allows at each radius (from the pilot's curvature), with the planned
+// rings' own spacing as dots: every dot at or under the line.
+function profile(plan) {
+  const ns = "http://www.w3.org/2000/svg";
+  const radii = plan.profile.radius_px, allowed = plan.profile.spacing_px;
+  if (!radii || !radii.length) return null;
+  const rings = plan.radii_px;
+  const gaps = rings.slice(1).map((r, i) => [r, r - rings[i]]);
+  const xMax = Math.max(...radii, ...rings), yMax = Math.max(...allowed, ...gaps.map((g) => g[1]), 1);
+  const W = 480, H = 200, x = (v) => 40 + (v / xMax) * (W - 50), y = (v) => H - 24 - (v / yMax) * (H - 40);
+  const svg = document.createElementNS(ns, "svg");
+  svg.setAttribute("viewBox", `0 0 ${W} ${H}`);
+  svg.setAttribute("class", "chart");
+  svg.setAttribute("role", "img");
+  svg.setAttribute("aria-label", "allowed ring spacing against radius, and the planned rings' spacing");
+  const line = document.createElementNS(ns, "polyline");
+  line.setAttribute("points", radii.map((r, i) => `${x(r)},${y(allowed[i])}`).join(" "));
+  line.setAttribute("class", "allowed");
+  svg.append(line);
+  for (const [r, gap] of gaps) {
+    const dot = document.createElementNS(ns, "circle");
+    dot.setAttribute("cx", String(x(r))); dot.setAttribute("cy", String(y(gap))); dot.setAttribute("r", "3");
+    dot.setAttribute("class", "ring");
+    svg.append(dot);
+  }
+  const label = (text, lx, ly) => { const t = document.createElementNS(ns, "text"); t.setAttribute("x", String(lx)); t.setAttribute("y", String(ly)); t.textContent = text; svg.append(t); };
+  label(`radius (projector px) to ${Math.round(xMax)}`, W / 2, H - 4);
+  label(`spacing to ${Math.round(yMax)} px`, 60, 12);
+  return h("figure", {}, svg, h("figcaption", {}, "line: the spacing the surface allows at each radius; dots: the planned rings"));
 }

@@ -37,14 +37,15 @@ export async function render(main) {
   return () => { if (close) close(); };
 }
 
-// Show a job's progress until it ends; returns the function that stops following it.
-export function follow(job, box) {
+// Show a job's progress until it ends, then what `done` makes of the finished job; returns the
+// function that stops following it.
+export function follow(job, box, done = summary) {
   const bar = h("progress", { max: 1, value: 0, "aria-label": "progress" });
   const stage = h("p", { class: "stage" }, "queued");
   const cancel = h("button", { type: "button", class: "admin" }, "Cancel");
   const result = h("div", { class: "result" });
   box.hidden = false;
-  fill(box, h("h2", {}, `Scan ${job.id}`), bar, stage, h("p", { class: "actions" }, cancel), result);
+  fill(box, h("h2", {}, `${job.kind === "calibration" ? "Calibration" : "Scan"} ${job.id}`), bar, stage, h("p", { class: "actions" }, cancel), result);
   box.dataset.state = job.state;
   cancel.addEventListener("click", () => act(() => post(`${job.links.self}/cancel`), cancel));
   return events(job.links.events, {
@@ -60,10 +61,10 @@ export function follow(job, box) {
       cancel.hidden = true;
       if (s.state !== "done") { stage.textContent = `${s.state}${s.error ? `: ${s.error}` : ""}`; return; }
       bar.value = 1;
-      const done = await get(job.links.self);
+      const finished = await get(job.links.self);
       stage.textContent = "done";
-      fill(result, summary(done));
-      notice(`Scan ${job.id} is done.`);
+      fill(result, done(finished));
+      notice(`${job.kind === "calibration" ? "Calibration" : "Scan"} ${job.id} is done.`);
     },
   });
 }
