@@ -111,7 +111,7 @@ def take(daemon: Daemon) -> dict[str, Any]:
         adaptive = page.evaluate("() => document.querySelector('section[data-state] h2').textContent.split(' ')[1]")
         page.goto(f"{daemon.url}/#/rings/{adaptive}")
         _until(page, "() => document.querySelectorAll('svg.plan circle').length")
-        page.evaluate("() => document.querySelector('svg.plan').scrollIntoView()")
+        page.evaluate("() => document.querySelector('.plan-card').scrollIntoView()")
         _shoot(page, "rings", written)
         browser.close()
     return {"images": written, "scan": scan_id}

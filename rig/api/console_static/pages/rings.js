@@ -14,10 +14,10 @@ export async function render(main, [id]) {
   const plan = manifest.adaptive && manifest.adaptive.plan ? manifest.adaptive.plan : manifest.plan;
   if (!plan) { add(main, h("p", { class: "notice error" }, `scan ${id} keeps no ring plan`)); return null; }
   const size = (manifest.devices && manifest.devices.projectors && manifest.devices.projectors[0] && manifest.devices.projectors[0].resolution) || [plan.center_px[0] * 2, plan.center_px[1] * 2];
-  add(main, h("section", { class: "card" }, h("h2", {}, `Plan of ${id}: ${plan.radii_px.length} rings, tolerance ${fmt.mm(plan.tolerance_mm)}`),
-    h("div", { class: "row" }, drawing(plan, size),
-      table(["ring", "radius (px)"], plan.radii_px.map((r, i) => [i + 1, r.toFixed(1)]))),
-    profile(plan), criteria(plan)));
+  add(main, h("section", { class: "card plan-card" }, h("h2", {}, `Plan of ${id}: ${plan.radii_px.length} rings, tolerance ${fmt.mm(plan.tolerance_mm)}`),
+    h("div", { class: "row" }, h("figure", {}, drawing(plan, size), h("figcaption", {}, `the rings on the projector's ${size[0]} × ${size[1]} image`)), profile(plan)),
+    h("p", { class: "radii" }, "radii (projector px): ", plan.radii_px.map((r) => r.toFixed(1)).join(", ")),
+    criteria(plan)));
   return null;
 }
 
@@ -49,8 +49,9 @@ function criteria(plan) {
   return rows.length ? table(["criterion", "rings", "predicted rms", "within tolerance", ""], rows, "rings each criterion needs, and the error it predicts") : null;
 }
 
-// The spacing the surface allows at each radius (from the pilot's curvature), with the planned
-// rings' own spacing as dots: every dot at or under the line.
+// The spacing the plan's profile allows at each radius (from the pilot's curvature), with the
+// planned rings' own spacing as dots (a rehearsed plan may space them wider where it predicts the
+// surface between them within tolerance).
 function profile(plan) {
   const ns = "http://www.w3.org/2000/svg";
   const radii = plan.profile.radius_px, allowed = plan.profile.spacing_px;
@@ -77,5 +78,5 @@ function profile(plan) {
   const label = (text, lx, ly) => { const t = document.createElementNS(ns, "text"); t.setAttribute("x", String(lx)); t.setAttribute("y", String(ly)); t.textContent = text; svg.append(t); };
   label(`radius (projector px) to ${Math.round(xMax)}`, W / 2, H - 4);
   label(`spacing to ${Math.round(yMax)} px`, 60, 12);
-  return h("figure", {}, svg, h("figcaption", {}, "line: the spacing the surface allows at each radius; dots: the planned rings"));
+  return h("figure", {}, svg, h("figcaption", {}, "line: the spacing the profile allows at each radius, from the pilot's curvature; dots: the planned rings' spacing"));
 }

@@ -18,12 +18,16 @@ export async function render(main) {
     field("Ring plan", plan), h("p", { class: "actions" }, start));
   const progress = h("section", { class: "card", hidden: true });
   add(main, h("h1", {}, "Scan"), form, progress);
+  adaptive.addEventListener("change", () => { codec.disabled = adaptive.checked; tolerance.disabled = !adaptive.checked; });
+  tolerance.disabled = true;
 
   let close = null;
   form.addEventListener("submit", (e) => {
     e.preventDefault();
     act(async () => {
-      const body = { codec: codec.value, keep_frames: keep.checked, adaptive: adaptive.checked };
+      const ringed = adaptive.checked || plan.value.trim() !== "";  // pilot and rings: the codecs are chosen for it
+      const body = { keep_frames: keep.checked, adaptive: adaptive.checked };
+      if (!ringed) body.codec = codec.value;
       if (label.value) body.label = label.value;
       if (adaptive.checked && tolerance.value) body.tolerance_mm = Number(tolerance.value);
       if (plan.value.trim()) {
