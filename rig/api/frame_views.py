@@ -81,6 +81,7 @@ class FrameViews:
         self._lock = threading.Lock()
         self._views: dict[tuple[int, int, int | None, bool, bool], FrameView] = {}
         self._encoded: dict[int, float] = {}  # camera: when its last view was made (time.monotonic)
+        self._making: dict[int, threading.Lock] = {}
 
     def last_encoded(self, camera: int) -> float:
         with self._lock:
@@ -89,14 +90,17 @@ class FrameViews:
     def view(self, camera: int, tapped: TappedFrame, width: int | None, overlay: bool, figures: bool) -> FrameView:
         key = (camera, tapped.count, width, overlay, figures)
         with self._lock:
-            found = self._views.get(key)
-        if found is not None:
-            return found
-        made = frame_view(tapped, width, overlay, figures)
-        with self._lock:
-            self._encoded[camera] = time.monotonic()
-            stale = [k for k in self._views if k[0] == camera and k[1] < tapped.count]
-            for k in stale:
-                del self._views[k]
-            self._views[key] = made
-        return made
+            making = self._making.setdefault(camera, threading.Lock())
+        with making:  # one encoding per camera at a time: viewers asking together wait for it, then share it
+            with self._lock:
+                found = self._views.get(key)
+            if found is not None:
+                return found
+            made = frame_view(tapped, width, overlay, figures)
+            with self._lock:
+                self._encoded[camera] = time.monotonic()
+                stale = [k for k in self._views if k[0] == camera and k[1] < tapped.count]
+                for k in stale:
+                    del self._views[k]
+                self._views[key] = made
+            return made
