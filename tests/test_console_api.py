@@ -251,3 +251,7 @@ def test_a_calibration_report_has_every_corners_error_and_its_plot(service: JobS
         assert corners["p50"] <= corners["p95"] <= corners["max"]
         plot = client.get(f"/v1/calibrations/{job['id']}/files/residuals_{name}.png")
         assert plot.status_code == 200 and plot.content[:8] == b"\x89PNG\r\n\x1a\n"
+    views = [f for f in done["result"]["files"] if f.startswith("view_")]
+    assert len(views) == 6  # each view of the one camera, with its corners drawn
+    first = client.get(f"/v1/calibrations/{job['id']}/files/{views[0]}")
+    assert first.status_code == 200 and first.content[:2] == b"\xff\xd8"

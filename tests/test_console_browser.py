@@ -174,6 +174,27 @@ def test_the_live_page_updates(console: Console) -> None:
     assert console.errors == []
 
 
+REACHABLE = """() => [...document.querySelectorAll('a[href], button, input, select, textarea, [tabindex="0"]')]
+  .filter((e) => !e.disabled && e.offsetParent !== null && !e.closest('[hidden]'))
+  .map((e) => e.outerHTML.slice(0, 80))"""
+
+
+def test_every_control_of_every_page_is_reached_by_tab(console: Console) -> None:
+    page = console.page
+    for name in PAGES:
+        console.go(name)
+        time.sleep(0.5)
+        controls = page.evaluate(REACHABLE)
+        page.evaluate("() => document.activeElement.blur()")
+        reached = set()
+        for _ in range(len(controls) + 5):
+            page.keyboard.press("Tab")
+            reached.add(page.evaluate("() => document.activeElement.outerHTML.slice(0, 80)"))
+        missing = [c for c in controls if c not in reached]
+        assert not missing, f"{name}: not reached by Tab: {missing}"
+    assert console.errors == []
+
+
 def test_every_page_can_be_reached_and_used_by_keyboard(console: Console) -> None:
     page = console.page
     focused: Callable[[], str] = lambda: page.evaluate("() => document.activeElement.textContent.trim()")  # noqa: E731
@@ -229,5 +250,6 @@ def test_the_rings_page_draws_an_adaptive_scans_plan(console: Console, daemon: D
     console.go(f"rings/{job['id']}")
     assert console.until("() => document.querySelectorAll('svg.plan circle').length") == rings
     assert console.page.locator("svg.chart circle.ring").count() == rings - 1  # a spacing per pair of rings
+    assert console.page.locator("svg.plan image").count() == 1  # over the pilot, as the projector saw it
     assert "chosen" in console.page.locator("table:has(caption)").inner_text()
     assert console.errors == []

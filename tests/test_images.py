@@ -59,3 +59,22 @@ def test_the_preview_shows_the_nearest_point_of_each_pixel_whatever_their_order(
         assert np.array_equal(shown[list(expected.keys())], want)
         untouched = np.setdiff1d(np.arange(64 * 48), list(expected.keys()))
         assert (shown[untouched] == 32).all()
+
+
+def test_a_projector_sees_each_points_colour_at_its_pixel_the_nearest_winning() -> None:
+    from rig.pipeline.pointset import PointSet
+    from rig.store.images import projector_view
+    from tests.conftest import make_device
+
+    model = make_device(64, 48, 60.0, (0.0, 0.0, 0.0), (0.0, 0.0, 100.0))
+    points = np.array([[0.0, 0.0, 500.0], [0.0, 0.0, 400.0], [60.0, 0.0, 500.0], [0.0, 0.0, -50.0]])
+    colours = np.array([[255, 0, 0], [0, 255, 0], [0, 0, 255], [9, 9, 9]], np.uint8)
+    n = len(points)
+    cloud = PointSet(points, np.zeros((n, 3)), colours, np.ones(n), np.zeros(n), np.arange(n))
+    image = projector_view(cloud, model)
+    (u0, v0), (u2, v2) = np.round(model.project(points[[0, 2]])[0]).astype(int)
+    assert image.shape == (48, 64, 3)
+    assert tuple(image[v0, u0]) == (0, 255, 0)  # the nearer of the two on the axis
+    assert tuple(image[v2, u2]) == (0, 0, 255)
+    assert (image.reshape(-1, 3) == 9).all(axis=1).sum() == 0  # behind the projector: not drawn
+    assert (image.reshape(-1, 3).any(axis=1)).sum() == 2

@@ -79,7 +79,12 @@ SSE_POLL_S = 0.1
 ERRORS: dict[int | str, dict[str, Any]] = {
     code: {"model": Problem} for code in (400, 401, 403, 404, 409, 413, 429, 503, 507)
 }
-MEDIA_TYPES = {".ply": "application/octet-stream", ".png": "image/png", ".json": "application/json"}
+MEDIA_TYPES = {
+    ".ply": "application/octet-stream",
+    ".png": "image/png",
+    ".jpg": "image/jpeg",
+    ".json": "application/json",
+}
 
 
 def _operation_id(route: APIRoute) -> str:

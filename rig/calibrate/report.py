@@ -154,3 +154,30 @@ def residuals_png(device: DeviceCalibration, max_width: int = 640) -> bytes:
     cv2.putText(image, text, (8, 20), cv2.FONT_HERSHEY_SIMPLEX, 0.5, (230, 230, 230), 1, cv2.LINE_AA)
     _ok, buf = cv2.imencode(".png", image)
     return buf.tobytes()
+
+
+def view_jpeg(image: np.ndarray, detection_points: np.ndarray | None, caption: str) -> bytes:
+    """One board view as the camera saw it (at most 480 px wide) with the corners found drawn on
+    it, and a caption (its number, its error, or why it was not used)."""
+    peak = max(int(image.max()), 1)  # a deeper sensor's image, stretched to 8 bits to look at
+    shown = image if image.dtype == np.uint8 else (image.astype(np.float32) * (255.0 / peak)).astype(np.uint8)
+    shown = cv2.cvtColor(shown, cv2.COLOR_GRAY2BGR) if shown.ndim == 2 else shown.copy()
+    scale = min(1.0, 480 / shown.shape[1])
+    shown = cv2.resize(
+        shown, (round(shown.shape[1] * scale), round(shown.shape[0] * scale)), interpolation=cv2.INTER_AREA
+    )
+    for x, y in (detection_points if detection_points is not None else np.empty((0, 2))) * scale:
+        cv2.circle(shown, (round(x), round(y)), 3, (60, 220, 60), 1, cv2.LINE_AA)
+    cv2.rectangle(shown, (0, 0), (shown.shape[1], 22), (28, 28, 28), -1)
+    cv2.putText(shown, caption, (6, 16), cv2.FONT_HERSHEY_SIMPLEX, 0.45, (230, 230, 230), 1, cv2.LINE_AA)
+    _ok, buf = cv2.imencode(".jpg", shown, [cv2.IMWRITE_JPEG_QUALITY, 80])
+    return buf.tobytes()
+
+
+def view_caption(device: DeviceCalibration, view: int) -> str:
+    if view in device.rejected:
+        return f"view {view}: not used, {device.rejected[view]}"
+    error = device.per_view_rms_px.get(view)
+    return f"view {view}: " + (
+        f"rms {error:.3f} px, {len(device.points.get(view, []))} corners" if error else "no board found"
+    )

@@ -12,7 +12,7 @@ from rig.calibrate.boards import Board
 from rig.calibrate.check import board_checks
 from rig.calibrate.described import BoardImage, load_described_views, view_folders
 from rig.calibrate.files import write_calibration
-from rig.calibrate.report import coverage_png, report, residuals_png
+from rig.calibrate.report import coverage_png, report, residuals_png, view_caption, view_jpeg
 from rig.calibrate.solve import DeviceCalibration, calibrate_cameras, calibrate_projectors
 from rig.calibrate.views import View, capture_placed_views, default_poses, load_folder_views
 from rig.config import RigConfig
@@ -124,4 +124,13 @@ def solve_and_write(
     for device in devices:
         write_atomic(out / f"coverage_{device.name}.png", coverage_png(device))
         write_atomic(out / f"residuals_{device.name}.png", residuals_png(device))
+    for device in devices[: len(cameras)]:  # each view with the corners found in it
+        c = [name for name, _ in cameras].index(device.name)
+        for view in collected:
+            if c in view.white:
+                found = view.camera.get(c)
+                image = view_jpeg(
+                    view.white[c], None if found is None else found.points, view_caption(device, view.index)
+                )
+                write_atomic(out / f"view_{view.index:02d}_{device.name}.jpg", image)
     return CalibrationOutcome(devices, summary, digest, out, len(collected))

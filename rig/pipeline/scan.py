@@ -74,6 +74,7 @@ class ScanResult:
     overlap: dict[int, np.ndarray] = field(default_factory=dict)  # per camera: pixels lit by several projectors
     mesh: Mesh | None = None  # ring scans with a surface: every pair's interpolated surface, meshed
     adaptive: dict[str, object] | None = None  # an adaptive scan: its ring plan and pattern economy
+    images: dict[str, np.ndarray] = field(default_factory=dict)  # name -> RGB image stored as <name>.png
     descriptions: dict[int, dict[str, object]] = field(default_factory=dict)  # kept frames: projector -> spec
 
 

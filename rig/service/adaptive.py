@@ -13,10 +13,18 @@ from rig.pipeline.scan import ScanResult, run_scan
 from rig.plan.ring_plan import RingPlan, pilot_views, plan_rings
 from rig.progress import ProgressCallback, ProgressTracker
 from rig.rig import Rig
+from rig.store.images import projector_view
 
 
 def plan_from_pilot(the_rig: Rig, tolerance_mm: float | None, progress: ProgressCallback | None = None) -> RingPlan:
     """Scan with the pilot codec (scan.adaptive.pilot_codec) and plan the rings from what it saw."""
+    return pilot_and_plan(the_rig, tolerance_mm, progress)[1]
+
+
+def pilot_and_plan(
+    the_rig: Rig, tolerance_mm: float | None, progress: ProgressCallback | None = None
+) -> tuple[ScanResult, RingPlan]:
+    """plan_from_pilot, and the pilot scan itself."""
     settings = the_rig.config.scan.adaptive
     tracker = ProgressTracker(progress)
     tracker.report("pilot", 0.0)
@@ -24,7 +32,7 @@ def plan_from_pilot(the_rig: Rig, tolerance_mm: float | None, progress: Progress
     tracker.report("plan", 0.45)
     views = pilot_views(pilot, the_rig.camera_models, the_rig.projector_models)
     about = {"codec": pilot.codec, "frames_projected": pilot.frames_projected, "bytes_captured": pilot.bytes_captured}
-    return plan_rings(views, settings, tolerance_mm, about, the_rig.config.scan.surface.interpolant)
+    return pilot, plan_rings(views, settings, tolerance_mm, about, the_rig.config.scan.surface.interpolant)
 
 
 def check_scan_request(config: RigConfig, request: dict[str, Any]) -> None:
@@ -78,12 +86,14 @@ def adaptive_scan(
     """Pilot (unless `plan` is given), plan, and the planned ring scan; the result records the plan
     and what the scan cost beside the pilot (ScanResult.adaptive). Also returns the rig as it
     scanned the plan (with_plan), whose config the stored scan records."""
-    piloted = plan is None
+    pilot = None
     if plan is None:
-        plan = plan_from_pilot(the_rig, tolerance_mm, progress)
+        pilot, plan = pilot_and_plan(the_rig, tolerance_mm, progress)
     sparse = with_plan(the_rig, plan)
     result = run_scan(sparse, "rings", keep_frames=keep_frames)
-    result.adaptive = adaptive_record(plan, result, piloted)
+    result.adaptive = adaptive_record(plan, result, pilot is not None)
+    if pilot is not None:  # the picture the console draws the plan over (projector pixels, as the plan)
+        result.images["pilot_projector"] = projector_view(pilot.cloud, the_rig.projector_models[0])
     return result, plan, sparse
 
 

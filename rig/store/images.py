@@ -78,6 +78,11 @@ def _png(image: np.ndarray) -> bytes:
     return buf.tobytes()
 
 
+def rgb_png(image: np.ndarray) -> bytes:
+    """An RGB image (H, W, 3) uint8 as a PNG."""
+    return _png(cv2.cvtColor(image, cv2.COLOR_RGB2BGR))
+
+
 def mask_png(mask: np.ndarray) -> bytes:
     """A boolean mask as an 8-bit PNG: white where set."""
     return _png(np.where(mask, 255, 0).astype(np.uint8))
@@ -99,3 +104,16 @@ def depth_colour_jpeg(depth: np.ndarray) -> tuple[bytes, list[float] | None]:
     if not ok:  # pragma: no cover - OpenCV encodes any uint8 image
         raise RuntimeError("JPEG encoding failed")
     return encoded.tobytes(), span
+
+
+def projector_view(cloud: PointSet, model: CameraModel) -> np.ndarray:
+    """What a projector "sees" of a cloud: each point's colour at the projector pixel it projects
+    to, the nearest point winning (uint8 RGB, the projector's size; black where no point falls).
+    Ring plans are drawn in projector pixels, so this is the picture to draw them over."""
+    image = np.zeros((model.height, model.width, 3), np.uint8)
+    uv, z = model.project(cloud.points)
+    u, v = np.round(uv[:, 0]).astype(np.int64), np.round(uv[:, 1]).astype(np.int64)
+    inside = (z > 0) & (u >= 0) & (u < model.width) & (v >= 0) & (v < model.height)
+    order = np.argsort(-z[inside])  # far first: the nearest is written last
+    image[v[inside][order], u[inside][order]] = cloud.colors[inside][order]
+    return image

@@ -27,7 +27,7 @@ from rig.pipeline.capture import CUE
 from rig.pipeline.scan import PairResult, ScanResult
 from rig.rig import Rig
 from rig.store.atomic import fsync_dir, publish_folder, write_atomic
-from rig.store.images import depth_image_png, grid_depth, mask_png, point_depth, preview_png
+from rig.store.images import depth_image_png, grid_depth, mask_png, point_depth, preview_png, rgb_png
 from rig.store.ply import mesh_ply_bytes, ply_chunks
 
 DESCRIPTION_NAME = "patterns.yaml"  # beside kept frames: what they show, for `slrig reconstruct`
@@ -217,6 +217,9 @@ def write_scan(
             files.setdefault("overlap", {})[the_rig.config.cameras[c].name] = name
         if result.frames:
             files["frames"] = _write_frames(the_rig, result, partial)
+        for name, image in result.images.items():  # e.g. an adaptive scan's pilot as the projector saw it
+            write_atomic(partial / f"{name}.png", rgb_png(image))
+            files.setdefault("images", {})[name] = f"{name}.png"
         if errors is not None and len(errors) == len(result.cloud):
             write_atomic(partial / TRUTH_ERRORS, _npy(errors.astype("<f4")))
             files["truth_errors"] = TRUTH_ERRORS

@@ -52,8 +52,16 @@ function showReport(box, job) {
       barChart(d.per_view_rms_px, d.rejected_views, `${name}: reprojection error per view (px)`),
       h("div", { class: "row" },
         h("figure", {}, image(`coverage_${name}.png`, `${name}: where the board's corners fell, every view`), h("figcaption", {}, "corners of every view, and the 8 × 8 cells they cover")),
-        h("figure", {}, image(`residuals_${name}.png`, `${name}: each corner's reprojection error, magnified`), h("figcaption", {}, "each corner's error as an arrow, magnified"))))),
+        h("figure", {}, image(`residuals_${name}.png`, `${name}: each corner's reprojection error, magnified`), h("figcaption", {}, "each corner's error as an arrow, magnified"))),
+      views(files.filter((f) => f.startsWith("view_") && f.endsWith(`_${name}.jpg`)), job, name))),
     boardCheck(r.report && r.report.board_check));
+}
+
+// Every view as the camera saw it, with the corners found in it.
+function views(names, job, device) {
+  if (!names.length) return null;
+  return h("details", {}, h("summary", {}, `${names.length} views of ${device}, with the corners found`),
+    h("div", { class: "views" }, names.map((f) => h("img", { src: `${job.links.self}/files/${f}`, alt: f.replace(".jpg", ""), loading: "lazy", class: "view" }))));
 }
 
 // The board as a ruler: its square measured from the calibration, and its flatness, per pair.

@@ -13,21 +13,29 @@ export async function render(main, [id]) {
   const manifest = await get(`/v1/scans/${id}/files/manifest.json`);
   const plan = manifest.adaptive && manifest.adaptive.plan ? manifest.adaptive.plan : manifest.plan;
   if (!plan) { add(main, h("p", { class: "notice error" }, `scan ${id} keeps no ring plan`)); return null; }
+  const job = await get(`/v1/scans/${id}`);
+  const pilot = (job.result.files || []).includes("pilot_projector.png") ? `/v1/scans/${id}/files/pilot_projector.png` : null;
   const size = (manifest.devices && manifest.devices.projectors && manifest.devices.projectors[0] && manifest.devices.projectors[0].resolution) || [plan.center_px[0] * 2, plan.center_px[1] * 2];
   add(main, h("section", { class: "card plan-card" }, h("h2", {}, `Plan of ${id}: ${plan.radii_px.length} rings, tolerance ${fmt.mm(plan.tolerance_mm)}`),
-    h("div", { class: "row" }, h("figure", {}, drawing(plan, size), h("figcaption", {}, `the rings on the projector's ${size[0]} × ${size[1]} image`)), profile(plan)),
+    h("div", { class: "row" }, h("figure", {}, drawing(plan, size, pilot), h("figcaption", {}, pilot ? `the rings over the pilot scan as the projector saw it (${size[0]} × ${size[1]})` : `the rings on the projector's ${size[0]} × ${size[1]} image`)), profile(plan)),
     h("p", { class: "radii" }, "radii (projector px): ", plan.radii_px.map((r) => r.toFixed(1)).join(", ")),
     criteria(plan)));
   return null;
 }
 
-function drawing(plan, [width, height]) {
+function drawing(plan, [width, height], pilot) {
   const ns = "http://www.w3.org/2000/svg";
   const svg = document.createElementNS(ns, "svg");
   svg.setAttribute("viewBox", `0 0 ${width} ${height}`);
   svg.setAttribute("class", "plan");
   svg.setAttribute("role", "img");
-  svg.setAttribute("aria-label", `${plan.radii_px.length} rings over the projector image`);
+  svg.setAttribute("aria-label", `${plan.radii_px.length} rings over the ${pilot ? "pilot scan as the projector saw it" : "projector image"}`);
+  if (pilot) {  // the pilot's surface in projector pixels, where the rings are planned
+    const picture = document.createElementNS(ns, "image");
+    picture.setAttribute("href", pilot);
+    picture.setAttribute("width", String(width)); picture.setAttribute("height", String(height));
+    svg.append(picture);
+  }
   const frame = document.createElementNS(ns, "rect");
   frame.setAttribute("width", String(width)); frame.setAttribute("height", String(height)); frame.setAttribute("class", "frame");
   svg.append(frame);
