@@ -119,6 +119,8 @@ def test_the_console_and_the_api_docs_load_nothing_from_another_host(service: Jo
 # --- aim mode and the camera views ------------------------------------------------------------
 def test_aim_mode_streams_changing_frames_and_an_exposure_change_reaches_the_camera(service: JobService) -> None:
     client = _client(service)
+    idle = client.get("/v1/cameras/0/frame.jpg", params={"wait_s": 10})
+    assert idle.status_code == 204 and "nothing captures" in idle.headers["x-reason"]  # no wait for nothing
     assert client.post("/v1/aim", json={"pattern": "crosshair", "seconds": 60}, headers=AUTH).status_code == 202
     first = _frame(client, 0, width=160, overlay="true")
     count = int(first.headers["x-frame"])
@@ -148,6 +150,8 @@ def test_camera_settings_are_kept_for_the_next_rig(service: JobService) -> None:
     assert client.put("/v1/cameras/0/settings", json={"exposure_us": 4000}, headers=AUTH).status_code == 200
     service._rigs.drop()  # a job that failed closes the rig; the next opens a new one
     job = client.post("/v1/scans", json={"codec": "gray"}, headers=AUTH).json()
+    waits = client.put("/v1/cameras/0/settings", json={"exposure_us": 5000}, headers=AUTH)
+    assert waits.status_code == 409 and job["id"] in waits.json()["detail"]  # jobs first, never a wait behind them
     done = wait_done(client, job["id"])
     manifest = client.get(f"/v1/scans/{done['id']}/files/manifest.json").json()
     assert manifest["devices"]["cameras"][0]["exposure_us"] == 4000  # the scan ran at what was set

@@ -3,8 +3,9 @@ pattern while the cameras run), each camera's settings (GET /v1/cameras, PUT
 /v1/cameras/{camera}/settings) and its newest frame (GET /v1/cameras/{camera}/frame.jpg).
 
 A frame request names the last frame its client has (`after`) and is answered once a newer one
-exists (or 204 after `wait_s`): a client asks for the next when it has shown the last, so a slow
-one gets fewer frames, and the rig never waits for any (rig.service.frames).
+exists (or 204 after `wait_s`, and at once while nothing captures): a client asks for the next
+when it has shown the last, so a slow one gets fewer frames, and the rig never waits for any
+(rig.service.frames).
 """
 
 from __future__ import annotations
@@ -107,7 +108,7 @@ def _camera_routes(router: APIRouter, service: JobService) -> None:
         if camera >= len(service.config.cameras):
             raise SetupRefusedError(f"camera: this rig has {len(service.config.cameras)} cameras")
         values = body.model_dump(exclude_none=True)
-        service.camera_settings.request(camera, values, service.running_job)
+        service.camera_settings.request(camera, values, service.busy_with)
         view = service.camera_settings.views(service.open_rig)[camera]
         newest = service.frames.newest(camera)
         return {**view, "frame": None if newest is None else newest.count, "fps": service.frames.rate(camera)}
@@ -127,12 +128,15 @@ def _camera_routes(router: APIRouter, service: JobService) -> None:
     ) -> Response:
         if camera >= len(service.config.cameras):
             raise SetupRefusedError(f"camera: this rig has {len(service.config.cameras)} cameras")
+        if not _capturing(service):  # nothing will come: say so at once rather than after wait_s
+            headers = {"Cache-Control": "no-store", "X-Reason": "nothing captures: start aim mode, live mode or a scan"}
+            return Response(status_code=status.HTTP_204_NO_CONTENT, headers=headers)
         release = waiters.take(client_address(request.client))
         try:
             tapped = await _newer_frame(service, views, camera, after, wait_s)
             if tapped is None:
                 return Response(status_code=status.HTTP_204_NO_CONTENT, headers={"Cache-Control": "no-store"})
-            figures = service.running_job is None
+            figures = service.busy_with is None
             view = await asyncio.to_thread(views.view, camera, tapped, width, overlay, figures)
         finally:
             release()
@@ -146,7 +150,13 @@ async def _newer_frame(
     are encoded (whatever the clients ask), so viewers cost the scan little."""
     tapped = await service.frames.next_after(camera, after, wait_s)
     wait = views.last_encoded(camera) + 1.0 / JOB_VIEW_RATE - time.monotonic()
-    if tapped is not None and wait > 0 and service.running_job is not None:
+    if tapped is not None and wait > 0 and service.busy_with is not None:
         await asyncio.sleep(wait)
         tapped = service.frames.newest(camera) or tapped  # the newest by then
     return tapped
+
+
+def _capturing(service: JobService) -> bool:
+    """Whether frames are coming: aim or live mode wanted, or a job running."""
+    modes = (service.aim.view()["state"], service.live.state()[0])
+    return service.busy_with is not None or any(state in ("starting", "running") for state in modes)

@@ -64,7 +64,7 @@ def bench_router(service: JobService, errors: dict[int | str, dict[str, Any]]) -
             action(device)
             return {"projector": name, "state": device.power_state()}
 
-        return service.calls.call(run, service.running_job, f"{name}'s {what}")  # type: ignore[no-any-return]
+        return service.calls.call(run, service.busy_with, f"{name}'s {what}")  # type: ignore[no-any-return]
 
     @router.get("/projectors/{name}/power", response_model=PowerView, dependencies=READING)
     def power_state(name: ProjectorName) -> dict[str, Any]:

@@ -354,8 +354,9 @@ class JobService:
         return self._rigs.rig
 
     @property
-    def running_job(self) -> str | None:
-        return self._current
+    def busy_with(self) -> str | None:  # the job running, or the next queued: device calls wait for neither
+        with self._cond:
+            return self._current or (self._queue[0] if self._queue else None)
 
     # --- the jobs (rig.service.tasks does the work) ----------------------------------------
     def _scan(self, job: Job, progress: ProgressCallback) -> dict[str, Any]:

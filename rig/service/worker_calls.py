@@ -35,10 +35,11 @@ class WorkerCalls:
 
     def call(self, action: Callable[[Rig], Any], busy: str | None, what: str) -> Any:
         """`action(rig)` on the worker, its answer returned here. JobConflictError while job `busy`
-        runs or when the worker does not get to it in time; SetupRefusedError with the driver's or
-        the action's refusal (ValueError, a device error, SetupRefusedError); nothing changed then."""
+        runs or waits (jobs come first) or when the worker does not get to it in time;
+        SetupRefusedError with the driver's or the action's refusal (ValueError, a device error,
+        SetupRefusedError); nothing changed then."""
         if busy is not None:
-            raise JobConflictError(f"job {busy} is running; {what} waits until it ends")
+            raise JobConflictError(f"job {busy} is running or queued; {what} waits until the queue is empty")
         call = _Call(action)
         with self._lock:
             self._pending.append(call)
