@@ -17,7 +17,6 @@ from __future__ import annotations
 import argparse
 import json
 import platform
-import shutil
 import statistics
 import sys
 import tempfile
@@ -32,12 +31,13 @@ REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
+from _browser import chromium_path, log_in, until  # noqa: E402
 from _daemon import daemon_config  # noqa: E402
 from _readme import replace_block  # noqa: E402
 
 from rig.api.clouds import DEFAULT_BUDGET  # noqa: E402
 from tests.conftest import default_config_data  # noqa: E402
-from tests.test_daemon import AUTH, KEY, Daemon  # noqa: E402
+from tests.test_daemon import AUTH, Daemon  # noqa: E402
 
 TIMEOUT_S = 300.0
 
@@ -132,33 +132,27 @@ def aim_rates(daemon: Daemon, seconds: float = 5.0) -> dict[str, float]:
 def browser_figures(daemon: Daemon, scan_id: str) -> dict[str, Any]:
     from playwright.sync_api import sync_playwright
 
-    chromium = shutil.which("chromium")
-    if chromium is None:
-        raise SystemExit("no chromium: apt-get install chromium")
+    chromium = chromium_path()
     out: dict[str, Any] = {}
     with sync_playwright() as p:
         browser = p.chromium.launch(executable_path=chromium, args=["--no-sandbox"])
         context = browser.new_context(viewport={"width": 1280, "height": 900})
-        login = context.new_page()
-        login.goto(daemon.url + "/")
-        login.fill("input[name=key]", KEY)
-        login.press("input[name=key]", "Enter")
-        login.wait_for_selector("h1:has-text('Rig')")
+        log_in(context.new_page(), daemon.url)
         page = context.new_page()
         page.goto(daemon.url + "/#/rig")
         page.wait_for_selector("h1:has-text('Rig')")
         paint = "() => performance.getEntriesByName('first-contentful-paint')[0]?.startTime"
-        out["first_paint_ms"] = round(_until(page, paint), 1)
+        out["first_paint_ms"] = round(until(page, paint), 1)
         viewer = context.new_page()
         viewer.goto(f"{daemon.url}/#/viewer/{scan_id}")
         drawn = "() => document.querySelector('canvas.viewer')?.dataset.drawnAt"
-        out["viewer_drawn_ms"] = round(float(_until(viewer, drawn)), 1)
+        out["viewer_drawn_ms"] = round(float(until(viewer, drawn)), 1)
         out["viewer_points"] = int(viewer.evaluate("() => document.querySelector('canvas.viewer').dataset.points"))
-        before = float(_until(viewer, drawn))
+        before = float(until(viewer, drawn))
         clicked = viewer.evaluate("() => performance.now()")
         viewer.click("text=Full resolution")
         redrawn = f"() => Number(document.querySelector('canvas.viewer').dataset.drawnAt) > {before} && {drawn[6:]}"
-        out["full_resolution_ms"] = round(float(_until(viewer, redrawn)) - clicked, 1)
+        out["full_resolution_ms"] = round(float(until(viewer, redrawn)) - clicked, 1)
         out["full_resolution_points"] = int(
             viewer.evaluate("() => document.querySelector('canvas.viewer').dataset.points")
         )
@@ -166,14 +160,6 @@ def browser_figures(daemon: Daemon, scan_id: str) -> dict[str, Any]:
     return out
 
 
-def _until(page: Any, script: str, timeout_s: float = 120.0) -> Any:
-    deadline = time.monotonic() + timeout_s
-    while time.monotonic() < deadline:
-        value = page.evaluate(script)
-        if value:
-            return value
-        time.sleep(0.02)
-    raise RuntimeError(f"not within {timeout_s} s: {script}")
 
 
 def main() -> None:

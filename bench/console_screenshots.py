@@ -11,7 +11,6 @@ Prints JSON: the images written, and the scan and calibration they show.
 from __future__ import annotations
 
 import json
-import shutil
 import sys
 import tempfile
 import time
@@ -22,23 +21,16 @@ REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
+from _browser import chromium_path, log_in, until  # noqa: E402
 from _daemon import daemon_config  # noqa: E402
 
 from tests.conftest import default_config_data  # noqa: E402
-from tests.test_daemon import KEY, Daemon  # noqa: E402
+from tests.test_daemon import Daemon  # noqa: E402
 
 IMAGES = REPO / "docs" / "images"
 VIEWPORT = {"width": 1280, "height": 860}
 
 
-def _until(page: Any, script: str, timeout_s: float = 300.0) -> Any:
-    deadline = time.monotonic() + timeout_s
-    while time.monotonic() < deadline:
-        value = page.evaluate(script)
-        if value:
-            return value
-        time.sleep(0.1)
-    raise RuntimeError(f"not within {timeout_s} s: {script}")
 
 
 def _shoot(page: Any, name: str, written: list[str]) -> None:
@@ -54,21 +46,16 @@ JOB_ID = "() => document.querySelector('section[data-state] h2').textContent.spl
 def take(daemon: Daemon) -> dict[str, Any]:
     from playwright.sync_api import sync_playwright
 
-    chromium = shutil.which("chromium")
-    if chromium is None:
-        raise SystemExit("no chromium: apt-get install chromium")
+    chromium = chromium_path()
     written: list[str] = []
     with sync_playwright() as p:
         browser = p.chromium.launch(executable_path=chromium, args=["--no-sandbox"])
         page = browser.new_page(viewport=VIEWPORT)
-        page.goto(daemon.url + "/")
-        page.fill("input[name=key]", KEY)
-        page.press("input[name=key]", "Enter")
-        page.wait_for_selector("h1:has-text('Rig')")
+        log_in(page, daemon.url)
         scan_id = _aim_scan_and_view(page, daemon.url, written)
         page.goto(daemon.url + "/#/live")
         page.click("text=Start")
-        _until(page, "() => Number(document.querySelector('img.depth')?.dataset.sequence) > 2")
+        until(page, "() => Number(document.querySelector('img.depth')?.dataset.sequence) > 2")
         _shoot(page, "live", written)
         page.click("text=Stop")
         for name in ("scans", "rig"):
@@ -84,19 +71,19 @@ def _aim_scan_and_view(page: Any, url: str, written: list[str]) -> str:
     page.goto(url + "/#/aim")
     page.select_option("select[name=pattern]", "crosshair")
     page.click("text=Show pattern")
-    _until(page, "() => Number(document.querySelector('canvas.frame')?.dataset.frame) > 10")
+    until(page, "() => Number(document.querySelector('canvas.frame')?.dataset.frame) > 10")
     page.evaluate("() => document.querySelector('.camera').scrollIntoView()")
     _shoot(page, "aim", written)
     page.click("text=Dark")
     page.goto(url + "/#/scan")
     page.fill("input[name=label]", "sphere on the plane")
     page.click("text=Start scan")
-    _until(page, DONE)
+    until(page, DONE)
     page.evaluate("() => document.querySelector('section[data-state]').scrollIntoView()")
     _shoot(page, "scan", written)
     scan_id = str(page.evaluate(JOB_ID))
     page.goto(f"{url}/#/viewer/{scan_id}")
-    _until(page, "() => document.querySelector('canvas.viewer')?.dataset.drawn")
+    until(page, "() => document.querySelector('canvas.viewer')?.dataset.drawn")
     page.select_option("select[name=mode]", "depth")
     box = page.locator("canvas.viewer").bounding_box()
     page.mouse.move(box["x"] + box["width"] / 2, box["y"] + box["height"] / 2)
@@ -112,17 +99,17 @@ def _calibration_and_rings(page: Any, url: str, written: list[str]) -> None:
     page.goto(url + "/#/calibration")
     page.fill("input[name=views]", "10")
     page.click("text=Calibrate")
-    _until(page, "() => document.querySelectorAll('img.preview').length >= 2")
+    until(page, "() => document.querySelectorAll('img.preview').length >= 2")
     time.sleep(0.5)
     page.evaluate("() => document.querySelector('.device').scrollIntoView()")
     _shoot(page, "calibration", written)
     page.goto(url + "/#/scan")
     page.check("input[name=adaptive]")
     page.click("text=Start scan")
-    _until(page, DONE)
+    until(page, DONE)
     adaptive = page.evaluate(JOB_ID)
     page.goto(f"{url}/#/rings/{adaptive}")
-    _until(page, "() => document.querySelectorAll('svg.plan circle').length")
+    until(page, "() => document.querySelectorAll('svg.plan circle').length")
     time.sleep(0.5)
     page.evaluate("() => document.querySelector('.plan-card').scrollIntoView()")
     _shoot(page, "rings", written)

@@ -24,6 +24,7 @@ from rig.patterns import codec_class
 from rig.patterns.setup import SETUP_PATTERNS, setup_pattern
 from rig.rig import Rig
 from rig.service.errors import JobConflictError, SetupRefusedError
+from rig.service.modes import WorkerMode
 
 MAX_AIM_S = 3600.0
 FRAME_TIMEOUT_S = 2.0
@@ -69,17 +70,14 @@ def _codec_pattern(config: RigConfig, size: tuple[int, int], codec: str | None, 
     raise SetupRefusedError(f"index: {name} made fewer patterns than it counts")  # pragma: no cover - a codec's bug
 
 
-class AimMode:
-    """Whether aim mode is wanted (and until when), what it shows, and its state (thread-safe)."""
+class AimMode(WorkerMode):
+    """Whether aim mode is wanted (the AimRequest) and until when, what it shows, and its state
+    (thread-safe)."""
 
     def __init__(self, config: RigConfig, worker: threading.Condition) -> None:
+        super().__init__(worker)
         self.config = config
-        self._worker = worker
-        self._lock = threading.Lock()
-        self._wanted: AimRequest | None = None
         self._version = 0
-        self._deadline = 0.0
-        self._state, self._reason = "off", None
         self._images: list[np.ndarray] = []
 
     def start(self, request: AimRequest, seconds: float, live_running: bool) -> dict[str, Any]:
@@ -100,30 +98,9 @@ class AimMode:
             if request != self._wanted:
                 self._version += 1
                 self._images = images
-            self._wanted = request
-            self._deadline = time.monotonic() + min(seconds, MAX_AIM_S)
-            if self._state in ("off", "failed"):
-                self._state, self._reason = "starting", None
-        with self._worker:
-            self._worker.notify_all()
+            self._want(request, min(seconds, MAX_AIM_S))
+        self._wake_worker()
         return self.view()
-
-    def stop(self, reason: str = "stopped by request") -> dict[str, Any]:
-        with self._lock:
-            self._wanted = None
-            if self._state != "running":
-                self._state, self._reason = "off", reason
-            else:
-                self._reason = reason  # the worker darkens and turns it off after its frame
-        return self.view()
-
-    def wanted(self) -> bool:
-        with self._lock:
-            if self._wanted is not None and time.monotonic() >= self._deadline:
-                self._wanted, self._reason = None, "its time limit passed"
-                if self._state != "running":
-                    self._state = "off"
-            return self._wanted is not None
 
     def run(self, rig: Rig, jobs_waiting: Callable[[], bool], between: Callable[[], None]) -> None:
         """Show the pattern and capture every camera in turn while wanted and no job waits;
@@ -157,14 +134,10 @@ class AimMode:
             else:
                 self._state = "off"
 
-    def interrupted(self, reason: str) -> None:
-        with self._lock:
-            self._wanted, self._state, self._reason = None, "off", reason
-
     def view(self) -> dict[str, Any]:
         with self._lock:
             wanted = self._wanted
-            left = max(0.0, self._deadline - time.monotonic()) if wanted is not None else None
+            left = None if wanted is None or self._deadline is None else max(0.0, self._deadline - time.monotonic())
             return {
                 "state": self._state,
                 "reason": self._reason,

@@ -18,22 +18,18 @@ from rig.errors import ConfigError
 from rig.pipeline.live import LiveFrame, LiveStats, run_live
 from rig.rig import Rig
 from rig.service.errors import JobConflictError
+from rig.service.modes import WorkerMode
 
 MAX_LIVE_S = 86400.0
 
 
-class LiveMode:
-    """Whether live mode is wanted, its state, its figures and its newest frame (thread-safe)."""
+class LiveMode(WorkerMode):
+    """Whether live mode is wanted (the config it runs with), its state, its figures and its newest
+    frame (thread-safe)."""
 
     def __init__(self, config: RigConfig, worker: threading.Condition) -> None:
-        """`worker`: the job worker's condition, notified when live mode is wanted."""
+        super().__init__(worker)
         self.config = config
-        self._worker = worker
-        self._lock = threading.Lock()
-        self._wanted: RigConfig | None = None  # the config live mode runs with, while wanted
-        self._deadline: float | None = None
-        self._state = "off"
-        self._reason: str | None = None
         self._stats = LiveStats()
         self._latest: LiveFrame | None = None
         self._session = 0
@@ -51,30 +47,11 @@ class LiveMode:
             if self._wanted is None or self._wanted.scan.live != config.scan.live:
                 self._session += 1
                 self._stats, self._latest = LiveStats(), None
-            self._wanted = config
-            self._deadline = None if seconds is None else time.monotonic() + seconds
-            if self._state in ("off", "failed"):
-                self._state, self._reason = "starting", None
-        with self._worker:
-            self._worker.notify_all()
-        return self.view()
-
-    def stop(self, reason: str = "stopped by request") -> dict[str, Any]:
-        with self._lock:
-            self._wanted = None
-            if self._state in ("starting", "paused"):
-                self._state, self._reason = "off", reason
-            elif self._state == "running":
-                self._reason = reason  # the worker turns it off after the sequence it is in
+            self._want(config, seconds)
+        self._wake_worker()
         return self.view()
 
     # --- the worker -----------------------------------------------------------------------------
-    def wanted(self) -> bool:
-        with self._lock:
-            if self._wanted is not None and self._deadline is not None and time.monotonic() >= self._deadline:
-                self._wanted, self._state, self._reason = None, "off", "its time limit passed"
-            return self._wanted is not None
-
     def run(self, rig: Rig, jobs_waiting: Callable[[], bool], beat: Callable[[], None]) -> None:
         """Run live mode on `rig` until it is no longer wanted or a job waits (then paused)."""
         with self._lock:
@@ -102,11 +79,6 @@ class LiveMode:
                 else:
                     self._state = "off" if self._wanted is None else "starting"
                     self._reason = self._reason or "stopped"
-
-    def interrupted(self, reason: str) -> None:
-        """The daemon is stopping: live mode is off."""
-        with self._lock:
-            self._wanted, self._state, self._reason = None, "off", reason
 
     def _publish(self, frame: LiveFrame, session: int) -> None:
         with self._lock:
