@@ -224,7 +224,7 @@ async def _run(
     listening = [s for srv in server.servers for s in srv.sockets] if not server.should_exit else []
     if listening:  # (none: a signal in the moment after the start has stopped it already)
         address = listening[0].getsockname()
-        log.info("listening on http://%s:%d", address[0], address[1])
+        log.info("listening on http://%s:%d (the console: open it in a browser; the API: /v1, /docs)", *address[:2])
         notifier.notify("READY=1", f"STATUS=serving on {address[0]}:{address[1]}")
     interval = notifier.watchdog_interval_s
     next_ping = 0.0
