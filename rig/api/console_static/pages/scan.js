@@ -59,15 +59,15 @@ export function follow(job, box, done = summary) {
       stage.textContent = `${p.stage} · ${fmt.pct(p.fraction)} · ${fmt.s(p.elapsed_s)} so far${left}`;
     },
     state: async (s, e) => {
-      box.dataset.state = s.state;
-      if (s.state === "queued" || s.state === "running") { stage.textContent = s.state; return; }
+      if (s.state === "queued" || s.state === "running") { stage.textContent = box.dataset.state = s.state; return; }
       e.target.close();
       cancel.hidden = true;
-      if (s.state !== "done") { stage.textContent = `${s.state}${s.error ? `: ${s.error}` : ""}`; return; }
+      if (s.state !== "done") { box.dataset.state = s.state; stage.textContent = `${s.state}${s.error ? `: ${s.error}` : ""}`; return; }
       bar.value = 1;
       const finished = await get(job.links.self);
       stage.textContent = "done";
       fill(result, done(finished));
+      box.dataset.state = "done";  // once what it made is shown
       notice(`${job.kind === "calibration" ? "Calibration" : "Scan"} ${job.id} is done.`);
     },
   });
