@@ -103,6 +103,7 @@ def test_a_wrong_key_is_refused_and_the_right_one_logs_in_and_out(browser: Any, 
 
 
 def test_every_page_loads_without_a_console_error(console: Console) -> None:
+    console.until("() => document.body.textContent.includes('This machine has what the config needs.')")  # doctor
     for name in PAGES:
         console.go(name)
         time.sleep(0.5)  # the page's first requests answered

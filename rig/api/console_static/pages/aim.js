@@ -94,7 +94,13 @@ function cameraView(camera, overlay) {
       while (running) {
         try {
           const response = await fetch(`/v1/cameras/${camera.index}/frame.jpg?after=${last}&width=640&overlay=${overlay.checked}`, { credentials: "same-origin" });
-          if (response.status === 204) continue;
+          if (response.status === 204) {  // no newer frame in time; or nothing captures: look again in a second
+            if (response.headers.has("X-Reason")) {
+              figures.textContent = "No frames: show a pattern (aim mode), or start a scan or live mode.";
+              await new Promise((r) => setTimeout(r, 1000));
+            }
+            continue;
+          }
           if (!response.ok) throw new Error(`camera ${camera.name}: HTTP ${response.status}`);
           last = Number(response.headers.get("X-Frame"));
           const bitmap = await createImageBitmap(await response.blob());

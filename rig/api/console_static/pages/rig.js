@@ -1,12 +1,18 @@
-// Rig: the devices and their state, health, and the job queue with cancel.
-import { get, post } from "../api.js";
-import { act, add, every, fill, fmt, h, table } from "../ui.js";
+// Rig: the devices and their state, health, doctor's checks, projector power, and the job queue
+// with cancel.
+import { get, post, put } from "../api.js";
+import { act, add, every, field, fill, fmt, h, table } from "../ui.js";
 
 export async function render(main) {
   const status = h("section", { class: "card" });
   const devices = h("section", { class: "card" });
   const jobs = h("section", { class: "card" });
-  add(main, h("h1", {}, "Rig"), h("div", { class: "grid" }, status, devices), jobs);
+  const doctor = h("section", { class: "card" }, h("h2", {}, "Doctor"), h("p", { class: "muted" }, "checking…"));
+  const power = h("section", { class: "card", hidden: true });
+  add(main, h("h1", {}, "Rig"), h("div", { class: "grid" }, status, devices), h("div", { class: "grid" }, doctor, power), jobs);
+  showDoctor(doctor).catch((err) => fill(doctor, h("h2", {}, "Doctor"), h("p", { class: "notice error" }, err.message)));
+  const rig = await get("/v1/rig");
+  showPower(power, rig.devices.filter((d) => d.kind === "power").map((d) => d.name.replace(/-power$/, "")));
 
   const refresh = async () => {
     const [health, rig, scans, calibrations] = await Promise.all([
