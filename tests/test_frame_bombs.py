@@ -8,6 +8,7 @@ import os
 import re
 import subprocess
 import sys
+import threading
 from pathlib import Path
 
 import cv2
@@ -64,6 +65,9 @@ FILES = FrameFiles(files="frame_*.png")
 @pytest.fixture
 def decoded(monkeypatch: pytest.MonkeyPatch) -> list[int]:
     """The sizes in bytes of the files OpenCV decodes while the test runs."""
+    for thread in threading.enumerate():  # an earlier test's readers, still reading frames it gave up on
+        if thread.name.startswith("ThreadPoolExecutor"):
+            thread.join(30)
     sizes: list[int] = []
     imdecode = cv2.imdecode
 
