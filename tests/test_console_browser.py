@@ -252,5 +252,6 @@ def test_the_rings_page_draws_an_adaptive_scans_plan(console: Console, daemon: D
     assert console.until("() => document.querySelectorAll('svg.plan circle').length") == rings
     assert console.page.locator("svg.chart circle.ring").count() == rings - 1  # a spacing per pair of rings
     assert console.page.locator("svg.plan image").count() == 1  # over the pilot, as the projector saw it
+    assert console.page.locator("svg.curve polyline").count() == 2  # predicted error against ring count
     assert "chosen" in console.page.locator("table:has(caption)").inner_text()
     assert console.errors == []

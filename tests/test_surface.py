@@ -211,6 +211,17 @@ def test_plan_rings_from_a_stored_dense_scan_prints_the_rehearsed_plan(
     assert rehearsed["rings"] == plan["rings"] == len(plan["radii_px"])
     assert (not rehearsed["met"]) or rehearsed["rms_mm"] <= 0.3
     assert plan["criteria"]["rms_uniform"]["rings"] >= 2 and plan["pilot"]["codec"] == "phase"
+    for found in (uneven, even):  # every count the search rehearsed, the one it kept among them
+        counts = [t["rings"] for t in found["tried"]]
+        assert counts == sorted(set(counts)) and len(counts) >= 2
+        kept = next(t for t in found["tried"] if t["rings"] == found["rings"])
+        assert kept["rms_mm"] == found["rms_mm"]
+        if found["met"]:  # fewer rings than it kept did not hold the tolerance (or lost coverage)
+            assert all(
+                t["rms_mm"] > 0.3 or t["covered"] < found["covered"]
+                for t in found["tried"]
+                if t["rings"] < found["rings"]
+            )
     assert main(["plan", "rings", "--from", str(dense), "--tolerance-mm", "0.3"]) == 0
     text = capsys.readouterr().out
     assert "rehearsed on the pilot" in text and "rings for the same" in text

@@ -23,7 +23,7 @@ from rig.patterns.circular import farthest_corner_px
 from rig.patterns.rings import EDGE_RAMP_PX, RingsParams
 from rig.pipeline.scan import ScanResult
 from rig.pipeline.surface import Interpolant
-from rig.plan.rehearsal import PilotSurface, noise_mm, organised, pilot_surface
+from rig.plan.rehearsal import PilotSurface, Rehearsal, noise_mm, organised, pilot_surface
 from rig.plan.rings import (
     Demand,
     PilotView,
@@ -182,9 +182,21 @@ def _rehearsed(
     uniform = uniform_count(trial, edges, settings, tolerance)
     even = uniform.met and (not planned.met or len(uniform.radii_px) < len(planned.radii_px))
     for name, found, chosen in (("rms_nonuniform", planned, not even), ("rms_uniform", uniform, even)):
-        criteria[name] = {**found.rehearsal.as_dict(), "met": found.met, "interpolant": method, "chosen": chosen}
+        criteria[name] = {
+            **found.rehearsal.as_dict(),
+            "met": found.met,
+            "interpolant": method,
+            "chosen": chosen,
+            "tried": _tried(found.tried),  # the predicted error at each ring count the search rehearsed
+        }
     criteria["rms_nonuniform"]["pilot_noise_mm"] = round(noise, 4)
     return uniform.radii_px if even else planned.radii_px
+
+
+def _tried(rehearsals: list[Rehearsal]) -> list[dict[str, float | int]]:
+    """Each ring count rehearsed once, fewest first: rings, rms_mm and covered."""
+    by_count = {r.rings: r for r in rehearsals}
+    return [{k: v for k, v in by_count[n].as_dict().items() if k != "p95_mm"} for n in sorted(by_count)]
 
 
 def _grid(view: PilotView) -> np.ndarray:

@@ -19,7 +19,7 @@ export async function render(main, [id]) {
   add(main, h("section", { class: "card plan-card" }, h("h2", {}, `Plan of ${id}: ${plan.radii_px.length} rings, tolerance ${fmt.mm(plan.tolerance_mm)}`),
     h("div", { class: "row" }, h("figure", {}, drawing(plan, size, pilot), h("figcaption", {}, pilot ? `the rings over the pilot scan as the projector saw it (${size[0]} × ${size[1]})` : `the rings on the projector's ${size[0]} × ${size[1]} image`)), profile(plan)),
     h("p", { class: "radii" }, "radii (projector px): ", plan.radii_px.map((r) => r.toFixed(1)).join(", ")),
-    criteria(plan)));
+    errorCurve(plan), criteria(plan)));
   return null;
 }
 
@@ -87,4 +87,36 @@ function profile(plan) {
   label(`radius (projector px) to ${Math.round(xMax)}`, W / 2, H - 4);
   label(`spacing to ${Math.round(yMax)} px`, 60, 12);
   return h("figure", {}, svg, h("figcaption", {}, "line: the spacing the profile allows at each radius, from the pilot's curvature; dots: the planned rings' spacing"));
+}
+
+// The error each rehearsed criterion predicts against its ring count (every count its search
+// tried), with the tolerance as a line: the plan takes the fewest rings under it.
+function errorCurve(plan) {
+  const series = Object.entries(plan.criteria || {}).filter(([, c]) => Array.isArray(c.tried) && c.tried.length);
+  if (!series.length) return null;
+  const ns = "http://www.w3.org/2000/svg";
+  const points = series.flatMap(([, c]) => c.tried);
+  const xMax = Math.max(...points.map((p) => p.rings)), yMax = Math.max(plan.tolerance_mm * 1.5, ...points.map((p) => p.rms_mm));
+  const W = 480, H = 200, x = (v) => 40 + (v / xMax) * (W - 50), y = (v) => H - 24 - (Math.min(v, yMax) / yMax) * (H - 40);
+  const svg = document.createElementNS(ns, "svg");
+  svg.setAttribute("viewBox", `0 0 ${W} ${H}`);
+  svg.setAttribute("class", "chart curve");
+  svg.setAttribute("role", "img");
+  svg.setAttribute("aria-label", "predicted rms error against the number of rings");
+  const make = (tag, attrs) => { const e = document.createElementNS(ns, tag); for (const [k, v] of Object.entries(attrs)) e.setAttribute(k, String(v)); svg.append(e); return e; };
+  make("line", { x1: 40, x2: W - 10, y1: y(plan.tolerance_mm), y2: y(plan.tolerance_mm), class: "tolerance" });
+  series.forEach(([name, c], k) => {
+    const tried = [...c.tried].sort((a, b) => a.rings - b.rings);
+    make("polyline", { points: tried.map((p) => `${x(p.rings)},${y(p.rms_mm)}`).join(" "), class: `series s${k}` });
+    for (const p of tried) {
+      const dot = make("circle", { cx: x(p.rings), cy: y(p.rms_mm), r: 3, class: `series s${k}` });
+      const tip = document.createElementNS(ns, "title");
+      tip.textContent = `${name.replaceAll("_", " ")}: ${p.rings} rings, rms ${p.rms_mm.toFixed(4)} mm`;
+      dot.append(tip);
+    }
+    make("text", { x: W - 12, y: 14 + 12 * k, class: `label s${k}` }).textContent = name.replaceAll("_", " ");
+  });
+  make("text", { x: W / 2, y: H - 4 }).textContent = `rings (to ${xMax})`;
+  make("text", { x: 44, y: 12 }).textContent = `rms to ${yMax.toFixed(3)} mm; line: the tolerance`;
+  return h("figure", {}, svg, h("figcaption", {}, "predicted rms between the rings against their count, as each search rehearsed it on the pilot"));
 }
