@@ -94,7 +94,6 @@ def test_a_stolen_csrf_token_is_no_use_without_the_cookie(service: JobService) -
     csrf = client.post("/v1/session", json={"key": KEY}).json()["csrf"]
     other = _client(service)  # another browser: no cookie
     assert other.post("/v1/aim", json={"pattern": "white"}, headers={"X-CSRF-Token": csrf}).status_code == 401
-    del client
 
 
 # --- the pages --------------------------------------------------------------------------------

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import asyncio
+
 import cv2
 import numpy as np
 import pytest
@@ -65,9 +67,9 @@ def test_a_camera_view_marks_clipped_pixels_and_counts_the_histogram() -> None:
 
 def test_the_tap_keeps_only_the_newest_frame_and_a_reader_waits_a_bounded_time() -> None:
     tap = FrameTap()
-    assert tap.wait_newer(0, 0, 0.05) is None
+    assert asyncio.run(tap.next_after(0, 0, 0.05)) is None
     for k in range(5):
         tap.publish(0, Frame(np.zeros((2, 2), np.uint8), float(k), k, 1.0, 1.0))
-    newest = tap.wait_newer(0, 0, 1.0)
+    newest = asyncio.run(tap.next_after(0, 0, 1.0))
     assert newest is not None and newest.count == 5 and newest.frame.sequence == 4  # no queue: the newest
-    assert tap.wait_newer(0, 5, 0.05) is None and tap.newest(1) is None
+    assert asyncio.run(tap.next_after(0, 5, 0.05)) is None and tap.newest(1) is None

@@ -94,8 +94,7 @@ def _camera_routes(router: APIRouter, service: JobService) -> None:
     views = FrameViews()
     waiters = Slots("frame requests", MAX_FRAME_WAITERS, 8)
 
-    @router.get("/cameras", response_model=list[CameraView], dependencies=READING)
-    def cameras() -> list[dict[str, Any]]:
+    def camera_views() -> list[dict[str, Any]]:
         out = service.camera_settings.views(service.open_rig)
         for view in out:
             newest = service.frames.newest(view["index"])
@@ -103,15 +102,17 @@ def _camera_routes(router: APIRouter, service: JobService) -> None:
             view["fps"] = round(service.frames.rate(view["index"]), 2)
         return out
 
+    @router.get("/cameras", response_model=list[CameraView], dependencies=READING)
+    def cameras() -> list[dict[str, Any]]:
+        return camera_views()
+
     @router.put("/cameras/{camera}/settings", response_model=CameraView, dependencies=MUTATING)
     def camera_settings(camera: CameraIndex, body: CameraSettingsRequest) -> dict[str, Any]:
         if camera >= len(service.config.cameras):
             raise SetupRefusedError(f"camera: this rig has {len(service.config.cameras)} cameras")
         values = body.model_dump(exclude_none=True)
         service.camera_settings.request(camera, values, service.busy_with)
-        view = service.camera_settings.views(service.open_rig)[camera]
-        newest = service.frames.newest(camera)
-        return {**view, "frame": None if newest is None else newest.count, "fps": service.frames.rate(camera)}
+        return camera_views()[camera]
 
     @router.get(
         "/cameras/{camera}/frame.jpg",
@@ -128,35 +129,35 @@ def _camera_routes(router: APIRouter, service: JobService) -> None:
     ) -> Response:
         if camera >= len(service.config.cameras):
             raise SetupRefusedError(f"camera: this rig has {len(service.config.cameras)} cameras")
-        if not _capturing(service):  # nothing will come: say so at once rather than after wait_s
+        busy = service.busy_with  # read once: frames while a job runs are fewer and plainer
+        if busy is None and not _mode_capturing(service):  # nothing will come: say so at once, not after wait_s
             headers = {"Cache-Control": "no-store", "X-Reason": "nothing captures: start aim mode, live mode or a scan"}
             return Response(status_code=status.HTTP_204_NO_CONTENT, headers=headers)
         release = waiters.take(client_address(request.client))
         try:
-            tapped = await _newer_frame(service, views, camera, after, wait_s)
+            tapped = await _newer_frame(service, views, camera, after, wait_s, busy is not None)
             if tapped is None:
                 return Response(status_code=status.HTTP_204_NO_CONTENT, headers={"Cache-Control": "no-store"})
-            figures = service.busy_with is None
-            view = await asyncio.to_thread(views.view, camera, tapped, width, overlay, figures)
+            view = await asyncio.to_thread(views.view, camera, tapped, width, overlay, busy is None)
         finally:
             release()
         return Response(view.jpeg, media_type="image/jpeg", headers=view.headers)
 
 
 async def _newer_frame(
-    service: JobService, views: FrameViews, camera: int, after: int, wait_s: float
+    service: JobService, views: FrameViews, camera: int, after: int, wait_s: float, job: bool
 ) -> TappedFrame | None:
-    """The newest frame after `after`; while a job runs, at most JOB_VIEW_RATE a second per camera
-    are encoded (whatever the clients ask), so viewers cost the scan little."""
+    """The newest frame after `after`; while a `job` runs, at most JOB_VIEW_RATE a second per
+    camera are encoded (whatever the clients ask), so viewers cost the scan little."""
     tapped = await service.frames.next_after(camera, after, wait_s)
     wait = views.last_encoded(camera) + 1.0 / JOB_VIEW_RATE - time.monotonic()
-    if tapped is not None and wait > 0 and service.busy_with is not None:
+    if tapped is not None and wait > 0 and job:
         await asyncio.sleep(wait)
         tapped = service.frames.newest(camera) or tapped  # the newest by then
     return tapped
 
 
-def _capturing(service: JobService) -> bool:
-    """Whether frames are coming: aim or live mode wanted, or a job running."""
+def _mode_capturing(service: JobService) -> bool:
+    """Whether aim or live mode is wanted (then frames are coming)."""
     modes = (service.aim.view()["state"], service.live.state()[0])
-    return service.busy_with is not None or any(state in ("starting", "running") for state in modes)
+    return any(state in ("starting", "running") for state in modes)

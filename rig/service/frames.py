@@ -30,7 +30,7 @@ class FrameTap:
     """Newest frame per camera index; thread-safe."""
 
     def __init__(self) -> None:
-        self._cond = threading.Condition()
+        self._lock = threading.Lock()
         self._count = 0
         self._frames: dict[int, TappedFrame] = {}
         self._arrivals: dict[int, list[float]] = {}
@@ -38,54 +38,43 @@ class FrameTap:
 
     def publish(self, camera: int, frame: Frame) -> None:
         now = time.monotonic()
-        with self._cond:
+        with self._lock:
             self._count += 1
             self._frames[camera] = TappedFrame(self._count, frame, now)
             recent = self._arrivals.setdefault(camera, [])
             recent.append(now)
             del recent[: max(0, len(recent) - 30)]
-            self._cond.notify_all()
             woken, self._watchers = self._watchers, []
         for loop, event in woken:  # readers on an event loop: woken there, never polled
             with contextlib.suppress(RuntimeError):  # a loop that has closed
                 loop.call_soon_threadsafe(event.set)
 
     async def next_after(self, camera: int, after: int, timeout_s: float) -> TappedFrame | None:
-        """wait_newer for a reader on an event loop: it holds no thread while it waits."""
+        """The newest frame of `camera` once its count is above `after`, or None after `timeout_s`;
+        the reader waits on its event loop, woken by publish, and holds no thread meanwhile."""
         loop = asyncio.get_running_loop()
         deadline = loop.time() + timeout_s
         while True:
             event = asyncio.Event()
-            with self._cond:
+            left = deadline - loop.time()
+            with self._lock:
                 found = self._frames.get(camera)
                 if found is not None and found.count > after:
                     return found
+                if left <= 0:
+                    return None
                 self._watchers.append((loop, event))
-            left = deadline - loop.time()
-            if left <= 0:
-                return None
             with contextlib.suppress(TimeoutError):
                 await asyncio.wait_for(event.wait(), left)
 
     def newest(self, camera: int) -> TappedFrame | None:
-        with self._cond:
+        with self._lock:
             return self._frames.get(camera)
-
-    def wait_newer(self, camera: int, after: int, timeout_s: float) -> TappedFrame | None:
-        """The newest frame of `camera` once its count is above `after`, or None after `timeout_s`."""
-        with self._cond:
-            self._cond.wait_for(lambda: self._newer(camera, after), timeout=max(0.0, timeout_s))
-            found = self._frames.get(camera)
-            return found if found is not None and found.count > after else None
-
-    def _newer(self, camera: int, after: int) -> bool:
-        found = self._frames.get(camera)
-        return found is not None and found.count > after
 
     def rate(self, camera: int) -> float:
         """Frames per second that reached the tap from `camera` over its last (up to) 30 frames,
         0 when none arrived in the last 2 s."""
-        with self._cond:
+        with self._lock:
             recent = list(self._arrivals.get(camera, []))
         if len(recent) < 2 or time.monotonic() - recent[-1] > 2.0:
             return 0.0
