@@ -226,13 +226,36 @@ def test_every_page_can_be_reached_and_used_by_keyboard(console: Console) -> Non
 def test_a_calibration_from_its_page_shows_its_report(console: Console) -> None:
     console.go("calibration")
     console.page.fill("input[name=views]", "6")
-    console.page.click("text=Calibrate")
+    console.page.click("button:text-is('Calibrate')")
     console.until("() => document.querySelector('section[data-state]')?.dataset.state === 'done'", 120)
     console.until("() => document.querySelectorAll('svg.chart rect').length >= 6")  # a bar per view
     report = console.page.locator("section.card:has(h3)").inner_text()
     assert "lens model" in report and "corners: median" in report and "the board as a ruler" in report
     drawn = "() => [...document.querySelectorAll('img.preview')].filter(i => i.complete && i.naturalWidth > 0).length"
     assert console.until(drawn) >= 2  # where the corners fell, and their errors
+    assert console.errors == []
+
+
+def test_a_folder_of_captures_is_uploaded_and_calibrated_from_the_page(
+    console: Console, tmp_path_factory: pytest.TempPathFactory
+) -> None:
+    from rig.cli import main
+
+    tmp = tmp_path_factory.mktemp("captures")
+    views = tmp / "bench views"  # the folder's own name is not sent: any name will do
+    config = _config(tmp, small_config_data())
+    out = ["--out", str(tmp / "first"), "--save-views", str(views)]
+    assert main(["calibrate", "camera", "--config", str(config), "--views", "4", *out]) == 0
+    console.go("calibration")
+    console.page.set_input_files("input[name=captures]", str(views))
+    console.page.fill("input[name=model]", "k1")
+    console.page.select_option("form[aria-label='calibrate from captures'] select[name=what]", "camera")
+    console.page.click("text=Upload and calibrate")
+    console.until("() => document.querySelector('section[data-state]')?.dataset.state === 'done'", 120)
+    report = console.page.locator("section.card:has(h3)").inner_text()
+    assert "camera0 (camera)" in report and "lens model k1" in report and "4 views used" in report
+    status = console.page.locator("form[aria-label='calibrate from captures'] [role=status]").inner_text()
+    assert "4 files in imports folder captures-" in status  # view_NN/camera0.png, one per pose
     assert console.errors == []
 
 

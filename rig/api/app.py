@@ -242,7 +242,7 @@ def _creating_routes(router: APIRouter, service: JobService, kind: JobKind, base
 
         @router.post("", status_code=status.HTTP_202_ACCEPTED, response_model=JobView, dependencies=MUTATING)
         def create_calibration(body: CalibrationRequest, response: Response) -> JobView:
-            job = service.submit(JobKind.CALIBRATION, body.model_dump(exclude_none=True))
+            job = service.submit_calibration(body.model_dump(exclude_none=True))
             return created(JobView.of(job, base), response)
 
 

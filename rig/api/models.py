@@ -6,9 +6,10 @@ import datetime as dt
 import re
 import typing
 from types import UnionType
-from typing import Any, Literal, Union
+from typing import Annotated, Any, Literal, Union
 
-from pydantic import BaseModel, ConfigDict, Field, ValidationInfo, field_validator
+from pydantic import BaseModel, ConfigDict, Field, StringConstraints, ValidationInfo, field_validator, model_validator
+from pydantic.json_schema import SkipJsonSchema
 
 from rig.config import DeviceKind
 from rig.patterns import codec_names
@@ -113,6 +114,20 @@ class IdentifyRequest(_Request):
 
 
 class CalibrationRequest(_Request):
+    model_config = ConfigDict(
+        json_schema_extra={
+            # what _consistent refuses, said in the schema too, so a client (or a generator) knows it
+            "dependentRequired": {"patterns": ["images"], "view_glob": ["patterns"], "board_image": ["patterns"]},
+            "not": {
+                "anyOf": [
+                    {"required": ["images", "views"]},
+                    {"required": ["what", "images"], "properties": {"what": {"const": "response"}}},
+                    {"required": ["what", "board"], "properties": {"what": {"const": "response"}}},
+                    {"required": ["what", "model"], "properties": {"what": {"const": "response"}}},
+                ]
+            },
+        }
+    )
     what: Literal["camera", "projector", "rig", "response"] = "rig"
     views: int | None = Field(
         None,
@@ -121,6 +136,54 @@ class CalibrationRequest(_Request):
         description=f"views to capture (default: the config's, at most {MAX_REST_VIEWS}): one request holds the "
         "rig for minutes at most; longer sessions from the CLI",
     )
+    images: Annotated[str, StringConstraints(pattern=FILE_NAME_PATTERN)] | SkipJsonSchema[None] = Field(
+        None,
+        description="calibrate from this imports folder's captures instead of capturing (no device is opened): one "
+        "sub-folder per board pose, in the bench's own layout (view_NN/<camera>.png, view_NN/<projector>_<camera>/"
+        "NNN.png, as `slrig calibrate --save-views` writes it) or, with `patterns`, another system's",
+    )
+    patterns: dict[str, Any] | str | SkipJsonSchema[None] = Field(
+        None,
+        description="with images: another system's captures, each view's frames as this pattern description lists "
+        "them (as in slrig reconstruct's YAML), or a YAML file's name in the folder",
+    )
+    view_glob: str = Field(
+        "*", pattern=r"^[A-Za-z0-9_.*?\[\]-]{1,100}$", description="with patterns: the sub-folders that are views"
+    )
+    board_image: Literal["auto", "white", "mean", "modulation"] = Field(
+        "auto", description="with patterns: where the board is found (auto: the white frame, else the frames' mean)"
+    )
+    board: Annotated[str, StringConstraints(max_length=100)] | SkipJsonSchema[None] = Field(
+        None,
+        description="the board as KIND:COLSxROWS:SQUARE_MM[:MARKER_MM[:DICTIONARY]] (squares, not inner corners), "
+        "e.g. checker:10x8:75; default: the config's calibration.board",
+    )
+    model: Annotated[str, StringConstraints(max_length=100)] | SkipJsonSchema[None] = Field(
+        None, description="the lens model (as calibration.model); default: the config's"
+    )
+
+    @field_validator("images", "patterns", "board", "model", mode="before")
+    @classmethod
+    def _not_null(cls, value: Any, info: ValidationInfo) -> Any:
+        if value is None:  # the schema has no null: leave the field out for the default
+            raise ValueError(f"{info.field_name}: null; leave it out for the default")
+        return value
+
+    @model_validator(mode="after")
+    def _consistent(self) -> CalibrationRequest:
+        if self.images is None and self.patterns is not None:
+            raise ValueError("patterns: only with images (the imports folder of the captures it describes)")
+        for name in ("view_glob", "board_image"):
+            if name in self.model_fields_set and self.patterns is None:
+                raise ValueError(f"{name}: only with patterns (another system's captures)")
+        for name in ("board", "model"):
+            if self.what == "response" and getattr(self, name) is not None:
+                raise ValueError(f"{name}: a response measurement uses no board and no lens model")
+        if self.images is not None and self.what == "response":
+            raise ValueError("images: a response measurement projects its own patterns; it takes no captures")
+        if self.images is not None and self.views is not None:
+            raise ValueError("views: the captures in images are the views; views is for capturing")
+        return self
 
 
 class JobView(BaseModel):

@@ -1,6 +1,7 @@
 """Reconstruction of another system's frames over REST: upload the frames (and the description or
 calibration file, where they are files) into an imports folder, then ask for a reconstruction; the
-result is a scan like any other (listed, downloaded, identified under /v1/scans)."""
+result is a scan like any other (listed, downloaded, identified under /v1/scans). Calibration
+captures are uploaded the same way, one sub-folder per view, for POST /v1/calibrations' `images`."""
 
 from __future__ import annotations
 
@@ -13,7 +14,7 @@ from starlette.concurrency import run_in_threadpool
 from rig.api.models import FILE_NAME_PATTERN, JobView, ReconstructionRequest
 from rig.api.security import MUTATING, READING, UploadRule
 from rig.service.errors import StorageFullError
-from rig.service.imports import MAX_FILE_BYTES, SUFFIXES, list_imports, remove_folder, store_file
+from rig.service.imports import MAX_DEPTH, MAX_FILE_BYTES, SUFFIXES, list_imports, remove_folder, store_file
 from rig.service.runner import JobService
 from rig.service.space import check_free_space
 
@@ -22,8 +23,10 @@ _SUFFIXES = "|".join(s.lstrip(".") for s in SUFFIXES)
 UploadName = Annotated[
     str,
     Path(
-        pattern=rf"^[A-Za-z0-9][A-Za-z0-9_.-]{{0,94}}\.({_SUFFIXES}|{_SUFFIXES.upper()})$",
-        description="a plain file name with the suffix of a frame, a description or a calibration",
+        pattern=rf"^([A-Za-z0-9][A-Za-z0-9_.-]{{0,99}}/){{0,{MAX_DEPTH}}}"
+        rf"[A-Za-z0-9][A-Za-z0-9_.-]{{0,94}}\.({_SUFFIXES}|{_SUFFIXES.upper()})$",
+        description="a plain file name with the suffix of a frame, a description or a calibration; for "
+        f"calibration captures, behind at most {MAX_DEPTH} sub-folders (view_00/cam0.png)",
     ),
 ]
 BINARY_BODY = {
@@ -58,7 +61,7 @@ def reconstruction_router(service: JobService, errors: dict[int | str, dict[str,
         return list_imports(service.data_dir)
 
     @router.put(
-        "/imports/{folder}/{file}",
+        "/imports/{folder}/{file:path}",
         status_code=status.HTTP_201_CREATED,
         dependencies=MUTATING,
         openapi_extra=BINARY_BODY,

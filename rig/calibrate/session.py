@@ -16,7 +16,9 @@ from rig.calibrate.report import coverage_png, report, residuals_png, view_capti
 from rig.calibrate.solve import DeviceCalibration, calibrate_cameras, calibrate_projectors
 from rig.calibrate.views import View, capture_placed_views, default_poses, load_folder_views
 from rig.config import RigConfig
+from rig.config.calibration import BoardPose, CalibrationConfig
 from rig.errors import CalibrationError
+from rig.patterns.spec import PatternSpec
 from rig.rig import Rig
 from rig.store.atomic import write_atomic
 from rig.store.frames import load_pattern_spec
@@ -34,12 +36,19 @@ class CalibrationOutcome:
 
 
 def collect_views(
-    rig: Rig, board: Board, mode: Mode, views: int, images: Path | None = None, save_views: Path | None = None
+    rig: Rig,
+    board: Board,
+    mode: Mode,
+    views: int,
+    images: Path | None = None,
+    save_views: Path | None = None,
+    given: list[BoardPose] | None = None,
 ) -> list[View]:
+    """The views read from `images`, or captured at the `given` poses (else at `views` poses spread
+    around where the cameras look)."""
     with_projectors = mode != "camera"
     if images is not None:
         return load_folder_views(rig, board, images, with_projectors)
-    given = rig.config.calibration.poses
     if given is not None:
         poses = [(_euler(p.rotation_deg), np.array(p.center_mm, float)) for p in given]
     else:
@@ -64,30 +73,34 @@ def calibrate(
     views: int | None = None,
     images: Path | None = None,
     save_views: Path | None = None,
+    settings: CalibrationConfig | None = None,
 ) -> CalibrationOutcome:
     """Capture (or read) views, calibrate, and write the files into `out`. `camera` calibrates the
-    cameras; `projector` and `rig` also the projectors (which need the cameras). Raises
-    CalibrationError, having written nothing, when the views cannot give a calibration."""
+    cameras; `projector` and `rig` also the projectors (which need the cameras). `settings` (board,
+    model, views, poses) replace the config's calibration section. Raises CalibrationError, having
+    written nothing, when the views cannot give a calibration."""
     config = rig.config
-    board = Board(config.calibration.board)
-    collected = collect_views(rig, board, mode, views or config.calibration.views, images, save_views)
+    settings = settings or config.calibration
+    board = Board(settings.board)
+    collected = collect_views(rig, board, mode, views or settings.views, images, save_views, settings.poses)
     cameras = [(c.name, c.resolution) for c in config.cameras]
     projectors = [(p.name, p.resolution) for p in config.projectors] if mode != "camera" else []
-    return solve_and_write(collected, board, cameras, projectors, config.calibration.model, out)
+    return solve_and_write(collected, board, cameras, projectors, settings.model, out)
 
 
 def calibrate_described(
     config: RigConfig,
     images: Path,
-    patterns: Path,
+    patterns: Path | PatternSpec,
     out: Path,
     mode: Mode = "rig",
     view_glob: str = "*",
     source: BoardImage = "auto",
 ) -> CalibrationOutcome:
     """Calibrate the config's first camera (and projector) from another system's capture folders
-    under `images`, described by the pattern description `patterns`; no device is opened."""
-    spec = load_pattern_spec(patterns)
+    under `images`, described by the pattern description `patterns` (or its YAML file); no device is
+    opened."""
+    spec = patterns if isinstance(patterns, PatternSpec) else load_pattern_spec(patterns)
     board = Board(config.calibration.board)
     collected, camera_size = load_described_views(view_folders(images, view_glob), spec, board, source)
     cameras = [(config.cameras[0].name, camera_size)]

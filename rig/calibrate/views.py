@@ -154,7 +154,7 @@ def _analyse(rig: Rig, board: Board, index: int, frames: dict[tuple[int | None, 
     for (p, c), images in frames.items():
         if p is None or c not in view.camera:
             continue
-        codec = calibration_codec(rig.projectors[p].resolution)
+        codec = calibration_codec(rig.config.projectors[p].resolution)
         corr = codec.decode(images, rig.config.cameras[c].full_scale)
         corners = projector_corners(corr, view.camera[c])
         if len(corners):

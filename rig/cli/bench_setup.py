@@ -7,9 +7,10 @@ import json
 from typing import Any
 
 from rig.assembly import open_rig
+from rig.calibrate.overrides import calibration_overrides
 from rig.calibrate.response import RESPONSE_NAME, calibrate_response
 from rig.calibrate.session import calibrate, calibrate_described
-from rig.config import RigConfig, config_from_dict, load_config
+from rig.config import load_config
 from rig.doctor.checks import check
 from rig.doctor.inventory import describe, inventory
 from rig.doctor.latency import measure_latency, store_latencies
@@ -38,7 +39,7 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
             config, args.images, args.patterns, out, args.what, args.view_glob, args.board_image
         )
     else:
-        with open_rig(config) as the_rig:
+        with open_rig(config, with_devices=args.images is None) as the_rig:  # views from files: no device
             outcome = calibrate(the_rig, args.what, out, args.views, args.images, args.save_views)
     summary = {"path": str(outcome.folder), "sha256": outcome.sha256, "views": outcome.views, **outcome.report}
     if args.json:
@@ -66,39 +67,6 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
     for warning in outcome.report["warnings"]:
         print(f"  warning: {warning}")
     return 0
-
-
-def _board(text: str) -> dict[str, object]:
-    """KIND:COLSxROWS:SQUARE_MM[:MARKER_MM[:DICTIONARY]] as BoardConfig fields."""
-    parts = text.split(":")
-    try:
-        if not 3 <= len(parts) <= 5:
-            raise ValueError
-        cols, rows = (int(n) for n in parts[1].lower().split("x"))
-        fields: dict[str, object] = {"kind": parts[0], "squares": [cols, rows], "square_mm": float(parts[2])}
-        if len(parts) > 3:
-            fields["marker_mm"] = float(parts[3])
-    except ValueError:
-        problem = f"--board: {text!r} is not KIND:COLSxROWS:SQUARE_MM[:MARKER_MM[:DICTIONARY]] (checker:10x8:75)"
-        raise ConfigError("--board", [problem]) from None
-    return fields | ({"dictionary": parts[4]} if len(parts) == 5 else {})
-
-
-def calibration_overrides(config: RigConfig, board: str | None, model: str | None) -> RigConfig:
-    """The config with --board (KIND:COLSxROWS:SQUARE_MM) and --model, validated as the file is."""
-    if board is None and model is None:
-        return config
-    data = config.model_dump(mode="json")
-    if model is not None:
-        data["calibration"]["model"] = model
-    if board is not None:
-        data["calibration"]["board"] |= _board(board)
-    try:
-        return config_from_dict(data, "--board/--model")
-    except ConfigError as exc:
-        renamed = (("calibration.board.", "--board "), ("calibration.board", "--board"), ("calibration:", "--model:"))
-        problems = [p.replace(*renamed[0]).replace(*renamed[1]).replace(*renamed[2]) for p in exc.problems]
-        raise ConfigError("--board/--model", problems) from None
 
 
 def cmd_doctor(args: argparse.Namespace) -> int:

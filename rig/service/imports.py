@@ -1,6 +1,8 @@
-"""Files a client uploads for reconstruction (`PUT /v1/imports/{folder}/{file}`): frames, a pattern
-description, a calibration file, kept in <data_dir>/imports/<folder>/ until the folder is deleted.
-Each file is written atomically; a name is a plain file name with a known suffix, so no upload
+"""Files a client uploads for reconstruction or calibration (`PUT /v1/imports/{folder}/{file}`):
+frames, a pattern description, a calibration file, kept in <data_dir>/imports/<folder>/ until the
+folder is deleted; calibration captures in sub-folders (`view_03/cam0.png`,
+`view_03/proj0_cam0/000.png`, at most MAX_DEPTH folders below the import's). Each file is written
+atomically; every part of a path is a plain name and the file's has a known suffix, so no upload
 can reach outside its folder. An upload is refused before it is written when its body is empty,
 its folder would grow past its limit, the disk would keep less than the job records' reserve, or
 an image's header gives more pixels than allowed (a decompression bomb is never decoded)."""
@@ -34,6 +36,7 @@ NAME = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_.-]{0,99}$")
 SUFFIXES = (".png", ".bmp", ".tif", ".tiff", ".jpg", ".jpeg", ".yaml", ".yml", ".json", ".xml")
 MAX_FILE_BYTES = 64 * 1024 * 1024  # a 16-bit 4K frame as TIFF is about 50 MB
 MAX_FILES = 2000  # per folder
+MAX_DEPTH = 2  # sub-folders: a calibration view, and its projector-camera pair
 IMAGE_SUFFIXES = (".png", ".bmp", ".tif", ".tiff", ".jpg", ".jpeg")
 _STORING = threading.Lock()
 
@@ -66,11 +69,15 @@ def store_file(
     max_folder_bytes: int = 4 * 1024**3,
     max_image_pixels: int = 64_000_000,
 ) -> dict[str, Any]:
-    """Write one uploaded file. Refused, with nothing written: a name or suffix that is refused, an
-    empty body, a full folder (ImportRefusedError); a folder that would hold more than
-    `max_folder_bytes` (ImportTooLargeError); an image whose header is unreadable or gives more
-    than `max_image_pixels` (FramesError); too little free space (StorageFullError)."""
-    for label, value in (("folder", folder), ("file", name)):
+    """Write one uploaded file; `name` may lead through sub-folders ('view_00/cam0.png'). Refused,
+    with nothing written: a name, path or suffix that is refused, an empty body, a full folder
+    (ImportRefusedError); a folder that would hold more than `max_folder_bytes`
+    (ImportTooLargeError); an image whose header is unreadable or gives more than
+    `max_image_pixels` (FramesError); too little free space (StorageFullError)."""
+    parts = name.split("/")
+    if len(parts) > MAX_DEPTH + 1:
+        raise ImportRefusedError(f"file {name!r}: at most {MAX_DEPTH} sub-folders deep")
+    for label, value in (("folder", folder), *(("file", part) for part in parts)):
         if not NAME.match(value):
             raise ImportRefusedError(f"{label} {value!r}: letters, digits, '_', '.', '-', at most 100 characters")
     if not name.lower().endswith(SUFFIXES):
@@ -85,17 +92,22 @@ def store_file(
 
 def _store_checked(data_dir: Path, folder: str, name: str, data: bytes, max_folder_bytes: int) -> dict[str, Any]:
     target = imports_dir(data_dir) / folder
-    others = [p for p in target.iterdir() if p.name != name] if target.is_dir() else []
+    others = [p for p in _files(target) if p != target / name]
     if len(others) >= MAX_FILES:
         raise ImportRefusedError(f"folder {folder!r} holds {MAX_FILES} files already")
-    held = sum(p.stat().st_size for p in others if p.is_file())
+    held = sum(p.stat().st_size for p in others)
     if held + len(data) > max_folder_bytes:
         raise ImportTooLargeError(
             f"folder {folder!r} holds {held} bytes; with {name!r} ({len(data)} bytes) it would pass its limit "
             f"of {max_folder_bytes} bytes (service.max_import_bytes)"
         )
     check_free_space(data_dir, len(data), f"file {name!r}")
-    target.mkdir(parents=True, exist_ok=True)
+    if (target / name).is_dir():
+        raise ImportRefusedError(f"file {name!r}: a sub-folder of that name holds files already")
+    try:
+        (target / name).parent.mkdir(parents=True, exist_ok=True)
+    except (FileExistsError, NotADirectoryError):
+        raise ImportRefusedError(f"file {name!r}: a file of the name of one of its folders is there already") from None
     try:
         write_atomic(target / name, data)
     except OSError as exc:  # the disk filled meanwhile: the temporary file is gone, the old file kept
@@ -111,9 +123,16 @@ def list_imports(data_dir: Path) -> list[dict[str, Any]]:
         return []
     out = []
     for folder in sorted(p for p in root.iterdir() if p.is_dir() and NAME.match(p.name)):
-        files = [f for f in folder.iterdir() if f.is_file() and not f.name.startswith(".")]
+        files = _files(folder)
         out.append({"folder": folder.name, "files": len(files), "bytes": sum(f.stat().st_size for f in files)})
     return out
+
+
+def _files(folder: Path) -> list[Path]:
+    """The files a folder holds, in its sub-folders too (not the hidden ones a write leaves)."""
+    if not folder.is_dir():
+        return []
+    return [f for f in folder.rglob("*") if f.is_file() and not f.name.startswith(".")]
 
 
 def remove_folder(data_dir: Path, folder: str) -> None:
@@ -145,15 +164,7 @@ def reconstruction_inputs(
     calibration = (
         calibration_folder(name) if JOB_ID.match(name) else file_in(data_dir, frames.name, name, "calibration")
     )
-    described = request["patterns"]
-    if isinstance(described, str):
-        patterns: PatternSpec | Path = file_in(data_dir, frames.name, described, "patterns")
-        spec = load_pattern_spec(patterns)  # PatternSpecError names the field at fault
-    else:
-        try:
-            patterns = spec = PatternSpec.model_validate(described)
-        except ValidationError as exc:
-            raise PatternSpecError("patterns", problems(exc)) from None
+    patterns, spec = pattern_description(data_dir, frames.name, request["patterns"])
     try:
         options = ForeignCalibrationOptions.model_validate(request.get("calibration_options") or {})
     except ValidationError as exc:
@@ -163,3 +174,21 @@ def reconstruction_inputs(
     except FramesError as exc:  # named as the client knows the folder, not by the daemon's path
         raise FramesError(str(exc).replace(f"frames folder {frames}", f"imports folder {frames.name!r}")) from None
     return frames, patterns, calibration, options
+
+
+def pattern_description(
+    data_dir: Path, folder: str, described: dict[str, Any] | str
+) -> tuple[PatternSpec | Path, PatternSpec]:
+    """A request's `patterns`: a YAML file's name in the imports folder (the path, and the description
+    read from it) or the description itself. PatternSpecError names the field at fault."""
+    if isinstance(described, str):
+        path = file_in(data_dir, folder, described, "patterns")
+        try:
+            return path, load_pattern_spec(path)
+        except PatternSpecError as exc:  # named as the client knows the file, not by the daemon's path
+            raise PatternSpecError("patterns", [f"patterns ({described}) {p}" for p in exc.problems]) from None
+    try:
+        spec = PatternSpec.model_validate(described)
+    except ValidationError as exc:
+        raise PatternSpecError("patterns", [f"patterns.{p}" for p in problems(exc)]) from None
+    return spec, spec

@@ -19,11 +19,12 @@ from typing import Any, TextIO
 from drivers.errors import DeviceError
 from rig.config import RigConfig
 from rig.errors import CaptureFaultError, ConfigError, PlanError, SlrigError
-from rig.progress import ProgressCallback, ProgressEvent
+from rig.progress import ProgressCallback
 from rig.rig import Rig
 from rig.service import tasks
 from rig.service.adaptive import check_scan_request
 from rig.service.aim import AimMode
+from rig.service.calibrating import calibration_settings, calibration_to_directory, captured_views
 from rig.service.camera_settings import CameraSettings
 from rig.service.errors import (
     JobCancelledError,
@@ -32,7 +33,7 @@ from rig.service.errors import (
     QueueFullError,
     ServiceStoppingError,
 )
-from rig.service.events import EventHub
+from rig.service.events import EventHub, progress_reporter
 from rig.service.frames import FrameTap
 from rig.service.idle import IdleWork
 from rig.service.imports import reconstruction_inputs, remove_leftovers
@@ -48,9 +49,6 @@ from rig.store.scandir import new_scan_id
 from rig.workers import release_free_memory
 
 log = logging.getLogger(__name__)
-
-STORING = 0.95  # from this fraction on a job is writing its results: too late to cancel
-PROGRESS_EVERY_S = 0.2  # at most this often per job, plus every stage change
 
 
 class JobService:
@@ -185,6 +183,13 @@ class JobService:
         reconstruction_inputs(self.data_dir, self._calibration_folder, request)
         return self.submit(JobKind.SCAN, {"reconstruct": request})
 
+    def submit_calibration(self, request: dict[str, Any]) -> Job:
+        """Queue a calibration; a board, model or captures that are refused are answered now."""
+        calibration_settings(self.config, request)
+        if "images" in request:
+            captured_views(self.data_dir, request)
+        return self.submit(JobKind.CALIBRATION, request)
+
     def job(self, job_id: str, kind: JobKind | None = None) -> Job:
         job = self.store.get(job_id)
         if kind is not None and job.kind != kind:
@@ -268,7 +273,7 @@ class JobService:
             log.info("job %s not started: %s", job_id, exc)
             return
         self._publish_state(job_id)
-        reprocess = "source" in job.request or "reconstruct" in job.request  # frames on disk: no devices
+        reprocess = any(k in job.request for k in ("source", "reconstruct", "images"))  # files only: no devices
         handler: Callable[[Job, ProgressCallback], dict[str, Any]]
         if job.kind is JobKind.CALIBRATION:
             handler = self._calibration
@@ -280,7 +285,7 @@ class JobService:
             handler = self._scan
         try:
             with publishing_through(self._rigs.publish):  # no folder appears once stopping
-                result = handler(job, self._progress_callback(job_id))
+                result = handler(job, progress_reporter(job_id, self.store, self.events, self._checkpoint))
         except JobCancelledError:
             self._rigs.darken()
             state = JobState.INTERRUPTED if self._stopping else JobState.CANCELLED
@@ -320,20 +325,6 @@ class JobService:
         self._heartbeat = time.monotonic()
         if self._cancel.is_set():
             raise JobCancelledError("cancelled")
-
-    def _progress_callback(self, job_id: str) -> ProgressCallback:
-        last = {"t": 0.0, "stage": ""}
-
-        def on_progress(event: ProgressEvent) -> None:
-            if event.fraction < STORING:  # storing is never cut short: the folder is complete or absent
-                self._checkpoint()
-            now = time.monotonic()
-            if event.stage != last["stage"] or now - last["t"] >= PROGRESS_EVERY_S or event.fraction >= 1.0:
-                last["t"], last["stage"] = now, event.stage
-                self.store.progress(job_id, event.stage, event.fraction)
-                self.events.publish(job_id, "progress", event.as_dict())
-
-        return on_progress
 
     def _publish_state(self, job_id: str) -> None:
         try:
@@ -392,9 +383,9 @@ class JobService:
         return self.job_folder(calibration)
 
     def _calibration(self, job: Job, progress: ProgressCallback) -> dict[str, Any]:
-        request = job.request
+        out = self.calibrations_dir / job.id
         try:
-            rig, out = self._rigs.open(), self.calibrations_dir / job.id
-            return tasks.calibration_to_directory(rig, request["what"], out, request.get("views"), progress)
+            return calibration_to_directory(self._rigs.open, self.config, self.data_dir, job.request, out, progress)
         finally:
-            self._rigs.drop()  # the simulated bench showed boards: a fresh rig for the next job
+            if "images" not in job.request:
+                self._rigs.drop()  # the simulated bench showed boards: a fresh rig for the next job

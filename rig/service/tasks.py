@@ -1,17 +1,14 @@
-"""What one scan, reprocessing or calibration does, from an open rig (or stored frames) to its
+"""What one scan or reprocessing does, from an open rig (or stored frames) to its
 stored result. The CLI runs these directly; the job service runs them in its worker."""
 
 from __future__ import annotations
 
 import json
-import shutil
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
 from rig.assembly import open_rig
-from rig.calibrate.response import calibrate_response
-from rig.calibrate.session import calibrate
 from rig.config import RigConfig, config_from_dict
 from rig.evaluate.merged import measure_on_bench
 from rig.pipeline.scan import ScanResult, reconstruct_frames, run_scan
@@ -22,7 +19,6 @@ from rig.service.adaptive import adaptive_scan
 from rig.service.imports import reconstruction_inputs
 from rig.service.reconstruct import reconstruct_folder
 from rig.service.space import check_free_space, expected_scan_bytes
-from rig.store.atomic import publish_folder
 from rig.store.scandir import read_frames, write_scan
 
 
@@ -118,31 +114,6 @@ def reconstruction_to_directory(
     frames, patterns, calibration, options = reconstruction_inputs(data_dir, calibration_folder, request)
     path, result = reconstruct_folder(frames, patterns, calibration, target, scan_id, config, options, progress)
     return scan_summary(path, result)
-
-
-def calibration_to_directory(
-    the_rig: Rig, what: str, out: Path, views: int | None = None, progress: ProgressCallback | None = None
-) -> dict[str, Any]:
-    """A calibration session (camera, projector, rig) or a response measurement, written into
-    `out` (through `<out>.partial`, so `out` is complete or absent); its summary and files."""
-    tracker = ProgressTracker(progress)
-    tracker.report("capture", 0.05)
-    partial = out.with_name(out.name + ".partial")
-    try:
-        if what == "response":
-            document = calibrate_response(the_rig, partial)
-            summary: dict[str, Any] = {"projectors": document["projectors"]}
-        else:
-            outcome = calibrate(the_rig, what, partial, views)  # type: ignore[arg-type]
-            summary = {"sha256": outcome.sha256, "views": outcome.views, "report": outcome.report}
-        files = sorted(p.name for p in partial.iterdir() if p.is_file()) if partial.is_dir() else []
-        if partial.is_dir():
-            publish_folder(partial, out)
-    except BaseException:
-        shutil.rmtree(partial, ignore_errors=True)
-        raise
-    tracker.report("done", 1.0)
-    return {**summary, "files": files}
 
 
 def scan_summary(path: Path, result: ScanResult) -> dict[str, Any]:

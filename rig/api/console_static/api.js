@@ -19,9 +19,10 @@ export const session = { role: null, csrf: null };
 export async function api(method, path, body) {
   const headers = { Accept: "application/json" };
   if (method !== "GET" && session.csrf) headers["X-CSRF-Token"] = session.csrf;
-  if (body !== undefined) headers["Content-Type"] = "application/json";
+  const raw = body instanceof Blob;  // a file's bytes, as they are (an upload)
+  if (body !== undefined) headers["Content-Type"] = raw ? "application/octet-stream" : "application/json";
   const response = await fetch(path, {
-    method, headers, credentials: "same-origin", body: body === undefined ? undefined : JSON.stringify(body),
+    method, headers, credentials: "same-origin", body: body === undefined || raw ? body : JSON.stringify(body),
   });
   if (response.status === 204) return null;
   const text = await response.text();

@@ -1,8 +1,9 @@
-// Calibration: run one (simulated views on the simulated bench, or the rig's board views), then
-// its report: reprojection error per device and per view, the model, the quality warnings and
-// where the board's corners fell.
+// Calibration: run one (simulated views on the simulated bench, the rig's board views, or a folder
+// of captures the operator uploads), then its report: reprojection error per device and per view,
+// the model, the quality warnings and where the board's corners fell.
 import { get, post } from "../api.js";
 import { act, add, field, fill, fmt, h, select, table } from "../ui.js";
+import { capturesForm } from "./captures.js";
 import { follow } from "./scan.js";
 
 export async function render(main, [id]) {
@@ -13,16 +14,18 @@ export async function render(main, [id]) {
   const form = h("form", { class: "card" }, h("div", { class: "row" }, field("What", what), field("Views", views)), h("p", { class: "actions" }, start));
   const list = h("section", { class: "card" });
   const report = h("section", { class: "card", hidden: true });
-  add(main, h("h1", {}, "Calibration"), form, progress, report, list);
   let close = null;
+  const watch = (job) => {
+    if (close) close();
+    close = follow(job, progress, (finished) => { showReport(report, finished); return h("p", {}, "The report is below."); });
+  };
+  add(main, h("h1", {}, "Calibration"), form, capturesForm(watch), progress, report, list);
   form.addEventListener("submit", (e) => {
     e.preventDefault();
     act(async () => {
       const body = { what: what.value };
       if (views.value) body.views = Number(views.value);
-      const job = await post("/v1/calibrations", body);
-      if (close) close();
-      close = follow(job, progress, (finished) => { showReport(report, finished); return h("p", {}, "The report is below."); });
+      watch(await post("/v1/calibrations", body));
     }, start);
   });
   const page = await get("/v1/calibrations?limit=20");
