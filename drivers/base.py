@@ -142,12 +142,24 @@ class Projector(Device):
         self._require_open()
         if self.mode is not ProjectorMode.STREAMING:
             raise DeviceStateError(f"{self.name}: plays preloaded sequences (load_sequence, start_sequence)")
+        self._check_pattern(pattern)
+        self._guarded(self._do_show, pattern)
+
+    def show_still(self, image: np.ndarray) -> None:
+        """Show one image until told otherwise, in either mode: a setup pattern to aim and focus by.
+        A sequence projector leaves its sequence for a plain display where it can (a LightCrafter
+        shows its video input); its next load_sequence takes it back. DeviceStateError where it
+        cannot. Goes dark if the device fails."""
+        self._require_open()
+        self._check_pattern(image)
+        self._guarded(self._do_show if self.mode is ProjectorMode.STREAMING else self._do_show_still, image)
+
+    def _check_pattern(self, pattern: np.ndarray) -> None:
         width, height = self.resolution
         if pattern.shape != (height, width) or pattern.dtype != np.uint8:
             raise ValueError(
                 f"{self.name}: pattern must be uint8 of shape {(height, width)}, got {pattern.dtype} {pattern.shape}"
             )
-        self._guarded(self._do_show, pattern)
 
     def dark(self) -> None:
         """Show black. Safe to call at any time, also after a fault; never raises for a closed
@@ -207,6 +219,9 @@ class Projector(Device):
 
     @abc.abstractmethod
     def _do_dark(self) -> None: ...
+
+    def _do_show_still(self, image: np.ndarray) -> None:
+        raise DeviceStateError(f"{self.name}: plays preloaded sequences only; it cannot show a still image")
 
     def _do_load_sequence(self, sequence: PatternSequence) -> None:
         raise DeviceStateError(f"{self.name}: sequences are not supported")

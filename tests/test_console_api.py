@@ -157,6 +157,27 @@ def test_camera_settings_are_kept_for_the_next_rig(service: JobService) -> None:
     assert service.config.cameras[0].exposure_us != 4000
 
 
+def test_aim_mode_shows_setup_patterns_on_a_hardware_synced_projector_and_scans_follow(tmp_path: Path) -> None:
+    data = small_config_data()
+    data["output"] = {"data_dir": str(tmp_path / "data")}
+    data["projectors"][0].update(sync="hardware", pattern_period_us=8333)  # it plays preloaded sequences
+    data["cameras"][0]["exposure_us"] = 8000.0
+    svc = JobService(load_config(write_config(tmp_path, data)))
+    svc.start()
+    try:
+        client = _client(svc)
+        assert client.post("/v1/aim", json={"pattern": "white", "seconds": 30}, headers=AUTH).status_code == 202
+        first = _frame(client, 0)
+        assert client.get("/v1/aim").json()["state"] == "running"
+        assert float(first.headers["x-dark-fraction"]) < 0.5  # the white pattern lights the scene
+        client.delete("/v1/aim", headers=AUTH)
+        job = client.post("/v1/scans", json={"codec": "gray"}, headers=AUTH).json()
+        done = wait_done(client, job["id"])
+        assert done["state"] == "done" and done["result"]["points"] > 10_000  # the sequence plays again
+    finally:
+        svc.shutdown()
+
+
 def test_aim_mode_goes_dark_when_its_time_limit_passes(service: JobService) -> None:
     client = _client(service)
     client.post("/v1/aim", json={"pattern": "white", "seconds": 1.5}, headers=AUTH)

@@ -106,6 +106,26 @@ def test_each_video_frame_plays_its_patterns_on_vsync(kit: _Kit) -> None:
     assert not fake.running and fake.dark and kit.video.is_dark
 
 
+def test_a_setup_pattern_is_shown_in_video_mode_and_the_next_sequence_plays_as_before(kit: _Kit) -> None:
+    projector, fake = kit.projector, kit.fake
+    projector.open()
+    still = _patterns(1)[0]
+    projector.show_still(still)  # aiming and focusing: the input as it is, lit
+    assert fake.display_mode == 0 and not fake.dark and not fake.running
+    assert kit.video.last_checksum == zlib.crc32(still.tobytes())
+    projector.dark()
+    assert fake.dark and kit.video.is_dark
+    images = _patterns(2)
+    projector.load_sequence(_sequence(images))
+    assert (fake.display_mode, fake.source, fake.trigger_mode) == (1, 0, 0)  # back in pattern mode
+    projector.start_sequence(0)
+    assert fake.running and not fake.dark and np.array_equal(kit.shown[-1][:, :, 1], images[0])
+    projector.stop_sequence()
+    with pytest.raises(ValueError, match="uint8 of shape"):
+        projector.show_still(still[:10])
+    assert fake.dark
+
+
 def test_a_frame_the_controller_cannot_play_is_refused_and_it_stays_dark() -> None:
     k = _Kit(per_frame=3)  # three 8-bit patterns of 8333 us do not fit in a 60 Hz frame
     try:

@@ -8,6 +8,8 @@ TRIG_OUT_1 pulse that starts the cameras' exposures.
 
 With `sequence=False` it is a streaming projector instead: video mode, each pattern shown on the
 input as grey, and dark meaning the LEDs off (for software sync and cameras without a trigger).
+A sequence projector shows a still image (a setup pattern, `show_still`) the same way, in video
+mode, until the next sequence is loaded.
 
 Each video frame of a sequence is played as its own group: show the frame, wait `input_latency_s` until it sits
 in the controller's buffer (the user guide gives one frame of delay from the input), then start
@@ -109,6 +111,14 @@ class LightCrafterHdmiProjector(Projector):
         if not self._lit:
             self.control.lights_on()
             self._lit = True
+
+    def _do_show_still(self, image: np.ndarray) -> None:
+        """Out of pattern mode: the controller shows its video input, lit, as in streaming mode;
+        the next load_sequence puts it back into pattern mode."""
+        self.video.show(image)
+        self.last_present_s = self.video.last_present_s
+        self.control.video_mode(lit=True)
+        self._lit = True
 
     def sequence_groups(self, count: int) -> list[int]:
         frames = -(-count // self.patterns_per_frame)

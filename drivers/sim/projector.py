@@ -46,6 +46,9 @@ class SimProjector(Projector):
     def _do_dark(self) -> None:
         self._bench.set_pattern(self._index, None)
 
+    def _do_show_still(self, image: np.ndarray) -> None:  # in sequence mode, as a LightCrafter's video mode
+        self._do_show(image)
+
     def _do_load_sequence(self, sequence: PatternSequence) -> None:
         if sequence.images is None:
             raise DeviceStateError(f"{self.name}: the simulated projector plays images; give sequence.images")

@@ -62,6 +62,24 @@ class ProjectorContract(Contract[Projector]):
             else:
                 projector.show(np.zeros((height, width), np.uint8))
 
+    def test_a_still_image_lights_it_or_is_a_state_error_and_dark_stops_it(self, kit: Kit[Projector]) -> None:
+        projector = kit.device
+        projector.open()
+        width, height = projector.resolution
+        still = np.full((height, width), 255, np.uint8)
+        try:
+            projector.show_still(still)  # a setup pattern, in either mode where the device can
+        except DeviceStateError:
+            assert projector.mode is ProjectorMode.SEQUENCE  # only a sequence projector may refuse it
+        else:
+            if kit.is_dark is not None:
+                assert not kit.is_dark()
+        projector.dark()
+        if kit.is_dark is not None:
+            assert kit.is_dark()
+        with pytest.raises(ValueError):
+            projector.show_still(still[1:])
+
     def test_a_pattern_of_another_size_is_refused(self, kit: Kit[Projector]) -> None:
         projector = kit.device
         projector.open()

@@ -16,8 +16,6 @@ from typing import Any
 
 import numpy as np
 
-from drivers.base import ProjectorMode
-from drivers.errors import DeviceStateError
 from rig.config import RigConfig
 from rig.errors import ConfigError
 from rig.patterns import codec_class
@@ -148,12 +146,7 @@ class AimMode(WorkerMode):
 
 def _show(rig: Rig, images: list[np.ndarray]) -> None:
     for projector, image in zip(rig.projectors, images, strict=True):
-        if projector.mode is not ProjectorMode.STREAMING:
-            raise DeviceStateError(
-                f"{projector.name}: plays preloaded sequences only; setup patterns need a projector "
-                "that shows images as they come (HDMI, the simulated bench)"
-            )
-        projector.show(image)
+        projector.show_still(image)  # a sequence projector leaves its sequence for a plain display
 
 
 def frame_period_s(config: RigConfig) -> float:
