@@ -18,7 +18,7 @@ import math
 import numpy as np
 from pydantic import Field, field_validator
 
-from rig import fused_phase
+from rig.lazy import lazy_module
 from rig.patterns.base import Correspondence, NormalizedFrames, even_period, least_counts
 from rig.patterns.graycode import bit_count, decode_gray, gray_planes, planes_with_inverses
 from rig.patterns.lines import LineCodec, LineParams
@@ -26,6 +26,8 @@ from rig.patterns.registry import register
 from rig.patterns.spec import Frequency, GrayCode, PatternSpec, PhaseShift, ProjectorSpace
 from rig.patterns.stream import DenseBase, FrameStream, GrayBits
 from rig.workers import in_row_strips
+
+fused_phase = lazy_module("rig.fused_phase")  # numba compiles on first use: not for --help
 
 
 class PhaseParams(LineParams):

@@ -15,10 +15,12 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from rig import fused
 from rig.errors import DecodeError
+from rig.lazy import lazy_module
 from rig.patterns.base import Correspondence, luminance
 from rig.workers import in_row_strips
+
+fused = lazy_module("rig.fused")  # numba compiles on first use: not for --help
 
 if TYPE_CHECKING:
     from rig.patterns.base import Codec

@@ -16,12 +16,14 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from rig import fused
 from rig.geometry import CameraModel
+from rig.lazy import lazy_module
 from rig.patterns import Correspondence
 from rig.pipeline.dense import PairTriangulator, texture_rgb
 from rig.pipeline.pointset import PointSet
 from rig.workers import in_row_strips
+
+fused = lazy_module("rig.fused")  # numba compiles on first use: not for --help
 
 _MIN_SUPPORT = 3  # as reject_isolated: neighbours within the depth-jump limit a point needs
 _NORMAL_STEP = 2  # as grid_normals: neighbours this many pixels away span the tangent plane
