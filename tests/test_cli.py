@@ -216,3 +216,36 @@ def test_a_key_file_others_can_read_is_warned_about(tmp_path: Path, caplog: pyte
     with caplog.at_level(logging.WARNING, logger="rig.daemon.keys"):
         assert load_api_key(key, tmp_path) == "k" * 40
     assert "can be read by users other than its owner; chmod 600 it" in caplog.text
+
+
+def test_help_and_commands_that_do_not_decode_import_neither_numba_nor_the_web_stack() -> None:
+    script = (
+        "import sys\n"
+        "from rig.cli import main\n"
+        "try:\n"
+        "    main(['--help'])\n"
+        "except SystemExit:\n"
+        "    pass\n"
+        "print(sorted(m for m in ('numba', 'fastapi', 'uvicorn', 'starlette') if m in sys.modules))\n"
+    )
+    out = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=60, cwd=REPO)
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.strip().splitlines()[-1] == "[]"
+
+
+def test_the_kernels_load_once_when_many_threads_first_need_them() -> None:
+    script = (
+        "import threading\n"
+        "from rig.patterns import stream\n"
+        "barrier, found = threading.Barrier(8), []\n"
+        "def first_use():\n"
+        "    barrier.wait()\n"
+        "    found.append(callable(stream.fused.contrast_and_lit))\n"
+        "threads = [threading.Thread(target=first_use) for _ in range(8)]\n"
+        "[t.start() for t in threads]\n"
+        "[t.join(60) for t in threads]\n"
+        "print(found.count(True))\n"
+    )
+    for _ in range(3):  # a half-loaded module seen by another thread shows up within a few runs
+        out = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=120, cwd=REPO)
+        assert out.returncode == 0 and out.stdout.strip() == "8", out.stderr[-2000:]
