@@ -1,4 +1,5 @@
-"""Progress events of a scan: the CLI draws them as a bar, the API streams them."""
+"""Progress events of a long step (a scan, a calibration, a plan): the CLI draws them as a bar on a
+terminal and as plain lines elsewhere, the API streams them."""
 
 from __future__ import annotations
 
@@ -45,19 +46,57 @@ class ProgressTracker:
         remaining = elapsed * (1 - fraction) / fraction if fraction > 0.02 else None
         self._callback(ProgressEvent(stage, round(min(1.0, fraction), 6), elapsed, remaining, message))
 
+    def part(self, start: float, end: float, prefix: str = "") -> ProgressCallback | None:
+        """A step's own progress (0..1) reported through this tracker as [start, end] of the whole,
+        its stages named with `prefix` ('pilot ' + 'capture')."""
+        if self._callback is None:
+            return None
+        span = end - start
+        return lambda event: self.report(prefix + event.stage, start + span * event.fraction, event.message)
+
+
+def human_seconds(seconds: float) -> str:
+    """3.8 s, 42 s, 2 min 5 s: as a person reads a duration."""
+    if seconds < 10:
+        return f"{seconds:.1f} s"
+    if seconds < 90:
+        return f"{seconds:.0f} s"
+    minutes, rest = divmod(round(seconds), 60)
+    return f"{minutes} min {rest} s"
+
 
 class TerminalBar:
-    """A one-line progress bar on a terminal stream (for use as a ProgressCallback)."""
+    """A one-line progress bar on a terminal stream (for use as a ProgressCallback), redrawn in place."""
 
-    def __init__(self, stream: TextIO = sys.stderr, width: int = 30) -> None:
+    def __init__(self, stream: TextIO = sys.stderr, width: int = 24) -> None:
         self._stream = stream
         self._width = width
 
     def __call__(self, event: ProgressEvent) -> None:
         filled = round(event.fraction * self._width)
-        eta = f" ~{event.remaining_s:.0f}s left" if event.remaining_s is not None else ""
-        line = f"\r[{'#' * filled}{'.' * (self._width - filled)}] {event.fraction * 100:5.1f}% {event.stage:<11}{eta}"
-        self._stream.write(line.ljust(72))
+        left = f", ~{human_seconds(event.remaining_s)} left" if event.remaining_s is not None else ""
+        about = f" {event.message}" if event.message else ""
+        line = (
+            f"\r[{'#' * filled}{'.' * (self._width - filled)}] {event.fraction * 100:3.0f} % {event.stage}{about} "
+            f"({human_seconds(event.elapsed_s)}{left})"
+        )
+        self._stream.write(line[:119].ljust(80))
         if event.fraction >= 1.0:
             self._stream.write("\n")
+        self._stream.flush()
+
+
+class StageLines:
+    """Progress as plain lines, one per stage (for a log or a pipe, where a redrawn bar is noise)."""
+
+    def __init__(self, stream: TextIO = sys.stderr) -> None:
+        self._stream = stream
+        self._stage = ""
+
+    def __call__(self, event: ProgressEvent) -> None:
+        if event.stage == self._stage and event.fraction < 1.0:
+            return
+        self._stage = event.stage
+        about = f": {event.message}" if event.message else ""
+        self._stream.write(f"{event.stage}{about} ({human_seconds(event.elapsed_s)})\n")
         self._stream.flush()

@@ -4,8 +4,10 @@ from __future__ import annotations
 
 import json
 import os
+import re
 import subprocess
 import sys
+import time
 from pathlib import Path
 
 import cv2
@@ -82,6 +84,32 @@ def test_save_frames_keeps_the_raw_captures(tmp_path: Path) -> None:
     assert len(frames) == 2 + 2 * 8  # white, black, 8 Gray bits with inverses for 256 columns
     assert cv2.imread(str(frames[0]), cv2.IMREAD_UNCHANGED).shape == (256, 320)
     assert {p.name for p in folder.iterdir()} - {p.name for p in frames} == {"patterns.yaml"}  # what they show
+
+
+def test_a_scan_with_save_frames_reprocesses_with_reconstruct_alone(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    from tests.conftest import small_config_data
+
+    data = small_config_data()
+    data["scan"]["codec"] = "gray"
+    data["output"] = {"data_dir": str(tmp_path / "data")}
+    config = write_config(tmp_path, data)
+    assert main(["scan", "--config", str(config), "--save-frames", "--json"]) == 0
+    scanned = json.loads(capsys.readouterr().out)
+    source = Path(scanned["path"])
+    assert source.parent == tmp_path / "data" / "scans"  # <data_dir>/scans/<id>
+    assert main(["reconstruct", str(source), "--json"]) == 0  # no --patterns, --calibration or --config
+    again = json.loads(capsys.readouterr().out)
+    assert Path(again["path"]).parent == source.parent and again["points"] == scanned["points"]
+    first, second = (plyfile.PlyData.read(Path(p) / "cloud.ply")["vertex"] for p in (source, again["path"]))
+    assert np.array_equal(first["x"], second["x"]) and np.array_equal(first["z"], second["z"])
+    manifest = json.loads((Path(again["path"]) / "manifest.json").read_text())
+    assert manifest["origin"]["reprocessed_from"] == source.name
+    assert main(["reconstruct", str(source), "--patterns", "x.yaml"]) == 2
+    assert "--patterns: a scan directory's manifest says what its frames are" in capsys.readouterr().err
+    assert main(["reconstruct", str(source / "frames" / "projector0_camera0")]) == 2  # a frames folder alone
+    assert "--calibration: " in capsys.readouterr().err
 
 
 @pytest.mark.parametrize(
@@ -167,21 +195,58 @@ def test_progress_events_advance_through_the_stages(small_config: RigConfig) -> 
     assert events[-1].remaining_s is not None and events[-1].remaining_s < events[-1].elapsed_s
 
 
-def test_terminal_bar_draws_the_stages_to_done(
-    tmp_path: Path, small_config_path: Path, monkeypatch: pytest.MonkeyPatch
+def _on_a_terminal(command: list[str], cwd: Path, timeout_s: float = 120.0) -> tuple[int, str]:
+    """Run `command` with a pseudo-terminal as its stdin, stdout and stderr, as a person's shell
+    does; its exit code and everything it drew."""
+    import pty
+    import select
+
+    main_fd, child_fd = pty.openpty()
+    env = {**os.environ, "PYTHONPATH": str(REPO), "COLUMNS": "100"}
+    process = subprocess.Popen(command, stdin=child_fd, stdout=child_fd, stderr=child_fd, cwd=cwd, env=env)
+    os.close(child_fd)
+    drawn, deadline = b"", time.monotonic() + timeout_s
+    try:
+        while time.monotonic() < deadline:
+            ready, _, _ = select.select([main_fd], [], [], 0.2)
+            if ready:
+                try:
+                    chunk = os.read(main_fd, 65536)
+                except OSError:  # the terminal closed: the command ended
+                    break
+                if not chunk:
+                    break
+                drawn += chunk
+            elif process.poll() is not None:
+                break
+        return process.wait(max(1.0, deadline - time.monotonic())), drawn.decode(errors="replace")
+    finally:
+        os.close(main_fd)
+        if process.poll() is None:
+            process.kill()
+
+
+def test_a_long_command_draws_a_bar_on_a_terminal_lines_in_a_pipe_and_only_json_with_json(
+    tmp_path: Path, small_config_path: Path
 ) -> None:
-    import io
-
-    import rig.cli.scanning as scanning
-    from rig.progress import TerminalBar
-
-    stream = io.StringIO()
-    monkeypatch.setattr(scanning, "progress_bar", lambda args: TerminalBar(stream))
-    assert main(["scan", "--config", str(small_config_path), "--out", str(tmp_path / "bar")]) == 0
-    lines = stream.getvalue().replace("\r", "\n").split()
-    drawn = stream.getvalue()
-    assert "capture" in drawn and "store" in drawn and "100.0% done" in drawn
-    assert drawn.endswith("\n") and len(lines) > 10
+    calibrate = [sys.executable, "-m", "rig.cli", "calibrate", "camera", "--config", str(small_config_path)]
+    code, drawn = _on_a_terminal([*calibrate, "--views", "3", "--out", str(tmp_path / "tty")], tmp_path)
+    assert code == 0, drawn
+    assert "\r[" in drawn and "view 3 of 3" in drawn and "100 % done" in drawn  # redrawn in place
+    assert re.search(r"\(\d+\.\d s|\(\d+ s", drawn)  # times as a person reads them: 3.8 s
+    piped = subprocess.run(
+        [*calibrate, "--views", "3", "--out", str(tmp_path / "pipe")],
+        capture_output=True, text=True, timeout=120, cwd=tmp_path, env={**os.environ, "PYTHONPATH": str(REPO)},
+    )  # fmt: skip
+    assert piped.returncode == 0 and "\r" not in piped.stderr
+    assert piped.stderr.splitlines()[0].startswith("views: view 1 of 3 (")  # a line per stage
+    assert "solve: 3 views" in piped.stderr and "calibration " in piped.stdout
+    quiet = subprocess.run(
+        [*calibrate, "--views", "3", "--out", str(tmp_path / "json"), "--json"],
+        capture_output=True, text=True, timeout=120, cwd=tmp_path, env={**os.environ, "PYTHONPATH": str(REPO)},
+    )  # fmt: skip
+    assert quiet.returncode == 0 and quiet.stderr == ""
+    assert json.loads(quiet.stdout)["views"] == 3  # one JSON object and nothing else
 
 
 def test_inputs_that_crashed_are_refused_with_exit_2(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:

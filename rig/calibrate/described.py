@@ -24,6 +24,7 @@ from rig.calibrate.views import View, projector_corners
 from rig.errors import CalibrationError, FramesError
 from rig.patterns.described import decode_described
 from rig.patterns.spec import PatternSpec
+from rig.progress import ProgressCallback, ProgressTracker
 from rig.store.frames import natural_order, read_frames
 
 BoardImage = Literal["auto", "white", "mean", "modulation"]
@@ -58,7 +59,11 @@ def view_folders(folder: Path, pattern: str) -> list[Path]:
 
 
 def load_described_views(
-    folders: list[Path], spec: PatternSpec, board: Board, source: BoardImage = "auto"
+    folders: list[Path],
+    spec: PatternSpec,
+    board: Board,
+    source: BoardImage = "auto",
+    progress: ProgressCallback | None = None,
 ) -> tuple[list[View], tuple[int, int]]:
     """One view per folder (camera 0, projector 0) and the camera's (width, height). FramesError
     names a folder whose frames the description does not list, or whose size differs."""
@@ -68,7 +73,9 @@ def load_described_views(
             "columns and rows (gray.axes or phase.axes)"
         )
     views, size = [], None
+    tracker = ProgressTracker(progress)
     for index, folder in enumerate(folders):
+        tracker.report("views", index / len(folders), f"view {index + 1} of {len(folders)}: {folder.name}")
         frames = read_frames(folder, spec.frames, len(spec.roles()))
         height, width = frames.frames[0].shape
         if size is not None and size != (width, height):

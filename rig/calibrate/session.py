@@ -19,6 +19,7 @@ from rig.config import RigConfig
 from rig.config.calibration import BoardPose, CalibrationConfig
 from rig.errors import CalibrationError
 from rig.patterns.spec import PatternSpec
+from rig.progress import ProgressCallback, ProgressTracker
 from rig.rig import Rig
 from rig.store.atomic import write_atomic
 from rig.store.frames import load_pattern_spec
@@ -43,18 +44,19 @@ def collect_views(
     images: Path | None = None,
     save_views: Path | None = None,
     given: list[BoardPose] | None = None,
+    progress: ProgressCallback | None = None,
 ) -> list[View]:
     """The views read from `images`, or captured at the `given` poses (else at `views` poses spread
     around where the cameras look)."""
     with_projectors = mode != "camera"
     if images is not None:
-        return load_folder_views(rig, board, images, with_projectors)
+        return load_folder_views(rig, board, images, with_projectors, progress)
     if given is not None:
         poses = [(_euler(p.rotation_deg), np.array(p.center_mm, float)) for p in given]
     else:
         centre = np.mean([c.geometry.pose.look_at_mm for c in rig.config.cameras], axis=0)
         poses = default_poses(views, centre)
-    return capture_placed_views(rig, board, poses, with_projectors, save_views)
+    return capture_placed_views(rig, board, poses, with_projectors, save_views, progress)
 
 
 def _euler(degrees: tuple[float, float, float]) -> np.ndarray:
@@ -74,6 +76,7 @@ def calibrate(
     images: Path | None = None,
     save_views: Path | None = None,
     settings: CalibrationConfig | None = None,
+    progress: ProgressCallback | None = None,
 ) -> CalibrationOutcome:
     """Capture (or read) views, calibrate, and write the files into `out`. `camera` calibrates the
     cameras; `projector` and `rig` also the projectors (which need the cameras). `settings` (board,
@@ -82,10 +85,15 @@ def calibrate(
     config = rig.config
     settings = settings or config.calibration
     board = Board(settings.board)
-    collected = collect_views(rig, board, mode, views or settings.views, images, save_views, settings.poses)
+    tracker = ProgressTracker(progress)
+    count, poses = views or settings.views, settings.poses
+    collected = collect_views(rig, board, mode, count, images, save_views, poses, tracker.part(0.0, 0.7))
     cameras = [(c.name, c.resolution) for c in config.cameras]
     projectors = [(p.name, p.resolution) for p in config.projectors] if mode != "camera" else []
-    return solve_and_write(collected, board, cameras, projectors, settings.model, out)
+    tracker.report("solve", 0.7, f"{len(collected)} views")
+    outcome = solve_and_write(collected, board, cameras, projectors, settings.model, out)
+    tracker.report("done", 1.0)
+    return outcome
 
 
 def calibrate_described(
@@ -96,16 +104,22 @@ def calibrate_described(
     mode: Mode = "rig",
     view_glob: str = "*",
     source: BoardImage = "auto",
+    progress: ProgressCallback | None = None,
 ) -> CalibrationOutcome:
     """Calibrate the config's first camera (and projector) from another system's capture folders
     under `images`, described by the pattern description `patterns` (or its YAML file); no device is
     opened."""
     spec = patterns if isinstance(patterns, PatternSpec) else load_pattern_spec(patterns)
     board = Board(config.calibration.board)
-    collected, camera_size = load_described_views(view_folders(images, view_glob), spec, board, source)
+    tracker = ProgressTracker(progress)
+    folders = view_folders(images, view_glob)
+    collected, camera_size = load_described_views(folders, spec, board, source, tracker.part(0.0, 0.7))
     cameras = [(config.cameras[0].name, camera_size)]
     projectors = [(config.projectors[0].name, spec.projector.resolution)] if mode != "camera" else []
-    return solve_and_write(collected, board, cameras, projectors, config.calibration.model, out)
+    tracker.report("solve", 0.7, f"{len(collected)} views")
+    outcome = solve_and_write(collected, board, cameras, projectors, config.calibration.model, out)
+    tracker.report("done", 1.0)
+    return outcome
 
 
 def solve_and_write(

@@ -19,6 +19,7 @@ from rig.calibrate.boards import Board, Detection
 from rig.errors import CalibrationError
 from rig.patterns import Codec, Correspondence
 from rig.patterns.phase import PhaseCodec, PhaseParams
+from rig.progress import ProgressCallback, ProgressTracker
 from rig.rig import Rig
 
 HOMOGRAPHY_WINDOW_PX = 15.0  # half-size of the camera window for local homographies
@@ -97,6 +98,7 @@ def capture_placed_views(
     poses: list[tuple[np.ndarray, np.ndarray]],
     with_projectors: bool,
     save_to: Path | None = None,
+    progress: ProgressCallback | None = None,
 ) -> list[View]:
     """Place the board at each pose (the rig's hand on the scene) and capture it."""
     if rig.scene is None:
@@ -106,7 +108,9 @@ def capture_placed_views(
         )
     image = board.image(BOARD_PX_PER_MM)
     views = []
+    tracker = ProgressTracker(progress)
     for index, (rotation, centre) in enumerate(poses):
+        tracker.report("views", index / len(poses), f"view {index + 1} of {len(poses)}")
         axes, origin = board.print_pose(rotation, centre)
         rig.scene.show_board(image, 1.0 / BOARD_PX_PER_MM, axes, origin)
         frames = _capture_view(rig, with_projectors)
@@ -175,7 +179,9 @@ def _save_view(rig: Rig, folder: Path, frames: dict[tuple[int | None, int], list
             cv2.imwrite(str(sub / f"{k:03d}.png"), image)
 
 
-def load_folder_views(rig: Rig, board: Board, folder: Path, with_projectors: bool) -> list[View]:
+def load_folder_views(
+    rig: Rig, board: Board, folder: Path, with_projectors: bool, progress: ProgressCallback | None = None
+) -> list[View]:
     """Views from a folder laid out as in this module's docstring."""
     if not folder.is_dir():
         raise CalibrationError(f"--images: no such folder: {folder}")
@@ -183,7 +189,9 @@ def load_folder_views(rig: Rig, board: Board, folder: Path, with_projectors: boo
     if not view_dirs:
         raise CalibrationError(f"--images: {folder} has no view_NN folders")
     views = []
+    tracker = ProgressTracker(progress)
     for index, view_dir in enumerate(view_dirs):
+        tracker.report("views", index / len(view_dirs), f"view {index + 1} of {len(view_dirs)}")
         frames: dict[tuple[int | None, int], list[np.ndarray]] = {}
         for c, camera in enumerate(rig.config.cameras):
             white = view_dir / f"{camera.name}.png"

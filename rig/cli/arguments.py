@@ -38,6 +38,12 @@ def _scan_command(sub: argparse._SubParsersAction) -> None:  # type: ignore[type
     scan.add_argument(
         "--tolerance-mm", type=float, default=None, help="--adaptive: interpolation error allowed (scan.adaptive)"
     )
+    scan.add_argument(
+        "--save-frames",
+        action="store_true",
+        help="keep the camera frames in the scan directory (as scan.save_frames), to reprocess them later with "
+        "`slrig reconstruct SCAN_DIR`",
+    )
     scan.add_argument("--plan", type=Path, default=None, help="scan the rings of this plan file (no pilot)")
     scan.add_argument("--save-plan", type=Path, default=None, help="--adaptive: also write the plan to this file")
 
@@ -206,11 +212,35 @@ def _size(text: str) -> tuple[int, int]:
 
 
 def _reconstruct_command(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
-    rec = sub.add_parser("reconstruct", help="a scan directory from another system's frames on disk (no devices)")
-    rec.add_argument("frames_dir", type=Path)
-    rec.add_argument("--patterns", type=Path, required=True, help="the pattern description (YAML) of the frames")
-    rec.add_argument("--calibration", type=Path, required=True, help="slrig's calibration.json or another tool's file")
-    rec.add_argument("--out", type=Path, default=None, help="scan directory to create; default <data_dir>/scans/<id>")
+    rec = sub.add_parser(
+        "reconstruct",
+        help="a scan directory from frames on disk (no devices): a scan's own (--save-frames), or another system's",
+    )
+    rec.add_argument(
+        "frames_dir",
+        type=Path,
+        help="a scan directory that kept its frames (its patterns, rig and calibration are in its manifest), "
+        "or a folder of another system's frames",
+    )
+    rec.add_argument(
+        "--patterns",
+        type=Path,
+        default=None,
+        help="the pattern description (YAML) of the frames; default: patterns.yaml in the folder",
+    )
+    rec.add_argument(
+        "--calibration",
+        type=Path,
+        default=None,
+        help="slrig's calibration (folder or calibration.json) or another tool's file; for a scan directory, "
+        "instead of the one it was made with",
+    )
+    rec.add_argument(
+        "--out",
+        type=Path,
+        default=None,
+        help="scan directory to create; default: beside a scan directory, else <data_dir>/scans/<id>",
+    )
     rec.add_argument("--config", type=Path, default=None, help="rig description for the scan settings (filters)")
     rec.add_argument("--camera", default=None, help="the camera's name (camera0)")
     rec.add_argument("--projector", default=None, help="the projector's name (projector0)")

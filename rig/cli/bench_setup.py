@@ -10,6 +10,7 @@ from rig.assembly import open_rig
 from rig.calibrate.overrides import calibration_overrides
 from rig.calibrate.response import RESPONSE_NAME, calibrate_response
 from rig.calibrate.session import calibrate, calibrate_described
+from rig.cli.common import progress_bar
 from rig.config import load_config
 from rig.doctor.checks import check
 from rig.doctor.inventory import describe, inventory
@@ -25,6 +26,7 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
         problem = "--patterns: give the captures' folder with --images (camera, projector or rig)"
         raise ConfigError("--patterns", [problem])
     out = args.out if args.out is not None else config.output.data_dir / "calibration"
+    bar = progress_bar(args)
     if args.what == "response":
         with open_rig(config) as the_rig:
             document = calibrate_response(the_rig, out)
@@ -36,11 +38,11 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
         return 0
     if args.patterns is not None:
         outcome = calibrate_described(
-            config, args.images, args.patterns, out, args.what, args.view_glob, args.board_image
+            config, args.images, args.patterns, out, args.what, args.view_glob, args.board_image, bar
         )
     else:
         with open_rig(config, with_devices=args.images is None) as the_rig:  # views from files: no device
-            outcome = calibrate(the_rig, args.what, out, args.views, args.images, args.save_views)
+            outcome = calibrate(the_rig, args.what, out, args.views, args.images, args.save_views, progress=bar)
     summary = {"path": str(outcome.folder), "sha256": outcome.sha256, "views": outcome.views, **outcome.report}
     if args.json:
         print(json.dumps(summary, allow_nan=False))

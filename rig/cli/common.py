@@ -10,7 +10,7 @@ from rig.cli.arguments import MESH_FIT_SIZE_MM
 from rig.config import SCENE_KINDS, RigConfig, load_config
 from rig.errors import ConfigError
 from rig.patterns import codec_class
-from rig.progress import TerminalBar
+from rig.progress import ProgressCallback, StageLines, TerminalBar
 
 
 def load(args: argparse.Namespace) -> RigConfig:
@@ -32,5 +32,9 @@ def scene_override(config: RigConfig, scene: str) -> RigConfig:
     raise ConfigError("--scene", [f"--scene: {scene!r} is neither a scene name ({names}) nor a mesh file"])
 
 
-def progress_bar(args: argparse.Namespace) -> TerminalBar | None:
-    return TerminalBar() if sys.stderr.isatty() and not args.json else None
+def progress_bar(args: argparse.Namespace) -> ProgressCallback | None:
+    """On stderr: a bar on a terminal, a line per stage elsewhere, nothing with --json (whose stdout
+    is the one JSON object)."""
+    if getattr(args, "json", False):
+        return None
+    return TerminalBar() if sys.stderr.isatty() else StageLines()

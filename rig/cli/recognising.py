@@ -10,7 +10,7 @@ from pathlib import Path
 from rig.config import load_config
 from rig.errors import RecognitionError
 from rig.recognition.gallery import Gallery
-from rig.recognition.identify import Comparison
+from rig.recognition.identify import UNKNOWN, Comparison, Identification
 from rig.service.recognition import (
     gallery_add,
     gallery_path,
@@ -60,10 +60,31 @@ def cmd_identify(args: argparse.Namespace) -> int:
     if args.json:
         print(json.dumps({"scan_id": scan_id, **found.as_dict()}))
         return 0
-    print(f"scan {scan_id}: {found.label}")
+    print(f"scan {scan_id}: {verdict(found)}")
+    digits = _digits([m.score for m in found.matches] + [found.threshold])
     for match in found.matches:
-        print(f"  {match.score:+.3f}  {match.label} (entry {match.entry_id}, scan {match.scan_id})")
+        print(f"  {match.score:+.{digits}f}  {match.label} (entry {match.entry_id}, scan {match.scan_id})")
     return 0
+
+
+def verdict(found: Identification) -> str:
+    """The label, and why: the best score beside the threshold it was held to."""
+    best = found.matches[0]
+    digits = _digits([best.score, found.threshold])
+    score, threshold = f"{best.score:+.{digits}f}", f"{found.threshold:+.{digits}f}"
+    held = f"the threshold {threshold} ({found.comparison} comparison; --threshold sets another)"
+    if found.label == UNKNOWN:
+        return f"unknown: the best match, {best.label}, scores {score}, below {held}"
+    return f"{found.label}: scores {score}, at or above {held}"
+
+
+def _digits(values: list[float]) -> int:
+    """Decimals enough (3 to 8) that no two of `values` that differ print alike."""
+    for digits in range(3, 9):
+        printed = {f"{v:+.{digits}f}" for v in values}
+        if len(printed) == len(set(values)):
+            return digits
+    return 8
 
 
 def _print(as_json: bool, report: dict[str, object], text: str) -> None:

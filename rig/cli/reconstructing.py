@@ -1,18 +1,23 @@
-"""`slrig reconstruct`: a scan directory from frames another system captured."""
+"""`slrig reconstruct`: a scan directory from frames on disk: a scan's own kept frames, decoded
+again, or frames another system captured."""
 
 from __future__ import annotations
 
 import argparse
 import json
+from pathlib import Path
 
 from pydantic import ValidationError
 
 from rig.calibrate.foreign import ForeignCalibrationOptions
+from rig.cli.common import progress_bar
 from rig.config import load_config
 from rig.config.problems import problems
 from rig.errors import CalibrationError, UsageError
+from rig.pipeline.scan import ScanResult
 from rig.service.reconstruct import reconstruct_folder
-from rig.store.scandir import new_scan_id
+from rig.service.tasks import reprocess_to_directory
+from rig.store.scandir import DESCRIPTION_NAME, new_scan_id
 
 OPTIONS = (
     "camera",
@@ -26,20 +31,11 @@ OPTIONS = (
 
 
 def cmd_reconstruct(args: argparse.Namespace) -> int:
-    config = load_config(args.config)
-    given = {name: getattr(args, name) for name in OPTIONS if getattr(args, name) is not None}
-    try:
-        options = ForeignCalibrationOptions(**given)
-    except ValidationError as exc:
-        lines = [_as_flag(line) for line in problems(exc)]
-        raise CalibrationError("calibration options: " + "; ".join(lines)) from None
     scan_id = new_scan_id()
-    target = args.out if args.out is not None else config.output.data_dir / "scans" / scan_id
-    if target.exists():
-        raise UsageError(f"--out: {target} already exists; choose a new directory")
-    path, result = reconstruct_folder(
-        args.frames_dir, args.patterns, args.calibration, target, scan_id, config, options
-    )
+    if (args.frames_dir / "manifest.json").is_file():
+        path, result = _reprocess_scan(args, scan_id)
+    else:
+        path, result = _reconstruct_foreign(args, scan_id)
     pair = result.pairs[0]
     summary = {
         "scan_id": scan_id,
@@ -55,6 +51,49 @@ def cmd_reconstruct(args: argparse.Namespace) -> int:
         print(f"reconstruction {scan_id}: {len(result.cloud)} points from {result.frames_projected} frames")
         print(f"  -> {path}/cloud.ply")
     return 0
+
+
+def _reprocess_scan(args: argparse.Namespace, scan_id: str) -> tuple[Path, ScanResult]:
+    """A scan directory that kept its frames, decoded again with its own codec, rig and calibration
+    (or --calibration), written beside it."""
+    source = args.frames_dir
+    refused = [f"--{n.replace('_', '-')}" for n in ("patterns", *OPTIONS) if getattr(args, n) is not None]
+    if refused:
+        raise UsageError(f"{', '.join(refused)}: a scan directory's manifest says what its frames are")
+    target = _target(args.out, source.parent / scan_id)
+    calibration = None if args.calibration is None else str(args.calibration)
+    origin = {"reprocessed_from": source.name, "calibration": calibration}
+    bar = progress_bar(args)
+    return reprocess_to_directory(source, target, scan_id, args.calibration, origin=origin, progress=bar)
+
+
+def _reconstruct_foreign(args: argparse.Namespace, scan_id: str) -> tuple[Path, ScanResult]:
+    """Another system's frames, described by --patterns (or the folder's patterns.yaml)."""
+    config = load_config(args.config)
+    given = {name: getattr(args, name) for name in OPTIONS if getattr(args, name) is not None}
+    try:
+        options = ForeignCalibrationOptions(**given)
+    except ValidationError as exc:
+        lines = [_as_flag(line) for line in problems(exc)]
+        raise CalibrationError("calibration options: " + "; ".join(lines)) from None
+    patterns = args.patterns
+    if patterns is None and (args.frames_dir / DESCRIPTION_NAME).is_file():
+        patterns = args.frames_dir / DESCRIPTION_NAME
+    missing = [flag for flag, value in (("--patterns", patterns), ("--calibration", args.calibration)) if value is None]
+    if missing:
+        raise UsageError(
+            f"{' and '.join(missing)}: {args.frames_dir} is not a scan directory (no manifest.json), so its frames "
+            f"need a pattern description (--patterns, or {DESCRIPTION_NAME} in the folder) and a calibration"
+        )
+    target = _target(args.out, config.output.data_dir / "scans" / scan_id)
+    return reconstruct_folder(args.frames_dir, patterns, args.calibration, target, scan_id, config, options)
+
+
+def _target(out: Path | None, default: Path) -> Path:
+    target = out if out is not None else default
+    if target.exists():
+        raise UsageError(f"--out: {target} already exists; choose a new directory")
+    return target
 
 
 def _as_flag(problem: str) -> str:

@@ -10,11 +10,13 @@ from pathlib import Path
 import numpy as np
 
 from rig.assembly import open_rig
-from rig.cli.common import scene_override
+from rig.cli.common import progress_bar, scene_override
 from rig.config import config_from_dict, load_config
 from rig.errors import PlanError, StoreError
+from rig.plan.rehearsal import rehearsal_progress
 from rig.plan.ring_plan import RingPlan, plan_rings
 from rig.plan.rings import PilotView
+from rig.progress import ProgressCallback, ProgressTracker
 from rig.service.adaptive import plan_from_pilot
 from rig.store.ply import read_cloud_ply
 
@@ -22,8 +24,9 @@ from rig.store.ply import read_cloud_ply
 def cmd_plan_rings(args: argparse.Namespace) -> int:
     if args.source is not None and args.scene is not None:
         raise PlanError("give --from SCAN_DIR or --scene NAME, not both")
+    bar = progress_bar(args)
     if args.source is not None:
-        plan = plan_from_scan_dir(args.source, args.tolerance_mm)
+        plan = plan_from_scan_dir(args.source, args.tolerance_mm, bar)
     else:
         config = load_config(args.config)
         if args.scene:
@@ -31,14 +34,14 @@ def cmd_plan_rings(args: argparse.Namespace) -> int:
         if not config.simulated:
             raise PlanError("--scene: a real rig plans from a scan it made: --from SCAN_DIR")
         with open_rig(config) as the_rig:
-            plan = plan_from_pilot(the_rig, args.tolerance_mm)
+            plan = plan_from_pilot(the_rig, args.tolerance_mm, bar)
     if args.out is not None:
         plan.save(args.out)
     print_plan(plan, args.json)
     return 0
 
 
-def plan_from_scan_dir(folder: Path, tolerance_mm: float | None) -> RingPlan:
+def plan_from_scan_dir(folder: Path, tolerance_mm: float | None, progress: ProgressCallback | None = None) -> RingPlan:
     """The plan for the surface a stored scan saw (its cloud.ply, its rig from its manifest)."""
     try:
         manifest = json.loads((folder / "manifest.json").read_text())
@@ -57,7 +60,11 @@ def plan_from_scan_dir(folder: Path, tolerance_mm: float | None) -> RingPlan:
             views.append(PilotView(points, geometry.projector_models[p], camera.center, camera))
         pilot = {"codec": manifest["codec"]["name"], "scan_id": manifest.get("scan_id")}
         pilot.update({k: manifest["economy"][k] for k in ("frames_projected", "bytes_captured")})
-        return plan_rings(views, config.scan.adaptive, tolerance_mm, pilot, config.scan.surface.interpolant)
+        tracker = ProgressTracker(progress)
+        interpolant = config.scan.surface.interpolant
+        plan = plan_rings(views, config.scan.adaptive, tolerance_mm, pilot, interpolant, rehearsal_progress(tracker, 0))
+        tracker.report("plan", 1.0)
+        return plan
 
 
 def print_plan(plan: RingPlan, as_json: bool) -> None:

@@ -33,17 +33,14 @@ def cmd_scan(args: argparse.Namespace) -> int:
     if not piloted and (tolerance is not None or save_plan is not None):
         raise ConfigError("--adaptive", ["--tolerance-mm and --save-plan plan rings: add --adaptive"])
     plan = RingPlan.load(plan_file) if plan_file is not None else None
+    keep = config.scan.save_frames or getattr(args, "save_frames", False)
     with open_rig(config) as the_rig:
         if piloted or plan is not None:
-            path, result, plan = adaptive_scan_to_directory(
-                the_rig, target, scan_id, tolerance, plan, config.scan.save_frames, bar
-            )
+            path, result, plan = adaptive_scan_to_directory(the_rig, target, scan_id, tolerance, plan, keep, bar)
             if save_plan is not None:
                 plan.save(save_plan)
         else:
-            path, result = scan_to_directory(
-                the_rig, target, scan_id, keep_frames=config.scan.save_frames, progress=bar
-            )
+            path, result = scan_to_directory(the_rig, target, scan_id, keep_frames=keep, progress=bar)
     summary = {
         "scan_id": scan_id,
         "path": str(path),
@@ -63,6 +60,8 @@ def cmd_scan(args: argparse.Namespace) -> int:
         )
         if plan is not None:
             print(f"  {plan.rings} planned rings for {plan.tolerance_mm:g} mm; the plan is in the manifest")
+        if keep:
+            print(f"  frames kept in {path}/frames: reprocess them with `slrig reconstruct {path}`")
     return 0
 
 

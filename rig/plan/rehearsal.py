@@ -13,7 +13,9 @@ pixel would read), and measure the distance to the pilot's own points, pixel by 
 from __future__ import annotations
 
 import dataclasses
+import itertools
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import cv2
@@ -21,6 +23,7 @@ import numpy as np
 
 from rig.geometry import CameraModel
 from rig.pipeline.surface import Interpolant, RingBands, SurfaceSettings, interpolate_surface
+from rig.progress import ProgressTracker
 
 # Smoothing scale of the pilot's noise (camera pixels): a few pixels, far under any ring spacing.
 _SMOOTH_PX = 1.5
@@ -210,3 +213,16 @@ def noise_mm(pilot: PilotSurface) -> float:
     if len(d2) < 100:
         return 0.0
     return float(1.4826 * np.median(np.abs(d2 - np.median(d2))) / math.sqrt(6.0))
+
+
+def rehearsal_progress(tracker: ProgressTracker, start: float) -> Callable[[Rehearsal], None]:
+    """Each rehearsal of a plan's search reported as stage `plan`, from `start` ever nearer the end
+    (a search's length is not known ahead), with the ring count and its rms."""
+    count = itertools.count(1)
+
+    def rehearsed(found: Rehearsal) -> None:
+        k = next(count)
+        message = f"rehearsal {k}: {found.rings} rings, {found.rms_mm:.3f} mm rms"
+        tracker.report("plan", 1.0 - (1.0 - start) * 0.9**k, message)
+
+    return rehearsed

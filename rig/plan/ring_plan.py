@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import json
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -23,7 +24,7 @@ from rig.patterns.circular import farthest_corner_px
 from rig.patterns.rings import EDGE_RAMP_PX, RingsParams
 from rig.pipeline.scan import ScanResult
 from rig.pipeline.surface import Interpolant
-from rig.plan.rehearsal import PilotSurface, Rehearsal, noise_mm, organised, pilot_surface
+from rig.plan.rehearsal import Rehearsal, noise_mm, organised, pilot_surface
 from rig.plan.rings import (
     Demand,
     PilotView,
@@ -111,12 +112,14 @@ def plan_rings(
     tolerance_mm: float | None = None,
     pilot: dict[str, Any] | None = None,
     method: Interpolant = "quadratic",
+    on_rehearsal: Callable[[Rehearsal], None] | None = None,
 ) -> RingPlan:
     """The plan for the pilot's views (one per projector and camera): one set of radii for every
     projector. With the views' cameras known, the fewest non-uniform rings whose surface (by the
     interpolant `method`) rehearses within the tolerance in rms (rig.plan.search), or evenly spaced
     ones where fewer of those do; otherwise the sagitta bound's rings, under the strictest demand
-    any view makes at each radius."""
+    any view makes at each radius. `on_rehearsal` hears of each ring set rehearsed (a search takes
+    tens of them)."""
     tolerance = settings.tolerance_mm if tolerance_mm is None else tolerance_mm
     if not np.isfinite(tolerance) or tolerance <= 0:
         raise PlanError(f"tolerance_mm: must be a positive number of millimetres, got {tolerance}")
@@ -145,7 +148,8 @@ def plan_rings(
     step = settings.rehearsal_step_px
     pilots = [pilot_surface(_grid(v), v.camera, v.projector, center, step) for v in views if v.camera is not None]
     if pilots:
-        radii = _rehearsed(pilots, demands, edges, settings, tolerance, method, center, criteria, last)
+        trial = Rehearser(pilots, center, method, float(np.median([noise_mm(p) for p in pilots])), on_rehearsal)
+        radii = _rehearsed(trial, demands, edges, settings, tolerance, criteria, last)
     kappa = np.concatenate([d.kappa_across for d in demands])
     pilot = {
         **(pilot or {}),
@@ -162,22 +166,18 @@ def plan_rings(
 
 
 def _rehearsed(
-    pilots: list[PilotSurface],
+    trial: Rehearser,
     demands: list[Demand],
     edges: np.ndarray,
     settings: RingPlanSettings,
     tolerance: float,
-    method: Interpolant,
-    center: tuple[float, float],
     criteria: dict[str, dict[str, Any]],
     last_px: float,
 ) -> list[float]:
     """The fewest rehearsed radii that meet the tolerance: the non-uniform ones, or evenly spaced
     ones where those need fewer (a surface that bends alike everywhere); adds both rehearsed
     criteria to `criteria`, the one chosen marked. No ring lies beyond `last_px`."""
-    noise = float(np.median([noise_mm(p) for p in pilots]))
     shape = rms_shape(demands, edges, settings.bin_px)
-    trial = Rehearser(pilots, center, method, noise)
     planned = nonuniform_rings(trial, edges, shape, settings, tolerance, last_px)
     uniform = uniform_count(trial, edges, settings, tolerance)
     even = uniform.met and (not planned.met or len(uniform.radii_px) < len(planned.radii_px))
@@ -185,11 +185,11 @@ def _rehearsed(
         criteria[name] = {
             **found.rehearsal.as_dict(),
             "met": found.met,
-            "interpolant": method,
+            "interpolant": trial.method,
             "chosen": chosen,
             "tried": _tried(found.tried),  # the predicted error at each ring count the search rehearsed
         }
-    criteria["rms_nonuniform"]["pilot_noise_mm"] = round(noise, 4)
+    criteria["rms_nonuniform"]["pilot_noise_mm"] = round(trial.noise_mm, 4)
     return uniform.radii_px if even else planned.radii_px
 
 

@@ -56,9 +56,13 @@ class Rehearser:
     center_px: tuple[float, float]
     method: Interpolant
     noise_mm: float
+    on_rehearsal: Callable[[Rehearsal], None] | None = None  # each one told, for a progress display
 
     def __call__(self, radii: list[float]) -> Rehearsal:
-        return rehearse(self.pilots, np.asarray(radii), self.center_px, self.method, self.noise_mm)
+        found = rehearse(self.pilots, np.asarray(radii), self.center_px, self.method, self.noise_mm)
+        if self.on_rehearsal is not None:
+            self.on_rehearsal(found)
+        return found
 
 
 def nonuniform_rings(

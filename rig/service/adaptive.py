@@ -10,6 +10,7 @@ from typing import Any
 from rig.config import RigConfig, config_from_dict
 from rig.errors import ConfigError, PlanError
 from rig.pipeline.scan import ScanResult, run_scan
+from rig.plan.rehearsal import rehearsal_progress
 from rig.plan.ring_plan import RingPlan, pilot_views, plan_rings
 from rig.progress import ProgressCallback, ProgressTracker
 from rig.rig import Rig
@@ -27,12 +28,12 @@ def pilot_and_plan(
     """plan_from_pilot, and the pilot scan itself."""
     settings = the_rig.config.scan.adaptive
     tracker = ProgressTracker(progress)
-    tracker.report("pilot", 0.0)
-    pilot = run_scan(the_rig, settings.pilot_codec)
-    tracker.report("plan", 0.45)
+    pilot = run_scan(the_rig, settings.pilot_codec, progress=tracker.part(0.0, 0.5, "pilot "))
+    tracker.report("plan", 0.5)
     views = pilot_views(pilot, the_rig.camera_models, the_rig.projector_models)
     about = {"codec": pilot.codec, "frames_projected": pilot.frames_projected, "bytes_captured": pilot.bytes_captured}
-    return pilot, plan_rings(views, settings, tolerance_mm, about, the_rig.config.scan.surface.interpolant)
+    interpolant = the_rig.config.scan.surface.interpolant
+    return pilot, plan_rings(views, settings, tolerance_mm, about, interpolant, rehearsal_progress(tracker, 0.5))
 
 
 def check_scan_request(config: RigConfig, request: dict[str, Any]) -> None:
@@ -87,10 +88,12 @@ def adaptive_scan(
     and what the scan cost beside the pilot (ScanResult.adaptive). Also returns the rig as it
     scanned the plan (with_plan), whose config the stored scan records."""
     pilot = None
+    tracker = ProgressTracker(progress)
     if plan is None:
-        pilot, plan = pilot_and_plan(the_rig, tolerance_mm, progress)
+        pilot, plan = pilot_and_plan(the_rig, tolerance_mm, tracker.part(0.0, 0.6))
     sparse = with_plan(the_rig, plan)
-    result = run_scan(sparse, "rings", keep_frames=keep_frames)
+    start = 0.0 if pilot is None else 0.6
+    result = run_scan(sparse, "rings", keep_frames=keep_frames, progress=tracker.part(start, 0.92, "rings "))
     result.adaptive = adaptive_record(plan, result, pilot is not None)
     if pilot is not None:  # the picture the console draws the plan over (projector pixels, as the plan)
         result.images["pilot_projector"] = projector_view(pilot.cloud, the_rig.projector_models[0])

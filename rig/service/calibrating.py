@@ -79,7 +79,8 @@ def calibration_to_directory(
             document = calibrate_response(open_the_rig(), partial)
             summary: dict[str, Any] = {"projectors": document["projectors"]}
         else:
-            outcome = _geometric(open_the_rig, calibration_settings(config, request), data_dir, request, partial)
+            settings, part = calibration_settings(config, request), tracker.part(0.05, 0.95)
+            outcome = _geometric(open_the_rig, settings, data_dir, request, partial, part)
             summary = {"sha256": outcome.sha256, "views": outcome.views, "report": outcome.report}
         files = sorted(p.name for p in partial.iterdir() if p.is_file()) if partial.is_dir() else []
         if partial.is_dir():
@@ -92,14 +93,20 @@ def calibration_to_directory(
 
 
 def _geometric(
-    open_the_rig: Callable[[], Rig], config: RigConfig, data_dir: Path, request: dict[str, Any], partial: Path
+    open_the_rig: Callable[[], Rig],
+    config: RigConfig,
+    data_dir: Path,
+    request: dict[str, Any],
+    partial: Path,
+    progress: ProgressCallback | None,
 ) -> CalibrationOutcome:
     what = request["what"]
     if "images" not in request:
-        return calibrate(open_the_rig(), what, partial, request.get("views"), settings=config.calibration)
+        views = request.get("views")
+        return calibrate(open_the_rig(), what, partial, views, settings=config.calibration, progress=progress)
     folder, patterns = captured_views(data_dir, request)
     if patterns is not None:
         glob, source = request.get("view_glob", "*"), request.get("board_image", "auto")
-        return calibrate_described(config, folder, patterns, partial, what, glob, source)
+        return calibrate_described(config, folder, patterns, partial, what, glob, source, progress)
     with open_rig(config, with_devices=False) as geometry:  # the views are files: no device
-        return calibrate(geometry, what, partial, images=folder)
+        return calibrate(geometry, what, partial, images=folder, progress=progress)
