@@ -258,7 +258,7 @@ def _reconstruct_command(sub: argparse._SubParsersAction) -> None:  # type: igno
 
 
 def _store_command(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
-    store = sub.add_parser("store", help="the daemon's job records, offline")
+    store = sub.add_parser("store", help="the data directory offline: check its job records, move it")
     action = store.add_subparsers(dest="action", required=True)
     check = action.add_parser(
         "check",
@@ -270,6 +270,16 @@ def _store_command(sub: argparse._SubParsersAction) -> None:  # type: ignore[typ
     check.add_argument("--data-dir", type=Path, default=None, help="the data directory (instead of --config's)")
     check.add_argument("--repair", action="store_true", help="quarantine damaged records (stop the daemon first)")
     check.add_argument("--json", action="store_true", help="print one JSON object")
+    migrate = action.add_parser(
+        "migrate",
+        help="move a data directory whole (the shipped configs' old scans/ to slrig-data/, where scans are "
+        "slrig-data/scans/<id>)",
+        description="Renames OLD to NEW: refused while a daemon uses OLD, onto a NEW that exists, or across file "
+        "systems. Then point output.data_dir at NEW.",
+    )
+    migrate.add_argument("old", type=Path, help="the data directory as it is (e.g. scans)")
+    migrate.add_argument("new", type=Path, help="where it goes (e.g. slrig-data); must not exist")
+    migrate.add_argument("--json", action="store_true", help="print one JSON object")
 
 
 def parser() -> argparse.ArgumentParser:

@@ -20,7 +20,10 @@ from rig.patterns import codec_class
 
 
 class OutputConfig(Strict):
-    data_dir: Path = Path("scans")
+    data_dir: Path = Field(
+        Path("slrig-data"),
+        description="where scans (<data_dir>/scans/<id>), calibrations, imports and the daemon's job records go",
+    )
 
 
 class ServiceConfig(Strict):

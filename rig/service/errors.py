@@ -62,3 +62,8 @@ class SetupRefusedError(SlrigError):
     """Raised when an aim or camera-settings request names what this rig does not have (a
     projector, camera or codec pattern) or a driver refuses a value (out of its range, no gain
     control); nothing changed."""
+
+
+class MigrationError(SlrigError):
+    """Raised when a data directory cannot be moved (`slrig store migrate`): not a data directory, a
+    target that exists or lies on another file system; nothing was moved."""
