@@ -1,10 +1,15 @@
 """Replace a marked block of the manual (README.md or a page of docs/) with a table a benchmark
-produced. (`--readme` keeps its name: the tables lived in the README before the manual moved.)"""
+produced, signed with the command, the date and the machine that produced it. Every benchmark
+takes `--docs` for this (`--readme`, its older name, still works)."""
 
 from __future__ import annotations
 
 import argparse
+import datetime as dt
 import json
+import os
+import platform
+import sys
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
@@ -14,16 +19,35 @@ README = REPO / "README.md"
 
 
 def replace_block(name: str, text: str) -> None:
-    """Rewrite the block `name` in whichever page of the manual holds it."""
+    """Rewrite the block `name` in whichever page of the manual holds it, signed (provenance())."""
     start, end = f"<!-- {name}:start -->", f"<!-- {name}:end -->"
     for page in (README, *sorted((REPO / "docs").rglob("*.md"))):
         content = page.read_text()
         if start in content and end in content:
             head, rest = content.split(start, 1)
             _, tail = rest.split(end, 1)
-            page.write_text(f"{head}{start}\n{text.strip()}\n{end}{tail}")
+            page.write_text(f"{head}{start}\n{text.strip()}\n\n{provenance()}\n{end}{tail}")
             return
     raise SystemExit(f"no page of the manual (README.md, docs/) has a {start} ... {end} block")
+
+
+def provenance() -> str:
+    """Which command wrote a block, when, and on what machine: the line under every bench table."""
+    script = Path(sys.argv[0]).name
+    return (
+        f"<small>Written by `python bench/{script} --docs` on {dt.date.today().isoformat()}: "
+        f"{cpu_name()}, {os.cpu_count()} cores, Python {platform.python_version()}.</small>"
+    )
+
+
+def cpu_name() -> str:
+    try:
+        for line in Path("/proc/cpuinfo").read_text().splitlines():
+            if line.startswith("model name"):
+                return line.split(":", 1)[1].strip()
+    except OSError:
+        pass
+    return platform.processor() or platform.machine()
 
 
 def markdown_table(header: list[str], rows: list[list[object]]) -> str:
@@ -64,13 +88,22 @@ def accuracy_cells(r: dict[str, Any], completeness_digits: int) -> list[object]:
     ]
 
 
-def run(doc: str, block: str, measure: Callable[[], dict[str, Any]], table: Callable[[dict[str, Any]], str]) -> None:
-    """A benchmark's command line: measure, print one JSON object, and with --readme rewrite the
-    manual's block `block` with the table made from the measurement."""
+def run(
+    doc: str,
+    block: str,
+    measure: Callable[[], dict[str, Any]],
+    table: Callable[[dict[str, Any]], str],
+    more: dict[str, Callable[[dict[str, Any]], str]] | None = None,
+) -> None:
+    """A benchmark's command line: measure, print one JSON object, and with --docs rewrite the
+    manual's block `block` with the table made from the measurement (and each of `more`'s blocks with
+    what its function makes of it)."""
     parser = argparse.ArgumentParser(description=doc.splitlines()[0])
-    parser.add_argument("--readme", action="store_true", help=f"rewrite the {block} block of the manual")
+    parser.add_argument("--docs", "--readme", dest="docs", action="store_true", help=f"rewrite the {block} block")
     args = parser.parse_args()
     measured = measure()
     print(json.dumps(measured))
-    if args.readme:
+    if args.docs:
         replace_block(block, table(measured))
+        for name, make in (more or {}).items():  # other blocks from the same measurement
+            replace_block(name, make(measured))

@@ -2,7 +2,7 @@
 dissertation compares codecs by data size. Prints one JSON object.
 
     python bench/codecs.py            # JSON
-    python bench/codecs.py --readme   # also rewrite the codec table in the manual (docs/)
+    python bench/codecs.py --docs   # also rewrite the codec table in the manual (docs/)
 """
 
 from __future__ import annotations
@@ -64,7 +64,7 @@ def measure_all() -> dict[str, object]:
 def table(measured: dict[str, Any]) -> str:
     rows = [[*accuracy_cells(r, 3), r["decode_triangulate_ms"]] for r in measured["results"]]
     header = [*ACCURACY_HEADER, "decode+triangulate ms"]
-    return markdown_table(header, rows) + "\n\nProduced by `python bench/codecs.py --readme`."
+    return markdown_table(header, rows) + "\n\nProduced by `python bench/codecs.py --docs`."
 
 
 def main() -> None:

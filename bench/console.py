@@ -7,9 +7,9 @@ bench, config/sim.yaml) and Debian's headless chromium driven by Playwright:
 - camera-view frames per second delivered to one and to four clients while scans run, and the scans'
   time with and without four viewers open.
 
-    python bench/console.py [--rounds 9] [--readme]
+    python bench/console.py [--rounds 9] [--docs]
 
---readme writes the table into docs/console.md. Prints JSON.
+--docs writes the table into docs/console.md. Prints JSON.
 """
 
 from __future__ import annotations
@@ -160,12 +160,10 @@ def browser_figures(daemon: Daemon, scan_id: str) -> dict[str, Any]:
     return out
 
 
-
-
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--rounds", type=int, default=9, help="scans per viewer count (median), interleaved")
-    parser.add_argument("--readme", action="store_true", help="write docs/console.md's table")
+    parser.add_argument("--docs", "--readme", dest="readme", action="store_true", help="write docs/console.md's table")
     args = parser.parse_args()
     with tempfile.TemporaryDirectory() as tmp:
         folder = Path(tmp)
@@ -234,7 +232,7 @@ def _table(r: dict[str, Any]) -> str:
         ),
     ]
     lines = ["| measured | figure |", "|---|---|", *[f"| {a} | {b} |" for a, b in rows]]
-    return "\n".join(lines) + f"\n\nMeasured by `python bench/console.py --readme` on {r['machine']['cores']} cores."
+    return "\n".join(lines) + f"\n\nMeasured by `python bench/console.py --docs` on {r['machine']['cores']} cores."
 
 
 if __name__ == "__main__":

@@ -31,8 +31,6 @@ IMAGES = REPO / "docs" / "images"
 VIEWPORT = {"width": 1280, "height": 860}
 
 
-
-
 def _shoot(page: Any, name: str, written: list[str]) -> None:
     path = IMAGES / f"console_{name}.png"
     page.screenshot(path=str(path))

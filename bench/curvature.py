@@ -1,9 +1,9 @@
 """Curvature of a scanned surface against the truth: how noise biases the principal curvatures and
 what floor it leaves on flat surfaces, at several smoothing radii. One phase scan of the default
-bench (a sphere of radius 60 mm on a plane); prints one JSON object; with --readme also rewrites
+bench (a sphere of radius 60 mm on a plane); prints one JSON object; with --docs also rewrites
 the curvature table in the manual (docs/).
 
-    python bench/curvature.py [--readme] [--radii 2.5,5,10]
+    python bench/curvature.py [--docs] [--radii 2.5,5,10]
 
 On the sphere (points farther than 1.5 radii from its rim, so every fit sees sphere only): the
 median of the mean curvature, of k1 and of k2, each divided by the true 1/60 per mm. On the bench
@@ -85,7 +85,9 @@ def readme_table(report: dict[str, Any], default_radius: float) -> str:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--readme", action="store_true", help="rewrite the manual's curvature table")
+    parser.add_argument(
+        "--docs", "--readme", dest="readme", action="store_true", help="rewrite the manual's curvature table"
+    )
     parser.add_argument("--radii", default="2.5,5,10", help="smoothing radii, mm (2.5,5,10)")
     args = parser.parse_args()
     radii = [float(r) for r in args.radii.split(",") if r]

@@ -1,9 +1,9 @@
 """Captures in other systems' conventions, made on the simulated bench, read back by `slrig
 reconstruct`: every family of the pattern description against slrig's own codec of the same family,
 and the time a folder takes against reading its PNG frames plus reconstructing them in memory.
-Prints one JSON object; with --readme rewrites the foreign-roundtrip table in the manual (docs/).
+Prints one JSON object; with --docs rewrites the foreign-roundtrip table in the manual (docs/).
 
-    python bench/foreign_roundtrip.py [--readme]
+    python bench/foreign_roundtrip.py [--docs]
 
 Each family's patterns (rig.patterns.described.described_patterns) are projected on the default
 bench (a diamond DMD's through its geometry, on a 1824x1140 virtual-pixel projector), captured,
@@ -235,7 +235,7 @@ def table(report: dict[str, Any]) -> str:
         f"{s['folder_range_s'][1]}), against {s['png_read_s']} s to read the PNG files and {s['in_memory_s']} s "
         f"(range {s['in_memory_range_s'][0]}-{s['in_memory_range_s'][1]}) to reconstruct them from memory "
         "(decode, triangulate, write the scan).\n\n"
-        "Measured by `python bench/foreign_roundtrip.py --readme`."
+        "Measured by `python bench/foreign_roundtrip.py --docs`."
     )
 
 

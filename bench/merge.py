@@ -3,7 +3,7 @@ cloud measured on the same visible surface, the intensity cue's overlap against 
 the time merging takes. Prints one JSON object.
 
     python bench/merge.py            # JSON
-    python bench/merge.py --readme   # also rewrite the merge table in the manual (docs/)
+    python bench/merge.py --docs   # also rewrite the merge table in the manual (docs/)
 """
 
 from __future__ import annotations
@@ -57,7 +57,7 @@ def table(measured: dict[str, object]) -> str:
         f"{merge['voxel_mm']} mm) in {measured['merge_ms']} ms; merged points closer than half the sampling "  # type: ignore[index]
         f"distance to another pair's: {m['cross_pair_within_half_sampling']:.2%}. "  # type: ignore[index]
         f"Overlap by the intensity cue, against the truth of which projectors light each pixel: {cue_text}. "
-        f"Measured by `python bench/merge.py --readme` ({measured['machine']})."
+        f"Measured by `python bench/merge.py --docs` ({measured['machine']})."
     )
 
 

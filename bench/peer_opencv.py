@@ -13,7 +13,7 @@ default simulated bench (1024x768 projector) and seen by its camera and a second
 - agreement: of the pixels both decode, those with the same projector column and row.
 
     python bench/peer_opencv.py            # JSON
-    python bench/peer_opencv.py --readme   # also rewrite the peer table in the manual (docs/)
+    python bench/peer_opencv.py --docs   # also rewrite the peer table in the manual (docs/)
 """
 
 from __future__ import annotations
@@ -179,7 +179,9 @@ def slrig_decode(codec: Any, frames: list[np.ndarray]) -> tuple[float, Any]:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__)
-    parser.add_argument("--readme", action="store_true", help="rewrite the peer table in the manual (docs/)")
+    parser.add_argument(
+        "--docs", "--readme", dest="readme", action="store_true", help="rewrite the peer table in the manual (docs/)"
+    )
     args = parser.parse_args()
     with tempfile.TemporaryDirectory(prefix="slrig-peer-") as tmp:
         work = Path(tmp)
@@ -211,7 +213,7 @@ def main() -> None:
         replace_block(
             "peer-table",
             f"{table}\n\nOn the pixels both decode, {r['agreement_on_both']:.3%} have the same projector column "
-            f"and row. Measured by `python bench/peer_opencv.py --readme` (OpenCV contrib in a throw-away venv).",
+            f"and row. Measured by `python bench/peer_opencv.py --docs` (OpenCV contrib in a throw-away venv).",
         )
 
 

@@ -2,9 +2,9 @@
 GrayCodePattern captures, a 1024x768 projector), reconstructed by `slrig reconstruct` with the
 authors' calibration_result.xml and with slrig's own calibration of the same poses (`slrig
 calibrate --images --patterns`), and measured by what a board must be: flat, and where the camera
-alone puts it. Prints one JSON object; with --readme rewrites the procam-board table in the manual (docs/).
+alone puts it. Prints one JSON object; with --docs rewrites the procam-board table in the manual (docs/).
 
-    python bench/procam_board.py [--readme]      # data: ../shared/data or $SLRIG_TEST_DATA
+    python bench/procam_board.py [--docs]      # data: ../shared/data or $SLRIG_TEST_DATA
 
 Per pose: points on the board (inside the hull of its 9x7 detected corners), the rms and p95 of
 their distances to a fitted plane, the board's distance from the camera in the scan and from the
@@ -144,7 +144,7 @@ def table(report: dict[str, Any]) -> str:
             )
     return (
         markdown_table(header, rows)
-        + "\n\nMeasured by `python bench/procam_board.py --readme` (lengths in the calibration's unit; slrig's "
+        + "\n\nMeasured by `python bench/procam_board.py --docs` (lengths in the calibration's unit; slrig's "
         "calibration made by `slrig calibrate --images --patterns` from the same five poses)."
     )
 

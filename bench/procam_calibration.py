@@ -1,9 +1,9 @@
 """slrig's calibration of real captures no one here made, against the authors' own: kamino410/
 procam-calibration's five board poses (OpenCV GrayCodePattern frames, a 1024x768 projector counted
 two pixels per code, a 10x8-square board of 75-unit squares) and its calibration_result.xml.
-Prints one JSON object; with --readme rewrites the procam-calibration table in the manual (docs/).
+Prints one JSON object; with --docs rewrites the procam-calibration table in the manual (docs/).
 
-    python bench/procam_calibration.py [--readme]      # data: ../shared/data or $SLRIG_TEST_DATA
+    python bench/procam_calibration.py [--docs]      # data: ../shared/data or $SLRIG_TEST_DATA
 
 Rows: the authors' result (OpenCV's full model with k3 for both devices), slrig with its default
 lens model (auto) and slrig with the authors' model (full). Columns: focal lengths and centres,
@@ -123,7 +123,7 @@ def table(report: dict[str, Any]) -> str:
     ]
     return (
         markdown_table(header, rows)
-        + "\n\nMeasured by `python bench/procam_calibration.py --readme` (lengths in the board's unit; "
+        + "\n\nMeasured by `python bench/procam_calibration.py --docs` (lengths in the board's unit; "
         "projector pixels counted two per code, as the authors' calibration counts them)."
     )
 

@@ -1,10 +1,10 @@
 """Recognition of scanned faces (dissertation ch.8): rank-1 identification and equal error rate of
 the geodesic ring descriptor, the published variant, the Euclidean one and an eigen-depth (PCA)
 baseline, on the synthetic face set scanned with rings on the simulated bench, for several ring
-counts. Prints one JSON object; with --readme also rewrites the recognition tables in the manual (docs/)
+counts. Prints one JSON object; with --docs also rewrites the recognition tables in the manual (docs/)
 and draws docs/images/recognition_rank1.png and docs/images/recognition_correlation.png.
 
-    python bench/recognition.py [--readme] [--identities 10] [--counts 12,16,24,32,48,64] [--cache DIR]
+    python bench/recognition.py [--docs] [--identities 10] [--counts 12,16,24,32,48,64] [--cache DIR]
 
 Faces: drivers/sim/faces.py (the MeshMonk template, `pip install --no-deps autofacemonker==0.2.0`);
 per identity five expressions (neutral, smile, surprise, frown, puff) and the neutral face in two
@@ -190,7 +190,9 @@ def _all_and_poses(found: dict[str, Any]) -> str:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--readme", action="store_true", help="rewrite README.md's tables and the plots")
+    parser.add_argument(
+        "--docs", "--readme", dest="readme", action="store_true", help="rewrite README.md's tables and the plots"
+    )
     parser.add_argument("--identities", type=int, default=10)
     parser.add_argument("--counts", default=",".join(str(c) for c in COUNTS), help="comma-separated ring counts")
     parser.add_argument("--cache", type=Path, help="keep the face scans here (default: a temporary directory)")

@@ -1,5 +1,5 @@
 """Reliability of `slrig serve` under faults and hostile clients, measured against a real daemon on
-the simulated bench; prints one JSON object (and with --readme rewrites the manual's table).
+the simulated bench; prints one JSON object (and with --docs rewrites the manual's table).
 
 - 200 idle connections and a burst of 200 event streams: streams accepted against the cap, and
   the latency of /v1/health meanwhile (20 requests);
@@ -23,7 +23,7 @@ the simulated bench; prints one JSON object (and with --readme rewrites the manu
 - SIGTERM in each state a daemon can be in (bench/stop_time.py): seconds until the process is
   gone, and whether the projector was dark.
 
-    python bench/reliability.py [--kills 8] [--schema-examples 200] [--readme]
+    python bench/reliability.py [--kills 8] [--schema-examples 200] [--docs]
 """
 
 from __future__ import annotations
@@ -209,7 +209,7 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--kills", type=int, default=8)
     parser.add_argument("--schema-examples", type=int, default=200, help="generated requests per operation")
-    parser.add_argument("--readme", action="store_true")
+    parser.add_argument("--docs", "--readme", dest="readme", action="store_true")
     args = parser.parse_args()
     with tempfile.TemporaryDirectory() as tmp:
         folder = Path(tmp)
@@ -266,7 +266,7 @@ def _table(result: dict[str, Any]) -> str:
         )
     rows += attack_rows(result)
     table = markdown_table(["fault", "tries", "failed", "what held"], rows)
-    return f"{table}\n\nMeasured by `python bench/reliability.py --readme` ({result['machine']})."
+    return f"{table}\n\nMeasured by `python bench/reliability.py --docs` ({result['machine']})."
 
 
 if __name__ == "__main__":

@@ -2,9 +2,9 @@
 samples alone (L-NN, inverse distance, density-compensated), against the true albedo, beside the
 white frame's colour at every pixel (the upper bound), on textured versions of the default bench.
 The rings are the plan for `--tolerance` (non-uniform radii) and as many evenly spaced rings.
-Prints one JSON object; with --readme also rewrites the colour table in the manual (docs/).
+Prints one JSON object; with --docs also rewrites the colour table in the manual (docs/).
 
-    python bench/rings_colour.py [--readme] [--tolerance 0.1] [--neighbours 8]
+    python bench/rings_colour.py [--docs] [--tolerance 0.1] [--neighbours 8]
 
 Every figure is on the mesh's vertices (every 2nd pixel: scan.surface.mesh_stride_px) that the
 interpolated surface covers and the projector lights; see rig.evaluate.colour for how shading and
@@ -132,7 +132,9 @@ def readme_table(rows: list[dict[str, Any]], tolerance: float) -> str:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--readme", action="store_true", help="rewrite README.md's colour table")
+    parser.add_argument(
+        "--docs", "--readme", dest="readme", action="store_true", help="rewrite README.md's colour table"
+    )
     parser.add_argument("--tolerance", type=float, default=0.1, help="the plan's tolerance, mm (0.1)")
     parser.add_argument("--neighbours", type=int, default=8, help="L of the interpolants (8)")
     args = parser.parse_args()

@@ -1,10 +1,10 @@
 """Error of the surface interpolated between the rings against the ring count, on the sphere, the
 terrain and the face relief (config/meshes/face.ply): N evenly spaced rings for N = 4 ... 64, and
 the planned non-uniform rings for several tolerances, with the planner's N_min by each criterion.
-Prints one JSON object; with --readme also rewrites the economy table in the manual (docs/) and draws
+Prints one JSON object; with --docs also rewrites the economy table in the manual (docs/) and draws
 docs/images/rings_economy.png.
 
-    python bench/rings_economy.py [--readme] [--scenes sphere,terrain,face]
+    python bench/rings_economy.py [--docs] [--scenes sphere,terrain,face]
 
 A ring set meets a tolerance e_tol when its interpolated surface's rms distance to the true surface
 is at most e_tol (the default interpolant, quadratic); completeness (the fraction of the lit object
@@ -187,7 +187,9 @@ def readme_table(results: list[dict[str, Any]]) -> str:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--readme", action="store_true", help="rewrite README.md's table and the plot")
+    parser.add_argument(
+        "--docs", "--readme", dest="readme", action="store_true", help="rewrite README.md's table and the plot"
+    )
     parser.add_argument("--scenes", default=",".join(SCENES), help="comma-separated: " + ", ".join(SCENES))
     args = parser.parse_args()
     names = [n for n in args.scenes.split(",") if n]

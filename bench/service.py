@@ -2,7 +2,7 @@
 scan costs over REST compared with the same scan in process. Prints one JSON object.
 
     python bench/service.py            # JSON
-    python bench/service.py --readme   # also rewrite the service table in the manual (docs/)
+    python bench/service.py --docs   # also rewrite the service table in the manual (docs/)
 """
 
 from __future__ import annotations
@@ -124,7 +124,7 @@ def table(m: dict[str, object]) -> str:
         f"{', '.join(str(s) for s in scans)} s for three in a row (the first opens the devices), against "  # type: ignore[attr-defined]
         f"{m['scan_in_process_s']} s for the same job (scan, accuracy against the simulator, files) in process "
         "with the rig open. "
-        f"Clients and daemon share the machine. Measured by `python bench/service.py --readme` ({m['machine']})."
+        f"Clients and daemon share the machine. Measured by `python bench/service.py --docs` ({m['machine']})."
     )
 
 

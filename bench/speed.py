@@ -20,7 +20,7 @@
   entries (reading the SQLite gallery and scoring every entry; median of 20).
 
     python bench/speed.py            # JSON
-    python bench/speed.py --readme   # also rewrite the speed table in the manual (docs/)
+    python bench/speed.py --docs   # also rewrite the speed table in the manual (docs/)
 """
 
 from __future__ import annotations
@@ -302,7 +302,9 @@ def codec_row(name: str, bandwidth_gb_s: float) -> dict[str, float | None]:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__)
-    parser.add_argument("--readme", action="store_true", help="rewrite the speed table in the manual (docs/)")
+    parser.add_argument(
+        "--docs", "--readme", dest="readme", action="store_true", help="rewrite the speed table in the manual (docs/)"
+    )
     args = parser.parse_args()
     result = {
         "benchmark": "speed",
@@ -376,7 +378,7 @@ def readme_text(result: dict[str, Any]) -> str:
         "how far a second scan raises the peak above it, also as a multiple of the bytes of the scan's frames.\n\n"
         f"The memory floor is the time to read a codec's frames once at this machine's copy bandwidth "
         f"({result['copy_bandwidth_gb_s']} GB/s, `np.copyto` of 256 MiB). "
-        f"Measured on {result['cpus']} cores by `python bench/speed.py --readme`."
+        f"Measured on {result['cpus']} cores by `python bench/speed.py --docs`."
     )
     return text
 

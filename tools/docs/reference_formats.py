@@ -1,0 +1,61 @@
+"""File formats' references: the pattern description, the manifest of a scan directory, and the
+names another tool's calibration file may use."""
+
+from __future__ import annotations
+
+from schema_tables import cell, schema_sections
+
+from rig.calibrate.foreign import ALIASES, DISTORTION_LENGTHS, ForeignCalibrationOptions
+from rig.patterns.spec import PatternSpec
+from rig.store.manifest_fields import MANIFEST_FIELDS
+
+
+def patterns_page() -> str:
+    schema = PatternSpec.model_json_schema()
+    lines = [
+        "# Pattern description",
+        "",
+        "What a folder of frames showed, as `slrig reconstruct --patterns` and `slrig calibrate --patterns`",
+        "read it (YAML), written from `rig.patterns.spec.PatternSpec` when this manual is built. A scan",
+        "that keeps its frames writes one beside them (`patterns.yaml`).",
+        "",
+    ]
+    return "\n".join(lines + schema_sections("PatternSpec", schema, schema.get("$defs", {}), level=2))
+
+
+def manifest_page() -> str:
+    lines = [
+        "# Scan directory and manifest",
+        "",
+        "A scan directory (`slrig-data/scans/<id>/`, or `--out`) holds `manifest.json` beside its files.",
+        "Its keys, from `rig.store.manifest_fields` (a test holds them to what `write_scan` writes):",
+        "",
+        "| key | what it holds |",
+        "|---|---|",
+    ]
+    lines += [f"| `{key}` | {cell(text)} |" for key, text in MANIFEST_FIELDS.items()]
+    return "\n".join(lines) + "\n"
+
+
+def calibration_files_page() -> str:
+    schema = ForeignCalibrationOptions.model_json_schema()
+    lines = [
+        "# Calibration files",
+        "",
+        "slrig writes its own calibration as `calibration.json` (with `calibration.yaml`, an OpenCV",
+        "FileStorage copy, and the report). It also reads other tools' projector-camera calibrations",
+        "(OpenCV FileStorage XML or YAML, or JSON): each field is found under any of these names,",
+        "compared without case (`rig.calibrate.foreign.ALIASES`):",
+        "",
+        "| field | names looked for |",
+        "|---|---|",
+    ]
+    lines += [f"| {field.replace('_', ' ')} | {', '.join(f'`{n}`' for n in names)} |" for field, names in ALIASES.items()]
+    lengths = ", ".join(str(n) for n in DISTORTION_LENGTHS)
+    lines += [
+        "",
+        f"Distortion vectors hold {lengths} coefficients (OpenCV's order). What a file cannot say is",
+        "given as options (`slrig reconstruct --camera-resolution ...`, or `calibration_options` over REST):",
+        "",
+    ]
+    return "\n".join(lines + schema_sections("ForeignCalibrationOptions", schema, schema.get("$defs", {}), level=2))
