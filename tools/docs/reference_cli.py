@@ -31,9 +31,7 @@ def cli_page() -> str:
     return "\n".join(lines)
 
 
-def _commands(
-    p: argparse.ArgumentParser, path: str
-) -> list[tuple[str, argparse.ArgumentParser, str]]:
+def _commands(p: argparse.ArgumentParser, path: str) -> list[tuple[str, argparse.ArgumentParser, str]]:
     """Every command below `p`, depth first, with the help its parent gives it."""
     found = []
     for action in p._actions:

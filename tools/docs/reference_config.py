@@ -36,7 +36,14 @@ def drivers_page() -> str:
     for entry in DRIVERS:
         caps = [name.replace("_", " ") for name, on in vars(entry.capabilities).items() if on]
         sections = ", ".join(f"`{s}`" for s in entry.sections) or "none"
-        row = [entry.kind.value, f"`{entry.name}`", sections, ", ".join(caps) or "", "yes" if entry.simulated else "", entry.summary]
+        row = [
+            entry.kind.value,
+            f"`{entry.name}`",
+            sections,
+            ", ".join(caps) or "",
+            "yes" if entry.simulated else "",
+            entry.summary,
+        ]
         lines.append("| " + " | ".join(cell(c) for c in row) + " |")
     for entry in DRIVERS:
         for section, model in entry.sections.items():

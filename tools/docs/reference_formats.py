@@ -50,7 +50,9 @@ def calibration_files_page() -> str:
         "| field | names looked for |",
         "|---|---|",
     ]
-    lines += [f"| {field.replace('_', ' ')} | {', '.join(f'`{n}`' for n in names)} |" for field, names in ALIASES.items()]
+    lines += [
+        f"| {field.replace('_', ' ')} | {', '.join(f'`{n}`' for n in names)} |" for field, names in ALIASES.items()
+    ]
     lengths = ", ".join(str(n) for n in DISTORTION_LENGTHS)
     lines += [
         "",
