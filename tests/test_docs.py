@@ -4,6 +4,7 @@ folder (a ```bash block runs; a ```shell block is shown only: installs and real 
 
 from __future__ import annotations
 
+import json
 import os
 import re
 import subprocess
@@ -62,3 +63,21 @@ def test_the_tutorial_runs_as_written(page: Path, tmp_path: Path) -> None:
             env=env,
         )
         assert ran.returncode == 0, f"{page.name}, block {number}:\n{block}\n{ran.stdout[-2000:]}\n{ran.stderr[-3000:]}"
+
+
+def test_the_manifest_reference_lists_what_a_scan_writes(tmp_path: Path) -> None:
+    from rig.assembly import open_rig
+    from rig.config import load_config
+    from rig.service.tasks import scan_to_directory
+    from rig.store.manifest_fields import MANIFEST_FIELDS
+    from tests.conftest import small_config_data, write_config
+
+    config = load_config(write_config(tmp_path, small_config_data()))
+    seen: set[str] = set()
+    with open_rig(config) as rig:
+        for number, codec in enumerate(("gray", "rings")):  # a ring scan adds its surface
+            path, _ = scan_to_directory(rig, tmp_path / codec, f"20261127-120000-00000{number}", codec)
+            seen |= set(json.loads((path / "manifest.json").read_text()))
+    assert seen <= set(MANIFEST_FIELDS), seen - set(MANIFEST_FIELDS)  # nothing written goes undocumented
+    writer = (REPO / "rig" / "store" / "scandir.py").read_text()
+    assert all(f'"{key}":' in writer for key in MANIFEST_FIELDS)  # nothing documented that it cannot write

@@ -77,14 +77,24 @@ class ServiceConfig(Strict):
 
 
 class RigConfig(Strict):
-    name: Name = "bench"
-    projectors: list[ProjectorConfig] = Field(min_length=1, max_length=16)
-    cameras: list[CameraConfig] = Field(min_length=1, max_length=16)
-    simulation: SimulationConfig | None = None
-    scan: ScanConfig = ScanConfig()
-    calibration: CalibrationConfig = CalibrationConfig()
-    output: OutputConfig = OutputConfig()
-    service: ServiceConfig = ServiceConfig()
+    """A rig description: its devices, the scene when it is simulated, and how it scans."""
+
+    name: Name = Field("bench", description="the rig's name, shown by the daemon and kept in every manifest")
+    projectors: list[ProjectorConfig] = Field(
+        min_length=1, max_length=16, description="every projector, each with its driver and geometry"
+    )
+    cameras: list[CameraConfig] = Field(
+        min_length=1, max_length=16, description="every camera, each with its driver and geometry"
+    )
+    simulation: SimulationConfig | None = Field(
+        None, description="the simulated bench's scene; present only when every device is simulated"
+    )
+    scan: ScanConfig = Field(ScanConfig(), description="the codec, its settings, filters, merging, surfaces")
+    calibration: CalibrationConfig = Field(
+        CalibrationConfig(), description="the board, calibration sessions, and the calibration file to use"
+    )
+    output: OutputConfig = Field(OutputConfig(), description="where results go")
+    service: ServiceConfig = Field(ServiceConfig(), description="`slrig serve`: queue, limits, connections")
 
     @property
     def simulated(self) -> bool:

@@ -13,8 +13,8 @@ BOUNDS = (
     ("exclusiveMaximum", "< {}"),
     ("minLength", "at least {} characters"),
     ("maxLength", "at most {} characters"),
-    ("minItems", "at least {} items"),
-    ("maxItems", "at most {} items"),
+    ("minItems", "at least {} item(s)"),
+    ("maxItems", "at most {} item(s)"),
     ("pattern", "matches `{}`"),
 )
 
