@@ -20,6 +20,7 @@ import platform
 import sys
 import tempfile
 import time
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -33,6 +34,7 @@ import _recognition_plots
 from _readme import markdown_table, replace_block
 
 from rig.errors import RecognitionError
+from rig.progress import ProgressTracker, StageLines, TerminalBar
 from rig.recognition.descriptor import Descriptor, DescriptorSettings, describe
 from rig.recognition.eigendepth import EigenDepth, depth_map
 from rig.recognition.evaluation import equal_error_rate, genuine_and_impostor, rank_one
@@ -129,9 +131,18 @@ def evaluate(score: np.ndarray, cases: list[_face_scans.Case], gallery: list[int
     }
 
 
-def measure_count(cases: list[_face_scans.Case], rings: int, cache: Path, bench: Path | None = None) -> dict[str, Any]:
+def measure_count(
+    cases: list[_face_scans.Case],
+    rings: int,
+    cache: Path,
+    bench: Path | None = None,
+    scanned: Callable[[str], None] = lambda name: None,
+) -> dict[str, Any]:
     t0 = time.perf_counter()
-    scans = [_face_scans.scan(c, rings, cache, bench) for c in cases]
+    scans = []
+    for case in cases:
+        scans.append(_face_scans.scan(case, rings, cache, bench))
+        scanned(case.name)
     scan_s = time.perf_counter() - t0
     gallery = [i for i, c in enumerate(cases) if c.group == "gallery"]
     probes = [i for i, c in enumerate(cases) if c.group != "gallery"]
@@ -205,7 +216,15 @@ def main() -> None:
     with tempfile.TemporaryDirectory() as scratch:
         cache = args.cache or Path(scratch)
         planned = _face_scans.planned_rings(cases[0])
-        measured = [measure_count(cases, n, cache, args.bench) for n in counts]
+        tracker = ProgressTracker(TerminalBar() if sys.stderr.isatty() else StageLines())  # on stderr: stdout is JSON
+        measured = []
+        for k, n in enumerate(counts):
+            done = iter(range(1, len(cases) + 1))
+
+            def scanned(name: str, k: int = k, n: int = n, done: Iterator[int] = done) -> None:
+                tracker.report(f"{n} rings", (k + next(done) / len(cases)) / len(counts), name)
+
+            measured.append(measure_count(cases, n, cache, args.bench, scanned))
     features = next(m.pop("_features") for m in measured if m["rings"] == main_count)
     for m in measured:
         m.pop("_features", None)
