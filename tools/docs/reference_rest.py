@@ -37,8 +37,9 @@ def rest_page() -> str:
         "",
         "Every endpoint of `slrig serve`, written from the OpenAPI document the daemon serves",
         "(`/openapi.json`; `/docs` draws it) when this manual is built. Bodies are JSON; a field that is",
-        "not listed is refused (422) naming it. [The service](../service.md) says how keys, limits and",
-        "errors work, with examples.",
+        "not listed is refused (422) naming it. The table gives each endpoint's success answers; any may",
+        "also answer an error (401 or 403 for the key, 404, 409, 413, 422, 429, 503, 507), whose body's",
+        "`detail` says why. [The service](../service.md) says how keys, limits and errors work, with examples.",
         "",
     ]
     by_tag: dict[str, list[str]] = {}
@@ -48,7 +49,7 @@ def rest_page() -> str:
                 op = operations[method]
                 by_tag.setdefault((op.get("tags") or ["other"])[0], []).append(_endpoint(method, path, op))
     for tag, rows in by_tag.items():
-        lines += [f"## {tag}", "", "| endpoint | body | answers | what it does |", "|---|---|---|---|", *rows, ""]
+        lines += [f"## {tag}", "", "| endpoint | body | success | what it does |", "|---|---|---|---|", *rows, ""]
     lines += ["## Bodies", ""]
     for name, schema in document.get("components", {}).get("schemas", {}).items():
         lines += model_table(name, schema, level=3)
@@ -64,6 +65,6 @@ def _endpoint(method: str, path: str, op: dict[str, Any]) -> str:
         shown = next(iter(body))
     else:
         shown = ""
-    answers = ", ".join(code for code in op.get("responses", {}) if code != "default")
+    answers = ", ".join(code for code in op.get("responses", {}) if code.startswith(("2", "3")))
     what = op.get("description") or op.get("summary") or ""
     return f"| `{method.upper()} {path}` | {shown} | {answers} | {cell(what.strip().split(chr(10) + chr(10))[0])} |"
