@@ -2,18 +2,23 @@
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 
 from rig.config import RigConfig
 from rig.evaluate.distances import root_mean_square, surface_distances
+from rig.evaluate.regions import pixel_areas, region_errors, surface_regions
 from rig.patterns import codec_class
 from rig.pipeline.scan import PairResult, ScanResult
 from rig.rig import PixelTruth
 
 COMPLETE_WITHIN_MM = 1.0
+STEP_MM = 2.0  # neighbouring surface points this far apart lie on two sides of a depth step
+AREA_QUANTILE = 0.95
 
 
-def surface_metrics(pair: PairResult, truth: PixelTruth) -> dict[str, float | int | None]:
+def surface_metrics(pair: PairResult, truth: PixelTruth) -> dict[str, Any]:
     """rms, p95 and max distance of the interpolated surface (one point per covered pixel) to the
     true surface, and its completeness: the fraction of pixels that see a lit true surface which the
     interpolated surface covers within 1 mm."""
@@ -24,13 +29,27 @@ def surface_metrics(pair: PairResult, truth: PixelTruth) -> dict[str, float | in
     close = np.zeros(valid.size, dtype=bool)
     close[np.flatnonzero(valid.ravel())[dist <= COMPLETE_WITHIN_MM]] = True
     empty = len(dist) == 0
+    by_area = {} if empty else area_metrics(pair.surface.grid, valid, dist)
     return {
+        **by_area,
         "surface_pixels": len(dist),
         "surface_rms_mm": None if empty else root_mean_square(dist),
         "surface_p95_mm": None if empty else float(np.percentile(dist, 95)),
         "surface_max_mm": None if empty else float(np.max(dist)),
         "surface_over_1mm_fraction": float((dist > 1.0).sum() / max(1, len(dist))),
         "surface_completeness": float((close.reshape(valid.shape) & target).sum() / max(1, target.sum())),
+    }
+
+
+def area_metrics(grid: np.ndarray, valid: np.ndarray, dist: np.ndarray) -> dict[str, Any]:
+    """The surface's error by area (rig.evaluate.regions): its area-weighted p95 over the whole view,
+    and over each region a depth step bounds that holds 5 % of the area or more, largest first."""
+    areas = pixel_areas(grid, valid, STEP_MM)
+    whole, regions = region_errors(dist, areas, surface_regions(grid, valid, STEP_MM), AREA_QUANTILE)
+    return {
+        "surface_area_p95_mm": whole.quantile_mm,
+        "surface_worst_region_p95_mm": max((r.quantile_mm for r in regions), default=whole.quantile_mm),
+        "surface_regions": [r.as_dict() for r in regions],
     }
 
 
