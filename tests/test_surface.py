@@ -190,6 +190,12 @@ def test_an_adaptive_scan_records_its_plan_and_a_plan_file_skips_the_pilot(
     assert main(["scan", "--config", str(small_config_path), "--plan", str(plan_file), "--out", str(second)]) == 0
     reused = json.loads((second / "manifest.json").read_text())
     assert not reused["adaptive"]["pilot_scanned"]
+    for manifest, own_pilot in ((json.loads((first / "manifest.json").read_text()), True), (reused, False)):
+        check = manifest["adaptive"]["check"]  # the promise beside what the scan measured of it
+        worst = max(m["surface_worst_region_p95_mm"] for m in manifest["metrics"].values() if "surface_regions" in m)
+        assert check["promised_mm"] == 0.5 and check["rehearsed_on_this_object"] is own_pilot
+        assert check["measured_worst_region_p95_mm"] == worst and check["met"] is (worst <= 0.5)
+        assert check["verified"]  # on the simulated bench, measured against the truth
     assert reused["codec"]["params"]["radii_px"] == pytest.approx(json.loads(plan_file.read_text())["radii_px"])
     assert (
         main(["scan", "--config", str(small_config_path), "--tolerance-mm", "0.5", "--out", str(tmp_path / "c")]) == 2

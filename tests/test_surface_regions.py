@@ -60,3 +60,18 @@ def test_a_failing_object_is_not_hidden_by_a_large_flat_background() -> None:
     assert [round(r.share, 4) for r in regions] == [round(1500 / 1600, 4), round(100 / 1600, 4)]
     assert regions[1].quantile_mm == 0.5  # the object, judged on its own, fails
     assert regions[0].quantile_mm == 0.0 and np.isclose(regions[1].rms_mm, np.sqrt(0.5 * 0.25))
+
+
+def test_a_plan_on_a_rig_without_truth_is_recorded_unverified() -> None:
+    from rig.service.adaptive import plan_check
+
+    adaptive = {"tolerance_mm": 0.2, "pilot_scanned": False}
+    assert plan_check(adaptive, {}) == {
+        "promised_mm": 0.2,
+        "rehearsed_on_this_object": False,
+        "measured_worst_region_p95_mm": None,
+        "met": None,
+        "verified": False,
+    }
+    failing = {"projector0/camera0": {"surface_worst_region_p95_mm": 0.33}, "merged": {"rms_mm": 0.1}}
+    assert plan_check({**adaptive, "pilot_scanned": True}, failing)["met"] is False

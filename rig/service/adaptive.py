@@ -117,3 +117,24 @@ def adaptive_record(plan: RingPlan, result: ScanResult, piloted: bool) -> dict[s
             "dense_bytes": pilot.get("bytes_captured"),
         },
     }
+
+
+def plan_check(adaptive: dict[str, Any], metrics: dict[str, Any]) -> dict[str, Any]:
+    """What the plan promised and what the scan measured of it: on a simulated rig the surface's
+    worst region by area against the truth (rig.evaluate.regions), on a real one nothing yet. A plan
+    this scan did not rehearse on its own pilot (a plan file, a plan sent over REST) is unverified
+    for this object whatever its file claims."""
+    worst = [
+        m["surface_worst_region_p95_mm"]
+        for m in metrics.values()
+        if isinstance(m, dict) and m.get("surface_worst_region_p95_mm") is not None
+    ]
+    tolerance = adaptive["tolerance_mm"]
+    measured = max(worst) if worst else None
+    return {
+        "promised_mm": tolerance,
+        "rehearsed_on_this_object": adaptive["pilot_scanned"],
+        "measured_worst_region_p95_mm": measured,
+        "met": None if measured is None else bool(measured <= tolerance),
+        "verified": measured is not None,
+    }

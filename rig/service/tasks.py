@@ -15,7 +15,7 @@ from rig.pipeline.scan import ScanResult, reconstruct_frames, run_scan
 from rig.plan.ring_plan import RingPlan
 from rig.progress import ProgressCallback, ProgressTracker
 from rig.rig import Rig
-from rig.service.adaptive import adaptive_scan
+from rig.service.adaptive import adaptive_scan, plan_check
 from rig.service.imports import reconstruction_inputs
 from rig.service.reconstruct import reconstruct_folder
 from rig.service.space import check_free_space, expected_scan_bytes
@@ -68,6 +68,8 @@ def adaptive_scan_to_directory(
     tracker = ProgressTracker(progress)
     tracker.report("store", 0.95)
     metrics, errors = measure_on_bench(sparse, result)
+    assert result.adaptive is not None
+    result.adaptive["check"] = plan_check(result.adaptive, metrics)  # the promise beside what was measured
     path = write_scan(sparse, result, target, scan_id, metrics, errors=errors)
     tracker.report("done", 1.0)
     return path, result, plan
