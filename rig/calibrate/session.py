@@ -90,10 +90,7 @@ def calibrate(
     collected = collect_views(rig, board, mode, count, images, save_views, poses, tracker.part(0.0, 0.7))
     cameras = [(c.name, c.resolution) for c in config.cameras]
     projectors = [(p.name, p.resolution) for p in config.projectors] if mode != "camera" else []
-    tracker.report("solve", 0.7, f"{len(collected)} views")
-    outcome = solve_and_write(collected, board, cameras, projectors, settings.model, out)
-    tracker.report("done", 1.0)
-    return outcome
+    return solve_and_write(collected, board, cameras, projectors, settings.model, out, tracker)
 
 
 def calibrate_described(
@@ -116,10 +113,7 @@ def calibrate_described(
     collected, camera_size = load_described_views(folders, spec, board, source, tracker.part(0.0, 0.7))
     cameras = [(config.cameras[0].name, camera_size)]
     projectors = [(config.projectors[0].name, spec.projector.resolution)] if mode != "camera" else []
-    tracker.report("solve", 0.7, f"{len(collected)} views")
-    outcome = solve_and_write(collected, board, cameras, projectors, config.calibration.model, out)
-    tracker.report("done", 1.0)
-    return outcome
+    return solve_and_write(collected, board, cameras, projectors, config.calibration.model, out, tracker)
 
 
 def solve_and_write(
@@ -129,8 +123,12 @@ def solve_and_write(
     projectors: list[tuple[str, tuple[int, int]]],
     model: str,
     out: Path,
+    tracker: ProgressTracker | None = None,
 ) -> CalibrationOutcome:
-    """Calibrate the named devices from the views and write the files into `out`."""
+    """Calibrate the named devices from the views and write the files into `out`; `tracker` hears
+    of the solve (from 0.7 of the whole, the views before it) and its end."""
+    tracker = tracker or ProgressTracker(None)
+    tracker.report("solve", 0.7, f"{len(collected)} views")
     if not any(v.camera for v in collected):
         cols, rows = board.config.squares
         raise CalibrationError(
@@ -160,4 +158,5 @@ def solve_and_write(
                     view.white[c], None if found is None else found.points, view_caption(device, view.index)
                 )
                 write_atomic(out / f"view_{view.index:02d}_{device.name}.jpg", image)
+    tracker.report("done", 1.0)
     return CalibrationOutcome(devices, summary, digest, out, len(collected))

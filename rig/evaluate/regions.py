@@ -23,53 +23,55 @@ def pixel_areas(grid: np.ndarray, valid: np.ndarray, max_jump_mm: float) -> np.n
     product of its steps to the neighbouring pixels' points (central where both exist, one-sided at
     an edge or a depth step over `max_jump_mm`, which is no part of either surface); a pixel with no
     such neighbour along a direction takes its other direction's step."""
-    du = _step(grid, valid, 1, max_jump_mm)
-    dv = _step(grid, valid, 0, max_jump_mm)
-    area = np.linalg.norm(np.cross(du, dv), axis=-1)  # NaN where a direction is unknown
-    lengths_u, lengths_v = np.linalg.norm(du, axis=-1), np.linalg.norm(dv, axis=-1)
-    square = np.where(np.isfinite(lengths_u), lengths_u, lengths_v) ** 2  # one direction known: a square pixel
-    area = np.where(np.isfinite(area), area, square)
-    return np.nan_to_num(area[valid], nan=0.0)
-
-
-def _step(grid: np.ndarray, valid: np.ndarray, axis: int, max_jump_mm: float) -> np.ndarray:
-    """Per pixel, the step (mm, 3-vector) to the next pixel's point along `axis`: the mean of the
-    two one-sided differences where both neighbours are valid and near, else the one there is, else
-    NaN."""
-    forward = np.full(grid.shape, np.nan)
-    backward = np.full(grid.shape, np.nan)
-    ahead = [slice(None)] * 2
-    behind = [slice(None)] * 2
-    ahead[axis], behind[axis] = slice(1, None), slice(None, -1)
-    diff = grid[tuple(ahead)] - grid[tuple(behind)]
-    both = valid[tuple(ahead)] & valid[tuple(behind)] & (np.linalg.norm(diff, axis=-1) <= max_jump_mm)
-    diff = np.where(both[..., None], diff, np.nan)
-    forward[tuple(behind)] = diff
-    backward[tuple(ahead)] = diff
-    central = (forward + backward) / 2
-    return np.where(np.isfinite(central), central, np.where(np.isfinite(forward), forward, backward))
+    return footprints(grid, valid, max_jump_mm)[0]
 
 
 def surface_regions(grid: np.ndarray, valid: np.ndarray, max_jump_mm: float) -> np.ndarray:
     """A region label per valid pixel: pixels joined through 4-neighbours whose points lie within
     `max_jump_mm` of each other, so a depth step separates the surfaces on its two sides."""
+    return footprints(grid, valid, max_jump_mm)[1]
+
+
+def footprints(grid: np.ndarray, valid: np.ndarray, max_jump_mm: float) -> tuple[np.ndarray, np.ndarray]:
+    """pixel_areas and surface_regions of the valid pixels, from one pass over the neighbours."""
+    du, joined_u = _joins(grid, valid, 1, max_jump_mm)
+    dv, joined_v = _joins(grid, valid, 0, max_jump_mm)
+    step_u, step_v = _step(du, 1), _step(dv, 0)
+    area = np.linalg.norm(np.cross(step_u, step_v), axis=-1)  # NaN where a direction is unknown
+    lengths_u, lengths_v = np.linalg.norm(step_u, axis=-1), np.linalg.norm(step_v, axis=-1)
+    square = np.where(np.isfinite(lengths_u), lengths_u, lengths_v) ** 2  # one direction known: a square pixel
+    area = np.nan_to_num(np.where(np.isfinite(area), area, square)[valid], nan=0.0)
     index = np.full(valid.shape, -1)
-    index[valid] = np.arange(int(valid.sum()))
-    rows, cols = [], []
-    for ahead, behind in (
-        ((slice(None), slice(1, None)), (slice(None), slice(None, -1))),
-        ((slice(1, None), slice(None)), (slice(None, -1), slice(None))),
-    ):
-        both = valid[ahead] & valid[behind]
-        near = np.linalg.norm(grid[ahead] - grid[behind], axis=-1) <= max_jump_mm
-        joined = both & near
-        rows.append(index[behind][joined])
-        cols.append(index[ahead][joined])
     count = int(valid.sum())
-    edges = np.concatenate(rows), np.concatenate(cols)
-    graph = coo_matrix((np.ones(len(edges[0]), np.int8), edges), shape=(count, count))
-    _, labels = connected_components(graph, directed=False)
-    return labels
+    index[valid] = np.arange(count)
+    rows = np.concatenate([index[:, :-1][joined_u], index[:-1, :][joined_v]])
+    cols = np.concatenate([index[:, 1:][joined_u], index[1:, :][joined_v]])
+    graph = coo_matrix((np.ones(len(rows), np.int8), (rows, cols)), shape=(count, count))
+    return area, connected_components(graph, directed=False)[1]
+
+
+def _joins(grid: np.ndarray, valid: np.ndarray, axis: int, max_jump_mm: float) -> tuple[np.ndarray, np.ndarray]:
+    """The difference (mm, 3-vector) from each pixel to the next along `axis`, NaN where the two are
+    not both valid and within `max_jump_mm` (one shorter along `axis`), and where they are."""
+    ahead = (slice(None), slice(1, None)) if axis == 1 else (slice(1, None), slice(None))
+    behind = (slice(None), slice(None, -1)) if axis == 1 else (slice(None, -1), slice(None))
+    diff = grid[ahead] - grid[behind]
+    joined = valid[ahead] & valid[behind] & (np.linalg.norm(diff, axis=-1) <= max_jump_mm)
+    return np.where(joined[..., None], diff, np.nan), joined
+
+
+def _step(diff: np.ndarray, axis: int) -> np.ndarray:
+    """Per pixel, the step to the next pixel's point along `axis`: the mean of its two one-sided
+    differences (`diff`, from _joins) where both are known, else the one there is, else NaN."""
+    shape = list(diff.shape)
+    shape[axis] += 1
+    forward, backward = np.full(shape, np.nan), np.full(shape, np.nan)
+    if axis == 1:
+        forward[:, :-1], backward[:, 1:] = diff, diff
+    else:
+        forward[:-1], backward[1:] = diff, diff
+    central = (forward + backward) / 2
+    return np.where(np.isfinite(central), central, np.where(np.isfinite(forward), forward, backward))
 
 
 def weighted_quantile(values: np.ndarray, weights: np.ndarray, q: float) -> float:
@@ -97,12 +99,11 @@ def region_errors(
 ) -> tuple[RegionError, list[RegionError]]:
     """The whole surface's area-weighted error, and each region's that holds at least `min_share`
     of the area, largest first."""
-    whole = _error(distances, areas, areas.sum(), q)
-    regions = []
-    for label in np.unique(labels):
-        inside = labels == label
-        if areas[inside].sum() >= min_share * areas.sum():
-            regions.append(_error(distances[inside], areas[inside], areas.sum(), q))
+    total = float(areas.sum())
+    whole = _error(distances, areas, total, q)
+    per_label = np.bincount(labels, weights=areas)  # a scan's many specks are never visited one by one
+    large = np.flatnonzero(per_label >= min_share * total)
+    regions = [_error(distances[labels == label], areas[labels == label], total, q) for label in large]
     return whole, sorted(regions, key=lambda r: -r.area_mm2)
 
 

@@ -8,7 +8,7 @@ import numpy as np
 
 from rig.config import RigConfig
 from rig.evaluate.distances import root_mean_square, surface_distances
-from rig.evaluate.regions import pixel_areas, region_errors, surface_regions
+from rig.evaluate.regions import footprints, region_errors
 from rig.patterns import codec_class
 from rig.pipeline.scan import PairResult, ScanResult
 from rig.rig import PixelTruth
@@ -44,8 +44,8 @@ def surface_metrics(pair: PairResult, truth: PixelTruth) -> dict[str, Any]:
 def area_metrics(grid: np.ndarray, valid: np.ndarray, dist: np.ndarray) -> dict[str, Any]:
     """The surface's error by area (rig.evaluate.regions): its area-weighted p95 over the whole view,
     and over each region a depth step bounds that holds 5 % of the area or more, largest first."""
-    areas = pixel_areas(grid, valid, STEP_MM)
-    whole, regions = region_errors(dist, areas, surface_regions(grid, valid, STEP_MM), AREA_QUANTILE)
+    areas, labels = footprints(grid, valid, STEP_MM)
+    whole, regions = region_errors(dist, areas, labels, AREA_QUANTILE)
     return {
         "surface_area_p95_mm": whole.quantile_mm,
         "surface_worst_region_p95_mm": max((r.quantile_mm for r in regions), default=whole.quantile_mm),
