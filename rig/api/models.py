@@ -61,7 +61,14 @@ class ScanRequest(_Request):
         description="a dense pilot scan, a ring plan from it, then the planned rings (the manifest keeps the plan)",
     )
     tolerance_mm: float | None = Field(
-        None, gt=0, le=100, description="adaptive: rms error allowed between the rings; default: scan.adaptive's"
+        None,
+        gt=0,
+        le=100,
+        description="adaptive: the surface within this of the object on tolerance_quantile of every region's area; "
+        "default: scan.adaptive's",
+    )
+    tolerance_quantile: float | None = Field(
+        None, ge=0.5, le=1.0, description="adaptive: the share of every region's area within tolerance_mm (0.95)"
     )
     plan: dict[str, Any] | None = Field(
         None,

@@ -36,7 +36,16 @@ def _scan_command(sub: argparse._SubParsersAction) -> None:  # type: ignore[type
         "--adaptive", action="store_true", help="pilot scan, ring plan from its curvature, then the planned rings"
     )
     scan.add_argument(
-        "--tolerance-mm", type=float, default=None, help="--adaptive: interpolation error allowed (scan.adaptive)"
+        "--tolerance-mm",
+        type=float,
+        default=None,
+        help="--adaptive: the surface within this of the object (scan.adaptive; on --tolerance-quantile of the area)",
+    )
+    scan.add_argument(
+        "--tolerance-quantile",
+        type=float,
+        default=None,
+        help="--adaptive: the share of every surface region's area within the tolerance (0.95)",
     )
     scan.add_argument(
         "--save-frames",
@@ -73,8 +82,20 @@ def _plan_command(sub: argparse._SubParsersAction) -> None:  # type: ignore[type
         "plan", help="views: the fewest projector-camera heads that cover an object; rings: the fewest rings"
     )
     plan.add_argument("what", choices=["views", "rings"])
-    plan.add_argument("--from", dest="source", type=Path, default=None, help="rings: plan from this scan directory")
-    plan.add_argument("--tolerance-mm", type=float, default=None, help="rings: interpolation error allowed (0.2)")
+    plan.add_argument(
+        "--from",
+        dest="source",
+        type=Path,
+        nargs="+",
+        default=None,
+        help="rings: plan from these scan directories (several: one plan for a kind of object)",
+    )
+    plan.add_argument(
+        "--tolerance-mm", type=float, default=None, help="rings: the surface within this of the object (0.2)"
+    )
+    plan.add_argument(
+        "--tolerance-quantile", type=float, default=None, help="rings: on this share of every region's area (0.95)"
+    )
     plan.add_argument("--out", type=Path, default=None, help="rings: write the plan to this file (JSON)")
     plan.add_argument("--config", type=Path, default=None, help="rig description (YAML); default: config/sim.yaml")
     plan.add_argument("--scene", default=None, help="box, sphere or a mesh file (default: the config's object)")

@@ -29,14 +29,19 @@ def cmd_scan(args: argparse.Namespace) -> int:
     bar = progress_bar(args)
     # Callers that build their own Namespace (the daemon's tests, scripts) may leave these out.
     piloted, tolerance = getattr(args, "adaptive", False), getattr(args, "tolerance_mm", None)
+    quantile = getattr(args, "tolerance_quantile", None)
     plan_file, save_plan = getattr(args, "plan", None), getattr(args, "save_plan", None)
-    if not piloted and (tolerance is not None or save_plan is not None):
-        raise ConfigError("--adaptive", ["--tolerance-mm and --save-plan plan rings: add --adaptive"])
+    if not piloted and (tolerance is not None or quantile is not None or save_plan is not None):
+        raise ConfigError(
+            "--adaptive", ["--tolerance-mm, --tolerance-quantile and --save-plan plan rings: add --adaptive"]
+        )
     plan = RingPlan.load(plan_file) if plan_file is not None else None
     keep = config.scan.save_frames or getattr(args, "save_frames", False)
     with open_rig(config) as the_rig:
         if piloted or plan is not None:
-            path, result, plan = adaptive_scan_to_directory(the_rig, target, scan_id, tolerance, plan, keep, bar)
+            path, result, plan = adaptive_scan_to_directory(
+                the_rig, target, scan_id, tolerance, plan, keep, bar, quantile
+            )
             if save_plan is not None:
                 plan.save(save_plan)
         else:
@@ -60,9 +65,23 @@ def cmd_scan(args: argparse.Namespace) -> int:
         )
         if plan is not None:
             print(f"  {plan.rings} planned rings for {plan.tolerance_mm:g} mm; the plan is in the manifest")
+            _say_check(result.adaptive or {}, plan.tolerance_mm)
         if keep:
             print(f"  frames kept in {path}/frames: reprocess them with `slrig reconstruct {path}`")
     return 0
+
+
+def _say_check(adaptive: dict[str, Any], tolerance: float) -> None:
+    """One line on what the scan knows of its plan's promise (ScanResult.adaptive's check)."""
+    check = adaptive.get("check") or {}
+    if check.get("measured_worst_region_p95_mm") is not None:
+        verdict = "met" if check["met"] else "NOT met"
+        print(f"  measured against the truth: worst region {check['measured_worst_region_p95_mm']:.3g} mm, {verdict}")
+    if check.get("same_object_as_pilot") is False:
+        print(
+            f"  warning: the rings lie {check['pilot_agreement_mm']:.3g} mm from the plan's pilot (more than "
+            f"{tolerance:g} mm): a plan made for another object; its tolerance is unverified for this one"
+        )
 
 
 def eval_report(config: RigConfig, result: ScanResult, metrics: dict[str, Any]) -> dict[str, Any]:

@@ -66,7 +66,18 @@ class SurfaceConfig(Strict):
 class RingPlanSettings(Strict):
     """How an adaptive scan plans its rings from a pilot scan (rig.plan.rings)."""
 
-    tolerance_mm: float = Field(0.2, gt=0.0, le=100.0, description="interpolation error the plan allows between rings")
+    tolerance_mm: float = Field(
+        0.2,
+        gt=0.0,
+        le=100.0,
+        description="the surface is within this of the object over tolerance_quantile of its area",
+    )
+    tolerance_quantile: float = Field(
+        0.95, ge=0.5, le=1.0, description="the share of every surface region's area that must lie within tolerance_mm"
+    )
+    min_coverage: float = Field(
+        0.95, ge=0.0, le=1.0, description="a plan's surface covers at least this share of the area within its rings"
+    )
     pilot_codec: str = Field("phase", description="the dense codec of the pilot scan")
     curvature_radius_mm: float = Field(
         5.0, ge=0.5, le=200.0, description="smoothing scale: curvature is fitted over neighbours this close"

@@ -32,8 +32,11 @@ def surface_regions(grid: np.ndarray, valid: np.ndarray, max_jump_mm: float) -> 
     return footprints(grid, valid, max_jump_mm)[1]
 
 
-def footprints(grid: np.ndarray, valid: np.ndarray, max_jump_mm: float) -> tuple[np.ndarray, np.ndarray]:
-    """pixel_areas and surface_regions of the valid pixels, from one pass over the neighbours."""
+def footprints(
+    grid: np.ndarray, valid: np.ndarray, max_jump_mm: float | np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """pixel_areas and surface_regions of the valid pixels, from one pass over the neighbours;
+    `max_jump_mm` one distance, or one per pixel (H, W) for the step from it to the next."""
     du, joined_u = _joins(grid, valid, 1, max_jump_mm)
     dv, joined_v = _joins(grid, valid, 0, max_jump_mm)
     step_u, step_v = _step(du, 1), _step(dv, 0)
@@ -50,13 +53,16 @@ def footprints(grid: np.ndarray, valid: np.ndarray, max_jump_mm: float) -> tuple
     return area, connected_components(graph, directed=False)[1]
 
 
-def _joins(grid: np.ndarray, valid: np.ndarray, axis: int, max_jump_mm: float) -> tuple[np.ndarray, np.ndarray]:
+def _joins(
+    grid: np.ndarray, valid: np.ndarray, axis: int, max_jump_mm: float | np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
     """The difference (mm, 3-vector) from each pixel to the next along `axis`, NaN where the two are
     not both valid and within `max_jump_mm` (one shorter along `axis`), and where they are."""
     ahead = (slice(None), slice(1, None)) if axis == 1 else (slice(1, None), slice(None))
     behind = (slice(None), slice(None, -1)) if axis == 1 else (slice(None, -1), slice(None))
     diff = grid[ahead] - grid[behind]
-    joined = valid[ahead] & valid[behind] & (np.linalg.norm(diff, axis=-1) <= max_jump_mm)
+    limit = max_jump_mm[behind] if isinstance(max_jump_mm, np.ndarray) else max_jump_mm
+    joined = valid[ahead] & valid[behind] & (np.linalg.norm(diff, axis=-1) <= limit)
     return np.where(joined[..., None], diff, np.nan), joined
 
 
@@ -112,3 +118,29 @@ def _error(distances: np.ndarray, areas: np.ndarray, total: float, q: float) -> 
     rms = float(np.sqrt(np.sum(areas * distances.astype(np.float64) ** 2) / area)) if area > 0 else 0.0
     return RegionError(area, area / total if total > 0 else 0.0, weighted_quantile(distances, areas, q), rms,
                        float(distances.max()))  # fmt: skip
+
+
+def between_rings(
+    rho: np.ndarray, region: np.ndarray, area: np.ndarray, seen: np.ndarray, radii: np.ndarray
+) -> np.ndarray:
+    """(H, W) the pixels a ring set promises a surface at: of each region (`region` labels, -1 none)
+    holding at least MIN_REGION_SHARE of the `seen` area, those whose projector radius `rho` lies
+    between the innermost and outermost ring that reaches the region (the region's radii span it),
+    and inside the innermost ring where the region holds the rings' centre. What lies beyond a
+    region's last ring (a limb the projector grazes, the brink of a step) has no ring on one side."""
+    target = np.zeros(seen.shape, dtype=bool)
+    labels = np.where(seen, region, -1)
+    counted = labels >= 0
+    if not counted.any():
+        return target
+    per_label = np.bincount(labels[counted], weights=area[counted])
+    rho = np.nan_to_num(rho, nan=-1.0)
+    for label in np.flatnonzero(per_label >= MIN_REGION_SHARE * per_label.sum()):
+        here = labels == label
+        low, high = float(rho[here].min()), float(rho[here].max())
+        reached = radii[(radii >= low) & (radii <= high)]
+        if len(reached) == 0:
+            continue
+        inner = float(reached[0]) if low >= radii[0] else -np.inf  # holding the centre: its disc too
+        target |= here & (rho >= inner) & (rho <= float(reached[-1]))
+    return target

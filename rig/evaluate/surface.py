@@ -9,6 +9,7 @@ import numpy as np
 from rig.config import RigConfig
 from rig.evaluate.distances import root_mean_square, surface_distances
 from rig.evaluate.regions import footprints, region_errors
+from rig.evaluate.wholeness import object_error, wholeness
 from rig.patterns import codec_class
 from rig.pipeline.scan import PairResult, ScanResult
 from rig.rig import PixelTruth
@@ -30,8 +31,16 @@ def surface_metrics(pair: PairResult, truth: PixelTruth) -> dict[str, Any]:
     close[np.flatnonzero(valid.ravel())[dist <= COMPLETE_WITHIN_MM]] = True
     empty = len(dist) == 0
     by_area = {} if empty else area_metrics(pair.surface.grid, valid, dist)
+    samples = pair.correspondence.samples
+    whole = {}
+    if not empty and samples is not None and samples.ring_radii_px is not None:
+        whole = {
+            **object_error(valid, dist, truth),
+            **wholeness(valid, truth, samples.ring_radii_px, samples.center_px),
+        }
     return {
         **by_area,
+        **whole,
         "surface_pixels": len(dist),
         "surface_rms_mm": None if empty else root_mean_square(dist),
         "surface_p95_mm": None if empty else float(np.percentile(dist, 95)),

@@ -77,6 +77,11 @@ def interpolate_colour(
     pixel = np.flatnonzero((surface.valid & on_grid).ravel())
     owner = surface.triangle.ravel()[pixel]
     points = surface.grid.reshape(-1, 3)
+    beyond_faces = owner < 0  # filled beyond the triangles (rig.pipeline.fill): the nearest sample's colour
+    if beyond_faces.any():
+        nearest = cKDTree(surface.vertices).query(points[pixel[beyond_faces]], workers=-1)[1]
+        out[pixel[beyond_faces]] = colours[nearest]
+        pixel, owner = pixel[~beyond_faces], owner[~beyond_faces]
     # float32 about the samples' centre: a few hundred mm to 1e-4 mm, ample for weights. One row per
     # coordinate: a batch gathers each from a small array, and index M (no sample) lies beyond reach.
     centre = surface.vertices.mean(axis=0)

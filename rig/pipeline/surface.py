@@ -18,13 +18,14 @@ depth edge). Each camera pixel inside a kept triangle gets a point on its ray:
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Literal
 
 import numpy as np
 from scipy.interpolate import CloughTocher2DInterpolator
 
 from rig.geometry import CameraModel
+from rig.pipeline.fill import FillSettings, fill_candidates, fill_points
 from rig.pipeline.normals import (
     crease_normals,
     face_normals,
@@ -51,11 +52,13 @@ class SurfaceSettings:
     max_slant_deg: float = 84.0  # triangles seen more edge-on than this span a depth edge
     max_bend_deg: float = 50.0  # ... as do triangles this far from one of their corners' normals
     min_foreshortening: float = 0.15  # ... and edges steep to both devices (see _bridges)
-    max_unlit: float = 0.2  # triangles over more of their pixels dark than this span a shadow
+    max_unlit: float = 0.02  # triangles over more of their pixels dark than this span a shadow
     band_margin_px: float = 2.0  # a point may project this far outside the annulus its pixel read ...
     band_angle_rad: float = 0.15  # ... and this far from the polar angle it read (3x the code's p99.9)
     normal_smoothing_px: float = 4.0  # samples' normals averaged over their ring this far either way
     max_band_disagreement: float = 0.25  # a triangle with more of its pixels off their bands bridges an edge
+    fill: bool = True  # fill the inner disc and the strips beyond a surface's last ring (rig.pipeline.fill)
+    fill_settings: FillSettings = field(default_factory=FillSettings)
 
 
 @dataclass(frozen=True, eq=False)
@@ -96,10 +99,23 @@ class RingTriangles:
     weight: np.ndarray  # (F,) 1 / longest edge (rig.pipeline.normals.face_weights)
     normals: np.ndarray  # (M, 3) the samples' unit normals, toward the camera
     counts: dict[str, int]  # how many triangles each test dropped
+    directions: np.ndarray  # (M, 3) the samples' camera rays
+    pairs: np.ndarray  # (P, 2) samples of one ring whose normals are averaged (ring_pairs)
 
     def subset(self, keep: np.ndarray) -> RingTriangles:
-        """These triangles but only those `keep` marks (the samples' normals unchanged)."""
-        return RingTriangles(self.tri[keep], self.face[keep], self.weight[keep], self.normals, self.counts)
+        """These triangles but only those `keep` marks, the samples' normals from them alone (a
+        dropped triangle bridged a step: its tilt is no part of either side's normal)."""
+        tri, face, weight = self.tri[keep], self.face[keep], self.weight[keep]
+        return RingTriangles(tri, face, weight, _normals(tri, face, weight, self.directions, self.pairs), self.counts,
+                             self.directions, self.pairs)  # fmt: skip
+
+
+def _normals(
+    tri: np.ndarray, face: np.ndarray, weight: np.ndarray, directions: np.ndarray, pairs: np.ndarray
+) -> np.ndarray:
+    normals = vertex_normals(tri, face, weight, directions)
+    in_triangle = np.bincount(tri.ravel(), minlength=len(directions)) > 0  # the others' normals are a guess
+    return smoothed_normals(normals, pairs, in_triangle)
 
 
 def ring_triangles(
@@ -140,10 +156,8 @@ def ring_triangles(
     tri, face, weight = tri[~bent], face[~bent], weight[~bent]
     counts["dropped_depth_edge"] = int(edge_on.sum() + bent.sum())
     counts["faces"] = len(tri)
-    normals = vertex_normals(tri, face, weight, directions)
-    in_triangle = np.bincount(tri.ravel(), minlength=len(points)) > 0  # the others' normals are a guess
-    normals = smoothed_normals(normals, neighbours.result(timeout=_PAIRS_TIMEOUT_S), in_triangle)
-    return RingTriangles(tri, face, weight, normals, counts)
+    pairs = neighbours.result(timeout=_PAIRS_TIMEOUT_S)
+    return RingTriangles(tri, face, weight, _normals(tri, face, weight, directions, pairs), counts, directions, pairs)
 
 
 def _bridges(
@@ -201,7 +215,8 @@ def interpolate_surface(
     pixel, owner = rasterize(xy, triangles.tri, camera.width, camera.height)
     if lit is not None:
         kept, pixel, owner = _without_shadowed(triangles.tri, pixel, owner, lit, settings.max_unlit, counts)
-        triangles = triangles.subset(kept)
+        if not kept.all():
+            triangles = triangles.subset(kept)
     tri, normals = triangles.tri, triangles.normals
     corners = crease_normals(tri, normals, triangles.face, triangles.weight) if method == "quadratic" else None
     common_origin = camera.center if camera.projection != "orthographic" else None
@@ -233,8 +248,44 @@ def interpolate_surface(
         agree &= ~bridging[owner]
         counts["dropped_band_px"] = int((ok & ~agree).sum())
         ok &= agree
-    counts["pixels"] = int(ok.sum())
-    return _surface(points, normals, tri, ring, counts, camera, grid, pixel[ok], owner[ok])
+    covered, owner = pixel[ok], owner[ok]
+    if bands is not None and settings.fill:
+        filled = _filled(points, normals, xy, ring, tri, camera, projector, covered, lit, bands, grid, settings)
+        covered, owner = np.concatenate([covered, filled]), np.concatenate([owner, np.full(len(filled), -1)])
+        counts["filled_px"] = len(filled)
+    counts["pixels"] = len(covered)
+    return _surface(points, normals, tri, ring, counts, camera, grid, covered, owner)
+
+
+def _filled(
+    points: np.ndarray,
+    normals: np.ndarray,
+    xy: np.ndarray,
+    ring: np.ndarray,
+    tri: np.ndarray,
+    camera: CameraModel,
+    projector: CameraModel,
+    covered: np.ndarray,
+    lit: np.ndarray | None,
+    bands: RingBands,
+    grid: np.ndarray,
+    settings: SurfaceSettings,
+) -> np.ndarray:
+    """The pixels beyond the triangles (rig.pipeline.fill) given a point in their own band; their
+    points are written into `grid` (flat)."""
+    mask = np.zeros(camera.height * camera.width, dtype=bool)
+    mask[covered] = True
+    candidate = fill_candidates(mask, bands.annulus, lit)
+    in_triangle = np.flatnonzero(np.bincount(tri.ravel(), minlength=len(points)) > 0)
+    annulus = bands.annulus.ravel()[candidate].astype(np.int64)
+    found = fill_points(
+        points[in_triangle], normals[in_triangle], xy[in_triangle], ring[in_triangle], camera, candidate, annulus,
+        settings.fill_settings,
+    )  # fmt: skip
+    keep = np.isfinite(found).all(axis=1)
+    keep[keep] = band_agreement(found[keep], candidate[keep], projector, bands, settings)
+    grid[candidate[keep]] = found[keep]
+    return candidate[keep]
 
 
 def _surface(

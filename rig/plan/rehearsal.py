@@ -21,12 +21,15 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
+from rig.evaluate.regions import between_rings, footprints, region_errors
 from rig.geometry import CameraModel
 from rig.pipeline.surface import Interpolant, RingBands, SurfaceSettings, interpolate_surface
 from rig.progress import ProgressTracker
 
 # Smoothing scale of the pilot's noise (camera pixels): a few pixels, far under any ring spacing.
 _SMOOTH_PX = 1.5
+
+STEP_MM = 2.0  # neighbouring pilot points this far apart (or _JUMP_FOOTPRINTS) lie on two sides of a step
 
 # Neighbouring pixels further apart than this many pixel footprints straddle a depth edge: no ring
 # sample between them (the codec drops such crossings as jumps).
@@ -35,7 +38,8 @@ _JUMP_FOOTPRINTS = 6.0
 
 @dataclass(frozen=True, eq=False)
 class PilotSurface:
-    """A pilot's points organised on its camera's pixel grid, with their projector polar coordinates."""
+    """A pilot's points organised on its camera's pixel grid, with their projector polar coordinates
+    and, per point, the area it stands for and its region (rig.evaluate.regions)."""
 
     grid: np.ndarray  # (H, W, 3), NaN where the pilot has no point
     camera: CameraModel
@@ -43,6 +47,8 @@ class PilotSurface:
     rho: np.ndarray  # (H, W) projector radius about the rings' centre, NaN where no point
     theta: np.ndarray  # (H, W) projector polar angle
     footprint_mm: np.ndarray  # (H, W) millimetres one camera pixel spans at each point's depth
+    area_mm2: np.ndarray  # (H, W) surface area each point stands for, 0 where no point
+    region: np.ndarray  # (H, W) region label (regions split at depth steps), -1 where no point
 
     @property
     def valid(self) -> np.ndarray:
@@ -51,19 +57,29 @@ class PilotSurface:
 
 @dataclass(frozen=True)
 class Rehearsal:
-    """How a ring set would do on the pilot: rms and p95 distance (mm) of the interpolated surface to
-    the pilot's points, and the fraction of the pilot's pixels the interpolated surface covers."""
+    """How a ring set would do on the pilot, by area: the distance (mm) of the interpolated surface
+    to the pilot's points as rms and as the quantile `quantile` of the area over the whole view and
+    over its worst region (each region split off by a depth step that holds at least
+    MIN_REGION_SHARE of the area), and the share of the pilot's area between each region's rings
+    (rig.evaluate.regions.between_rings) that the surface covers."""
 
     rings: int
     rms_mm: float
-    p95_mm: float
+    quantile_mm: float
+    worst_region_mm: float
     covered: float
+    quantile: float = 0.95
+
+    def meets(self, tolerance_mm: float, min_covered: float) -> bool:
+        return self.worst_region_mm <= tolerance_mm and self.covered >= min_covered
 
     def as_dict(self) -> dict[str, float | int]:
         return {
             "rings": self.rings,
             "rms_mm": round(self.rms_mm, 4),
-            "p95_mm": round(self.p95_mm, 4),
+            "quantile": self.quantile,
+            "quantile_mm": round(self.quantile_mm, 4),
+            "worst_region_mm": round(self.worst_region_mm, 4),
             "covered": round(self.covered, 4),
         }
 
@@ -84,7 +100,12 @@ def pilot_surface(
     seen = valid.ravel() & (z > 0)
     rho = np.where(seen, np.hypot(du, dv), np.nan).reshape(valid.shape)
     theta = np.where(seen, np.arctan2(dv, du), np.nan).reshape(valid.shape)
-    return PilotSurface(grid, camera, projector, rho, theta, _footprint_mm(grid, camera))
+    valid = np.isfinite(rho)
+    footprint = _footprint_mm(grid, camera)
+    areas, labels = footprints(grid, valid, np.maximum(STEP_MM, _JUMP_FOOTPRINTS * np.nan_to_num(footprint)))
+    area, region = np.zeros(valid.shape), np.full(valid.shape, -1)
+    area[valid], region[valid] = areas, labels
+    return PilotSurface(grid, camera, projector, rho, theta, footprint, area, region)
 
 
 def smoothed(grid: np.ndarray, camera: CameraModel, sigma_px: float = _SMOOTH_PX) -> np.ndarray:
@@ -169,27 +190,41 @@ def rehearse(
     center_px: tuple[float, float],
     method: Interpolant,
     noise_mm: float = 0.0,
+    quantile: float = 0.95,
 ) -> Rehearsal:
-    """The rings `radii` cut out of each pilot view and interpolated, against the pilot: rms and p95
-    over every view's pixels, less the pilot's own noise (`noise_mm`, which the comparison counts
-    once more than the ring scan will; what stays stands for the ring scan's own noise)."""
+    """The rings `radii` cut out of each pilot view and interpolated, against the pilot, by area
+    (see Rehearsal), less the pilot's own noise (`noise_mm`, which the comparison counts once more
+    than the ring scan will; what stays stands for the ring scan's own noise)."""
     radii = np.asarray(radii, dtype=np.float64)
-    dist, covered, total = [], 0, 0
-    for pilot in pilots:
-        d = _distances(pilot, radii, center_px, method)
+    dist, area, label, covered, target = [], [], [], 0.0, 0.0
+    for view, pilot in enumerate(pilots):
+        both, d, judged = _distances(pilot, radii, center_px, method)
         dist.append(d)
-        covered, total = covered + len(d), total + int(pilot.valid.sum())
-    d = np.concatenate(dist)
-    if len(d) == 0:
-        return Rehearsal(len(radii), float("inf"), float("inf"), 0.0)
-    rms = math.sqrt(max(0.0, float(np.mean(d**2)) - noise_mm**2))
-    p95 = math.sqrt(max(0.0, float(np.percentile(d, 95)) ** 2 - noise_mm**2))
-    return Rehearsal(len(radii), rms, p95, covered / max(total, 1))
+        area.append(pilot.area_mm2[both])
+        label.append(pilot.region[both] * len(pilots) + view)  # each view's regions its own
+        within = between_rings(pilot.rho, pilot.region, pilot.area_mm2, pilot.valid, radii) & judged
+        covered += float(pilot.area_mm2[both & within].sum())
+        target += float(pilot.area_mm2[within].sum())
+    d, a = np.concatenate(dist), np.concatenate(area)
+    if len(d) == 0 or a.sum() <= 0:
+        return Rehearsal(len(radii), float("inf"), float("inf"), float("inf"), 0.0, quantile)
+    whole, regions = region_errors(d, a, np.concatenate(label), quantile)
+
+    def less_noise(value: float) -> float:
+        return math.sqrt(max(0.0, value**2 - noise_mm**2))
+
+    worst = max((r.quantile_mm for r in regions), default=whole.quantile_mm)
+    return Rehearsal(
+        len(radii), less_noise(whole.rms_mm), less_noise(whole.quantile_mm), less_noise(worst),
+        covered / max(target, 1e-12), quantile,
+    )  # fmt: skip
 
 
 def _distances(
     pilot: PilotSurface, radii: np.ndarray, center_px: tuple[float, float], method: Interpolant
-) -> np.ndarray:
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Which pilot pixels the rings' surface covers (H, W), its distance to the pilot there, and
+    which pixels are judged at all (H, W)."""
     annulus = annuli(pilot, radii)
     points, xy, ring = ring_samples(pilot, radii, annulus)
     valid = pilot.valid
@@ -201,7 +236,7 @@ def _distances(
     # they are not what a ring scan is measured against.
     inner = cv2.erode(valid.astype(np.uint8), np.ones((5, 5), np.uint8)).astype(bool)
     both = surface.valid & inner
-    return np.linalg.norm(surface.grid[both] - pilot.grid[both], axis=1)
+    return both, np.linalg.norm(surface.grid[both] - pilot.grid[both], axis=1), inner
 
 
 def noise_mm(pilot: PilotSurface) -> float:
@@ -222,7 +257,7 @@ def rehearsal_progress(tracker: ProgressTracker, start: float) -> Callable[[Rehe
 
     def rehearsed(found: Rehearsal) -> None:
         k = next(count)
-        message = f"rehearsal {k}: {found.rings} rings, {found.rms_mm:.3f} mm rms"
+        message = f"rehearsal {k}: {found.rings} rings, worst region {found.worst_region_mm:.3f} mm"
         tracker.report("plan", 1.0 - (1.0 - start) * 0.9**k, message)
 
     return rehearsed

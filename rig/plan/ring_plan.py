@@ -36,6 +36,7 @@ from rig.plan.rings import (
     uniform_rings,
 )
 from rig.plan.search import Rehearser, nonuniform_rings, rms_shape, uniform_count
+from rig.plan.signature import pilot_signature
 
 PLAN_FORMAT = "slrig-ring-plan/1"
 
@@ -50,6 +51,7 @@ class RingPlan:
     criteria: dict[str, dict[str, Any]]
     profile: dict[str, list[float]]  # radius bins (px) and the spacing each allows (px)
     pilot: dict[str, Any] = field(default_factory=dict)
+    quantile: float = 0.95  # the share of every region's area the tolerance holds for
 
     @property
     def rings(self) -> int:
@@ -59,6 +61,7 @@ class RingPlan:
         return {
             "format": PLAN_FORMAT,
             "tolerance_mm": self.tolerance_mm,
+            "tolerance_quantile": self.quantile,
             "center_px": list(self.center_px),
             "rings": self.rings,
             "radii_px": [round(r, 2) for r in self.radii_px],
@@ -83,6 +86,7 @@ class RingPlan:
                 raise ValueError(f"center_px: {len(center_px)} numbers, not 2")
             center = (_number(center_px[0], "center_px"), _number(center_px[1], "center_px"))
             tolerance = _number(data.get("tolerance_mm"), "tolerance_mm")
+            quantile = _number(data.get("tolerance_quantile", 0.95), "tolerance_quantile")
             parts = {name: _object(data.get(name, {}), name) for name in ("criteria", "profile", "pilot")}
         except ValueError as exc:
             raise PlanError(f"{source}: {exc}") from None
@@ -91,7 +95,7 @@ class RingPlan:
         except ValidationError as exc:
             problems = "; ".join(f"{'.'.join(map(str, e['loc'])) or 'radii_px'}: {e['msg']}" for e in exc.errors())
             raise PlanError(f"{source}: {problems}") from None
-        return RingPlan(tolerance, center, radii, parts["criteria"], parts["profile"], parts["pilot"])
+        return RingPlan(tolerance, center, radii, parts["criteria"], parts["profile"], parts["pilot"], quantile)
 
     @staticmethod
     def load(path: Path) -> RingPlan:
@@ -113,16 +117,21 @@ def plan_rings(
     pilot: dict[str, Any] | None = None,
     method: Interpolant = "quadratic",
     on_rehearsal: Callable[[Rehearsal], None] | None = None,
+    quantile: float | None = None,
 ) -> RingPlan:
-    """The plan for the pilot's views (one per projector and camera): one set of radii for every
-    projector. With the views' cameras known, the fewest non-uniform rings whose surface (by the
-    interpolant `method`) rehearses within the tolerance in rms (rig.plan.search), or evenly spaced
-    ones where fewer of those do; otherwise the sagitta bound's rings, under the strictest demand
-    any view makes at each radius. `on_rehearsal` hears of each ring set rehearsed (a search takes
-    tens of them)."""
+    """The plan for the pilot's views (one per projector and camera, of one object or several of a
+    kind): one set of radii for every projector. With the views' cameras known, the fewest
+    non-uniform rings whose surface (by the interpolant `method`) rehearses within the tolerance on
+    `quantile` of the area of every region, covering the surface (rig.plan.search), or evenly spaced
+    ones where fewer of those do; PlanError, saying what would, where no ring set can. Without the
+    cameras, the sagitta bound's rings, under the strictest demand any view makes at each radius.
+    `on_rehearsal` hears of each ring set rehearsed (a search takes tens of them)."""
     tolerance = settings.tolerance_mm if tolerance_mm is None else tolerance_mm
     if not np.isfinite(tolerance) or tolerance <= 0:
         raise PlanError(f"tolerance_mm: must be a positive number of millimetres, got {tolerance}")
+    quantile = settings.tolerance_quantile if quantile is None else quantile
+    if not 0.5 <= quantile <= 1.0:
+        raise PlanError(f"tolerance_quantile: must lie between 0.5 and 1, got {quantile}")
     views = [v for v in views if len(v.points)]
     if not views:
         raise PlanError("pilot: the pilot scan has no points")
@@ -147,9 +156,12 @@ def plan_rings(
     }
     step = settings.rehearsal_step_px
     pilots = [pilot_surface(_grid(v), v.camera, v.projector, center, step) for v in views if v.camera is not None]
+    signatures: list[dict[str, Any]] = []
     if pilots:
-        trial = Rehearser(pilots, center, method, float(np.median([noise_mm(p) for p in pilots])), on_rehearsal)
+        noise = float(np.median([noise_mm(p) for p in pilots]))
+        trial = Rehearser(pilots, center, method, noise, quantile, on_rehearsal)
         radii = _rehearsed(trial, demands, edges, settings, tolerance, criteria, last)
+        signatures = [pilot_signature(p, np.asarray(radii), center) for p in pilots]
     kappa = np.concatenate([d.kappa_across for d in demands])
     pilot = {
         **(pilot or {}),
@@ -157,12 +169,13 @@ def plan_rings(
         "curvature_samples": len(kappa),
         "kappa_across_p50_p98_per_mm": [round(float(q), 5) for q in np.percentile(kappa, [50, 98])],
         "radius_range_px": [round(float(edges[0]), 1), round(float(edges[-1] + settings.bin_px), 1)],
+        **({"signatures": signatures} if signatures else {}),
     }
     profile_out = {
         "radius_px": [round(float(e), 1) for e in edges],
         "spacing_px": [round(float(p), 2) for p in profile],
     }
-    return RingPlan(tolerance, center, radii, criteria, profile_out, pilot)
+    return RingPlan(tolerance, center, radii, criteria, profile_out, pilot, quantile)
 
 
 def _rehearsed(
@@ -190,13 +203,44 @@ def _rehearsed(
             "tried": _tried(found.tried),  # the predicted error at each ring count the search rehearsed
         }
     criteria["rms_nonuniform"]["pilot_noise_mm"] = round(trial.noise_mm, 4)
+    if not (planned.met or uniform.met):
+        raise PlanError(refusal(planned.rehearsal, tolerance, trial, settings))
     return uniform.radii_px if even else planned.radii_px
 
 
+def refusal(densest: Rehearsal, tolerance: float, trial: Rehearser, settings: RingPlanSettings) -> str:
+    """Why no ring set meets the tolerance, and what would: from the densest rings rehearsed."""
+    share = f"{100 * densest.quantile:g} %"
+    said = [
+        f"tolerance_mm: no ring set keeps {share} of every surface region within {tolerance:g} mm and covers "
+        f"{100 * settings.min_coverage:g} % of it: the densest rehearsed ({densest.rings} rings, every "
+        f"{settings.min_spacing_px:g} px at the most) reach {densest.worst_region_mm:.3g} mm on the worst region "
+        f"and cover {100 * densest.covered:.1f} %."
+    ]
+    if trial.noise_mm > 0.5 * tolerance:
+        said.append(
+            f"The pilot's own noise is {trial.noise_mm:.3g} mm: a finer camera (more pixels on the object) or a "
+            "closer stand-off, or a larger tolerance."
+        )
+    if densest.worst_region_mm > tolerance:
+        spacing = settings.min_spacing_px * min(1.0, (tolerance / max(densest.worst_region_mm, 1e-9)) ** 0.5)
+        said.append(
+            f"More rings: rings about every {max(spacing, 1.0):.1g} px (scan.adaptive.min_spacing_px, now "
+            f"{settings.min_spacing_px:g}), where the projector can show them apart."
+        )
+    if densest.covered < settings.min_coverage:
+        said.append(
+            "The rings leave depth steps or limbs uncovered: a second view (another camera or projector) or a "
+            "dense codec (phase, gray) for this object."
+        )
+    return " ".join(said)
+
+
 def _tried(rehearsals: list[Rehearsal]) -> list[dict[str, float | int]]:
-    """Each ring count rehearsed once, fewest first: rings, rms_mm and covered."""
+    """Each ring count rehearsed once, fewest first: rings, rms_mm, worst_region_mm and covered."""
     by_count = {r.rings: r for r in rehearsals}
-    return [{k: v for k, v in by_count[n].as_dict().items() if k != "p95_mm"} for n in sorted(by_count)]
+    keep = ("rings", "rms_mm", "worst_region_mm", "covered")
+    return [{k: v for k, v in by_count[n].as_dict().items() if k in keep} for n in sorted(by_count)]
 
 
 def _grid(view: PilotView) -> np.ndarray:

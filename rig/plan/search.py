@@ -1,5 +1,6 @@
-"""The fewest rings whose interpolated surface stays within an rms tolerance, by rehearsal on the
-pilot (rig.plan.rehearsal): for non-uniform radii and, to compare, for evenly spaced ones.
+"""The fewest rings whose interpolated surface stays within a tolerance on every region of the
+surface (the area-weighted quantile of its error) and covers it, by rehearsal on the pilot
+(rig.plan.rehearsal): for non-uniform radii and, to compare, for evenly spaced ones.
 
 Where the rings go (non-uniform): the interpolation error of a smooth patch between rings Delta
 projector pixels apart is about a * kappa * (Delta / g)^2 (kappa the curvature across the rings, g
@@ -32,7 +33,7 @@ _SEARCH_STEPS = 9  # bisection steps over the profile's scale (and over the unif
 class SearchResult:
     radii_px: list[float]
     rehearsal: Rehearsal
-    met: bool  # whether any candidate met the tolerance (if not: the densest tried)
+    met: bool  # whether any candidate met the tolerance and coverage (if not: the densest tried)
     tried: list[Rehearsal]
 
 
@@ -56,10 +57,11 @@ class Rehearser:
     center_px: tuple[float, float]
     method: Interpolant
     noise_mm: float
+    quantile: float = 0.95
     on_rehearsal: Callable[[Rehearsal], None] | None = None  # each one told, for a progress display
 
     def __call__(self, radii: list[float]) -> Rehearsal:
-        found = rehearse(self.pilots, np.asarray(radii), self.center_px, self.method, self.noise_mm)
+        found = rehearse(self.pilots, np.asarray(radii), self.center_px, self.method, self.noise_mm, self.quantile)
         if self.on_rehearsal is not None:
             self.on_rehearsal(found)
         return found
@@ -82,7 +84,7 @@ def nonuniform_rings(
 
     flattest = float(shape[np.isfinite(shape)].max())  # at the low end every bin with surface is densest
     low, high = math.log(settings.min_spacing_px / flattest), math.log(settings.max_spacing_px)
-    return _bisect(lambda x: radii_for(math.exp(x)), trial, low, high, tolerance_mm, settings.keep_coverage)
+    return _bisect(lambda x: radii_for(math.exp(x)), trial, low, high, tolerance_mm, settings)
 
 
 def uniform_count(trial: Rehearser, edges: np.ndarray, settings: RingPlanSettings, tolerance_mm: float) -> SearchResult:
@@ -94,7 +96,7 @@ def uniform_count(trial: Rehearser, edges: np.ndarray, settings: RingPlanSetting
         count = round(most - x)  # x grows toward fewer rings, as the scale does above
         return [float(r) for r in np.linspace(start, end, max(2, count))]
 
-    return _bisect(radii_for, trial, 0.0, float(most - 2), tolerance_mm, settings.keep_coverage)
+    return _bisect(radii_for, trial, 0.0, float(most - 2), tolerance_mm, settings)
 
 
 def _bisect(
@@ -103,18 +105,20 @@ def _bisect(
     low: float,
     high: float,
     tolerance_mm: float,
-    keep_coverage: float,
+    settings: RingPlanSettings,
 ) -> SearchResult:
     """Largest x in [low, high] (fewer rings as x grows) whose rings rehearse within the tolerance,
-    assuming the error grows with x, and covering at least `keep_coverage` of what the densest
-    rings cover; remembers every candidate and returns the fewest rings that met."""
+    assuming the error grows with x, covering at least settings.min_coverage of the surface and
+    settings.keep_coverage of what the densest rings cover; remembers every candidate and returns
+    the fewest rings that met."""
     tried: list[Rehearsal] = []
     densest = radii_for(low)
     first = trial(densest)
     tried.append(first)
-    if first.rms_mm > tolerance_mm:
+    if not first.meets(tolerance_mm, settings.min_coverage):
         return SearchResult(densest, first, False, tried)
-    least_covered = keep_coverage * first.covered  # fewer rings must not buy their error with holes
+    # fewer rings must not buy their error with holes
+    least_covered = max(settings.min_coverage, settings.keep_coverage * first.covered)
     best = (densest, first)
     cache: dict[int, Rehearsal] = {len(densest): first}
     for _ in range(_SEARCH_STEPS):
@@ -123,7 +127,7 @@ def _bisect(
         result = cache.get(len(radii)) or trial(radii)
         cache[len(radii)] = result
         tried.append(result)
-        if result.rms_mm <= tolerance_mm and result.covered >= least_covered:
+        if result.meets(tolerance_mm, least_covered):
             low = middle
             if len(radii) < len(best[0]):
                 best = (radii, result)

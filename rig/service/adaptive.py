@@ -12,18 +12,21 @@ from rig.errors import ConfigError, PlanError
 from rig.pipeline.scan import ScanResult, run_scan
 from rig.plan.rehearsal import rehearsal_progress
 from rig.plan.ring_plan import RingPlan, pilot_views, plan_rings
+from rig.plan.signature import disagreement
 from rig.progress import ProgressCallback, ProgressTracker
 from rig.rig import Rig
 from rig.store.images import projector_view
 
 
-def plan_from_pilot(the_rig: Rig, tolerance_mm: float | None, progress: ProgressCallback | None = None) -> RingPlan:
+def plan_from_pilot(
+    the_rig: Rig, tolerance_mm: float | None, progress: ProgressCallback | None = None, quantile: float | None = None
+) -> RingPlan:
     """Scan with the pilot codec (scan.adaptive.pilot_codec) and plan the rings from what it saw."""
-    return pilot_and_plan(the_rig, tolerance_mm, progress)[1]
+    return pilot_and_plan(the_rig, tolerance_mm, progress, quantile)[1]
 
 
 def pilot_and_plan(
-    the_rig: Rig, tolerance_mm: float | None, progress: ProgressCallback | None = None
+    the_rig: Rig, tolerance_mm: float | None, progress: ProgressCallback | None = None, quantile: float | None = None
 ) -> tuple[ScanResult, RingPlan]:
     """plan_from_pilot, and the pilot scan itself."""
     settings = the_rig.config.scan.adaptive
@@ -33,7 +36,8 @@ def pilot_and_plan(
     views = pilot_views(pilot, the_rig.camera_models, the_rig.projector_models)
     about = {"codec": pilot.codec, "frames_projected": pilot.frames_projected, "bytes_captured": pilot.bytes_captured}
     interpolant = the_rig.config.scan.surface.interpolant
-    return pilot, plan_rings(views, settings, tolerance_mm, about, interpolant, rehearsal_progress(tracker, 0.5))
+    found = plan_rings(views, settings, tolerance_mm, about, interpolant, rehearsal_progress(tracker, 0.5), quantile)
+    return pilot, found
 
 
 def check_scan_request(config: RigConfig, request: dict[str, Any]) -> None:
@@ -43,8 +47,9 @@ def check_scan_request(config: RigConfig, request: dict[str, Any]) -> None:
     adaptive, plan = bool(request.get("adaptive")), request.get("plan")
     if plan is not None and adaptive:
         raise PlanError("plan: give a plan or adaptive: true, not both")
-    if request.get("tolerance_mm") is not None and not adaptive:
-        raise PlanError("tolerance_mm: only an adaptive scan plans to a tolerance (adaptive: true)")
+    for name in ("tolerance_mm", "tolerance_quantile"):
+        if request.get(name) is not None and not adaptive:
+            raise PlanError(f"{name}: only an adaptive scan plans to a tolerance (adaptive: true)")
     codec = request.get("codec")
     if (adaptive or plan is not None) and codec not in (None, "rings"):
         raise PlanError(f"codec: an adaptive or planned scan projects rings, not {codec}")
@@ -83,18 +88,21 @@ def adaptive_scan(
     plan: RingPlan | None = None,
     keep_frames: bool = False,
     progress: ProgressCallback | None = None,
+    quantile: float | None = None,
 ) -> tuple[ScanResult, RingPlan, Rig]:
-    """Pilot (unless `plan` is given), plan, and the planned ring scan; the result records the plan
-    and what the scan cost beside the pilot (ScanResult.adaptive). Also returns the rig as it
-    scanned the plan (with_plan), whose config the stored scan records."""
+    """Pilot (unless `plan` is given), plan, and the planned ring scan; the result records the plan,
+    what the scan cost beside the pilot and how its ring points agree with the plan's pilot
+    (ScanResult.adaptive). Also returns the rig as it scanned the plan (with_plan), whose config the
+    stored scan records."""
     pilot = None
     tracker = ProgressTracker(progress)
     if plan is None:
-        pilot, plan = pilot_and_plan(the_rig, tolerance_mm, tracker.part(0.0, 0.6))
+        pilot, plan = pilot_and_plan(the_rig, tolerance_mm, tracker.part(0.0, 0.6), quantile)
     sparse = with_plan(the_rig, plan)
     start = 0.0 if pilot is None else 0.6
     result = run_scan(sparse, "rings", keep_frames=keep_frames, progress=tracker.part(start, 0.92, "rings "))
     result.adaptive = adaptive_record(plan, result, pilot is not None)
+    result.adaptive["pilot_agreement_mm"] = pilot_agreement(plan, result, sparse)
     if pilot is not None:  # the picture the console draws the plan over (projector pixels, as the plan)
         result.images["pilot_projector"] = projector_view(pilot.cloud, the_rig.projector_models[0])
     return result, plan, sparse
@@ -108,6 +116,7 @@ def adaptive_record(plan: RingPlan, result: ScanResult, piloted: bool) -> dict[s
         "plan": plan.as_dict(),
         "rings": plan.rings,
         "tolerance_mm": plan.tolerance_mm,
+        "tolerance_quantile": plan.quantile,
         "pilot_scanned": piloted,
         "economy": {
             "ring_frames": result.frames_projected,
@@ -119,11 +128,35 @@ def adaptive_record(plan: RingPlan, result: ScanResult, piloted: bool) -> dict[s
     }
 
 
+def pilot_agreement(plan: RingPlan, result: ScanResult, the_rig: Rig) -> float | None:
+    """How far (mm, nearly everywhere over rings and angles) the scan's ring points lie from where
+    the plan's pilot had its surface on the same rings (rig.plan.signature.disagreement): the nearest
+    of the plan's pilots, the worst of the scan's pairs. None where the plan keeps no pilot or too few rings meet."""
+    signatures = plan.pilot.get("signatures") or []
+    worst: float | None = None
+    for pair in result.pairs:
+        if pair.rings is None:
+            continue
+        keep = pair.rings.kept
+        points, ring, projector = (
+            pair.rings.points[keep],
+            pair.rings.ring[keep],
+            the_rig.projector_models[pair.projector],
+        )
+        found = [disagreement(s, points, ring, projector, plan.center_px)[0] for s in signatures if isinstance(s, dict)]
+        nearest = min((f for f in found if f is not None), default=None)
+        if nearest is not None:
+            worst = nearest if worst is None else max(worst, nearest)
+    return None if worst is None else round(worst, 4)
+
+
 def plan_check(adaptive: dict[str, Any], metrics: dict[str, Any]) -> dict[str, Any]:
-    """What the plan promised and what the scan measured of it: on a simulated rig the surface's
-    worst region by area against the truth (rig.evaluate.regions), on a real one nothing yet. A plan
-    this scan did not rehearse on its own pilot (a plan file, a plan sent over REST) is unverified
-    for this object whatever its file claims."""
+    """What the plan promised and what this scan knows of it. On a simulated rig the surface's worst
+    region by area is measured against the truth (rig.evaluate.regions). On any rig the ring
+    points are compared with the plan's pilot: a plan rehearsed on this very object (its own pilot,
+    or a plan file whose pilot the rings agree with to within the tolerance) holds what its
+    rehearsal showed; a plan made for another object is flagged, its tolerance unverified here,
+    whatever its file claims."""
     worst = [
         m["surface_worst_region_p95_mm"]
         for m in metrics.values()
@@ -131,10 +164,18 @@ def plan_check(adaptive: dict[str, Any], metrics: dict[str, Any]) -> dict[str, A
     ]
     tolerance = adaptive["tolerance_mm"]
     measured = max(worst) if worst else None
+    agreement = adaptive.get("pilot_agreement_mm")
+    same_object = None if agreement is None else bool(agreement <= tolerance)
+    rehearsed = bool(adaptive["pilot_scanned"] or same_object)
+    status = "measured" if measured is not None else "rehearsed" if rehearsed else "unverified"
     return {
         "promised_mm": tolerance,
-        "rehearsed_on_this_object": adaptive["pilot_scanned"],
+        "quantile": adaptive.get("tolerance_quantile", 0.95),
+        "rehearsed_on_this_object": rehearsed,
+        "pilot_agreement_mm": agreement,
+        "same_object_as_pilot": same_object,
         "measured_worst_region_p95_mm": measured,
         "met": None if measured is None else bool(measured <= tolerance),
         "verified": measured is not None,
+        "tolerance": status,
     }

@@ -48,8 +48,9 @@ def scan_job_to_directory(
     if request.get("adaptive") or request.get("plan"):
         plan = RingPlan.from_dict(request["plan"]) if request.get("plan") else None
         path, result, _ = adaptive_scan_to_directory(
-            the_rig, target, scan_id, request.get("tolerance_mm"), plan, keep_frames, progress
-        )
+            the_rig, target, scan_id, request.get("tolerance_mm"), plan, keep_frames, progress,
+            request.get("tolerance_quantile"),
+        )  # fmt: skip
         return path, result
     return scan_to_directory(the_rig, target, scan_id, request.get("codec"), keep_frames, progress)
 
@@ -62,9 +63,10 @@ def adaptive_scan_to_directory(
     plan: RingPlan | None = None,
     keep_frames: bool = False,
     progress: ProgressCallback | None = None,
+    quantile: float | None = None,
 ) -> tuple[Path, ScanResult, RingPlan]:
     """An adaptive scan (rig.service.adaptive) written like any scan, its plan in the manifest."""
-    result, plan, sparse = adaptive_scan(the_rig, tolerance_mm, plan, keep_frames, progress)
+    result, plan, sparse = adaptive_scan(the_rig, tolerance_mm, plan, keep_frames, progress, quantile)
     tracker = ProgressTracker(progress)
     tracker.report("store", 0.95)
     metrics, errors = measure_on_bench(sparse, result)

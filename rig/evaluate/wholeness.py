@@ -1,0 +1,66 @@
+"""How whole a ring scan's surface is, against the bench's truth: the share of each true surface's
+area between its innermost and outermost ring that the surface covers, the inner disc inside the
+innermost ring, and the error on the object alone (the bench plane left out).
+
+Each true surface is a region of the camera's view that a depth step bounds (rig.evaluate.regions,
+on the true points). A ring "reaches" a region when the region's projector radii span the ring's
+radius; what lies beyond a region's outermost ring (a limb the projector grazes, a strip at a step's
+brink) has no ring on either side and is not promised.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from rig.evaluate.regions import between_rings, footprints, weighted_quantile
+from rig.rig import PixelTruth
+
+STEP_MM = 2.0  # neighbouring true points this far apart lie on two sides of a depth step
+OBJECT_ABOVE_MM = 1.0  # the bench plane is z = 0 in the world: the object is what stands above it
+
+
+def true_areas(truth: PixelTruth) -> tuple[np.ndarray, np.ndarray]:
+    """(H, W) area (mm^2) of true surface each pixel sees (0 where none) and its region (-1 none)."""
+    areas, labels = footprints(truth.points, truth.hit, STEP_MM)
+    area, region = np.zeros(truth.hit.shape), np.full(truth.hit.shape, -1)
+    area[truth.hit], region[truth.hit] = areas, labels
+    return area, region
+
+
+def wholeness(valid: np.ndarray, truth: PixelTruth, radii: np.ndarray, center: tuple[float, float]) -> dict[str, Any]:
+    """Coverage (by area) of each lit true region between its innermost and outermost ring
+    (rig.evaluate.regions.between_rings), over the whole view and on the object; the inner disc's."""
+    area, region = true_areas(truth)
+    u, v = truth.projector_uv[..., 0], truth.projector_uv[..., 1]
+    rho = np.hypot(u - center[0], v - center[1])
+    lit = truth.hit & truth.lit
+    target = between_rings(rho, region, area, lit, radii)
+    on_object = truth.points[..., 2] > OBJECT_ABOVE_MM
+    disc = lit & (rho < radii[0])
+
+    def share(mask: np.ndarray) -> float | None:
+        whole = float(area[mask].sum())
+        return None if whole <= 0 else float(area[mask & valid].sum()) / whole
+
+    return {
+        "surface_coverage": share(target),
+        "surface_object_coverage": share(target & on_object),
+        "surface_inner_disc_coverage": share(disc),
+    }
+
+
+def object_error(grid_valid: np.ndarray, dist: np.ndarray, truth: PixelTruth, q: float = 0.95) -> dict[str, Any]:
+    """The surface's error on the object alone (true points above the bench plane), weighted by the
+    true area each pixel sees: the quantile `q` and the rms; `dist` per valid pixel, row-major."""
+    area, _ = true_areas(truth)
+    on = (truth.points[..., 2] > OBJECT_ABOVE_MM)[grid_valid]
+    weights = area[grid_valid][on]
+    if not on.any() or weights.sum() <= 0:
+        return {"surface_object_p95_mm": None, "surface_object_rms_mm": None}
+    d = dist[on].astype(np.float64)
+    return {
+        "surface_object_p95_mm": weighted_quantile(d, weights, q),
+        "surface_object_rms_mm": float(np.sqrt(np.sum(weights * d**2) / weights.sum())),
+    }

@@ -1,0 +1,189 @@
+"""The surface where no triangle between two rings reaches though rings enclose it: the inner disc
+inside the innermost ring, and holes between two rings where triangles were dropped.
+
+Such a pixel has read its annulus (between rings a-1 and a, or inside ring 0), so its point lies
+on its ray between those two rings' cones. Its neighbourhood is the ring samples near it in the
+image, of those two rings only, on one surface (samples farther apart in space than a steep slope
+allows for their distance in the image lie on two surfaces). A quadratic height field is fitted to
+their positions and normals (each sample gives a height and two slopes; a small ridge on the bends
+leaves a tangent plane where a single straight ring cannot show a bend across it), and the pixel's
+ray meets it. The point is kept only if it lies in the pixel's own annulus and near the polar angle
+it read (rig.pipeline.surface.band_agreement). Where samples of two surfaces both reach a pixel (the
+gap at a depth step, between the last ring on one side and the first on the other) nothing says on
+which side of the step the pixel lies: it stays a hole, and is reported as one.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.spatial import cKDTree
+
+from rig.geometry import CameraModel
+
+_CHUNK = 65_536  # candidate pixels fitted at a time
+
+
+@dataclass(frozen=True)
+class FillSettings:
+    neighbours: int = 16  # ring samples near a pixel considered for its fit
+    reach_px: float = 48.0  # no pixel farther than this from a sample of its rings is filled
+    min_samples: int = 4  # samples on the pixel's surface a fit needs
+    steep_stretch: float = 3.0  # samples this many footprints apart per pixel of image lie on two surfaces
+    bend_ridge: float = 0.05  # ridge on the bends, relative to the fit's own scale
+
+
+def fill_candidates(covered: np.ndarray, annulus: np.ndarray, lit: np.ndarray | None) -> np.ndarray:
+    """Flat pixels that read an annulus, are lit and are not covered by a triangle."""
+    candidate = ~covered.ravel() & (annulus.ravel() >= 0)
+    if lit is not None:
+        candidate &= lit.ravel()
+    return np.flatnonzero(candidate)
+
+
+def fill_points(
+    points: np.ndarray,
+    normals: np.ndarray,
+    xy: np.ndarray,
+    ring: np.ndarray,
+    camera: CameraModel,
+    pixel: np.ndarray,
+    annulus: np.ndarray,
+    settings: FillSettings,
+) -> np.ndarray:
+    """A point (N, 3) for each flat camera pixel `pixel` that reads `annulus` (N,), NaN where no
+    neighbourhood on one surface of its two rings reaches it; from samples (points, unit normals
+    toward the camera, sub-pixel image positions, ring indices) of triangles already kept."""
+    found = np.full((len(pixel), 3), np.nan)
+    if len(points) < settings.min_samples or len(pixel) == 0:
+        return found
+    tree = cKDTree(xy)
+    k = min(settings.neighbours, len(points))
+    origins, directions = camera.pixel_rays
+    for start in range(0, len(pixel), _CHUNK):
+        part = slice(start, start + _CHUNK)
+        at = pixel[part]
+        query = np.column_stack([at % camera.width, at // camera.width]).astype(np.float64)
+        dist, index = tree.query(query, k=k, distance_upper_bound=settings.reach_px, workers=-1)
+        dist, index = dist.reshape(len(at), k), index.reshape(len(at), k)
+        index = np.where(np.isfinite(dist), index, 0)  # beyond reach: marked by dist, never used
+        use = _one_surface(points, xy, ring, camera, index, dist, annulus[part], settings)
+        use &= _enclosed(annulus[part], ring, index, use)[:, None]
+        enough = use.sum(axis=1) >= settings.min_samples
+        if not enough.any():
+            continue
+        rays = (np.asarray(origins[at[enough]]), np.asarray(directions[at[enough]]))
+        fitted = _fit_and_meet(points, normals, index[enough], use[enough], rays, settings)
+        rows = np.flatnonzero(enough) + start
+        found[rows] = fitted
+    return found
+
+
+def _one_surface(
+    points: np.ndarray,
+    xy: np.ndarray,
+    ring: np.ndarray,
+    camera: CameraModel,
+    index: np.ndarray,
+    dist: np.ndarray,
+    annulus: np.ndarray,
+    settings: FillSettings,
+) -> np.ndarray:
+    """(N, k) which neighbours a pixel's fit uses: samples of its two rings, on the surface of its
+    nearest such sample; none at all where any sample in reach (of any ring) lies on another surface."""
+    reached = np.isfinite(dist)
+    safe = np.where(reached, index, 0)
+    near = points[safe]  # (N, k, 3)
+    rings = ring[safe]
+    bounding = reached & ((rings == annulus[:, None]) | (rings == annulus[:, None] - 1))
+    first = np.argmax(bounding, axis=1)
+    rows = np.arange(len(index))
+    reference = near[rows, first]
+    ref_xy = xy[safe[rows, first]]
+    footprint = _footprint_mm(camera, reference)
+    apart_px = np.linalg.norm(xy[safe] - ref_xy[:, None, :], axis=2)
+    apart_mm = np.linalg.norm(near - reference[:, None, :], axis=2)
+    same = apart_mm <= settings.steep_stretch * footprint[:, None] * (apart_px + 1.0)
+    contested = (reached & ~same).any(axis=1) | ~bounding.any(axis=1)
+    return bounding & same & ~contested[:, None]
+
+
+def _enclosed(annulus: np.ndarray, ring: np.ndarray, index: np.ndarray, use: np.ndarray) -> np.ndarray:
+    """(N,) pixels their samples enclose: inside the innermost ring (annulus 0, which the decode
+    read), or with samples of both rings of their annulus around them. A pixel that sees only one of
+    its rings lies beyond a surface's last ring: extrapolating there (a limb the projector grazes)
+    errs by far more than interpolating does, and it is left a hole."""
+    rings = ring[index]
+    inner = (use & (rings == annulus[:, None] - 1)).any(axis=1)
+    outer = (use & (rings == annulus[:, None])).any(axis=1)
+    return (annulus == 0) | (inner & outer)
+
+
+def _footprint_mm(camera: CameraModel, points: np.ndarray) -> np.ndarray:
+    if camera.projection == "orthographic":
+        return np.full(len(points), 1.0 / camera.K[0, 0])
+    return np.maximum(camera.to_device(points)[:, 2], 1e-6) / camera.K[0, 0]
+
+
+def _fit_and_meet(
+    points: np.ndarray,
+    normals: np.ndarray,
+    index: np.ndarray,
+    use: np.ndarray,
+    rays: tuple[np.ndarray, np.ndarray],
+    settings: FillSettings,
+) -> np.ndarray:
+    """Per pixel, the weighted quadratic height field of its used samples (positions and slopes, in a
+    frame along their mean normal) met by its ray (origins, unit directions); NaN where it misses."""
+    near, facing = points[index], normals[index]  # (N, k, 3)
+    weight = use.astype(np.float64)
+    origin = (near * weight[..., None]).sum(axis=1) / weight.sum(axis=1)[:, None]
+    up = (facing * weight[..., None]).sum(axis=1)
+    up /= np.linalg.norm(up, axis=1, keepdims=True)
+    e1 = np.cross(up, np.where(np.abs(up[:, :1]) < 0.9, [[1.0, 0.0, 0.0]], [[0.0, 1.0, 0.0]]))
+    e1 /= np.linalg.norm(e1, axis=1, keepdims=True)
+    e2 = np.cross(up, e1)
+    frame = np.stack([e1, e2, up], axis=1)  # (N, 3, 3): rows are the axes
+    local = np.einsum("nij,nkj->nki", frame, near - origin[:, None, :])
+    slope_n = np.einsum("nij,nkj->nki", frame, facing)
+    # x and y in units of the neighbourhood's size: every column of the fit of order one
+    scale = np.sqrt((weight[..., None] * local[..., :2] ** 2).sum(axis=(1, 2)) / weight.sum(axis=1)) + 1e-6
+    x, y, z = local[..., 0] / scale[:, None], local[..., 1] / scale[:, None], local[..., 2]
+    nz = np.where(np.abs(slope_n[..., 2]) > 0.2, slope_n[..., 2], np.nan)  # steeper: no slope from it
+    hx, hy = -slope_n[..., 0] / nz * scale[:, None], -slope_n[..., 1] / nz * scale[:, None]
+    one, zero = np.ones_like(x), np.zeros_like(x)
+    value = np.stack([one, x, y, x * x, x * y, y * y], axis=-1)
+    d_x = np.stack([zero, one, zero, 2 * x, y, zero], axis=-1)
+    d_y = np.stack([zero, zero, one, zero, x, 2 * y], axis=-1)
+    slope_weight = np.where(np.isfinite(hx), weight, 0.0)
+    rows = np.concatenate([value, d_x, d_y], axis=1)  # (N, 3k, 6)
+    target = np.concatenate([z, np.nan_to_num(hx), np.nan_to_num(hy)], axis=1)
+    w = np.concatenate([weight, slope_weight, slope_weight], axis=1)
+    normal = np.einsum("nki,nk,nkj->nij", rows, w, rows)
+    normal[:, 3:, 3:] += settings.bend_ridge * weight.sum(axis=1)[:, None, None] * np.eye(3)
+    right = np.einsum("nki,nk,nk->ni", rows, w, target)
+    coef = np.linalg.solve(normal, right[..., None])[..., 0]
+    unscale = np.column_stack([1.0 / scale, 1.0 / scale, np.ones_like(scale)])  # the fit's own units
+    frame = frame * unscale[:, :, None]
+    return _meet(coef, frame, origin, rays)
+
+
+def _meet(coef: np.ndarray, frame: np.ndarray, origin: np.ndarray, rays: tuple[np.ndarray, np.ndarray]) -> np.ndarray:
+    """Where each ray meets its height field h(x, y) = c0 + c1 x + c2 y + c3 x^2 + c4 x y + c5 y^2:
+    the root of a quadratic in the distance along the ray nearest the tangent plane's."""
+    a = np.einsum("nij,nj->ni", frame, rays[0] - origin)
+    b = np.einsum("nij,nj->ni", frame, rays[1])
+    c0, c1, c2, c3, c4, c5 = coef.T
+    quad = c3 * b[:, 0] ** 2 + c4 * b[:, 0] * b[:, 1] + c5 * b[:, 1] ** 2
+    lin = c1 * b[:, 0] + c2 * b[:, 1] + 2 * c3 * a[:, 0] * b[:, 0] + c4 * (a[:, 0] * b[:, 1] + a[:, 1] * b[:, 0])
+    lin += 2 * c5 * a[:, 1] * b[:, 1] - b[:, 2]
+    const = c0 + c1 * a[:, 0] + c2 * a[:, 1] + c3 * a[:, 0] ** 2 + c4 * a[:, 0] * a[:, 1] + c5 * a[:, 1] ** 2 - a[:, 2]
+    with np.errstate(invalid="ignore", divide="ignore"):
+        plane = -const / lin
+        root = np.sqrt(lin**2 - 4 * quad * const)
+        t1, t2 = (-lin + root) / (2 * quad), (-lin - root) / (2 * quad)
+    nearer = np.where(np.abs(t1 - plane) < np.abs(t2 - plane), t1, t2)
+    t = np.where(np.abs(quad) * np.abs(plane) ** 2 < 1e-9 * np.abs(const) + 1e-12, plane, nearer)
+    t = np.where(np.isfinite(t) & (t > 0), t, np.nan)
+    return rays[0] + t[:, None] * rays[1]
