@@ -68,10 +68,19 @@ def test_a_plan_on_a_rig_without_truth_is_recorded_unverified() -> None:
     adaptive = {"tolerance_mm": 0.2, "pilot_scanned": False}
     assert plan_check(adaptive, {}) == {
         "promised_mm": 0.2,
+        "quantile": 0.95,
         "rehearsed_on_this_object": False,
+        "pilot_agreement_mm": None,
+        "same_object_as_pilot": None,
+        "held_out_ring_p95_mm": None,
         "measured_worst_region_p95_mm": None,
         "met": None,
         "verified": False,
+        "tolerance": "unverified",
     }
+    # its own rings bound it: the surface of every other ring within the tolerance of the others
+    assert plan_check({**adaptive, "held_out_ring_p95_mm": 0.15}, {})["tolerance"] == "bounded"
+    assert plan_check({**adaptive, "held_out_ring_p95_mm": 0.35}, {})["tolerance"] == "unverified"
+    assert plan_check({**adaptive, "pilot_agreement_mm": 0.05}, {})["tolerance"] == "rehearsed"
     failing = {"projector0/camera0": {"surface_worst_region_p95_mm": 0.33}, "merged": {"rms_mm": 0.1}}
     assert plan_check({**adaptive, "pilot_scanned": True}, failing)["met"] is False

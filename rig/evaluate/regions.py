@@ -32,9 +32,7 @@ def surface_regions(grid: np.ndarray, valid: np.ndarray, max_jump_mm: float) -> 
     return footprints(grid, valid, max_jump_mm)[1]
 
 
-def footprints(
-    grid: np.ndarray, valid: np.ndarray, max_jump_mm: float | np.ndarray
-) -> tuple[np.ndarray, np.ndarray]:
+def footprints(grid: np.ndarray, valid: np.ndarray, max_jump_mm: float | np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """pixel_areas and surface_regions of the valid pixels, from one pass over the neighbours;
     `max_jump_mm` one distance, or one per pixel (H, W) for the step from it to the next."""
     du, joined_u = _joins(grid, valid, 1, max_jump_mm)

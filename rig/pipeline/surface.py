@@ -243,11 +243,7 @@ def interpolate_surface(
     # cubic: one interpolant over the whole image, not one per batch
     list(pool().map(solve, [(0, len(pixel))] if method == "cubic" else batches(len(pixel))))
     if bands is not None:
-        area = np.bincount(owner, minlength=len(tri))
-        bridging = np.bincount(owner, ~agree, minlength=len(tri)) > settings.max_band_disagreement * area
-        agree &= ~bridging[owner]
-        counts["dropped_band_px"] = int((ok & ~agree).sum())
-        ok &= agree
+        ok &= _in_bands(owner, agree, ok, len(tri), settings.max_band_disagreement, counts)
     covered, owner = pixel[ok], owner[ok]
     if bands is not None and settings.fill:
         filled = _filled(points, normals, xy, ring, tri, camera, projector, covered, lit, bands, grid, settings)
@@ -255,6 +251,18 @@ def interpolate_surface(
         counts["filled_px"] = len(filled)
     counts["pixels"] = len(covered)
     return _surface(points, normals, tri, ring, counts, camera, grid, covered, owner)
+
+
+def _in_bands(
+    owner: np.ndarray, agree: np.ndarray, ok: np.ndarray, faces: int, max_disagreement: float, counts: dict[str, int]
+) -> np.ndarray:
+    """Which pixels keep their point: in their own band, in a face whose pixels mostly are (more off
+    their bands than `max_disagreement` of its pixels: the face bridges an edge its corners miss)."""
+    area = np.bincount(owner, minlength=faces)
+    bridging = np.bincount(owner, ~agree, minlength=faces) > max_disagreement * area
+    agree = agree & ~bridging[owner]
+    counts["dropped_band_px"] = int((ok & ~agree).sum())
+    return agree
 
 
 def _filled(

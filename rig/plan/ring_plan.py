@@ -162,20 +162,33 @@ def plan_rings(
         trial = Rehearser(pilots, center, method, noise, quantile, on_rehearsal)
         radii = _rehearsed(trial, demands, edges, settings, tolerance, criteria, last)
         signatures = [pilot_signature(p, np.asarray(radii), center) for p in pilots]
-    kappa = np.concatenate([d.kappa_across for d in demands])
-    pilot = {
-        **(pilot or {}),
-        "points": int(sum(len(v.points) for v in views)),
-        "curvature_samples": len(kappa),
-        "kappa_across_p50_p98_per_mm": [round(float(q), 5) for q in np.percentile(kappa, [50, 98])],
-        "radius_range_px": [round(float(edges[0]), 1), round(float(edges[-1] + settings.bin_px), 1)],
-        **({"signatures": signatures} if signatures else {}),
-    }
+    pilot = _pilot_record(pilot, views, demands, edges, settings.bin_px, signatures)
     profile_out = {
         "radius_px": [round(float(e), 1) for e in edges],
         "spacing_px": [round(float(p), 2) for p in profile],
     }
     return RingPlan(tolerance, center, radii, criteria, profile_out, pilot, quantile)
+
+
+def _pilot_record(
+    pilot: dict[str, Any] | None,
+    views: list[PilotView],
+    demands: list[Demand],
+    edges: np.ndarray,
+    bin_px: float,
+    signatures: list[dict[str, Any]],
+) -> dict[str, Any]:
+    """What a plan keeps of its pilot: what the caller said, its size, its curvature, the radii it
+    spans and (rehearsed plans) its signature per view (rig.plan.signature)."""
+    kappa = np.concatenate([d.kappa_across for d in demands])
+    return {
+        **(pilot or {}),
+        "points": int(sum(len(v.points) for v in views)),
+        "curvature_samples": len(kappa),
+        "kappa_across_p50_p98_per_mm": [round(float(q), 5) for q in np.percentile(kappa, [50, 98])],
+        "radius_range_px": [round(float(edges[0]), 1), round(float(edges[-1] + bin_px), 1)],
+        **({"signatures": signatures} if signatures else {}),
+    }
 
 
 def _rehearsed(

@@ -9,6 +9,7 @@ from typing import Any
 
 from rig.config import RigConfig, config_from_dict
 from rig.errors import ConfigError, PlanError
+from rig.evaluate.holdout import held_out_error
 from rig.pipeline.scan import ScanResult, run_scan
 from rig.plan.rehearsal import rehearsal_progress
 from rig.plan.ring_plan import RingPlan, pilot_views, plan_rings
@@ -103,6 +104,8 @@ def adaptive_scan(
     result = run_scan(sparse, "rings", keep_frames=keep_frames, progress=tracker.part(start, 0.92, "rings "))
     result.adaptive = adaptive_record(plan, result, pilot is not None)
     result.adaptive["pilot_agreement_mm"] = pilot_agreement(plan, result, sparse)
+    held_out = [e for e in (held_out_error(sparse, pair) for pair in result.pairs) if e is not None]
+    result.adaptive["held_out_ring_p95_mm"] = round(max(held_out), 4) if held_out else None
     if pilot is not None:  # the picture the console draws the plan over (projector pixels, as the plan)
         result.images["pilot_projector"] = projector_view(pilot.cloud, the_rig.projector_models[0])
     return result, plan, sparse
@@ -151,12 +154,13 @@ def pilot_agreement(plan: RingPlan, result: ScanResult, the_rig: Rig) -> float |
 
 
 def plan_check(adaptive: dict[str, Any], metrics: dict[str, Any]) -> dict[str, Any]:
-    """What the plan promised and what this scan knows of it. On a simulated rig the surface's worst
-    region by area is measured against the truth (rig.evaluate.regions). On any rig the ring
-    points are compared with the plan's pilot: a plan rehearsed on this very object (its own pilot,
-    or a plan file whose pilot the rings agree with to within the tolerance) holds what its
-    rehearsal showed; a plan made for another object is flagged, its tolerance unverified here,
-    whatever its file claims."""
+    """What the plan promised and what this scan knows of it, strongest first. On a simulated rig
+    the surface's worst region by area is measured against the truth (rig.evaluate.regions):
+    `measured`. On any rig, the surface of every other ring misses the rings left out by at most
+    the tolerance (rig.pipeline.holdout, an upper bound at twice the spacing): `bounded`. A plan
+    rehearsed on this very object (its own pilot, or a plan file whose pilot the rings agree with to
+    within the tolerance): `rehearsed`. Otherwise, a plan made for another object is flagged and its
+    tolerance is `unverified` here, whatever its file claims."""
     worst = [
         m["surface_worst_region_p95_mm"]
         for m in metrics.values()
@@ -167,13 +171,18 @@ def plan_check(adaptive: dict[str, Any], metrics: dict[str, Any]) -> dict[str, A
     agreement = adaptive.get("pilot_agreement_mm")
     same_object = None if agreement is None else bool(agreement <= tolerance)
     rehearsed = bool(adaptive["pilot_scanned"] or same_object)
-    status = "measured" if measured is not None else "rehearsed" if rehearsed else "unverified"
+    held_out = adaptive.get("held_out_ring_p95_mm")
+    bounded = held_out is not None and held_out <= tolerance
+    status = (
+        "measured" if measured is not None else "bounded" if bounded else "rehearsed" if rehearsed else "unverified"
+    )
     return {
         "promised_mm": tolerance,
         "quantile": adaptive.get("tolerance_quantile", 0.95),
         "rehearsed_on_this_object": rehearsed,
         "pilot_agreement_mm": agreement,
         "same_object_as_pilot": same_object,
+        "held_out_ring_p95_mm": held_out,
         "measured_worst_region_p95_mm": measured,
         "met": None if measured is None else bool(measured <= tolerance),
         "verified": measured is not None,

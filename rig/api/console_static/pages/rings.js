@@ -90,13 +90,15 @@ function profile(plan) {
 }
 
 // The error each rehearsed criterion predicts against its ring count (every count its search
-// tried), with the tolerance as a line: the plan takes the fewest rings under it.
+// tried), with the tolerance as a line: the plan takes the fewest rings under it. A plan judges its
+// worst surface region by area (worst_region_mm); plans made before that kept only the rms.
+const judged = (p) => p.worst_region_mm ?? p.rms_mm;
 function errorCurve(plan) {
   const series = Object.entries(plan.criteria || {}).filter(([, c]) => Array.isArray(c.tried) && c.tried.length);
   if (!series.length) return null;
   const ns = "http://www.w3.org/2000/svg";
   const points = series.flatMap(([, c]) => c.tried);
-  const xMax = Math.max(...points.map((p) => p.rings)), yMax = Math.max(plan.tolerance_mm * 1.5, ...points.map((p) => p.rms_mm));
+  const xMax = Math.max(...points.map((p) => p.rings)), yMax = Math.max(plan.tolerance_mm * 1.5, ...points.map(judged));
   const W = 480, H = 200, x = (v) => 40 + (v / xMax) * (W - 50), y = (v) => H - 24 - (Math.min(v, yMax) / yMax) * (H - 40);
   const svg = document.createElementNS(ns, "svg");
   svg.setAttribute("viewBox", `0 0 ${W} ${H}`);
@@ -107,11 +109,11 @@ function errorCurve(plan) {
   make("line", { x1: 40, x2: W - 10, y1: y(plan.tolerance_mm), y2: y(plan.tolerance_mm), class: "tolerance" });
   series.forEach(([name, c], k) => {
     const tried = [...c.tried].sort((a, b) => a.rings - b.rings);
-    make("polyline", { points: tried.map((p) => `${x(p.rings)},${y(p.rms_mm)}`).join(" "), class: `series s${k}` });
+    make("polyline", { points: tried.map((p) => `${x(p.rings)},${y(judged(p))}`).join(" "), class: `series s${k}` });
     for (const p of tried) {
-      const dot = make("circle", { cx: x(p.rings), cy: y(p.rms_mm), r: 3, class: `series s${k}` });
+      const dot = make("circle", { cx: x(p.rings), cy: y(judged(p)), r: 3, class: `series s${k}` });
       const tip = document.createElementNS(ns, "title");
-      tip.textContent = `${name.replaceAll("_", " ")}: ${p.rings} rings, rms ${p.rms_mm.toFixed(4)} mm`;
+      tip.textContent = `${name.replaceAll("_", " ")}: ${p.rings} rings, worst region ${judged(p).toFixed(4)} mm`;
       dot.append(tip);
     }
     make("text", { x: W - 12, y: 14 + 12 * k, class: `label s${k}` }).textContent = name.replaceAll("_", " ");
