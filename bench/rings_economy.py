@@ -42,6 +42,7 @@ from rig.pipeline.scan import ScanResult, run_scan
 from rig.plan.ring_plan import pilot_views, plan_rings
 from rig.rig import Rig
 from rig.service.adaptive import with_plan
+from rig.store.ply import mesh_ply_bytes, ply_chunks
 
 ROOT = Path(__file__).resolve().parent.parent
 TOLERANCES = [0.1, 0.2, 0.5]
@@ -93,11 +94,17 @@ def with_uniform_rings(rig: Rig, count: int) -> Rig:
 
 
 def costs(result: ScanResult) -> dict[str, Any]:
+    """What a scan cost: frames, bytes captured, points, its mesh, times, and what it stores (the
+    cloud's and the mesh's PLY files, as a scan directory holds them)."""
     timings = result.timings_ms
+    stored = sum(len(chunk) for chunk in ply_chunks(result.cloud))
+    if result.mesh is not None:
+        stored += len(mesh_ply_bytes(result.mesh))
     return {
         "frames": result.frames_projected,
         "bytes": result.bytes_captured,
         "points": len(result.cloud),
+        "stored_bytes": stored,
         "mesh_vertices": None if result.mesh is None else len(result.mesh.vertices),
         "decode_ms": round(timings.get("decode_ms", 0.0), 1),
         "surface_ms": round(timings.get("surface_ms", 0.0), 1) if "surface_ms" in timings else None,
@@ -193,28 +200,31 @@ def plot(results: list[dict[str, Any]], path: Path) -> None:
 
 def docs_table(results: list[dict[str, Any]]) -> str:
     header = ["shape", "tolerance mm", "rings", "object p95 mm", "worst region p95 mm", "object covered"]
-    header += ["inner disc", "frames", "points", "decode ms", "surface ms", "kept"]
+    header += ["inner disc", "frames", "with its pilot", "points", "stored MB", "decode ms", "surface ms", "kept"]
     rows = []
     for shape in results:
         for p in shape["planned"]:
             if "refused" in p:
-                rows.append([shape["shape"], p["tolerance_mm"], "refused", *([""] * 8), "refused"])
+                rows.append([shape["shape"], p["tolerance_mm"], "refused", *([""] * 10), "refused"])
                 continue
             rows.append(
                 [
                     *(shape["shape"], p["tolerance_mm"], p["rings"], p["surface_object_p95_mm"]),
                     *(p["surface_worst_region_p95_mm"], _percent(p["surface_object_coverage"])),
-                    *(_percent(p["surface_inner_disc_coverage"]), p["frames"], p["points"], p["decode_ms"]),
-                    *(p["surface_ms"], "yes" if p["keeps_promise"] else "**no**"),
+                    *(_percent(p["surface_inner_disc_coverage"]), p["frames"], p["frames"] + shape["dense"]["frames"]),
+                    *(p["points"], _mb(p["stored_bytes"]), p["decode_ms"], p["surface_ms"]),
+                    "yes" if p["keeps_promise"] else "**no**",
                 ]
             )
-    economy_header = ["shape", "dense frames", "dense points", "dense decode ms", f"{UNIFORM_RINGS} rings p95 mm"]
-    economy_header += [f"{UNIFORM_RINGS} rings frames", f"{UNIFORM_RINGS} rings points", "pilot bytes (once)"]
+    economy_header = ["shape", "dense frames", "dense points", "dense stored MB", "dense decode ms"]
+    economy_header += [f"{UNIFORM_RINGS} rings: object p95 mm", "object covered", "frames", "points", "stored MB"]
+    economy_header += ["captured MB: dense (the pilot, once)", f"{UNIFORM_RINGS} rings"]
     economy = [
         [
-            *(s["shape"], s["dense"]["frames"], s["dense"]["points"], s["dense"]["decode_ms"]),
-            *(s["uniform"]["surface_object_p95_mm"], s["uniform"]["frames"], s["uniform"]["points"]),
-            s["dense"]["bytes"],
+            *(s["shape"], s["dense"]["frames"], s["dense"]["points"], _mb(s["dense"]["stored_bytes"])),
+            *(s["dense"]["decode_ms"], s["uniform"]["surface_object_p95_mm"]),
+            *(_percent(s["uniform"]["surface_object_coverage"]), s["uniform"]["frames"], s["uniform"]["points"]),
+            *(_mb(s["uniform"]["stored_bytes"]), _mb(s["dense"]["bytes"]), _mb(s["uniform"]["bytes"])),
         ]
         for s in results
     ]
@@ -223,6 +233,10 @@ def docs_table(results: list[dict[str, Any]]) -> str:
         + "\n\nThe same shapes scanned dense and with evenly spaced rings (the pilot's bytes are paid once per "
         "kind of object):\n\n" + markdown_table(economy_header, economy)
     )
+
+
+def _mb(value: int) -> str:
+    return f"{value / 1e6:.1f}"
 
 
 def _percent(value: Any) -> str:

@@ -206,3 +206,27 @@ def test_a_plan_file_round_trips_and_a_bad_one_is_named(plans: dict[float, RingP
     path.write_text("{}")
     with pytest.raises(PlanError, match="not a ring plan"):
         RingPlan.load(path)
+
+
+def test_no_face_of_a_planned_surface_spans_a_depth_step() -> None:
+    """A staircase, planned at 0.2 mm: every triangle of the surface between the rings has its
+    three corners on one tread (the truth's regions, split where neighbouring true points jump
+    more than 2 mm); a triangle joining two treads would put its pixels millimetres off both."""
+    from rig.config import config_from_dict
+    from rig.evaluate.wholeness import true_areas
+
+    data = load_config().model_dump(mode="json")
+    data["simulation"]["scene"] = {"kind": "steps"}
+    config = config_from_dict(data, "steps")
+    with open_rig(config) as rig:
+        pilot = run_scan(rig, "phase")
+        plan = plan_rings(pilot_views(pilot, rig.camera_models, rig.projector_models), config.scan.adaptive, 0.2)
+        pair = run_scan(with_plan(rig, plan), "rings").pairs[0]
+        assert rig.truth is not None and pair.surface is not None and pair.rings is not None
+        truth = rig.truth.ground_truth(0, 0)
+    _, region = true_areas(truth)
+    height, width = region.shape
+    xy = np.rint(pair.rings.camera_xy[pair.rings.kept]).astype(np.int64)
+    corner = region[np.clip(xy[:, 1], 0, height - 1), np.clip(xy[:, 0], 0, width - 1)][pair.surface.faces]
+    assert len(corner) > 10_000 and pair.surface.counts["dropped_depth_edge"] > 0
+    assert ((corner == corner[:, :1]).all(axis=1)).all()

@@ -15,7 +15,7 @@ import numpy as np
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 
-MIN_REGION_SHARE = 0.05  # regions smaller than this share of the area are not judged on their own
+MIN_REGION_SHARE = 0.01  # regions smaller than this share of the area are not judged on their own
 
 
 def pixel_areas(grid: np.ndarray, valid: np.ndarray, max_jump_mm: float) -> np.ndarray:

@@ -43,6 +43,7 @@ INTERPOLANTS: tuple[str, ...] = ("linear", "quadratic", "cubic")
 
 # Near the rings' centre the polar angle says little (and is read poorly): no angle check inside this.
 _ANGLE_MIN_RADIUS_PX = 8.0
+_BRIDGE_ROUNDS = 4  # rounds of dropping triangles bent off their corners (ring_triangles)
 _PAIRS_TIMEOUT_S = 300.0  # a bound on waiting for the pool, far beyond the ~30 ms it takes
 
 
@@ -51,6 +52,7 @@ class SurfaceSettings:
     max_gap_px: float = 6.0  # two samples of one ring further apart than this are not neighbours
     max_slant_deg: float = 84.0  # triangles seen more edge-on than this span a depth edge
     max_bend_deg: float = 50.0  # ... as do triangles this far from one of their corners' normals
+    max_bend_excess_deg: float = 20.0  # ... and those bent this much more from their corners than they differ
     min_foreshortening: float = 0.15  # ... and edges steep to both devices (see _bridges)
     max_unlit: float = 0.02  # triangles over more of their pixels dark than this span a shadow
     band_margin_px: float = 2.0  # a point may project this far outside the annulus its pixel read ...
@@ -154,10 +156,31 @@ def ring_triangles(
     normals = vertex_normals(tri, face, weight, directions)
     bent = (np.einsum("ikj,ij->ik", normals[tri], face) < np.cos(np.radians(settings.max_bend_deg))).any(axis=1)
     tri, face, weight = tri[~bent], face[~bent], weight[~bent]
-    counts["dropped_depth_edge"] = int(edge_on.sum() + bent.sum())
-    counts["faces"] = len(tri)
     pairs = neighbours.result(timeout=_PAIRS_TIMEOUT_S)
+    # corners' normals as the interpolant takes them (smoothed along the rings), without the
+    # triangles dropped so far: a triangle that bridges a step stands out once its neighbours that
+    # bridge it too are gone, so a few rounds
+    dropped = int(edge_on.sum() + bent.sum())
+    for _ in range(_BRIDGE_ROUNDS):
+        corners = _normals(tri, face, weight, directions, pairs)[tri]
+        again = _off_its_corners(corners, face, settings.max_bend_excess_deg)
+        if not again.any():
+            break
+        tri, face, weight, dropped = tri[~again], face[~again], weight[~again], dropped + int(again.sum())
+    counts["dropped_depth_edge"] = dropped
+    counts["faces"] = len(tri)
     return RingTriangles(tri, face, weight, _normals(tri, face, weight, directions, pairs), counts, directions, pairs)
+
+
+def _off_its_corners(corners: np.ndarray, face: np.ndarray, max_excess_deg: float) -> np.ndarray:
+    """Triangles tilted away from a corner's normal (F, 3, 3) by `max_excess_deg` more than the
+    corners' normals differ among themselves: the corners agree on a surface the triangle does not
+    lie on, as when it joins the rings of two treads of a step. On a smooth surface a triangle's
+    normal lies among its corners' normals."""
+    bend = np.degrees(np.arccos(np.clip(np.einsum("fkj,fj->fk", corners, face), -1.0, 1.0))).max(axis=1)
+    apart = np.einsum("fkj,fkj->fk", corners, corners[:, _NEXT])
+    spread = np.degrees(np.arccos(np.clip(apart, -1.0, 1.0))).max(axis=1)
+    return bend - spread > max_excess_deg
 
 
 def _bridges(
