@@ -102,7 +102,8 @@ def _scan_views(folder: Path) -> tuple[dict[str, Any], list[PilotView]]:
 def print_plan(plan: RingPlan, as_json: bool) -> None:
     if as_json:
         report = plan.as_dict()
-        report.pop("profile")
+        report.pop("profile")  # as the pilot's signatures: the plan file (--out) keeps them
+        report["pilot"] = {k: v for k, v in report["pilot"].items() if k != "signatures"}
         print(json.dumps(report, allow_nan=False))
         return
     criteria = plan.criteria

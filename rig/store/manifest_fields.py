@@ -20,9 +20,11 @@ MANIFEST_FIELDS: dict[str, str] = {
     "pairs": "one entry per projector-camera pair: projector, camera, points, the decoder's counts (lit, "
     "decoded, ...), and ring_coverage for ring scans",
     "surface": "ring scans: the surface between the rings (interpolant, mesh_vertices, mesh_faces, pixels)",
-    "adaptive": "adaptive or planned scans: the ring plan, its tolerance, whether the pilot ran, the "
-    "economy beside the pilot's, and `check`: the tolerance promised beside the worst surface region's "
-    "area-weighted p95 measured (simulated rigs; unverified elsewhere)",
+    "adaptive": "adaptive or planned scans: the ring plan (with its pilot's signature), its tolerance and "
+    "quantile, whether the pilot ran, the economy beside the pilot's, how far the ring points lie from the "
+    "plan's pilot (pilot_agreement_mm), the surface judged by leaving out every other ring "
+    "(held_out_ring_p95_mm), and `check`: the tolerance promised beside what is known of it (tolerance: "
+    "measured against the truth, bounded by the held-out rings, rehearsed, or unverified)",
     "timings_ms": "milliseconds per step (capture_ms, decode_ms, triangulate_ms, pointset_ms, ...)",
     "merge": "several pairs: how their clouds were merged (overlap removed, points kept), else null",
     "metrics": "simulated rigs: accuracy against the ground truth per pair (rms_mm, p95_mm, completeness, "
