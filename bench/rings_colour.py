@@ -4,7 +4,7 @@ white frame's colour at every pixel (the upper bound), on textured versions of t
 The rings are the plan for `--tolerance` (non-uniform radii) and as many evenly spaced rings.
 Prints one JSON object; with --docs also rewrites the colour table in the manual (docs/).
 
-    python bench/rings_colour.py [--docs] [--tolerance 0.1] [--neighbours 8]
+    python bench/rings_colour.py [--docs] [--tolerance 0.2] [--neighbours 8]
 
 Every figure is on the mesh's vertices (every 2nd pixel: scan.surface.mesh_stride_px) that the
 interpolated surface covers and the projector lights; see rig.evaluate.colour for how shading and
@@ -135,7 +135,7 @@ def main() -> None:
     parser.add_argument(
         "--docs", "--readme", dest="readme", action="store_true", help="rewrite README.md's colour table"
     )
-    parser.add_argument("--tolerance", type=float, default=0.1, help="the plan's tolerance, mm (0.1)")
+    parser.add_argument("--tolerance", type=float, default=0.2, help="the plan's tolerance, mm (0.2)")
     parser.add_argument("--neighbours", type=int, default=8, help="L of the interpolants (8)")
     args = parser.parse_args()
     t0 = time.perf_counter()
