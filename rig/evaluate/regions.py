@@ -69,7 +69,7 @@ def _step(diff: np.ndarray, axis: int) -> np.ndarray:
     differences (`diff`, from _joins) where both are known, else the one there is, else NaN."""
     shape = list(diff.shape)
     shape[axis] += 1
-    forward, backward = np.full(shape, np.nan), np.full(shape, np.nan)
+    forward, backward = np.full(shape, np.nan, diff.dtype), np.full(shape, np.nan, diff.dtype)
     if axis == 1:
         forward[:, :-1], backward[:, 1:] = diff, diff
     else:

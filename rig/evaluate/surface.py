@@ -9,7 +9,7 @@ import numpy as np
 from rig.config import RigConfig
 from rig.evaluate.distances import root_mean_square, surface_distances
 from rig.evaluate.regions import footprints, region_errors
-from rig.evaluate.wholeness import object_error, wholeness
+from rig.evaluate.wholeness import object_error, true_areas, wholeness
 from rig.patterns import codec_class
 from rig.pipeline.scan import PairResult, ScanResult
 from rig.rig import PixelTruth
@@ -34,10 +34,9 @@ def surface_metrics(pair: PairResult, truth: PixelTruth) -> dict[str, Any]:
     samples = pair.correspondence.samples
     whole = {}
     if not empty and samples is not None and samples.ring_radii_px is not None:
-        whole = {
-            **object_error(valid, dist, truth),
-            **wholeness(valid, truth, samples.ring_radii_px, samples.center_px),
-        }
+        areas = true_areas(truth)
+        whole = object_error(valid, dist, truth, area=areas[0])
+        whole.update(wholeness(valid, truth, samples.ring_radii_px, samples.center_px, areas))
     return {
         **by_area,
         **whole,
@@ -53,7 +52,7 @@ def surface_metrics(pair: PairResult, truth: PixelTruth) -> dict[str, Any]:
 def area_metrics(grid: np.ndarray, valid: np.ndarray, dist: np.ndarray) -> dict[str, Any]:
     """The surface's error by area (rig.evaluate.regions): its area-weighted p95 over the whole view,
     and over each region a depth step bounds that holds 5 % of the area or more, largest first."""
-    areas, labels = footprints(grid, valid, STEP_MM)
+    areas, labels = footprints(grid.astype(np.float32), valid, STEP_MM)  # float32: half the steps' memory
     whole, regions = region_errors(dist, areas, labels, AREA_QUANTILE)
     return {
         "surface_area_p95_mm": whole.quantile_mm,

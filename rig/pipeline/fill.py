@@ -22,7 +22,7 @@ from scipy.spatial import cKDTree
 
 from rig.geometry import CameraModel
 
-_CHUNK = 65_536  # candidate pixels fitted at a time
+_CHUNK = 16_384  # candidate pixels fitted at a time (a few MB per (N, k, 3) array)
 
 
 @dataclass(frozen=True)
@@ -68,15 +68,16 @@ def fill_points(
         dist, index = tree.query(query, k=k, distance_upper_bound=settings.reach_px, workers=-1)
         dist, index = dist.reshape(len(at), k), index.reshape(len(at), k)
         index = np.where(np.isfinite(dist), index, 0)  # beyond reach: marked by dist, never used
-        use = _one_surface(points, xy, ring, camera, index, dist, annulus[part], settings)
-        use &= _enclosed(annulus[part], ring, index, use)[:, None]
+        # most candidates lie beyond a surface's last ring: drop them before the costlier tests
+        rows = np.flatnonzero(_enclosed(annulus[part], ring, index, np.isfinite(dist)))
+        dist, index, ann = dist[rows], index[rows], annulus[part][rows]
+        use = _one_surface(points, xy, ring, camera, index, dist, ann, settings)
+        use &= _enclosed(ann, ring, index, use)[:, None]
         enough = use.sum(axis=1) >= settings.min_samples
         if not enough.any():
             continue
-        rays = (np.asarray(origins[at[enough]]), np.asarray(directions[at[enough]]))
-        fitted = _fit_and_meet(points, normals, index[enough], use[enough], rays, settings)
-        rows = np.flatnonzero(enough) + start
-        found[rows] = fitted
+        rays = (np.asarray(origins[at[rows[enough]]]), np.asarray(directions[at[rows[enough]]]))
+        found[rows[enough] + start] = _fit_and_meet(points, normals, index[enough], use[enough], rays, settings)
     return found
 
 
@@ -160,9 +161,10 @@ def _fit_and_meet(
     rows = np.concatenate([value, d_x, d_y], axis=1)  # (N, 3k, 6)
     target = np.concatenate([z, np.nan_to_num(hx), np.nan_to_num(hy)], axis=1)
     w = np.concatenate([weight, slope_weight, slope_weight], axis=1)
-    normal = np.einsum("nki,nk,nkj->nij", rows, w, rows)
+    weighted = rows * w[..., None]
+    normal = np.matmul(weighted.transpose(0, 2, 1), rows)
     normal[:, 3:, 3:] += settings.bend_ridge * weight.sum(axis=1)[:, None, None] * np.eye(3)
-    right = np.einsum("nki,nk,nk->ni", rows, w, target)
+    right = np.matmul(weighted.transpose(0, 2, 1), target[..., None])[..., 0]
     coef = np.linalg.solve(normal, right[..., None])[..., 0]
     unscale = np.column_stack([1.0 / scale, 1.0 / scale, np.ones_like(scale)])  # the fit's own units
     frame = frame * unscale[:, :, None]
