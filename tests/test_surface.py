@@ -193,6 +193,9 @@ def test_an_adaptive_scan_records_its_plan_and_a_plan_file_skips_the_pilot(
     assert main(["scan", "--config", str(small_config_path), "--plan", str(plan_file), "--out", str(second)]) == 0
     reused = json.loads((second / "manifest.json").read_text())
     assert not reused["adaptive"]["pilot_scanned"]
+    holes = reused["surface"]["holes"]["projector0/camera0"]  # where the rings promised a surface it has none
+    listed = [h["area_mm2"] for h in holes["largest"]]
+    assert listed == sorted(listed, reverse=True) and holes["area_mm2"] >= sum(listed) > 0
     for manifest, own_pilot in ((json.loads((first / "manifest.json").read_text()), True), (reused, False)):
         check = manifest["adaptive"]["check"]  # the promise beside what the scan measured of it
         worst = max(m["surface_worst_region_p95_mm"] for m in manifest["metrics"].values() if "surface_regions" in m)

@@ -4,6 +4,7 @@ the area it has, not by the pixels that see it, and a depth step splits the surf
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
 from rig.evaluate.regions import pixel_areas, region_errors, surface_regions, weighted_quantile
 
@@ -84,3 +85,31 @@ def test_a_plan_on_a_rig_without_truth_is_recorded_unverified() -> None:
     assert plan_check({**adaptive, "pilot_agreement_mm": 0.05}, {})["tolerance"] == "rehearsed"
     failing = {"projector0/camera0": {"surface_worst_region_p95_mm": 0.33}, "merged": {"rms_mm": 0.1}}
     assert plan_check({**adaptive, "pilot_scanned": True}, failing)["met"] is False
+
+
+def test_holes_are_found_where_the_rings_promise_a_surface_and_measured_by_its_depth() -> None:
+    """A flat surface 1000 mm from a camera of f = 1000 px (1 mm a pixel) with a 10 x 12 px hole
+    inside the rings and another beyond the outermost ring found: one hole of 120 mm^2."""
+    from rig.geometry import CameraModel
+    from rig.pipeline.holes import surface_holes
+    from rig.pipeline.surface import RingBands, RingSurface
+
+    width, height = 80, 60
+    camera = CameraModel(
+        width, height, np.array([[1000.0, 0, 39.5], [0, 1000.0, 29.5], [0, 0, 1]]), np.eye(3), np.zeros(3)
+    )
+    rows, cols = np.mgrid[0:height, 0:width]
+    grid = np.dstack([(cols - 39.5), (rows - 29.5), np.full((height, width), 1000.0)]).astype(np.float64)
+    valid = np.ones((height, width), bool)
+    valid[20:30, 30:42] = False  # inside the rings: a hole
+    valid[:, 70:] = False  # beyond the outermost ring the pair found: not promised
+    annulus = np.where(cols < 70, 1, 5).astype(np.int16)
+    grid[~valid] = np.nan
+    vertices = np.zeros((3, 3))
+    surface = RingSurface(vertices, np.tile([0, 0, -1.0], (3, 1)), np.array([[0, 1, 2]]), grid, valid, {},
+                          np.array([0, 1, 1]), np.full((height, width), -1, np.int32))  # fmt: skip
+    bands = RingBands(annulus, np.full((height, width), np.nan, np.float32), np.array([10.0, 20.0]), (40.0, 30.0))
+    holes = surface_holes(surface, bands, np.ones((height, width), bool), camera)
+    assert holes["holes"] == 1 and holes["largest"][0]["pixels"] == 120
+    assert holes["area_mm2"] == pytest.approx(120.0, rel=1e-6)
+    assert holes["largest"][0]["center_px"] == [35.5, 24.5]

@@ -19,7 +19,8 @@ MANIFEST_FIELDS: dict[str, str] = {
     "economy": "{frames_projected, frames_captured, bytes_captured, points}: what the scan cost",
     "pairs": "one entry per projector-camera pair: projector, camera, points, the decoder's counts (lit, "
     "decoded, ...), and ring_coverage for ring scans",
-    "surface": "ring scans: the surface between the rings (interpolant, mesh_vertices, mesh_faces, pixels)",
+    "surface": "ring scans: the surface between the rings (interpolant, mesh_vertices, mesh_faces, pixels) and, "
+    "per pair, its holes: where the rings promise a surface and it has none (count, total area, the largest)",
     "adaptive": "adaptive or planned scans: the ring plan (with its pilot's signature), its tolerance and "
     "quantile, whether the pilot ran, the economy beside the pilot's, how far the ring points lie from the "
     "plan's pilot (pilot_agreement_mm), the surface judged by leaving out every other ring "
