@@ -15,14 +15,13 @@ from __future__ import annotations
 
 import numpy as np
 
-from rig.evaluate.regions import MIN_REGION_SHARE, footprints
+from rig.evaluate.regions import MIN_REGION_SHARE, STEP_MM, footprints
 from rig.geometry import CameraModel
-from rig.pipeline.scan import PairResult, ring_bands
+from rig.pipeline.scan import PairResult, ring_bands, ring_lit
 from rig.pipeline.surface import Interpolant, RingBands, RingSurface, SurfaceSettings, interpolate_surface
 from rig.rig import Rig
 
 _MIN_SAMPLES = 50  # fewer left-out samples in a region: no verdict on it
-STEP_MM = 2.0  # the surface's regions split where neighbouring points jump this far (rig.evaluate.surface)
 
 
 def held_out_error(rig: Rig, pair: PairResult) -> float | None:
@@ -36,12 +35,12 @@ def held_out_error(rig: Rig, pair: PairResult) -> float | None:
         pair.rings.camera_xy[pair.rings.kept],
         rig.camera_models[pair.camera],
         rig.projector_models[pair.projector],
-        corr.quality >= rig.config.scan.rings.black_threshold,
+        ring_lit(rig, corr),
         config.interpolant,
         SurfaceSettings(max_gap_px=config.max_gap_px),
         ring_bands(corr),
     )
-    area, region = footprints(pair.surface.grid, pair.surface.valid, STEP_MM)
+    area, region = footprints(pair.surface.grid.astype(np.float32), pair.surface.valid, STEP_MM)
     label = np.full(pair.surface.valid.size, -1)
     label[np.flatnonzero(pair.surface.valid.ravel())] = region
     per_region = np.bincount(region, weights=area)

@@ -15,6 +15,7 @@ import numpy as np
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 
+STEP_MM = 2.0  # neighbouring points this far apart lie on two sides of a depth step
 MIN_REGION_SHARE = 0.01  # regions smaller than this share of the area are not judged on their own
 
 

@@ -8,14 +8,13 @@ import numpy as np
 
 from rig.config import RigConfig
 from rig.evaluate.distances import root_mean_square, surface_distances
-from rig.evaluate.regions import footprints, region_errors
+from rig.evaluate.regions import STEP_MM, footprints, region_errors
 from rig.evaluate.wholeness import object_error, true_areas, wholeness
 from rig.patterns import codec_class
 from rig.pipeline.scan import PairResult, ScanResult
 from rig.rig import PixelTruth
 
 COMPLETE_WITHIN_MM = 1.0
-STEP_MM = 2.0  # neighbouring surface points this far apart lie on two sides of a depth step
 AREA_QUANTILE = 0.95
 
 
@@ -51,7 +50,8 @@ def surface_metrics(pair: PairResult, truth: PixelTruth) -> dict[str, Any]:
 
 def area_metrics(grid: np.ndarray, valid: np.ndarray, dist: np.ndarray) -> dict[str, Any]:
     """The surface's error by area (rig.evaluate.regions): its area-weighted p95 over the whole view,
-    and over each region a depth step bounds that holds 5 % of the area or more, largest first."""
+    and over each region a depth step bounds that holds MIN_REGION_SHARE of the area or more,
+    largest first."""
     areas, labels = footprints(grid.astype(np.float32), valid, STEP_MM)  # float32: half the steps' memory
     whole, regions = region_errors(dist, areas, labels, AREA_QUANTILE)
     return {

@@ -14,10 +14,9 @@ from typing import Any
 
 import numpy as np
 
-from rig.evaluate.regions import between_rings, footprints, weighted_quantile
+from rig.evaluate.regions import STEP_MM, between_rings, footprints, weighted_quantile
 from rig.rig import PixelTruth
 
-STEP_MM = 2.0  # neighbouring true points this far apart lie on two sides of a depth step
 OBJECT_ABOVE_MM = 1.0  # the bench plane is z = 0 in the world: the object is what stands above it
 
 

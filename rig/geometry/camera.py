@@ -75,6 +75,13 @@ class CameraModel:
     def to_device(self, points: np.ndarray) -> np.ndarray:
         return np.einsum("ij,kj->ik", points, self.R) + self.t  # faster than @ for (N, 3) x (3, 3)
 
+    def mm_per_px(self, points: np.ndarray) -> np.ndarray:
+        """(N,) millimetres one pixel spans at each point's depth (N, 3): everywhere alike for an
+        orthographic device; a point at or behind the centre counts as 1e-6 mm deep."""
+        if self.projection == "orthographic":
+            return np.full(len(points), 1.0 / self.K[0, 0])
+        return np.maximum(self.to_device(points)[:, 2], 1e-6) / self.K[0, 0]
+
     def project(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """World points (N, 3) -> pixels (N, 2) and device-frame depth z (N,)."""
         u, v, z = self.project_columns(np.asarray(points, dtype=np.float64).reshape(-1, 3))

@@ -102,7 +102,7 @@ def _one_surface(
     rows = np.arange(len(index))
     reference = near[rows, first]
     ref_xy = xy[safe[rows, first]]
-    footprint = _footprint_mm(camera, reference)
+    footprint = camera.mm_per_px(reference)
     apart_px = np.linalg.norm(xy[safe] - ref_xy[:, None, :], axis=2)
     apart_mm = np.linalg.norm(near - reference[:, None, :], axis=2)
     same = apart_mm <= settings.steep_stretch * footprint[:, None] * (apart_px + 1.0)
@@ -119,12 +119,6 @@ def _enclosed(annulus: np.ndarray, ring: np.ndarray, index: np.ndarray, use: np.
     inner = (use & (rings == annulus[:, None] - 1)).any(axis=1)
     outer = (use & (rings == annulus[:, None])).any(axis=1)
     return (annulus == 0) | (inner & outer)
-
-
-def _footprint_mm(camera: CameraModel, points: np.ndarray) -> np.ndarray:
-    if camera.projection == "orthographic":
-        return np.full(len(points), 1.0 / camera.K[0, 0])
-    return np.maximum(camera.to_device(points)[:, 2], 1e-6) / camera.K[0, 0]
 
 
 def _fit_and_meet(

@@ -45,7 +45,7 @@ def grid_mesh(grid: np.ndarray, colors: np.ndarray, camera: CameraModel, stride:
     c, d = index[1:, 1:], index[1:, :-1]
     cell = (a >= 0) & (b >= 0) & (c >= 0) & (d >= 0)
     vertices = sub[valid]
-    footprint = stride * _mm_per_px(camera, vertices)
+    footprint = stride * camera.mm_per_px(vertices)
     quads = np.column_stack([a[cell], b[cell], c[cell], d[cell]])
     longest = np.zeros(len(quads))
     for k in range(4):
@@ -56,9 +56,3 @@ def grid_mesh(grid: np.ndarray, colors: np.ndarray, camera: CameraModel, stride:
     row, col = np.nonzero(valid)
     pixel = (row * stride) * camera.width + col * stride
     return Mesh(vertices, colors[::stride, ::stride][valid], faces, pixel)
-
-
-def _mm_per_px(camera: CameraModel, points: np.ndarray) -> np.ndarray:
-    if camera.projection == "orthographic":
-        return np.full(len(points), 1.0 / camera.K[0, 0])
-    return np.maximum(camera.to_device(points)[:, 2], 1e-6) / camera.K[0, 0]

@@ -145,7 +145,7 @@ def ring_surface(rig: Rig, projector: int, camera: int, rings: RingPoints, corr:
     """The surface between the kept ring samples, with holes where the projector left the camera dark."""
     config = rig.config.scan.surface
     keep = rings.kept
-    lit = corr.quality >= rig.config.scan.rings.black_threshold
+    lit = ring_lit(rig, corr)
     surface = interpolate_surface(
         rings.points[keep],
         rings.camera_xy[keep],
@@ -164,6 +164,11 @@ def ring_surface(rig: Rig, projector: int, camera: int, rings: RingPoints, corr:
         surface,
         colour=interpolate_colour(surface, colours, config.colour, config.colour_neighbours, config.mesh_stride_px),
     )
+
+
+def ring_lit(rig: Rig, corr: Correspondence) -> np.ndarray:
+    """(H, W) the pixels a ring pair's projector lit (scan.rings.black_threshold)."""
+    return corr.quality >= rig.config.scan.rings.black_threshold
 
 
 def ring_bands(corr: Correspondence) -> RingBands | None:

@@ -59,7 +59,7 @@ class SurfaceSettings:
     band_angle_rad: float = 0.15  # ... and this far from the polar angle it read (3x the code's p99.9)
     normal_smoothing_px: float = 4.0  # samples' normals averaged over their ring this far either way
     max_band_disagreement: float = 0.25  # a triangle with more of its pixels off their bands bridges an edge
-    fill: bool = True  # fill the inner disc and the strips beyond a surface's last ring (rig.pipeline.fill)
+    fill: bool = True  # fill the inner disc and holes the rings enclose (rig.pipeline.fill)
     fill_settings: FillSettings = field(default_factory=FillSettings)
 
 
@@ -161,15 +161,16 @@ def ring_triangles(
     # triangles dropped so far: a triangle that bridges a step stands out once its neighbours that
     # bridge it too are gone, so a few rounds
     dropped = int(edge_on.sum() + bent.sum())
+    normals = _normals(tri, face, weight, directions, pairs)
     for _ in range(_BRIDGE_ROUNDS):
-        corners = _normals(tri, face, weight, directions, pairs)[tri]
-        again = _off_its_corners(corners, face, settings.max_bend_excess_deg)
+        again = _off_its_corners(normals[tri], face, settings.max_bend_excess_deg)
         if not again.any():
             break
         tri, face, weight, dropped = tri[~again], face[~again], weight[~again], dropped + int(again.sum())
+        normals = _normals(tri, face, weight, directions, pairs)
     counts["dropped_depth_edge"] = dropped
     counts["faces"] = len(tri)
-    return RingTriangles(tri, face, weight, _normals(tri, face, weight, directions, pairs), counts, directions, pairs)
+    return RingTriangles(tri, face, weight, normals, counts, directions, pairs)
 
 
 def _off_its_corners(corners: np.ndarray, face: np.ndarray, max_excess_deg: float) -> np.ndarray:

@@ -21,15 +21,13 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
-from rig.evaluate.regions import between_rings, footprints, region_errors
+from rig.evaluate.regions import STEP_MM, between_rings, footprints, region_errors
 from rig.geometry import CameraModel
 from rig.pipeline.surface import Interpolant, RingBands, SurfaceSettings, interpolate_surface
 from rig.progress import ProgressTracker
 
 # Smoothing scale of the pilot's noise (camera pixels): a few pixels, far under any ring spacing.
 _SMOOTH_PX = 1.5
-
-STEP_MM = 2.0  # neighbouring pilot points this far apart (or _JUMP_FOOTPRINTS) lie on two sides of a step
 
 # Neighbouring pixels further apart than this many pixel footprints straddle a depth edge: no ring
 # sample between them (the codec drops such crossings as jumps).

@@ -61,20 +61,20 @@ def disagreement(
     ring: np.ndarray,
     projector: CameraModel,
     center_px: tuple[float, float],
-) -> tuple[float | None, int]:
+) -> float | None:
     """How far (mm) a scan's ring points lie from a pilot's signature: per ring, the median difference
     over the angle bins both have; of the rings, the worst (the bench the object stands on agrees
     whatever the object, and fills most bins: over all bins at once, an object on a few inner rings
-    would be missed). Also how many bins were compared (None where too few to say)."""
+    would be missed). None where too few bins are shared to say."""
     stored = np.array(
         [[np.nan if v is None else float(v) for v in row] for row in signature.get("range_mm", [])], dtype=np.float64
     )
     if stored.ndim != 2 or stored.shape[1] != ANGLE_BINS:
-        return None, 0
+        return None
     found = binned_ranges(points, ring, stored.shape[0], projector, center_px)
     both = np.isfinite(found) & np.isfinite(stored)
     judged = both.sum(axis=1) >= _MIN_RING_BINS
     if both.sum() < _MIN_BINS or not judged.any():
-        return None, int(both.sum())
+        return None
     difference = np.where(both, np.abs(found - stored), np.nan)[judged]
-    return float(np.nanmax(np.nanmedian(difference, axis=1))), int(both.sum())
+    return float(np.nanmax(np.nanmedian(difference, axis=1)))

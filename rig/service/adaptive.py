@@ -132,9 +132,10 @@ def adaptive_record(plan: RingPlan, result: ScanResult, piloted: bool) -> dict[s
 
 
 def pilot_agreement(plan: RingPlan, result: ScanResult, the_rig: Rig) -> float | None:
-    """How far (mm, nearly everywhere over rings and angles) the scan's ring points lie from where
-    the plan's pilot had its surface on the same rings (rig.plan.signature.disagreement): the nearest
-    of the plan's pilots, the worst of the scan's pairs. None where the plan keeps no pilot or too few rings meet."""
+    """How far (mm: per ring the median over its angles, the worst ring) the scan's ring points lie
+    from where the plan's pilot had its surface on the same rings (rig.plan.signature.disagreement):
+    the nearest of the plan's pilots, the worst of the scan's pairs. None where the plan keeps no
+    pilot or too few rings meet."""
     signatures = plan.pilot.get("signatures") or []
     worst: float | None = None
     for pair in result.pairs:
@@ -146,7 +147,7 @@ def pilot_agreement(plan: RingPlan, result: ScanResult, the_rig: Rig) -> float |
             pair.rings.ring[keep],
             the_rig.projector_models[pair.projector],
         )
-        found = [disagreement(s, points, ring, projector, plan.center_px)[0] for s in signatures if isinstance(s, dict)]
+        found = [disagreement(s, points, ring, projector, plan.center_px) for s in signatures if isinstance(s, dict)]
         nearest = min((f for f in found if f is not None), default=None)
         if nearest is not None:
             worst = nearest if worst is None else max(worst, nearest)

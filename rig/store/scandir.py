@@ -25,7 +25,7 @@ from rig.errors import StoreError
 from rig.geometry import CameraModel
 from rig.pipeline.capture import CUE
 from rig.pipeline.holes import surface_holes
-from rig.pipeline.scan import PairResult, ScanResult, ring_bands
+from rig.pipeline.scan import PairResult, ScanResult, ring_bands, ring_lit
 from rig.rig import Rig
 from rig.store.atomic import fsync_dir, publish_folder, write_atomic
 from rig.store.images import depth_image_png, grid_depth, mask_png, point_depth, preview_png, rgb_png
@@ -126,8 +126,8 @@ def _surface_summary(the_rig: Rig, result: ScanResult) -> dict[str, Any]:
     for pair in result.pairs:
         bands = ring_bands(pair.correspondence)
         if pair.surface is not None and bands is not None:
-            lit = pair.correspondence.quality >= the_rig.config.scan.rings.black_threshold
             name = f"{the_rig.config.projectors[pair.projector].name}/{the_rig.config.cameras[pair.camera].name}"
+            lit = ring_lit(the_rig, pair.correspondence)
             holes[name] = surface_holes(pair.surface, bands, lit, the_rig.camera_models[pair.camera])
     return {
         "interpolant": config.interpolant,
