@@ -115,8 +115,9 @@ def costs(result: ScanResult) -> dict[str, Any]:
 def judged(rig: Rig, result: ScanResult) -> dict[str, Any]:
     assert rig.truth is not None
     m = evaluate_pair(result.pairs[0], rig.truth.ground_truth(0, 0), rig.truth)
-    keys = ("surface_object_p95_mm", "surface_worst_region_p95_mm", "surface_object_coverage")
-    return {k: _round(m.get(k)) for k in (*keys, "surface_coverage", "surface_inner_disc_coverage")}
+    keys = ("surface_object_p95_mm", "surface_worst_region_p95_mm", "surface_object_coverage", "surface_coverage")
+    keys += ("surface_inner_disc_coverage", "surface_object_promised", "surface_object_lit_coverage")
+    return {k: _round(m.get(k)) for k in keys}
 
 
 def _round(value: Any) -> Any:
@@ -204,19 +205,21 @@ def plot(results: list[dict[str, Any]], path: Path) -> None:
 
 def docs_table(results: list[dict[str, Any]]) -> str:
     header = ["shape", "tolerance mm", "rings", "object p95 mm", "worst region p95 mm", "object covered"]
-    header += ["inner disc", "frames", "with its pilot", "points", "stored MB", "decode ms", "surface ms", "kept"]
+    header += ["inner disc", "promised", "lit object covered", "frames", "points", "stored MB", "decode ms"]
+    header += ["surface ms", "kept"]
     rows = []
     for shape in results:
         for p in shape["planned"]:
             if "refused" in p:
-                rows.append([shape["shape"], p["tolerance_mm"], "refused", *([""] * 10), "refused"])
+                rows.append([shape["shape"], p["tolerance_mm"], "refused", *([""] * 11), "refused"])
                 continue
             rows.append(
                 [
                     *(shape["shape"], p["tolerance_mm"], p["rings"], p["surface_object_p95_mm"]),
                     *(p["surface_worst_region_p95_mm"], _percent(p["surface_object_coverage"])),
-                    *(_percent(p["surface_inner_disc_coverage"]), p["frames"], p["frames"] + shape["dense"]["frames"]),
-                    *(p["points"], _mb(p["stored_bytes"]), p["decode_ms"], p["surface_ms"]),
+                    *(_percent(p["surface_inner_disc_coverage"]), _percent(p.get("surface_object_promised"))),
+                    *(_percent(p.get("surface_object_lit_coverage")), p["frames"], p["points"]),
+                    *(_mb(p["stored_bytes"]), p["decode_ms"], p["surface_ms"]),
                     "yes" if p["keeps_promise"] else "**no**",
                 ]
             )

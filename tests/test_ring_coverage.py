@@ -164,3 +164,41 @@ def test_radius_and_fine_angle_place_exact_samples_exactly(dist: tuple[float, ..
     placed = origins + solution.s[:, None] * directions
     np.testing.assert_allclose(placed[found], points[found], atol=1e-3)
     assert np.all(solution.chi2[found] < 1e-3) and np.median(solution.margin[found]) > 100
+
+
+def test_where_the_coarse_angle_leaves_the_period_ambiguous_the_rings_neighbours_pick_it() -> None:
+    """Samples along rings on a tilted plane, the fine angle exact and the coarse angle as noisy as a
+    scan's (0.02 rad, where a 16 px period on a ring of 200 px is 0.08 rad): where the ring runs
+    along the epipolar line only the angle places a sample, and without its neighbours the coarse
+    angle could not choose the period. Every sample is placed, and on its true point."""
+    from rig.patterns.base import RingSamples
+    from rig.pipeline.rings import triangulate_rings
+
+    camera = make_device(640, 512, 900.0, (-100.0, 0.0, 600.0), (0.0, 0.0, 30.0))
+    projector = make_device(512, 384, 750.0, (100.0, 0.0, 620.0), (0.0, 0.0, 30.0))
+    center = (255.5, 191.5)
+    radii = np.array([150.0, 170.0, 190.0])
+    angles = np.linspace(-np.pi, np.pi, 2400, endpoint=False)
+    ring = np.repeat(np.arange(3), len(angles))
+    radius = radii[ring]
+    theta = np.tile(angles, 3)
+    # the projector's rays meet a plane z = 20 + 0.1 x
+    uv = np.column_stack([center[0] + radius * np.cos(theta), center[1] + radius * np.sin(theta)])
+    origins, directions = projector.rays(uv)
+    origins = np.broadcast_to(origins, directions.shape)
+    s = (20.0 - origins[:, 2] + 0.1 * origins[:, 0]) / (directions[:, 2] - 0.1 * directions[:, 0])
+    points = origins + s[:, None] * directions
+    xy, _ = camera.project(points)
+    inside = (xy[:, 0] > 0) & (xy[:, 0] < 639) & (xy[:, 1] > 0) & (xy[:, 1] < 511)
+    periods = np.maximum(1, np.rint(2 * np.pi * radius / 16.0)).astype(np.int64)
+    noisy = theta + np.random.default_rng(5).normal(0.0, 0.02, len(theta))
+    samples = RingSamples(
+        camera_xy=xy[inside], ring=ring[inside], radius_px=radius[inside], theta=noisy[inside],
+        contrast=np.ones(int(inside.sum()), np.float32), center_px=center, ring_radii_px=radii,
+        fine_phase=np.angle(np.exp(1j * periods * theta))[inside], fine_periods=periods[inside],
+    )  # fmt: skip
+    placed, counts = triangulate_rings(camera, projector, samples)
+    assert counts["resolved_by_neighbours"] > 50  # the coarse angle alone left these ambiguous
+    assert counts["rejected_angle_ambiguous"] == 0 and counts["rejected_angle_misfit"] == 0
+    assert len(placed.points) == inside.sum() and placed.kept.all()
+    np.testing.assert_allclose(placed.points, points[inside], atol=0.01)

@@ -6,6 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from rig.evaluate.promise import between_rings
 from rig.evaluate.regions import pixel_areas, region_errors, surface_regions, weighted_quantile
 
 
@@ -61,6 +62,49 @@ def test_a_failing_object_is_not_hidden_by_a_large_flat_background() -> None:
     assert [round(r.share, 4) for r in regions] == [round(1500 / 1600, 4), round(100 / 1600, 4)]
     assert regions[1].quantile_mm == 0.5  # the object, judged on its own, fails
     assert regions[0].quantile_mm == 0.0 and np.isclose(regions[1].rms_mm, np.sqrt(0.5 * 0.25))
+
+
+def _rings_view(size: int = 120) -> tuple[np.ndarray, ...]:
+    """A flat view with the rings' centre in the middle of the image and projector radius = camera
+    distance from it; rings every 10 px out to 50. Returns columns, radii, angles and the rings."""
+    v, u = np.mgrid[0:size, 0:size].astype(float)
+    c = size / 2
+    return u, np.hypot(u - c, v - c), np.arctan2(v - c, u - c), np.arange(10.0, 51.0, 10.0)
+
+
+def test_a_surface_is_promised_between_two_rings_it_shows_not_beyond_the_last_one() -> None:
+    u, rho, theta, radii = _rings_view()
+    seen = u <= 85  # a shadow over the columns right of 85
+    region, area = np.zeros((120, 120), int), np.ones((120, 120))
+    target = between_rings(rho, theta, region, area, seen, radii)
+    assert target[(u < 55) & (rho < 48)].all()  # the disc and every band the camera sees both rings of
+    assert not target[rho > 50].any()  # beyond the outermost ring
+    assert target[60, 75] and target[36, 60]  # rings 10 and 20, and 20 and 30 (upwards), both seen
+    # Right of the centre ring 30 lies in the shadow (column 90): the strip from ring 20 to the
+    # shadow's edge has a ring on one side only, and is not promised; its mirror image is.
+    assert not target[60, 84] and target[60, 36]
+    # A second surface beside (another region, from column 86) does not lend its rings: the strip
+    # of the first beyond ring 20 is one-sided again, while the second's band 30-40 is promised.
+    region[:, 86:] = 1
+    split = between_rings(rho, theta, region, area, np.ones_like(seen), radii)
+    assert not split[60, 84] and not split[60, 88] and split[60, 95]
+
+
+def test_a_ring_seen_beyond_a_shadow_line_does_not_bound_the_strip_before_it() -> None:
+    # One surface, a shadow line two pixels wide across the band between rings 30 and 40 on the
+    # right, open at its ends: the band's surface joins around it, but along each projector ray the
+    # strip before the line reaches ring 30 only.
+    u, rho, theta, radii = _rings_view()
+    seen = np.ones((120, 120), bool)
+    seen[50:71, 95:97] = False
+    target = between_rings(rho, theta, np.zeros((120, 120), int), np.ones((120, 120)), seen, radii)
+    assert not target[60, 93] and not target[60, 98]  # between ring 30 (column 90) and the line; it and 40
+    assert target[40, 93] and target[60, 27]  # above the line's end; the same band on the left
+    # A ring the camera sees only at the brink of a shadow is not seen: a shadow from column 101 on
+    # leaves ring 40 (column 100) one pixel clear, and the band 30-40 there is not promised.
+    seen = u <= 100
+    target = between_rings(rho, theta, np.zeros((120, 120), int), np.ones((120, 120)), seen, radii)
+    assert not target[60, 95] and target[60, 25]
 
 
 def test_a_plan_on_a_rig_without_truth_is_recorded_unverified() -> None:

@@ -117,29 +117,3 @@ def _error(distances: np.ndarray, areas: np.ndarray, total: float, q: float) -> 
     rms = float(np.sqrt(np.sum(areas * distances.astype(np.float64) ** 2) / area)) if area > 0 else 0.0
     return RegionError(area, area / total if total > 0 else 0.0, weighted_quantile(distances, areas, q), rms,
                        float(distances.max()))  # fmt: skip
-
-
-def between_rings(
-    rho: np.ndarray, region: np.ndarray, area: np.ndarray, seen: np.ndarray, radii: np.ndarray
-) -> np.ndarray:
-    """(H, W) the pixels a ring set promises a surface at: of each region (`region` labels, -1 none)
-    holding at least MIN_REGION_SHARE of the `seen` area, those whose projector radius `rho` lies
-    between the innermost and outermost ring that reaches the region (the region's radii span it),
-    and inside the innermost ring where the region holds the rings' centre. What lies beyond a
-    region's last ring (a limb the projector grazes, the brink of a step) has no ring on one side."""
-    target = np.zeros(seen.shape, dtype=bool)
-    labels = np.where(seen, region, -1)
-    counted = labels >= 0
-    if not counted.any():
-        return target
-    per_label = np.bincount(labels[counted], weights=area[counted])
-    rho = np.nan_to_num(rho, nan=-1.0)
-    for label in np.flatnonzero(per_label >= MIN_REGION_SHARE * per_label.sum()):
-        here = labels == label
-        low, high = float(rho[here].min()), float(rho[here].max())
-        reached = radii[(radii >= low) & (radii <= high)]
-        if len(reached) == 0:
-            continue
-        inner = float(reached[0]) if low >= radii[0] else -np.inf  # holding the centre: its disc too
-        target |= here & (rho >= inner) & (rho <= float(reached[-1]))
-    return target

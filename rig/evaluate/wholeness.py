@@ -1,11 +1,12 @@
-"""How whole a ring scan's surface is, against the bench's truth: the share of each true surface's
-area between its innermost and outermost ring that the surface covers, the inner disc inside the
-innermost ring, and the error on the object alone (the bench plane left out).
+"""How whole a ring scan's surface is, against the bench's truth: the share of the area the rings
+promise a surface at that the surface covers, the inner disc inside the innermost ring, and the
+error on the object alone (the bench plane left out).
 
 Each true surface is a region of the camera's view that a depth step bounds (rig.evaluate.regions,
-on the true points). A ring "reaches" a region when the region's projector radii span the ring's
-radius; what lies beyond a region's outermost ring (a limb the projector grazes, a strip at a step's
-brink) has no ring on either side and is not promised.
+on the true points). The surface is promised between two rings the camera sees on it
+(rig.evaluate.promise): a strip with a ring on one side only (beyond the last ring a limb lets the
+camera see, up to a shadow's edge) is not, and is reported apart: the share of the lit object the
+promise spans, and the share of it the surface covers.
 """
 
 from __future__ import annotations
@@ -14,7 +15,8 @@ from typing import Any
 
 import numpy as np
 
-from rig.evaluate.regions import STEP_MM, between_rings, footprints, weighted_quantile
+from rig.evaluate.promise import between_rings
+from rig.evaluate.regions import STEP_MM, footprints, weighted_quantile
 from rig.rig import PixelTruth
 
 OBJECT_ABOVE_MM = 1.0  # the bench plane is z = 0 in the world: the object is what stands above it
@@ -43,18 +45,21 @@ def wholeness(
     u, v = truth.projector_uv[..., 0], truth.projector_uv[..., 1]
     rho = np.hypot(u - center[0], v - center[1])
     lit = truth.hit & truth.lit
-    target = between_rings(rho, region, area, lit, radii)
+    target = between_rings(rho, np.arctan2(v - center[1], u - center[0]), region, area, lit, radii)
     on_object = truth.points[..., 2] > OBJECT_ABOVE_MM
     disc = lit & (rho < radii[0])
 
-    def share(mask: np.ndarray) -> float | None:
+    def share(mask: np.ndarray, of: np.ndarray | None = None) -> float | None:
         whole = float(area[mask].sum())
-        return None if whole <= 0 else float(area[mask & valid].sum()) / whole
+        return None if whole <= 0 else float(area[mask & (valid if of is None else of)].sum()) / whole
 
     return {
         "surface_coverage": share(target),
         "surface_object_coverage": share(target & on_object),
         "surface_inner_disc_coverage": share(disc),
+        # beside the promise: how much of the lit object it spans, and how much the surface covers
+        "surface_object_promised": share(lit & on_object, target),
+        "surface_object_lit_coverage": share(lit & on_object),
     }
 
 

@@ -14,9 +14,11 @@ best fits nearly as well (an ambiguous period) is rejected by the caller, from `
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.spatial import cKDTree
 
 from rig.geometry import CameraModel
 from rig.geometry.cone import ConeHits, affine_image, ray_half_plane
@@ -32,6 +34,16 @@ MIN_BRANCH_MARGIN = 9.0
 BRANCH_WINDOW_RAD = 0.3
 # Assumed error of the coarse angular code (radians), for scoring branches.
 COARSE_SIGMA_RAD = 0.05
+# An ambiguous sample is read again with the angle its ring's neighbours predict: from the nearest
+# NEIGHBOUR_COUNT placed samples of its ring within NEIGHBOUR_REACH_PX in the image, trusted when
+# their plane fits within NEIGHBOUR_SCATTER_PERIODS of a fine period and taken as that good to
+# NEIGHBOUR_SIGMA_PERIODS (a leave-one-out test on a face misses by 0.9 % of a period at p99.9).
+NEIGHBOUR_COUNT = 8
+NEIGHBOUR_REACH_PX = 12.0
+NEIGHBOUR_SCATTER_PERIODS = 0.05
+NEIGHBOUR_SIGMA_PERIODS = 0.05
+_RING_APART_PX = 1e6  # rings set this far apart in the neighbour search: neighbours share a ring
+_SLOPE_RIDGE = 1e-3  # holds a plane's unfixed slope near zero (radians per pixel, squared pixels)
 # Gauss-Newton iterations from a branch's ray-to-ray point.
 _ITERATIONS = 3
 _STEP_MM = 1e-3  # for numerical derivatives along the ray
@@ -116,12 +128,14 @@ def solve_ring_angles(
     radius_sigma_px: float,
     tangential_sigma_px: float,
     chunk: int = 4096,
+    coarse_sigma: float | np.ndarray = COARSE_SIGMA_RAD,
 ) -> AngleSolution:
     """Best point along each ray (M, 3) on its ring (`radius`, pixels) agreeing with the decoded
-    angles: `coarse_theta` (radians, absolute) and `fine_phase` (wrapped, of `fine_periods` periods
-    per revolution)."""
+    angles: `coarse_theta` (radians, absolute, with error `coarse_sigma`, one or per ray) and
+    `fine_phase` (wrapped, of `fine_periods` periods per revolution)."""
     n = len(radius)
     out = [np.full(n, np.nan), np.full(n, np.nan), np.full(n, np.inf), np.full(n, np.inf)]
+    sigma = np.broadcast_to(np.asarray(coarse_sigma, dtype=np.float64), (n,))
     for start in range(0, n, chunk):
         part = slice(start, min(n, start + chunk))
         rays = _Rays(projector, origins[part], directions[part], center)
@@ -133,6 +147,7 @@ def solve_ring_angles(
             fine_periods[part],
             radius_sigma_px,
             tangential_sigma_px,
+            sigma[part],
         )
         for array, value in zip(out, solved, strict=True):
             array[part] = value
@@ -147,17 +162,20 @@ def _solve_chunk(
     periods: np.ndarray,
     radius_sigma: float,
     tangential_sigma: float,
+    coarse_sigma: np.ndarray,
 ) -> tuple[np.ndarray, ...]:
     periods_f = periods.astype(np.float64)
-    lo = np.ceil((periods_f * (coarse - BRANCH_WINDOW_RAD) - phase) / (2 * np.pi))
-    hi = np.floor((periods_f * (coarse + BRANCH_WINDOW_RAD) - phase) / (2 * np.pi))
+    window = np.minimum(BRANCH_WINDOW_RAD, 6.0 * coarse_sigma)
+    lo = np.ceil((periods_f * (coarse - window) - phase) / (2 * np.pi))
+    hi = np.floor((periods_f * (coarse + window) - phase) / (2 * np.pi))
     width = int(np.max(hi - lo, initial=0)) + 1
     branch = lo[:, None] + np.arange(width)[None, :]
     theta = (phase[:, None] + 2 * np.pi * branch) / periods_f[:, None]
     s = ray_half_plane(rays.projector, rays.origins, rays.directions, theta, rays.center)
     s[branch > hi[:, None]] = np.nan
     rho, _ = rays.polar(np.nan_to_num(s, nan=1.0))
-    score = ((rho - radius[:, None]) / radius_sigma) ** 2 + (_wrap(theta - coarse[:, None]) / COARSE_SIGMA_RAD) ** 2
+    coarse_misfit = (_wrap(theta - coarse[:, None]) / coarse_sigma[:, None]) ** 2
+    score = ((rho - radius[:, None]) / radius_sigma) ** 2 + coarse_misfit
     score[~np.isfinite(s)] = np.inf
     # the two best branches, refined, then compared on their full misfit
     order = np.argsort(score, axis=1)[:, :2]
@@ -166,7 +184,7 @@ def _solve_chunk(
     rows = np.arange(len(radius))[:, None]
     best_s, best_theta = s[rows, order], theta[rows, order]
     refined, sigma, chi2 = _refine(rays, best_s, best_theta, radius, radius_sigma, tangential_sigma)
-    chi2 = chi2 + (_wrap(best_theta - coarse[:, None]) / COARSE_SIGMA_RAD) ** 2
+    chi2 = chi2 + (_wrap(best_theta - coarse[:, None]) / coarse_sigma[:, None]) ** 2
     chi2[~np.isfinite(refined)] = np.inf
     if width == 1:
         chi2[:, 1] = np.inf
@@ -224,18 +242,24 @@ def place_by_fine_angle(
     """Place the samples `idx` by radius and fine angle together (rig.pipeline.ring_angles); the cone
     `roots` (M, 2) only name the rejected root. Returns the counts of what it rejected and fixed."""
     assert samples.fine_phase is not None and samples.fine_periods is not None
-    solution = solve_ring_angles(
-        projector,
-        origins[idx],
-        directions[idx],
-        samples.radius_px[idx],
-        samples.theta[idx],
-        samples.fine_phase[idx],
-        samples.fine_periods[idx],
-        samples.center_px,
-        samples.radius_sigma_px,
-        samples.tangential_sigma_px,
-    )
+
+    def solve(which: np.ndarray, coarse: np.ndarray, sigma: float | np.ndarray = COARSE_SIGMA_RAD) -> AngleSolution:
+        return solve_ring_angles(
+            projector,
+            origins[which],
+            directions[which],
+            samples.radius_px[which],
+            coarse,
+            samples.fine_phase[which],
+            samples.fine_periods[which],
+            samples.center_px,
+            samples.radius_sigma_px,
+            samples.tangential_sigma_px,
+            coarse_sigma=sigma,
+        )
+
+    solution = solve(idx, samples.theta[idx])
+    resolved = _resolve_from_neighbours(projector, origins, directions, samples, idx, solution, solve)
     solvable = np.isfinite(solution.s)
     misfit = solvable & (solution.chi2 > MAX_ANGLE_CHI2)
     ambiguous = solvable & ~misfit & (solution.margin < MIN_BRANCH_MARGIN)
@@ -254,5 +278,78 @@ def place_by_fine_angle(
     return {
         "rejected_angle_misfit": int(misfit.sum()),
         "rejected_angle_ambiguous": int(ambiguous.sum()),
+        "resolved_by_neighbours": resolved,
         "fixed_by_angle": int((solved & (placed.cos_beta[idx] < samples.min_cos_beta)).sum()),
     }
+
+
+def _resolve_from_neighbours(
+    projector: CameraModel,
+    origins: np.ndarray,
+    directions: np.ndarray,
+    samples: RingSamples,
+    idx: np.ndarray,
+    solution: AngleSolution,
+    solve: Callable[[np.ndarray, np.ndarray, np.ndarray], AngleSolution],
+) -> int:
+    """Samples whose fine-code period the coarse angle leaves ambiguous, read again with the angle
+    their ring's placed neighbours predict (far finer than the coarse code: a plane fitted to the
+    neighbours' angles over the image). Where the ring runs along the epipolar line the radius cannot
+    pick the period and the coarse code's noise is half a period, so without this whole stretches
+    of ring go missing. `solution` (of the samples `idx`) is updated in place; returns how many
+    were resolved."""
+    solvable = np.isfinite(solution.s) & (solution.chi2 <= MAX_ANGLE_CHI2)
+    clear = solution.margin >= MIN_BRANCH_MARGIN
+    placed, ambiguous = solvable & clear, solvable & ~clear
+    if not ambiguous.any() or not placed.any():
+        return 0
+    points = origins[idx[placed]] + solution.s[placed, None] * directions[idx[placed]]
+    uv, _ = projector.project(points)
+    angle = np.arctan2(uv[:, 1] - samples.center_px[1], uv[:, 0] - samples.center_px[0])
+    xy, ring = samples.camera_xy[idx], samples.ring[idx]
+    wanted = np.flatnonzero(ambiguous)
+    predicted, scatter = neighbour_angles(xy[placed], ring[placed], angle, xy[wanted], ring[wanted])
+    period = 2 * np.pi / samples.fine_periods[idx[wanted]]
+    trusted = np.isfinite(predicted) & (scatter <= NEIGHBOUR_SCATTER_PERIODS * period)
+    trusted &= np.abs(_wrap(predicted - samples.theta[idx[wanted]])) <= 3 * COARSE_SIGMA_RAD
+    wanted, predicted, period = wanted[trusted], predicted[trusted], period[trusted]
+    if len(wanted) == 0:
+        return 0
+    again = solve(idx[wanted], predicted, NEIGHBOUR_SIGMA_PERIODS * period)
+    fixed = np.isfinite(again.s) & (again.chi2 <= MAX_ANGLE_CHI2) & (again.margin >= MIN_BRANCH_MARGIN)
+    for mine, theirs in zip(
+        (solution.s, solution.sigma_s, solution.chi2, solution.margin),
+        (again.s, again.sigma_s, again.chi2, again.margin),
+        strict=True,
+    ):
+        mine[wanted[fixed]] = theirs[fixed]
+    return int(fixed.sum())
+
+
+def neighbour_angles(
+    xy: np.ndarray, ring: np.ndarray, angle: np.ndarray, at_xy: np.ndarray, at_ring: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """The projector angle at image points `at_xy` of rings `at_ring`, from the angles `angle` of
+    samples (`xy`, `ring`) of the same ring within NEIGHBOUR_REACH_PX: a plane over the image fitted
+    to the nearest NEIGHBOUR_COUNT (at least 3; the slope across a straight run of ring, which its
+    samples cannot fix, held near zero). Returns the prediction and the fit's rms (NaN where too few
+    neighbours)."""
+    tree = cKDTree(np.column_stack([xy, ring * _RING_APART_PX]))
+    dist, near = tree.query(
+        np.column_stack([at_xy, at_ring * _RING_APART_PX]), k=NEIGHBOUR_COUNT, distance_upper_bound=NEIGHBOUR_REACH_PX
+    )
+    found = np.isfinite(dist)
+    near = np.where(found, near, 0)
+    offset = np.where(found[..., None], xy[near] - at_xy[:, None, :], 0.0)  # (n, k, 2)
+    # angles relative to the first neighbour's, so the fit never meets the wrap at +-pi
+    base = angle[near[:, 0]]
+    value = np.where(found, _wrap(angle[near] - base[:, None]), 0.0)
+    design = np.concatenate([found[..., None].astype(np.float64), offset], axis=2)
+    normal = np.einsum("nki,nkj->nij", design, design) + np.diag([0.0, _SLOPE_RIDGE, _SLOPE_RIDGE])
+    rhs = np.einsum("nki,nk->ni", design, value)
+    enough = found.sum(axis=1) >= 3
+    coef = np.full((len(at_xy), 3), np.nan)
+    coef[enough] = np.linalg.solve(normal[enough], rhs[enough][..., None])[..., 0]
+    fitted = np.einsum("nki,ni->nk", design, np.nan_to_num(coef))
+    scatter = np.sqrt(np.sum(np.where(found, (fitted - value) ** 2, 0.0), axis=1) / np.maximum(found.sum(axis=1), 1))
+    return np.where(enough, _wrap(base + coef[:, 0]), np.nan), np.where(enough, scatter, np.nan)

@@ -21,7 +21,8 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
-from rig.evaluate.regions import STEP_MM, between_rings, footprints, region_errors
+from rig.evaluate.promise import between_rings
+from rig.evaluate.regions import STEP_MM, footprints, region_errors
 from rig.geometry import CameraModel
 from rig.pipeline.surface import Interpolant, RingBands, SurfaceSettings, interpolate_surface
 from rig.progress import ProgressTracker
@@ -200,7 +201,7 @@ def rehearse(
         dist.append(d)
         area.append(pilot.area_mm2[both])
         label.append(pilot.region[both] * len(pilots) + view)  # each view's regions its own
-        within = between_rings(pilot.rho, pilot.region, pilot.area_mm2, pilot.valid, radii) & judged
+        within = between_rings(pilot.rho, pilot.theta, pilot.region, pilot.area_mm2, pilot.valid, radii) & judged
         covered += float(pilot.area_mm2[both & within].sum())
         target += float(pilot.area_mm2[within].sum())
     d, a = np.concatenate(dist), np.concatenate(area)
