@@ -211,8 +211,10 @@ def test_a_plan_file_round_trips_and_a_bad_one_is_named(plans: dict[float, RingP
 def test_no_face_of_a_planned_surface_spans_a_depth_step() -> None:
     """A staircase, planned at 0.2 mm: every triangle of the surface between the rings has its
     three corners on one tread (the truth's regions, split where neighbouring true points jump
-    more than 2 mm); a triangle joining two treads would put its pixels millimetres off both."""
+    more than 2 mm); a triangle joining two treads would put its pixels millimetres off both. Nor
+    does the fill between the rings join two treads: hardly a filled pixel is a millimetre off."""
     from rig.config import config_from_dict
+    from rig.evaluate.distances import surface_distances
     from rig.evaluate.wholeness import true_areas
 
     data = load_config().model_dump(mode="json")
@@ -230,3 +232,7 @@ def test_no_face_of_a_planned_surface_spans_a_depth_step() -> None:
     corner = region[np.clip(xy[:, 1], 0, height - 1), np.clip(xy[:, 0], 0, width - 1)][pair.surface.faces]
     assert len(corner) > 10_000 and pair.surface.counts["dropped_depth_edge"] > 0
     assert ((corner == corner[:, :1]).all(axis=1)).all()
+    filled = pair.surface.valid & (pair.surface.triangle < 0)
+    assert filled.sum() > 1000
+    # measured: 0.4 % over 1 mm (10 % before the fill checked its fit's misfit)
+    assert (surface_distances(pair.surface.grid, filled, truth) > 1.0).mean() < 0.01

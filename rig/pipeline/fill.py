@@ -32,6 +32,7 @@ class FillSettings:
     min_samples: int = 4  # samples on the pixel's surface a fit needs
     steep_stretch: float = 3.0  # samples this many footprints apart per pixel of image lie on two surfaces
     bend_ridge: float = 0.05  # ridge on the bends, relative to the fit's own scale
+    max_misfit_px: float = 2.0  # samples straying from their fit by more (rms, in footprints) span two surfaces
 
 
 def fill_candidates(covered: np.ndarray, annulus: np.ndarray, lit: np.ndarray | None) -> np.ndarray:
@@ -77,7 +78,9 @@ def fill_points(
         if not enough.any():
             continue
         rays = (np.asarray(origins[at[rows[enough]]]), np.asarray(directions[at[rows[enough]]]))
-        found[rows[enough] + start] = _fit_and_meet(points, normals, index[enough], use[enough], rays, settings)
+        met, misfit_mm = _fit_and_meet(points, normals, index[enough], use[enough], rays, settings)
+        smooth = misfit_mm <= settings.max_misfit_px * camera.mm_per_px(np.nan_to_num(met))
+        found[rows[enough][smooth] + start] = met[smooth]
     return found
 
 
@@ -128,9 +131,11 @@ def _fit_and_meet(
     use: np.ndarray,
     rays: tuple[np.ndarray, np.ndarray],
     settings: FillSettings,
-) -> np.ndarray:
+) -> tuple[np.ndarray, np.ndarray]:
     """Per pixel, the weighted quadratic height field of its used samples (positions and slopes, in a
-    frame along their mean normal) met by its ray (origins, unit directions); NaN where it misses."""
+    frame along their mean normal) met by its ray (origins, unit directions), NaN where it misses;
+    and the rms of the samples' heights off the fit (mm). Samples of two levels joined by a step fit
+    a ramp between them, which their own slopes contradict: the heights stray by millimetres."""
     near, facing = points[index], normals[index]  # (N, k, 3)
     weight = use.astype(np.float64)
     origin = (near * weight[..., None]).sum(axis=1) / weight.sum(axis=1)[:, None]
@@ -160,9 +165,11 @@ def _fit_and_meet(
     normal[:, 3:, 3:] += settings.bend_ridge * weight.sum(axis=1)[:, None, None] * np.eye(3)
     right = np.matmul(weighted.transpose(0, 2, 1), target[..., None])[..., 0]
     coef = np.linalg.solve(normal, right[..., None])[..., 0]
+    heights = np.einsum("nkj,nj->nk", value, coef) - z
+    misfit = np.sqrt((weight * heights**2).sum(axis=1) / weight.sum(axis=1))
     unscale = np.column_stack([1.0 / scale, 1.0 / scale, np.ones_like(scale)])  # the fit's own units
     frame = frame * unscale[:, :, None]
-    return _meet(coef, frame, origin, rays)
+    return _meet(coef, frame, origin, rays), misfit
 
 
 def _meet(coef: np.ndarray, frame: np.ndarray, origin: np.ndarray, rays: tuple[np.ndarray, np.ndarray]) -> np.ndarray:
