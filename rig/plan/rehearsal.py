@@ -22,7 +22,7 @@ import cv2
 import numpy as np
 
 from rig.evaluate.promise import between_rings
-from rig.evaluate.regions import STEP_MM, footprints, region_errors
+from rig.evaluate.regions import MIN_REGION_SHARE, STEP_MM, footprints, region_errors
 from rig.geometry import CameraModel
 from rig.pipeline.surface import Interpolant, RingBands, SurfaceSettings, interpolate_surface
 from rig.progress import ProgressTracker
@@ -59,8 +59,8 @@ class Rehearsal:
     """How a ring set would do on the pilot, by area: the distance (mm) of the interpolated surface
     to the pilot's points as rms and as the quantile `quantile` of the area over the whole view and
     over its worst region (each region split off by a depth step that holds at least
-    MIN_REGION_SHARE of the area), and the share of the pilot's area between each region's rings
-    (rig.evaluate.regions.between_rings) that the surface covers."""
+    MIN_REGION_SHARE of the area), and, of the area the rings promise a surface at
+    (rig.evaluate.promise.between_rings), the share the surface covers on its least covered region."""
 
     rings: int
     rms_mm: float
@@ -195,15 +195,16 @@ def rehearse(
     (see Rehearsal), less the pilot's own noise (`noise_mm`, which the comparison counts once more
     than the ring scan will; what stays stands for the ring scan's own noise)."""
     radii = np.asarray(radii, dtype=np.float64)
-    dist, area, label, covered, target = [], [], [], 0.0, 0.0
+    dist, area, label, covered, target = [], [], [], [], []
     for view, pilot in enumerate(pilots):
         both, d, judged = _distances(pilot, radii, center_px, method)
         dist.append(d)
         area.append(pilot.area_mm2[both])
         label.append(pilot.region[both] * len(pilots) + view)  # each view's regions its own
         within = between_rings(pilot.rho, pilot.theta, pilot.region, pilot.area_mm2, pilot.valid, radii) & judged
-        covered += float(pilot.area_mm2[both & within].sum())
-        target += float(pilot.area_mm2[within].sum())
+        regions = pilot.region[within] * len(pilots) + view
+        covered.append(np.bincount(regions, pilot.area_mm2[within] * both[within]))
+        target.append(np.bincount(regions, pilot.area_mm2[within]))
     d, a = np.concatenate(dist), np.concatenate(area)
     if len(d) == 0 or a.sum() <= 0:
         return Rehearsal(len(radii), float("inf"), float("inf"), float("inf"), 0.0, quantile)
@@ -215,8 +216,20 @@ def rehearse(
     worst = max((r.quantile_mm for r in regions), default=whole.quantile_mm)
     return Rehearsal(
         len(radii), less_noise(whole.rms_mm), less_noise(whole.quantile_mm), less_noise(worst),
-        covered / max(target, 1e-12), quantile,
+        _worst_coverage(covered, target), quantile,
     )  # fmt: skip
+
+
+def _worst_coverage(covered: list[np.ndarray], target: list[np.ndarray]) -> float:
+    """The least share covered of any region's promised area (regions numbered alike in every
+    view's counts), of the regions holding MIN_REGION_SHARE of all that is promised or more."""
+    size = max((len(t) for t in target), default=0)
+    promised, got = np.zeros(size), np.zeros(size)
+    for c, t in zip(covered, target, strict=True):
+        promised[: len(t)] += t
+        got[: len(c)] += c
+    judged = promised >= MIN_REGION_SHARE * max(promised.sum(), 1e-12)
+    return float((got[judged] / promised[judged]).min()) if judged.any() else 0.0
 
 
 def _distances(
