@@ -117,7 +117,7 @@ def judged(rig: Rig, result: ScanResult) -> dict[str, Any]:
     m = evaluate_pair(result.pairs[0], rig.truth.ground_truth(0, 0), rig.truth)
     keys = ("surface_object_p95_mm", "surface_worst_region_p95_mm", "surface_object_coverage", "surface_coverage")
     keys += ("surface_inner_disc_coverage", "surface_object_promised", "surface_object_lit_coverage")
-    return {k: _round(m.get(k)) for k in keys}
+    return {**{k: _round(m.get(k)) for k in keys}, "surface_object_missed": m.get("surface_object_missed")}
 
 
 def _round(value: Any) -> Any:
@@ -205,18 +205,19 @@ def plot(results: list[dict[str, Any]], path: Path) -> None:
 
 def docs_table(results: list[dict[str, Any]]) -> str:
     header = ["shape", "tolerance mm", "rings", "object p95 mm", "worst region p95 mm", "object covered"]
-    header += ["inner disc", "promised", "lit object covered", "frames", "points", "stored MB", "decode ms"]
+    header += ["missed: disc, crowded, elsewhere", "inner disc", "promised", "lit object covered", "frames"]
+    header += ["points", "stored MB", "decode ms"]
     header += ["surface ms", "kept"]
     rows = []
     for shape in results:
         for p in shape["planned"]:
             if "refused" in p:
-                rows.append([shape["shape"], p["tolerance_mm"], "refused", *([""] * 11), "refused"])
+                rows.append([shape["shape"], p["tolerance_mm"], "refused", *([""] * 12), "refused"])
                 continue
             rows.append(
                 [
                     *(shape["shape"], p["tolerance_mm"], p["rings"], p["surface_object_p95_mm"]),
-                    *(p["surface_worst_region_p95_mm"], _percent(p["surface_object_coverage"])),
+                    *(p["surface_worst_region_p95_mm"], _percent(p["surface_object_coverage"]), _missed(p)),
                     *(_percent(p["surface_inner_disc_coverage"]), _percent(p.get("surface_object_promised"))),
                     *(_percent(p.get("surface_object_lit_coverage")), p["frames"], p["points"]),
                     *(_mb(p["stored_bytes"]), p["decode_ms"], p["surface_ms"]),
@@ -263,6 +264,13 @@ def _economy_row(shape: str, scan: str, cost: dict[str, Any], p95: Any, covered:
         *(shape, scan, cost["frames"], _mb(cost["bytes"]), cost["points"], round(cost["decode_ms"], 1), surface),
         *(_mb(cost["stored_bytes"]), "" if p95 is None else p95, _percent(covered)),
     ]
+
+
+def _missed(figures: dict[str, Any]) -> str:
+    """Where the promised area of the object went uncovered, in % of it (rig.evaluate.wholeness)."""
+    missed = figures.get("surface_object_missed") or {}
+    parts = [missed.get(k) for k in ("inner_disc", "crowded", "elsewhere")]
+    return "" if None in parts else ", ".join(f"{100 * v:.1f}" for v in parts) + " %"
 
 
 def _mb(value: int) -> str:

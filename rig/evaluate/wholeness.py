@@ -20,6 +20,7 @@ from rig.evaluate.regions import STEP_MM, footprints, weighted_quantile
 from rig.rig import PixelTruth
 
 OBJECT_ABOVE_MM = 1.0  # the bench plane is z = 0 in the world: the object is what stands above it
+CROWDED_PX = 12.0  # rings closer in the image leave most between them open (8-12 px apart, a face: 2/3)
 
 
 def true_areas(truth: PixelTruth) -> tuple[np.ndarray, np.ndarray]:
@@ -38,9 +39,11 @@ def wholeness(
     center: tuple[float, float],
     areas: tuple[np.ndarray, np.ndarray] | None = None,
 ) -> dict[str, Any]:
-    """Coverage (by area) of each lit true region between its innermost and outermost ring
-    (rig.evaluate.regions.between_rings), over the whole view and on the object; the inner disc's.
-    `areas`: true_areas(truth), when already known."""
+    """Coverage (by area) of what the rings promise (rig.evaluate.promise.between_rings), over the
+    whole view and on the object; the inner disc's; the share of the lit object promised and
+    covered; and where the object's promised area went uncovered (surface_object_missed: inside the
+    innermost ring, where neighbouring rings lie closer than CROWDED_PX camera pixels, elsewhere;
+    shares of the promised area). `areas`: true_areas(truth), when already known."""
     area, region = true_areas(truth) if areas is None else areas
     u, v = truth.projector_uv[..., 0], truth.projector_uv[..., 1]
     rho = np.hypot(u - center[0], v - center[1])
@@ -60,6 +63,28 @@ def wholeness(
         # beside the promise: how much of the lit object it spans, and how much the surface covers
         "surface_object_promised": share(lit & on_object, target),
         "surface_object_lit_coverage": share(lit & on_object),
+        "surface_object_missed": _missed(
+            target & on_object & ~valid, area, rho, radii, float(area[target & on_object].sum())
+        ),
+    }
+
+
+def _missed(
+    missed: np.ndarray, area: np.ndarray, rho: np.ndarray, radii: np.ndarray, promised: float
+) -> dict[str, float]:
+    """Where the promised area went uncovered, as shares of it: the disc inside the innermost ring,
+    where the rings crowd closer than CROWDED_PX camera pixels (a flank turning away: the codec cannot
+    read them), and elsewhere."""
+    if promised <= 0:
+        return {}
+    disc = missed & (rho < radii[0])
+    rows, cols = np.gradient(np.nan_to_num(rho))
+    band = np.clip(np.searchsorted(radii, np.nan_to_num(rho, nan=-1.0), side="right"), 1, max(1, len(radii) - 1))
+    spacing = radii[np.minimum(band, len(radii) - 1)] - radii[band - 1]
+    crowded = missed & ~disc & (spacing < CROWDED_PX * np.hypot(rows, cols))
+    return {
+        name: round(float(area[mask].sum()) / promised, 4)
+        for name, mask in (("inner_disc", disc), ("crowded", crowded), ("elsewhere", missed & ~disc & ~crowded))
     }
 
 
