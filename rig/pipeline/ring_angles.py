@@ -8,8 +8,10 @@ angle modulo one of its periods, so each sample has branches theta_j = (phi + 2 
 meets the projector's half-plane of each branch angle at one point (ray to ray). The branches near
 the coarse angle are scored against the ring's radius and the coarse angle; the best is refined by
 Gauss-Newton on the radius and fine-angle residuals, which weights each coordinate by its
-conditioning. A sample whose best branch misfits (a mixed pixel on a depth edge) or whose second
-best fits nearly as well (an ambiguous period) is rejected by the caller, from `chi2` and `margin`.
+conditioning. A sample whose best branch misfits (a mixed pixel on a depth edge) is rejected, from
+`chi2`. One whose second best fits nearly as well (an ambiguous period, from `margin`: where the
+ring runs along the epipolar line only the coarse angle picks the period) is read again with the
+angle its ring's placed neighbours predict, and rejected only if it stays ambiguous.
 """
 
 from __future__ import annotations
