@@ -206,8 +206,7 @@ def plot(results: list[dict[str, Any]], path: Path) -> None:
 def docs_table(results: list[dict[str, Any]]) -> str:
     header = ["shape", "tolerance mm", "rings", "object p95 mm", "worst region p95 mm", "object covered"]
     header += ["missed: disc, crowded, elsewhere", "inner disc", "promised", "lit object covered", "frames"]
-    header += ["points", "stored MB", "decode ms"]
-    header += ["surface ms", "kept"]
+    header += ["points", "stored MB", "decode ms", "surface ms", "kept"]
     rows = []
     for shape in results:
         for p in shape["planned"]:

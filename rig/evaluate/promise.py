@@ -14,10 +14,8 @@ from __future__ import annotations
 
 import numpy as np
 from scipy.ndimage import maximum_filter, minimum_filter
-from scipy.sparse import coo_matrix
-from scipy.sparse.csgraph import connected_components
 
-from rig.evaluate.regions import MIN_REGION_SHARE
+from rig.evaluate.regions import MIN_REGION_SHARE, joined_labels
 
 SECTOR_ARC_PX = 8.0  # projector pixels of arc, at its outer ring, of each sector of an annulus
 CLEAR_PX = 2  # a ring is seen where it crosses surface this many camera pixels clear of its edge
@@ -66,13 +64,9 @@ def _cell(labels: np.ndarray, band: np.ndarray, theta: np.ndarray, radii: np.nda
 
 def _pieces(key: np.ndarray) -> np.ndarray:
     """(H, W) a label per connected piece (4-neighbours) of pixels sharing one `key` (>= 0)."""
-    index = np.arange(key.size).reshape(key.shape)
     right = (key[:, :-1] >= 0) & (key[:, :-1] == key[:, 1:])
     down = (key[:-1] >= 0) & (key[:-1] == key[1:])
-    rows = np.concatenate([index[:, :-1][right], index[:-1][down]])
-    cols = np.concatenate([index[:, 1:][right], index[1:][down]])
-    graph = coo_matrix((np.ones(len(rows), np.int8), (rows, cols)), shape=(key.size, key.size))
-    return connected_components(graph, directed=False)[1].reshape(key.shape)
+    return joined_labels(right, down, np.arange(key.size).reshape(key.shape), key.size).reshape(key.shape)
 
 
 def _bounded(band: np.ndarray, labels: np.ndarray, pieces: np.ndarray, rings: int) -> tuple[np.ndarray, np.ndarray]:

@@ -46,10 +46,16 @@ def footprints(grid: np.ndarray, valid: np.ndarray, max_jump_mm: float | np.ndar
     index = np.full(valid.shape, -1)
     count = int(valid.sum())
     index[valid] = np.arange(count)
-    rows = np.concatenate([index[:, :-1][joined_u], index[:-1, :][joined_v]])
-    cols = np.concatenate([index[:, 1:][joined_u], index[1:, :][joined_v]])
+    return area, joined_labels(joined_u, joined_v, index, count)
+
+
+def joined_labels(right: np.ndarray, down: np.ndarray, index: np.ndarray, count: int) -> np.ndarray:
+    """A label per node of the pixels' graph: pixel (r, c) is node index[r, c] (of `count`), joined to
+    its right neighbour where `right` (H, W-1) and to the one below where `down` (H-1, W)."""
+    rows = np.concatenate([index[:, :-1][right], index[:-1, :][down]])
+    cols = np.concatenate([index[:, 1:][right], index[1:, :][down]])
     graph = coo_matrix((np.ones(len(rows), np.int8), (rows, cols)), shape=(count, count))
-    return area, connected_components(graph, directed=False)[1]
+    return connected_components(graph, directed=False)[1]
 
 
 def _joins(

@@ -195,16 +195,14 @@ def rehearse(
     (see Rehearsal), less the pilot's own noise (`noise_mm`, which the comparison counts once more
     than the ring scan will; what stays stands for the ring scan's own noise)."""
     radii = np.asarray(radii, dtype=np.float64)
-    dist, area, label, covered, target = [], [], [], [], []
+    dist, area, label, promised = [], [], [], []
     for view, pilot in enumerate(pilots):
         both, d, judged = _distances(pilot, radii, center_px, method)
         dist.append(d)
         area.append(pilot.area_mm2[both])
         label.append(pilot.region[both] * len(pilots) + view)  # each view's regions its own
         within = between_rings(pilot.rho, pilot.theta, pilot.region, pilot.area_mm2, pilot.valid, radii) & judged
-        regions = pilot.region[within] * len(pilots) + view
-        covered.append(np.bincount(regions, pilot.area_mm2[within] * both[within]))
-        target.append(np.bincount(regions, pilot.area_mm2[within]))
+        promised.append((pilot.region[within] * len(pilots) + view, pilot.area_mm2[within], both[within]))
     d, a = np.concatenate(dist), np.concatenate(area)
     if len(d) == 0 or a.sum() <= 0:
         return Rehearsal(len(radii), float("inf"), float("inf"), float("inf"), 0.0, quantile)
@@ -216,20 +214,21 @@ def rehearse(
     worst = max((r.quantile_mm for r in regions), default=whole.quantile_mm)
     return Rehearsal(
         len(radii), less_noise(whole.rms_mm), less_noise(whole.quantile_mm), less_noise(worst),
-        _worst_coverage(covered, target), quantile,
+        _worst_coverage(promised), quantile,
     )  # fmt: skip
 
 
-def _worst_coverage(covered: list[np.ndarray], target: list[np.ndarray]) -> float:
-    """The least share covered of any region's promised area (regions numbered alike in every
-    view's counts), of the regions holding MIN_REGION_SHARE of all that is promised or more."""
-    size = max((len(t) for t in target), default=0)
-    promised, got = np.zeros(size), np.zeros(size)
-    for c, t in zip(covered, target, strict=True):
-        promised[: len(t)] += t
-        got[: len(c)] += c
-    judged = promised >= MIN_REGION_SHARE * max(promised.sum(), 1e-12)
-    return float((got[judged] / promised[judged]).min()) if judged.any() else 0.0
+def _worst_coverage(promised: list[tuple[np.ndarray, np.ndarray, np.ndarray]]) -> float:
+    """The least share covered of any region's promised area, of the regions holding
+    MIN_REGION_SHARE of all that is promised or more; per view, each promised pixel's region (numbered
+    apart from the other views'), area and whether the surface covers it."""
+    if not promised:
+        return 0.0
+    region, area, covered = (np.concatenate(column) for column in zip(*promised, strict=True))
+    total = np.bincount(region, area)
+    got = np.bincount(region, area * covered, minlength=len(total))
+    judged = total >= MIN_REGION_SHARE * max(total.sum(), 1e-12)
+    return float((got[judged] / total[judged]).min()) if judged.any() else 0.0
 
 
 def _distances(
