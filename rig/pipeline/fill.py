@@ -27,7 +27,7 @@ _CHUNK = 16_384  # candidate pixels fitted at a time (a few MB per (N, k, 3) arr
 
 @dataclass(frozen=True)
 class FillSettings:
-    neighbours: int = 16  # ring samples near a pixel considered for its fit
+    neighbours: int = 16  # ring samples near a pixel considered for its fit, half from each of its rings
     reach_px: float = 48.0  # no pixel farther than this from a sample of its rings is filled
     min_samples: int = 4  # samples on the pixel's surface a fit needs
     steep_stretch: float = 3.0  # samples this many footprints apart per pixel of image lie on two surfaces
@@ -59,29 +59,64 @@ def fill_points(
     found = np.full((len(pixel), 3), np.nan)
     if len(points) < settings.min_samples or len(pixel) == 0:
         return found
-    tree = cKDTree(xy)
-    k = min(settings.neighbours, len(points))
+    near = _RingNeighbours(xy, ring)
     origins, directions = camera.pixel_rays
-    for start in range(0, len(pixel), _CHUNK):
-        part = slice(start, start + _CHUNK)
-        at = pixel[part]
-        query = np.column_stack([at % camera.width, at // camera.width]).astype(np.float64)
-        dist, index = tree.query(query, k=k, distance_upper_bound=settings.reach_px, workers=-1)
-        dist, index = dist.reshape(len(at), k), index.reshape(len(at), k)
-        index = np.where(np.isfinite(dist), index, 0)  # beyond reach: marked by dist, never used
-        # most candidates lie beyond a surface's last ring: drop them before the costlier tests
-        rows = np.flatnonzero(_enclosed(annulus[part], ring, index, np.isfinite(dist)))
-        dist, index, ann = dist[rows], index[rows], annulus[part][rows]
-        use = _one_surface(points, xy, ring, camera, index, dist, ann, settings)
-        use &= _enclosed(ann, ring, index, use)[:, None]
-        enough = use.sum(axis=1) >= settings.min_samples
-        if not enough.any():
+    for a in np.unique(annulus):
+        bounding = (0,) if a == 0 else (int(a) - 1, int(a))
+        if not all(r in near.trees for r in bounding):  # beyond a surface's last ring: nothing encloses it
             continue
-        rays = (np.asarray(origins[at[rows[enough]]]), np.asarray(directions[at[rows[enough]]]))
-        met, misfit_mm = _fit_and_meet(points, normals, index[enough], use[enough], rays, settings)
-        smooth = misfit_mm <= settings.max_misfit_px * camera.mm_per_px(np.nan_to_num(met))
-        found[rows[enough][smooth] + start] = met[smooth]
+        of_annulus = np.flatnonzero(annulus == a)
+        for start in range(0, len(of_annulus), _CHUNK):
+            part = of_annulus[start : start + _CHUNK]
+            at = pixel[part]
+            query = np.column_stack([at % camera.width, at // camera.width]).astype(np.float64)
+            dist, index = near.query(query, bounding, settings.neighbours, settings.reach_px)
+            # most candidates lie beyond a surface's last ring: drop them before the costlier tests
+            rows = np.flatnonzero(_enclosed(annulus[part], ring, index, np.isfinite(dist)))
+            dist, index, ann = dist[rows], index[rows], annulus[part][rows]
+            use = _one_surface(points, xy, ring, camera, index, dist, ann, settings)
+            use &= _enclosed(ann, ring, index, use)[:, None]
+            enough = use.sum(axis=1) >= settings.min_samples
+            if not enough.any():
+                continue
+            rays = (np.asarray(origins[at[rows[enough]]]), np.asarray(directions[at[rows[enough]]]))
+            met, misfit_mm = _fit_and_meet(points, normals, index[enough], use[enough], rays, settings)
+            smooth = misfit_mm <= settings.max_misfit_px * camera.mm_per_px(np.nan_to_num(met))
+            found[part[rows[enough][smooth]]] = met[smooth]
     return found
+
+
+class _RingNeighbours:
+    """The samples of each ring, searchable by image position: a pixel's neighbourhood takes an equal
+    share from each of its two rings, however much closer one of them runs (at a limb, or where one
+    ring ends, the nearest samples of all would be of one ring only)."""
+
+    def __init__(self, xy: np.ndarray, ring: np.ndarray) -> None:
+        order = np.argsort(ring, kind="stable")
+        rings, starts = np.unique(ring[order], return_index=True)
+        self.members = dict(zip(rings.tolist(), np.split(order, starts[1:]), strict=True))
+        self.trees = {r: cKDTree(xy[m]) for r, m in self.members.items()}
+        self.tree, self.ring = cKDTree(xy), ring
+
+    def query(
+        self, at: np.ndarray, rings: tuple[int, ...], k: int, reach: float
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """(N, 2k) distances (inf beyond `reach`, or for a sample listed already) and sample indices
+        (0 there) of each position's `k` nearest samples of any ring, then of `rings`' (k / len(rings)
+        each): the first tell whether another surface is in reach, the others join the fit."""
+        k = min(k, len(self.ring))
+        dist, index = self.tree.query(at, k=k, distance_upper_bound=reach, workers=-1)
+        dists, indices = [dist.reshape(len(at), k)], [index.reshape(len(at), k)]
+        for r in rings:
+            members = self.members[r]
+            n = min(k // len(rings), len(members))
+            dist, index = self.trees[r].query(at, k=n, distance_upper_bound=reach, workers=-1)
+            dist, index = dist.reshape(len(at), n), members[np.minimum(index, len(members) - 1)].reshape(len(at), n)
+            dist[(index[:, :, None] == indices[0][:, None, :]).any(axis=2)] = np.inf  # among the nearest already
+            dists.append(dist)
+            indices.append(index)
+        dist, index = np.concatenate(dists, axis=1), np.concatenate(indices, axis=1)
+        return dist, np.where(np.isfinite(dist), index, 0)
 
 
 def _one_surface(
@@ -101,7 +136,7 @@ def _one_surface(
     near = points[safe]  # (N, k, 3)
     rings = ring[safe]
     bounding = reached & ((rings == annulus[:, None]) | (rings == annulus[:, None] - 1))
-    first = np.argmax(bounding, axis=1)
+    first = np.argmin(np.where(bounding, dist, np.inf), axis=1)  # the nearest of them
     rows = np.arange(len(index))
     reference = near[rows, first]
     ref_xy = xy[safe[rows, first]]

@@ -39,7 +39,7 @@ def face_weights(edge_mm: np.ndarray) -> np.ndarray:
 def accumulate_normals(tri: np.ndarray, face: np.ndarray, directions: np.ndarray) -> np.ndarray:
     """Unit normals of the points of triangles `tri` (F, 3): the sum of the (weighted) `face`
     vectors of the triangles each is in; a point in none faces its camera ray `directions` back."""
-    normals = _sum_at(tri.T.ravel(), np.tile(face, (3, 1)), len(directions))
+    normals = sum_at(tri.T.ravel(), np.tile(face, (3, 1)), len(directions))
     norm = np.linalg.norm(normals, axis=1)
     missing = norm < 1e-12
     normals[~missing] /= norm[~missing, None]
@@ -69,13 +69,13 @@ def smoothed_normals(normals: np.ndarray, pairs: np.ndarray, known: np.ndarray) 
     pairs = pairs[known[pairs[:, 0]] & known[pairs[:, 1]]]
     if len(pairs) == 0:
         return normals
-    total = normals + _sum_at(
+    total = normals + sum_at(
         np.concatenate([pairs[:, 0], pairs[:, 1]]), normals[pairs[:, ::-1].T.ravel()], len(normals)
     )
     return total / np.maximum(np.linalg.norm(total, axis=1), 1e-12)[:, None]
 
 
-def _sum_at(index: np.ndarray, vectors: np.ndarray, count: int) -> np.ndarray:
+def sum_at(index: np.ndarray, vectors: np.ndarray, count: int) -> np.ndarray:
     """(count, 3): the sum of the rows of `vectors` at each `index` (np.add.at, by bincount: faster)."""
     sums = np.column_stack([np.bincount(index, vectors[:, k], minlength=count) for k in range(3)])
     return sums.astype(np.float64, copy=False)  # bincount of nothing is int64

@@ -26,6 +26,7 @@ from scipy.interpolate import CloughTocher2DInterpolator
 
 from rig.geometry import CameraModel
 from rig.pipeline.fill import FillSettings, fill_candidates, fill_points
+from rig.pipeline.flanks import grown_flanks, steep_to_both
 from rig.pipeline.normals import (
     crease_normals,
     face_normals,
@@ -53,7 +54,8 @@ class SurfaceSettings:
     max_slant_deg: float = 84.0  # triangles seen more edge-on than this span a depth edge
     max_bend_deg: float = 50.0  # ... as do triangles this far from one of their corners' normals
     max_bend_excess_deg: float = 20.0  # ... and those bent this much more from their corners than they differ
-    min_foreshortening: float = 0.15  # ... and edges steep to both devices (see _bridges)
+    min_foreshortening: float = 0.15  # ... and edges steep to both devices (rig.pipeline.flanks) ...
+    max_flank_turn_deg: float = 10.0  # ... unless they continue the surface beside them (rig.pipeline.flanks)
     max_unlit: float = 0.02  # triangles over more of their pixels dark than this span a shadow
     band_margin_px: float = 2.0  # a point may project this far outside the annulus its pixel read ...
     band_angle_rad: float = 0.15  # ... and this far from the polar angle it read (3x the code's p99.9)
@@ -150,8 +152,10 @@ def ring_triangles(
     face = face_normals(points, tri, directions)
     slant = np.abs(np.einsum("ij,ij->i", face, directions[tri[:, 0]]))
     edge_on = slant < np.cos(np.radians(settings.max_slant_deg))
-    edge_on |= _bridges(points, tri, edge_px, edge_mm, camera, projector, settings.min_foreshortening)
+    steep = ~edge_on & steep_to_both(points, tri, edge_px, edge_mm, camera, projector, settings.min_foreshortening)
+    edge_on |= steep
     weight = face_weights(edge_mm)
+    held = (tri[steep], face[steep], weight[steep])  # a flank or a bridge: told apart once the rest is known
     tri, face, weight = tri[~edge_on], face[~edge_on], weight[~edge_on]
     normals = vertex_normals(tri, face, weight, directions)
     bent = (np.einsum("ikj,ij->ik", normals[tri], face) < np.cos(np.radians(settings.max_bend_deg))).any(axis=1)
@@ -168,7 +172,12 @@ def ring_triangles(
             break
         tri, face, weight, dropped = tri[~again], face[~again], weight[~again], dropped + int(again.sum())
         normals = _normals(tri, face, weight, directions, pairs)
-    counts["dropped_depth_edge"] = dropped
+    flank = grown_flanks((tri, face, weight), held, directions, settings.max_flank_turn_deg)
+    if flank.any():
+        tri, face, weight = (np.concatenate([k, h[flank]]) for k, h in zip((tri, face, weight), held, strict=True))
+        normals = _normals(tri, face, weight, directions, pairs)
+    counts["kept_flank"] = int(flank.sum())
+    counts["dropped_depth_edge"] = dropped - counts["kept_flank"]
     counts["faces"] = len(tri)
     return RingTriangles(tri, face, weight, normals, counts, directions, pairs)
 
@@ -182,37 +191,6 @@ def _off_its_corners(corners: np.ndarray, face: np.ndarray, max_excess_deg: floa
     apart = np.einsum("fkj,fkj->fk", corners, corners[:, _NEXT])
     spread = np.degrees(np.arccos(np.clip(apart, -1.0, 1.0))).max(axis=1)
     return bend - spread > max_excess_deg
-
-
-def _bridges(
-    points: np.ndarray,
-    tri: np.ndarray,
-    edge_px: np.ndarray,
-    edge_mm: np.ndarray,
-    camera: CameraModel,
-    projector: CameraModel,
-    min_product: float,
-) -> np.ndarray:
-    """Triangles with an edge that both devices see foreshortened: f = (image length x mm per
-    pixel at its depth) / 3D length is the cosine of the edge's tilt out of a device's image plane.
-    A surface can be steep to one device, rarely to both; an edge joining a surface to another that
-    one device hides or shadows runs along a ray of one and steeply for the other. `edge_px`,
-    `edge_mm`: the triangles' edges (F, 3) in the camera image and in space."""
-    product = np.ones_like(edge_mm)
-    for device, pixels in ((camera, edge_px), (projector, None)):
-        if pixels is None:
-            image = device.project(points)[0][tri]  # each sample once, then its corners
-            pixels = np.linalg.norm(image[:, _NEXT] - image, axis=2)
-        product *= np.minimum(1.0, pixels * _mm_per_px(device, points, tri) / np.maximum(edge_mm, 1e-12))
-    return (product < min_product).any(axis=1)
-
-
-def _mm_per_px(device: CameraModel, points: np.ndarray, tri: np.ndarray) -> np.ndarray:
-    """Millimetres per pixel across a device's rays at the depth of each triangle edge's middle (F, 3)."""
-    if device.projection == "orthographic":
-        return np.full(tri.shape, 1.0 / device.K[0, 0])
-    depth = device.to_device(points)[:, 2][tri]
-    return 0.5 * (depth + depth[:, _NEXT]) / device.K[0, 0]
 
 
 def interpolate_surface(

@@ -1,0 +1,82 @@
+"""Triangles steep to both devices: a flank turning away, or a bridge across a depth step.
+
+A triangle between two rings whose edge both the camera and the projector see foreshortened
+(steep_to_both) is either a flank of the object turning away from both (a face's
+cheek toward its rim, where the rings crowd a few camera pixels apart) or a bridge from an object's
+last ring to the surface behind it. Alone, a triangle cannot tell which: both are steep. Its
+neighbours can. A flank continues the surface beside it, so its tilt is close to the normals its
+corners take from the triangles already kept; a bridge leans across a step, far from the normals
+of the surfaces on both its sides. So the steep triangles are held back, then admitted in rounds
+from the kept surface outward: each round, a held triangle with two corners on the surface joins it
+when its tilt lies within `max_turn_deg` of both corners' normals (of all three, once it has them).
+A flank is admitted ring by ring; a bridge never is. (One corner is not enough: a bridge from a
+sphere's limb to the bench continues the limb, and only its other corners, on the limb's ring too,
+say it left the sphere.)
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from rig.geometry import CameraModel
+from rig.pipeline.normals import sum_at
+
+Faces = tuple[np.ndarray, np.ndarray, np.ndarray]  # triangles (F, 3), unit normals (F, 3), weights (F,)
+
+MAX_ROUNDS = 64  # a flank is admitted a ring per two rounds: a face's cheek crowds about ten rings
+_NEXT = [1, 2, 0]  # a triangle's edge k runs from corner k to corner _NEXT[k]
+
+
+def grown_flanks(kept: Faces, held: Faces, directions: np.ndarray, max_turn_deg: float) -> np.ndarray:
+    """(F_held,) which held triangles continue the kept surface (see the module docstring); the
+    samples' camera rays `directions` (M, 3) orient the normals."""
+    admitted = np.zeros(len(held[0]), dtype=bool)
+    least_cosine = np.cos(np.radians(max_turn_deg))
+    count = len(directions)
+    # the samples' normals as sums of their triangles' weighted normals (vertex_normals), grown
+    # with each round's triangles
+    sums = sum_at(kept[0].T.ravel(), np.tile(kept[1] * kept[2][:, None], (3, 1)), count)
+    for _ in range(MAX_ROUNDS):
+        on_surface = np.linalg.norm(sums, axis=1) > 1e-12
+        touching = np.flatnonzero(~admitted & (on_surface[held[0]].sum(axis=1) >= 2))
+        corners = held[0][touching]
+        normals = sums[corners] / np.maximum(np.linalg.norm(sums[corners], axis=2, keepdims=True), 1e-300)
+        cosine = np.einsum("ikj,ij->ik", normals, held[1][touching])
+        joins = touching[np.where(on_surface[corners], cosine >= least_cosine, True).all(axis=1)]
+        if len(joins) == 0:
+            break
+        admitted[joins] = True
+        sums += sum_at(held[0][joins].T.ravel(), np.tile(held[1][joins] * held[2][joins, None], (3, 1)), count)
+    return admitted
+
+
+def steep_to_both(
+    points: np.ndarray,
+    tri: np.ndarray,
+    edge_px: np.ndarray,
+    edge_mm: np.ndarray,
+    camera: CameraModel,
+    projector: CameraModel,
+    min_product: float,
+) -> np.ndarray:
+    """Triangles with an edge that both devices see foreshortened: f = (image length x mm per
+    pixel at its depth) / 3D length is the cosine of the edge's tilt out of a device's image plane.
+    A surface is rarely steep to both but where it turns away from them (grown_flanks keeps those);
+    an edge joining a surface to another that one device hides or shadows runs along a ray of one
+    and steeply for the other. `edge_px`,
+    `edge_mm`: the triangles' edges (F, 3) in the camera image and in space."""
+    product = np.ones_like(edge_mm)
+    for device, pixels in ((camera, edge_px), (projector, None)):
+        if pixels is None:
+            image = device.project(points)[0][tri]  # each sample once, then its corners
+            pixels = np.linalg.norm(image[:, _NEXT] - image, axis=2)
+        product *= np.minimum(1.0, pixels * _mm_per_px(device, points, tri) / np.maximum(edge_mm, 1e-12))
+    return (product < min_product).any(axis=1)
+
+
+def _mm_per_px(device: CameraModel, points: np.ndarray, tri: np.ndarray) -> np.ndarray:
+    """Millimetres per pixel across a device's rays at the depth of each triangle edge's middle (F, 3)."""
+    if device.projection == "orthographic":
+        return np.full(tri.shape, 1.0 / device.K[0, 0])
+    depth = device.to_device(points)[:, 2][tri]
+    return 0.5 * (depth + depth[:, _NEXT]) / device.K[0, 0]
