@@ -148,7 +148,7 @@ def test_the_planned_scan_meets_its_tolerance(plans: dict[float, RingPlan]) -> N
 def test_a_plan_whose_object_fails_while_the_whole_view_passes_is_refused(
     pilot: tuple[list[PilotView], RingPlanSettings],
 ) -> None:
-    """At 0.1 mm the densest rings the projector can show keep the view's p95 far within it (the
+    """At 0.05 mm the densest rings the projector can show keep the view's p95 far within it (the
     bench is most of the area) but not the sphere's: the planner refuses, saying what would."""
     views, settings = pilot
     view = views[0]
@@ -157,9 +157,9 @@ def test_a_plan_whose_object_fails_while_the_whole_view_passes_is_refused(
     surface = pilot_surface(view.grid, view.camera, view.projector, center, settings.rehearsal_step_px)
     densest = np.arange(settings.min_radius_px, float(np.nanmax(surface.rho)), settings.min_spacing_px)
     found = rehearse([surface], densest, center, "quadratic", noise_mm(surface))
-    assert found.quantile_mm <= 0.1 < found.worst_region_mm
-    with pytest.raises(PlanError, match=r"every surface region within 0\.1 mm") as refused:
-        plan_rings(views, settings, 0.1)
+    assert found.quantile_mm <= 0.05 < found.worst_region_mm
+    with pytest.raises(PlanError, match=r"every surface region within 0\.05 mm") as refused:
+        plan_rings(views, settings, 0.05)
     assert "More rings" in str(refused.value)
 
 

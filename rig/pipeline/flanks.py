@@ -1,7 +1,7 @@
 """Triangles steep to both devices: a flank turning away, or a bridge across a depth step.
 
 A triangle between two rings whose edge both the camera and the projector see foreshortened
-(steep_to_both) is either a flank of the object turning away from both (a face's
+(foreshortening) is either a flank of the object turning away from both (a face's
 cheek toward its rim, where the rings crowd a few camera pixels apart) or a bridge from an object's
 last ring to the surface behind it. Alone, a triangle cannot tell which: both are steep. Its
 neighbours can. A flank continues the surface beside it, so its tilt is close to the normals its
@@ -50,17 +50,17 @@ def grown_flanks(kept: Faces, held: Faces, directions: np.ndarray, max_turn_deg:
     return admitted
 
 
-def steep_to_both(
+def foreshortening(
     points: np.ndarray,
     tri: np.ndarray,
     edge_px: np.ndarray,
     edge_mm: np.ndarray,
     camera: CameraModel,
     projector: CameraModel,
-    min_product: float,
 ) -> np.ndarray:
-    """Triangles with an edge that both devices see foreshortened: f = (image length x mm per
-    pixel at its depth) / 3D length is the cosine of the edge's tilt out of a device's image plane.
+    """(F,) how foreshortened each triangle's edge that both devices see most foreshortened is: the
+    least over its edges of f_camera x f_projector, where f = (image length x mm per pixel at its
+    depth) / 3D length is the cosine of the edge's tilt out of a device's image plane.
     A surface is rarely steep to both but where it turns away from them (grown_flanks keeps those);
     an edge joining a surface to another that one device hides or shadows runs along a ray of one
     and steeply for the other. `edge_px`,
@@ -71,7 +71,7 @@ def steep_to_both(
             image = device.project(points)[0][tri]  # each sample once, then its corners
             pixels = np.linalg.norm(image[:, _NEXT] - image, axis=2)
         product *= np.minimum(1.0, pixels * _mm_per_px(device, points, tri) / np.maximum(edge_mm, 1e-12))
-    return (product < min_product).any(axis=1)
+    return product.min(axis=1)
 
 
 def _mm_per_px(device: CameraModel, points: np.ndarray, tri: np.ndarray) -> np.ndarray:

@@ -18,6 +18,7 @@ depth edge). Each camera pixel inside a kept triangle gets a point on its ray:
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass, field
 from typing import Literal
 
@@ -26,7 +27,7 @@ from scipy.interpolate import CloughTocher2DInterpolator
 
 from rig.geometry import CameraModel
 from rig.pipeline.fill import FillSettings, fill_candidates, fill_points
-from rig.pipeline.flanks import grown_flanks, steep_to_both
+from rig.pipeline.flanks import foreshortening, grown_flanks
 from rig.pipeline.normals import (
     crease_normals,
     face_normals,
@@ -89,6 +90,7 @@ class RingSurface:
     ring: np.ndarray  # (M,) each sample's ring
     triangle: np.ndarray  # (H, W) int32: the face each covered pixel lies in, -1 elsewhere
     colour: np.ndarray | None = None  # (H, W, 3) float32 RGB in [0, 1] between the rings (rig.pipeline.colour)
+    flank: np.ndarray | None = None  # (F,) bool: faces steep to both devices, kept as a flank (rig.pipeline.flanks)
 
 
 _NEXT = [1, 2, 0]  # a triangle's edge k runs from corner k to corner _NEXT[k]
@@ -105,13 +107,14 @@ class RingTriangles:
     counts: dict[str, int]  # how many triangles each test dropped
     directions: np.ndarray  # (M, 3) the samples' camera rays
     pairs: np.ndarray  # (P, 2) samples of one ring whose normals are averaged (ring_pairs)
+    flank: np.ndarray  # (F,) bool: steep to both devices, kept as a flank (rig.pipeline.flanks)
 
     def subset(self, keep: np.ndarray) -> RingTriangles:
         """These triangles but only those `keep` marks, the samples' normals from them alone (a
         dropped triangle bridged a step: its tilt is no part of either side's normal)."""
         tri, face, weight = self.tri[keep], self.face[keep], self.weight[keep]
         return RingTriangles(tri, face, weight, _normals(tri, face, weight, self.directions, self.pairs), self.counts,
-                             self.directions, self.pairs)  # fmt: skip
+                             self.directions, self.pairs, self.flank[keep])  # fmt: skip
 
 
 def _normals(
@@ -152,7 +155,8 @@ def ring_triangles(
     face = face_normals(points, tri, directions)
     slant = np.abs(np.einsum("ij,ij->i", face, directions[tri[:, 0]]))
     edge_on = slant < np.cos(np.radians(settings.max_slant_deg))
-    steep = ~edge_on & steep_to_both(points, tri, edge_px, edge_mm, camera, projector, settings.min_foreshortening)
+    foreshortened = foreshortening(points, tri, edge_px, edge_mm, camera, projector)
+    steep = ~edge_on & (foreshortened < settings.min_foreshortening)
     edge_on |= steep
     weight = face_weights(edge_mm)
     held = (tri[steep], face[steep], weight[steep])  # a flank or a bridge: told apart once the rest is known
@@ -178,8 +182,9 @@ def ring_triangles(
         normals = _normals(tri, face, weight, directions, pairs)
     counts["kept_flank"] = int(flank.sum())
     counts["dropped_depth_edge"] = dropped - counts["kept_flank"]
+    steep = np.concatenate([np.zeros(len(tri) - counts["kept_flank"], dtype=bool), np.ones(counts["kept_flank"], bool)])
     counts["faces"] = len(tri)
-    return RingTriangles(tri, face, weight, normals, counts, directions, pairs)
+    return RingTriangles(tri, face, weight, normals, counts, directions, pairs, steep)
 
 
 def _off_its_corners(corners: np.ndarray, face: np.ndarray, max_excess_deg: float) -> np.ndarray:
@@ -252,7 +257,8 @@ def interpolate_surface(
         covered, owner = np.concatenate([covered, filled]), np.concatenate([owner, np.full(len(filled), -1)])
         counts["filled_px"] = len(filled)
     counts["pixels"] = len(covered)
-    return _surface(points, normals, tri, ring, counts, camera, grid, covered, owner)
+    surface = _surface(points, normals, tri, ring, counts, camera, grid, covered, owner)
+    return dataclasses.replace(surface, flank=triangles.flank)
 
 
 def _in_bands(
