@@ -93,6 +93,13 @@ class RingPlanSettings(Strict):
     keep_coverage: float = Field(
         0.95, gt=0.0, le=1.0, description="a plan covers at least this fraction of what the densest rings cover"
     )
+    rehearsal_margin: float = Field(
+        0.85,
+        gt=0.0,
+        le=1.0,
+        description="a plan rehearses within this share of the tolerance: the rehearsal, on a pilot seen at "
+        "1/rehearsal_step_px of the camera's resolution, can be the more optimistic (docs/rings.md)",
+    )
     bin_px: float = Field(2.0, gt=0.0, le=64.0, description="radius bins of the spacing profile")
     demand_quantile: float = Field(
         0.98, gt=0.5, le=1.0, description="each radius gets the spacing this fraction of its surface allows"

@@ -98,9 +98,7 @@ class _RingNeighbours:
         self.trees = {r: cKDTree(xy[m]) for r, m in self.members.items()}
         self.tree, self.ring = cKDTree(xy), ring
 
-    def query(
-        self, at: np.ndarray, rings: tuple[int, ...], k: int, reach: float
-    ) -> tuple[np.ndarray, np.ndarray]:
+    def query(self, at: np.ndarray, rings: tuple[int, ...], k: int, reach: float) -> tuple[np.ndarray, np.ndarray]:
         """(N, 2k) distances (inf beyond `reach`, or for a sample listed already) and sample indices
         (0 there) of each position's `k` nearest samples of any ring, then of `rings`' (k / len(rings)
         each): the first tell whether another surface is in reach, the others join the fit."""

@@ -204,8 +204,9 @@ def _rehearsed(
     ones where those need fewer (a surface that bends alike everywhere); adds both rehearsed
     criteria to `criteria`, the one chosen marked. No ring lies beyond `last_px`."""
     shape = rms_shape(demands, edges, settings.bin_px)
-    planned = nonuniform_rings(trial, edges, shape, settings, tolerance, last_px)
-    uniform = uniform_count(trial, edges, settings, tolerance)
+    target = tolerance * settings.rehearsal_margin
+    planned = nonuniform_rings(trial, edges, shape, settings, target, last_px)
+    uniform = uniform_count(trial, edges, settings, target)
     even = uniform.met and (not planned.met or len(uniform.radii_px) < len(planned.radii_px))
     for name, found, chosen in (("rms_nonuniform", planned, not even), ("rms_uniform", uniform, even)):
         criteria[name] = {
@@ -224,12 +225,14 @@ def _rehearsed(
 def refusal(densest: Rehearsal, tolerance: float, trial: Rehearser, settings: RingPlanSettings) -> str:
     """Why no ring set meets the tolerance, and what would: from the densest rings rehearsed."""
     share = f"{100 * densest.quantile:g} %"
+    target = tolerance * settings.rehearsal_margin
     said = [
-        f"tolerance_mm: no ring set keeps {share} of every surface region within {tolerance:g} mm and covers "
-        f"{100 * settings.min_coverage:g} % of it: the densest rehearsed ({densest.rings} rings, every "
-        f"{settings.min_spacing_px:g} px at the most) reach {densest.worst_region_mm:.3g} mm on the worst region "
-        f"and cover {100 * densest.covered:.1f} %."
+        f"tolerance_mm: no ring set keeps {share} of every surface region within {tolerance:g} mm (rehearsed "
+        f"within {target:.3g} mm: scan.adaptive.rehearsal_margin) and covers {100 * settings.min_coverage:g} % "
+        f"of it: the densest rehearsed ({densest.rings} rings, every {settings.min_spacing_px:g} px at the most) "
+        f"reach {densest.worst_region_mm:.3g} mm on the worst region and cover {100 * densest.covered:.1f} %."
     ]
+    tolerance = target  # what the rehearsals have to meet
     if trial.noise_mm > 0.5 * tolerance:
         said.append(
             f"The pilot's own noise is {trial.noise_mm:.3g} mm: a finer camera (more pixels on the object) or a "
