@@ -19,7 +19,7 @@ from rig.geometry.curvature import principal_curvatures
 from rig.pipeline.scan import run_scan
 from rig.plan.rehearsal import noise_mm, pilot_surface, rehearse, ring_samples
 from rig.plan.ring_plan import RingPlan, pilot_views, plan_rings
-from rig.plan.rings import PilotView, _PooledSpectrum, minimum_rings, place_rings, ring_polar
+from rig.plan.rings import PilotView, _PooledSpectrum, graded, minimum_rings, place_rings, ring_polar
 from rig.service.adaptive import with_plan
 
 # Lee & Krim 2017, Table 1: model, N (initial patterns), f_s, N_s (minimum patterns), as published.
@@ -77,6 +77,20 @@ def pilot() -> tuple[list[PilotView], RingPlanSettings]:
     with open_rig(config) as rig:
         result = run_scan(rig, "phase")
         return pilot_views(result, rig.camera_models, rig.projector_models), config.scan.adaptive
+
+
+def test_a_graded_profile_grows_a_gap_by_half_of_itself_at_most() -> None:
+    edges = np.arange(10.0, 400.0, 2.0)
+    profile = np.where((edges > 100) & (edges < 150), 8.0, 200.0)  # dense over an object, sparse beyond
+    smooth = graded(profile, 2.0)
+    assert np.all(smooth <= profile) and np.allclose(smooth[(edges > 100) & (edges < 150)], 8.0)
+    assert np.abs(np.diff(smooth)).max() <= 0.5 * 2.0 + 1e-9  # 0.5 px per px of radius
+    dense = edges[(edges > 100) & (edges < 150)]
+    assert smooth[-1] == pytest.approx(8.0 + 0.5 * (edges[-1] - dense[-1]))  # growing away from the object
+    assert smooth[0] == pytest.approx(8.0 + 0.5 * (dense[0] - edges[0]))
+    radii = np.array(place_rings(edges, smooth, 2.0))
+    gaps = np.diff(radii)
+    assert np.all(gaps[1:] <= 1.5 * gaps[:-1] + 2.0)  # each gap at most half as wide again (and a bin)
 
 
 def test_curvature_of_a_noisy_simulated_scan(pilot: tuple[list[PilotView], RingPlanSettings]) -> None:

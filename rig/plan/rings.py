@@ -29,6 +29,7 @@ from rig.geometry.curvature import SurfaceCurvature, curve_curvature, principal_
 
 # Numerical step for the radius gradient (mm).
 _STEP_MM = 0.05
+GRADE = 0.5  # ring spacing grows by at most this many px per px of radius (graded)
 
 
 @dataclass(frozen=True, eq=False)
@@ -129,6 +130,18 @@ def spacing_profile(demands: list[Demand], settings: RingPlanSettings) -> tuple[
         raise PlanError("no smooth surface in the pilot: every curvature fit straddles an edge")
     profile = np.interp(np.arange(len(edges)), known, profile[known])
     return edges, np.clip(profile, settings.min_spacing_px, settings.max_spacing_px)
+
+
+def graded(profile: np.ndarray, bin_px: float, slope: float = GRADE) -> np.ndarray:
+    """The spacing profile with each bin's spacing at most `slope` px per px of radius above its
+    neighbours', either way: a gap grows by half of itself to the next at most (slope 0.5). Beyond
+    the surface the pilot saw (a flank it could not read, a limb) the surface goes on as it was,
+    not as flat as the bench further out; a plan that jumped from dense to sparse there bridged a
+    torus's outer flank with one gap."""
+    step = slope * bin_px * np.arange(len(profile))
+    ahead = step + np.minimum.accumulate(profile - step)
+    behind = (step + np.minimum.accumulate(profile[::-1] - step))[::-1]
+    return np.minimum(ahead, behind)
 
 
 def place_rings(edges: np.ndarray, profile: np.ndarray, bin_px: float, last_px: float = np.inf) -> list[float]:

@@ -24,7 +24,7 @@ import numpy as np
 from rig.config.scan import RingPlanSettings
 from rig.pipeline.surface import Interpolant
 from rig.plan.rehearsal import PilotSurface, Rehearsal, rehearse
-from rig.plan.rings import Demand, place_rings
+from rig.plan.rings import Demand, graded, place_rings
 
 _SEARCH_STEPS = 9  # bisection steps over the profile's scale (and over the uniform count)
 
@@ -80,7 +80,7 @@ def nonuniform_rings(
 
     def radii_for(scale: float) -> list[float]:
         profile = np.clip(scale * shape, settings.min_spacing_px, settings.max_spacing_px)
-        return place_rings(edges, profile, settings.bin_px, last_px)
+        return place_rings(edges, graded(profile, settings.bin_px), settings.bin_px, last_px)
 
     flattest = float(shape[np.isfinite(shape)].max())  # at the low end every bin with surface is densest
     low, high = math.log(settings.min_spacing_px / flattest), math.log(settings.max_spacing_px)
