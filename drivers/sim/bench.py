@@ -9,6 +9,7 @@ curve and quantisation.
 
 from __future__ import annotations
 
+import dataclasses
 import itertools
 from dataclasses import dataclass
 from typing import Protocol
@@ -17,8 +18,11 @@ import cv2
 import numpy as np
 
 from drivers.options import CameraSettings, SimCameraOptions, SimProjectorOptions
+from drivers.sim.materials import shininess, specular_gain
 from drivers.sim.raycast import RayCaster
 from drivers.sim.scene import Scene
+from drivers.sim.sensor import NoiseTable, expose
+from drivers.sim.texture import paint_planar_textures
 from drivers.sim.truth import PixelTruth, SeenSurface
 
 _SHADOW_EPS_MM = 0.02
@@ -54,6 +58,8 @@ class _CameraView:
     albedo_mono: np.ndarray  # (H, W) float32 luminance
     depth: np.ndarray  # (N,)
     seen: SeenSurface
+    specular: np.ndarray | None = None  # (N,) the specular lobe's strength, None for a matte scene
+    exponent: np.ndarray | None = None  # (N,) its Blinn-Phong exponent (drivers.sim.materials)
 
 
 @dataclass(frozen=True, eq=False)
@@ -63,6 +69,7 @@ class _Illumination:
     irradiance_gain: np.ndarray  # (H, W) float32: cos(incidence) * fall-off * brightness * lit
     uv: np.ndarray  # (N, 2) float64
     lit: np.ndarray  # (N,)
+    specular_gain: np.ndarray | None = None  # (H, W) float32: the lobe's radiance per emitted light
 
 
 class SimBench:
@@ -86,8 +93,7 @@ class SimBench:
         self.camera_options = camera_options or [SimCameraOptions() for _ in cameras]
         self.projector_options = projector_options or [SimProjectorOptions() for _ in projectors]
         self.ambient = ambient
-        self._rng = np.random.default_rng(seed)
-        self._noise: np.ndarray | None = None  # standard normals, windows of which are a frame's noise
+        self._noise = NoiseTable(np.random.default_rng(seed))
         self._caster = RayCaster(scene.vertices, scene.faces)
         self._views: dict[int, _CameraView] = {}
         self._illumination: dict[tuple[int, int], _Illumination] = {}
@@ -176,40 +182,18 @@ class SimBench:
             if self.scene.texture is not None:
                 albedo[hit] = self.scene.texture.colour_at(points[hit])[:, ::-1]
             albedo = albedo.reshape(model.height, model.width, 3)
-            self._paint_textures(albedo, points, faces, model)
+            paint_planar_textures(albedo, points, faces, self.scene)
             mono = albedo @ np.array([0.114, 0.587, 0.299], dtype=np.float32)  # BGR luminance weights
             depth = np.zeros(len(hit))
             depth[hit] = points[hit] @ model.axis - model.axis @ model.center  # device-frame z
-            self._views[camera] = _CameraView(hit, points, normals, albedo, mono, depth, SeenSurface(points, hit))
+            view = _CameraView(hit, points, normals, albedo, mono, depth, SeenSurface(points, hit))
+            if self.scene.glossy:
+                strength, roughness = self.scene.face_material()
+                lobe, exponent = np.zeros(len(hit)), np.zeros(len(hit))
+                lobe[hit], exponent[hit] = strength[faces[hit]], shininess(roughness[faces[hit]])
+                view = dataclasses.replace(view, specular=lobe, exponent=exponent)
+            self._views[camera] = view
         return self._views[camera]
-
-    def _paint_textures(self, albedo: np.ndarray, points: np.ndarray, faces: np.ndarray, model: ViewModel) -> None:
-        """Albedo of printed planes, averaged over 4x4 samples per pixel: the sub-pixel positions on
-        the plane come from the local derivatives of the plane coordinates across the pixel grid."""
-        shape = albedo.shape[:2]
-        for index, obj in enumerate(self.scene.objects):
-            if obj.texture is None:
-                continue
-            mine = (faces >= 0) & (self.scene.face_object[np.maximum(faces, 0)] == index)
-            if not mine.any():
-                continue
-            tex = obj.texture
-            local = (points - tex.origin) @ tex.axes[:, :2] / tex.mm_per_px - 0.5  # texture pixel coords
-            local[~mine] = np.nan
-            grid = local.reshape(*shape, 2).astype(np.float32)
-            d_row, d_col = np.gradient(grid, axis=(0, 1))
-            for axis_grad in (d_row, d_col):  # at the edge of the plane, extend the derivative
-                bad = ~np.isfinite(axis_grad)
-                axis_grad[bad] = 0.0
-            grid[~np.isfinite(grid)] = -1.0  # pixels of other objects: sampled, then not used
-            total = np.zeros(shape, dtype=np.float32)
-            offsets = (np.arange(4, dtype=np.float32) + 0.5) / 4 - 0.5
-            for dy in offsets:
-                for dx in offsets:
-                    sample = grid + dx * d_col + dy * d_row
-                    total += cv2.remap(tex.image, sample, None, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
-            value = total / 16.0
-            albedo[mine.reshape(shape)] = value[mine.reshape(shape), None]
 
     def set_scene(self, scene: Scene) -> None:
         """Replace the scene (a calibration board moved to its next pose); geometry is recomputed."""
@@ -232,19 +216,26 @@ class SimBench:
         uv = np.full((n_px, 2), np.nan)
         lit = np.zeros(n_px, dtype=bool)
         gain = np.zeros(n_px, dtype=np.float32)
+        highlight = None if view.specular is None else np.zeros(n_px, dtype=np.float32)
         idx = np.flatnonzero(view.hit)
         for start in range(0, len(idx), _LIGHTING_CHUNK):  # chunks bound the temporaries
             part = idx[start : start + _LIGHTING_CHUNK]
-            uv[part], lit[part], gain[part] = self._light_points(projector, view.points[part], view.normals[part])
+            points, normals = view.points[part], view.normals[part]
+            uv[part], lit[part], gain[part], to_light = self._light_points(projector, points, normals)
+            if highlight is not None and view.exponent is not None and view.specular is not None:
+                to_eye = _to_device(cam, points)
+                lobe, exponent = view.specular[part], view.exponent[part]
+                highlight[part] = specular_gain(normals, to_light, to_eye, lobe, exponent, gain[part])
         map_x = np.where(lit, uv[:, 0], -1e4).astype(np.float32)
         map_y = np.where(lit, uv[:, 1], -1e4).astype(np.float32)
         shape = (cam.height, cam.width)
-        return _Illumination(map_x.reshape(shape), map_y.reshape(shape), gain.reshape(shape), uv, lit)
+        specular = None if highlight is None else highlight.reshape(shape)
+        return _Illumination(map_x.reshape(shape), map_y.reshape(shape), gain.reshape(shape), uv, lit, specular)
 
     def _light_points(
         self, projector: int, points: np.ndarray, normals: np.ndarray
-    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Projector pixel, lit flag and irradiance gain of surface points."""
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """Projector pixel, lit flag, irradiance gain and unit direction to the light of surface points."""
         proj = self.projectors[projector]
         params = self.projector_options[projector]
         puv, pz = proj.project(points)
@@ -270,7 +261,7 @@ class SimBench:
         lit = np.zeros(len(points), dtype=bool)
         lit[c_idx[blocker >= distance[c_idx] - 2 * _SHADOW_EPS_MM]] = True
         gain = np.where(lit, cos_i * falloff * params.brightness, 0.0)
-        return puv, lit, gain
+        return puv, lit, gain, to_light
 
     # --- rendering -------------------------------------------------------------------------
     def _segments(self, projector: int, start: float, duration: float) -> list[tuple[float, np.ndarray | None]]:
@@ -288,16 +279,27 @@ class SimBench:
     def irradiance(self, camera: int, time_s: float | None = None, duration_s: float = 0.0) -> np.ndarray:
         """Light falling on the surface seen by each camera pixel, averaged over
         [time_s, time_s + duration_s] of bench time (default: now, an instant), before albedo (float32)."""
+        return self.gathered(camera, time_s, duration_s)
+
+    def gathered(
+        self, camera: int, time_s: float | None = None, duration_s: float = 0.0, specular: bool = False
+    ) -> np.ndarray:
+        """The projectors' light at each camera pixel over [time_s, time_s + duration_s]: the
+        irradiance with the ambient (before albedo), or with `specular` the radiance of the
+        surface's specular lobe toward the camera (drivers.sim.materials)."""
         cam = self.cameras[camera]
         when = self.clock_s if time_s is None else time_s
-        total = np.full((cam.height, cam.width), self.ambient, dtype=np.float32)
+        total = np.full((cam.height, cam.width), 0.0 if specular else self.ambient, dtype=np.float32)
         scratch = np.empty_like(total)
         for p in range(len(self.projectors)):
             light = self._lighting(camera, p)
+            gain = light.specular_gain if specular else light.irradiance_gain
+            if gain is None:
+                continue
             black = self.projector_options[p].black_level
             for weight, emitted in self._segments(p, when, duration_s):
                 if emitted is None:
-                    total += np.multiply(light.irradiance_gain, np.float32(weight * black), out=scratch)
+                    total += np.multiply(gain, np.float32(weight * black), out=scratch)
                     continue
                 sampled = cv2.remap(
                     emitted,
@@ -308,7 +310,7 @@ class SimBench:
                     borderValue=0,
                 )
                 sampled *= np.float32(weight)  # in place, in the order (weight * light) * gain
-                sampled *= light.irradiance_gain
+                sampled *= gain
                 total += sampled
         return total
 
@@ -322,41 +324,15 @@ class SimBench:
         gain = sensor.gain if gain is None else gain
         view = self._view(camera)
         irradiance = self.irradiance(camera, time_s, exposure * 1e-6 if time_s is not None else 0.0)
-        # each step in place where it can be: a render holds two float images, not seven
         if sensor.color:
             radiance = irradiance[..., None] * view.albedo
         else:
             radiance = np.multiply(irradiance, view.albedo_mono, out=irradiance)
-        if params.blur_px > 0:
-            radiance = cv2.GaussianBlur(radiance, (0, 0), params.blur_px, borderType=cv2.BORDER_REPLICATE)
-        electrons = np.multiply(
-            radiance, np.float32(exposure / params.full_scale_exposure_us * params.full_well_e), out=radiance
-        )
-        sigma = np.add(electrons, np.float32(params.read_noise_e**2))
-        np.sqrt(sigma, out=sigma)
-        electrons += np.multiply(sigma, self._standard_normal(electrons.shape), out=sigma)
-        del sigma
-        signal = np.multiply(electrons, np.float32(gain / params.full_well_e), out=electrons)
-        np.clip(signal, 0.0, 1.0, out=signal)
-        if params.gamma != 1.0:
-            np.power(signal, np.float32(1.0 / params.gamma), out=signal)
-        full_scale = sensor.full_scale
-        dtype = np.uint8 if sensor.bit_depth <= 8 else np.uint16
+        if view.specular is not None:  # a highlight is the light's colour, not the surface's
+            highlight = self.gathered(camera, time_s, exposure * 1e-6 if time_s is not None else 0.0, specular=True)
+            radiance += highlight[..., None] if sensor.color else highlight
         self.clock_s += max(params.frame_period_s, exposure * 1e-6)
-        signal *= np.float32(full_scale)
-        return np.rint(signal, out=signal).astype(dtype)
-
-    def _standard_normal(self, shape: tuple[int, ...]) -> np.ndarray:
-        """A frame of standard normal noise: a window at a random offset into a table four frames
-        long, drawn once (drawing 1.3 M normals per frame took 17 ms, most of a render). Within a
-        frame the values are independent, and so are one pixel's from frame to frame; between two
-        frames, pixels a random offset apart (typically hundreds of rows) share values, which no
-        decoder's few-pixel neighbourhood sees."""
-        size = int(np.prod(shape))
-        if self._noise is None or len(self._noise) < 4 * size:
-            self._noise = self._rng.standard_normal(max(4 * size, 1 << 20), dtype=np.float32)
-        start = int(self._rng.integers(0, len(self._noise) - size + 1))
-        return self._noise[start : start + size].reshape(shape)
+        return expose(radiance, exposure, gain, sensor, params, self._noise)
 
     # --- ground truth ----------------------------------------------------------------------
     def cast(self, origins: np.ndarray, directions: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -392,3 +368,11 @@ class SimBench:
             white_irradiance=self.ambient + light.irradiance_gain,
             seen=view.seen,
         )
+
+
+def _to_device(device: ViewModel, points: np.ndarray) -> np.ndarray:
+    """Unit directions from surface points to a device (its centre; along its axis if orthographic)."""
+    if device.projection == "orthographic":
+        return np.broadcast_to(-device.axis, points.shape).copy()
+    toward = device.center - points
+    return toward / np.linalg.norm(toward, axis=1, keepdims=True)

@@ -30,13 +30,16 @@ class PlanarTexture:
 
 @dataclass(frozen=True, eq=False)
 class SceneObject:
-    """One mesh with a uniform diffuse albedo (grey or RGB) in [0, 1], or a planar texture."""
+    """One mesh with a uniform diffuse albedo (grey or RGB) in [0, 1], or a planar texture, and a
+    specular lobe of `specular` strength and `roughness` (drivers.sim.materials; 0: matte)."""
 
     name: str
     vertices: np.ndarray
     faces: np.ndarray
     albedo: Albedo
     texture: PlanarTexture | None = None
+    specular: float = 0.0
+    roughness: float = 0.3
 
 
 @dataclass(frozen=True, eq=False)
@@ -49,6 +52,17 @@ class Scene:
     objects: tuple[SceneObject, ...]
     face_object: np.ndarray  # (F,) index into objects
     texture: SolidTexture | None = None  # paints every object, in place of its albedo
+
+    @property
+    def glossy(self) -> bool:
+        """Whether any object has a specular lobe."""
+        return any(obj.specular > 0 for obj in self.objects)
+
+    def face_material(self) -> tuple[np.ndarray, np.ndarray]:
+        """(F,) each face's specular strength and roughness."""
+        strength = np.array([obj.specular for obj in self.objects], dtype=np.float64)
+        roughness = np.array([obj.roughness for obj in self.objects], dtype=np.float64)
+        return strength[self.face_object], roughness[self.face_object]
 
 
 MAX_MESH_FILE_BYTES = 512 << 20

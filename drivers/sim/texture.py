@@ -8,10 +8,13 @@ Colours are linear RGB in [0, 1]. Every texture is a pure function of the world 
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Protocol
+from typing import TYPE_CHECKING, Protocol
 
 import cv2
 import numpy as np
+
+if TYPE_CHECKING:
+    from drivers.sim.scene import Scene
 
 
 class SolidTexture(Protocol):
@@ -109,3 +112,32 @@ def read_decal_image(path: str, max_side: int = 4096) -> np.ndarray:
         image = cv2.cvtColor(image, cv2.COLOR_GRAY2BGR)
     image = cv2.cvtColor(image[..., :3], cv2.COLOR_BGR2RGB).astype(np.float32) / np.float32(scale)
     return np.where(image <= 0.04045, image / 12.92, ((image + 0.055) / 1.055) ** 2.4).astype(np.float32)
+
+
+def paint_planar_textures(albedo: np.ndarray, points: np.ndarray, faces: np.ndarray, scene: Scene) -> None:
+    """Albedo of printed planes, averaged over 4x4 samples per pixel: the sub-pixel positions on
+    the plane come from the local derivatives of the plane coordinates across the pixel grid."""
+    shape = albedo.shape[:2]
+    for index, obj in enumerate(scene.objects):
+        if obj.texture is None:
+            continue
+        mine = (faces >= 0) & (scene.face_object[np.maximum(faces, 0)] == index)
+        if not mine.any():
+            continue
+        tex = obj.texture
+        local = (points - tex.origin) @ tex.axes[:, :2] / tex.mm_per_px - 0.5  # texture pixel coords
+        local[~mine] = np.nan
+        grid = local.reshape(*shape, 2).astype(np.float32)
+        d_row, d_col = np.gradient(grid, axis=(0, 1))
+        for axis_grad in (d_row, d_col):  # at the edge of the plane, extend the derivative
+            bad = ~np.isfinite(axis_grad)
+            axis_grad[bad] = 0.0
+        grid[~np.isfinite(grid)] = -1.0  # pixels of other objects: sampled, then not used
+        total = np.zeros(shape, dtype=np.float32)
+        offsets = (np.arange(4, dtype=np.float32) + 0.5) / 4 - 0.5
+        for dy in offsets:
+            for dx in offsets:
+                sample = grid + dx * d_col + dy * d_row
+                total += cv2.remap(tex.image, sample, None, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
+        value = total / 16.0
+        albedo[mine.reshape(shape)] = value[mine.reshape(shape), None]

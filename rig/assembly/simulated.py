@@ -7,6 +7,7 @@ it only for a config whose drivers are simulated.
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 
 import numpy as np
@@ -75,6 +76,14 @@ def build_scene(config: SimulationConfig) -> sim_scene.Scene:
         objects = [sim_scene.plane(600.0, 0.6), mesh] if s.plane else [mesh]
     else:  # pragma: no cover - the config union is exhaustive
         raise SceneError(f"unsupported scene kind {s.kind!r}")
+    material = config.material
+    if material.specular > 0:
+        objects = [
+            dataclasses.replace(o, specular=material.specular, roughness=material.roughness)
+            if o.name != "plane" or material.bench
+            else o
+            for o in objects
+        ]
     return sim_scene.build_scene(objects, build_texture(config.texture))
 
 

@@ -151,8 +151,20 @@ class ImageTexture(Strict):
 TextureConfig = Annotated[StripesTexture | CheckerTexture | GradientTexture | ImageTexture, Field(discriminator="kind")]
 
 
+class MaterialConfig(Strict):
+    """The scene's objects beside their albedo: a specular lobe (drivers.sim.materials). The bench
+    plane stays matte unless `bench`."""
+
+    specular: float = Field(0.0, ge=0.0, le=1.0, description="strength of the specular lobe; 0: matte")
+    roughness: float = Field(
+        0.3, ge=0.02, le=1.0, description="microfacet roughness: about 0.05 polished metal, 0.3 satin, 1 matte"
+    )
+    bench: bool = Field(False, description="the bench plane is glossy too")
+
+
 class SimulationConfig(Strict):
     scene: SceneConfig
+    material: MaterialConfig = Field(default_factory=MaterialConfig)
     texture: TextureConfig | None = Field(
         None, description="paint the whole scene with a procedural texture (in place of its albedo)"
     )

@@ -14,6 +14,7 @@ import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
 
 from rig.errors import DecodeError
+from rig.patterns.saturation import saturated_in, without_saturated
 from rig.patterns.spec import PatternSpec
 
 if TYPE_CHECKING:
@@ -202,6 +203,9 @@ class Codec(abc.ABC):
         white, black = normalized[0], normalized[1]
         lit = (white - black) >= self.params.black_threshold
         corr = self._decode(NormalizedFrames(frames[2:], full_scale), white, black, lit, frames[0])
+        saturated = saturated_in(frames, full_scale)
+        if saturated is not None:
+            corr = without_saturated(corr, saturated)
         return dataclasses.replace(corr, full_scale=full_scale)
 
     @abc.abstractmethod

@@ -18,6 +18,7 @@ import numpy as np
 from rig.errors import DecodeError
 from rig.lazy import lazy_module
 from rig.patterns.base import Correspondence, luminance
+from rig.patterns.saturation import SaturationMask
 from rig.workers import in_row_strips
 
 fused = lazy_module("rig.fused")  # numba compiles on first use: not for --help
@@ -37,6 +38,7 @@ class FrameStream(abc.ABC):
         self.added = 0
         self.shape: tuple[int, int] | None = None
         self.dtype: np.dtype | None = None
+        self.saturation = SaturationMask(full_scale)
 
     def add(self, frame: np.ndarray) -> None:
         expected = self.codec.frame_count
@@ -50,13 +52,14 @@ class FrameStream(abc.ABC):
         elif frame.dtype != self.dtype:
             raise DecodeError(f"{self.codec.name}: frames differ in type: {self.dtype}, {frame.dtype}")
         self._consume(self.added, frame)
+        self.saturation.add(frame)
         self.added += 1
 
     def finish(self) -> Correspondence:
         expected = self.codec.frame_count
         if self.added != expected:
             raise DecodeError(f"{self.codec.name}: expected {expected} frames, got {self.added}")
-        return dataclasses.replace(self._finish(), full_scale=self.full_scale)
+        return dataclasses.replace(self.saturation.honoured(self._finish()), full_scale=self.full_scale)
 
     @abc.abstractmethod
     def _consume(self, index: int, frame: np.ndarray) -> None:

@@ -1,0 +1,92 @@
+"""Saturation is never a point: a camera pixel at full scale in any frame it decodes from says
+nothing of where the pattern's edge or phase lies there (the sensor clipped it), so every codec's
+correspondence leaves it out and counts it (`rejected_saturated`).
+
+A saturated pixel in the white frame may still read a Gray bit right (the pattern and its inverse
+differ), but a clipped phase step is biased, a clipped ring edge moves, and a pixel that clips in
+one exposure is the one another exposure (HDR) reads: the rule is one rule for every codec.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+if TYPE_CHECKING:  # the base's decode applies these: types only, no import back
+    from rig.patterns.base import Correspondence, RingSamples
+
+
+class SaturationMask:
+    """The pixels at full scale in any frame added so far (any channel of a colour frame)."""
+
+    def __init__(self, full_scale: int) -> None:
+        self.full_scale = full_scale
+        self.mask: np.ndarray | None = None
+
+    def add(self, frame: np.ndarray) -> None:
+        clipped = frame >= self.full_scale
+        if clipped.ndim == 3:
+            clipped = clipped.any(axis=2)
+        if self.mask is None:
+            self.mask = clipped
+        else:
+            self.mask |= clipped
+
+    def honoured(self, corr: Correspondence) -> Correspondence:
+        """`corr` without the saturated pixels (see the module docstring)."""
+        if self.mask is None:
+            return corr
+        return without_saturated(corr, self.mask)
+
+
+def saturated_in(frames: list[np.ndarray], full_scale: int) -> np.ndarray | None:
+    """(H, W) the pixels at full scale in any of `frames`, None for no frames."""
+    mask = SaturationMask(full_scale)
+    for frame in frames:
+        mask.add(frame)
+    return mask.mask
+
+
+def without_saturated(corr: Correspondence, saturated: np.ndarray) -> Correspondence:
+    """`corr` with every pixel of `saturated` (H, W) invalid, its coordinates NaN, and the ring
+    samples between two pixels of which either is saturated dropped; `counts["rejected_saturated"]`
+    the pixels (or samples) so dropped. Applying it twice drops nothing more (and counts the first)."""
+    counts = dict(corr.counts)
+    dropped = corr.valid & saturated
+    counts["rejected_saturated"] = counts.get("rejected_saturated", 0) + int(dropped.sum())
+    if not saturated.any():
+        return dataclasses.replace(corr, counts=counts)
+    u = None if corr.u is None else np.where(saturated, np.nan, corr.u).astype(corr.u.dtype, copy=False)
+    v = None if corr.v is None else np.where(saturated, np.nan, corr.v).astype(corr.v.dtype, copy=False)
+    samples = corr.samples
+    if samples is not None:
+        clear = ~_touches(samples, saturated)
+        counts["rejected_saturated"] += int((~clear).sum())
+        samples = _subset(samples, clear)
+        if "ring_samples" in counts:
+            counts["ring_samples"] = len(samples)
+    return dataclasses.replace(corr, valid=corr.valid & ~saturated, u=u, v=v, samples=samples, counts=counts)
+
+
+def _touches(samples: RingSamples, saturated: np.ndarray) -> np.ndarray:
+    """(M,) whether either camera pixel a sample lies between is saturated."""
+    height, width = saturated.shape
+    x, y = samples.camera_xy[:, 0], samples.camera_xy[:, 1]
+    touched = np.zeros(len(samples), dtype=bool)
+    for cols, rows in ((np.floor(x), np.floor(y)), (np.ceil(x), np.ceil(y))):
+        c = np.clip(cols.astype(np.int64), 0, width - 1)
+        r = np.clip(rows.astype(np.int64), 0, height - 1)
+        touched |= saturated[r, c]
+    return touched
+
+
+def _subset(samples: RingSamples, keep: np.ndarray) -> RingSamples:
+    """The samples `keep` marks, with every per-sample array cut alike."""
+    per_sample = {
+        f.name: getattr(samples, f.name)[keep]
+        for f in dataclasses.fields(samples)
+        if isinstance(getattr(samples, f.name), np.ndarray) and f.name != "ring_radii_px"
+    }
+    return dataclasses.replace(samples, **per_sample)

@@ -1,0 +1,46 @@
+"""Saturation is never a point (rig.patterns.saturation): a pixel at full scale in any frame it
+decodes from is left out by every codec, batch and stream alike, and counted."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from rig.assembly import open_rig
+from rig.config import config_from_dict
+from rig.patterns import codec_names
+from rig.patterns.stream import decode_streamed
+from rig.pipeline.scan import capture, make_codec
+from rig.progress import ProgressTracker
+from tests.conftest import small_config_data
+
+
+@pytest.mark.parametrize("name", codec_names())
+def test_a_pixel_clipped_in_one_frame_is_no_point_in_any_codec(name: str) -> None:
+    data = small_config_data()
+    data["scan"]["codec"] = name
+    with open_rig(config_from_dict(data, "saturation")) as rig:
+        codec = make_codec(rig, 0)
+        frames = capture(rig, [codec], ProgressTracker(None))[(0, 0)]
+    clean = codec.decode(frames, 255)
+    assert clean.counts["rejected_saturated"] == 0  # the bench's grey surfaces stay below full scale
+    height, width = frames[0].shape[:2]
+    block = (slice(height // 3, 2 * height // 3), slice(width // 3, 2 * width // 3))
+    clipped = [f.copy() for f in frames]
+    clipped[-1][block] = 255  # the last coded frame clips over the block, no other frame does
+    for decoded in (codec.decode(clipped, 255), decode_streamed(codec, clipped, 255)):
+        assert not decoded.valid[block].any()
+        if clean.samples is None:
+            assert clean.valid[block].any()
+            # the pixels the block would have decoded (the clipped frame reads a few others than the clean one)
+            count, was_valid = decoded.counts["rejected_saturated"], int(clean.valid[block].sum())
+            assert 0.95 * was_valid <= count <= clean.valid[block].size
+            for axis in (decoded.u, decoded.v):
+                assert axis is None or np.isnan(axis[block]).all()
+        else:
+            assert decoded.samples is not None
+            x, y = decoded.samples.camera_xy.T
+            inside = (x > block[1].start - 1) & (x < block[1].stop) & (y > block[0].start - 1) & (y < block[0].stop)
+            assert not inside.any()
+            assert decoded.counts["rejected_saturated"] >= len(clean.samples) - len(decoded.samples) > 0
+    assert codec.decode(clipped, 255).counts == decode_streamed(codec, clipped, 255).counts
