@@ -260,6 +260,7 @@ class Camera(Device):
             raise DeviceStateError(f"{self.name}: this camera has no trigger input")
 
     _exposure_us: float = 10000.0
+    has_exposure: bool = False  # the driver sets the sensor's exposure (auto-exposure and HDR need it)
 
     @property
     def exposure_us(self) -> float:

@@ -102,6 +102,7 @@ class V4l2Camera(Camera):
         self._set_checked(cv2.CAP_PROP_EXPOSURE, round(exposure_us / V4L2_EXPOSURE_UNIT_US), "exposure (100 us)")
 
     has_gain = True  # V4L2_CID_GAIN; a camera without it refuses the value (_set_checked)
+    has_exposure = True
 
     def _do_set_gain(self, gain: float) -> None:
         self._set_checked(cv2.CAP_PROP_GAIN, gain, "gain")

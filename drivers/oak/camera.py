@@ -121,6 +121,7 @@ class OakCamera(WorkerDevice, Camera):
         self._request(5.0, cmd="exposure", exposure_us=round(exposure_us), iso=self.iso)
 
     has_gain = True  # as ISO: gain 1.0 is ISO 100 (depthai's manual exposure takes both together)
+    has_exposure = True
 
     @property
     def gain(self) -> float:

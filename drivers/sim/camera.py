@@ -16,6 +16,7 @@ class SimCamera(Camera):
     """A camera that renders the simulated scene under the projectors' current light."""
 
     has_gain = True
+    has_exposure = True
 
     def __init__(self, name: str, bench: SimBench, index: int, faults: SimFaults | None = None) -> None:
         super().__init__(name)

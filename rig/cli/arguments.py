@@ -23,9 +23,25 @@ def _common(p: argparse.ArgumentParser) -> None:
     p.add_argument("--json", action="store_true", help="print one JSON object instead of text")
 
 
+def _exposure(p: argparse.ArgumentParser) -> None:
+    p.add_argument(
+        "--exposure",
+        default=None,
+        help="auto (from a white and a black pre-capture), camera (each camera's own), or microseconds "
+        "(scan.exposure.exposure)",
+    )
+    p.add_argument(
+        "--hdr",
+        default=None,
+        help="capture at several exposures, merged per pixel: auto, a count, or microseconds as US,US,... "
+        "(scan.exposure.hdr)",
+    )
+
+
 def _scan_command(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     scan = sub.add_parser("scan", help="scan and write a scan directory (cloud.ply, depth, preview)")
     _common(scan)
+    _exposure(scan)
     scan.add_argument(
         "--out",
         type=Path,
@@ -69,6 +85,7 @@ def _live_command(sub: argparse._SubParsersAction) -> None:  # type: ignore[type
 def _evaluate_command(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     evaluate = sub.add_parser("eval", help="scan the simulated bench and measure it against ground truth")
     _common(evaluate)
+    _exposure(evaluate)
     evaluate.add_argument(
         "--scene",
         default=None,

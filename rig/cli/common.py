@@ -19,6 +19,9 @@ def load(args: argparse.Namespace) -> RigConfig:
     config = load_config(args.config)
     if args.codec:
         config = config.with_codec(args.codec)
+    exposure, hdr = getattr(args, "exposure", None), getattr(args, "hdr", None)
+    if exposure is not None or hdr is not None:
+        config = config.with_exposure(exposure, hdr)
     return config
 
 

@@ -14,7 +14,8 @@ from rig.errors import ConfigError, UsageError
 from rig.evaluate.merged import evaluate_merge
 from rig.evaluate.pairs import evaluate_on_bench
 from rig.evaluate.surface import pattern_economy
-from rig.pipeline.scan import ScanResult, run_scan
+from rig.pipeline.hdr import scan_with_exposure
+from rig.pipeline.scan import ScanResult
 from rig.plan.ring_plan import RingPlan
 from rig.service.tasks import adaptive_scan_to_directory, scan_to_directory
 from rig.store.scandir import new_scan_id
@@ -56,6 +57,8 @@ def cmd_scan(args: argparse.Namespace) -> int:
     }
     if result.adaptive is not None:
         summary["adaptive"] = {k: v for k, v in result.adaptive.items() if k != "plan"}
+    if result.exposure is not None:
+        summary["exposure"] = {k: v for k, v in result.exposure.items() if k != "looks"}
     if args.json:
         print(json.dumps(summary, allow_nan=False))
     else:
@@ -112,7 +115,7 @@ def cmd_eval(args: argparse.Namespace) -> int:
     if not config.simulated:
         raise ConfigError(str(args.config), ["simulation: eval needs a simulated rig"])
     with open_rig(config) as the_rig:
-        result = run_scan(the_rig, progress=progress_bar(args))
+        result = scan_with_exposure(the_rig, progress=progress_bar(args))
         pair = result.pairs[0]
         if result.merged_index is not None:  # several pairs: the merged cloud, and each pair beside it
             merged = evaluate_merge(the_rig, result)

@@ -130,6 +130,21 @@ class RigConfig(Strict):
         data["scan"]["codec"] = codec
         return validate_rig(data, "--codec")
 
+    def with_exposure(self, exposure: str | None, hdr: str | None) -> RigConfig:
+        """A copy with the command line's `--exposure` (auto, camera or microseconds) and `--hdr`
+        (auto, a count, or microseconds separated by commas), validated like the file."""
+        data = self.model_dump()
+        chosen = data["scan"]["exposure"]
+        if exposure is not None:
+            named = exposure in ("auto", "camera")
+            chosen["exposure"] = exposure if named else _number("--exposure", exposure, "auto, camera")
+        if hdr is not None:
+            if hdr == "auto" or hdr.strip().isdigit():
+                chosen["hdr"] = hdr if hdr == "auto" else int(hdr)
+            else:
+                chosen["hdr"] = [_number("--hdr", part, "auto, a count") for part in hdr.split(",")]
+        return validate_rig(data, "--exposure" if hdr is None else "--hdr")
+
     def with_live(self, codec: str) -> RigConfig:
         """A copy whose live mode repeats `codec` (with scan.live's parameters when it already did)."""
         data = self.model_dump()
@@ -143,6 +158,13 @@ class RigConfig(Strict):
         data = self.model_dump()
         data["simulation"]["scene"] = scene
         return validate_rig(data, source)
+
+
+def _number(option: str, text: str, words: str) -> float:
+    try:
+        return float(text)
+    except ValueError:
+        raise ConfigError(option, [f"{option}: {text!r} is none of {words} or microseconds"]) from None
 
 
 def validate_rig(data: object, source: str) -> RigConfig:

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from typing import Any, Literal
+from typing import Annotated, Any, Literal
 
 from pydantic import Field, field_validator, model_validator
 
@@ -140,8 +140,34 @@ class LiveConfig(Strict):
     _known_codec = field_validator("codec")(_known_codec_name)
 
 
+ExposureUs = Annotated[float, Field(ge=1.0, le=1e7)]
+
+
+class ExposureConfig(Strict):
+    """How long the cameras expose a scan (rig.pipeline.exposure)."""
+
+    exposure: ExposureUs | Literal["auto", "camera"] = Field(
+        "camera",
+        description="camera: each camera's own setting; auto: from a white and a black pre-capture, the brightest "
+        "lit pixels at 85 % of full scale; a number: that many microseconds for every camera",
+    )
+    hdr: Annotated[int, Field(ge=2, le=10)] | Literal["auto"] | list[ExposureUs] | None = Field(
+        None,
+        description="capture the patterns at several exposures, merged per pixel: auto (as many as the pre-capture "
+        "asks for, two stops apart), a count (that many, two stops apart from the shortest that does not clip), "
+        "or the exposures in microseconds; null: one exposure",
+    )
+
+    @model_validator(mode="after")
+    def _exposures(self) -> ExposureConfig:
+        if isinstance(self.hdr, list) and not 2 <= len(self.hdr) <= 10:
+            raise ValueError(f"hdr: 2 to 10 exposures, got {len(self.hdr)}")
+        return self
+
+
 class ScanConfig(Strict):
     codec: str = "phase"
+    exposure: ExposureConfig = ExposureConfig()
     gray: GrayParams = GrayParams()
     phase: PhaseParams = PhaseParams()
     rings: RingsParams = RingsParams()

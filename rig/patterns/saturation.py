@@ -64,10 +64,13 @@ def without_saturated(corr: Correspondence, saturated: np.ndarray) -> Correspond
     if samples is not None:
         clear = ~_touches(samples, saturated)
         counts["rejected_saturated"] += int((~clear).sum())
-        samples = _subset(samples, clear)
+        samples = subset_samples(samples, clear)
         if "ring_samples" in counts:
             counts["ring_samples"] = len(samples)
-    return dataclasses.replace(corr, valid=corr.valid & ~saturated, u=u, v=v, samples=samples, counts=counts)
+    extra = {**corr.extra, "saturated": saturated | corr.extra.get("saturated", False)}  # for HDR's merge
+    return dataclasses.replace(
+        corr, valid=corr.valid & ~saturated, u=u, v=v, samples=samples, counts=counts, extra=extra
+    )
 
 
 def _touches(samples: RingSamples, saturated: np.ndarray) -> np.ndarray:
@@ -82,7 +85,7 @@ def _touches(samples: RingSamples, saturated: np.ndarray) -> np.ndarray:
     return touched
 
 
-def _subset(samples: RingSamples, keep: np.ndarray) -> RingSamples:
+def subset_samples(samples: RingSamples, keep: np.ndarray) -> RingSamples:
     """The samples `keep` marks, with every per-sample array cut alike."""
     per_sample = {
         f.name: getattr(samples, f.name)[keep]

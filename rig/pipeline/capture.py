@@ -99,28 +99,38 @@ def wants_overlap_cue(rig: Rig) -> bool:
 def _capture_overlap_cue(rig: Rig, frames: Frames, last_sequence: list[int]) -> None:
     """The dissertation's intensity cue: where several projectors light a surface it is brighter
     than any one of them makes it. Frames: all dark, each projector alone, all together."""
+    steps: list[list[int]] = [[], *([p] for p in range(len(rig.projectors))), list(range(len(rig.projectors)))]
+    for c, stills in lit_stills(rig, steps, last_sequence).items():
+        frames[(CUE, c)] = stills
+
+
+def lit_stills(rig: Rig, steps: list[list[int]], last_sequence: list[int] | None = None) -> dict[int, list[np.ndarray]]:
+    """Per camera, a frame for each step of `steps` (the projectors lit white in it, the others
+    dark), each exposed once its light was on; every projector dark after."""
     timeout = rig.config.scan.capture_timeout_s
     latency = max(rig.latency_s(p) for p in range(len(rig.projectors)))
+    last = [-1] * len(rig.cameras) if last_sequence is None else last_sequence
     white = [np.full((p.resolution[1], p.resolution[0]), 255, np.uint8) for p in rig.projectors]
-    steps: list[list[int]] = [[], *([p] for p in range(len(rig.projectors))), list(range(len(rig.projectors)))]
-    for c in range(len(rig.cameras)):
-        frames[(CUE, c)] = []
-    for lit in steps:
-        presented: list[float] = []
-        for p, projector in enumerate(rig.projectors):
-            if p in lit:
-                projector.show(white[p])
-                if projector.last_present_s is not None:
-                    presented.append(projector.last_present_s)
-            else:
-                projector.dark()
-        lit_from = max(presented) + latency if len(presented) == len(lit) and lit else None
-        rig.wait(latency)
-        for camera in rig.cameras:
-            camera.flush()
-        for c in range(len(rig.cameras)):
-            frames[(CUE, c)].append(_take_lit(rig, c, timeout, last_sequence, lit_from).image)
-    rig.all_dark()
+    stills: dict[int, list[np.ndarray]] = {c: [] for c in range(len(rig.cameras))}
+    try:
+        for lit in steps:
+            presented: list[float] = []
+            for p, projector in enumerate(rig.projectors):
+                if p in lit:
+                    projector.show(white[p])
+                    if projector.last_present_s is not None:
+                        presented.append(projector.last_present_s)
+                else:
+                    projector.dark()
+            lit_from = max(presented) + latency if len(presented) == len(lit) and lit else None
+            rig.wait(latency)
+            for camera in rig.cameras:
+                camera.flush()
+            for c in stills:
+                stills[c].append(_take_lit(rig, c, timeout, last, lit_from).image)
+    finally:
+        rig.all_dark()
+    return stills
 
 
 def _take(rig: Rig, c: int, timeout_s: float, last_sequence: list[int]) -> Frame:

@@ -74,6 +74,7 @@ class ScanResult:
     overlap: dict[int, np.ndarray] = field(default_factory=dict)  # per camera: pixels lit by several projectors
     mesh: Mesh | None = None  # ring scans with a surface: every pair's interpolated surface, meshed
     adaptive: dict[str, object] | None = None  # an adaptive scan: its ring plan and pattern economy
+    exposure: dict[str, object] | None = None  # auto-exposure or HDR: the exposures and what chose them
     images: dict[str, np.ndarray] = field(default_factory=dict)  # name -> RGB image stored as <name>.png
     descriptions: dict[int, dict[str, object]] = field(default_factory=dict)  # kept frames: projector -> spec
 
@@ -244,17 +245,19 @@ def reconstruct_frames(
     keep_frames: bool = False,
     streams: dict[tuple[int, int], FrameStream] | None = None,
     passed_bytes: int = 0,
+    decoded: dict[tuple[int, int], Correspondence] | None = None,
 ) -> ScanResult:
     """Decode and triangulate captured frames (fresh from the devices, or stored with a scan);
     `streams`: pairs whose frames were fed to their decoder as they were captured, to finish;
-    `passed_bytes`: the bytes of captured frames that were decoded and not kept."""
+    `passed_bytes`: the bytes of captured frames that were decoded and not kept; `decoded`: pairs
+    decoded already (an HDR scan's merged exposures)."""
     codecs = [make_codec(rig, p, codec_name) for p in range(len(rig.config.projectors))]
     pairs: list[PairResult] = []
     elapsed = {"decode": 0.0, "triangulate": 0.0, "pointset": 0.0}
     selected = sorted(k for k in frames if is_reconstructed(rig, k))
     for i, (p, c) in enumerate(selected):
         t = time.perf_counter()
-        corr = _decoded(rig, codecs[p], c, frames[(p, c)], (streams or {}).get((p, c)))
+        corr = (decoded or {}).get((p, c)) or _decoded(rig, codecs[p], c, frames[(p, c)], (streams or {}).get((p, c)))
         elapsed["decode"] += time.perf_counter() - t
         tracker.report("decode", 0.6 + 0.3 * (i + 0.5) / len(selected))
         pairs.append(reconstruct_pair(rig, p, c, corr, source=i, elapsed=elapsed))

@@ -11,7 +11,8 @@ from typing import Any
 from rig.assembly import open_rig
 from rig.config import RigConfig, config_from_dict
 from rig.evaluate.merged import measure_on_bench
-from rig.pipeline.scan import ScanResult, reconstruct_frames, run_scan
+from rig.pipeline.hdr import scan_with_exposure
+from rig.pipeline.scan import ScanResult, reconstruct_frames
 from rig.plan.ring_plan import RingPlan
 from rig.progress import ProgressCallback, ProgressTracker
 from rig.rig import Rig
@@ -31,7 +32,7 @@ def scan_to_directory(
     progress: ProgressCallback | None = None,
 ) -> tuple[Path, ScanResult]:
     """Scan, measure against ground truth where the rig has it, and write the scan directory."""
-    result = run_scan(the_rig, codec, progress=progress, keep_frames=keep_frames)
+    result = scan_with_exposure(the_rig, codec, progress=progress, keep_frames=keep_frames)
     tracker = ProgressTracker(progress)
     tracker.report("store", 0.95)
     metrics, errors = measure_on_bench(the_rig, result)

@@ -26,6 +26,8 @@ MANIFEST_FIELDS: dict[str, str] = {
     "plan's pilot (pilot_agreement_mm), the surface judged by leaving out every other ring "
     "(held_out_ring_p95_mm), and `check`: the tolerance promised beside what is known of it (tolerance: "
     "measured against the truth, bounded by the held-out rings, rehearsed, or unverified)",
+    "exposure": "auto-exposure or HDR scans: the mode, each camera's exposures (us; HDR: one per pass) and, per "
+    "camera, each pre-capture's look: its exposure, the shares of lit and clipped pixels, white-frame quantiles",
     "timings_ms": "milliseconds per step (capture_ms, decode_ms, triangulate_ms, pointset_ms, ...)",
     "merge": "several pairs: how their clouds were merged (overlap removed, points kept), else null",
     "metrics": "simulated rigs: accuracy against the ground truth per pair (rms_mm, p95_mm, completeness, "

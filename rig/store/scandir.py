@@ -111,6 +111,7 @@ def build_manifest(
         ],
         **({"surface": _surface_summary(the_rig, result)} if result.mesh is not None else {}),
         **({"adaptive": result.adaptive} if result.adaptive is not None else {}),
+        **({"exposure": result.exposure} if result.exposure is not None else {}),
         "timings_ms": {k: round(v, 1) for k, v in result.timings_ms.items()},
         "merge": result.merge,
         "metrics": metrics or {},

@@ -1,0 +1,180 @@
+"""HDR by exposure bracketing: the scan's patterns captured at several exposures, each decoded as
+it comes (saturated pixels already left out: rig.patterns.saturation), merged per pixel.
+
+At each pixel the merge takes the exposure that reads it best: the one whose decode is valid there
+with the highest quality (the codec's modulation or contrast, in fractions of full scale: it grows
+with the exposure until the pixel clips, and a clipped pixel is no longer valid). A dark rubber
+part is read at the longest exposure, a machined highlight at the shortest, the rest in between.
+Ring samples are kept from the exposure their pixel takes (a ring edge is read once, not once per
+exposure), and the coarse bands every pixel read with them. Works for every codec, since each
+exposure's Correspondence is the codec's own.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import time
+
+import numpy as np
+
+from rig.errors import ConfigError
+from rig.patterns import Correspondence, RingSamples
+from rig.patterns.saturation import subset_samples
+from rig.pipeline.capture import capture
+from rig.pipeline.exposure import (
+    STEP,
+    ExposureReport,
+    ExposureSettings,
+    bracket,
+    require_exposure,
+    settled_exposures,
+)
+from rig.pipeline.scan import ScanResult, is_reconstructed, make_codec, reconstruct_frames, run_scan
+from rig.progress import ProgressCallback, ProgressTracker
+from rig.rig import Rig
+
+
+def merge_exposures(corrs: list[Correspondence], reference: int) -> Correspondence:
+    """One Correspondence from the same pair's at several exposures (see the module docstring);
+    the texture and what is not per pixel from `reference`'s."""
+    score = np.stack([np.where(c.valid | _is_sparse(c), c.quality, -np.inf) for c in corrs])
+    if any(_is_sparse(c) for c in corrs):
+        score[np.stack([c.extra.get("saturated", np.zeros_like(c.valid)) for c in corrs])] = -np.inf
+    best = np.argmax(score, axis=0)
+    rows, cols = np.indices(best.shape)
+    base = corrs[reference]
+
+    def pick(arrays: list[np.ndarray]) -> np.ndarray:
+        return np.stack(arrays)[best, rows, cols]
+
+    valid = pick([c.valid for c in corrs]) if not _is_sparse(base) else np.zeros_like(base.valid)
+    u = None if base.u is None else pick([c.u for c in corrs if c.u is not None])
+    v = None if base.v is None else pick([c.v for c in corrs if c.v is not None])
+    extra = {
+        name: pick([c.extra[name] for c in corrs]) if array.shape == best.shape else array
+        for name, array in base.extra.items()
+        if name != "saturated"
+    }
+    extra["saturated"] = np.logical_and.reduce([c.extra.get("saturated", np.zeros_like(c.valid)) for c in corrs])
+    samples = _merged_samples(corrs, best)
+    if samples is not None:
+        nearest = np.rint(samples.camera_xy).astype(np.int64)
+        valid[nearest[:, 1], nearest[:, 0]] = True
+    counts = {
+        **base.counts,
+        "decoded": int(valid.sum()),
+        "hdr_exposures": len(corrs),
+        "saturated_every_exposure": int(extra["saturated"].sum()),
+        "rejected_saturated": sum(c.counts.get("rejected_saturated", 0) for c in corrs),
+    }
+    if samples is not None:
+        counts["ring_samples"] = len(samples)
+    quality = pick([c.quality for c in corrs])
+    return dataclasses.replace(
+        base, valid=valid, quality=quality, u=u, v=v, extra=extra, counts=counts, samples=samples
+    )
+
+
+def _is_sparse(corr: Correspondence) -> bool:
+    return corr.samples is not None
+
+
+def _merged_samples(corrs: list[Correspondence], best: np.ndarray) -> RingSamples | None:
+    """The ring samples of each exposure whose pixel that exposure reads best, all together."""
+    kept = []
+    for e, corr in enumerate(corrs):
+        if corr.samples is None:
+            return None
+        nearest = np.rint(corr.samples.camera_xy).astype(np.int64)
+        rows = np.clip(nearest[:, 1], 0, best.shape[0] - 1)
+        cols = np.clip(nearest[:, 0], 0, best.shape[1] - 1)
+        kept.append(subset_samples(corr.samples, best[rows, cols] == e))
+    first = kept[0]
+    joined = {
+        f.name: np.concatenate([getattr(s, f.name) for s in kept])
+        for f in dataclasses.fields(first)
+        if isinstance(getattr(first, f.name), np.ndarray) and f.name != "ring_radii_px"
+    }
+    return dataclasses.replace(first, **joined)
+
+
+def run_hdr_scan(
+    rig: Rig,
+    exposures_us: list[list[float]],
+    codec_name: str | None = None,
+    progress: ProgressCallback | None = None,
+    report: ExposureReport | None = None,
+) -> ScanResult:
+    """A scan whose patterns are captured at each camera's exposures (`exposures_us[camera]`, one
+    list per camera, all of one length: the k-th pass sets each camera to its k-th), merged per
+    pixel (merge_exposures); the frames of the last pass are the ones kept for the overlap cue."""
+    for camera in rig.cameras:
+        require_exposure(camera, "HDR")
+    passes = {len(e) for e in exposures_us}
+    if len(passes) != 1 or len(exposures_us) != len(rig.cameras):
+        raise ValueError(f"hdr: one list of exposures per camera, all of one length; got {exposures_us}")
+    tracker = ProgressTracker(progress)
+    name = codec_name or rig.config.scan.codec
+    codecs = [make_codec(rig, p, name) for p in range(len(rig.config.projectors))]
+    pairs = [(p, c) for p in range(len(codecs)) for c in range(len(rig.cameras)) if is_reconstructed(rig, (p, c))]
+    decoded: dict[tuple[int, int], list[Correspondence]] = {pair: [] for pair in pairs}
+    t0 = time.perf_counter()
+    frames: dict[tuple[int, int], list[np.ndarray]] = {}
+    for k in range(passes.pop()):
+        for camera, exposures in zip(rig.cameras, exposures_us, strict=True):
+            camera.set_exposure_us(exposures[k])
+        streams = {(p, c): codecs[p].stream(rig.config.cameras[c].full_scale) for p, c in pairs}
+
+        def decode_now(p: int, c: int, image: np.ndarray, streams: dict = streams) -> None:
+            if (p, c) in streams:
+                streams[(p, c)].add(image)
+
+        frames = capture(rig, codecs, tracker, decode_now)
+        for pair, stream in streams.items():
+            decoded[pair].append(stream.finish())
+    capture_ms = (time.perf_counter() - t0) * 1e3
+    merged = {pair: merge_exposures(corrs, len(corrs) - 1) for pair, corrs in decoded.items()}
+    result = reconstruct_frames(rig, name, frames, tracker, decoded=merged)
+    result.timings_ms = {"capture_ms": capture_ms, **result.timings_ms}
+    result.frames_projected *= len(exposures_us[0])
+    if report is not None:
+        report.exposures_us = {camera.name: list(e) for camera, e in zip(rig.cameras, exposures_us, strict=True)}
+        result.exposure = report.as_dict()
+    return result
+
+
+def scan_with_exposure(
+    rig: Rig, codec_name: str | None = None, progress: ProgressCallback | None = None, keep_frames: bool = False
+) -> ScanResult:
+    """A scan at the exposures `scan.exposure` asks for: the cameras' own, one set for all, auto
+    (from a pre-capture), or bracketed for HDR (auto, a count, or given)."""
+    config = rig.config.scan.exposure
+    if config.exposure == "camera" and config.hdr is None:
+        return run_scan(rig, codec_name, progress, keep_frames)
+    if config.hdr is not None and keep_frames:
+        raise ConfigError("scan", ["scan.save_frames: the frames of an HDR scan are not kept yet; scan without it"])
+    settings = ExposureSettings()
+    if isinstance(config.exposure, float):
+        for camera in rig.cameras:
+            require_exposure(camera, "scan.exposure")
+            camera.set_exposure_us(config.exposure)
+    report = ExposureReport("hdr" if config.hdr is not None else str(config.exposure))
+    looks = None
+    if config.exposure == "auto" or config.hdr == "auto" or isinstance(config.hdr, int):
+        looks, report.looks = settled_exposures(rig, settings)
+    if config.hdr is None:
+        result = run_scan(rig, codec_name, progress, keep_frames)
+        report.exposures_us = {camera.name: [camera.exposure_us] for camera in rig.cameras}
+        result.exposure = report.as_dict()
+        return result
+    if isinstance(config.hdr, list):
+        exposures = [list(config.hdr) for _ in rig.cameras]
+    else:
+        assert looks is not None
+        exposures = [bracket(look, settings) for look in looks]
+        if isinstance(config.hdr, int):
+            count = config.hdr
+            exposures = [[e[0] * STEP**k for k in range(count)] for e in exposures]
+        longest = max(len(e) for e in exposures)
+        exposures = [e + [e[-1]] * (longest - len(e)) for e in exposures]  # every camera takes every pass
+    return run_hdr_scan(rig, exposures, codec_name, progress, report)

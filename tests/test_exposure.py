@@ -1,0 +1,98 @@
+"""Exposure from what the camera sees (rig.pipeline.exposure) and HDR by bracketing
+(rig.pipeline.hdr): auto-exposure from the histogram, brackets that reach the darkest and the
+brightest, a high-contrast object scanned whole, and a camera without the control refused."""
+
+from __future__ import annotations
+
+import itertools
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from drivers.errors import DeviceStateError
+from rig.assembly import open_rig
+from rig.cli import main
+from rig.config import config_from_dict
+from rig.evaluate.pairs import evaluate_on_bench
+from rig.pipeline.exposure import STEP, ExposureSettings, Look, auto_exposure, bracket
+from rig.pipeline.hdr import scan_with_exposure
+from tests.conftest import small_config_data, write_config
+
+SETTINGS = ExposureSettings()
+
+
+def _look(white: np.ndarray, exposure_us: float = 1000.0) -> Look:
+    return Look(exposure_us, white.astype(np.uint8), np.full(white.shape, 2, np.uint8), 255)
+
+
+def test_auto_exposure_follows_the_histogram_not_a_rule() -> None:
+    dim = _look(np.full((40, 40), 50.0))
+    exposure, settled = auto_exposure(dim, SETTINGS)
+    assert settled and exposure == pytest.approx(1000.0 * 0.85 * 255 / 50)
+    spotted = np.full((40, 40), 50.0)
+    spotted[:2, :2] = 200  # a highlight on 0.25 % of the pixels: under the quantile, it does not decide
+    assert auto_exposure(_look(spotted), SETTINGS)[0] == pytest.approx(exposure)
+    clipped = np.full((40, 40), 255.0)
+    exposure, settled = auto_exposure(_look(clipped), SETTINGS)
+    assert not settled and exposure < 1000.0  # what lies above full scale is unknown: look again, shorter
+
+
+def test_a_bracket_reaches_the_darkest_lit_pixels_and_the_brightest() -> None:
+    white = np.full((50, 50), 200.0)
+    white[:, :25] = 6.0  # black rubber beside white paper: 4 counts of contrast over the black frame
+    exposures = bracket(_look(white), SETTINGS)
+    assert exposures[0] == pytest.approx(1000.0 * 0.85 * 255 / 200)  # the brightest just under full scale
+    assert all(b == pytest.approx(STEP * a) for a, b in itertools.pairwise(exposures))
+    # the longest shows the dark half with the contrast the decoders need
+    assert exposures[-1] * 4.0 / 1000.0 >= SETTINGS.min_contrast * 255
+    assert len(bracket(_look(np.full((50, 50), 200.0)), SETTINGS)) == 1  # nothing dark: one exposure
+
+
+def _checker_config(hdr: object, codec: str) -> dict:
+    data = small_config_data()
+    data["scan"]["codec"] = codec
+    data["simulation"]["texture"] = {"kind": "checker", "size_mm": 25.0, "colours": [[0.03] * 3, [1.0] * 3]}
+    data["scan"]["exposure"] = {"exposure": "auto", "hdr": hdr}
+    return data
+
+
+@pytest.mark.parametrize("codec", ["gray", "phase"])
+def test_hdr_scans_a_dark_and_white_object_as_whole_as_a_grey_one(codec: str) -> None:
+    completeness = {}
+    grey = _checker_config(None, codec)
+    del grey["simulation"]["texture"]
+    for name, data in (
+        ("grey", grey),
+        ("single", _checker_config(None, codec)),
+        ("hdr", _checker_config("auto", codec)),
+    ):
+        with open_rig(config_from_dict(data, "hdr")) as rig:
+            result = scan_with_exposure(rig)
+            completeness[name] = evaluate_on_bench(rig, result.pairs[0])["completeness"]
+            assert result.exposure is not None and result.exposure["mode"] == ("hdr" if name == "hdr" else "auto")
+    assert completeness["single"] < 0.7 * completeness["grey"]  # one exposure: the dark squares read no pattern
+    assert completeness["hdr"] > 0.9 * completeness["grey"]
+
+
+def test_a_camera_without_exposure_control_refuses_hdr_naming_it() -> None:
+    with open_rig(config_from_dict(_checker_config("auto", "gray"), "hdr")) as rig:
+        type(rig.cameras[0]).has_exposure = False
+        try:
+            with pytest.raises(DeviceStateError, match="exposure control"):
+                scan_with_exposure(rig)
+        finally:
+            type(rig.cameras[0]).has_exposure = True
+
+
+def test_the_command_line_takes_exposure_and_hdr(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    config = write_config(tmp_path, _checker_config(None, "gray"))
+    out = tmp_path / "scan"
+    assert main(["scan", "--config", str(config), "--hdr", "3", "--out", str(out), "--json"]) == 0
+    manifest = json.loads((out / "manifest.json").read_text())
+    assert manifest["exposure"]["mode"] == "hdr" and len(manifest["exposure"]["exposures_us"]["camera0"]) == 3
+    assert manifest["pairs"][0]["counts"]["hdr_exposures"] == 3
+    capsys.readouterr()
+    assert main(["scan", "--config", str(config), "--exposure", "fast", "--out", str(tmp_path / "x")]) != 0
+    assert "--exposure: 'fast'" in capsys.readouterr().err
