@@ -1,11 +1,12 @@
 """Exposure from what the camera sees: a white and a black frame before the scan (the pre-capture),
 their histogram, and the exposures a scan takes from it.
 
-Auto-exposure sets each camera so that the brightest of its lit pixels (the `bright_quantile` of
-the white frame over the pixels the projector lights) reads `target` of full scale: not a fixed
-rule, the scene's own histogram. Where the white frame clips over more than the pixels that
-quantile leaves out, what lies above full scale is unknown, and the exposure is cut by
-`_CUT` and looked at again. Counts are taken as linear in exposure (a raw sensor; the simulator's
+Auto-exposure sets each camera to the exposure at which most of the pixels the projector lights
+are well read, from the white frame's histogram over them: unclipped (within `target` of full
+scale) and with `min_contrast` between white and black (auto_exposure): not a fixed rule, the
+scene's own histogram, so a few highlights do not darken the rest. Where the white frame clips over
+much of what is lit, what lies above full scale is unknown, and the exposure is cut by `_CUT` and
+looked at again. Counts are taken as linear in exposure (a raw sensor; the simulator's
 response curve is its `gamma`, 1 by default).
 
 HDR brackets the exposure: from one at which the brightest lit pixel does not clip, in steps of
@@ -27,6 +28,7 @@ from rig.rig import Rig
 
 _CUT = 0.25  # a white frame clipping too much: the next look at a quarter of the exposure
 _LOOKS = 6  # pre-captures at most before auto-exposure settles on what it has
+_UNKNOWN = 0.25  # a look clipping more of its lit pixels than this cannot say what lies above
 STEP = 4.0  # HDR exposures two stops apart
 MIN_EXPOSURE_US, MAX_EXPOSURE_US = 1.0, 10_000_000.0  # the camera interface's bounds
 
@@ -34,11 +36,11 @@ MIN_EXPOSURE_US, MAX_EXPOSURE_US = 1.0, 10_000_000.0  # the camera interface's b
 @dataclass(frozen=True)
 class ExposureSettings:
     target: float = 0.85  # of full scale, for the brightest lit pixels
-    bright_quantile: float = 0.995
     dark_quantile: float = 0.02
     min_contrast: float = 0.15  # of full scale, white less black, at the darkest lit pixels
     lit_contrast: float = 0.008  # of full scale: a pixel the projector lights at all (2 counts of 8 bits)
     max_exposures: int = 10
+    max_clipped: float = 0.0005  # of the lit pixels, at the shortest HDR exposure
 
 
 @dataclass(frozen=True)
@@ -88,29 +90,48 @@ def require_exposure(camera: Camera, what: str) -> None:
 
 
 def auto_exposure(look: Look, settings: ExposureSettings) -> tuple[float, bool]:
-    """The exposure that puts the brightest lit pixels at the target, from one look; and whether
-    the look could tell (False: it clipped too much, the exposure returned is cut to look again)."""
+    """The exposure that reads the most lit pixels well, from one look: a scale k of the look's
+    exposure puts pixel i at white_i * k, so it is well read where its white stays within the
+    target of full scale and its contrast (white less black) reaches `min_contrast`; among the
+    scales that read within 1 % of the most, the longest (the least noise). A highlight that no
+    scale reads beside the rest is given up (HDR reads it). And whether the look could tell: one
+    clipped over more than `_UNKNOWN` of its lit pixels cannot, and the exposure returned is cut
+    to look again."""
     lit = look.lit(settings)
     if not lit.any():
         return _bounded(look.exposure_us / _CUT), False  # nothing lit: open up and look again
-    if look.clipped_share(lit) > 1.0 - settings.bright_quantile:
+    if look.clipped_share(lit) > _UNKNOWN:
         return _bounded(look.exposure_us * _CUT), False
-    bright = float(np.quantile(look.white[lit], settings.bright_quantile))
-    return _bounded(look.exposure_us * settings.target * look.full_scale / max(bright, 1.0)), True
+    white = look.white[lit].astype(np.float64)
+    contrast = white - look.black[lit]
+    read = white < look.full_scale  # a clipped pixel's true level is unknown: counted as lost
+    ceiling = settings.target * look.full_scale / np.maximum(white[read], 1.0)  # the longest it stays under
+    floor = settings.min_contrast * look.full_scale / np.maximum(contrast[read], 1e-3)  # the shortest it reads
+    readable = floor <= ceiling
+    floor, ceiling = np.sort(floor[readable]), np.sort(ceiling[readable])
+    scales = np.geomspace(1.0 / 256.0, 256.0, 4097)  # 0.3 % apart
+    # pixels read at a scale: those whose floor lies below it, less those whose ceiling does
+    good = np.searchsorted(floor, scales, side="right") - np.searchsorted(ceiling, scales, side="left")
+    if good.max() <= 0:
+        return _bounded(look.exposure_us), True  # nothing reads well at any exposure: keep this one
+    best = scales[np.flatnonzero(good >= 0.99 * good.max())[-1]]
+    return _bounded(look.exposure_us * best), True
 
 
-def bracket(look: Look, settings: ExposureSettings) -> list[float]:
-    """HDR exposures from one look (see the module docstring), shortest first."""
+def bracket(look: Look, settings: ExposureSettings, short: Look | None = None) -> list[float]:
+    """HDR exposures (see the module docstring), shortest first: the darkest lit pixels from
+    `look`, the brightest from `short` (a look at a shorter exposure that clips little or nothing:
+    shortest_looks), else from `look`."""
     lit = look.lit(settings)
     if not lit.any():
         return [look.exposure_us]
-    white = look.white[lit].astype(np.float64)
-    contrast = white - look.black[lit]
-    brightest = float(white.max())
-    if brightest >= look.full_scale:  # clipped already: the look says only that it is at least that
-        shortest = look.exposure_us * _CUT
+    contrast = look.white[lit].astype(np.float64) - look.black[lit]
+    bright = short if short is not None else look
+    brightest = float(bright.white[bright.lit(settings)].max(initial=0))
+    if brightest >= bright.full_scale:  # clipped still: the look says only that it is at least that
+        shortest = bright.exposure_us * _CUT
     else:
-        shortest = look.exposure_us * settings.target * look.full_scale / max(brightest, 1.0)
+        shortest = bright.exposure_us * settings.target * bright.full_scale / max(brightest, 1.0)
     dark = max(float(np.quantile(contrast, settings.dark_quantile)), 1.0)
     longest = max(look.exposure_us * settings.min_contrast * look.full_scale / dark, shortest)
     count = min(settings.max_exposures, 1 + math.ceil(math.log(longest / shortest) / math.log(STEP) - 1e-9))
@@ -131,6 +152,20 @@ def precapture(rig: Rig, exposures_us: list[float]) -> list[Look]:
         Look(exposure, _one_channel(white), _one_channel(black), rig.config.cameras[c].full_scale)
         for (c, (white, black)), exposure in zip(stills.items(), exposures_us, strict=True)
     ]
+
+
+def shortest_looks(rig: Rig, looks: list[Look], settings: ExposureSettings) -> list[Look]:
+    """Per camera, a look at an exposure short enough that at most `max_clipped` of its lit pixels
+    clip (a quarter of the last each time, at most _LOOKS looks): what a machined highlight needs."""
+    for _ in range(_LOOKS):
+        if all(look.clipped_share(look.lit(settings)) <= settings.max_clipped for look in looks):
+            break
+        shorter = [
+            look.exposure_us * (_CUT if look.clipped_share(look.lit(settings)) > settings.max_clipped else 1.0)
+            for look in looks
+        ]
+        looks = precapture(rig, [_bounded(e) for e in shorter])
+    return looks
 
 
 def settled_exposures(rig: Rig, settings: ExposureSettings) -> tuple[list[Look], dict[str, list[dict[str, float]]]]:

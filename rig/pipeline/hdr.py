@@ -28,6 +28,7 @@ from rig.pipeline.exposure import (
     bracket,
     require_exposure,
     settled_exposures,
+    shortest_looks,
 )
 from rig.pipeline.scan import ScanResult, is_reconstructed, make_codec, reconstruct_frames, run_scan
 from rig.progress import ProgressCallback, ProgressTracker
@@ -171,7 +172,10 @@ def scan_with_exposure(
         exposures = [list(config.hdr) for _ in rig.cameras]
     else:
         assert looks is not None
-        exposures = [bracket(look, settings) for look in looks]
+        short = shortest_looks(rig, looks, settings)
+        exposures = [bracket(look, settings, brief) for look, brief in zip(looks, short, strict=True)]
+        for camera, look in zip(rig.cameras, looks, strict=True):  # back to where auto-exposure settled
+            camera.set_exposure_us(look.exposure_us)
         if isinstance(config.hdr, int):
             count = config.hdr
             exposures = [[e[0] * STEP**k for k in range(count)] for e in exposures]
