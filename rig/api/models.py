@@ -12,6 +12,7 @@ from pydantic import BaseModel, ConfigDict, Field, StringConstraints, Validation
 from pydantic.json_schema import SkipJsonSchema
 
 from rig.config import DeviceKind
+from rig.config.scan import ExposureUs
 from rig.patterns import codec_names
 from rig.recognition.gallery import LABEL
 from rig.service.jobs import JOB_ID, Job, JobKind, JobState
@@ -73,6 +74,14 @@ class ScanRequest(_Request):
     plan: dict[str, Any] | None = Field(
         None,
         description="a ring plan (as `slrig plan rings --out` writes it, or a manifest's adaptive.plan): its rings",
+    )
+    exposure: ExposureUs | Literal["auto", "camera"] | None = Field(
+        None, description="auto, camera, or microseconds for every camera; default: scan.exposure's"
+    )
+    hdr: Annotated[int, Field(ge=2, le=10)] | Literal["auto"] | list[ExposureUs] | None = Field(
+        None,
+        description="several exposures merged per pixel: auto, a count, or 2 to 10 exposures in microseconds; "
+        "default: scan.exposure's",
     )
 
 

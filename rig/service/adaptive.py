@@ -56,6 +56,11 @@ def check_scan_request(config: RigConfig, request: dict[str, Any]) -> None:
         raise PlanError(f"codec: an adaptive or planned scan projects rings, not {codec}")
     if plan is not None:
         planned_config(config, RingPlan.from_dict(plan, "plan"))
+    hdr = request.get("hdr", config.scan.exposure.hdr)
+    if hdr is not None and request.get("keep_frames"):
+        raise PlanError("keep_frames: the frames of an HDR scan are not kept yet; scan without them or without hdr")
+    if isinstance(hdr, list) and not 2 <= len(hdr) <= 10:
+        raise PlanError(f"hdr: 2 to 10 exposures, got {len(hdr)}")
 
 
 def planned_config(config: RigConfig, plan: RingPlan) -> RigConfig:

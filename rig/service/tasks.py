@@ -3,6 +3,7 @@ stored result. The CLI runs these directly; the job service runs them in its wor
 
 from __future__ import annotations
 
+import dataclasses
 import json
 from collections.abc import Callable
 from pathlib import Path
@@ -46,6 +47,7 @@ def scan_job_to_directory(
 ) -> tuple[Path, ScanResult]:
     """A scan as the REST API asks for it (rig.api.models.ScanRequest): plain, adaptive, or a plan's rings."""
     keep_frames = bool(request.get("keep_frames"))
+    the_rig = with_requested_exposure(the_rig, request)
     if request.get("adaptive") or request.get("plan"):
         plan = RingPlan.from_dict(request["plan"]) if request.get("plan") else None
         path, result, _ = adaptive_scan_to_directory(
@@ -54,6 +56,16 @@ def scan_job_to_directory(
         )  # fmt: skip
         return path, result
     return scan_to_directory(the_rig, target, scan_id, request.get("codec"), keep_frames, progress)
+
+
+def with_requested_exposure(the_rig: Rig, request: dict[str, Any]) -> Rig:
+    """The rig scanning at the request's `exposure` and `hdr` (scan.exposure), where it gives them."""
+    asked = {k: request[k] for k in ("exposure", "hdr") if request.get(k) is not None}
+    if not asked:
+        return the_rig
+    data = the_rig.config.model_dump(mode="json")
+    data["scan"]["exposure"].update(asked)
+    return dataclasses.replace(the_rig, config=config_from_dict(data, "request"))
 
 
 def adaptive_scan_to_directory(
