@@ -130,3 +130,13 @@ def wait_done(client: Any, job_id: str, collection: str = "scans", timeout_s: fl
             return job
         time.sleep(0.05)
     raise AssertionError(f"{job_id} did not finish")
+
+
+UNCLIPPED_FULL_SCALE = 65535
+
+
+def unclipped(patterns: list[np.ndarray]) -> list[np.ndarray]:
+    """8-bit patterns as a camera with headroom reads them: on 16-bit counts (x 256, full scale
+    UNCLIPPED_FULL_SCALE), so white is not at full scale, which a decoder must take for clipped
+    (rig.patterns.saturation); the values are the patterns' own, exactly."""
+    return [p.astype(np.uint16) * np.uint16(256) for p in patterns]

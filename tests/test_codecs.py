@@ -10,6 +10,7 @@ from rig.errors import DecodeError, UnknownCodecError
 from rig.patterns import codec_class, codec_names
 from rig.patterns.gray import GrayParams
 from rig.patterns.phase import PhaseParams
+from tests.conftest import UNCLIPPED_FULL_SCALE, unclipped
 
 
 def _grid(width: int, height: int) -> tuple[np.ndarray, np.ndarray]:
@@ -21,7 +22,7 @@ def _grid(width: int, height: int) -> tuple[np.ndarray, np.ndarray]:
 @pytest.mark.parametrize("directions", ["columns", "rows", "both"])
 def test_gray_roundtrip_is_exact(size: tuple[int, int], directions: str) -> None:
     codec = codec_class("gray")(size, GrayParams(directions=directions))
-    corr = codec.decode(codec.patterns(), 255)
+    corr = codec.decode(unclipped(codec.patterns()), UNCLIPPED_FULL_SCALE)
     u, v = _grid(*size)
     assert corr.valid.all()
     if directions in ("columns", "both"):
@@ -37,7 +38,7 @@ def test_gray_roundtrip_is_exact(size: tuple[int, int], directions: str) -> None
 @pytest.mark.parametrize("size", [(1024, 768), (912, 1140)])
 def test_phase_roundtrip_within_a_hundredth_pixel(size: tuple[int, int]) -> None:
     codec = codec_class("phase")(size, PhaseParams(directions="both"))  # default: 8 steps, 16 px
-    corr = codec.decode(codec.patterns(), 255)
+    corr = codec.decode(unclipped(codec.patterns()), UNCLIPPED_FULL_SCALE)
     u, v = _grid(*size)
     assert corr.valid.all()
     assert np.max(np.abs(corr.u - u)) <= 0.01
@@ -48,7 +49,7 @@ def test_phase_roundtrip_within_a_hundredth_pixel(size: tuple[int, int]) -> None
 def test_phase_roundtrip_other_steps_and_periods(steps: int, period: int) -> None:
     """8-bit patterns limit the phase to a few milliradians whatever N and P are."""
     codec = codec_class("phase")((912, 300), PhaseParams(steps=steps, period_px=period))
-    corr = codec.decode(codec.patterns(), 255)
+    corr = codec.decode(unclipped(codec.patterns()), UNCLIPPED_FULL_SCALE)
     assert corr.valid.all()
     phase_error = np.max(np.abs(corr.u - _grid(912, 300)[0])) * 2 * np.pi / period
     assert phase_error <= 0.005
@@ -66,7 +67,7 @@ def test_phase_unwrapping_does_not_break_at_period_edges() -> None:
         for pattern in codec.patterns():
             image = cv2.remap(pattern.astype(np.float32), map_x, map_y, cv2.INTER_LINEAR)
             frames.append(np.rint(cv2.GaussianBlur(image, (0, 0), 0.8)).astype(np.uint8))
-        corr = codec.decode(frames, 255)
+        corr = codec.decode(unclipped(frames), UNCLIPPED_FULL_SCALE)
         inner = corr.valid.copy()
         inner[:, :3] = inner[:, -3:] = False  # the blur's image border is not the codec's concern
         error = corr.u[inner] - map_x[inner]
@@ -94,7 +95,7 @@ def test_decode_masks_unlit_pixels() -> None:
     frames = [p.copy() for p in codec.patterns()]
     for f in frames:
         f[:, :40] = 3  # a shadow: the same dim value in every frame
-    corr = codec.decode(frames, 255)
+    corr = codec.decode(unclipped(frames), UNCLIPPED_FULL_SCALE)
     assert not corr.valid[:, :40].any()
     assert corr.valid[:, 40:].all()
     assert np.isnan(corr.u[:, :40]).all()
@@ -103,7 +104,7 @@ def test_decode_masks_unlit_pixels() -> None:
 def test_wrong_frame_count_is_a_decode_error() -> None:
     codec = codec_class("gray")((64, 64))
     with pytest.raises(DecodeError, match="expected"):
-        codec.decode(codec.patterns()[:-1], 255)
+        codec.decode(unclipped(codec.patterns()[:-1]), UNCLIPPED_FULL_SCALE)
 
 
 def test_unknown_codec_names_the_known_ones() -> None:
@@ -115,7 +116,7 @@ def test_unknown_codec_names_the_known_ones() -> None:
 def test_colour_frames_decode_like_mono() -> None:
     codec = codec_class("gray")((64, 16))
     frames = [cv2.cvtColor(p, cv2.COLOR_GRAY2BGR) for p in codec.patterns()]
-    corr = codec.decode(frames, 255)
+    corr = codec.decode(unclipped(frames), UNCLIPPED_FULL_SCALE)
     np.testing.assert_array_equal(corr.u, _grid(64, 16)[0])
     assert corr.texture.ndim == 3
 

@@ -17,7 +17,7 @@ from rig.geometry.cone import ray_half_plane
 from rig.patterns import codec_class
 from rig.patterns.rings import RingsParams
 from rig.pipeline.scan import run_scan
-from tests.conftest import REPO, make_device
+from tests.conftest import REPO, UNCLIPPED_FULL_SCALE, make_device, unclipped
 
 SIZE = (1024, 768)
 
@@ -53,7 +53,7 @@ def test_the_fine_angle_fills_the_wedges_the_radius_leaves(both: tuple[dict, dic
 
 def test_the_fine_angular_code_reads_the_tangential_position_noise_free() -> None:
     codec = codec_class("rings")(SIZE, RingsParams())
-    samples = codec.decode(codec.patterns(), 255).samples
+    samples = codec.decode(unclipped(codec.patterns()), UNCLIPPED_FULL_SCALE).samples
     assert samples is not None and samples.fine_phase is not None and samples.fine_periods is not None
     cu, cv = samples.center_px
     theta = np.arctan2(samples.camera_xy[:, 1] - cv, samples.camera_xy[:, 0] - cu)
@@ -97,7 +97,7 @@ def test_a_depth_edge_jumping_across_an_annulus_is_not_a_ring() -> None:
             seen = pattern.copy()
             seen[400:, 7:] = pattern[400:, :-7]
             frames.append(seen)
-        corr = codec.decode(frames, 255)
+        corr = codec.decode(unclipped(frames), UNCLIPPED_FULL_SCALE)
         assert corr.samples is not None
         return corr.samples.camera_xy, corr.counts
 

@@ -18,7 +18,7 @@ from rig.patterns.radial import RadialParams
 from rig.patterns.rings import RingsParams
 from rig.pipeline.scan import PairResult, make_codec, run_scan
 from rig.rig import Rig
-from tests.conftest import make_device
+from tests.conftest import UNCLIPPED_FULL_SCALE, make_device, unclipped
 
 SIZE = (1024, 768)
 
@@ -33,7 +33,7 @@ def _radial_distance(xy: np.ndarray, center: tuple[float, float]) -> np.ndarray:
 )
 def test_ring_index_and_position_noise_free(params: RingsParams) -> None:
     codec = codec_class("rings")(SIZE, params)
-    samples = codec.decode(codec.patterns(), 255).samples
+    samples = codec.decode(unclipped(codec.patterns()), UNCLIPPED_FULL_SCALE).samples
     assert samples is not None
     radius = _radial_distance(samples.camera_xy, samples.center_px)
     nearest_ring = np.argmin(np.abs(radius[:, None] - codec.radii[None, :]), axis=1)
@@ -64,7 +64,7 @@ def test_ring_localisation_through_blur_and_subpixel_shift(shift: float) -> None
     for pattern in codec.patterns():
         image = cv2.remap(pattern.astype(np.float32), map_x, map_y, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
         frames.append(np.rint(cv2.GaussianBlur(image, (0, 0), 0.7)).astype(np.uint8))
-    samples = codec.decode(frames, 255).samples
+    samples = codec.decode(unclipped(frames), UNCLIPPED_FULL_SCALE).samples
     assert samples is not None and len(samples) > 10000
     projector_xy = samples.camera_xy + np.array([shift, shift / 2])
     error = _radial_distance(projector_xy, samples.center_px) - samples.radius_px
@@ -96,7 +96,7 @@ def test_ray_cone_against_analytic_cones() -> None:
 
 def test_radial_decodes_radius_and_angle_noise_free() -> None:
     codec = codec_class("radial")(SIZE, RadialParams())
-    corr = codec.decode(codec.patterns(), 255)
+    corr = codec.decode(unclipped(codec.patterns()), UNCLIPPED_FULL_SCALE)
     v, u = np.mgrid[0 : SIZE[1], 0 : SIZE[0]]
     cu, cv = codec.center
     assert corr.valid.mean() > 0.99
@@ -213,14 +213,14 @@ def test_ring_crossings_on_pixels_exactly_on_the_ring_are_kept() -> None:
     still be found, once."""
     codec = codec_class("rings")(SIZE)
     patterns = codec.patterns()
-    clean = codec.decode(patterns, 255).samples
+    clean = codec.decode(unclipped(patterns), UNCLIPPED_FULL_SCALE).samples
     cu, cv = codec.center
     v, u = np.mgrid[0 : SIZE[1], 0 : SIZE[0]]
     rho = np.hypot(u - cu, v - cv)
     on_ring = np.min(np.abs(rho[..., None] - codec.radii[None, None, :]), axis=2) < 0.2
     edge, inverse = patterns[2].copy(), patterns[3].copy()
     edge[on_ring] = inverse[on_ring] = 128
-    samples = codec.decode([*patterns[:2], edge, inverse, *patterns[4:]], 255).samples
+    samples = codec.decode(unclipped([*patterns[:2], edge, inverse, *patterns[4:]]), UNCLIPPED_FULL_SCALE).samples
     assert clean is not None and samples is not None
     assert on_ring.sum() > 0.1 * len(clean)  # many crossings now run through a zero pixel
     assert len(samples) >= 0.99 * len(clean)
@@ -241,7 +241,7 @@ def test_a_ring_along_the_frames_border_reports_no_edge_the_border_cut() -> None
         canvas = np.zeros((SIZE[1] + 2 * pad, SIZE[0] + 2 * pad), np.float32)
         canvas[pad:-pad, pad:-pad] = pattern
         frames.append(np.rint(cv2.GaussianBlur(canvas, (0, 0), 1.0)).astype(np.uint8))
-    decoded = codec.decode(frames, 255)
+    decoded = codec.decode(unclipped(frames), UNCLIPPED_FULL_SCALE)
     samples = decoded.samples
     assert samples is not None
     error = _radial_distance(samples.camera_xy - pad, samples.center_px) - samples.radius_px
