@@ -156,25 +156,6 @@ def test_adaptive_and_plan_requests_that_contradict_themselves_or_the_rig_are_re
     assert client.get("/v1/scans").json()["total"] == 0  # none of them was queued
 
 
-def test_a_scan_over_rest_at_the_exposures_it_asks_for(client: TestClient) -> None:
-    created = client.post("/v1/scans", json={"codec": "gray", "exposure": "auto", "hdr": 2}, headers=AUTH)
-    assert created.status_code == 202
-    done = wait_done(client, created.json()["id"])
-    assert done["state"] == "done", done["error"]
-    manifest = client.get(f"/v1/scans/{done['id']}/files/manifest.json").json()
-    assert manifest["exposure"]["mode"] == "hdr" and len(manifest["exposure"]["exposures_us"]["camera0"]) == 2
-    assert manifest["pairs"][0]["counts"]["hdr_exposures"] == 2
-    for body, status, named in (
-        ({"hdr": [1000.0]}, 409, "hdr"),
-        ({"hdr": 1}, 422, "hdr"),
-        ({"exposure": "fast"}, 422, "exposure"),
-        ({"hdr": "auto", "keep_frames": True}, 409, "keep_frames"),
-    ):
-        answer = client.post("/v1/scans", json=body, headers=AUTH)
-        assert answer.status_code == status, (body, answer.json())
-        assert named in json.dumps(answer.json()["detail"]), (body, answer.json())
-
-
 def test_files_are_served_only_by_the_names_a_result_lists(client: TestClient, service: JobService) -> None:
     job_id = client.post("/v1/scans", json={}, headers=AUTH).json()["id"]
     wait_done(client, job_id)

@@ -48,6 +48,7 @@ class _Request(BaseModel):
 def _integer_field(model: type[BaseModel], name: str | None) -> bool:
     annotation = model.model_fields[name].annotation if name in model.model_fields else None
     kinds = set(typing.get_args(annotation)) if typing.get_origin(annotation) in (Union, UnionType) else {annotation}
+    kinds = {typing.get_args(k)[0] if typing.get_origin(k) is Annotated else k for k in kinds}  # Annotated[int, ...]
     return int in kinds and float not in kinds
 
 

@@ -18,7 +18,6 @@ depth edge). Each camera pixel inside a kept triangle gets a point on its ray:
 
 from __future__ import annotations
 
-import dataclasses
 from dataclasses import dataclass, field
 from typing import Literal
 
@@ -257,8 +256,7 @@ def interpolate_surface(
         covered, owner = np.concatenate([covered, filled]), np.concatenate([owner, np.full(len(filled), -1)])
         counts["filled_px"] = len(filled)
     counts["pixels"] = len(covered)
-    surface = _surface(points, normals, tri, ring, counts, camera, grid, covered, owner)
-    return dataclasses.replace(surface, flank=triangles.flank)
+    return _surface(points, normals, tri, ring, counts, camera, grid, covered, owner, triangles.flank)
 
 
 def _in_bands(
@@ -314,9 +312,10 @@ def _surface(
     grid: np.ndarray,
     covered: np.ndarray,
     owner: np.ndarray,
+    flank: np.ndarray,
 ) -> RingSurface:
     """The RingSurface whose points are the rows `covered` of `grid` (flat, H*W x 3; the others are
-    cleared), each in face `owner`."""
+    cleared), each in face `owner`; `flank` marks the faces kept as a flank."""
     shape = (camera.height, camera.width)
     valid = np.zeros(grid.shape[0], dtype=bool)
     valid[covered] = True
@@ -324,8 +323,9 @@ def _surface(
     triangle = np.full(grid.shape[0], -1, dtype=np.int32)
     triangle[covered] = owner
     return RingSurface(
-        points, normals, tri, grid.reshape(*shape, 3), valid.reshape(shape), counts, ring, triangle.reshape(shape)
-    )
+        points, normals, tri, grid.reshape(*shape, 3), valid.reshape(shape), counts, ring, triangle.reshape(shape),
+        flank=flank,
+    )  # fmt: skip
 
 
 def _rays(camera: CameraModel, pixel: np.ndarray, common_origin: bool) -> tuple[np.ndarray, np.ndarray]:
