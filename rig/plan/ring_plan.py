@@ -241,7 +241,7 @@ def refusal(densest: Rehearsal, tolerance: float, trial: Rehearser, settings: Ri
     if densest.worst_region_mm > tolerance:
         spacing = settings.min_spacing_px * min(1.0, (tolerance / max(densest.worst_region_mm, 1e-9)) ** 0.5)
         said.append(
-            f"More rings: rings about every {max(spacing, 1.0):.1g} px (scan.adaptive.min_spacing_px, now "
+            f"More rings: rings about every {max(spacing, 1.0):.2g} px (scan.adaptive.min_spacing_px, now "
             f"{settings.min_spacing_px:g}), where the projector can show them apart."
         )
     if densest.covered < settings.min_coverage:
