@@ -51,6 +51,19 @@ class CameraContract(Contract[Camera]):
         with pytest.raises(ValueError):
             camera.set_exposure_us(0.0)
 
+    def test_a_frame_carries_the_exposure_it_was_taken_at(self, kit: Kit[Camera]) -> None:
+        """What auto-exposure and HDR rely on: a camera that sets its exposure takes the next frames
+        at it, and says so in each frame (one without the control says so: has_exposure)."""
+        camera = kit.device
+        camera.open()
+        if not camera.has_exposure:
+            pytest.skip(f"{type(camera).__name__} has no exposure control (has_exposure)")
+        for exposure_us in (5000.0, 800.0):
+            camera.set_exposure_us(exposure_us)
+            camera.flush()
+            frame = camera.capture(timeout_s=CAPTURE_TIMEOUT_S)
+            assert frame.exposure_us == pytest.approx(exposure_us, rel=0.02)
+
     def test_closed_cameras_refuse_and_close_twice(self, kit: Kit[Camera]) -> None:
         camera = kit.device
         with pytest.raises(DeviceStateError):
