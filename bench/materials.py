@@ -1,7 +1,8 @@
 """Real surfaces on the simulated bench: shiny, glossy and dark-and-white objects scanned with one
 exposure, with auto-exposure and with HDR bracketing, beside the same shape matte. Prints one JSON
 object {"scenes": {NAME: {MODE: {...}}}}: completeness (of the visible, lit surface, within 1 mm),
-rms and p95 in mm, frames projected, exposures, and the bench-clock capture time.
+rms and p95 in mm, frames projected, exposures, the bench-clock capture time, and the pixels lost
+to clipping (at every exposure).
 
     python bench/materials.py [--docs]
 
@@ -88,7 +89,7 @@ def table(measured: dict[str, Any]) -> str:
             cells = [name, mode, f"{100 * m['completeness']:.1f} %", m["rms_mm"], m["p95_mm"], m["frames"], shown]
             rows.append([*cells, m["capture_s"], m["rejected_saturated"]])
     header = ["scene", "mode", "completeness", "rms mm", "p95 mm", "frames", "exposures ms", "capture s"]
-    header.append("saturated px")
+    header.append("clipped px lost")
     return markdown_table(header, rows) + "\n\nProduced by `python bench/materials.py --docs`."
 
 

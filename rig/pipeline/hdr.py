@@ -65,8 +65,9 @@ def merge_exposures(corrs: list[Correspondence], reference: int) -> Corresponden
         **base.counts,
         "decoded": int(valid.sum()),
         "hdr_exposures": len(corrs),
-        "saturated_every_exposure": int(extra["saturated"].sum()),
-        "rejected_saturated": sum(c.counts.get("rejected_saturated", 0) for c in corrs),
+        # what no exposure read for clipping; each exposure's own count is its share of the bracket
+        "rejected_saturated": int(extra["saturated"].sum()),
+        "rejected_saturated_per_exposure": sum(c.counts.get("rejected_saturated", 0) for c in corrs),
     }
     if samples is not None:
         counts["ring_samples"] = len(samples)
