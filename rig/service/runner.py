@@ -312,6 +312,9 @@ class JobService:
             self._finish(job_id, JobState.DONE, result=result, stage="done", fraction=1.0)
 
     def _finish(self, job_id: str, state: JobState, **fields: Any) -> None:
+        with self._cond:  # the rig reads idle (or its fault) by the time anyone sees the job ended
+            if self._current == job_id:
+                self._current = None
         try:
             self.store.transition(job_id, state, **fields)
         except SlrigError as exc:  # shutdown() recorded it interrupted meanwhile
