@@ -49,7 +49,7 @@ def measure_scene(scene: dict[str, Any], material: dict[str, Any], texture: dict
     if mode != "matte":
         data["simulation"]["material"] = material
         data["simulation"]["texture"] = texture
-    data["scan"]["exposure"] = MODES[mode]
+    data["scan"]["exposure"] = {**MODES[mode], "drop_outshone": True}
     with open_rig(config_from_dict(data, f"materials {mode}")) as rig:
         assert rig.truth is not None
         start = rig.truth.clock_s

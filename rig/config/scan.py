@@ -157,6 +157,11 @@ class ExposureConfig(Strict):
         "asks for, two stops apart), a count (that many, two stops apart from the shortest that does not clip), "
         "or the exposures in microseconds; null: one exposure",
     )
+    drop_outshone: bool = Field(
+        False,
+        description="leave out every pixel beside a far brighter one (a black part on white paper): the lens's blur "
+        "spills the bright side's patterns into it, and what it reads lies toward its neighbour (rig.patterns.spill)",
+    )
 
     @model_validator(mode="after")
     def _exposures(self) -> ExposureConfig:

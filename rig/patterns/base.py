@@ -16,6 +16,7 @@ from pydantic import BaseModel, ConfigDict, Field
 from rig.errors import DecodeError
 from rig.patterns.saturation import saturated_in, without_saturated
 from rig.patterns.spec import PatternSpec
+from rig.patterns.spill import without_outshone
 
 if TYPE_CHECKING:
     from rig.patterns.stream import FrameStream
@@ -151,6 +152,8 @@ class Codec(abc.ABC):
     # quality does not predict (merging then ranks points by their measured local noise).
     quantized: ClassVar[bool] = False
     Params: ClassVar[type[CodecParams]] = CodecParams
+    # leave out the pixels a far brighter neighbour's blur drowns (rig.patterns.spill)
+    drops_outshone: bool = False
 
     def __init__(
         self, projector_size: tuple[int, int], params: CodecParams | None = None, output_lut: np.ndarray | None = None
@@ -206,6 +209,8 @@ class Codec(abc.ABC):
         saturated = saturated_in(frames, full_scale)
         if saturated is not None:
             corr = without_saturated(corr, saturated)
+        if self.drops_outshone:
+            corr = without_outshone(corr, frames[0], frames[1])
         return dataclasses.replace(corr, full_scale=full_scale)
 
     @abc.abstractmethod

@@ -50,38 +50,45 @@ def saturated_in(frames: list[np.ndarray], full_scale: int) -> np.ndarray | None
 
 
 def without_saturated(corr: Correspondence, saturated: np.ndarray) -> Correspondence:
-    """`corr` with every pixel of `saturated` (H, W) invalid, its coordinates NaN, and the ring
-    samples between two pixels of which either is saturated dropped; `counts["rejected_saturated"]`
-    the pixels (or samples) so dropped. Applying it twice drops nothing more (and counts the first)."""
-    counts = dict(corr.counts)
-    dropped = corr.valid & saturated
-    counts["rejected_saturated"] = counts.get("rejected_saturated", 0) + int(dropped.sum())
+    """`corr` without the pixels of `saturated` (without_pixels, counted as `rejected_saturated`),
+    which it also records in `extra["saturated"]` for HDR's merge."""
+    corr = without_pixels(corr, saturated, "rejected_saturated")
     if not saturated.any():
+        return corr
+    extra = {**corr.extra, "saturated": saturated | corr.extra.get("saturated", False)}
+    return dataclasses.replace(corr, extra=extra)
+
+
+def without_pixels(corr: Correspondence, unread: np.ndarray, counter: str) -> Correspondence:
+    """`corr` with every pixel of `unread` (H, W) invalid, its coordinates NaN, and the ring
+    samples between two pixels of which either is unread dropped; `counts[counter]` the pixels (or
+    samples) so dropped. Applying it twice drops nothing more (and counts the first)."""
+    counts = dict(corr.counts)
+    dropped = corr.valid & unread
+    counts[counter] = counts.get(counter, 0) + int(dropped.sum())
+    if not unread.any():
         return dataclasses.replace(corr, counts=counts)
-    u = None if corr.u is None else np.where(saturated, np.nan, corr.u).astype(corr.u.dtype, copy=False)
-    v = None if corr.v is None else np.where(saturated, np.nan, corr.v).astype(corr.v.dtype, copy=False)
+    u = None if corr.u is None else np.where(unread, np.nan, corr.u).astype(corr.u.dtype, copy=False)
+    v = None if corr.v is None else np.where(unread, np.nan, corr.v).astype(corr.v.dtype, copy=False)
     samples = corr.samples
     if samples is not None:
-        clear = ~_touches(samples, saturated)
-        counts["rejected_saturated"] += int((~clear).sum())
+        clear = ~_touches(samples, unread)
+        counts[counter] += int((~clear).sum())
         samples = subset_samples(samples, clear)
         if "ring_samples" in counts:
             counts["ring_samples"] = len(samples)
-    extra = {**corr.extra, "saturated": saturated | corr.extra.get("saturated", False)}  # for HDR's merge
-    return dataclasses.replace(
-        corr, valid=corr.valid & ~saturated, u=u, v=v, samples=samples, counts=counts, extra=extra
-    )
+    return dataclasses.replace(corr, valid=corr.valid & ~unread, u=u, v=v, samples=samples, counts=counts)
 
 
-def _touches(samples: RingSamples, saturated: np.ndarray) -> np.ndarray:
-    """(M,) whether either camera pixel a sample lies between is saturated."""
-    height, width = saturated.shape
+def _touches(samples: RingSamples, unread: np.ndarray) -> np.ndarray:
+    """(M,) whether either camera pixel a sample lies between is unread."""
+    height, width = unread.shape
     x, y = samples.camera_xy[:, 0], samples.camera_xy[:, 1]
     touched = np.zeros(len(samples), dtype=bool)
     for cols, rows in ((np.floor(x), np.floor(y)), (np.ceil(x), np.ceil(y))):
         c = np.clip(cols.astype(np.int64), 0, width - 1)
         r = np.clip(rows.astype(np.int64), 0, height - 1)
-        touched |= saturated[r, c]
+        touched |= unread[r, c]
     return touched
 
 

@@ -19,6 +19,7 @@ from rig.errors import DecodeError
 from rig.lazy import lazy_module
 from rig.patterns.base import Correspondence, luminance
 from rig.patterns.saturation import SaturationMask
+from rig.patterns.spill import SpillScreen
 from rig.workers import in_row_strips
 
 fused = lazy_module("rig.fused")  # numba compiles on first use: not for --help
@@ -39,6 +40,7 @@ class FrameStream(abc.ABC):
         self.shape: tuple[int, int] | None = None
         self.dtype: np.dtype | None = None
         self.saturation = SaturationMask(full_scale)
+        self.spill = SpillScreen() if codec.drops_outshone else None
 
     def add(self, frame: np.ndarray) -> None:
         expected = self.codec.frame_count
@@ -53,13 +55,18 @@ class FrameStream(abc.ABC):
             raise DecodeError(f"{self.codec.name}: frames differ in type: {self.dtype}, {frame.dtype}")
         self._consume(self.added, frame)
         self.saturation.add(frame)
+        if self.spill is not None:
+            self.spill.add(self.added, frame)
         self.added += 1
 
     def finish(self) -> Correspondence:
         expected = self.codec.frame_count
         if self.added != expected:
             raise DecodeError(f"{self.codec.name}: expected {expected} frames, got {self.added}")
-        return dataclasses.replace(self.saturation.honoured(self._finish()), full_scale=self.full_scale)
+        corr = self.saturation.honoured(self._finish())
+        if self.spill is not None:
+            corr = self.spill.honoured(corr)
+        return dataclasses.replace(corr, full_scale=self.full_scale)
 
     @abc.abstractmethod
     def _consume(self, index: int, frame: np.ndarray) -> None:

@@ -85,7 +85,9 @@ def make_codec(rig: Rig, projector: int, name: str | None = None, params: CodecP
     cls = codec_class(name)
     params = params if params is not None else getattr(rig.config.scan, name, None)
     lut = rig.response_luts[projector] if rig.response_luts else None
-    return cls(tuple(rig.config.projectors[projector].resolution), params, lut)
+    codec = cls(tuple(rig.config.projectors[projector].resolution), params, lut)
+    codec.drops_outshone = rig.config.scan.exposure.drop_outshone
+    return codec
 
 
 def reconstruct_pair(
