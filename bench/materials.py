@@ -40,6 +40,7 @@ MODES: dict[str, dict[str, Any]] = {
     "single": {"exposure": "camera", "hdr": None},
     "auto": {"exposure": "auto", "hdr": None},
     "hdr": {"exposure": "auto", "hdr": "auto"},
+    "adaptive": {"exposure": "auto", "hdr": None, "adaptive_projection": True},
 }
 
 

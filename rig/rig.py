@@ -107,6 +107,9 @@ class Rig:
     scene: SceneControl | None = None
     calibration_sha256: str | None = None  # of calibration.file when reconstruction uses one
     response_luts: list[np.ndarray | None] = field(default_factory=list)  # per projector, from response.json
+    # per projector, the share of each pixel's light its patterns send (adaptive projection:
+    # rig.pipeline.projection_mask); empty: all of it
+    intensity_masks: list[np.ndarray] = field(default_factory=list)
     response_sha256: str | None = None
     extras: list[Device] = field(default_factory=list)  # housekeeping (projector power), opened first
     # Called at every wait for light: the daemon's heartbeat and cancel check in long sessions.

@@ -39,3 +39,20 @@ def test_a_scan_over_rest_at_the_exposures_it_asks_for(client: TestClient) -> No
         answer = client.post("/v1/scans", json=body, headers=AUTH)
         assert answer.status_code == status, (body, answer.json())
         assert named in json.dumps(answer.json()["detail"]), (body, answer.json())
+
+
+def test_adaptive_projection_over_rest(client: TestClient) -> None:
+    created = client.post("/v1/scans", json={"codec": "gray", "adaptive_projection": True}, headers=AUTH)
+    assert created.status_code == 202
+    done = wait_done(client, created.json()["id"])
+    assert done["state"] == "done", done["error"]
+    manifest = client.get(f"/v1/scans/{done['id']}/files/manifest.json").json()
+    assert manifest["exposure"]["mode"] == "adaptive projection"
+    assert {"response_exponent", "masks", "prescan_exposures_us"} <= set(manifest["exposure"]["adaptive_projection"])
+    for body, named in (
+        ({"adaptive_projection": "yes please"}, "adaptive_projection"),
+        ({"adaptive": True, "adaptive_projection": True}, "adaptive_projection"),
+    ):
+        answer = client.post("/v1/scans", json=body, headers=AUTH)
+        assert answer.status_code in (409, 422), (body, answer.json())
+        assert named in json.dumps(answer.json()["detail"]), (body, answer.json())

@@ -84,6 +84,11 @@ class ScanRequest(_Request):
         description="several exposures merged per pixel: auto, a count, or 2 to 10 exposures in microseconds; "
         "default: scan.exposure's",
     )
+    adaptive_projection: bool | None = Field(
+        None,
+        description="dim the patterns where the cameras would clip, from a pre-scan at a short exposure; "
+        "default: scan.exposure's",
+    )
 
 
 class ReprocessRequest(_Request):

@@ -36,6 +36,12 @@ def _exposure(p: argparse.ArgumentParser) -> None:
         help="capture at several exposures, merged per pixel: auto, a count, or microseconds as US,US,... "
         "(scan.exposure.hdr)",
     )
+    p.add_argument(
+        "--adaptive-projection",
+        action="store_true",
+        help="dim the patterns where the camera would clip, from a pre-scan, so one exposure reads dark and "
+        "shiny alike (scan.exposure.adaptive_projection; not --adaptive, which plans rings)",
+    )
 
 
 def _scan_command(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]

@@ -20,8 +20,9 @@ def load(args: argparse.Namespace) -> RigConfig:
     if args.codec:
         config = config.with_codec(args.codec)
     exposure, hdr = getattr(args, "exposure", None), getattr(args, "hdr", None)
-    if exposure is not None or hdr is not None:
-        config = config.with_exposure(exposure, hdr)
+    adaptive_projection = getattr(args, "adaptive_projection", False)
+    if exposure is not None or hdr is not None or adaptive_projection:
+        config = config.with_exposure(exposure, hdr, adaptive_projection)
     return config
 
 

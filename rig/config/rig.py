@@ -130,11 +130,14 @@ class RigConfig(Strict):
         data["scan"]["codec"] = codec
         return validate_rig(data, "--codec")
 
-    def with_exposure(self, exposure: str | None, hdr: str | None) -> RigConfig:
-        """A copy with the command line's `--exposure` (auto, camera or microseconds) and `--hdr`
-        (auto, a count, or microseconds separated by commas), validated like the file."""
+    def with_exposure(self, exposure: str | None, hdr: str | None, adaptive_projection: bool = False) -> RigConfig:
+        """A copy with the command line's `--exposure` (auto, camera or microseconds), `--hdr`
+        (auto, a count, or microseconds separated by commas) and `--adaptive-projection`, validated
+        like the file."""
         data = self.model_dump()
         chosen = data["scan"]["exposure"]
+        if adaptive_projection:
+            chosen["adaptive_projection"] = True
         if exposure is not None:
             named = exposure in ("auto", "camera")
             chosen["exposure"] = exposure if named else _number("--exposure", exposure, "auto, camera")

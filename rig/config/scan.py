@@ -157,6 +157,12 @@ class ExposureConfig(Strict):
         "asks for, two stops apart), a count (that many, two stops apart from the shortest that does not clip), "
         "or the exposures in microseconds; null: one exposure",
     )
+    adaptive_projection: bool = Field(
+        False,
+        description="dim each projector's patterns where the camera would clip (a mask from a pre-scan at a short "
+        "exposure), so that one exposure long enough for the darkest lit surface reads the brightest too; "
+        "with hdr, the bracket is taken with the masks (rig.pipeline.projection_mask)",
+    )
     drop_outshone: bool = Field(
         False,
         description="leave out every pixel beside a far brighter one (a black part on white paper): the lens's blur "

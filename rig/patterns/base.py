@@ -140,6 +140,14 @@ def least_counts(threshold: float, full_scale: int) -> int:
     return int(np.argmax(reaches)) if reaches.any() else full_scale + 1
 
 
+def sent_levels(pattern: np.ndarray, mask: np.ndarray | None, lut: np.ndarray | None) -> np.ndarray:
+    """The levels to send for a pattern's light (uint8): dimmed by an intensity `mask` (the share of
+    each pixel's light, rig.pipeline.projection_mask), through the projector's inverse response `lut`."""
+    if mask is not None:
+        pattern = np.rint(pattern * mask).astype(np.uint8)
+    return pattern if lut is None else lut[pattern]
+
+
 class Codec(abc.ABC):
     """Encoder and decoder for one pattern family.
 
@@ -154,6 +162,9 @@ class Codec(abc.ABC):
     Params: ClassVar[type[CodecParams]] = CodecParams
     # leave out the pixels a far brighter neighbour's blur drowns (rig.patterns.spill)
     drops_outshone: bool = False
+    # (H, W) float32 in (0, 1], the share of each projector pixel's light that every pattern sends
+    # (adaptive projection: rig.pipeline.projection_mask); None sends all of it
+    intensity_mask: np.ndarray | None = None
 
     def __init__(
         self, projector_size: tuple[int, int], params: CodecParams | None = None, output_lut: np.ndarray | None = None
@@ -175,10 +186,13 @@ class Codec(abc.ABC):
         codec can (line codecs, from 1-D profiles): a capture that shows them one by one then holds
         the one it shows, not the sequence (17 MB of Gray code on the default bench)."""
         white = np.full((self.height, self.width), 255, dtype=np.uint8)
-        yield white
+        yield white if self.intensity_mask is None else self._sent(white)  # full white is full light
         yield np.zeros_like(white)
         for pattern in self._coded_iter():
-            yield pattern if self.output_lut is None else self.output_lut[pattern]
+            yield self._sent(pattern)
+
+    def _sent(self, pattern: np.ndarray) -> np.ndarray:
+        return sent_levels(pattern, self.intensity_mask, self.output_lut)
 
     def _coded_iter(self) -> Iterator[np.ndarray]:
         """The coded patterns one at a time (by default made together by `_coded_patterns`)."""

@@ -18,6 +18,7 @@ from drivers.errors import DeviceError
 from drivers.sequences import PatternSequence, SequenceEntry, TriggerMode
 from rig.errors import CaptureFaultError, ScanError
 from rig.patterns import Codec
+from rig.patterns.base import sent_levels
 from rig.progress import ProgressTracker
 from rig.rig import Rig
 
@@ -110,7 +111,7 @@ def lit_stills(rig: Rig, steps: list[list[int]], last_sequence: list[int] | None
     timeout = rig.config.scan.capture_timeout_s
     latency = max(rig.latency_s(p) for p in range(len(rig.projectors)))
     last = [-1] * len(rig.cameras) if last_sequence is None else last_sequence
-    white = [np.full((p.resolution[1], p.resolution[0]), 255, np.uint8) for p in rig.projectors]
+    white = [white_image(rig, p) for p in range(len(rig.projectors))]
     stills: dict[int, list[np.ndarray]] = {c: [] for c in range(len(rig.cameras))}
     try:
         for lit in steps:
@@ -131,6 +132,15 @@ def lit_stills(rig: Rig, steps: list[list[int]], last_sequence: list[int] | None
     finally:
         rig.all_dark()
     return stills
+
+
+def white_image(rig: Rig, p: int) -> np.ndarray:
+    """Projector `p` all white: full, or as its intensity mask dims it (adaptive projection)."""
+    width, height = rig.projectors[p].resolution
+    white = np.full((height, width), 255, np.uint8)
+    if not rig.intensity_masks:
+        return white
+    return sent_levels(white, rig.intensity_masks[p], rig.response_luts[p] if rig.response_luts else None)
 
 
 def _take(rig: Rig, c: int, timeout_s: float, last_sequence: list[int]) -> Frame:

@@ -78,9 +78,11 @@ class ExposureReport:
     mode: str
     exposures_us: dict[str, list[float]] = field(default_factory=dict)
     looks: dict[str, list[dict[str, float]]] = field(default_factory=dict)
+    projection: dict[str, object] | None = None  # adaptive projection (rig.pipeline.projection_mask)
 
     def as_dict(self) -> dict[str, object]:
-        return {"mode": self.mode, "exposures_us": self.exposures_us, "looks": self.looks}
+        recorded = {"mode": self.mode, "exposures_us": self.exposures_us, "looks": self.looks}
+        return recorded if self.projection is None else {**recorded, "adaptive_projection": self.projection}
 
 
 def require_exposure(camera: Camera, what: str) -> None:

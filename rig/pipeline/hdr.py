@@ -19,7 +19,7 @@ import numpy as np
 
 from rig.errors import ConfigError
 from rig.patterns import Correspondence, RingSamples
-from rig.patterns.saturation import subset_samples
+from rig.patterns.saturation import subset_samples, without_pixels
 from rig.pipeline.capture import capture
 from rig.pipeline.exposure import (
     STEP,
@@ -30,6 +30,7 @@ from rig.pipeline.exposure import (
     settled_exposures,
     shortest_looks,
 )
+from rig.pipeline.projection_mask import masked_rig
 from rig.pipeline.scan import ScanResult, is_reconstructed, make_codec, reconstruct_frames, run_scan
 from rig.progress import ProgressCallback, ProgressTracker
 from rig.rig import Rig
@@ -106,15 +107,22 @@ def run_hdr_scan(
     codec_name: str | None = None,
     progress: ProgressCallback | None = None,
     report: ExposureReport | None = None,
+    screens: dict[tuple[int, int], np.ndarray] | None = None,
+    keep_frames: bool = False,
 ) -> ScanResult:
     """A scan whose patterns are captured at each camera's exposures (`exposures_us[camera]`, one
     list per camera, all of one length: the k-th pass sets each camera to its k-th), merged per
-    pixel (merge_exposures); the frames of the last pass are the ones kept for the overlap cue."""
+    pixel (merge_exposures); the frames of the last pass are the ones kept for the overlap cue, and
+    stored with `keep_frames` (one pass only). `screens`: per pair, camera pixels no pass reads
+    (adaptive projection's steep mask edges: rig.pipeline.projection_mask)."""
     for camera in rig.cameras:
         require_exposure(camera, "HDR")
     passes = {len(e) for e in exposures_us}
     if len(passes) != 1 or len(exposures_us) != len(rig.cameras):
         raise ValueError(f"hdr: one list of exposures per camera, all of one length; got {exposures_us}")
+    count = passes.pop()
+    if keep_frames and count > 1:
+        raise ConfigError("scan", ["scan.save_frames: the frames of an HDR scan are not kept yet; scan without it"])
     tracker = ProgressTracker(progress)
     name = codec_name or rig.config.scan.codec
     codecs = [make_codec(rig, p, name) for p in range(len(rig.config.projectors))]
@@ -122,7 +130,7 @@ def run_hdr_scan(
     decoded: dict[tuple[int, int], list[Correspondence]] = {pair: [] for pair in pairs}
     t0 = time.perf_counter()
     frames: dict[tuple[int, int], list[np.ndarray]] = {}
-    for k in range(passes.pop()):
+    for k in range(count):
         for camera, exposures in zip(rig.cameras, exposures_us, strict=True):
             camera.set_exposure_us(exposures[k])
         streams = {(p, c): codecs[p].stream(rig.config.cameras[c].full_scale) for p, c in pairs}
@@ -133,12 +141,15 @@ def run_hdr_scan(
 
         frames = capture(rig, codecs, tracker, decode_now)
         for pair, stream in streams.items():
-            decoded[pair].append(stream.finish())
+            corr = stream.finish()
+            if screens is not None and pair in screens:
+                corr = without_pixels(corr, screens[pair], "rejected_mask_edge")
+            decoded[pair].append(corr)
     capture_ms = (time.perf_counter() - t0) * 1e3
-    merged = {pair: merge_exposures(corrs, len(corrs) - 1) for pair, corrs in decoded.items()}
-    result = reconstruct_frames(rig, name, frames, tracker, decoded=merged)
+    merged = {pair: corrs[0] if count == 1 else merge_exposures(corrs, count - 1) for pair, corrs in decoded.items()}
+    result = reconstruct_frames(rig, name, frames, tracker, keep_frames, decoded=merged)
     result.timings_ms = {"capture_ms": capture_ms, **result.timings_ms}
-    result.frames_projected *= len(exposures_us[0])
+    result.frames_projected *= count
     if report is not None:
         report.exposures_us = {camera.name: list(e) for camera, e in zip(rig.cameras, exposures_us, strict=True)}
         result.exposure = report.as_dict()
@@ -149,9 +160,10 @@ def scan_with_exposure(
     rig: Rig, codec_name: str | None = None, progress: ProgressCallback | None = None, keep_frames: bool = False
 ) -> ScanResult:
     """A scan at the exposures `scan.exposure` asks for: the cameras' own, one set for all, auto
-    (from a pre-capture), or bracketed for HDR (auto, a count, or given)."""
+    (from a pre-capture), or bracketed for HDR (auto, a count, or given); with adaptive projection,
+    the patterns dimmed where the cameras would clip (rig.pipeline.projection_mask)."""
     config = rig.config.scan.exposure
-    if config.exposure == "camera" and config.hdr is None:
+    if config.exposure == "camera" and config.hdr is None and not config.adaptive_projection:
         return run_scan(rig, codec_name, progress, keep_frames)
     if config.hdr is not None and keep_frames:
         raise ConfigError("scan", ["scan.save_frames: the frames of an HDR scan are not kept yet; scan without it"])
@@ -160,7 +172,40 @@ def scan_with_exposure(
         for camera in rig.cameras:
             require_exposure(camera, "scan.exposure")
             camera.set_exposure_us(config.exposure)
-    report = ExposureReport("hdr" if config.hdr is not None else str(config.exposure))
+    mode = "hdr" if config.hdr is not None else str(config.exposure)
+    if not config.adaptive_projection:
+        return _scan_at_exposures(rig, settings, ExposureReport(mode), codec_name, progress, keep_frames)
+    for camera in rig.cameras:
+        require_exposure(camera, "adaptive projection")
+    tracker = ProgressTracker(progress)
+    fixed = config.exposure if isinstance(config.exposure, float) else None
+    adaptive = masked_rig(rig, settings, fixed, tracker.part(0.0, 0.3))
+    report = ExposureReport("adaptive projection + hdr" if config.hdr is not None else "adaptive projection")
+    report.projection = adaptive.record
+    if config.hdr is None:  # the masked rig's cameras are at the scan's exposure
+        exposures = [[camera.exposure_us] for camera in rig.cameras]
+        result = run_hdr_scan(
+            adaptive.rig, exposures, codec_name, tracker.part(0.3, 1.0), report, adaptive.screens, keep_frames
+        )
+    else:
+        result = _scan_at_exposures(
+            adaptive.rig, settings, report, codec_name, tracker.part(0.3, 1.0), keep_frames, adaptive.screens
+        )
+    result.frames_projected += adaptive.prescan_frames
+    return result
+
+
+def _scan_at_exposures(
+    rig: Rig,
+    settings: ExposureSettings,
+    report: ExposureReport,
+    codec_name: str | None,
+    progress: ProgressCallback | None,
+    keep_frames: bool,
+    screens: dict[tuple[int, int], np.ndarray] | None = None,
+) -> ScanResult:
+    """A scan at one exposure (the cameras' as set, or auto) or bracketed for HDR (rig.config)."""
+    config = rig.config.scan.exposure
     looks = None
     if config.exposure == "auto" or config.hdr == "auto" or isinstance(config.hdr, int):
         looks, report.looks = settled_exposures(rig, settings)
@@ -182,4 +227,4 @@ def scan_with_exposure(
             exposures = [[e[0] * STEP**k for k in range(count)] for e in exposures]
         longest = max(len(e) for e in exposures)
         exposures = [e + [e[-1]] * (longest - len(e)) for e in exposures]  # every camera takes every pass
-    return run_hdr_scan(rig, exposures, codec_name, progress, report)
+    return run_hdr_scan(rig, exposures, codec_name, progress, report, screens)

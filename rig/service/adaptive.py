@@ -56,6 +56,9 @@ def check_scan_request(config: RigConfig, request: dict[str, Any]) -> None:
         raise PlanError(f"codec: an adaptive or planned scan projects rings, not {codec}")
     if plan is not None:
         planned_config(config, RingPlan.from_dict(plan, "plan"))
+    for name in ("exposure", "hdr", "adaptive_projection"):
+        if (adaptive or plan is not None) and request.get(name) not in (None, False):
+            raise PlanError(f"{name}: a planned ring scan takes the cameras' exposure as set, not yet {name}")
     hdr = request.get("hdr", config.scan.exposure.hdr)
     if hdr is not None and request.get("keep_frames"):
         raise PlanError("keep_frames: the frames of an HDR scan are not kept yet; scan without them or without hdr")

@@ -59,8 +59,9 @@ def scan_job_to_directory(
 
 
 def with_requested_exposure(the_rig: Rig, request: dict[str, Any]) -> Rig:
-    """The rig scanning at the request's `exposure` and `hdr` (scan.exposure), where it gives them."""
-    asked = {k: request[k] for k in ("exposure", "hdr") if request.get(k) is not None}
+    """The rig scanning at the request's `exposure`, `hdr` and `adaptive_projection` (scan.exposure),
+    where it gives them."""
+    asked = {k: request[k] for k in ("exposure", "hdr", "adaptive_projection") if request.get(k) is not None}
     if not asked:
         return the_rig
     data = the_rig.config.model_dump(mode="json")

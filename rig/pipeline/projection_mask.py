@@ -1,0 +1,253 @@
+"""Adaptive projection: each projector dims its patterns where the camera would clip, so that one
+exposure long enough for the darkest lit surface reads a machined highlight too (after Li & Kofman,
+and Waddington & Kofman: a per-pixel projector intensity from a pre-scan).
+
+1. Auto-exposure, and a look short enough that highlights stop clipping (rig.pipeline.exposure).
+2. A look with every pattern at half its levels says how light follows the level sent (the
+   projector's response exponent: 2.2 on a video projector, 1 through a calibrated response LUT).
+3. The scan's exposure: the one at which the darkest lit pixels read (as HDR's longest), but no
+   longer than the masks can make up for: a mask scales a pattern's levels, at most
+   `dynamic_range` times (dimmed 16 times, a pattern keeps 16 of its 256 levels).
+4. A pre-scan at the short exposure, whose points say which projector pixel lights which camera
+   pixel (each pixel's point projected into the projector; a pixel without a point takes its
+   nearest neighbour's within `MAP_REACH_PX`).
+5. Each camera pixel's white at the scan's exposure is foretold from the short look (counts are
+   linear in exposure), and the share of the projector's light it can take without passing the
+   target; each projector pixel takes the least share of the camera pixels it lights, spread over
+   `margin_px` (the map's error, the lenses' blur) and smoothed, so the mask's own edges stay soft;
+   the share of light becomes a scale of the levels through the response exponent.
+6. A look with the masks at the scan's exposure: where a pixel still passes the target (a pixel
+   the pre-scan could not map; a response not quite a power), its projector pixels are dimmed
+   again, `rounds` times at most.
+
+The masks leave every codec as it is: each pattern, its white and dark frames alike, is sent dimmed
+(rig.patterns.base.sent_levels), and a codec compares each pixel with its own white and dark.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass
+
+import cv2
+import numpy as np
+from scipy import ndimage
+
+from rig.geometry.camera import CameraModel
+from rig.pipeline.exposure import ExposureSettings, Look, precapture, settled_exposures, shortest_looks
+from rig.pipeline.scan import PairResult, run_scan
+from rig.progress import ProgressCallback, ProgressTracker
+from rig.rig import Rig
+
+MAP_REACH_PX = 8  # a camera pixel without a pre-scan point takes its nearest mapped neighbour's within this
+STEEP_REACH_PX, STEEP_RATIO = 2, 1.5  # a mask whose light changes more than this within this is steep there
+
+
+@dataclass(frozen=True)
+class MaskSettings:
+    dynamic_range: float = 16.0  # the most a mask dims (a dimmed pattern keeps 256 / 16 levels)
+    margin_px: int = 2  # projector pixels about each dimmed one dimmed as much (map error, lens blur)
+    smooth_px: float = 1.0  # the mask's edges softened by this much (Gaussian sigma, projector pixels)
+    rounds: int = 2  # looks with the masks, each dimming again where a pixel still clips
+
+
+def scan_exposure(look: Look, short: Look, settings: ExposureSettings, light_range: float) -> float:
+    """The exposure an adaptive scan takes (step 3 of the module docstring): `light_range`, the
+    most the masks may dim the light."""
+    lit = look.lit(settings)
+    if not lit.any():
+        return look.exposure_us
+    contrast = look.white[lit].astype(np.float64) - look.black[lit]
+    dark = max(float(np.quantile(contrast, settings.dark_quantile)), 1.0)
+    darkest_reads = look.exposure_us * settings.min_contrast * look.full_scale / dark
+    brightest = max(float(short.white[short.lit(settings)].max(initial=0)), 1.0)
+    brightest_reaches = short.exposure_us * settings.target * short.full_scale / brightest
+    return float(min(darkest_reads, brightest_reaches * light_range))
+
+
+def light_share(short: Look, exposure_us: float, settings: ExposureSettings) -> np.ndarray:
+    """(H, W) the share of the projector's light each camera pixel can take at `exposure_us`
+    without its white passing the target (1 where it never does): its white and dark at the short
+    look scaled to the exposure (a pixel clipped at the short look counts as at full scale)."""
+    scale = exposure_us / short.exposure_us
+    white, black = short.white.astype(np.float64) * scale, short.black.astype(np.float64) * scale
+    room = settings.target * short.full_scale - black
+    with np.errstate(divide="ignore", invalid="ignore"):
+        share = room / (white - black)
+    return np.clip(np.nan_to_num(share, nan=1.0, posinf=1.0), 0.0, 1.0)
+
+
+def projector_pixels(pair: PairResult, projector: CameraModel) -> tuple[np.ndarray, np.ndarray]:
+    """(H, W) projector columns and rows each camera pixel's pre-scan point lies at, NaN where no
+    point lies within MAP_REACH_PX (see the module docstring)."""
+    grid = pair.grid
+    shape = grid.shape[:2]
+    known = np.isfinite(grid).all(axis=2)
+    u, v = np.full(shape, np.nan), np.full(shape, np.nan)
+    if not known.any():
+        return u, v
+    u[known], v[known], _ = projector.project_columns(grid[known])
+    distance, (rows, cols) = ndimage.distance_transform_edt(~known, return_indices=True)
+    near = distance <= MAP_REACH_PX
+    return np.where(near, u[rows, cols], np.nan), np.where(near, v[rows, cols], np.nan)
+
+
+def scattered_mask(
+    size: tuple[int, int], u: np.ndarray, v: np.ndarray, share: np.ndarray, settings: MaskSettings
+) -> np.ndarray:
+    """(height, width) of a projector of `size` (width, height): each pixel the least `share` of the
+    camera pixels it lights (columns `u`, rows `v`), spread and softened (see the module docstring)."""
+    width, height = size
+    mask = np.ones((height, width), np.float32)
+    dim = np.isfinite(u) & np.isfinite(v) & (share < 1.0)
+    cols, rows = np.rint(u[dim]).astype(np.int64), np.rint(v[dim]).astype(np.int64)
+    inside = (cols >= 0) & (cols < width) & (rows >= 0) & (rows < height)
+    np.minimum.at(mask, (rows[inside], cols[inside]), share[dim][inside].astype(np.float32))
+    spread = 2 * settings.margin_px + 1
+    mask = cv2.erode(mask, cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (spread, spread)))
+    if settings.smooth_px > 0:
+        mask = cv2.GaussianBlur(mask, (0, 0), settings.smooth_px, borderType=cv2.BORDER_REPLICATE)
+    return np.clip(mask, 1e-6, 1.0)  # a share, in light: the floor is in levels (_dimmed)
+
+
+@dataclass(frozen=True)
+class AdaptiveProjection:
+    """What masked_rig made: the rig with its masks (sharing the devices), what it did for the
+    manifest, the pattern frames its pre-scan projected, and per (projector, camera) pair the camera
+    pixels that lie on a steep edge of the mask (steep_pixels)."""
+
+    rig: Rig
+    record: dict[str, object]
+    prescan_frames: int
+    screens: dict[tuple[int, int], np.ndarray]
+
+
+def steep_pixels(mask: np.ndarray, exponent: float, u: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """(H, W) the camera pixels (at projector columns `u`, rows `v`) whose light comes from where
+    the mask's light changes by more than STEEP_RATIO within STEEP_REACH_PX: the lenses' blur turns
+    a slope of the light into a shift of the pattern toward the bright side, as an albedo edge does
+    (rig.patterns.spill), so a codec reads them off."""
+    light = mask.astype(np.float32) ** np.float32(exponent)
+    size = 2 * STEEP_REACH_PX + 1
+    window = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (size, size))
+    steep = cv2.dilate(light, window) > STEEP_RATIO * cv2.erode(light, window)
+    height, width = steep.shape
+    known = np.isfinite(u) & np.isfinite(v)
+    cols = np.clip(np.rint(np.where(known, u, 0)), 0, width - 1).astype(np.int64)
+    rows = np.clip(np.rint(np.where(known, v, 0)), 0, height - 1).astype(np.int64)
+    return known & steep[rows, cols]
+
+
+@dataclass
+class _Map:
+    """Where one (projector, camera) pair's camera pixels fall in the projector."""
+
+    projector: int
+    camera: int
+    u: np.ndarray
+    v: np.ndarray
+
+
+def masked_rig(
+    rig: Rig,
+    settings: ExposureSettings,
+    exposure_us: float | None = None,
+    progress: ProgressCallback | None = None,
+    mask_settings: MaskSettings | None = None,
+) -> AdaptiveProjection:
+    """The rig with an intensity mask for each projector (see the module docstring), each camera set
+    to the scan's exposure (`exposure_us` for every camera, else step 3)."""
+    mask_settings = mask_settings or MaskSettings()
+    tracker = ProgressTracker(progress)
+    looks, seen = settled_exposures(rig, settings)
+    shorts = shortest_looks(rig, looks, settings)
+    exponent = response_exponent(rig, shorts, settings)  # leaves the cameras at the short looks' exposures
+    light_range = mask_settings.dynamic_range**exponent
+    exposures = [
+        exposure_us if exposure_us is not None else scan_exposure(look, short, settings, light_range)
+        for look, short in zip(looks, shorts, strict=True)
+    ]
+    pre = run_scan(rig, progress=tracker.part(0.0, 0.9, "pre-scan "))  # the cameras at the short looks' exposures
+    maps = [
+        _Map(pair.projector, pair.camera, *projector_pixels(pair, rig.projector_models[pair.projector]))
+        for pair in pre.pairs
+    ]
+    masks = [np.ones((p.resolution[1], p.resolution[0]), np.float32) for p in rig.projectors]
+    shares = [light_share(short, exposure, settings) for short, exposure in zip(shorts, exposures, strict=True)]
+    masks = _dimmed(rig, masks, maps, shares, mask_settings, exponent)
+    masked = dataclasses.replace(rig, intensity_masks=masks)
+    rounds = 0
+    for rounds in range(1, mask_settings.rounds + 1):
+        over = [_over_target(look, settings) for look in precapture(masked, exposures)]
+        if all((share >= 1.0).all() for share in over):
+            rounds -= 1
+            break
+        masks = _dimmed(rig, masks, maps, over, mask_settings, exponent)
+        masked = dataclasses.replace(rig, intensity_masks=masks)
+    for camera, exposure in zip(rig.cameras, exposures, strict=True):
+        camera.set_exposure_us(exposure)
+    tracker.report("pre-scan", 1.0)
+    record: dict[str, object] = {
+        "exposures_us": {camera.name: e for camera, e in zip(rig.cameras, exposures, strict=True)},
+        "looks": seen,
+        "prescan_exposures_us": {camera.name: s.exposure_us for camera, s in zip(rig.cameras, shorts, strict=True)},
+        "response_exponent": round(exponent, 3),
+        "rounds": rounds,
+        "masks": [_summary(mask) for mask in masks],
+    }
+    screens = {(m.projector, m.camera): steep_pixels(masks[m.projector], exponent, m.u, m.v) for m in maps}
+    return AdaptiveProjection(masked, record, pre.frames_projected, screens)
+
+
+def response_exponent(rig: Rig, shorts: list[Look], settings: ExposureSettings) -> float:
+    """How light follows the level sent: light ~ level ** exponent, from a look with every
+    projector at half its levels beside the short looks at full (the median over pixels well lit
+    and unclipped in both; 1 where none is)."""
+    half = [np.full((p.resolution[1], p.resolution[0]), 0.5, np.float32) for p in rig.projectors]
+    dimmed = precapture(dataclasses.replace(rig, intensity_masks=half), [s.exposure_us for s in shorts])
+    ratios = []
+    for full, low in zip(shorts, dimmed, strict=True):
+        black = full.black.astype(np.float64)
+        contrast = full.white - black
+        good = (contrast >= settings.min_contrast * full.full_scale) & (full.white < full.full_scale)
+        if good.any():
+            ratios.append(np.median((low.white[good] - black[good]) / contrast[good]))
+    if not ratios:
+        return 1.0
+    ratio = float(np.clip(np.median(ratios), 1e-3, 0.999))
+    return float(np.clip(np.log(ratio) / np.log(128.0 / 255.0), 0.5, 4.0))
+
+
+def _dimmed(
+    rig: Rig,
+    masks: list[np.ndarray],
+    maps: list[_Map],
+    shares: list[np.ndarray],
+    settings: MaskSettings,
+    exponent: float,
+) -> list[np.ndarray]:
+    """`masks` (scales of the levels sent) each times the scale that gives the share of light the
+    cameras' `shares` ask of it (scattered_mask), light ~ level ** `exponent`."""
+    dimmed = [mask.copy() for mask in masks]
+    for m in maps:
+        size = rig.projectors[m.projector].resolution
+        light = scattered_mask(size, m.u, m.v, shares[m.camera], settings)
+        dimmed[m.projector] *= light ** np.float32(1.0 / exponent)
+    return [np.clip(mask, 1.0 / settings.dynamic_range, 1.0) for mask in dimmed]
+
+
+def _over_target(look: Look, settings: ExposureSettings) -> np.ndarray:
+    """(H, W) how much more each pixel of a masked look must be dimmed: the target over its white
+    where it passes the target by more than a tenth, a quarter where it clips, else 1."""
+    white = look.white.astype(np.float64)
+    ceiling = settings.target * look.full_scale
+    share = np.where(white > 1.1 * ceiling, ceiling / np.maximum(white, 1.0), 1.0)
+    return np.where(white >= look.full_scale, 0.25, share)
+
+
+def _summary(mask: np.ndarray) -> dict[str, float]:
+    return {
+        "dimmed_share": round(float((mask < 0.999).mean()), 4),
+        "least": round(float(mask.min()), 4),
+        "mean": round(float(mask.mean()), 4),
+    }
