@@ -8,8 +8,11 @@ to clipping (at every exposure).
 
 Modes: `single` (the camera's own exposure), `auto` (auto-exposure from a pre-capture), `hdr`
 (auto-exposure, then as many exposures as the pre-capture asks for, two stops apart, merged per
-pixel). `matte` is the same shape and exposure with the gloss and the dark paint taken away. The
-adaptive projection mask is not measured yet. The codec is the config's (phase).
+pixel), `adaptive` (adaptive projection: the patterns dimmed per projector pixel where the camera
+would clip, from a pre-scan, in one exposure), and both. `matte` is the same shape and exposure
+with the gloss and the dark paint taken away. The codec is the config's (phase); every mode leaves
+out the pixels outshone by a far brighter neighbour (scan.exposure.drop_outshone), the matte one too.
+Frames count the pre-scan's.
 """
 
 from __future__ import annotations
@@ -41,6 +44,7 @@ MODES: dict[str, dict[str, Any]] = {
     "auto": {"exposure": "auto", "hdr": None},
     "hdr": {"exposure": "auto", "hdr": "auto"},
     "adaptive": {"exposure": "auto", "hdr": None, "adaptive_projection": True},
+    "adaptive + hdr": {"exposure": "auto", "hdr": "auto", "adaptive_projection": True},
 }
 
 

@@ -164,6 +164,22 @@ def test_a_scan_started_from_the_scan_page_reaches_done_and_the_viewer_draws_it(
     assert console.errors == []
 
 
+def test_the_scan_page_scans_with_hdr_and_says_at_which_exposures(console: Console) -> None:
+    console.go("scan")
+    page = console.page
+    page.check("input[name=adaptive]")  # a planned ring scan keeps the cameras' exposure: no choice of it
+    assert page.is_disabled("select[name=hdr]") and page.is_disabled("input[name=adaptive_projection]")
+    page.uncheck("input[name=adaptive]")
+    page.select_option("select[name=codec]", "gray")
+    page.fill("input[name=exposure]", "auto")
+    page.select_option("select[name=hdr]", "2")
+    page.click("text=Start scan")
+    console.until("() => document.querySelector('section[data-state]')?.dataset.state === 'done'", 180)
+    shown = page.locator(".result").inner_text()
+    assert "exposure" in shown and "hdr · " in shown and shown.count(" ms") >= 1
+    assert console.errors == []
+
+
 def test_the_live_page_updates(console: Console) -> None:
     console.go("live")
     console.page.click("text=Start")

@@ -146,9 +146,17 @@ def scan_summary(path: Path, result: ScanResult) -> dict[str, Any]:
         "files": sorted(p.name for p in path.iterdir() if p.is_file()),
         "codec": manifest.get("codec", {}).get("name") if isinstance(manifest.get("codec"), dict) else None,
         "economy": manifest.get("economy"),
+        "exposure": _exposure_summary(manifest.get("exposure")),
         # against the simulator's ground truth (none on a real bench): the cloud's, as the manifest's metrics
         "metrics": None if not isinstance(cloud, dict) else {k: cloud.get(k) for k in _SUMMARY_METRICS if k in cloud},
     }
 
 
 _SUMMARY_METRICS = ("rms_mm", "p95_mm", "completeness", "points")
+
+
+def _exposure_summary(record: Any) -> dict[str, Any] | None:
+    """A scan's exposure record without its looks (the pre-captures' histograms: the manifest has them)."""
+    if not isinstance(record, dict):
+        return None
+    return {k: v for k, v in record.items() if k in ("mode", "exposures_us")}

@@ -1,5 +1,5 @@
-// Scan: codec and options, a ring plan or adaptive, start; progress by stage with the time left
-// from the job's events; cancel; the result when it is done.
+// Scan: codec and options (exposure, HDR, adaptive projection), a ring plan or adaptive, start;
+// progress by stage with the time left from the job's events; cancel; the result when it is done.
 import { events, get, post } from "../api.js";
 import { act, add, field, fill, fmt, h, notice, select } from "../ui.js";
 
@@ -10,15 +10,22 @@ export async function render(main) {
   const keep = h("input", { type: "checkbox", name: "keep_frames" });
   const adaptive = h("input", { type: "checkbox", name: "adaptive" });
   const tolerance = h("input", { type: "number", name: "tolerance_mm", min: 0.001, step: "any", placeholder: "the config's" });
+  const exposure = h("input", { name: "exposure", placeholder: "the config's: auto, camera or µs", pattern: "auto|camera|[0-9]+(\\.[0-9]+)?" });
+  const hdr = select("hdr", [["", "the config's"], ["auto", "auto (from a pre-capture)"], ...[2, 3, 4, 5].map((n) => [String(n), `${n} exposures`])], "");
+  const projection = h("input", { type: "checkbox", name: "adaptive_projection" });
   const plan = h("textarea", { name: "plan", rows: 3, placeholder: "a ring plan (JSON, as slrig plan rings --out writes it); empty: none" });
   const start = h("button", { type: "submit", class: "admin" }, "Start scan");
   const form = h("form", { class: "card" },
     h("div", { class: "row" }, field("Codec", codec), field("Label", label)),
+    h("div", { class: "row" }, field("Exposure", exposure, "auto: from a white and a black pre-capture"), field("HDR", hdr, "shiny and dark parts: several exposures, merged"), field("Adaptive projection", projection, "dim the patterns where the camera would clip")),
     h("div", { class: "row" }, field("Keep the raw frames (to reprocess)", keep), field("Adaptive rings (pilot, plan, rings)", adaptive), field("Tolerance (mm)", tolerance)),
     field("Ring plan", plan), h("p", { class: "actions" }, start));
   const progress = h("section", { class: "card", hidden: true });
   add(main, h("h1", {}, "Scan"), form, progress);
-  adaptive.addEventListener("change", () => { codec.disabled = adaptive.checked; tolerance.disabled = !adaptive.checked; });
+  adaptive.addEventListener("change", () => {
+    codec.disabled = adaptive.checked; tolerance.disabled = !adaptive.checked;
+    for (const control of [exposure, hdr, projection]) control.disabled = adaptive.checked;  // a planned scan keeps the cameras' exposure
+  });
   tolerance.disabled = true;
 
   let close = null;
@@ -30,6 +37,12 @@ export async function render(main) {
       if (!ringed) body.codec = codec.value;
       if (label.value) body.label = label.value;
       if (adaptive.checked && tolerance.value) body.tolerance_mm = Number(tolerance.value);
+      if (!ringed) {
+        const asked = exposure.value.trim();
+        if (asked) body.exposure = /^[0-9.]+$/.test(asked) ? Number(asked) : asked;
+        if (hdr.value) body.hdr = hdr.value === "auto" ? "auto" : Number(hdr.value);
+        if (projection.checked) body.adaptive_projection = true;
+      }
       if (plan.value.trim()) {
         try { body.plan = JSON.parse(plan.value); } catch { throw new Error("plan: not JSON"); }
       }
@@ -73,6 +86,12 @@ export function follow(job, box, done = summary) {
   });
 }
 
+// "hdr · 0.29, 1.2, 4.7 ms" from a scan's exposure record (each camera's exposures)
+function exposed(record) {
+  const times = Object.values(record.exposures_us || {})[0] || [];
+  return `${record.mode}${times.length ? ` · ${times.map((t) => (t / 1000).toPrecision(2)).join(", ")} ms` : ""}`;
+}
+
 export function summary(job) {
   const r = job.result || {};
   const files = r.files || [];
@@ -82,6 +101,7 @@ export function summary(job) {
       h("dt", {}, "points"), h("dd", {}, fmt.int(r.points)),
       h("dt", {}, "codec"), h("dd", {}, r.codec || job.request.codec || "–"),
       h("dt", {}, "patterns"), h("dd", {}, fmt.int(r.frames_projected)),
+      r.exposure ? [h("dt", {}, "exposure"), h("dd", {}, exposed(r.exposure))] : null,
       h("dt", {}, "rms against the truth"), h("dd", {}, r.metrics ? fmt.mm(r.metrics.rms_mm) : "– (no ground truth)"),
       h("dt", {}, "files"), h("dd", {}, files.map((f) => h("a", { href: `${job.links.self}/files/${f}`, download: f }, f, " "))),
     ),
