@@ -266,10 +266,15 @@ class Camera(Device):
     def exposure_us(self) -> float:
         return self._exposure_us
 
+    # the manual exposures the driver can set, microseconds (the interface's bounds unless it says)
+    exposure_range_us: tuple[float, float] = (1.0, 10_000_000.0)
+
     def set_exposure_us(self, exposure_us: float) -> None:
-        """Manual exposure in microseconds (1 us to 10 s); sent to the device when it is open."""
-        if not 1.0 <= exposure_us <= 10_000_000.0:
-            raise ValueError(f"{self.name}: exposure_us must be in [1, 1e7], got {exposure_us}")
+        """Manual exposure in microseconds, within `exposure_range_us` (ValueError naming the range
+        outside it); sent to the device when it is open."""
+        low, high = self.exposure_range_us
+        if not low <= exposure_us <= high:
+            raise ValueError(f"{self.name}: exposure_us must be in [{low:g}, {high:g}] here, got {exposure_us:g}")
         if self._open:
             self._do_set_exposure_us(float(exposure_us))
         self._exposure_us = float(exposure_us)

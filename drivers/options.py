@@ -97,6 +97,13 @@ class V4l2Options(_Strict):
     pixel_format: str = Field("GREY", min_length=4, max_length=4, description="V4L2 fourcc: GREY, Y16 , YUYV, MJPG")
     buffer_frames: int = Field(2, ge=1, le=8)
     frame_period_s: float = Field(1 / 30, gt=0, le=10)
+    max_exposure_us: float = Field(
+        1_000_000.0,
+        ge=100.0,
+        le=1e7,
+        description="the camera's longest manual exposure, microseconds (exposure_time_absolute's maximum x 100, "
+        "as `v4l2-ctl -d DEVICE -l` lists it); auto-exposure and HDR stay within it",
+    )
 
 
 class OakOptions(_Strict):

@@ -66,8 +66,11 @@ class V4l2Camera(Camera):
         frame_period_s: float = 1 / 30,
         capture_factory: Callable[[str], VideoCaptureLike] | None = None,
         mono: bool = True,
+        max_exposure_us: float = 1_000_000.0,
     ) -> None:
         super().__init__(name)
+        # exposure_time_absolute counts 100 us from 1; its maximum is the camera's own (v4l2-ctl -l)
+        self.exposure_range_us = (V4L2_EXPOSURE_UNIT_US, max_exposure_us)
         if len(pixel_format) != 4:
             raise ValueError(f"{name}: pixel_format is a V4L2 fourcc such as GREY, YUYV or MJPG")
         self.device = device

@@ -34,7 +34,6 @@ def test_a_scan_over_rest_at_the_exposures_it_asks_for(client: TestClient) -> No
         ({"hdr": [1000.0]}, 409, "hdr"),
         ({"hdr": 1}, 422, "hdr"),
         ({"exposure": "fast"}, 422, "exposure"),
-        ({"hdr": "auto", "keep_frames": True}, 409, "keep_frames"),
     ):
         answer = client.post("/v1/scans", json=body, headers=AUTH)
         assert answer.status_code == status, (body, answer.json())

@@ -165,7 +165,8 @@ class TestV4l2Camera(CameraContract):
         patch = mock.patch("cv2.VideoCapture", lambda *args: fake)
         patch.start()
         data = _bench_data("bench-hdmi-uvc.yaml")
-        data["cameras"][0]["v4l2"] = {"device": "fake-video0"}
+        # the fake's exposure_time_absolute stops at 2000 (200 ms), as this config says
+        data["cameras"][0]["v4l2"] = {"device": "fake-video0", "max_exposure_us": 200_000.0}
         data["cameras"][0]["resolution"] = [320, 256]
         device, _ = _built(data, DeviceKind.CAMERA)
         return Kit(device, cleanup=[patch.stop])

@@ -100,3 +100,42 @@ def test_the_command_line_takes_exposure_and_hdr(tmp_path: Path, capsys: pytest.
     capsys.readouterr()
     assert main(["scan", "--config", str(config), "--exposure", "fast", "--out", str(tmp_path / "x")]) != 0
     assert "--exposure: 'fast'" in capsys.readouterr().err
+
+
+def test_auto_exposure_and_hdr_stay_within_the_cameras_range_and_a_given_exposure_outside_is_named() -> None:
+    from rig.errors import ConfigError
+
+    with open_rig(config_from_dict(_checker_config("auto", "gray"), "hdr")) as rig:
+        camera = rig.cameras[0]
+        camera.exposure_range_us = (50.0, 12_000.0)  # as a driver that cannot expose longer says
+        result = scan_with_exposure(rig)
+        assert result.exposure is not None
+        taken = result.exposure["exposures_us"][camera.name]
+        assert max(taken) == 12_000.0 and min(taken) >= 50.0  # the dark squares asked for longer
+        looked = [look["exposure_us"] for look in result.exposure["looks"][camera.name]]
+        assert all(50.0 <= e <= 12_000.0 for e in looked)
+    data = _checker_config(None, "gray")
+    data["scan"]["exposure"]["exposure"] = 20_000.0
+    with open_rig(config_from_dict(data, "fixed")) as rig:
+        rig.cameras[0].exposure_range_us = (50.0, 12_000.0)
+        with pytest.raises(ConfigError, match=r"scan\.exposure\.exposure: 20000 us is outside camera0's exposures"):
+            scan_with_exposure(rig)
+
+
+def test_an_hdr_scans_frames_are_kept_and_reprocessed_as_the_scan_merged_them(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    config = write_config(tmp_path, _checker_config(None, "gray"))
+    out = tmp_path / "scan"
+    assert main(["scan", "--config", str(config), "--hdr", "2", "--save-frames", "--out", str(out), "--json"]) == 0
+    scanned = json.loads(capsys.readouterr().out)
+    manifest = json.loads((out / "manifest.json").read_text())
+    per_pass = manifest["economy"]["frames_projected"] // 2
+    assert len(manifest["files"]["frames"]["projector0_camera0"]) == 2 * per_pass  # both passes, one after another
+    again = tmp_path / "again"
+    assert main(["reconstruct", str(out), "--out", str(again), "--json"]) == 0
+    redone = json.loads(capsys.readouterr().out)
+    assert redone["points"] == scanned["points"] and redone["frames"] == scanned["frames"]
+    reprocessed = json.loads((again / "manifest.json").read_text())
+    assert reprocessed["pairs"][0]["counts"]["hdr_exposures"] == 2
+    assert reprocessed["exposure"]["exposures_us"] == manifest["exposure"]["exposures_us"]

@@ -57,6 +57,23 @@ def test_live_depth_images_follow_the_surface(small_config: RigConfig) -> None:
         assert 0 < frame.latency_ms < frame.sequence_ms
 
 
+def test_live_hdr_reads_a_dark_and_white_object_that_one_exposure_cannot(tmp_path: Path) -> None:
+    data = small_config_data()
+    data["simulation"]["texture"] = {"kind": "checker", "size_mm": 25.0, "colours": [[0.03] * 3, [1.0] * 3]}
+    single = load_config(write_config(tmp_path, data))
+    bracketed = single.with_live(None, "auto")
+    assert bracketed.scan.live.hdr == "auto"
+    one = _sequences(single, 1)[0]
+    *frames, truth = _sequences(bracketed, 2)
+    for frame in frames:
+        found = np.isfinite(frame.depths[0])
+        assert found.sum() > 1.3 * np.isfinite(one.depths[0]).sum()  # the dark squares read too
+        error = np.abs(frame.depths[0][found] - truth.depths[0][found])
+        assert np.median(error) < 0.15
+    with pytest.raises(ConfigError, match="hdr: 2 to 4 exposures"):
+        single.with_live(None, "1000,2000,4000,8000,16000")
+
+
 def test_live_config_is_checked_like_the_file(tmp_path: Path) -> None:
     data = small_config_data()
     data["scan"]["live"] = {"codec": "gray", "params": {"steps": 3}}
@@ -152,6 +169,17 @@ def test_live_mode_stops_at_its_time_limit(client: tuple[TestClient, JobService]
     assert c.post("/v1/live", json={"seconds": 1.0}, headers=AUTH).status_code == 202
     view = _wait_live(c, lambda v: v["state"] == "off" and v["sequences"] > 0)
     assert view["reason"] == "its time limit passed"
+
+
+def test_live_hdr_over_rest(client: tuple[TestClient, JobService]) -> None:
+    c, _ = client
+    started = c.post("/v1/live", json={"seconds": 1.0, "hdr": [2000.0, 8000.0]}, headers=AUTH)
+    assert started.status_code == 202 and started.json()["hdr"] == [2000.0, 8000.0]
+    view = _wait_live(c, lambda v: v["state"] == "off" and v["sequences"] > 0)
+    assert view["reason"] == "its time limit passed"
+    for body in ({"hdr": [2000.0]}, {"hdr": "sometimes"}):
+        refused = c.post("/v1/live", json=body, headers=AUTH)
+        assert refused.status_code in (409, 422) and "hdr" in json.dumps(refused.json()), refused.json()
 
 
 def _depth_sequences(chunk: bytes) -> list[int]:

@@ -122,6 +122,7 @@ class OakCamera(WorkerDevice, Camera):
 
     has_gain = True  # as ISO: gain 1.0 is ISO 100 (depthai's manual exposure takes both together)
     has_exposure = True
+    exposure_range_us = (1.0, 33_000.0)  # depthai's manual exposure (Luxonis: "exposure time 1..33000 us")
 
     @property
     def gain(self) -> float:

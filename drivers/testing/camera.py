@@ -3,6 +3,8 @@ holds; state errors when closed; a silent or vanished camera fails within the ca
 
 from __future__ import annotations
 
+import re
+
 import numpy as np
 import pytest
 
@@ -50,6 +52,20 @@ class CameraContract(Contract[Camera]):
         assert camera.exposure_us == 5000.0
         with pytest.raises(ValueError):
             camera.set_exposure_us(0.0)
+
+    def test_an_exposure_outside_the_drivers_range_is_refused_naming_it(self, kit: Kit[Camera]) -> None:
+        """Auto-exposure and HDR stay within `exposure_range_us`; a value outside it never reaches the
+        device, and the error names the range."""
+        camera = kit.device
+        camera.open()
+        low, high = camera.exposure_range_us
+        assert 1.0 <= low < high <= 10_000_000.0
+        camera.set_exposure_us(high)
+        assert camera.exposure_us == high
+        for outside in (high * 1.5, low / 2):
+            with pytest.raises(ValueError, match=re.escape(f"{high:g}]")):
+                camera.set_exposure_us(outside)
+        assert camera.exposure_us == high
 
     def test_a_frame_carries_the_exposure_it_was_taken_at(self, kit: Kit[Camera]) -> None:
         """What auto-exposure and HDR rely on: a camera that sets its exposure takes the next frames

@@ -48,7 +48,7 @@ def live_router(service: JobService, errors: Errors, stopping: Callable[[], bool
     def start_live(body: LiveRequest) -> dict[str, Any]:
         if service.stopping:
             raise ServiceStoppingError("the daemon is shutting down")
-        return service.live.start(body.codec, body.seconds)
+        return service.live.start(body.codec, body.seconds, body.hdr)
 
     @router.delete("", response_model=LiveView, dependencies=MUTATING)
     def stop_live() -> dict[str, Any]:

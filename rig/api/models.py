@@ -305,6 +305,11 @@ class Problem(BaseModel):
 class LiveRequest(_Request):
     codec: CodecName | None = Field(None, description="the codec live mode repeats; default: scan.live's")
     seconds: float | None = Field(None, gt=0, le=86400, description="stop after this long; default: when stopped")
+    hdr: Literal["auto"] | list[ExposureUs] | None = Field(
+        None,
+        description="every sequence at several exposures, merged per pixel: auto (bracketed once at the start) "
+        "or 2 to 4 exposures in microseconds; default: scan.live's",
+    )
 
 
 class LiveLatency(BaseModel):
@@ -321,6 +326,7 @@ class LiveView(BaseModel):
     session: int = Field(description="counts live sessions; a new codec starts a new one")
     codec: str
     params: dict[str, Any]
+    hdr: Literal["auto"] | list[float] | None = Field(None, description="the exposures each sequence is taken at")
     seconds_left: float | None = Field(description="until its time limit; none: until stopped")
     sequences: int = Field(description="sequences reconstructed in this session")
     seconds: float = Field(description="from the session's first sequence to its latest")

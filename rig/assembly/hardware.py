@@ -83,6 +83,7 @@ def v4l2_camera(config: CameraConfig, index: int, world: World) -> Camera:
         v.buffer_frames,
         v.frame_period_s,
         mono=not config.color,
+        max_exposure_us=v.max_exposure_us,
     )
 
 

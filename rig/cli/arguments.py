@@ -85,6 +85,12 @@ def _live_command(sub: argparse._SubParsersAction) -> None:  # type: ignore[type
     )
     _common(live)
     live.add_argument("--seconds", type=float, default=None, help="stop after this long (default: at Ctrl-C)")
+    live.add_argument(
+        "--hdr",
+        default=None,
+        help="every sequence at several exposures, merged per pixel: auto (bracketed once at the start) or "
+        "2 to 4 microsecond values as US,US (scan.live.hdr)",
+    )
     live.add_argument("--depth-png", type=Path, default=None, help="write the last sequence's depth (camera 0) here")
 
 

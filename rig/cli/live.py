@@ -24,7 +24,8 @@ def cmd_live(args: argparse.Namespace) -> int:
     config = load_config(args.config)
     if args.codec:
         codec_class(args.codec)  # an unknown name fails here, naming the known ones
-        config = config.with_live(args.codec)
+    if args.codec or getattr(args, "hdr", None) is not None:
+        config = config.with_live(args.codec, getattr(args, "hdr", None))
     latest: list[LiveFrame] = []
     stats = LiveStats()
     last_report = [time.monotonic()]
@@ -52,6 +53,7 @@ def cmd_live(args: argparse.Namespace) -> int:
             "codec": codec.name,
             "params": codec.params.model_dump(mode="json"),
             "frames_per_sequence": sum(c.frame_count for c in codecs),
+            "hdr": config.scan.live.hdr,
             **stats.as_dict(),
         }
         if args.depth_png is not None and latest:

@@ -148,12 +148,18 @@ class RigConfig(Strict):
                 chosen["hdr"] = [_number("--hdr", part, "auto, a count") for part in hdr.split(",")]
         return validate_rig(data, "--exposure" if hdr is None else "--hdr")
 
-    def with_live(self, codec: str) -> RigConfig:
-        """A copy whose live mode repeats `codec` (with scan.live's parameters when it already did)."""
+    def with_live(self, codec: str | None, hdr: str | list[float] | None = None) -> RigConfig:
+        """A copy whose live mode repeats `codec` (with scan.live's parameters when it already did)
+        and, with `hdr` (auto, exposures, or the command line's microseconds separated by commas),
+        at several exposures."""
         data = self.model_dump()
-        if data["scan"]["live"]["codec"] != codec:
-            data["scan"]["live"] = {"codec": codec, "params": None}
-        return validate_rig(data, "--codec")
+        if codec is not None and data["scan"]["live"]["codec"] != codec:
+            data["scan"]["live"] = {**data["scan"]["live"], "codec": codec, "params": None}
+        if isinstance(hdr, str) and hdr != "auto":
+            hdr = [_number("--hdr", part, "auto") for part in hdr.split(",")]
+        if hdr is not None:
+            data["scan"]["live"]["hdr"] = hdr
+        return validate_rig(data, "--codec" if hdr is None else "--hdr")
 
     def with_scene(self, scene: dict[str, object], source: str = "--scene") -> RigConfig:
         if self.simulation is None:

@@ -136,8 +136,19 @@ class LiveConfig(Strict):
         None,
         description="the codec's parameters that differ from scan.<codec>; null: 4 steps for phase, none otherwise",
     )
+    hdr: Literal["auto"] | list[Annotated[float, Field(ge=1.0, le=1e7)]] | None = Field(
+        None,
+        description="every sequence at several exposures, merged per pixel: auto (bracketed once, from a "
+        "pre-capture, when live mode starts) or 2 to 4 exposures in microseconds; null: one exposure",
+    )
 
     _known_codec = field_validator("codec")(_known_codec_name)
+
+    @model_validator(mode="after")
+    def _exposures(self) -> LiveConfig:
+        if isinstance(self.hdr, list) and not 2 <= len(self.hdr) <= 4:
+            raise ValueError(f"hdr: 2 to 4 exposures in live mode, got {len(self.hdr)}")
+        return self
 
 
 ExposureUs = Annotated[float, Field(ge=1.0, le=1e7)]

@@ -144,11 +144,24 @@ def _bounded(exposure_us: float) -> float:
     return float(min(max(exposure_us, MIN_EXPOSURE_US), MAX_EXPOSURE_US))
 
 
-def precapture(rig: Rig, exposures_us: list[float]) -> list[Look]:
-    """Per camera, a white and a black frame at its exposure in `exposures_us`: every projector
-    white, then dark."""
-    for camera, exposure in zip(rig.cameras, exposures_us, strict=True):
+def within_range(camera: Camera, exposure_us: float) -> float:
+    """`exposure_us` brought within what the camera's driver can set (Camera.exposure_range_us)."""
+    low, high = camera.exposure_range_us
+    return float(min(max(exposure_us, low), high))
+
+
+def set_within_range(cameras: list[Camera], exposures_us: list[float]) -> list[float]:
+    """Each camera set to its exposure, brought within its range; the exposures set."""
+    chosen = [within_range(camera, e) for camera, e in zip(cameras, exposures_us, strict=True)]
+    for camera, exposure in zip(cameras, chosen, strict=True):
         camera.set_exposure_us(exposure)
+    return chosen
+
+
+def precapture(rig: Rig, exposures_us: list[float]) -> list[Look]:
+    """Per camera, a white and a black frame at its exposure in `exposures_us` (within the
+    camera's range): every projector white, then dark."""
+    exposures_us = set_within_range(rig.cameras, exposures_us)
     stills = lit_stills(rig, [list(range(len(rig.projectors))), []])
     return [
         Look(exposure, _one_channel(white), _one_channel(black), rig.config.cameras[c].full_scale)

@@ -17,18 +17,22 @@ import time
 
 import numpy as np
 
-from rig.errors import ConfigError
-from rig.patterns import Correspondence, RingSamples
+from rig.errors import ConfigError, ScanError
+from rig.patterns import Codec, Correspondence, RingSamples
 from rig.patterns.saturation import subset_samples, without_pixels
-from rig.pipeline.capture import capture
+from rig.patterns.stream import decode_streamed
+from rig.pipeline.capture import CUE, Frames, capture
 from rig.pipeline.exposure import (
     STEP,
     ExposureReport,
     ExposureSettings,
+    Look,
     bracket,
     require_exposure,
+    set_within_range,
     settled_exposures,
     shortest_looks,
+    within_range,
 )
 from rig.pipeline.projection_mask import masked_rig
 from rig.pipeline.scan import ScanResult, is_reconstructed, make_codec, reconstruct_frames, run_scan
@@ -112,17 +116,16 @@ def run_hdr_scan(
 ) -> ScanResult:
     """A scan whose patterns are captured at each camera's exposures (`exposures_us[camera]`, one
     list per camera, all of one length: the k-th pass sets each camera to its k-th), merged per
-    pixel (merge_exposures); the frames of the last pass are the ones kept for the overlap cue, and
-    stored with `keep_frames` (one pass only). `screens`: per pair, camera pixels no pass reads
-    (adaptive projection's steep mask edges: rig.pipeline.projection_mask)."""
+    pixel (merge_exposures); the frames of the last pass are the ones kept for the overlap cue. With
+    `keep_frames` every pass's frames are kept, one pass after another (reconstruct_exposures reads
+    them again). `screens`: per pair, camera pixels no pass reads (adaptive projection's steep mask
+    edges: rig.pipeline.projection_mask)."""
     for camera in rig.cameras:
         require_exposure(camera, "HDR")
     passes = {len(e) for e in exposures_us}
     if len(passes) != 1 or len(exposures_us) != len(rig.cameras):
         raise ValueError(f"hdr: one list of exposures per camera, all of one length; got {exposures_us}")
     count = passes.pop()
-    if keep_frames and count > 1:
-        raise ConfigError("scan", ["scan.save_frames: the frames of an HDR scan are not kept yet; scan without it"])
     tracker = ProgressTracker(progress)
     name = codec_name or rig.config.scan.codec
     codecs = [make_codec(rig, p, name) for p in range(len(rig.config.projectors))]
@@ -130,16 +133,19 @@ def run_hdr_scan(
     decoded: dict[tuple[int, int], list[Correspondence]] = {pair: [] for pair in pairs}
     t0 = time.perf_counter()
     frames: dict[tuple[int, int], list[np.ndarray]] = {}
+    kept: dict[tuple[int, int], list[np.ndarray]] = {}
     for k in range(count):
-        for camera, exposures in zip(rig.cameras, exposures_us, strict=True):
-            camera.set_exposure_us(exposures[k])
+        set_within_range(rig.cameras, [exposures[k] for exposures in exposures_us])
         streams = {(p, c): codecs[p].stream(rig.config.cameras[c].full_scale) for p, c in pairs}
 
         def decode_now(p: int, c: int, image: np.ndarray, streams: dict = streams) -> None:
             if (p, c) in streams:
                 streams[(p, c)].add(image)
 
-        frames = capture(rig, codecs, tracker, decode_now)
+        frames = capture(rig, codecs, tracker, decode_now, keep_frames=keep_frames)
+        if keep_frames:
+            for pair, images in frames.items():
+                kept[pair] = images if pair[0] == CUE else [*kept.get(pair, []), *images]
         for pair, stream in streams.items():
             corr = stream.finish()
             if screens is not None and pair in screens:
@@ -147,11 +153,16 @@ def run_hdr_scan(
             decoded[pair].append(corr)
     capture_ms = (time.perf_counter() - t0) * 1e3
     merged = {pair: corrs[0] if count == 1 else merge_exposures(corrs, count - 1) for pair, corrs in decoded.items()}
-    result = reconstruct_frames(rig, name, frames, tracker, keep_frames, decoded=merged)
+    result = reconstruct_frames(rig, name, kept if keep_frames else frames, tracker, keep_frames, decoded=merged)
     result.timings_ms = {"capture_ms": capture_ms, **result.timings_ms}
-    result.frames_projected *= count
+    result.frames_projected = _projected(result, codecs, count)
+    if count > 1:
+        result.descriptions = {}  # a pattern description tells of one pass: others' readers would misread them
     if report is not None:
-        report.exposures_us = {camera.name: list(e) for camera, e in zip(rig.cameras, exposures_us, strict=True)}
+        report.exposures_us = {
+            camera.name: [within_range(camera, x) for x in e]
+            for camera, e in zip(rig.cameras, exposures_us, strict=True)
+        }
         result.exposure = report.as_dict()
     return result
 
@@ -165,9 +176,8 @@ def scan_with_exposure(
     config = rig.config.scan.exposure
     if config.exposure == "camera" and config.hdr is None and not config.adaptive_projection:
         return run_scan(rig, codec_name, progress, keep_frames)
-    if config.hdr is not None and keep_frames:
-        raise ConfigError("scan", ["scan.save_frames: the frames of an HDR scan are not kept yet; scan without it"])
     settings = ExposureSettings()
+    _check_ranges(rig, config.exposure, config.hdr)
     if isinstance(config.exposure, float):
         for camera in rig.cameras:
             require_exposure(camera, "scan.exposure")
@@ -195,6 +205,21 @@ def scan_with_exposure(
     return result
 
 
+def _check_ranges(rig: Rig, exposure: object, hdr: object) -> None:
+    """ConfigError naming the field where an exposure given in microseconds is outside a camera's range."""
+    given = [("scan.exposure.exposure", exposure)] if isinstance(exposure, float) else []
+    given += [("scan.exposure.hdr", e) for e in hdr] if isinstance(hdr, list) else []
+    problems = [
+        f"{field}: {value:g} us is outside {camera.name}'s exposures ({low:g} to {high:g} us)"
+        for field, value in given
+        for camera in rig.cameras
+        for low, high in [camera.exposure_range_us]
+        if not low <= value <= high
+    ]
+    if problems:
+        raise ConfigError("scan", problems)
+
+
 def _scan_at_exposures(
     rig: Rig,
     settings: ExposureSettings,
@@ -214,17 +239,57 @@ def _scan_at_exposures(
         report.exposures_us = {camera.name: [camera.exposure_us] for camera in rig.cameras}
         result.exposure = report.as_dict()
         return result
-    if isinstance(config.hdr, list):
-        exposures = [list(config.hdr) for _ in rig.cameras]
-    else:
-        assert looks is not None
-        short = shortest_looks(rig, looks, settings)
-        exposures = [bracket(look, settings, brief) for look, brief in zip(looks, short, strict=True)]
-        for camera, look in zip(rig.cameras, looks, strict=True):  # back to where auto-exposure settled
-            camera.set_exposure_us(look.exposure_us)
-        if isinstance(config.hdr, int):
-            count = config.hdr
-            exposures = [[e[0] * STEP**k for k in range(count)] for e in exposures]
-        longest = max(len(e) for e in exposures)
-        exposures = [e + [e[-1]] * (longest - len(e)) for e in exposures]  # every camera takes every pass
-    return run_hdr_scan(rig, exposures, codec_name, progress, report, screens)
+    exposures = bracketed(rig, config.hdr, looks, settings)
+    return run_hdr_scan(rig, exposures, codec_name, progress, report, screens, keep_frames)
+
+
+def bracketed(
+    rig: Rig, hdr: int | str | list[float], looks: list[Look] | None, settings: ExposureSettings
+) -> list[list[float]]:
+    """Each camera's HDR exposures, all of one length (every camera takes every pass): those given,
+    or bracketed from auto-exposure's `looks` (a count: that many from the shortest); the cameras
+    are left where auto-exposure settled."""
+    if isinstance(hdr, list):
+        return [list(hdr) for _ in rig.cameras]
+    if looks is None:
+        raise ValueError("hdr: a bracket needs auto-exposure's looks")
+    short = shortest_looks(rig, looks, settings)
+    exposures = [bracket(look, settings, brief) for look, brief in zip(looks, short, strict=True)]
+    for camera, look in zip(rig.cameras, looks, strict=True):  # back to where auto-exposure settled
+        camera.set_exposure_us(look.exposure_us)
+    if isinstance(hdr, int):
+        exposures = [[e[0] * STEP**k for k in range(hdr)] for e in exposures]
+    longest = max(len(e) for e in exposures)
+    return [e + [e[-1]] * (longest - len(e)) for e in exposures]
+
+
+def _projected(result: ScanResult, codecs: list[Codec], passes: int) -> int:
+    """Patterns projected: every codec's, once per pass, and the overlap cue's stills once."""
+    return passes * sum(c.frame_count for c in codecs) + (result.frames_projected - sum(c.frame_count for c in codecs))
+
+
+def reconstruct_exposures(
+    rig: Rig, codec_name: str, frames: Frames, passes: int, tracker: ProgressTracker
+) -> ScanResult:
+    """A stored HDR scan's frames (each pair's passes one after another, as run_hdr_scan keeps
+    them) decoded pass by pass, merged per pixel as the scan merged them, and triangulated."""
+    codecs = [make_codec(rig, p, codec_name) for p in range(len(rig.config.projectors))]
+    merged: dict[tuple[int, int], Correspondence] = {}
+    last: Frames = {pair: images for pair, images in frames.items() if pair[0] == CUE}
+    for (p, c), images in frames.items():
+        if p == CUE:
+            continue
+        per_pass = codecs[p].frame_count
+        if len(images) != passes * per_pass:
+            raise ScanError(
+                f"{rig.config.cameras[c].name}: {len(images)} frames kept, not {passes} passes of {per_pass}"
+            )
+        chunks = [images[k * per_pass : (k + 1) * per_pass] for k in range(passes)]
+        last[(p, c)] = chunks[-1]
+        if is_reconstructed(rig, (p, c)):
+            full_scale = rig.config.cameras[c].full_scale
+            corrs = [decode_streamed(codecs[p], chunk, full_scale) for chunk in chunks]
+            merged[(p, c)] = merge_exposures(corrs, passes - 1)
+    result = reconstruct_frames(rig, codec_name, last, tracker, decoded=merged)
+    result.frames_projected = _projected(result, codecs, passes)
+    return result

@@ -22,6 +22,8 @@ from rig.errors import DecodeError, ScanError
 from rig.patterns import Codec, Correspondence
 from rig.patterns.lines import LineCodec
 from rig.pipeline.capture import capture
+from rig.pipeline.exposure import ExposureSettings, require_exposure, set_within_range, settled_exposures
+from rig.pipeline.hdr import bracketed, merge_exposures
 from rig.pipeline.organised import fast_terms
 from rig.pipeline.scan import is_reconstructed, make_codec, pair_cloud, reconstruct_pair, triangulator
 from rig.progress import ProgressTracker
@@ -109,12 +111,13 @@ def run_live(
     however it ends."""
     codecs = live_codecs(rig, scan)
     _prepare(rig, codecs)
+    exposures = live_exposures(rig, (scan or rig.config.scan).live.hdr)
     stats = stats if stats is not None else LiveStats()
     if stats.sequences == 0:
         stats.started_s = time.monotonic()  # the rate counts sequences, not the preparation
     try:
         while keep_going():
-            frame = live_sequence(rig, codecs, stats.sequences + 1)
+            frame = live_sequence(rig, codecs, stats.sequences + 1, exposures)
             stats.add(frame)
             publish(frame)
     finally:
@@ -122,27 +125,49 @@ def run_live(
     return stats
 
 
-def live_sequence(rig: Rig, codecs: list[Codec], sequence: int) -> LiveFrame:
-    """Show the sequence once, decoding as frames arrive; triangulate every pair."""
+def live_exposures(rig: Rig, hdr: str | list[float] | None) -> list[list[float]] | None:
+    """Each camera's exposures for every live sequence (scan.live.hdr): None for the cameras' own;
+    "auto" bracketed once now, from auto-exposure's pre-captures."""
+    if hdr is None:
+        return None
+    for camera in rig.cameras:
+        require_exposure(camera, "live HDR")
+    settings = ExposureSettings()
+    looks = settled_exposures(rig, settings)[0] if hdr == "auto" else None
+    return bracketed(rig, hdr, looks, settings)
+
+
+def live_sequence(
+    rig: Rig, codecs: list[Codec], sequence: int, exposures: list[list[float]] | None = None
+) -> LiveFrame:
+    """Show the sequence once (at each of the cameras' `exposures`, merged per pixel, where given),
+    decoding as frames arrive; triangulate every pair."""
     full_scale = [camera.full_scale for camera in rig.config.cameras]
     pairs = [(p, c) for p in range(len(codecs)) for c in range(len(rig.cameras)) if is_reconstructed(rig, (p, c))]
-    streams = {(p, c): codecs[p].stream(full_scale[c]) for p, c in pairs}
+    decoded: dict[tuple[int, int], list[Correspondence]] = {pair: [] for pair in pairs}
     arrived = [0.0]
-
-    def decode_now(p: int, c: int, image: np.ndarray) -> None:
-        arrived[0] = time.perf_counter()
-        if (p, c) in streams:
-            streams[(p, c)].add(image)
-
     start = time.perf_counter()
-    capture(rig, codecs, ProgressTracker(None), decode_now, keep_frames=False, overlap_cue=False)
+    for k in range(1 if exposures is None else len(exposures[0])):
+        if exposures is not None:
+            set_within_range(rig.cameras, [e[k] for e in exposures])
+        streams = {(p, c): codecs[p].stream(full_scale[c]) for p, c in pairs}
+
+        def decode_now(p: int, c: int, image: np.ndarray, streams: dict = streams) -> None:
+            arrived[0] = time.perf_counter()
+            if (p, c) in streams:
+                streams[(p, c)].add(image)
+
+        capture(rig, codecs, ProgressTracker(None), decode_now, keep_frames=False, overlap_cue=False)
+        for pair, stream in streams.items():
+            try:
+                decoded[pair].append(stream.finish())
+            except DecodeError as exc:
+                raise ScanError(f"{rig.config.cameras[pair[1]].name}: {exc}") from exc
     depths: dict[int, np.ndarray] = {}
     points = 0
     for p, c in pairs:
-        try:
-            corr = streams[(p, c)].finish()
-        except DecodeError as exc:
-            raise ScanError(f"{rig.config.cameras[c].name}: {exc}") from exc
+        corrs = decoded[(p, c)]
+        corr = corrs[0] if len(corrs) == 1 else merge_exposures(corrs, len(corrs) - 1)
         depth = _pair_depth(rig, p, c, corr)
         points += int(np.isfinite(depth).sum())
         depths.setdefault(c, depth)  # a camera's depth image: from the first projector that lights it

@@ -34,7 +34,14 @@ import numpy as np
 from scipy import ndimage
 
 from rig.geometry.camera import CameraModel
-from rig.pipeline.exposure import ExposureSettings, Look, precapture, settled_exposures, shortest_looks
+from rig.pipeline.exposure import (
+    ExposureSettings,
+    Look,
+    precapture,
+    settled_exposures,
+    shortest_looks,
+    within_range,
+)
 from rig.pipeline.scan import PairResult, run_scan
 from rig.progress import ProgressCallback, ProgressTracker
 from rig.rig import Rig
@@ -164,8 +171,10 @@ def masked_rig(
     exponent = response_exponent(rig, shorts, settings)  # leaves the cameras at the short looks' exposures
     light_range = mask_settings.dynamic_range**exponent
     exposures = [
-        exposure_us if exposure_us is not None else scan_exposure(look, short, settings, light_range)
-        for look, short in zip(looks, shorts, strict=True)
+        within_range(
+            camera, exposure_us if exposure_us is not None else scan_exposure(look, short, settings, light_range)
+        )
+        for camera, look, short in zip(rig.cameras, looks, shorts, strict=True)
     ]
     pre = run_scan(rig, progress=tracker.part(0.0, 0.9, "pre-scan "))  # the cameras at the short looks' exposures
     maps = [

@@ -60,8 +60,6 @@ def check_scan_request(config: RigConfig, request: dict[str, Any]) -> None:
         if (adaptive or plan is not None) and request.get(name) not in (None, False):
             raise PlanError(f"{name}: a planned ring scan takes the cameras' exposure as set, not yet {name}")
     hdr = request.get("hdr", config.scan.exposure.hdr)
-    if hdr is not None and request.get("keep_frames"):
-        raise PlanError("keep_frames: the frames of an HDR scan are not kept yet; scan without them or without hdr")
     if isinstance(hdr, list) and not 2 <= len(hdr) <= 10:
         raise PlanError(f"hdr: 2 to 10 exposures, got {len(hdr)}")
 

@@ -35,14 +35,15 @@ class LiveMode(WorkerMode):
         self._session = 0
 
     # --- requests (HTTP handlers) ---------------------------------------------------------------
-    def start(self, codec: str | None, seconds: float | None) -> dict[str, Any]:
-        """Want live mode with `codec` (default scan.live's) for `seconds` (default: until stopped);
-        JobConflictError for a codec that does not fit the rig. Starting again replaces the
-        request (and its time limit) without interrupting what runs."""
+    def start(self, codec: str | None, seconds: float | None, hdr: str | list[float] | None = None) -> dict[str, Any]:
+        """Want live mode with `codec` (default scan.live's) for `seconds` (default: until stopped),
+        at `hdr`'s exposures where given; JobConflictError for a codec or exposures that do not fit
+        the rig. Starting again replaces the request (and its time limit) without interrupting what
+        runs."""
         try:
-            config = self.config.with_live(codec) if codec else self.config
+            config = self.config.with_live(codec, hdr) if codec or hdr is not None else self.config
         except ConfigError as exc:
-            raise JobConflictError(f"codec {codec} does not fit this rig: {'; '.join(exc.problems)}") from None
+            raise JobConflictError(f"live mode does not fit this rig: {'; '.join(exc.problems)}") from None
         with self._lock:
             if self._wanted is None or self._wanted.scan.live != config.scan.live:
                 self._session += 1
@@ -108,6 +109,7 @@ class LiveMode(WorkerMode):
                 "session": self._session,
                 "codec": config.scan.live.codec,
                 "params": params.model_dump(mode="json") if params is not None else {},
+                "hdr": config.scan.live.hdr,
                 "seconds_left": None if left is None else round(max(0.0, left), 3),
                 **self._stats.as_dict(),
             }

@@ -12,7 +12,7 @@ from typing import Any
 from rig.assembly import open_rig
 from rig.config import RigConfig, config_from_dict
 from rig.evaluate.merged import measure_on_bench
-from rig.pipeline.hdr import scan_with_exposure
+from rig.pipeline.hdr import reconstruct_exposures, scan_with_exposure
 from rig.pipeline.scan import ScanResult, reconstruct_frames
 from rig.plan.ring_plan import RingPlan
 from rig.progress import ProgressCallback, ProgressTracker
@@ -111,8 +111,13 @@ def reprocess_to_directory(
     config = config_from_dict(data, f"scan {manifest['scan_id']}")
     check_free_space(target.parent, expected_scan_bytes(config, {}), "this reprocessing")
     tracker.report("decode", 0.6)
+    passes = len(next(iter((manifest.get("exposure") or {}).get("exposures_us", {}).values()), []))
     with open_rig(config, with_devices=False) as geometry:
-        result = reconstruct_frames(geometry, manifest["codec"]["name"], frames, tracker)
+        if passes > 1:  # an HDR scan's passes, merged again as the scan merged them
+            result = reconstruct_exposures(geometry, manifest["codec"]["name"], frames, passes, tracker)
+            result.exposure = manifest["exposure"]
+        else:
+            result = reconstruct_frames(geometry, manifest["codec"]["name"], frames, tracker)
         tracker.report("store", 0.95)
         metrics, errors = measure_on_bench(geometry, result)
         path = write_scan(geometry, result, target, scan_id, metrics, origin, errors)
