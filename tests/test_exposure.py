@@ -80,14 +80,22 @@ def test_hdr_scans_a_dark_and_white_object_as_whole_as_a_grey_one(codec: str) ->
     assert completeness["hdr"] > 0.9 * completeness["grey"]
 
 
-def test_a_camera_without_exposure_control_refuses_hdr_naming_it() -> None:
-    with open_rig(config_from_dict(_checker_config("auto", "gray"), "hdr")) as rig:
-        type(rig.cameras[0]).has_exposure = False
-        try:
-            with pytest.raises(DeviceStateError, match="exposure control"):
-                scan_with_exposure(rig)
-        finally:
-            type(rig.cameras[0]).has_exposure = True
+@pytest.mark.parametrize(
+    ("asked", "named"),
+    [
+        ({"hdr": [1000.0, 4000.0]}, "HDR"),
+        ({"exposure": "auto"}, "auto-exposure"),
+        ({"adaptive_projection": True}, "adaptive projection"),
+    ],
+)
+def test_a_camera_without_exposure_control_refuses_naming_it(asked: dict, named: str) -> None:
+    data = _checker_config(None, "gray")
+    data["scan"]["exposure"] = {"exposure": "camera", **asked}
+    with open_rig(config_from_dict(data, "refused")) as rig:
+        rig.cameras[0].has_exposure = False  # as a driver without the control says
+        with pytest.raises(DeviceStateError, match=f"{named} needs the camera's exposure control"):
+            scan_with_exposure(rig)
+        assert all(p.is_dark for p in rig.projectors)
 
 
 def test_the_command_line_takes_exposure_and_hdr(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:

@@ -10,7 +10,6 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from drivers.errors import DeviceStateError
 from rig.assembly import open_rig
 from rig.cli import main
 from rig.config import config_from_dict
@@ -95,17 +94,6 @@ def test_adaptive_projection_reads_a_machined_part_whole_in_one_exposure() -> No
     # the camera pixels on a steep edge of the mask are left out (a wide band at this quarter resolution)
     assert adaptive["completeness"] > 0.9 and adaptive["completeness"] > unmasked["completeness"] + 0.02
     assert adaptive["rms_mm"] < 0.85 * unmasked["rms_mm"]
-
-
-def test_a_camera_without_exposure_control_refuses_adaptive_projection_naming_it() -> None:
-    with open_rig(config_from_dict(_glossy(True), "adaptive")) as rig:
-        type(rig.cameras[0]).has_exposure = False
-        try:
-            with pytest.raises(DeviceStateError, match="adaptive projection needs the camera's exposure control"):
-                scan_with_exposure(rig)
-        finally:
-            type(rig.cameras[0]).has_exposure = True
-        assert all(p.is_dark for p in rig.projectors)
 
 
 def test_the_command_line_takes_adaptive_projection(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
