@@ -1,12 +1,13 @@
-"""Projector-camera calibrations other tools wrote: OpenCV FileStorage (XML, YAML) and JSON, read
-into slrig's device models and checked on the way in.
+"""Projector-camera calibrations other tools wrote: OpenCV FileStorage (XML, YAML, nested maps too)
+and JSON, read into slrig's device models and checked on the way in.
 
-Other tools name their fields differently (procam-calibration: `cam_int`, `proj_int`, `roration`
-[sic]; OpenCV's stereo samples: `M1`, `D1`, `R`, `T`; many scripts: `camera_matrix`); each field
-is found under any of its usual names (`ALIASES`, compared without case), or under the name given
-in the options. What the file cannot say is an option: which way its R, T map (camera to
-projector, as OpenCV's stereoCalibrate returns them with the camera first, or the reverse), which
-device is the world frame, the resolutions where the file has none, the names of the devices.
+Which tool wrote a file is told by its fields (rig.calibrate.formats: SLStudio, procam-calibration,
+OpenCV's stereo sample, slrig's own calibration.yaml; else the usual names), compared exactly, case
+and all; a calibration split over several files (OpenCV's intrinsics.yml and extrinsics.yml) is
+read from all of them together. What a format defines (which way its R, T map) it decides; what
+the file cannot say is an option: the direction where the format does not say, which device is the
+world frame, the unit of its lengths, the resolutions where the file has none, the devices' names,
+and any field's name (`keys`).
 
 A size stored as a `shape` is (rows, columns) as numpy gives it; any other size is (width,
 height) as OpenCV's Size. Matrices may be OpenCV matrices, nested lists, or flat lists.
@@ -15,6 +16,7 @@ height) as OpenCV's Size. Matrices may be OpenCV matrices, nested lists, or flat
 from __future__ import annotations
 
 import json
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Literal
@@ -23,32 +25,11 @@ import cv2
 import numpy as np
 from pydantic import Field
 
+from rig.calibrate.formats import FIELDS, GENERIC, CalibrationFormat, detected, slrig_devices
 from rig.config.common import Strict
 from rig.errors import CalibrationError
 from rig.geometry import CameraModel
 
-FIELDS = (
-    "camera_matrix",
-    "camera_distortion",
-    "projector_matrix",
-    "projector_distortion",
-    "rotation",
-    "translation",
-    "camera_size",
-    "projector_size",
-    "rms",
-)
-ALIASES: dict[str, tuple[str, ...]] = {
-    "camera_matrix": ("cam_int", "camera_matrix", "cam_k", "cam_mtx", "cam_matrix", "m1", "camera_intrinsics"),
-    "camera_distortion": ("cam_dist", "camera_distortion", "cam_distortion", "d1", "dist_coeffs", "cam_dist_coeffs"),
-    "projector_matrix": ("proj_int", "projector_matrix", "proj_k", "proj_mtx", "proj_matrix", "m2"),
-    "projector_distortion": ("proj_dist", "projector_distortion", "proj_distortion", "d2", "proj_dist_coeffs"),
-    "rotation": ("r", "rotation", "roration", "rot", "rotation_matrix", "om", "rvec"),
-    "translation": ("t", "translation", "trans", "tvec", "translation_vector"),
-    "camera_size": ("img_shape", "image_size", "imagesize", "cam_shape", "camera_size", "camera_resolution"),
-    "projector_size": ("proj_shape", "projector_size", "proj_size", "projector_resolution"),
-    "rms": ("rms", "reprojection_error", "rms_error", "stereo_rms"),
-}
 DISTORTION_LENGTHS = (0, 4, 5, 8, 12, 14)  # OpenCV's: k1 k2 p1 p2 [k3 [k4 k5 k6 [s1..s4 [tx ty]]]]
 ROTATION_TOLERANCE = 1e-3  # |R R^T - I| beyond this is not a rotation (stored values carry ~1e-12)
 
@@ -58,10 +39,10 @@ class ForeignCalibrationOptions(Strict):
 
     camera: str = Field("camera0", min_length=1, description="the camera's device name")
     projector: str = Field("projector0", min_length=1, description="the projector's device name")
-    extrinsics: Literal["camera_to_projector", "projector_to_camera"] = Field(
-        "camera_to_projector",
+    extrinsics: Literal["camera_to_projector", "projector_to_camera"] | None = Field(
+        None,
         description="what the file's R, T map: camera_to_projector is X_projector = R X_camera + T "
-        "(OpenCV stereoCalibrate with the camera first)",
+        "(OpenCV stereoCalibrate with the camera first); default: as the file's format defines it, else that",
     )
     world: Literal["camera", "projector"] = Field("camera", description="the device whose frame is the world's")
     translation_scale: float = Field(1.0, gt=0, le=1e6, description="the file's length unit in millimetres")
@@ -76,23 +57,39 @@ class ForeignCalibration:
     projector: CameraModel
     rms_px: float | None
     found: dict[str, str]  # field -> the file's name it was read from
+    format: str = GENERIC.name  # the format its fields told (rig.calibrate.formats)
+    extrinsics: str = "camera_to_projector"  # what the file's R, T mapped
+    unit: str = ""  # the file's length unit as its format defines it
 
 
-def read_foreign_calibration(path: Path, options: ForeignCalibrationOptions | None = None) -> ForeignCalibration:
-    """The camera and projector of `path`; CalibrationError naming the file and field at fault."""
+def read_foreign_calibration(
+    paths: Path | Sequence[Path], options: ForeignCalibrationOptions | None = None
+) -> ForeignCalibration:
+    """The camera and projector of the file (or files, read together) at `paths`;
+    CalibrationError naming the file and field at fault."""
     options = options or ForeignCalibrationOptions()
     unknown = sorted(set(options.keys) - set(FIELDS))
     if unknown:
         raise CalibrationError(
             f"calibration import keys: unknown fields {', '.join(unknown)}; known: {', '.join(FIELDS)}"
         )
-    values = _read_values(path)
-    fields = _Fields(path, values, options)
+    paths = [paths] if isinstance(paths, Path) else list(paths)
+    where = " + ".join(str(p) for p in paths)
+    values = _read_all(paths)
+    own = slrig_devices(values)
+    if own:
+        return _own(where, own, options)
+    try:
+        chosen = detected(values)
+    except ValueError as exc:
+        raise CalibrationError(f"calibration file {where}: {exc}") from None
+    fields = _Fields(where, values, options, chosen)
     camera_k = fields.matrix("camera_matrix", required=True)
     projector_k = fields.matrix("projector_matrix", required=True)
     rotation = _rotation(fields, fields.matrix("rotation", required=True))
     translation = fields.vector("translation", 3) * options.translation_scale
-    if options.extrinsics == "projector_to_camera":  # X_c = R X_p + T  ->  X_p = R^T X_c - R^T T
+    direction = options.extrinsics or chosen.extrinsics or "camera_to_projector"
+    if direction == "projector_to_camera":  # X_c = R X_p + T  ->  X_p = R^T X_c - R^T T
         rotation, translation = rotation.T, -rotation.T @ translation
     if options.world == "camera":
         camera_pose, projector_pose = (np.eye(3), np.zeros(3)), (rotation, translation)
@@ -101,7 +98,36 @@ def read_foreign_calibration(path: Path, options: ForeignCalibrationOptions | No
     camera = _model(fields, "camera", camera_k, camera_pose, options.camera_resolution)
     projector = _model(fields, "projector", projector_k, projector_pose, options.projector_resolution)
     rms = fields.number("rms")
-    return ForeignCalibration(camera, projector, rms, fields.found)
+    return ForeignCalibration(camera, projector, rms, fields.found, chosen.name, direction, chosen.unit)
+
+
+def _own(where: str, devices: dict[str, dict[str, Any]], options: ForeignCalibrationOptions) -> ForeignCalibration:
+    """slrig's own calibration.yaml: the options' devices, posed as the file says (world to device)."""
+    models = {}
+    for name in (options.camera, options.projector):
+        if name not in devices:
+            raise CalibrationError(f"calibration file {where}: has no device {name} (its: {', '.join(devices)})")
+        d = devices[name]
+        try:
+            models[name] = CameraModel(
+                width=int(d["image_width"]),
+                height=int(d["image_height"]),
+                K=np.asarray(d["camera_matrix"], float).reshape(3, 3),
+                R=np.asarray(d["rotation_world_to_device"], float).reshape(3, 3),
+                t=np.asarray(d["translation_world_to_device"], float).ravel() * options.translation_scale,
+                dist=np.asarray(d.get("distortion_coefficients", np.zeros(5)), float).ravel()[:5],
+            )
+        except (KeyError, TypeError, ValueError) as exc:
+            raise CalibrationError(f"calibration file {where}: {name}: cannot read {exc}") from None
+    rms = devices[options.projector].get("rms_px")
+    found = {
+        "camera_matrix": f"{options.camera}.camera_matrix",
+        "projector_matrix": f"{options.projector}.camera_matrix",
+    }
+    return ForeignCalibration(
+        models[options.camera], models[options.projector], None if rms is None else float(rms), found, "slrig",
+        "world_to_device", "mm",
+    )  # fmt: skip
 
 
 def check_resolution(model: CameraModel, size: tuple[int, int], what: str, source: str, path: Path) -> None:
@@ -114,29 +140,33 @@ def check_resolution(model: CameraModel, size: tuple[int, int], what: str, sourc
 
 
 class _Fields:
-    """The file's values, looked up by field under the option's name or any alias."""
+    """The file's values, looked up by field under the option's name or the format's, exactly."""
 
-    def __init__(self, path: Path, values: dict[str, Any], options: ForeignCalibrationOptions) -> None:
-        self.path, self.options = path, options
-        self.values = {k.lower(): (k, v) for k, v in values.items()}
+    def __init__(
+        self, where: str, values: dict[str, Any], options: ForeignCalibrationOptions, chosen: CalibrationFormat
+    ) -> None:
+        self.where, self.values, self.options, self.format = where, values, options, chosen
         self.found: dict[str, str] = {}
 
     def error(self, name: str, reason: str) -> CalibrationError:
-        return CalibrationError(f"calibration file {self.path}: {name}: {reason}")
+        return CalibrationError(f"calibration file {self.where}: {name}: {reason}")
+
+    def names(self, field: str) -> tuple[str, ...]:
+        if field in self.options.keys:
+            return (self.options.keys[field],)
+        return self.format.names.get(field, ())
 
     def raw(self, field: str, required: bool) -> Any:
-        names = (self.options.keys[field],) if field in self.options.keys else ALIASES[field]
-        present = [self.values[n.lower()] for n in names if n.lower() in self.values]
+        names = self.names(field)
+        present = [n for n in names if n in self.values]
         if len(present) > 1:
-            raise self.error(
-                field, f"given twice, as {' and '.join(k for k, _ in present)}; name one in the options' keys"
-            )
+            raise self.error(field, f"given twice, as {' and '.join(present)}; name one in the options' keys")
         if not present:
             if required:
-                raise self.error(field, f"missing (looked for {', '.join(names)})")
+                raise self.error(field, f"missing (looked for {', '.join(names) or 'nothing'}, as {self.format.name})")
             return None
-        self.found[field] = present[0][0]
-        return present[0][1]
+        self.found[field] = present[0]
+        return self.values[present[0]]
 
     def array(self, field: str, required: bool = False) -> np.ndarray | None:
         value = self.raw(field, required)
@@ -211,16 +241,20 @@ def _model(
 
 
 def _size(fields: _Fields, field: str, given: tuple[int, int] | None) -> tuple[int, int]:
+    device = field.split("_")[0]
     found = fields.array(field)
     if found is None:
+        width, height = fields.number(f"{device}_width"), fields.number(f"{device}_height")
+        if width is not None and height is not None:
+            found = np.array([width, height])
+    if found is None:
         if given is None:
-            device = field.split("_")[0]
-            looked = ", ".join(ALIASES[field])
+            looked = ", ".join(fields.names(field) + fields.names(f"{device}_width")) or "nothing"
             raise fields.error(
                 field, f"missing (looked for {looked}); give {device}_resolution (--{device}-resolution)"
             )
         return given
-    name = fields.found[field]
+    name = fields.found.get(field) or f"{fields.found[f'{device}_width']}, {fields.found[f'{device}_height']}"
     values = found.ravel()
     if values.size != 2 or np.any(values <= 0) or np.any(values != np.round(values)):
         raise fields.error(name, "not a size of two positive whole numbers")
@@ -229,6 +263,18 @@ def _size(fields: _Fields, field: str, given: tuple[int, int] | None) -> tuple[i
     if given is not None and tuple(given) != size:
         raise fields.error(name, f"{size[0]}x{size[1]} in the file, {given[0]}x{given[1]} in the options")
     return size
+
+
+def _read_all(paths: list[Path]) -> dict[str, Any]:
+    """Every file's fields together; CalibrationError naming both files where two give one field."""
+    values: dict[str, Any] = {}
+    origin: dict[str, Path] = {}
+    for path in paths:
+        for key, value in _read_values(path).items():
+            if key in values:
+                raise CalibrationError(f"calibration file {path}: {key}: also in {origin[key]}; give it once")
+            values[key], origin[key] = value, path
+    return values
 
 
 def _read_values(path: Path) -> dict[str, Any]:
@@ -266,10 +312,9 @@ def _node_value(node: cv2.FileNode) -> Any:
     if node.isSeq():
         return [_node_value(node.at(i)) for i in range(node.size())]
     if node.isMap():
-        matrix = node.mat()
-        if matrix is not None:
-            return matrix
         names = node.keys()
+        if {"dt", "data"} <= set(names):  # an OpenCV matrix, 2-D or n-D (mat() asserts on any other map)
+            return node.mat()
         return {key: _node_value(node.getNode(key)) for key in names}
     return None
 

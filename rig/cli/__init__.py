@@ -30,6 +30,7 @@ COMMANDS = {
     "gallery": ("rig.cli.recognising", "cmd_gallery"),
     "identify": ("rig.cli.recognising", "cmd_identify"),
     "reconstruct": ("rig.cli.reconstructing", "cmd_reconstruct"),
+    "calibration": ("rig.cli.calibration_files", "cmd_calibration"),
     "store": ("rig.cli.storing", "cmd_store"),
 }
 

@@ -292,19 +292,38 @@ def _reconstruct_command(sub: argparse._SubParsersAction) -> None:  # type: igno
         help="scan directory to create; default: beside a scan directory, else <data_dir>/scans/<id>",
     )
     rec.add_argument("--config", type=Path, default=None, help="rig description for the scan settings (filters)")
-    rec.add_argument("--camera", default=None, help="the camera's name (camera0)")
-    rec.add_argument("--projector", default=None, help="the projector's name (projector0)")
-    rec.add_argument(
+    _calibration_options(rec)
+    rec.add_argument("--json", action="store_true", help="print one JSON object instead of text")
+
+
+def _calibration_options(p: argparse.ArgumentParser) -> None:
+    """What a calibration file may not say (rig.calibrate.foreign.ForeignCalibrationOptions)."""
+    p.add_argument("--camera", default=None, help="the camera's name (camera0)")
+    p.add_argument("--projector", default=None, help="the projector's name (projector0)")
+    p.add_argument(
         "--extrinsics",
         choices=["camera_to_projector", "projector_to_camera"],
         default=None,
-        help="what the file's R, T map (camera_to_projector: as OpenCV's stereoCalibrate, camera first)",
+        help="what the file's R, T map (camera_to_projector: as OpenCV's stereoCalibrate, camera first); "
+        "default: as the file's format defines it",
     )
-    rec.add_argument("--world", choices=["camera", "projector"], default=None, help="the world frame's device (camera)")
-    rec.add_argument("--translation-scale", type=float, default=None, help="the file's length unit in mm (1)")
-    rec.add_argument("--camera-resolution", type=_size, default=None, help="WIDTHxHEIGHT where the file has none")
-    rec.add_argument("--projector-resolution", type=_size, default=None, help="WIDTHxHEIGHT where the file has none")
-    rec.add_argument("--json", action="store_true", help="print one JSON object instead of text")
+    p.add_argument("--world", choices=["camera", "projector"], default=None, help="the world frame's device (camera)")
+    p.add_argument("--translation-scale", type=float, default=None, help="the file's length unit in mm (1)")
+    p.add_argument("--camera-resolution", type=_size, default=None, help="WIDTHxHEIGHT where the file has none")
+    p.add_argument("--projector-resolution", type=_size, default=None, help="WIDTHxHEIGHT where the file has none")
+    p.add_argument(
+        "--calibration-fields",
+        default=None,
+        help="the file's names for fields slrig does not know it by, exact: camera_matrix=K,rotation=Rp,...",
+    )
+
+
+def _calibration_command(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
+    cal = sub.add_parser("calibration", help="show what slrig reads from a calibration file (any common format)")
+    cal.add_argument("action", choices=["show"])
+    cal.add_argument("files", type=Path, nargs="+", help="the file, or the files of one calibration read together")
+    _calibration_options(cal)
+    cal.add_argument("--json", action="store_true", help="print one JSON object instead of text")
 
 
 def _store_command(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
@@ -337,6 +356,7 @@ def parser() -> argparse.ArgumentParser:
     parser.add_argument("--version", action="version", version=f"slrig {__version__}")
     sub = parser.add_subparsers(dest="command", required=True)
     commands = (_scan_command, _live_command, _evaluate_command, _plan_command, _serve_command, _devices_command)
-    for add in (*commands, _doctor_command, _cal_command, _recognition_commands, _reconstruct_command, _store_command):
+    more = (_doctor_command, _cal_command, _recognition_commands, _reconstruct_command, _calibration_command)
+    for add in (*commands, *more, _store_command):
         add(sub)
     return parser

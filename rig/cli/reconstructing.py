@@ -7,27 +7,14 @@ import argparse
 import json
 from pathlib import Path
 
-from pydantic import ValidationError
-
-from rig.calibrate.foreign import ForeignCalibrationOptions
+from rig.cli.calibration_files import OPTIONS, calibration_options
 from rig.cli.common import progress_bar
 from rig.config import load_config
-from rig.config.problems import problems
-from rig.errors import CalibrationError, UsageError
+from rig.errors import UsageError
 from rig.pipeline.scan import ScanResult
 from rig.service.reconstruct import reconstruct_folder
 from rig.service.tasks import reprocess_to_directory
 from rig.store.scandir import DESCRIPTION_NAME, new_scan_id
-
-OPTIONS = (
-    "camera",
-    "projector",
-    "extrinsics",
-    "world",
-    "translation_scale",
-    "camera_resolution",
-    "projector_resolution",
-)
 
 
 def cmd_reconstruct(args: argparse.Namespace) -> int:
@@ -57,7 +44,8 @@ def _reprocess_scan(args: argparse.Namespace, scan_id: str) -> tuple[Path, ScanR
     """A scan directory that kept its frames, decoded again with its own codec, rig and calibration
     (or --calibration), written beside it."""
     source = args.frames_dir
-    refused = [f"--{n.replace('_', '-')}" for n in ("patterns", *OPTIONS) if getattr(args, n) is not None]
+    named = ("patterns", *OPTIONS, "calibration_fields")
+    refused = [f"--{n.replace('_', '-')}" for n in named if getattr(args, n, None) is not None]
     if refused:
         raise UsageError(f"{', '.join(refused)}: a scan directory's manifest says what its frames are")
     target = _target(args.out, source.parent / scan_id)
@@ -70,12 +58,7 @@ def _reprocess_scan(args: argparse.Namespace, scan_id: str) -> tuple[Path, ScanR
 def _reconstruct_foreign(args: argparse.Namespace, scan_id: str) -> tuple[Path, ScanResult]:
     """Another system's frames, described by --patterns (or the folder's patterns.yaml)."""
     config = load_config(args.config)
-    given = {name: getattr(args, name) for name in OPTIONS if getattr(args, name) is not None}
-    try:
-        options = ForeignCalibrationOptions(**given)
-    except ValidationError as exc:
-        lines = [_as_flag(line) for line in problems(exc)]
-        raise CalibrationError("calibration options: " + "; ".join(lines)) from None
+    options = calibration_options(args)
     patterns = args.patterns
     if patterns is None and (args.frames_dir / DESCRIPTION_NAME).is_file():
         patterns = args.frames_dir / DESCRIPTION_NAME
@@ -94,9 +77,3 @@ def _target(out: Path | None, default: Path) -> Path:
     if target.exists():
         raise UsageError(f"--out: {target} already exists; choose a new directory")
     return target
-
-
-def _as_flag(problem: str) -> str:
-    """'camera_resolution: ...' as '--camera-resolution: ...'."""
-    field, _, reason = problem.partition(":")
-    return f"--{field.replace('_', '-')}:{reason}"

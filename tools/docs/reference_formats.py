@@ -5,7 +5,8 @@ from __future__ import annotations
 
 from schema_tables import cell, schema_sections
 
-from rig.calibrate.foreign import ALIASES, DISTORTION_LENGTHS, ForeignCalibrationOptions
+from rig.calibrate.foreign import DISTORTION_LENGTHS, ForeignCalibrationOptions
+from rig.calibrate.formats import FORMATS, GENERIC
 from rig.patterns.spec import PatternSpec
 from rig.store.manifest_fields import MANIFEST_FIELDS
 
@@ -43,21 +44,33 @@ def calibration_files_page() -> str:
         "# Calibration files",
         "",
         "slrig writes its own calibration as `calibration.json` (with `calibration.yaml`, an OpenCV",
-        "FileStorage copy, and the report). It also reads other tools' projector-camera calibrations",
-        "(OpenCV FileStorage XML or YAML, or JSON): each field is found under any of these names,",
-        "compared without case (`rig.calibrate.foreign.ALIASES`):",
+        "FileStorage copy, and the report), and reads either back. It also reads other tools'",
+        "projector-camera calibrations (OpenCV FileStorage XML or YAML, or JSON), telling which tool",
+        "wrote one by its fields, compared exactly, case and all (`rig.calibrate.formats.FORMATS`);",
+        "`slrig calibration show FILE` prints what it read. Each format's names:",
         "",
-        "| field | names looked for |",
-        "|---|---|",
     ]
-    lines += [
-        f"| {field.replace('_', ' ')} | {', '.join(f'`{n}`' for n in names)} |" for field, names in ALIASES.items()
-    ]
+    for chosen in (*FORMATS, GENERIC):
+        marks = ", ".join(f"`{m}`" for m in chosen.marks) or "none of the above"
+        direction = chosen.extrinsics or "as the options say (camera_to_projector by default)"
+        lines += [
+            f"## {chosen.name}",
+            "",
+            f"Told by {marks}; from {chosen.source}. R, T: {direction}; lengths in {chosen.unit}.",
+            "",
+            "| field | names |",
+            "|---|---|",
+        ]
+        lines += [
+            f"| {field.replace('_', ' ')} | {', '.join(f'`{n}`' for n in names)} |"
+            for field, names in chosen.names.items()
+        ]
+        lines.append("")
     lengths = ", ".join(str(n) for n in DISTORTION_LENGTHS)
     lines += [
-        "",
         f"Distortion vectors hold {lengths} coefficients (OpenCV's order). What a file cannot say is",
-        "given as options (`slrig reconstruct --camera-resolution ...`, or `calibration_options` over REST):",
+        "given as options (`slrig reconstruct --camera-resolution ...`, `--calibration-fields`, or",
+        "`calibration_options` over REST):",
         "",
     ]
     return "\n".join(lines + schema_sections("ForeignCalibrationOptions", schema, schema.get("$defs", {}), level=2))
