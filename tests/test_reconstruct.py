@@ -140,6 +140,38 @@ def test_the_command_line_writes_the_scan_and_refuses_what_does_not_fit(
     assert not (tmp_path / "b").exists() and not (tmp_path / "c").exists()
 
 
+def test_a_calibration_split_over_two_files_reconstructs_as_the_one_file(
+    foreign: dict[str, Any], tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """OpenCV's stereo sample writes intrinsics.yml (M1 D1 M2 D2) and extrinsics.yml (R T): read
+    together they are the calibration the one file holds."""
+    from rig.calibrate.foreign import read_foreign_calibration
+
+    found = read_foreign_calibration(foreign["calibration"])
+    camera, projector = found.camera, found.projector
+    split = {"intrinsics.yml": {"M1": camera.K, "D1": camera.dist, "M2": projector.K, "D2": projector.dist}}
+    split["extrinsics.yml"] = {"R": projector.R @ camera.R.T, "T": projector.t - projector.R @ camera.R.T @ camera.t}
+    for name, fields in split.items():
+        storage = cv2.FileStorage(str(tmp_path / name), cv2.FILE_STORAGE_WRITE)
+        for key, value in fields.items():
+            storage.write(key, np.asarray(value, float))
+        storage.release()
+    folder = foreign["folder"]
+    common = [str(folder / "frames"), "--patterns", str(folder / "patterns.yaml"), "--json"]
+    assert (
+        main(["reconstruct", *common, "--calibration", str(foreign["calibration"]), "--out", str(tmp_path / "a")]) == 0
+    )
+    one = json.loads(capsys.readouterr().out)
+    sizes = ["--camera-resolution", f"{camera.width}x{camera.height}"]
+    sizes += ["--projector-resolution", f"{projector.width}x{projector.height}"]
+    files = [str(tmp_path / "intrinsics.yml"), str(tmp_path / "extrinsics.yml")]
+    assert main(["reconstruct", *common, "--calibration", *files, *sizes, "--out", str(tmp_path / "b")]) == 0
+    two = json.loads(capsys.readouterr().out)
+    assert two["points"] == one["points"]
+    manifest = json.loads((tmp_path / "b" / "manifest.json").read_text())
+    assert manifest["origin"]["reconstructed"]["calibration"] == " + ".join(files)
+
+
 def test_the_depth_jump_limit_follows_the_depth_a_code_step_makes(tmp_path: Path) -> None:
     """At 3.2-3.6 m with a 645-unit baseline a code step moves depth by about 8 units: the bench's
     2 mm limit would drop every point, so the limit rises to three steps; the scan keeps the board."""

@@ -130,7 +130,7 @@ def _own(where: str, devices: dict[str, dict[str, Any]], options: ForeignCalibra
     )  # fmt: skip
 
 
-def check_resolution(model: CameraModel, size: tuple[int, int], what: str, source: str, path: Path) -> None:
+def check_resolution(model: CameraModel, size: tuple[int, int], what: str, source: str, path: Path | str) -> None:
     """CalibrationError where the size (width, height) `source` gives does not fit the calibrated device."""
     if (model.width, model.height) != tuple(size):
         raise CalibrationError(

@@ -281,9 +281,10 @@ def _reconstruct_command(sub: argparse._SubParsersAction) -> None:  # type: igno
     rec.add_argument(
         "--calibration",
         type=Path,
+        nargs="+",
         default=None,
-        help="slrig's calibration (folder or calibration.json) or another tool's file; for a scan directory, "
-        "instead of the one it was made with",
+        help="slrig's calibration (folder, calibration.json or .yaml) or another tool's file (or files read "
+        "together: intrinsics.yml extrinsics.yml); for a scan directory, instead of the one it was made with",
     )
     rec.add_argument(
         "--out",

@@ -48,11 +48,13 @@ def _reprocess_scan(args: argparse.Namespace, scan_id: str) -> tuple[Path, ScanR
     refused = [f"--{n.replace('_', '-')}" for n in named if getattr(args, n, None) is not None]
     if refused:
         raise UsageError(f"{', '.join(refused)}: a scan directory's manifest says what its frames are")
+    if args.calibration is not None and len(args.calibration) > 1:
+        raise UsageError("--calibration: a scan directory is reprocessed with one slrig calibration (a folder)")
     target = _target(args.out, source.parent / scan_id)
-    calibration = None if args.calibration is None else str(args.calibration)
-    origin = {"reprocessed_from": source.name, "calibration": calibration}
+    calibration = None if args.calibration is None else args.calibration[0]
+    origin = {"reprocessed_from": source.name, "calibration": None if calibration is None else str(calibration)}
     bar = progress_bar(args)
-    return reprocess_to_directory(source, target, scan_id, args.calibration, origin=origin, progress=bar)
+    return reprocess_to_directory(source, target, scan_id, calibration, origin=origin, progress=bar)
 
 
 def _reconstruct_foreign(args: argparse.Namespace, scan_id: str) -> tuple[Path, ScanResult]:
@@ -69,7 +71,8 @@ def _reconstruct_foreign(args: argparse.Namespace, scan_id: str) -> tuple[Path, 
             f"need a pattern description (--patterns, or {DESCRIPTION_NAME} in the folder) and a calibration"
         )
     target = _target(args.out, config.output.data_dir / "scans" / scan_id)
-    return reconstruct_folder(args.frames_dir, patterns, args.calibration, target, scan_id, config, options)
+    calibration = args.calibration[0] if len(args.calibration) == 1 else list(args.calibration)
+    return reconstruct_folder(args.frames_dir, patterns, calibration, target, scan_id, config, options)
 
 
 def _target(out: Path | None, default: Path) -> Path:

@@ -40,7 +40,7 @@ SAMPLES = 4000  # pixels the depth of a code step is measured on
 def reconstruct_folder(
     frames_dir: Path,
     patterns: Path | PatternSpec,
-    calibration: Path,
+    calibration: Path | list[Path],
     target: Path,
     scan_id: str,
     config: RigConfig,
@@ -58,7 +58,7 @@ def reconstruct_folder(
     models = calibration_models(calibration, options)
     camera = models[0]
     first = frame_files(frames_dir, spec.frames, len(spec.roles()))[0]
-    check_resolution(camera, image_header(first).size, "camera", "the frames are", calibration)
+    check_resolution(camera, image_header(first).size, "camera", "the frames are", _named(calibration))
     frames = open_frames(frames_dir, spec.frames, len(spec.roles()), (camera.width, camera.height))
     inputs = {
         "frames": str(frames_dir),
@@ -71,7 +71,7 @@ def reconstruct_folder(
 def reconstruct_frames(
     frames: FrameSet,
     spec: PatternSpec,
-    calibration: Path,
+    calibration: Path | list[Path],
     target: Path,
     scan_id: str,
     config: RigConfig,
@@ -87,8 +87,9 @@ def reconstruct_frames(
     tracker.report("decode", 0.3)
     height, width = frames.frames[0].shape
     camera, projector, digest = models or calibration_models(calibration, options)
-    check_resolution(camera, (width, height), "camera", "the frames are", calibration)
-    check_resolution(projector, spec.projector.resolution, "projector", "the pattern description's is", calibration)
+    where = _named(calibration)
+    check_resolution(camera, (width, height), "camera", "the frames are", where)
+    check_resolution(projector, spec.projector.resolution, "projector", "the pattern description's is", where)
     correspondence = decode_described(frames.frames, spec, frames.full_scale)
     limit = jump_limit(camera, projector, correspondence, spec.projector.code_step_px, config.scan.max_depth_jump_mm)
     rig_config = offline_config(config, options, camera, projector, frames.full_scale, limit)
@@ -108,7 +109,7 @@ def reconstruct_frames(
         "reconstructed": {
             **inputs,
             "frames_sha256": frames.sha256,  # after the decoding: the frames are read by then
-            "calibration": str(calibration),
+            "calibration": _named(calibration),
             "calibration_sha256": digest,
             "calibration_options": options.model_dump(mode="json"),
         }
@@ -116,11 +117,14 @@ def reconstruct_frames(
     return write_scan(the_rig, result, target, scan_id, None, origin), result
 
 
-def calibration_models(path: Path, options: ForeignCalibrationOptions) -> tuple[CameraModel, CameraModel, str]:
+def calibration_models(
+    path: Path | list[Path], options: ForeignCalibrationOptions
+) -> tuple[CameraModel, CameraModel, str]:
     """The camera and projector of slrig's calibration.json (by the options' device names) or of
-    another tool's file, and the calibration's hash."""
-    own = path / JSON_NAME if path.is_dir() else path
-    if own.name == JSON_NAME:
+    another tool's file (or files, read together), and the calibration's hash."""
+    paths = path if isinstance(path, list) else [path]
+    own = paths[0] / JSON_NAME if paths[0].is_dir() else paths[0]
+    if own.name == JSON_NAME and len(paths) == 1:
         models, digest = load_calibration(own)
         missing = [n for n in (options.camera, options.projector) if n not in models]
         if missing:
@@ -128,8 +132,18 @@ def calibration_models(path: Path, options: ForeignCalibrationOptions) -> tuple[
                 f"calibration file {own}: has no device {', '.join(missing)} (its: {', '.join(models)})"
             )
         return models[options.camera], models[options.projector], digest
-    found = read_foreign_calibration(path, options)
-    return found.camera, found.projector, _file_hash(path)[:16]
+    found = read_foreign_calibration(paths, options)
+    digest = (
+        _file_hash(paths[0])
+        if len(paths) == 1
+        else hashlib.sha256("".join(map(_file_hash, paths)).encode()).hexdigest()
+    )
+    return found.camera, found.projector, digest[:16]
+
+
+def _named(calibration: Path | list[Path]) -> str:
+    """The calibration's file, or its files read together, for messages and the manifest."""
+    return " + ".join(str(p) for p in calibration) if isinstance(calibration, list) else str(calibration)
 
 
 def jump_limit(
