@@ -54,6 +54,10 @@ def test_slstudio_case_is_kept_apart_and_its_sizes_and_direction_are_its_own(tmp
         tmp_path / "calibration.xml", ForeignCalibrationOptions(extrinsics="projector_to_camera")
     )
     assert np.allclose(reversed_.projector.R, ROTATION.T)  # the options may say otherwise, and are obeyed
+    bent = _slstudio(tmp_path / "bent.xml", kp=np.array([[0.05], [0.01], [0.0], [0.0], [0.0]]))
+    assert np.allclose(read_foreign_calibration(bent).projector.dist[:2], [0.05, 0.01])
+    plain = read_foreign_calibration(bent, ForeignCalibrationOptions(ignore_projector_distortion=True))
+    assert np.allclose(plain.projector.dist, 0.0) and np.allclose(plain.camera.dist, CAMERA_DIST)
 
 
 def test_opencvs_stereo_sample_is_read_from_its_two_files_together(tmp_path: Path) -> None:
@@ -133,3 +137,53 @@ def test_calibration_show_prints_what_slrig_read(tmp_path: Path, capsys: pytest.
     broken = _slstudio(tmp_path / "broken.xml", Rp=ROTATION * 2)
     assert main(["calibration", "show", str(broken)]) == 2
     assert re.search(r"broken\.xml: Rp: not a rotation", capsys.readouterr().err)
+
+
+KALIBR = """cam0:
+  camera_model: pinhole
+  intrinsics: [2400.0, 2401.5, 641.2, 509.8]
+  distortion_model: radtan
+  distortion_coeffs: [-0.12, 0.08, 0.001, -0.0005]
+  rostopic: /cam0/image_raw
+  resolution: [1280, 1024]
+cam1:
+  camera_model: pinhole
+  intrinsics: [1800.0, 1800.0, 511.0, 700.0]
+  distortion_model: radtan
+  distortion_coeffs: [0.0, 0.0, 0.0, 0.0]
+  T_cn_cnm1:
+  - [1.0, 0.0, 0.0, 0.21]
+  - [0.0, 1.0, 0.0, -0.004]
+  - [0.0, 0.0, 1.0, 0.035]
+  - [0.0, 0.0, 0.0, 1.0]
+  resolution: [912, 1140]
+"""  # the layout of the Kalibr wiki's example camchain.yaml (plain YAML, not OpenCV's), in metres
+
+
+def test_a_kalibr_camchain_reads_in_millimetres(tmp_path: Path) -> None:
+    path = tmp_path / "camchain.yaml"
+    path.write_text(KALIBR)
+    found = read_foreign_calibration(path)
+    assert found.format == "Kalibr camchain" and found.unit == "m"
+    assert np.allclose(found.camera.K, CAMERA_K) and np.allclose(found.camera.dist, [*CAMERA_DIST[:4], 0.0])
+    assert (found.projector.width, found.projector.height) == (912, 1140)
+    assert np.allclose(found.projector.t, [210.0, -4.0, 35.0])  # cam0 to cam1, metres as millimetres
+    omni = tmp_path / "omni.yaml"
+    omni.write_text(KALIBR.replace("camera_model: pinhole", "camera_model: omni", 1))
+    with pytest.raises(CalibrationError, match=r"omni\.yaml: cam0\.camera_model: omni; slrig's devices are pinholes"):
+        read_foreign_calibration(omni)
+
+
+def test_a_file_no_parser_reads_is_refused_with_its_name_not_a_traceback(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    from rig.cli import main
+
+    broken = tmp_path / "broken.xml"
+    broken.write_text('<?xml version="1.0"?>\n<opencv_storage>\n<Kc>1 2')
+    assert main(["calibration", "show", str(broken)]) == 2
+    assert "broken.xml: not an OpenCV FileStorage file" in capsys.readouterr().err
+    neither = tmp_path / "neither.yaml"
+    neither.write_text("cam0: [1, 2\n  - x: }")
+    assert main(["calibration", "show", str(neither)]) == 2
+    assert "neither.yaml: neither OpenCV FileStorage" in capsys.readouterr().err

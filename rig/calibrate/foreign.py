@@ -15,6 +15,7 @@ height) as OpenCV's Size. Matrices may be OpenCV matrices, nested lists, or flat
 
 from __future__ import annotations
 
+import dataclasses
 import json
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -23,9 +24,10 @@ from typing import Any, Literal
 
 import cv2
 import numpy as np
+import yaml
 from pydantic import Field
 
-from rig.calibrate.formats import FIELDS, GENERIC, CalibrationFormat, detected, slrig_devices
+from rig.calibrate.formats import FIELDS, GENERIC, CalibrationFormat, detected, kalibr_fields, slrig_devices
 from rig.config.common import Strict
 from rig.errors import CalibrationError
 from rig.geometry import CameraModel
@@ -45,9 +47,14 @@ class ForeignCalibrationOptions(Strict):
         "(OpenCV stereoCalibrate with the camera first); default: as the file's format defines it, else that",
     )
     world: Literal["camera", "projector"] = Field("camera", description="the device whose frame is the world's")
-    translation_scale: float = Field(1.0, gt=0, le=1e6, description="the file's length unit in millimetres")
+    translation_scale: float | None = Field(
+        None, gt=0, le=1e6, description="the file's length unit in millimetres; default: its format's (1 where none)"
+    )
     camera_resolution: tuple[int, int] | None = Field(None, description="(width, height) where the file has none")
     projector_resolution: tuple[int, int] | None = Field(None, description="(width, height) where the file has none")
+    ignore_projector_distortion: bool = Field(
+        False, description="leave out the projector's distortion (where the file's own reconstruction did)"
+    )
     keys: dict[str, str] = Field(default_factory=dict, description="field -> the file's name for it (see FIELDS)")
 
 
@@ -76,6 +83,10 @@ def read_foreign_calibration(
     paths = [paths] if isinstance(paths, Path) else list(paths)
     where = " + ".join(str(p) for p in paths)
     values = _read_all(paths)
+    try:
+        values = kalibr_fields(values)
+    except ValueError as exc:
+        raise CalibrationError(f"calibration file {where}: {exc}") from None
     own = slrig_devices(values)
     if own:
         return _own(where, own, options)
@@ -87,7 +98,8 @@ def read_foreign_calibration(
     camera_k = fields.matrix("camera_matrix", required=True)
     projector_k = fields.matrix("projector_matrix", required=True)
     rotation = _rotation(fields, fields.matrix("rotation", required=True))
-    translation = fields.vector("translation", 3) * options.translation_scale
+    scale = options.translation_scale or chosen.scale_mm or 1.0
+    translation = fields.vector("translation", 3) * scale
     direction = options.extrinsics or chosen.extrinsics or "camera_to_projector"
     if direction == "projector_to_camera":  # X_c = R X_p + T  ->  X_p = R^T X_c - R^T T
         rotation, translation = rotation.T, -rotation.T @ translation
@@ -97,6 +109,8 @@ def read_foreign_calibration(
         camera_pose, projector_pose = (rotation.T, -rotation.T @ translation), (np.eye(3), np.zeros(3))
     camera = _model(fields, "camera", camera_k, camera_pose, options.camera_resolution)
     projector = _model(fields, "projector", projector_k, projector_pose, options.projector_resolution)
+    if options.ignore_projector_distortion:
+        projector = dataclasses.replace(projector, dist=np.zeros(5))
     rms = fields.number("rms")
     return ForeignCalibration(camera, projector, rms, fields.found, chosen.name, direction, chosen.unit)
 
@@ -114,7 +128,7 @@ def _own(where: str, devices: dict[str, dict[str, Any]], options: ForeignCalibra
                 height=int(d["image_height"]),
                 K=np.asarray(d["camera_matrix"], float).reshape(3, 3),
                 R=np.asarray(d["rotation_world_to_device"], float).reshape(3, 3),
-                t=np.asarray(d["translation_world_to_device"], float).ravel() * options.translation_scale,
+                t=np.asarray(d["translation_world_to_device"], float).ravel() * (options.translation_scale or 1.0),
                 dist=np.asarray(d.get("distortion_coefficients", np.zeros(5)), float).ravel()[:5],
             )
         except (KeyError, TypeError, ValueError) as exc:
@@ -292,8 +306,11 @@ def _read_values(path: Path) -> dict[str, Any]:
         raise CalibrationError(f"calibration file {path}: not .xml, .yml, .yaml or .json")
     try:
         storage = cv2.FileStorage(str(path), cv2.FILE_STORAGE_READ)
-    except cv2.error as exc:
-        raise CalibrationError(f"calibration file {path}: not an OpenCV FileStorage file ({exc.err})") from None
+    except (cv2.error, SystemError) as exc:  # OpenCV's parser error may come wrapped in a SystemError
+        why = str(getattr(exc, "err", None) or exc.__cause__ or exc)
+        if path.suffix.lower() == ".xml":
+            raise CalibrationError(f"calibration file {path}: not an OpenCV FileStorage file ({why})") from None
+        return _plain_yaml(path, why)  # Kalibr's and ROS's YAML are not OpenCV's
     try:
         if not storage.isOpened():
             raise CalibrationError(f"calibration file {path}: cannot be opened as OpenCV FileStorage")
@@ -302,6 +319,18 @@ def _read_values(path: Path) -> dict[str, Any]:
         return {key: _node_value(root.getNode(key)) for key in names}
     finally:
         storage.release()
+
+
+def _plain_yaml(path: Path, why_not_opencv: str) -> dict[str, Any]:
+    try:
+        document = yaml.safe_load(path.read_text())
+    except (OSError, UnicodeDecodeError, yaml.YAMLError) as exc:
+        raise CalibrationError(
+            f"calibration file {path}: neither OpenCV FileStorage ({why_not_opencv.strip()}) nor YAML ({exc})"
+        ) from None
+    if not isinstance(document, dict):
+        raise CalibrationError(f"calibration file {path}: not a YAML map of named fields")
+    return {str(k): _json_value(v) for k, v in document.items()}
 
 
 def _node_value(node: cv2.FileNode) -> Any:

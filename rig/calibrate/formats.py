@@ -11,6 +11,10 @@ distortion), what its R, T map and in which unit, as its tool defines them.
 - OpenCV's stereo sample (samples/cpp/stereo_calib.cpp): `M1 D1 M2 D2` in intrinsics.yml and
   `R T` in extrinsics.yml (often read together: several files are one calibration), device 1 to
   device 2 as stereoCalibrate; device 1 is taken for the camera.
+- Kalibr (ethz-asl/kalibr wiki, "yaml formats"): a camchain YAML with a map per camera, `cam0`
+  (taken for the camera) and `cam1` (the projector), each with `intrinsics` [fu fv pu pv] of a
+  `pinhole` model, `distortion_coeffs` of `radtan` (k1 k2 p1 p2, OpenCV's order) and `resolution`
+  [width, height]; `cam1.T_cn_cnm1` takes cam0's coordinates to cam1's; metres.
 - slrig's own calibration.yaml: a map per device with its `kind`, `image_width`,
   `image_height`, `camera_matrix`, `distortion_coefficients` and pose from the world.
 - Anything else: each field under its usual names (`GENERIC`), exact too, or under the name the
@@ -49,6 +53,7 @@ class CalibrationFormat:
     names: dict[str, tuple[str, ...]]  # field -> the format's names for it
     extrinsics: Direction | None  # what its R, T map, where the format says; None: the options'
     unit: str  # its lengths' unit, as its tool defines it
+    scale_mm: float | None = None  # millimetres per unit where the format fixes its unit
 
 
 GENERIC = CalibrationFormat(
@@ -92,6 +97,7 @@ FORMATS = (
         },
         "camera_to_projector",
         "mm",
+        1.0,
     ),
     CalibrationFormat(
         "procam-calibration",
@@ -127,6 +133,57 @@ FORMATS = (
         "its board's",
     ),
 )
+
+
+KALIBR = CalibrationFormat(
+    "Kalibr camchain",
+    "ethz-asl/kalibr wiki, yaml formats (camchain.yaml)",
+    ("cam0.intrinsics", "cam1.intrinsics"),
+    {
+        "camera_matrix": ("cam0.intrinsics",),
+        "camera_distortion": ("cam0.distortion_coeffs",),
+        "camera_size": ("cam0.resolution",),
+        "projector_matrix": ("cam1.intrinsics",),
+        "projector_distortion": ("cam1.distortion_coeffs",),
+        "projector_size": ("cam1.resolution",),
+        "rotation": ("cam1.T_cn_cnm1.R",),
+        "translation": ("cam1.T_cn_cnm1.t",),
+    },
+    "camera_to_projector",
+    "m",
+    1000.0,
+)
+FORMATS = (*FORMATS, KALIBR)
+
+
+def kalibr_fields(values: dict[str, Any]) -> dict[str, Any]:
+    """A Kalibr camchain's cam0 and cam1 as flat fields (`cam0.intrinsics` as a 3x3 matrix,
+    `cam1.T_cn_cnm1.R` and `.t`); the values as they are for any other file. ValueError naming the
+    field where a camera is not a pinhole with radtan (or no) distortion."""
+    cameras = [values.get(name) for name in ("cam0", "cam1")]
+    if not all(isinstance(c, dict) and "intrinsics" in c for c in cameras):
+        return values
+    flat: dict[str, Any] = {k: v for k, v in values.items() if k not in ("cam0", "cam1")}
+    for name, camera in zip(("cam0", "cam1"), cameras, strict=True):
+        assert isinstance(camera, dict)
+        if camera.get("camera_model", "pinhole") != "pinhole":
+            raise ValueError(f"{name}.camera_model: {camera['camera_model']}; slrig's devices are pinholes")
+        if camera.get("distortion_model", "radtan") not in ("radtan", "none"):
+            raise ValueError(f"{name}.distortion_model: {camera['distortion_model']}; slrig models radtan only")
+        intrinsics = camera["intrinsics"]
+        if not isinstance(intrinsics, list | tuple) or len(intrinsics) != 4:
+            raise ValueError(f"{name}.intrinsics: not [fu fv pu pv]")
+        fu, fv, pu, pv = (float(x) for x in intrinsics)
+        flat[f"{name}.intrinsics"] = [[fu, 0.0, pu], [0.0, fv, pv], [0.0, 0.0, 1.0]]
+        for key in ("distortion_coeffs", "resolution"):
+            if key in camera:
+                flat[f"{name}.{key}"] = camera[key]
+    pose = cameras[1].get("T_cn_cnm1") if isinstance(cameras[1], dict) else None
+    if pose is not None:
+        rows = [list(row) for row in pose] if isinstance(pose, list | tuple) else pose
+        flat["cam1.T_cn_cnm1.R"] = [row[:3] for row in rows[:3]]
+        flat["cam1.T_cn_cnm1.t"] = [row[3] for row in rows[:3]]
+    return flat
 
 
 def detected(values: dict[str, Any]) -> CalibrationFormat:

@@ -313,6 +313,12 @@ def _calibration_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--camera-resolution", type=_size, default=None, help="WIDTHxHEIGHT where the file has none")
     p.add_argument("--projector-resolution", type=_size, default=None, help="WIDTHxHEIGHT where the file has none")
     p.add_argument(
+        "--ignore-projector-distortion",
+        action="store_true",
+        default=None,
+        help="leave out the projector's distortion (where the file's own reconstruction did)",
+    )
+    p.add_argument(
         "--calibration-fields",
         default=None,
         help="the file's names for fields slrig does not know it by, exact: camera_matrix=K,rotation=Rp,...",

@@ -24,6 +24,7 @@ OPTIONS = (
     "translation_scale",
     "camera_resolution",
     "projector_resolution",
+    "ignore_projector_distortion",
 )
 
 
@@ -62,7 +63,9 @@ def cmd_calibration(args: argparse.Namespace) -> int:
         print(json.dumps(shown, allow_nan=False))
         return 0
     files = ", ".join(shown["files"])
-    print(f"{files}: {shown['format']}; R, T read as {shown['extrinsics']}, lengths in {shown['unit']}")
+    print(
+        f"{files}: {shown['format']}; R, T read as {shown['extrinsics']}, its lengths in {shown['unit']} (shown in mm)"
+    )
     for name, device in shown["devices"].items():
         k = device["K"]
         print(
@@ -70,7 +73,8 @@ def cmd_calibration(args: argparse.Namespace) -> int:
             f"fy {k[1][1]:.6g} cx {k[0][2]:.6g} cy {k[1][2]:.6g}, distortion {_numbers(device['dist'])}"
         )
         print(f"    centre {_numbers(device['center_mm'])} mm, rotation {device['rotation_deg']:.4g} deg (world frame)")
-    print(f"  baseline {shown['baseline_mm']:.6g} mm; rms {shown['rms_px']} px")
+    rms = "not in the file" if shown["rms_px"] is None else f"{shown['rms_px']:.4g} px"
+    print(f"  baseline {shown['baseline_mm']:.6g} mm; rms {rms}")
     print("  fields read: " + ", ".join(f"{field} <- {name}" for field, name in shown["found"].items()))
     return 0
 
