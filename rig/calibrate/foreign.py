@@ -115,8 +115,26 @@ def read_foreign_calibration(
     return ForeignCalibration(camera, projector, rms, fields.found, chosen.name, direction, chosen.unit)
 
 
+def refuse_for_own(where: str, options: ForeignCalibrationOptions) -> None:
+    """CalibrationError naming the option where one that slrig's own calibration files already
+    answer (their world frame, direction, unit and names) is given anyway: not ignored silently."""
+    given = [
+        name
+        for name, default in (("world", "camera"), ("extrinsics", None), ("translation_scale", None), ("keys", {}))
+        if getattr(options, name) != default
+    ]
+    given += [name for name in ("camera_resolution", "projector_resolution") if getattr(options, name) is not None]
+    if given:
+        flags = ", ".join(f"--{name.replace('_', '-')}" for name in given)
+        raise CalibrationError(
+            f"calibration file {where}: {flags}: slrig's own calibration says these itself (its devices in its "
+            "own world frame, in mm); give them only for another tool's file"
+        )
+
+
 def _own(where: str, devices: dict[str, dict[str, Any]], options: ForeignCalibrationOptions) -> ForeignCalibration:
     """slrig's own calibration.yaml: the options' devices, posed as the file says (world to device)."""
+    refuse_for_own(where, options)
     models = {}
     for name in (options.camera, options.projector):
         if name not in devices:
@@ -128,7 +146,7 @@ def _own(where: str, devices: dict[str, dict[str, Any]], options: ForeignCalibra
                 height=int(d["image_height"]),
                 K=np.asarray(d["camera_matrix"], float).reshape(3, 3),
                 R=np.asarray(d["rotation_world_to_device"], float).reshape(3, 3),
-                t=np.asarray(d["translation_world_to_device"], float).ravel() * (options.translation_scale or 1.0),
+                t=np.asarray(d["translation_world_to_device"], float).ravel(),
                 dist=np.asarray(d.get("distortion_coefficients", np.zeros(5)), float).ravel()[:5],
             )
         except (KeyError, TypeError, ValueError) as exc:

@@ -18,7 +18,12 @@ from typing import Any
 import numpy as np
 
 from rig.calibrate.files import JSON_NAME, load_calibration
-from rig.calibrate.foreign import ForeignCalibrationOptions, check_resolution, read_foreign_calibration
+from rig.calibrate.foreign import (
+    ForeignCalibrationOptions,
+    check_resolution,
+    read_foreign_calibration,
+    refuse_for_own,
+)
 from rig.config import RigConfig, config_from_dict
 from rig.errors import CalibrationError
 from rig.geometry import CameraModel
@@ -125,6 +130,7 @@ def calibration_models(
     paths = path if isinstance(path, list) else [path]
     own = paths[0] / JSON_NAME if paths[0].is_dir() else paths[0]
     if own.name == JSON_NAME and len(paths) == 1:
+        refuse_for_own(str(own), options)
         models, digest = load_calibration(own)
         missing = [n for n in (options.camera, options.projector) if n not in models]
         if missing:
