@@ -195,3 +195,15 @@ def test_calibration_captures_in_sync_on_a_bench_with_latency(
     assert _calibrate("rig", path, tmp_path / "cal", "--json") == 0
     report = json.loads(capsys.readouterr().out)["devices"]
     assert report["camera0"]["rms_px"] < 0.3 and report["projector0"]["rms_px"] < 0.5
+
+
+def test_a_lens_model_per_device(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """A camera with its centre fixed beside a projector whose centre (a DLP's lens shift) is free."""
+    path = _small(tmp_path, views=8)
+    models = ["--camera-model", "k1+fixed_centre", "--projector-model", "k1k2"]
+    assert _calibrate("rig", path, tmp_path / "cal", *models, "--json") == 0
+    report = json.loads(capsys.readouterr().out)
+    chosen = {name: device["model"] for name, device in report["devices"].items()}
+    assert chosen == {"camera0": "k1+fixed_centre", "projector0": "k1k2"}
+    assert _calibrate("rig", path, tmp_path / "bad", "--projector-model", "k9") == 2
+    assert "--projector-model 'k9'" in capsys.readouterr().err

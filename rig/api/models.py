@@ -183,8 +183,14 @@ class CalibrationRequest(_Request):
     model: Annotated[str, StringConstraints(max_length=100)] | SkipJsonSchema[None] = Field(
         None, description="the lens model (as calibration.model); default: the config's"
     )
+    camera_model: Annotated[str, StringConstraints(max_length=100)] | SkipJsonSchema[None] = Field(
+        None, description="the cameras' own lens model (as calibration.camera_model); default: model's"
+    )
+    projector_model: Annotated[str, StringConstraints(max_length=100)] | SkipJsonSchema[None] = Field(
+        None, description="the projectors' own lens model (as calibration.projector_model); default: model's"
+    )
 
-    @field_validator("images", "patterns", "board", "model", mode="before")
+    @field_validator("images", "patterns", "board", "model", "camera_model", "projector_model", mode="before")
     @classmethod
     def _not_null(cls, value: Any, info: ValidationInfo) -> Any:
         if value is None:  # the schema has no null: leave the field out for the default

@@ -27,15 +27,23 @@ def board_fields(text: str, field: str = "--board") -> dict[str, object]:
 
 
 def calibration_overrides(
-    config: RigConfig, board: str | None, model: str | None, names: tuple[str, str] = ("--board", "--model")
+    config: RigConfig,
+    board: str | None,
+    model: str | None,
+    names: tuple[str, str] = ("--board", "--model"),
+    device_models: tuple[str | None, str | None] = (None, None),
 ) -> RigConfig:
-    """The config with another board and lens model; ConfigError names them as `names` does."""
-    if board is None and model is None:
+    """The config with another board and lens model (and the cameras' and projectors' own,
+    `device_models`); ConfigError names them as `names` does."""
+    if board is None and model is None and device_models == (None, None):
         return config
     board_name, model_name = names
     data = config.model_dump(mode="json")
     if model is not None:
         data["calibration"]["model"] = model
+    for key, chosen in zip(("camera_model", "projector_model"), device_models, strict=True):
+        if chosen is not None:
+            data["calibration"][key] = chosen
     if board is not None:
         data["calibration"]["board"] |= board_fields(board, board_name)
     try:
@@ -47,4 +55,9 @@ def calibration_overrides(
             ("calibration:", f"{model_name}:"),
         )
         problems = [p.replace(*renamed[0]).replace(*renamed[1]).replace(*renamed[2]) for p in exc.problems]
+        if board_name.startswith("--"):  # the command line's own names for the devices' models
+            problems = [
+                p.replace("camera_model '", "--camera-model '").replace("projector_model '", "--projector-model '")
+                for p in problems
+            ]
         raise ConfigError(f"{board_name}/{model_name}", problems) from None

@@ -90,7 +90,7 @@ def calibrate(
     collected = collect_views(rig, board, mode, count, images, save_views, poses, tracker.part(0.0, 0.7))
     cameras = [(c.name, c.resolution) for c in config.cameras]
     projectors = [(p.name, p.resolution) for p in config.projectors] if mode != "camera" else []
-    return solve_and_write(collected, board, cameras, projectors, settings.model, out, tracker)
+    return solve_and_write(collected, board, cameras, projectors, settings.models, out, tracker)
 
 
 def calibrate_described(
@@ -113,7 +113,7 @@ def calibrate_described(
     collected, camera_size = load_described_views(folders, spec, board, source, tracker.part(0.0, 0.7))
     cameras = [(config.cameras[0].name, camera_size)]
     projectors = [(config.projectors[0].name, spec.projector.resolution)] if mode != "camera" else []
-    return solve_and_write(collected, board, cameras, projectors, config.calibration.model, out, tracker)
+    return solve_and_write(collected, board, cameras, projectors, config.calibration.models, out, tracker)
 
 
 def solve_and_write(
@@ -121,11 +121,12 @@ def solve_and_write(
     board: Board,
     cameras: list[tuple[str, tuple[int, int]]],
     projectors: list[tuple[str, tuple[int, int]]],
-    model: str,
+    models: tuple[str, str],
     out: Path,
     tracker: ProgressTracker | None = None,
 ) -> CalibrationOutcome:
-    """Calibrate the named devices from the views and write the files into `out`; `tracker` hears
+    """Calibrate the named devices from the views (`models`: the cameras' and the projectors' lens
+    models) and write the files into `out`; `tracker` hears
     of the solve (from 0.7 of the whole, the views before it) and its end."""
     tracker = tracker or ProgressTracker(None)
     tracker.report("solve", 0.7, f"{len(collected)} views")
@@ -135,10 +136,11 @@ def solve_and_write(
             f"no view shows the {cols}x{rows}-square {board.config.kind} board that the config "
             "describes (calibration.board): wrong board, or not in view"
         )
-    devices = calibrate_cameras(collected, board, [n for n, _ in cameras], [s for _, s in cameras], model)
+    camera_model, projector_model = models
+    devices = calibrate_cameras(collected, board, [n for n, _ in cameras], [s for _, s in cameras], camera_model)
     if projectors:
         names, sizes = [n for n, _ in projectors], [s for _, s in projectors]
-        devices += calibrate_projectors(collected, board, devices, names, sizes, model)
+        devices += calibrate_projectors(collected, board, devices, names, sizes, projector_model)
     summary = report(devices)
     cameras_done = devices[: len(cameras)]
     summary["board_check"] = board_checks(collected, board, cameras_done, devices[len(cameras) :])

@@ -211,6 +211,10 @@ def _cal_command(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-
         help="lens model: auto (drop what the views do not determine), or k1, k1k2, k1k2_tangential, full with "
         "+fixed_centre and/or +fixed_aspect (k1k2+fixed_aspect); default: the config's calibration.model",
     )
+    cal.add_argument("--camera-model", default=None, help="the cameras' lens model (as --model); default: --model's")
+    cal.add_argument(
+        "--projector-model", default=None, help="the projectors' lens model (as --model); default: --model's"
+    )
     cal.add_argument("--save-views", type=Path, default=None, help="also write the captured views to this folder")
     cal.add_argument(
         "--out",

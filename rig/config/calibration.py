@@ -72,6 +72,10 @@ class CalibrationConfig(Strict):
         description="lens model of every device: auto (drop what the views do not determine), or a distortion "
         "(k1, k1k2, k1k2_tangential, full) with +fixed_centre and/or +fixed_aspect, e.g. k1k2+fixed_aspect",
     )
+    camera_model: str | None = Field(None, description="the cameras' lens model (as model); default: model")
+    projector_model: str | None = Field(
+        None, description="the projectors' lens model (as model; a DLP's centre is off-axis: not +fixed_centre)"
+    )
 
     file: Path | None = Field(
         None,
@@ -81,14 +85,23 @@ class CalibrationConfig(Strict):
 
     @model_validator(mode="after")
     def _known_model(self) -> CalibrationConfig:
-        distortion, *constraints = self.model.split("+")
-        if self.model != "auto" and (
-            distortion not in LENS_DISTORTIONS
-            or any(c not in LENS_CONSTRAINTS for c in constraints)
-            or len(set(constraints)) != len(constraints)
-        ):
-            raise ValueError(
-                f"model {self.model!r}: auto, or one of {', '.join(LENS_DISTORTIONS)} followed by any of "
-                f"{', '.join('+' + c for c in LENS_CONSTRAINTS)}"
-            )
+        for name in ("model", "camera_model", "projector_model"):
+            model = getattr(self, name)
+            if model is None:
+                continue
+            distortion, *constraints = model.split("+")
+            if model != "auto" and (
+                distortion not in LENS_DISTORTIONS
+                or any(c not in LENS_CONSTRAINTS for c in constraints)
+                or len(set(constraints)) != len(constraints)
+            ):
+                raise ValueError(
+                    f"{name} {model!r}: auto, or one of {', '.join(LENS_DISTORTIONS)} followed by any of "
+                    f"{', '.join('+' + c for c in LENS_CONSTRAINTS)}"
+                )
         return self
+
+    @property
+    def models(self) -> tuple[str, str]:
+        """The cameras' and the projectors' lens models."""
+        return self.camera_model or self.model, self.projector_model or self.model

@@ -30,8 +30,9 @@ VIEW_PREFIX = "view_"  # the bench's own layout: one view_NN folder per board po
 
 
 def calibration_settings(config: RigConfig, request: dict[str, Any]) -> RigConfig:
-    """The config with the request's board and lens model; ConfigError names `board` or `model`."""
-    return calibration_overrides(config, request.get("board"), request.get("model"), ("board", "model"))
+    """The config with the request's board and lens models; ConfigError names `board` or `model`."""
+    models = (request.get("camera_model"), request.get("projector_model"))
+    return calibration_overrides(config, request.get("board"), request.get("model"), ("board", "model"), models)
 
 
 def captured_views(data_dir: Path, request: dict[str, Any]) -> tuple[Path, PatternSpec | Path | None]:
