@@ -145,3 +145,30 @@ def test_constraints_fix_what_they_name() -> None:
     assert set(fixed.std) == {"fy", "k1"}  # the free parameters, each with its deviation
     free = fit(LensModel("k1"), objects, images, size)
     assert abs(free.K[0, 2] - 700) < 3 * free.std["cx"] and abs(free.K[1, 1] - 1790) < 3 * free.std["fy"]
+
+
+def test_the_report_names_every_view_it_dropped_and_its_folder() -> None:
+    """A capture folder whose board was not found is named in the report, not dropped unseen."""
+    from rig.calibrate.boards import Board, Detection
+    from rig.calibrate.report import report
+    from rig.calibrate.solve import calibrate_cameras
+    from rig.calibrate.views import View
+    from rig.config.calibration import BoardConfig
+
+    board = Board(BoardConfig(squares=(10, 7), square_mm=20.0))
+    ids = np.arange(board.corner_count)
+    grid = board.object_points(ids)
+    K = np.array([[1800.0, 0, 640], [0, 1800, 512], [0, 0, 1]])
+    rng = np.random.default_rng(3)
+    views = []
+    for v in range(8):
+        rvec = rng.uniform(-0.4, 0.4, 3) * [1, 1, 0.3]
+        tvec = np.array([rng.uniform(-40, 40), rng.uniform(-30, 30), rng.uniform(500, 700)])
+        points, _ = cv2.projectPoints(grid, rvec, tvec, K, np.zeros(5))
+        views.append(View(v, {0: Detection(ids, points.reshape(-1, 2))}, label=f"capture_{v}"))
+    views.append(View(8, label="capture_8"))  # the board was not found in this folder's frames
+    device = calibrate_cameras(views, board, ["camera0"], [(1280, 1024)], "k1")[0]
+    assert device.rejected[8] == "board not found (capture_8)"
+    named = report([device])["devices"]["camera0"]
+    assert named["rejected_views"]["8"] == "board not found (capture_8)" and 8 not in named["views_used"]
+    assert len(named["views_used"]) == 8

@@ -82,7 +82,7 @@ def load_described_views(
             first = f"{size[0]}x{size[1]}"
             raise FramesError(f"frames folder {folder}: {width}x{height} frames, the first view's are {first}")
         size = (width, height)
-        view = View(index)
+        view = View(index, label=folder.name)
         image = board_image(frames.frames, spec, source)
         view.white[0] = image
         detection = board.detect(image)

@@ -73,6 +73,11 @@ def _intrinsics(
     return (lens if requested == lens.model else choose(requested, objects, images, size)), rejected
 
 
+def _where(reason: str, view: View) -> str:
+    """A dropped view's reason, with the folder it came from where it has one."""
+    return f"{reason} ({view.label})" if view.label else reason
+
+
 def calibrate_cameras(
     views: list[View], board: Board, names: list[str], sizes: list[tuple[int, int]], model: str = "auto"
 ) -> list[DeviceCalibration]:
@@ -85,6 +90,7 @@ def calibrate_cameras(
                 f"{board.config.kind} squares) was not found in any view"
             )
         lens, rejected = _intrinsics(name, size, detections, board, model)
+        rejected |= {v.index: _where("board not found", v) for v in views if c not in v.camera}
         if 0 not in lens.poses:
             raise CalibrationError(
                 f"{name}: the first view (the board that defines the world frame) was not usable: "
@@ -116,6 +122,11 @@ def calibrate_projectors(
                 "(is the board lit by the projector, and inside its image?)"
             )
         lens, rejected = _intrinsics(name, size, detections, board, model)
+        rejected |= {
+            v.index: _where("board not found" if c not in v.camera else "no projector coordinates at its corners", v)
+            for v in views
+            if (p, c) not in v.projector
+        }
         common = [v for v in views if v.index in lens.per_view_rms_px and v.index not in rejected and c in v.camera]
         obj, cam_pts, proj_pts = [], [], []
         for v in common:

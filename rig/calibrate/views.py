@@ -33,6 +33,7 @@ class View:
 
     index: int
     camera: dict[int, Detection] = field(default_factory=dict)
+    label: str = ""  # where it came from (a capture folder's name), for the report
     projector: dict[tuple[int, int], Detection] = field(default_factory=dict)
     white: dict[int, np.ndarray] = field(default_factory=dict)  # detection images, for coverage
 
