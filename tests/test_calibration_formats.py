@@ -108,7 +108,8 @@ def test_slrigs_own_calibration_yaml_reads_as_its_json(tmp_path: Path) -> None:
     by_yaml = calibration_models(tmp_path / "calibration.yaml", ForeignCalibrationOptions())
     by_json = calibration_models(tmp_path, ForeignCalibrationOptions())
     assert all(np.allclose(a.K, b.K) and np.allclose(a.t, b.t) for a, b in zip(by_yaml[:2], by_json[:2], strict=True))
-    for options in (ForeignCalibrationOptions(world="projector"), ForeignCalibrationOptions(translation_scale=1000.0)):
+    given = (ForeignCalibrationOptions(world="camera"), ForeignCalibrationOptions(translation_scale=1000.0))
+    for options in given:  # even the camera, which is not slrig's world frame
         for source in (tmp_path / "calibration.yaml", tmp_path):  # not ignored silently, the YAML or the JSON
             with pytest.raises(CalibrationError, match="slrig's own calibration says these itself"):
                 calibration_models(source, options)

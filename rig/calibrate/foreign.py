@@ -46,7 +46,9 @@ class ForeignCalibrationOptions(Strict):
         description="what the file's R, T map: camera_to_projector is X_projector = R X_camera + T "
         "(OpenCV stereoCalibrate with the camera first); default: as the file's format defines it, else that",
     )
-    world: Literal["camera", "projector"] = Field("camera", description="the device whose frame is the world's")
+    world: Literal["camera", "projector"] | None = Field(
+        None, description="the device whose frame is the world's; default: camera (slrig's own files have their own)"
+    )
     translation_scale: float | None = Field(
         None, gt=0, le=1e6, description="the file's length unit in millimetres; default: its format's (1 where none)"
     )
@@ -103,7 +105,7 @@ def read_foreign_calibration(
     direction = options.extrinsics or chosen.extrinsics or "camera_to_projector"
     if direction == "projector_to_camera":  # X_c = R X_p + T  ->  X_p = R^T X_c - R^T T
         rotation, translation = rotation.T, -rotation.T @ translation
-    if options.world == "camera":
+    if options.world in (None, "camera"):
         camera_pose, projector_pose = (np.eye(3), np.zeros(3)), (rotation, translation)
     else:
         camera_pose, projector_pose = (rotation.T, -rotation.T @ translation), (np.eye(3), np.zeros(3))
@@ -120,7 +122,7 @@ def refuse_for_own(where: str, options: ForeignCalibrationOptions) -> None:
     answer (their world frame, direction, unit and names) is given anyway: not ignored silently."""
     given = [
         name
-        for name, default in (("world", "camera"), ("extrinsics", None), ("translation_scale", None), ("keys", {}))
+        for name, default in (("world", None), ("extrinsics", None), ("translation_scale", None), ("keys", {}))
         if getattr(options, name) != default
     ]
     given += [name for name in ("camera_resolution", "projector_resolution") if getattr(options, name) is not None]

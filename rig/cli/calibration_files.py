@@ -90,7 +90,7 @@ def described(found: ForeignCalibration, options: ForeignCalibrationOptions) -> 
         "format": found.format,
         "extrinsics": found.extrinsics,
         "unit": found.unit,
-        "world": options.world if found.format != "slrig" else "the file's",
+        "world": (options.world or "camera") if found.format != "slrig" else "the file's (its first board pose)",
         "rms_px": found.rms_px,
         "baseline_mm": round(baseline, 6),
         "found": found.found,
