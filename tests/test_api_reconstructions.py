@@ -129,3 +129,42 @@ def test_only_the_keys_holder_may_send_a_large_upload(client: TestClient) -> Non
     assert client.put("/v1/imports/big/frame.png", content=frame, headers=AUTH).status_code == 201
     assert client.delete("/v1/imports/big", headers=AUTH).status_code == 204
     assert client.delete("/v1/imports/big", headers=AUTH).status_code == 404
+
+
+def test_a_calibration_split_over_two_uploaded_files(
+    client: TestClient, uploads: dict[str, Any], tmp_path: Path
+) -> None:
+    from rig.calibrate.foreign import read_foreign_calibration
+
+    (tmp_path / "cal.xml").write_bytes(uploads["files"]["calibration_result.xml"])
+    found = read_foreign_calibration(tmp_path / "cal.xml")
+    camera, projector = found.camera, found.projector
+    halves = {
+        "intrinsics.yml": {"M1": camera.K, "D1": camera.dist, "M2": projector.K, "D2": projector.dist},
+        "extrinsics.yml": {"R": projector.R @ camera.R.T, "T": projector.t - projector.R @ camera.R.T @ camera.t},
+    }
+    files = {k: v for k, v in uploads["files"].items() if k.endswith(".png")}
+    for name, fields in halves.items():
+        storage = cv2.FileStorage(str(tmp_path / name), cv2.FILE_STORAGE_WRITE)
+        for key, value in fields.items():
+            storage.write(key, np.asarray(value, float))
+        storage.release()
+        files[name] = (tmp_path / name).read_bytes()
+    _upload(client, files)
+    sizes = {
+        "camera_resolution": [camera.width, camera.height],
+        "projector_resolution": [projector.width, projector.height],
+    }
+    body = {
+        "frames": "board",
+        "patterns": uploads["patterns"],
+        "calibration": ["intrinsics.yml", "extrinsics.yml"],
+        "calibration_options": sizes,
+    }
+    created = client.post("/v1/reconstructions", json=body, headers=AUTH)
+    assert created.status_code == 202, created.text
+    job = wait_done(client, created.json()["id"])
+    assert job["state"] == "done", job
+    assert job["result"]["points"] > 10000
+    refused = client.post("/v1/reconstructions", json={**body, "calibration": []}, headers=AUTH)
+    assert refused.status_code == 422 and "calibration" in refused.text

@@ -106,8 +106,14 @@ class ReconstructionRequest(_Request):
     patterns: dict[str, Any] | str = Field(
         description="the pattern description (as in slrig reconstruct's YAML), or a YAML file's name in the folder"
     )
-    calibration: str = Field(
-        pattern=FILE_NAME_PATTERN, description="a finished calibration's id, or a calibration file's name in the folder"
+    calibration: (
+        Annotated[str, StringConstraints(pattern=FILE_NAME_PATTERN)]
+        | Annotated[
+            list[Annotated[str, StringConstraints(pattern=FILE_NAME_PATTERN)]], Field(min_length=1, max_length=4)
+        ]
+    ) = Field(
+        description="a finished calibration's id, a calibration file's name in the folder, or the names of the "
+        "files of one calibration read together (OpenCV's intrinsics.yml and extrinsics.yml)"
     )
     calibration_options: dict[str, Any] | None = Field(
         None, description="what a foreign calibration file does not say (as slrig reconstruct's options)"

@@ -155,15 +155,19 @@ def remove_leftovers(data_dir: Path) -> None:
 
 def reconstruction_inputs(
     data_dir: Path, calibration_folder: Callable[[str], Path], request: dict[str, Any]
-) -> tuple[Path, PatternSpec | Path, Path, ForeignCalibrationOptions]:
+) -> tuple[Path, PatternSpec | Path, Path | list[Path], ForeignCalibrationOptions]:
     """The frames folder, description, calibration and import options a reconstruction request
     names (see ReconstructionRequest); `calibration_folder` finds a finished calibration job's
     folder by id. Refusals name the request's field."""
     frames = folder_path(data_dir, request["frames"])
     name = request["calibration"]  # what the request names must be there (404) before it is judged (422)
-    calibration = (
-        calibration_folder(name) if JOB_ID.match(name) else file_in(data_dir, frames.name, name, "calibration")
-    )
+    calibration: Path | list[Path]
+    if isinstance(name, list):  # one calibration's files, read together
+        calibration = [file_in(data_dir, frames.name, n, "calibration") for n in name]
+    else:
+        calibration = (
+            calibration_folder(name) if JOB_ID.match(name) else file_in(data_dir, frames.name, name, "calibration")
+        )
     patterns, spec = pattern_description(data_dir, frames.name, request["patterns"])
     try:
         options = ForeignCalibrationOptions.model_validate(request.get("calibration_options") or {})
