@@ -103,7 +103,7 @@ def test_a_json_file_of_lists_or_opencv_matrices_and_metres(tmp_path: Path) -> N
     [
         ({"roration": ROTATION * 1.1}, {}, "roration: not a rotation"),
         ({"roration": ROTATION @ np.diag([1.0, 1.0, -1.0])}, {}, "roration: not a rotation"),
-        ({"proj_int": None}, {}, "projector_matrix: missing (looked for proj_int"),
+        ({"proj_int": None}, {}, "holds a camera alone (no projector_matrix: looked for proj_int"),
         ({"cam_dist": np.zeros((1, 6))}, {}, "cam_dist: 6 coefficients"),
         ({"cam_dist": np.array([[0.1, 0.0, 0.0, 0.0, 0.0, 0.02, 0.0, 0.0]])}, {}, "cam_dist: terms beyond k1"),
         ({"cam_int": np.eye(2)}, {}, "cam_int: 4 values where a 3x3 matrix has 9"),
@@ -129,9 +129,9 @@ def test_the_options_and_the_file_kind_are_checked(tmp_path: Path) -> None:
     assert np.allclose(read_foreign_calibration(named, options).projector.R, ROTATION.T)
     with pytest.raises(CalibrationError, match="unknown fields colour"):
         read_foreign_calibration(path, ForeignCalibrationOptions(keys={"colour": "x"}))
-    other = tmp_path / "c.txt"
+    other = tmp_path / "c.ini"
     other.write_text("K = 1")
-    with pytest.raises(CalibrationError, match=r"not \.xml, \.yml, \.yaml or \.json"):
+    with pytest.raises(CalibrationError, match=r"not \.xml, \.yml, \.yaml, \.json or \.mat"):
         read_foreign_calibration(other)
     broken = tmp_path / "c.json"
     broken.write_text("{")

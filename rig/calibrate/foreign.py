@@ -16,7 +16,6 @@ height) as OpenCV's Size. Matrices may be OpenCV matrices, nested lists, or flat
 from __future__ import annotations
 
 import dataclasses
-import json
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -24,15 +23,18 @@ from typing import Any, Literal
 
 import cv2
 import numpy as np
-import yaml
 from pydantic import Field
 
-from rig.calibrate.formats import FIELDS, GENERIC, CalibrationFormat, detected, kalibr_fields, slrig_devices
+from rig.calibrate.device_files import device_file, paired
+from rig.calibrate.foreign_files import read_values
+from rig.calibrate.formats import FIELDS, GENERIC, UNITS_MM, CalibrationFormat, detected, slrig_devices
+from rig.calibrate.nested_formats import flattened
 from rig.config.common import Strict
 from rig.errors import CalibrationError
 from rig.geometry import CameraModel
 
 DISTORTION_LENGTHS = (0, 4, 5, 8, 12, 14)  # OpenCV's: k1 k2 p1 p2 [k3 [k4 k5 k6 [s1..s4 [tx ty]]]]
+SKEW_TOLERANCE = 1e-6  # of fx: a skew below it is rounding, not a lens
 ROTATION_TOLERANCE = 1e-3  # |R R^T - I| beyond this is not a rotation (stored values carry ~1e-12)
 
 
@@ -63,7 +65,7 @@ class ForeignCalibrationOptions(Strict):
 @dataclass(frozen=True, eq=False)
 class ForeignCalibration:
     camera: CameraModel
-    projector: CameraModel
+    projector: CameraModel | None  # None: a file of one camera, read for `calibration show`
     rms_px: float | None
     found: dict[str, str]  # field -> the file's name it was read from
     format: str = GENERIC.name  # the format its fields told (rig.calibrate.formats)
@@ -72,10 +74,11 @@ class ForeignCalibration:
 
 
 def read_foreign_calibration(
-    paths: Path | Sequence[Path], options: ForeignCalibrationOptions | None = None
+    paths: Path | Sequence[Path], options: ForeignCalibrationOptions | None = None, *, single_device: bool = False
 ) -> ForeignCalibration:
-    """The camera and projector of the file (or files, read together) at `paths`;
-    CalibrationError naming the file and field at fault."""
+    """The camera and projector of the file (or files, read together) at `paths` (with
+    `single_device`, a file of one camera alone too: its `projector` None); CalibrationError naming
+    the file and field at fault."""
     options = options or ForeignCalibrationOptions()
     unknown = sorted(set(options.keys) - set(FIELDS))
     if unknown:
@@ -84,23 +87,23 @@ def read_foreign_calibration(
         )
     paths = [paths] if isinstance(paths, Path) else list(paths)
     where = " + ".join(str(p) for p in paths)
-    values = _read_all(paths)
-    try:
-        values = kalibr_fields(values)
-    except ValueError as exc:
-        raise CalibrationError(f"calibration file {where}: {exc}") from None
-    own = slrig_devices(values)
-    if own:
-        return _own(where, own, options)
-    try:
-        chosen = detected(values)
-    except ValueError as exc:
-        raise CalibrationError(f"calibration file {where}: {exc}") from None
+    values, chosen = _told(where, [(path, read_values(path)) for path in paths])
+    if chosen is None:
+        return _own(where, slrig_devices(values), options)
     fields = _Fields(where, values, options, chosen)
     camera_k = fields.matrix("camera_matrix", required=True)
+    scale, unit = _unit(fields, options)
+    if fields.raw("projector_matrix", required=False) is None:
+        if not single_device:
+            looked = ", ".join(fields.names("projector_matrix")) or "nothing"
+            raise CalibrationError(
+                f"calibration file {where}: holds a camera alone (no projector_matrix: looked for {looked}, as "
+                f"{chosen.name}); a reconstruction needs the projector's calibration too: give its file as well"
+            )
+        camera = _model(fields, "camera", camera_k, (np.eye(3), np.zeros(3)), options.camera_resolution)
+        return ForeignCalibration(camera, None, fields.number("rms"), fields.found, chosen.name, "", unit)
     projector_k = fields.matrix("projector_matrix", required=True)
     rotation = _rotation(fields, fields.matrix("rotation", required=True))
-    scale = options.translation_scale or chosen.scale_mm or 1.0
     translation = fields.vector("translation", 3) * scale
     direction = options.extrinsics or chosen.extrinsics or "camera_to_projector"
     if direction == "projector_to_camera":  # X_c = R X_p + T  ->  X_p = R^T X_c - R^T T
@@ -114,7 +117,53 @@ def read_foreign_calibration(
     if options.ignore_projector_distortion:
         projector = dataclasses.replace(projector, dist=np.zeros(5))
     rms = fields.number("rms")
-    return ForeignCalibration(camera, projector, rms, fields.found, chosen.name, direction, chosen.unit)
+    return ForeignCalibration(camera, projector, rms, fields.found, chosen.name, direction, unit)
+
+
+def _told(where: str, files: list[tuple[Path, dict[str, Any]]]) -> tuple[dict[str, Any], CalibrationFormat | None]:
+    """The files' fields as one calibration's, and the format that names them (None: slrig's own)."""
+    devices = [(path, device_file(path, values)) for path, values in files]
+    if any(device is not None for _, device in devices):
+        rest = _merged([(p, v) for (p, v), (_, d) in zip(files, devices, strict=True) if d is None])
+        return paired([d for _, d in devices if d is not None], rest)
+    try:
+        values = flattened(_merged(files))
+    except ValueError as exc:
+        raise CalibrationError(f"calibration file {where}: {exc}") from None
+    if slrig_devices(values):
+        return values, None
+    try:
+        return values, detected(values)
+    except ValueError as exc:
+        raise CalibrationError(f"calibration file {where}: {exc}") from None
+
+
+def _unit(fields: _Fields, options: ForeignCalibrationOptions) -> tuple[float, str]:
+    """Millimetres per unit of the file's lengths, and that unit's name as the file or format gives it."""
+    chosen = fields.format
+    named = fields.values.get(chosen.unit_field) if chosen.unit_field else None
+    if options.translation_scale is not None:
+        return options.translation_scale, chosen.unit if named is None else str(named)
+    if named is None:
+        return chosen.scale_mm or 1.0, chosen.unit
+    if str(named).strip().lower() not in UNITS_MM:
+        raise fields.error(
+            str(chosen.unit_field),
+            f"{named!r} is not a unit slrig knows ({', '.join(UNITS_MM)}); give --translation-scale",
+        )
+    return UNITS_MM[str(named).strip().lower()], str(named)
+
+
+def _merged(files: list[tuple[Path, dict[str, Any]]]) -> dict[str, Any]:
+    """Every file's fields together; CalibrationError naming both files where two give one field."""
+    values: dict[str, Any] = {}
+    origin: dict[str, Path] = {}
+    for path, found in files:
+        for key, value in found.items():
+            if key in values:
+                raise CalibrationError(f"calibration file {path}: {key}: also in {origin[key]}; give it once")
+            values[key], origin[key] = value, path
+    return values
 
 
 def refuse_for_own(where: str, options: ForeignCalibrationOptions) -> None:
@@ -259,6 +308,8 @@ def _model(
     name = fields.found[f"{device}_matrix"]
     if k[0, 0] <= 0 or k[1, 1] <= 0 or not np.allclose(k[2], [0.0, 0.0, 1.0]):
         raise fields.error(name, "not a camera matrix (fx, fy > 0 and a last row 0 0 1)")
+    if abs(k[0, 1]) > SKEW_TOLERANCE * k[0, 0] or k[1, 0] != 0:
+        raise fields.error(name, f"a skew of {k[0, 1]:.6g} (K[0,1]); slrig's camera model has none")
     dist = fields.array(f"{device}_distortion")
     dist = np.zeros(5) if dist is None else dist.ravel()
     if dist.size not in DISTORTION_LENGTHS:
@@ -292,90 +343,12 @@ def _size(fields: _Fields, field: str, given: tuple[int, int] | None) -> tuple[i
     values = found.ravel()
     if values.size != 2 or np.any(values <= 0) or np.any(values != np.round(values)):
         raise fields.error(name, "not a size of two positive whole numbers")
-    width, height = (values[1], values[0]) if "shape" in name.lower() else (values[0], values[1])
+    rows_first = "shape" in name.lower() or name in fields.format.rows_first
+    width, height = (values[1], values[0]) if rows_first else (values[0], values[1])
     size = (int(width), int(height))
     if given is not None and tuple(given) != size:
         raise fields.error(name, f"{size[0]}x{size[1]} in the file, {given[0]}x{given[1]} in the options")
     return size
-
-
-def _read_all(paths: list[Path]) -> dict[str, Any]:
-    """Every file's fields together; CalibrationError naming both files where two give one field."""
-    values: dict[str, Any] = {}
-    origin: dict[str, Path] = {}
-    for path in paths:
-        for key, value in _read_values(path).items():
-            if key in values:
-                raise CalibrationError(f"calibration file {path}: {key}: also in {origin[key]}; give it once")
-            values[key], origin[key] = value, path
-    return values
-
-
-def _read_values(path: Path) -> dict[str, Any]:
-    if not path.is_file():
-        raise CalibrationError(f"calibration file {path}: not found")
-    if path.suffix.lower() == ".json":
-        try:
-            document = json.loads(path.read_text())
-        except (OSError, UnicodeDecodeError, ValueError) as exc:
-            raise CalibrationError(f"calibration file {path}: not JSON ({exc})") from None
-        if not isinstance(document, dict):
-            raise CalibrationError(f"calibration file {path}: not a JSON object of named fields")
-        return {k: _json_value(v) for k, v in document.items()}
-    if path.suffix.lower() not in (".xml", ".yml", ".yaml"):
-        raise CalibrationError(f"calibration file {path}: not .xml, .yml, .yaml or .json")
-    try:
-        storage = cv2.FileStorage(str(path), cv2.FILE_STORAGE_READ)
-    except (cv2.error, SystemError) as exc:  # OpenCV's parser error may come wrapped in a SystemError
-        why = str(getattr(exc, "err", None) or exc.__cause__ or exc)
-        if path.suffix.lower() == ".xml":
-            raise CalibrationError(f"calibration file {path}: not an OpenCV FileStorage file ({why})") from None
-        return _plain_yaml(path, why)  # Kalibr's and ROS's YAML are not OpenCV's
-    try:
-        if not storage.isOpened():
-            raise CalibrationError(f"calibration file {path}: cannot be opened as OpenCV FileStorage")
-        root = storage.root()
-        names = root.keys()  # a FileNode's, not a dict's
-        return {key: _node_value(root.getNode(key)) for key in names}
-    finally:
-        storage.release()
-
-
-def _plain_yaml(path: Path, why_not_opencv: str) -> dict[str, Any]:
-    try:
-        document = yaml.safe_load(path.read_text())
-    except (OSError, UnicodeDecodeError, yaml.YAMLError) as exc:
-        raise CalibrationError(
-            f"calibration file {path}: neither OpenCV FileStorage ({why_not_opencv.strip()}) nor YAML ({exc})"
-        ) from None
-    if not isinstance(document, dict):
-        raise CalibrationError(f"calibration file {path}: not a YAML map of named fields")
-    return {str(k): _json_value(v) for k, v in document.items()}
-
-
-def _node_value(node: cv2.FileNode) -> Any:
-    if node.isReal() or node.isInt():
-        return node.real()
-    if node.isString():
-        return node.string()
-    if node.isSeq():
-        return [_node_value(node.at(i)) for i in range(node.size())]
-    if node.isMap():
-        names = node.keys()
-        if {"dt", "data"} <= set(names):  # an OpenCV matrix, 2-D or n-D (mat() asserts on any other map)
-            return node.mat()
-        return {key: _node_value(node.getNode(key)) for key in names}
-    return None
-
-
-def _json_value(value: Any) -> Any:
-    """OpenCV's JSON matrices ({"type_id": "opencv-matrix", "rows", "cols", "data"}) as arrays."""
-    if isinstance(value, dict) and {"rows", "cols", "data"} <= value.keys():
-        try:
-            return np.asarray(value["data"], dtype=np.float64).reshape(int(value["rows"]), int(value["cols"]))
-        except (TypeError, ValueError):
-            return value
-    return value
 
 
 def write_opencv_stereo(path: Path, camera: CameraModel, projector: CameraModel) -> Path:

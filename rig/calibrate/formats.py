@@ -15,6 +15,15 @@ distortion), what its R, T map and in which unit, as its tool defines them.
   (taken for the camera) and `cam1` (the projector), each with `intrinsics` [fu fv pu pv] of a
   `pinhole` model, `distortion_coeffs` of `radtan` (k1 k2 p1 p2, OpenCV's order) and `resolution`
   [width, height]; `cam1.T_cn_cnm1` takes cam0's coordinates to cam1's; metres.
+- MATLAB's stereoParameters (Computer Vision Toolbox), as `toStruct` gives it saved to a .mat
+  (-v7) or JSON: `CameraParameters1` (the camera) and `CameraParameters2` (the projector), each
+  with `K` (or, before R2022b, `IntrinsicMatrix`, its transpose), `RadialDistortion`,
+  `TangentialDistortion`, `ImageSize` [rows cols] and `WorldUnits`; `RotationOfCamera2` and
+  `TranslationOfCamera2` in MATLAB's row-vector convention (x2 = x1 R + t), or a `PoseCamera2`
+  (camera 2 to camera 1). MATLAB counts pixels from 1: its principal point is 1 more than OpenCV's.
+  Read as MATLAB's stereoParametersToOpenCV does (R transposed, principal points less 1).
+- Files of one device each (ROS camera_info, 3DUNDERWORLD, OpenCV's camera calibration sample):
+  rig.calibrate.device_files.
 - slrig's own calibration.yaml: a map per device with its `kind`, `image_width`,
   `image_height`, `camera_matrix`, `distortion_coefficients` and pose from the world.
 - Anything else: each field under its usual names (`GENERIC`), exact too, or under the name the
@@ -54,6 +63,8 @@ class CalibrationFormat:
     extrinsics: Direction | None  # what its R, T map, where the format says; None: the options'
     unit: str  # its lengths' unit, as its tool defines it
     scale_mm: float | None = None  # millimetres per unit where the format fixes its unit
+    unit_field: str | None = None  # the field naming the unit, where the file says it
+    rows_first: tuple[str, ...] = ()  # sizes stored (rows, columns); others (and any *shape*) are (width, height)
 
 
 GENERIC = CalibrationFormat(
@@ -153,37 +164,29 @@ KALIBR = CalibrationFormat(
     "m",
     1000.0,
 )
-FORMATS = (*FORMATS, KALIBR)
+MATLAB = CalibrationFormat(
+    "MATLAB stereoParameters",
+    "MathWorks Computer Vision Toolbox: toStruct(stereoParams), saved -v7 or jsonencode'd (stereoParametersToOpenCV)",
+    ("CameraParameters1.ImageSize", "CameraParameters2.ImageSize"),
+    {
+        "camera_matrix": ("CameraParameters1.K",),
+        "camera_distortion": ("CameraParameters1.RadialDistortion+TangentialDistortion",),
+        "camera_size": ("CameraParameters1.ImageSize",),
+        "projector_matrix": ("CameraParameters2.K",),
+        "projector_distortion": ("CameraParameters2.RadialDistortion+TangentialDistortion",),
+        "projector_size": ("CameraParameters2.ImageSize",),
+        "rotation": ("RotationOfCamera2'", "PoseCamera2.R'"),
+        "translation": ("TranslationOfCamera2", "-PoseCamera2.R' Translation"),
+    },
+    "camera_to_projector",
+    "its WorldUnits",
+    unit_field="CameraParameters1.WorldUnits",
+    rows_first=("CameraParameters1.ImageSize", "CameraParameters2.ImageSize"),
+)
+FORMATS = (*FORMATS, KALIBR, MATLAB)
 
-
-def kalibr_fields(values: dict[str, Any]) -> dict[str, Any]:
-    """A Kalibr camchain's cam0 and cam1 as flat fields (`cam0.intrinsics` as a 3x3 matrix,
-    `cam1.T_cn_cnm1.R` and `.t`); the values as they are for any other file. ValueError naming the
-    field where a camera is not a pinhole with radtan (or no) distortion."""
-    cameras = [values.get(name) for name in ("cam0", "cam1")]
-    if not all(isinstance(c, dict) and "intrinsics" in c for c in cameras):
-        return values
-    flat: dict[str, Any] = {k: v for k, v in values.items() if k not in ("cam0", "cam1")}
-    for name, camera in zip(("cam0", "cam1"), cameras, strict=True):
-        assert isinstance(camera, dict)
-        if camera.get("camera_model", "pinhole") != "pinhole":
-            raise ValueError(f"{name}.camera_model: {camera['camera_model']}; slrig's devices are pinholes")
-        if camera.get("distortion_model", "radtan") not in ("radtan", "none"):
-            raise ValueError(f"{name}.distortion_model: {camera['distortion_model']}; slrig models radtan only")
-        intrinsics = camera["intrinsics"]
-        if not isinstance(intrinsics, list | tuple) or len(intrinsics) != 4:
-            raise ValueError(f"{name}.intrinsics: not [fu fv pu pv]")
-        fu, fv, pu, pv = (float(x) for x in intrinsics)
-        flat[f"{name}.intrinsics"] = [[fu, 0.0, pu], [0.0, fv, pv], [0.0, 0.0, 1.0]]
-        for key in ("distortion_coeffs", "resolution"):
-            if key in camera:
-                flat[f"{name}.{key}"] = camera[key]
-    pose = cameras[1].get("T_cn_cnm1") if isinstance(cameras[1], dict) else None
-    if pose is not None:
-        rows = [list(row) for row in pose] if isinstance(pose, list | tuple) else pose
-        flat["cam1.T_cn_cnm1.R"] = [row[:3] for row in rows[:3]]
-        flat["cam1.T_cn_cnm1.t"] = [row[3] for row in rows[:3]]
-    return flat
+UNITS_MM = {"mm": 1.0, "millimeters": 1.0, "millimetres": 1.0, "cm": 10.0, "centimeters": 10.0, "m": 1000.0,
+            "meters": 1000.0, "metres": 1000.0, "in": 25.4, "inches": 25.4}  # fmt: skip
 
 
 def detected(values: dict[str, Any]) -> CalibrationFormat:

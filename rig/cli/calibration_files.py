@@ -56,16 +56,15 @@ def _as_flag(problem: str) -> str:
 
 def cmd_calibration(args: argparse.Namespace) -> int:
     options = calibration_options(args)
-    found = read_foreign_calibration(list(args.files), options)
+    found = read_foreign_calibration(list(args.files), options, single_device=True)
     shown = described(found, options)
     shown["files"] = [str(f) for f in args.files]
     if args.json:
         print(json.dumps(shown, allow_nan=False))
         return 0
     files = ", ".join(shown["files"])
-    print(
-        f"{files}: {shown['format']}; R, T read as {shown['extrinsics']}, its lengths in {shown['unit']} (shown in mm)"
-    )
+    pose = f"R, T read as {shown['extrinsics']}, " if shown["extrinsics"] else ""
+    print(f"{files}: {shown['format']}; {pose}its lengths in {shown['unit']} (shown in mm)")
     for name, device in shown["devices"].items():
         k = device["K"]
         print(
@@ -74,25 +73,28 @@ def cmd_calibration(args: argparse.Namespace) -> int:
         )
         print(f"    centre {_numbers(device['center_mm'])} mm, rotation {device['rotation_deg']:.4g} deg (world frame)")
     rms = "not in the file" if shown["rms_px"] is None else f"{shown['rms_px']:.4g} px"
-    print(f"  baseline {shown['baseline_mm']:.6g} mm; rms {rms}")
+    if shown["baseline_mm"] is None:
+        print(f"  a camera alone: no projector, no baseline; rms {rms}")
+    else:
+        print(f"  baseline {shown['baseline_mm']:.6g} mm; rms {rms}")
     print("  fields read: " + ", ".join(f"{field} <- {name}" for field, name in shown["found"].items()))
     return 0
 
 
 def described(found: ForeignCalibration, options: ForeignCalibrationOptions) -> dict[str, Any]:
     """What `calibration show --json` prints of a read calibration."""
-    devices = {
-        options.camera: _device("camera", found.camera),
-        options.projector: _device("projector", found.projector),
-    }
-    baseline = float(np.linalg.norm(found.projector.center - found.camera.center))
+    devices = {options.camera: _device("camera", found.camera)}
+    baseline = None
+    if found.projector is not None:
+        devices[options.projector] = _device("projector", found.projector)
+        baseline = round(float(np.linalg.norm(found.projector.center - found.camera.center)), 6)
     return {
         "format": found.format,
         "extrinsics": found.extrinsics,
         "unit": found.unit,
         "world": (options.world or "camera") if found.format != "slrig" else "the file's (its first board pose)",
         "rms_px": found.rms_px,
-        "baseline_mm": round(baseline, 6),
+        "baseline_mm": baseline,
         "found": found.found,
         "devices": devices,
     }

@@ -144,6 +144,7 @@ def calibration_models(
         if len(paths) == 1
         else hashlib.sha256("".join(map(_file_hash, paths)).encode()).hexdigest()
     )
+    assert found.projector is not None  # a camera alone is refused unless single_device is asked
     return found.camera, found.projector, digest[:16]
 
 

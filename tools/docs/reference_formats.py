@@ -5,6 +5,7 @@ from __future__ import annotations
 
 from schema_tables import cell, schema_sections
 
+from rig.calibrate.device_files import DEVICE_FORMATS
 from rig.calibrate.foreign import DISTORTION_LENGTHS, ForeignCalibrationOptions
 from rig.calibrate.formats import FORMATS, GENERIC
 from rig.patterns.spec import PatternSpec
@@ -45,9 +46,10 @@ def calibration_files_page() -> str:
         "",
         "slrig writes its own calibration as `calibration.json` (with `calibration.yaml`, an OpenCV",
         "FileStorage copy, and the report), and reads either back. It also reads other tools'",
-        "projector-camera calibrations (OpenCV FileStorage XML or YAML, or JSON), telling which tool",
-        "wrote one by its fields, compared exactly, case and all (`rig.calibrate.formats.FORMATS`);",
-        "`slrig calibration show FILE` prints what it read. Each format's names:",
+        "projector-camera calibrations (OpenCV FileStorage XML or YAML, plain YAML, JSON, MATLAB .mat),",
+        "telling which tool wrote one by its fields, compared exactly, case and all (`rig.calibrate.formats.FORMATS`);",
+        "several files are read as one calibration (`--calibration A B`), and `slrig calibration show",
+        "FILE...` prints what it read. Each format's names:",
         "",
     ]
     for chosen in (*FORMATS, GENERIC):
@@ -66,6 +68,21 @@ def calibration_files_page() -> str:
             for field, names in chosen.names.items()
         ]
         lines.append("")
+    lines += [
+        "## Files of one device each",
+        "",
+        "Given two of them, the first file's device is the camera and the second's the projector;",
+        "one alone is a camera (`slrig calibration show`). Their names are the fields' own.",
+        "",
+        "| format | defined by | fields | the pair's pose | lengths in |",
+        "|---|---|---|---|---|",
+    ]
+    lines += [
+        f"| {name} | {source} | {' '.join(f'`{n}`' for n in names.split() if n not in ('or', 'a', 'folder', 'of'))} "
+        f"| {pose} | {unit} |"
+        for name, source, names, pose, unit in DEVICE_FORMATS
+    ]
+    lines.append("")
     lengths = ", ".join(str(n) for n in DISTORTION_LENGTHS)
     lines += [
         f"Distortion vectors hold {lengths} coefficients (OpenCV's order). What a file cannot say is",
