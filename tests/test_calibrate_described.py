@@ -88,7 +88,7 @@ def test_bad_inputs_are_refused_naming_the_field_and_nothing_is_written(
     out = tmp_path / "out"
     base = ["calibrate", "rig", "--images", str(images), "--patterns", str(description), "--out", str(out)]
     refusals = {
-        (): "the pattern description has 42 frames, 1 files match",
+        (): "the pattern description has 42 frames (columns: 20 Gray; rows: 20 Gray; white and black 2), 1 files match",
         ("--board", "checker:10x8"): "--board: 'checker:10x8' is not KIND:COLSxROWS:SQUARE_MM",
         ("--board", "charuco:10x8:30:40"): "--board: marker_mm 40 must be smaller than square_mm 30",
         ("--board", "charuco:10x8:30:20:DICT_9X9"): "--board dictionary",

@@ -78,7 +78,8 @@ def test_a_description_that_cannot_hold_is_refused_naming_the_field() -> None:
         FrameFiles(files="*.png", colour="grey")  # type: ignore[call-arg]
     spec = PatternSpec(projector=ProjectorSpace(resolution=(WIDTH, HEIGHT)), gray=GrayCode())
     frames = _seen(described_patterns(spec))
-    with pytest.raises(DecodeError, match=f"the pattern description has {len(frames)} frames, {len(frames) - 1} were"):
+    counted = rf"has {len(frames)} frames \(columns: 16 Gray; white and black 2\), {len(frames) - 1} were given"
+    with pytest.raises(DecodeError, match=counted):
         decode_described(frames[:-1], spec, 255)
 
 

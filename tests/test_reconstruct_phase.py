@@ -98,14 +98,14 @@ def test_each_phase_family_reconstructs_as_accurately_as_slrigs_own_phase(render
 @pytest.mark.parametrize(
     ("phase", "message"),
     [
-        ({"frequencies": [{"period_px": 16, "steps": 4}], "unwrap": "heterodyne"}, "two or three frequencies"),
+        ({"frequencies": [{"period_px": 16, "steps": 4}], "unwrap": "heterodyne"}, "two or more frequencies"),
         (
             {"frequencies": [{"period_px": 16, "steps": 4}, {"period_px": 18, "steps": 4}], "unwrap": "heterodyne"},
-            "their beat spans 144 px, less than the 1024 px",
+            "their beat spans 144 px, less than the 1024 columns",
         ),
         (
             {"frequencies": [{"period_px": 16, "steps": 4}, {"period_px": 128, "steps": 4}], "unwrap": "hierarchical"},
-            "the longest period, 128 px, must span 1024 px",
+            "the longest period, 128 px, repeats 8 times over the 1024 columns",
         ),
         ({"frequencies": [{"period_px": 16, "steps": 4}], "unwrap": "gray"}, "the gray block"),
         ({"frequencies": [{"period_px": 16, "steps": 4}] * 2, "unwrap": "heterodyne"}, "repeat"),

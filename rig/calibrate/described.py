@@ -76,7 +76,7 @@ def load_described_views(
     tracker = ProgressTracker(progress)
     for index, folder in enumerate(folders):
         tracker.report("views", index / len(folders), f"view {index + 1} of {len(folders)}: {folder.name}")
-        frames = read_frames(folder, spec.frames, len(spec.roles()))
+        frames = read_frames(folder, spec.frames, len(spec.roles()), breakdown=spec.frame_breakdown())
         height, width = frames.frames[0].shape
         if size is not None and size != (width, height):
             first = f"{size[0]}x{size[1]}"

@@ -10,7 +10,7 @@ import numpy as np
 from rig.errors import DecodeError
 from rig.patterns.base import Correspondence, NormalizedFrames
 from rig.patterns.described_phase import decode_phase, phase_pattern
-from rig.patterns.diamond import MIRROR_CENTRE, mirror_image
+from rig.patterns.diamond import mirror_image
 from rig.patterns.graycode import read_bits
 from rig.patterns.lines import LineCodec, stretch
 from rig.patterns.spec import Axis, PatternSpec, Role
@@ -23,7 +23,9 @@ def decode_described(frames: Sequence[np.ndarray], spec: PatternSpec, full_scale
     order where the description allows."""
     roles = spec.roles()
     if len(frames) != len(roles):
-        raise DecodeError(f"the pattern description has {len(roles)} frames, {len(frames)} were given")
+        raise DecodeError(
+            f"the pattern description has {len(roles)} frames{spec.frame_breakdown()}, {len(frames)} were given"
+        )
     if isinstance(frames, list) and len({f.shape[:2] for f in frames}) != 1:
         raise DecodeError(f"frames differ in size: {sorted({f.shape[:2] for f in frames})}")
     normalized = NormalizedFrames(frames, full_scale)
@@ -49,8 +51,8 @@ def decode_described(frames: Sequence[np.ndarray], spec: PatternSpec, full_scale
         counts[f"weak_bits_{'u' if axis == 'columns' else 'v'}"] = int((lit & ~ok).sum())
         valid &= ok
         step, centre = spec.projector.code_step_px, spec.projector.first_pixel_centre
-        if axis == "columns" and spec.projector.pixel_geometry == "diamond":
-            centre += MIRROR_CENTRE  # the mirror showing a virtual column's code is centred right of it
+        if axis == "columns":
+            centre += spec.projector.column_offset  # a diamond's mirror: centred right of the column it shows
         coords["u" if axis == "columns" else "v"] = position * np.float32(step) + np.float32(centre)
     return LineCodec.correspondence(coords, valid, white - black, texture, counts)
 

@@ -22,14 +22,16 @@ period) is the coordinate.
 
 from __future__ import annotations
 
+import dataclasses
+import math
 from collections.abc import Callable
 
 import cv2
 import numpy as np
 
 from rig.patterns.base import Correspondence, NormalizedFrames
-from rig.patterns.diamond import MIRROR_CENTRE
 from rig.patterns.lines import LineCodec, stretch
+from rig.patterns.micro_phase import micro_unwrapped
 from rig.patterns.spec import Axis, PatternSpec, Role
 
 GrayReader = Callable[[Axis, np.ndarray, np.ndarray], tuple[np.ndarray, np.ndarray]]
@@ -52,8 +54,10 @@ def decode_phase(
     texture: np.ndarray | None = None
     counts: dict[str, int] = {}
     for axis in spec.axes:
-        measured = [_wrapped(frames, index, axis, f, q.steps, spec) for f, q in enumerate(phase.frequencies)]
-        wrapped = [(m[0], q.period_px) for m, q in zip(measured, phase.frequencies, strict=True)]
+        frequencies = phase.of(axis)
+        shifted = [(f, q) for f, q in enumerate(frequencies) if q.steps >= 3]  # micro: the first alone
+        measured = [_wrapped(frames, index, axis, f, q.steps, spec) for f, q in shifted]
+        wrapped = [(m[0], q.period_px) for m, (_, q) in zip(measured, shifted, strict=True)]
         finest = min(range(len(wrapped)), key=lambda f: wrapped[f][1])
         _, offset, modulation = measured[finest]  # the finest frequency's mean and amplitude
         ok = modulation >= phase.min_modulation
@@ -66,12 +70,24 @@ def decode_phase(
             value, strength = read_gray(axis, white, black)
             x = gray_unwrapped(value, wrapped[0], phase.gray_unit == "half_period", ok)
             ok &= strength >= spec.code.min_contrast
+        elif phase.unwrap == "none":
+            x = spanning(wrapped[0], spec.pixels(axis))
+            counts[f"phase_noise_millipx_{axis}"] = _noise_millipx(frames, index, axis, spec, measured[0], ok)
+        elif phase.unwrap == "micro":
+            singles = [_frame(frames, index, Role("phase", axis, f), spec) for f in range(1, len(frequencies))]
+            periods = [q.period_px for q in frequencies]
+            x, clear = micro_unwrapped(
+                wrapped[0][0], offset, modulation, singles, periods, phase.start_deg, spec.pixels(axis)
+            )
+            counts[f"unwrap_doubtful_{axis}"] = int((ok & ~clear).sum())
+            ok &= clear
         else:
             unwrapping = heterodyne if phase.unwrap == "heterodyne" else hierarchical
             x, doubt = unwrapping(wrapped, spec.pixels(axis))
             counts[f"unwrap_doubtful_{axis}"] = int((ok & (doubt > MAX_DOUBT)).sum())
             ok &= doubt <= MAX_DOUBT
             x = combined(x, wrapped)
+        counts[f"beyond_projector_{axis}"] = int((ok & ~((x > -0.5) & (x < spec.pixels(axis) - 0.5))).sum())
         ok &= (x > -0.5) & (x < spec.pixels(axis) - 0.5)
         coords["u" if axis == "columns" else "v"] = (x + np.float32(spec.projector.first_pixel_centre)).astype(
             np.float32
@@ -96,7 +112,7 @@ def _wrapped(
     sign = 1.0 if phase.shift == "plus" else -1.0
     s = c = total = None
     for n in range(steps):
-        frame = frames[index[Role("phase", axis, f, step=n)]]
+        frame = _frame(frames, index, Role("phase", axis, f, step=n), spec)
         delta = sign * 2 * np.pi * n / steps
         s = frame * np.float32(np.sin(delta)) if s is None else s + frame * np.float32(np.sin(delta))
         c = frame * np.float32(np.cos(delta)) if c is None else c + frame * np.float32(np.cos(delta))
@@ -105,6 +121,55 @@ def _wrapped(
     theta = np.arctan2(-s, c) - np.float32(np.radians(phase.start_deg))
     fraction = np.mod(theta / np.float32(2 * np.pi), np.float32(1.0)).astype(np.float32)
     return fraction, total / np.float32(steps), np.float32(2.0 / steps) * np.sqrt(s * s + c * c)
+
+
+def _frame(frames: NormalizedFrames, index: dict[Role, int], role: Role, spec: PatternSpec) -> np.ndarray:
+    """A phase frame as read: as captured, or, for modulated phase shifting, twice the amplitude
+    of its carrier over the carrier's M shifts: the light that came straight from the projector
+    (light scattered within the scene is smooth across the carrier and drops out)."""
+    phase = spec.phase
+    assert phase is not None
+    if phase.modulation is None:
+        return frames[index[role]]
+    steps = phase.modulation.steps
+    s = c = None
+    for m in range(steps):
+        frame = frames[index[dataclasses.replace(role, carrier=m)]]
+        angle = 2 * np.pi * m / steps
+        s = frame * np.float32(np.sin(angle)) if s is None else s + frame * np.float32(np.sin(angle))
+        c = frame * np.float32(np.cos(angle)) if c is None else c + frame * np.float32(np.cos(angle))
+    assert s is not None and c is not None
+    return np.float32(4.0 / steps) * np.sqrt(s * s + c * c)
+
+
+def _noise_millipx(
+    frames: NormalizedFrames,
+    index: dict[Role, int],
+    axis: Axis,
+    spec: PatternSpec,
+    measured: tuple[np.ndarray, np.ndarray, np.ndarray],
+    valid: np.ndarray,
+) -> int:
+    """The median coordinate noise of a phase read without unwrapping, in thousandths of a
+    projector pixel: the frames' residual from their fitted sinusoid (N - 3 degrees of freedom),
+    as phase noise sqrt(2 / N) sigma / B, times P / 2 pi. -1 with 3 steps (no residual)."""
+    phase = spec.phase
+    assert phase is not None
+    frequency = phase.of(axis)[0]
+    steps = frequency.steps
+    if steps <= 3 or not valid.any():
+        return -1
+    fraction, offset, amplitude = measured
+    sign = 1.0 if phase.shift == "plus" else -1.0
+    theta = fraction * np.float32(2 * np.pi) + np.float32(np.radians(phase.start_deg))
+    squares = np.zeros_like(offset)
+    for n in range(steps):
+        delta = np.float32(sign * 2 * np.pi * n / steps)
+        fitted = offset + amplitude * np.cos(theta + delta)
+        squares += (_frame(frames, index, Role("phase", axis, 0, step=n), spec) - fitted) ** 2
+    sigma = np.sqrt(squares / np.float32(steps - 3))
+    noise = sigma * np.float32(math.sqrt(2.0 / steps)) / np.maximum(amplitude, np.float32(1e-6))
+    return round(float(np.median(noise[valid])) * frequency.period_px / (2 * math.pi) * 1000)
 
 
 def _references(
@@ -217,19 +282,26 @@ def correct_period_jumps(x: np.ndarray, period: float, valid: np.ndarray) -> np.
 
 
 def phase_pattern(spec: PatternSpec, role: Role) -> np.ndarray:
-    """The projector image (uint8) of one phase frame."""
+    """The projector image (uint8) of one phase frame (with modulated phase shifting, times its
+    carrier along the other axis)."""
     phase = spec.phase
     assert phase is not None and role.axis is not None
     width, height = spec.projector.resolution
-    frequency = phase.frequencies[role.bit]
+    frequency = phase.of(role.axis)[role.bit]
     x = np.arange(spec.pixels(role.axis), dtype=np.float64)
-    if role.axis == "columns" and spec.projector.pixel_geometry == "diamond":
-        x += MIRROR_CENTRE  # each mirror shows the fringe at its centre
+    if role.axis == "columns":
+        x += spec.projector.column_offset  # a diamond's mirror shows the fringe at its coordinate
     sign = 1.0 if phase.shift == "plus" else -1.0
     angle = (
         2 * np.pi * x / frequency.period_px
         + np.radians(phase.start_deg)
         + sign * 2 * np.pi * role.step / frequency.steps
     )
-    profile = np.rint((0.5 + 0.5 * np.cos(angle)) * 255).astype(np.uint8)
-    return stretch(profile, "u" if role.axis == "columns" else "v", width, height)
+    fringe = 0.5 + 0.5 * np.cos(angle)
+    if phase.modulation is None:
+        return stretch(np.rint(fringe * 255).astype(np.uint8), "u" if role.axis == "columns" else "v", width, height)
+    across = "rows" if role.axis == "columns" else "columns"
+    y = np.arange(spec.pixels(across), dtype=np.float64)
+    carrier = 0.5 + 0.5 * np.cos(2 * np.pi * (y / phase.modulation.period_px + role.carrier / phase.modulation.steps))
+    image = carrier[:, None] * fringe[None, :] if role.axis == "columns" else fringe[:, None] * carrier[None, :]
+    return np.rint(image * 255).astype(np.uint8)

@@ -30,13 +30,12 @@ import math
 from dataclasses import dataclass
 from typing import Literal
 
-from pydantic import BaseModel, ConfigDict, Field, model_validator
+from pydantic import Field, model_validator
 
-Axis = Literal["columns", "rows"]
+from rig.patterns.diamond import MIRROR_CENTRE
+from rig.patterns.spec_phase import Axis, Frequency, Modulation, PhaseShift, Strict, beat_period, check_unwrapping
 
-
-class Strict(BaseModel):
-    model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
+__all__ = ["Axis", "Frequency", "Modulation", "PhaseShift", "beat_period"]  # the phase block's, from spec_phase
 
 
 class ProjectorSpace(Strict):
@@ -52,12 +51,24 @@ class ProjectorSpace(Strict):
     code_step_px: int = Field(
         1, ge=1, le=64, description="projector pixels per code, as the calibration counts them (procam's graycode_step)"
     )
+    diamond_column: Literal["mirror_centre", "sampled"] = Field(
+        "mirror_centre",
+        description="a diamond DMD's coordinate for a mirror: mirror_centre, half a virtual column right of the "
+        "virtual column it shows (the mirror's centre); sampled, that virtual column itself (a system that "
+        "samples a virtual-column pattern at each mirror and calibrates in those columns)",
+    )
     pixel_geometry: Literal["square", "diamond"] = Field(
         "square",
         description="diamond: a diamond-pixel DMD (LightCrafter 4500) whose mirror columns interleave into twice "
         "as many virtual columns; resolution is then the virtual one (1824x1140) and each frame holds the "
         "mirrors (912x1140)",
     )
+
+    @property
+    def column_offset(self) -> float:
+        """What a diamond DMD's mirror adds to the virtual column it shows, as its coordinate."""
+        centred = self.pixel_geometry == "diamond" and self.diamond_column == "mirror_centre"
+        return MIRROR_CENTRE if centred else 0.0
 
     @model_validator(mode="after")
     def _positive(self) -> ProjectorSpace:
@@ -120,44 +131,6 @@ class GrayCode(Strict):
         return self
 
 
-class Frequency(Strict):
-    period_px: float = Field(ge=2.0, le=65536.0, description="fringe period in projector pixels")
-    steps: int = Field(ge=3, le=64, description="phase steps N of this period")
-
-
-class PhaseShift(Strict):
-    """N-step phase shift: frame n of a frequency shows 0.5 + 0.5 cos(2 pi x / P + start + s 2 pi n / N),
-    s = +1 (shift plus) or -1 (minus), x the projector coordinate (pixel centres at integers)."""
-
-    axes: tuple[Axis, ...] = Field(("columns",), min_length=1, max_length=2)
-    frequencies: list[Frequency] = Field(min_length=1, max_length=3, description="in the order their frames come")
-    shift: Literal["plus", "minus"] = "plus"
-    start_deg: float = Field(0.0, ge=-360.0, le=360.0)
-    unwrap: Literal["gray", "heterodyne", "hierarchical"] = Field(
-        description="gray: a Gray code (the gray block) of the period index; heterodyne: the beats of 2 or 3 "
-        "frequencies; hierarchical: the longest period spans the projector (a single-period cue) and unwraps "
-        "the next shorter"
-    )
-    gray_unit: Literal["period", "half_period"] = Field(
-        "period",
-        description="unwrap gray: what the code counts; half_period (one bit more, slrig's phase codec) lets each "
-        "pixel read the count whose edges lie a quarter period from its phase's wrap",
-    )
-    white_black: Literal["first", "last", "none"] = Field("none", description="without a gray block")
-    min_modulation: float = Field(0.02, ge=0.0, le=1.0, description="least fringe amplitude, of full scale")
-
-    @model_validator(mode="after")
-    def _unwrappable(self) -> PhaseShift:
-        if len(set(self.axes)) != len(self.axes):
-            raise ValueError(f"axes {list(self.axes)}: an axis twice")
-        count = len(self.frequencies)
-        if self.unwrap == "gray" and count != 1:
-            raise ValueError(f"unwrap gray: one frequency, not {count}")
-        if self.unwrap != "gray" and count < 2:
-            raise ValueError(f"unwrap {self.unwrap}: two or three frequencies")
-        return self
-
-
 @dataclass(frozen=True)
 class Role:
     """What one frame shows."""
@@ -167,6 +140,7 @@ class Role:
     bit: int = 0  # a bit: 0 the most significant; a phase frame: its frequency
     inverse: bool = False
     step: int = 0  # a phase frame's step n
+    carrier: int = 0  # modulated phase shifting: the carrier's shift m
 
 
 class PatternSpec(Strict):
@@ -204,7 +178,7 @@ class PatternSpec(Strict):
         """Projector pixels per code of the gray block."""
         if self.phase is None:
             return self.projector.code_step_px
-        period = self.phase.frequencies[0].period_px
+        period = self.phase.of(axis)[0].period_px
         return period / 2 if self.phase.gray_unit == "half_period" else period
 
     def roles(self) -> list[Role]:
@@ -213,8 +187,10 @@ class PatternSpec(Strict):
         coded: list[Role] = []
         for axis in self.axes:
             if self.phase is not None:
-                for f, frequency in enumerate(self.phase.frequencies):
-                    coded += [Role("phase", axis, f, step=n) for n in range(frequency.steps)]
+                carriers = range(self.phase.modulation.steps if self.phase.modulation is not None else 1)
+                for f, frequency in enumerate(self.phase.of(axis)):
+                    steps = range(frequency.steps)
+                    coded += [Role("phase", axis, f, step=n, carrier=m) for n in steps for m in carriers]
             if self.gray is None:
                 continue
             gray = self.gray
@@ -236,6 +212,26 @@ class PatternSpec(Strict):
             return coded + references
         return coded
 
+    def frame_breakdown(self) -> str:
+        """Where a description's frame count comes from, to print beside it: ' (columns: 24 phase
+        (16 px x 8 steps, ...), 10 Gray; white and black 2)'."""
+        parts = []
+        for axis in self.axes:
+            pieces = []
+            if self.phase is not None:
+                carriers = f" x {self.phase.modulation.steps} carrier shifts" if self.phase.modulation else ""
+                each = ", ".join(f"{f.period_px:g} px x {f.steps}" for f in self.phase.of(axis))
+                count = sum(1 for r in self.roles() if r.kind == "phase" and r.axis == axis)
+                pieces.append(f"{count} phase ({each}{carriers})")
+            bits = sum(1 for r in self.roles() if r.kind == "bit" and r.axis == axis)
+            if bits:
+                pieces.append(f"{bits} Gray")
+            parts.append(f"{axis}: {', '.join(pieces)}")
+        references = sum(1 for r in self.roles() if r.kind in ("white", "black"))
+        if references:
+            parts.append(f"white and black {references}")
+        return f" ({'; '.join(parts)})"
+
     @model_validator(mode="after")
     def _bits_fit(self) -> PatternSpec:
         if self.gray is None and self.phase is None:
@@ -248,45 +244,6 @@ class PatternSpec(Strict):
             if 2 ** self.bits(axis) < self.extent(axis):
                 raise ValueError(f"gray.bits {self.bits(axis)}: too few for {self.extent(axis)} {axis}")
         return self
-
-
-def check_unwrapping(spec: PatternSpec) -> None:
-    """The phase block's unwrapping can reach across the projector; ValueError naming the field."""
-    phase = spec.phase
-    assert phase is not None
-    if phase.unwrap == "gray":
-        if spec.gray is None:
-            raise ValueError("phase.unwrap gray: the gray block (the period index's code) is missing")
-        if spec.gray.axes != phase.axes:
-            raise ValueError(f"gray.axes {list(spec.gray.axes)}: must be phase.axes {list(phase.axes)}")
-        if spec.gray.reference == "threshold" and phase.white_black != "none":
-            raise ValueError("phase.white_black: the gray block's white_black places them")
-        return
-    if spec.gray is not None:
-        raise ValueError(f"gray: phase.unwrap {phase.unwrap} needs no Gray code")
-    longest = max(spec.pixels(axis) for axis in phase.axes)
-    periods = [f.period_px for f in phase.frequencies]
-    if phase.unwrap == "hierarchical" and max(periods) < longest:
-        raise ValueError(f"phase.frequencies: the longest period, {max(periods):g} px, must span {longest} px")
-    if phase.unwrap == "heterodyne":
-        if len(set(periods)) != len(periods):
-            raise ValueError(f"phase.frequencies: periods {periods} repeat; heterodyne needs different periods")
-        reach = beat_period(periods)
-        if reach < longest:
-            raise ValueError(f"phase.frequencies: their beat spans {reach:g} px, less than the {longest} px to reach")
-
-
-def beat_period(periods: list[float]) -> float:
-    """The longest period the heterodyne of 2 or 3 periods resolves (0 where two periods, or the
-    two beats of three, are equal)."""
-    ordered = sorted(periods)
-
-    def beat(a: float, b: float) -> float:
-        return 0.0 if a == b else a * b / abs(b - a)  # equal periods, or equal beats, resolve nothing
-
-    if len(ordered) == 2:
-        return beat(*ordered)
-    return beat(beat(ordered[0], ordered[1]), beat(ordered[1], ordered[2]))
 
 
 def opencv_graycode(width: int, height: int, files: str = "*.png") -> PatternSpec:

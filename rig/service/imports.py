@@ -174,7 +174,7 @@ def reconstruction_inputs(
     except ValidationError as exc:
         raise ImportRefusedError("calibration_options: " + "; ".join(problems(exc))) from None
     try:
-        frame_files(frames, spec.frames, len(spec.roles()))
+        frame_files(frames, spec.frames, len(spec.roles()), spec.frame_breakdown())
     except FramesError as exc:  # named as the client knows the folder, not by the daemon's path
         raise FramesError(str(exc).replace(f"frames folder {frames}", f"imports folder {frames.name!r}")) from None
     return frames, patterns, calibration, options

@@ -62,7 +62,7 @@ def reconstruct_folder(
     # frames of another size (or a decompression bomb) cost no memory.
     models = calibration_models(calibration, options)
     camera = models[0]
-    first = frame_files(frames_dir, spec.frames, len(spec.roles()))[0]
+    first = frame_files(frames_dir, spec.frames, len(spec.roles()), spec.frame_breakdown())[0]
     check_resolution(camera, image_header(first).size, "camera", "the frames are", _named(calibration))
     frames = open_frames(frames_dir, spec.frames, len(spec.roles()), (camera.width, camera.height))
     inputs = {

@@ -96,7 +96,7 @@ def load_pattern_spec(path: Path) -> PatternSpec:
         raise PatternSpecError(str(path), problems(exc)) from None
 
 
-def frame_files(folder: Path, files: FrameFiles, expected: int) -> list[Path]:
+def frame_files(folder: Path, files: FrameFiles, expected: int, breakdown: str = "") -> list[Path]:
     """The frame files in order; FramesError where the folder and the description disagree."""
     if not folder.is_dir():
         raise FramesError(f"frames folder {folder}: not a folder")
@@ -119,7 +119,7 @@ def frame_files(folder: Path, files: FrameFiles, expected: int) -> list[Path]:
         detail = f" (beyond them: {names})" if len(found) > expected else ""
         listed = "are listed" if isinstance(files.files, list) else f"match {files.files!r}"
         raise FramesError(
-            f"frames folder {folder}: the pattern description has {expected} frames, "
+            f"frames folder {folder}: the pattern description has {expected} frames{breakdown}, "
             f"{len(found)} files {listed}{detail}"
         )
     return found
@@ -129,19 +129,23 @@ def _matching(folder: Path, pattern: str) -> list[Path]:
     return sorted((p for p in folder.glob(pattern) if p.is_file()), key=natural_order)
 
 
-def open_frames(folder: Path, files: FrameFiles, expected: int, resolution: tuple[int, int] | None = None) -> FrameSet:
+def open_frames(
+    folder: Path, files: FrameFiles, expected: int, resolution: tuple[int, int] | None = None, breakdown: str = ""
+) -> FrameSet:
     """The frames of `folder` as they arrive (ArrivingFrames): read on threads while they are used.
     `resolution` (width, height), where the caller knows the camera's, is required of every frame."""
-    paths = frame_files(folder, files, expected)
+    paths = frame_files(folder, files, expected, breakdown)
     frames = ArrivingFrames(paths, files.grey, resolution)
     return FrameSet(frames, paths, 65535 if frames[0].dtype == np.uint16 else 255)
 
 
-def read_frames(folder: Path, files: FrameFiles, expected: int, resolution: tuple[int, int] | None = None) -> FrameSet:
+def read_frames(
+    folder: Path, files: FrameFiles, expected: int, resolution: tuple[int, int] | None = None, breakdown: str = ""
+) -> FrameSet:
     """The frames of `folder`, all read (on a few threads: PNG decoding releases the GIL), every
     header checked before any is decoded. `resolution` (width, height), where the caller knows the
     camera's, is required of every frame."""
-    paths = frame_files(folder, files, expected)
+    paths = frame_files(folder, files, expected, breakdown)
     head = (paths[0], _checked(paths[0], _header(paths[0]), resolution, None))
     for path in paths[1:]:
         _checked(path, _header(path), resolution, head)
