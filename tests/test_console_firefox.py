@@ -13,7 +13,7 @@ import pytest
 
 from tests.conftest import small_config_data
 from tests.firefox import FIREFOX, Firefox, Tab
-from tests.test_console_browser import PAGES, REACHABLE
+from tests.test_console_browser import FROM_THE_TOP, PAGES, REACHABLE
 from tests.test_daemon import KEY, Daemon, _config
 
 pytest.importorskip("websockets", reason="websockets is not installed (pip install -e '.[test]')")
@@ -163,7 +163,7 @@ def test_every_control_of_every_page_is_reached_by_tab(tab: Tab, daemon: Daemon)
                 break
             time.sleep(0.3)
             before, controls = controls, tab.evaluate(f"({REACHABLE})()")
-        tab.evaluate("document.activeElement.blur()")
+        tab.evaluate(FROM_THE_TOP)
         reached = set()
         for _ in range(len(controls) + 5):
             tab.press("Tab")

@@ -5,6 +5,7 @@ unwrapping, as coarse as the decode says. A description that would mislead is re
 
 from __future__ import annotations
 
+import re
 from typing import Any
 
 import cv2
@@ -145,3 +146,19 @@ def test_a_diamond_dmds_column_convention_is_a_setting() -> None:
 def test_a_description_that_would_mislead_is_refused_with_its_numbers(phase: dict[str, Any], message: str) -> None:
     with pytest.raises(ValidationError, match=message):
         _phase(phase)
+
+
+def test_a_description_that_runs_but_misleads_is_warned_with_numbers() -> None:
+    from rig.patterns.described_checks import decoded_warnings
+
+    shown = _phase({"frequencies": [{"period_px": p, "steps": 8} for p in (16, 17.5, 19)], "unwrap": "heterodyne"})
+    frames = _seen(described_patterns(shown))
+    assert decoded_warnings(shown, decode_described(frames, shown, 255)) == []
+    said = _phase({"frequencies": [{"period_px": p, "steps": 8} for p in (16, 17.5, 20)], "unwrap": "heterodyne"})
+    warnings = decoded_warnings(said, decode_described(frames, said, 255))
+    assert re.search(r"only \d+% of the 93\d\d\d lit pixels decoded \(.*unwrap doubtful columns", warnings[0])
+    assert all(re.search(r"decode beyond the projector's (400 columns|300 rows)", w) for w in warnings[1:])
+    single = _phase({"frequencies": [{"period_px": 420, "steps": 8}], "unwrap": "none"})
+    found = decode_described(_seen(described_patterns(single)), single, 255)
+    stated = [w for w in decoded_warnings(single, found) if "read without unwrapping" in w]
+    assert len(stated) == 2 and all(re.search(r"times 420 / 2 pi \(median 0\.\d\d px here\)", w) for w in stated)

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import sys
 from pathlib import Path
 
 from rig.cli.calibration_files import OPTIONS, calibration_options
@@ -31,7 +32,10 @@ def cmd_reconstruct(args: argparse.Namespace) -> int:
         "frames": result.frames_projected,
         "decoded": pair.correspondence.counts.get("decoded"),
         "lit": pair.correspondence.counts.get("lit"),
+        "warnings": result.warnings,
     }
+    for warning in result.warnings:
+        print(f"slrig: warning: {warning}", file=sys.stderr)
     if args.json:
         print(json.dumps(summary, allow_nan=False))
     else:

@@ -50,6 +50,7 @@ def decode_phase(
     full_scale = 65535 if raw[0].dtype == np.uint16 else 255
     coords: dict[str, np.ndarray] = {}
     valid: np.ndarray | None = None
+    readable: np.ndarray | None = None
     quality: np.ndarray | None = None
     texture: np.ndarray | None = None
     counts: dict[str, int] = {}
@@ -65,6 +66,7 @@ def decode_phase(
         if Role("white") in index:  # unlit where white and black differ too little, as for a code
             least = spec.gray.black_threshold if spec.gray is not None else phase.min_modulation
             ok &= frames[index[Role("white")]] - frames[index[Role("black")]] >= least
+        readable = ok.copy() if readable is None else readable & ok  # lit enough to read, before unwrapping
         if phase.unwrap == "gray":
             white, black = _references(frames, index, offset, modulation)
             value, strength = read_gray(axis, white, black)
@@ -99,7 +101,8 @@ def decode_phase(
             peak = frames[lit] if lit is not None else offset + modulation
             texture = np.clip(peak * full_scale, 0, full_scale).astype(raw[0].dtype)
     assert valid is not None and quality is not None and texture is not None
-    counts["lit"] = int(valid.sum())
+    assert readable is not None
+    counts["lit"] = int(readable.sum())
     return LineCodec.correspondence(coords, valid, quality, texture, counts)
 
 

@@ -77,6 +77,7 @@ class ScanResult:
     exposure: dict[str, object] | None = None  # auto-exposure or HDR: the exposures and what chose them
     images: dict[str, np.ndarray] = field(default_factory=dict)  # name -> RGB image stored as <name>.png
     descriptions: dict[int, dict[str, object]] = field(default_factory=dict)  # kept frames: projector -> spec
+    warnings: list[str] = field(default_factory=list)  # what the operator should know of this result
 
 
 def make_codec(rig: Rig, projector: int, name: str | None = None, params: CodecParams | None = None) -> Codec:

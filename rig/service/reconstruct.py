@@ -30,6 +30,7 @@ from rig.geometry import CameraModel
 from rig.geometry.triangulate import ray_plane, ray_ray_midpoint
 from rig.patterns.base import Correspondence
 from rig.patterns.described import decode_described
+from rig.patterns.described_checks import decoded_warnings
 from rig.patterns.spec import PatternSpec
 from rig.pipeline.scan import ScanResult, reconstruct_pair
 from rig.progress import ProgressCallback, ProgressTracker
@@ -109,6 +110,7 @@ def reconstruct_frames(
         pair.points,
         frames_projected=len(frames.frames),
         bytes_captured=sum(f.nbytes for f in frames.frames),
+        warnings=decoded_warnings(spec, correspondence),
     )
     origin = {
         "reconstructed": {
@@ -117,6 +119,7 @@ def reconstruct_frames(
             "calibration": _named(calibration),
             "calibration_sha256": digest,
             "calibration_options": options.model_dump(mode="json"),
+            "warnings": result.warnings,
         }
     }
     return write_scan(the_rig, result, target, scan_id, None, origin), result

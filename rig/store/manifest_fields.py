@@ -6,7 +6,8 @@ from __future__ import annotations
 MANIFEST_FIELDS: dict[str, str] = {
     "scan_id": "the scan's id (YYYYMMDD-HHMMSS-xxxxxx), also its folder's name under <data_dir>/scans",
     "origin": "where it came from: {captured: true}, {reprocessed_from: ID, calibration}, or "
-    "{reconstructed: {frames_sha256, patterns, calibration ...}} for another system's frames",
+    "{reconstructed: {frames_sha256, patterns, calibration ..., warnings}} for another system's frames (warnings: what "
+    "its decode says of the pattern description, with numbers)",
     "status": "done (a scan is written whole through <id>.partial, or not at all)",
     "created_utc": "when it was written, ISO 8601 in UTC",
     "software": "the versions of slrig, Python, NumPy and OpenCV that made it",
