@@ -172,3 +172,29 @@ def test_the_report_names_every_view_it_dropped_and_its_folder() -> None:
     named = report([device])["devices"]["camera0"]
     assert named["rejected_views"]["8"] == "board not found (capture_8)" and 8 not in named["views_used"]
     assert len(named["views_used"]) == 8
+
+
+@pytest.mark.parametrize(("fy", "warned"), [(1800.0, False), (2880.0, True)])
+def test_a_device_whose_pixels_come_out_far_from_square_is_warned_of(fy: float, warned: bool) -> None:
+    """What a description whose rows' periods were given wrong makes of a projector: fy 1.6x fx."""
+    from rig.calibrate.boards import Board, Detection
+    from rig.calibrate.report import report
+    from rig.calibrate.solve import calibrate_cameras
+    from rig.calibrate.views import View
+    from rig.config.calibration import BoardConfig
+
+    board = Board(BoardConfig(squares=(10, 7), square_mm=20.0))
+    ids = np.arange(board.corner_count)
+    K = np.array([[1800.0, 0, 640], [0, fy, 512], [0, 0, 1]])
+    rng = np.random.default_rng(5)
+    views = []
+    for v in range(8):
+        rvec = rng.uniform(-0.4, 0.4, 3) * [1, 1, 0.3]
+        tvec = np.array([rng.uniform(-40, 40), rng.uniform(-30, 30), rng.uniform(700, 900)])
+        points, _ = cv2.projectPoints(board.object_points(ids), rvec, tvec, K, np.zeros(5))
+        views.append(View(v, {0: Detection(ids, points.reshape(-1, 2))}))
+    device = calibrate_cameras(views, board, ["camera0"], [(1280, 1024)], "k1")[0]
+    aspect = [w for w in report([device])["warnings"] if "fy is" in w]
+    assert bool(aspect) == warned
+    if warned:
+        assert aspect[0].startswith("camera0: fy is 1.6x fx (2880.0 against 1800.0 px)")

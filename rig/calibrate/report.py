@@ -16,6 +16,7 @@ MIN_COVERAGE = 0.4
 MAX_RMS_PX = {"camera": 0.5, "projector": 1.0}
 MAX_FOCAL_STD = 0.01  # of the focal length: more, and the views do not determine the lens
 MAX_CENTRE_STD = 0.02  # of the image's width or height
+MAX_ASPECT_OFF = 0.05  # fy / fx beyond 1 +- this: pixels are square but for a few per cent
 
 
 def coverage(device: DeviceCalibration) -> float:
@@ -49,6 +50,13 @@ def warnings(devices: list[DeviceCalibration]) -> list[str]:
                 "flatness, exposure and, for a projector, its response (gamma) and frame sync"
             )
         out += _undetermined(d)
+        aspect = d.K[1, 1] / d.K[0, 0]
+        if abs(aspect - 1.0) > MAX_ASPECT_OFF:
+            out.append(
+                f"{d.name}: fy is {aspect:.3g}x fx ({d.K[1, 1]:.1f} against {d.K[0, 0]:.1f} px); cameras' and "
+                "projectors' pixels are square but for a few per cent, so for a projector the pattern description's "
+                "periods or code steps for columns and rows may not be what was projected"
+            )
         if d.stereo_rms_px is not None and d.stereo_rms_px > 2 * limit:
             out.append(f"{d.name}: stereo error {d.stereo_rms_px:.2f} px; the views may be inconsistent")
     return out
