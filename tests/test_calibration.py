@@ -207,3 +207,43 @@ def test_a_lens_model_per_device(tmp_path: Path, capsys: pytest.CaptureFixture[s
     assert chosen == {"camera0": "k1+fixed_centre", "projector0": "k1k2"}
     assert _calibrate("rig", path, tmp_path / "bad", "--projector-model", "k9") == 2
     assert "--projector-model 'k9'" in capsys.readouterr().err
+
+
+def test_the_world_frame_is_the_first_boards_or_the_first_cameras(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """The same views written in either frame: the camera at the origin in its own, the pair's relative
+    pose unchanged, and the first view's board, triangulated by the pair, where each frame puts it."""
+    path = _small(tmp_path, views=8)
+    assert _calibrate("rig", path, tmp_path / "board", "--save-views", str(tmp_path / "views"), "--json") == 0
+    on_board = json.loads(capsys.readouterr().out)["world"]
+    in_camera_frame = ["--images", str(tmp_path / "views"), "--world", "camera"]
+    assert _calibrate("rig", path, tmp_path / "camera", *in_camera_frame) == 0
+    capsys.readouterr()
+    board, _ = load_calibration(tmp_path / "board")
+    camera, _ = load_calibration(tmp_path / "camera")
+    np.testing.assert_allclose(camera["camera0"].R, np.eye(3), atol=1e-12)
+    np.testing.assert_allclose(camera["camera0"].t, 0.0, atol=1e-9)
+    relative = board["projector0"].R @ board["camera0"].R.T
+    np.testing.assert_allclose(camera["projector0"].R, relative, atol=1e-9)
+    truth = geometry_model(load_config(path).cameras[0].geometry, (320, 256))
+    assert _pose_error(board["camera0"], truth)[1] < 5.0  # the board frame is the bench's: the camera sits there
+    document = json.loads((tmp_path / "camera" / "calibration.json").read_text())
+    in_camera = document["report"]["world"]
+    assert on_board["frame"] == "board" and in_camera["frame"] == "camera" and document["world"] == "camera"
+    for placed in (on_board["first_view_board"], in_camera["first_view_board"]):
+        assert placed["corners"] >= 20 and placed["rms_mm"] < 1.0  # a 320 x 256 camera, 20 mm squares
+    assert in_camera["first_view_board"]["rms_mm"] == pytest.approx(on_board["first_view_board"]["rms_mm"], abs=1e-3)
+    assert main(["calibration", "show", str(tmp_path / "camera" / "calibration.json"), "--json"]) == 0
+    shown = json.loads(capsys.readouterr().out)
+    assert shown["world"] == "camera" and shown["devices"]["camera0"]["center_mm"] == [0.0, 0.0, 0.0]
+    for name in ("on-board", "on-camera"):
+        (tmp_path / name).mkdir()
+    scanning = _small(tmp_path / "on-board", views=8, file=str(tmp_path / "board"))
+    before = (tmp_path / "board" / "calibration.json").read_bytes()
+    assert _calibrate("rig", scanning, tmp_path / "board", *in_camera_frame) == 2
+    assert "is the calibration the simulated bench scans with" in capsys.readouterr().err
+    assert (tmp_path / "board" / "calibration.json").read_bytes() == before  # nothing replaced
+    scanned = _small(tmp_path / "on-camera", views=8, file=str(tmp_path / "camera"))
+    assert main(["scan", "--config", str(scanned), "--out", str(tmp_path / "scan")]) == 2
+    assert "written in the first camera's frame (--world camera)" in capsys.readouterr().err

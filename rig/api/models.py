@@ -195,8 +195,13 @@ class CalibrationRequest(_Request):
     projector_model: Annotated[str, StringConstraints(max_length=100)] | SkipJsonSchema[None] = Field(
         None, description="the projectors' own lens model (as calibration.projector_model); default: model's"
     )
+    world: Literal["board", "camera"] | SkipJsonSchema[None] = Field(
+        None,
+        description="the frame the calibration is written in: board (the first view's board) or camera (the first "
+        "camera's); default: the config's calibration.world. A simulated rig scans in the board's",
+    )
 
-    @field_validator("images", "patterns", "board", "model", "camera_model", "projector_model", mode="before")
+    @field_validator("images", "patterns", "board", "model", "camera_model", "projector_model", "world", mode="before")
     @classmethod
     def _not_null(cls, value: Any, info: ValidationInfo) -> Any:
         if value is None:  # the schema has no null: leave the field out for the default

@@ -13,7 +13,7 @@ import numpy as np
 from drivers.base import Camera, Device, Projector
 from rig.assembly.memory import check_memory
 from rig.assembly.world import World
-from rig.calibrate.files import JSON_NAME, load_calibration
+from rig.calibrate.files import JSON_NAME, calibration_world, load_calibration
 from rig.calibrate.response import load_response_luts
 from rig.config import DeviceKind, DriverEntry, Geometry, RigConfig, driver
 from rig.errors import ConfigError
@@ -61,6 +61,14 @@ def _calibrated_models(
     if not (folder / JSON_NAME).is_file():
         return cameras, projectors, None
     models, digest = load_calibration(folder)
+    if config.simulated and calibration_world(folder) != "board":
+        raise ConfigError(
+            "calibration.file",
+            [
+                f"calibration.file: {folder} is written in the first camera's frame (--world camera); the simulated "
+                "bench's truth is in the board's: calibrate with --world board to scan it"
+            ],
+        )
     missing = [d.name for d in (*config.cameras, *config.projectors) if d.name not in models]
     if missing:
         raise ConfigError("calibration.file", [f"calibration.file: has no calibration for {', '.join(missing)}"])

@@ -38,7 +38,7 @@ def content_hash(devices: list[dict[str, Any]]) -> str:
 
 
 def write_calibration(
-    folder: Path, devices: list[DeviceCalibration], report: dict[str, Any], board: dict[str, Any]
+    folder: Path, devices: list[DeviceCalibration], report: dict[str, Any], board: dict[str, Any], world: str = "board"
 ) -> str:
     """Write calibration.json and calibration.yaml into `folder` (each atomically, the YAML first so
     the JSON, which slrig reads, never points at a missing YAML). Returns the content hash."""
@@ -47,6 +47,7 @@ def write_calibration(
     digest = content_hash(params)
     storage = cv2.FileStorage("calibration.yaml", cv2.FILE_STORAGE_WRITE | cv2.FILE_STORAGE_MEMORY)
     storage.write("sha256", digest)
+    storage.write("world", world)
     for d in devices:
         storage.startWriteStruct(d.name, cv2.FILE_NODE_MAP)
         storage.write("kind", d.kind)
@@ -59,9 +60,19 @@ def write_calibration(
         storage.write("rms_px", float(d.rms_px))
         storage.endWriteStruct()
     write_atomic(folder / YAML_NAME, storage.releaseAndGetString().encode())
-    document = {"sha256": digest, "board": board, "devices": params, "report": report}
+    document = {"sha256": digest, "board": board, "world": world, "devices": params, "report": report}
     write_atomic(folder / JSON_NAME, json.dumps(document, indent=2, allow_nan=False).encode())
     return digest
+
+
+def calibration_world(path: Path) -> str:
+    """The frame a calibration.json (or its folder's) is written in: board (also for files from
+    before the choice) or camera."""
+    path = path / JSON_NAME if path.is_dir() else path
+    try:
+        return str(json.loads(path.read_text()).get("world", "board"))
+    except (OSError, ValueError, AttributeError) as exc:
+        raise CalibrationError(f"calibration file {path}: cannot read: {exc}") from None
 
 
 def load_calibration(path: Path) -> tuple[dict[str, CameraModel], str]:

@@ -71,6 +71,7 @@ class ForeignCalibration:
     format: str = GENERIC.name  # the format its fields told (rig.calibrate.formats)
     extrinsics: str = "camera_to_projector"  # what the file's R, T mapped
     unit: str = ""  # the file's length unit as its format defines it
+    world: str = "camera"  # the frame its devices are posed in: camera, projector, or (slrig's own) board
 
 
 def read_foreign_calibration(
@@ -89,7 +90,7 @@ def read_foreign_calibration(
     where = " + ".join(str(p) for p in paths)
     values, chosen = _told(where, [(path, read_values(path)) for path in paths])
     if chosen is None:
-        return _own(where, slrig_devices(values), options)
+        return _own(where, slrig_devices(values), options, str(values.get("world", "board")))
     fields = _Fields(where, values, options, chosen)
     camera_k = fields.matrix("camera_matrix", required=True)
     scale, unit = _unit(fields, options)
@@ -117,7 +118,8 @@ def read_foreign_calibration(
     if options.ignore_projector_distortion:
         projector = dataclasses.replace(projector, dist=np.zeros(5))
     rms = fields.number("rms")
-    return ForeignCalibration(camera, projector, rms, fields.found, chosen.name, direction, unit)
+    world = options.world or "camera"
+    return ForeignCalibration(camera, projector, rms, fields.found, chosen.name, direction, unit, world)
 
 
 def _told(where: str, files: list[tuple[Path, dict[str, Any]]]) -> tuple[dict[str, Any], CalibrationFormat | None]:
@@ -183,7 +185,9 @@ def refuse_for_own(where: str, options: ForeignCalibrationOptions) -> None:
         )
 
 
-def _own(where: str, devices: dict[str, dict[str, Any]], options: ForeignCalibrationOptions) -> ForeignCalibration:
+def _own(
+    where: str, devices: dict[str, dict[str, Any]], options: ForeignCalibrationOptions, world: str
+) -> ForeignCalibration:
     """slrig's own calibration.yaml: the options' devices, posed as the file says (world to device)."""
     refuse_for_own(where, options)
     models = {}
@@ -209,7 +213,7 @@ def _own(where: str, devices: dict[str, dict[str, Any]], options: ForeignCalibra
     }
     return ForeignCalibration(
         models[options.camera], models[options.projector], None if rms is None else float(rms), found, "slrig",
-        "world_to_device", "mm",
+        "world_to_device", "mm", world,
     )  # fmt: skip
 
 

@@ -32,10 +32,11 @@ def calibration_overrides(
     model: str | None,
     names: tuple[str, str] = ("--board", "--model"),
     device_models: tuple[str | None, str | None] = (None, None),
+    world: str | None = None,
 ) -> RigConfig:
     """The config with another board and lens model (and the cameras' and projectors' own,
     `device_models`); ConfigError names them as `names` does."""
-    if board is None and model is None and device_models == (None, None):
+    if board is None and model is None and device_models == (None, None) and world is None:
         return config
     board_name, model_name = names
     data = config.model_dump(mode="json")
@@ -46,6 +47,8 @@ def calibration_overrides(
             data["calibration"][key] = chosen
     if board is not None:
         data["calibration"]["board"] |= board_fields(board, board_name)
+    if world is not None:
+        data["calibration"]["world"] = world
     try:
         return config_from_dict(data, f"{board_name}/{model_name}")
     except ConfigError as exc:

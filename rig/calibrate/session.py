@@ -15,6 +15,7 @@ from rig.calibrate.files import write_calibration
 from rig.calibrate.report import coverage_png, report, residuals_png, view_caption, view_jpeg
 from rig.calibrate.solve import DeviceCalibration, calibrate_cameras, calibrate_projectors
 from rig.calibrate.views import View, capture_placed_views, default_poses, load_folder_views
+from rig.calibrate.world import World, reframed, refuse_camera_world_for_the_bench, world_check
 from rig.config import RigConfig
 from rig.config.calibration import BoardPose, CalibrationConfig
 from rig.errors import CalibrationError
@@ -84,13 +85,14 @@ def calibrate(
     written nothing, when the views cannot give a calibration."""
     config = rig.config
     settings = settings or config.calibration
+    refuse_camera_world_for_the_bench(config, out, settings.world)
     board = Board(settings.board)
     tracker = ProgressTracker(progress)
     count, poses = views or settings.views, settings.poses
     collected = collect_views(rig, board, mode, count, images, save_views, poses, tracker.part(0.0, 0.7))
     cameras = [(c.name, c.resolution) for c in config.cameras]
     projectors = [(p.name, p.resolution) for p in config.projectors] if mode != "camera" else []
-    return solve_and_write(collected, board, cameras, projectors, settings.models, out, tracker)
+    return solve_and_write(collected, board, cameras, projectors, settings.models, out, tracker, settings.world)
 
 
 def calibrate_described(
@@ -107,13 +109,15 @@ def calibrate_described(
     under `images`, described by the pattern description `patterns` (or its YAML file); no device is
     opened."""
     spec = patterns if isinstance(patterns, PatternSpec) else load_pattern_spec(patterns)
+    refuse_camera_world_for_the_bench(config, out, config.calibration.world)
     board = Board(config.calibration.board)
     tracker = ProgressTracker(progress)
     folders = view_folders(images, view_glob)
     collected, camera_size = load_described_views(folders, spec, board, source, tracker.part(0.0, 0.7))
     cameras = [(config.cameras[0].name, camera_size)]
     projectors = [(config.projectors[0].name, spec.projector.resolution)] if mode != "camera" else []
-    return solve_and_write(collected, board, cameras, projectors, config.calibration.models, out, tracker)
+    models, world = config.calibration.models, config.calibration.world
+    return solve_and_write(collected, board, cameras, projectors, models, out, tracker, world)
 
 
 def solve_and_write(
@@ -124,6 +128,7 @@ def solve_and_write(
     models: tuple[str, str],
     out: Path,
     tracker: ProgressTracker | None = None,
+    world: World = "board",
 ) -> CalibrationOutcome:
     """Calibrate the named devices from the views (`models`: the cameras' and the projectors' lens
     models) and write the files into `out`; `tracker` hears
@@ -141,13 +146,20 @@ def solve_and_write(
     if projectors:
         names, sizes = [n for n, _ in projectors], [s for _, s in projectors]
         devices += calibrate_projectors(collected, board, devices, names, sizes, projector_model)
+    devices, *board_in_world = reframed(devices, world)  # (R, t) of the board frame in the world
     summary = report(devices)
     cameras_done = devices[: len(cameras)]
     summary["board_check"] = board_checks(collected, board, cameras_done, devices[len(cameras) :])
+    summary["world"] = {"frame": world}
+    if projectors:
+        placed = world_check(
+            collected, board, devices[0], devices[len(cameras)], (board_in_world[0], board_in_world[1])
+        )
+        summary["world"]["first_view_board"] = placed
     board_warning = board.config.orientation_warning()
     if board_warning is not None:
         summary["warnings"].insert(0, board_warning)
-    digest = write_calibration(out, devices, summary, board.config.model_dump(mode="json"))
+    digest = write_calibration(out, devices, summary, board.config.model_dump(mode="json"), world)
     for device in devices:
         write_atomic(out / f"coverage_{device.name}.png", coverage_png(device))
         write_atomic(out / f"residuals_{device.name}.png", residuals_png(device))

@@ -213,6 +213,13 @@ def _cal_command(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-
     )
     cal.add_argument("--camera-model", default=None, help="the cameras' lens model (as --model); default: --model's")
     cal.add_argument(
+        "--world",
+        choices=["board", "camera"],
+        default=None,
+        help="the frame the calibration is written in: board (the first view's board, z = 0 its plane; the "
+        "simulated bench's) or camera (the first camera's); default: the config's calibration.world (board)",
+    )
+    cal.add_argument(
         "--projector-model", default=None, help="the projectors' lens model (as --model); default: --model's"
     )
     cal.add_argument("--save-views", type=Path, default=None, help="also write the captured views to this folder")

@@ -20,7 +20,9 @@ from rig.errors import ConfigError
 
 def cmd_calibrate(args: argparse.Namespace) -> int:
     models = (getattr(args, "camera_model", None), getattr(args, "projector_model", None))
-    config = calibration_overrides(load_config(args.config), args.board, args.model, device_models=models)
+    config = calibration_overrides(
+        load_config(args.config), args.board, args.model, device_models=models, world=getattr(args, "world", None)
+    )
     if args.views is not None and not 3 <= args.views <= 200:
         raise ConfigError("--views", [f"--views: {args.views} is outside 3..200"])
     if args.patterns is not None and (args.images is None or args.what not in ("camera", "rig", "projector")):

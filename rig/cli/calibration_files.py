@@ -64,7 +64,7 @@ def cmd_calibration(args: argparse.Namespace) -> int:
         return 0
     files = ", ".join(shown["files"])
     pose = f"R, T read as {shown['extrinsics']}, " if shown["extrinsics"] else ""
-    print(f"{files}: {shown['format']}; {pose}its lengths in {shown['unit']} (shown in mm)")
+    print(f"{files}: {shown['format']}; {pose}its lengths in {shown['unit']} (shown in mm); world: {shown['world']}")
     for name, device in shown["devices"].items():
         k = device["K"]
         print(
@@ -92,7 +92,7 @@ def described(found: ForeignCalibration, options: ForeignCalibrationOptions) -> 
         "format": found.format,
         "extrinsics": found.extrinsics,
         "unit": found.unit,
-        "world": (options.world or "camera") if found.format != "slrig" else "the file's (its first board pose)",
+        "world": found.world if found.format != "slrig" or found.world != "board" else "board (its first view's)",
         "rms_px": found.rms_px,
         "baseline_mm": baseline,
         "found": found.found,

@@ -73,6 +73,11 @@ class CalibrationConfig(Strict):
         "(k1, k1k2, k1k2_tangential, full) with +fixed_centre and/or +fixed_aspect, e.g. k1k2+fixed_aspect",
     )
     camera_model: str | None = Field(None, description="the cameras' lens model (as model); default: model")
+    world: Literal["board", "camera"] = Field(
+        "board",
+        description="the frame a calibration is written in: board, the first view's board (z = 0 its plane; the "
+        "simulated bench's own frame); camera, the first camera's (as other systems write theirs)",
+    )
     projector_model: str | None = Field(
         None, description="the projectors' lens model (as model; a DLP's centre is off-axis: not +fixed_centre)"
     )

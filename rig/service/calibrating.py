@@ -32,7 +32,8 @@ VIEW_PREFIX = "view_"  # the bench's own layout: one view_NN folder per board po
 def calibration_settings(config: RigConfig, request: dict[str, Any]) -> RigConfig:
     """The config with the request's board and lens models; ConfigError names `board` or `model`."""
     models = (request.get("camera_model"), request.get("projector_model"))
-    return calibration_overrides(config, request.get("board"), request.get("model"), ("board", "model"), models)
+    board, model, world = request.get("board"), request.get("model"), request.get("world")
+    return calibration_overrides(config, board, model, ("board", "model"), models, world)
 
 
 def captured_views(data_dir: Path, request: dict[str, Any]) -> tuple[Path, PatternSpec | Path | None]:
