@@ -132,7 +132,7 @@ def calibration_models(
     another tool's file (or files, read together), and the calibration's hash."""
     paths = path if isinstance(path, list) else [path]
     own = paths[0] / JSON_NAME if paths[0].is_dir() else paths[0]
-    if own.name == JSON_NAME and len(paths) == 1:
+    if own.name == JSON_NAME and len(paths) == 1 and (own.is_file() or not paths[0].is_dir()):
         refuse_for_own(str(own), options)
         models, digest = load_calibration(own)
         missing = [n for n in (options.camera, options.projector) if n not in models]
@@ -246,7 +246,11 @@ def _geometry(model: CameraModel) -> dict[str, Any]:
 
 
 def _file_hash(path: Path) -> str:
+    """A file's SHA-256; a folder's (3DUNDERWORLD's text files): of its files' names and hashes."""
     try:
+        if path.is_dir():
+            files = sorted(f for f in path.iterdir() if f.is_file())
+            return hashlib.sha256("".join(f"{f.name}:{_file_hash(f)}" for f in files).encode()).hexdigest()
         return hashlib.sha256(path.read_bytes()).hexdigest()
     except OSError as exc:
         raise CalibrationError(f"{path}: cannot be read ({exc.strerror})") from None
