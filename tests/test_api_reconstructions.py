@@ -86,7 +86,12 @@ def test_refused_inputs_name_what_is_wrong_and_queue_nothing(client: TestClient,
     _upload(client, files)
     base = {"frames": "board", "patterns": uploads["patterns"], "calibration": "calibration_result.xml"}
     cases: list[tuple[dict[str, Any], int, str]] = [
-        (base, 422, f"imports folder 'board': the pattern description has {len(frames)} frames, {len(frames) - 1}"),
+        (
+            base,
+            422,
+            f"imports folder 'board': the pattern description has {len(frames)} frames (columns: 16 Gray; rows: 16 "
+            f"Gray; white and black 2), {len(frames) - 1}",
+        ),
         ({**base, "frames": "nothing"}, 404, "no imports folder 'nothing'"),
         ({**base, "calibration": "missing.xml"}, 404, "calibration: no file 'missing.xml'"),
         ({**base, "patterns": {**base["patterns"], "gray": {"axes": ["diagonal"]}}}, 422, "gray.axes"),

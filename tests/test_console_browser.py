@@ -252,8 +252,8 @@ def test_a_calibration_from_its_page_shows_its_report(console: Console) -> None:
     console.until("() => document.querySelectorAll('svg.chart rect').length >= 6")  # a bar per view
     report = console.page.locator("section.card:has(h3)").inner_text()
     assert "lens model" in report and "corners: median" in report and "the board as a ruler" in report
-    drawn = "() => [...document.querySelectorAll('img.preview')].filter(i => i.complete && i.naturalWidth > 0).length"
-    assert console.until(drawn) >= 2  # where the corners fell, and their errors
+    drawn = "() => [...document.querySelectorAll('img.preview')].filter(i => i.complete && i.naturalWidth > 0)"
+    console.until(f"{drawn}.length >= 2")  # where the corners fell, and their errors: until both are drawn
     assert console.errors == []
 
 
@@ -294,7 +294,8 @@ def test_the_rings_page_draws_an_adaptive_scans_plan(console: Console, daemon: D
     manifest = httpx.get(f"{daemon.url}/v1/scans/{job['id']}/files/manifest.json").json()
     rings = len(manifest["adaptive"]["plan"]["radii_px"])
     console.go(f"rings/{job['id']}")
-    assert console.until("() => document.querySelectorAll('svg.plan circle').length") == rings
+    console.until(f"() => document.querySelectorAll('svg.plan circle').length >= {rings}")  # drawn whole
+    assert console.page.locator("svg.plan circle").count() == rings
     assert console.page.locator("svg.chart circle.ring").count() == rings - 1  # a spacing per pair of rings
     assert console.page.locator("svg.plan image").count() == 1  # over the pilot, as the projector saw it
     assert console.page.locator("svg.curve polyline").count() == 2  # predicted error against ring count

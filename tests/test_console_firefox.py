@@ -149,7 +149,7 @@ def test_a_calibration_from_its_page_shows_its_report(tab: Tab, daemon: Daemon) 
     report = tab.evaluate("document.querySelector('section.card:has(h3)').textContent")
     assert "lens model" in report and "corners: median" in report and "the board as a ruler" in report
     drawn = "[...document.querySelectorAll('img.preview')].filter(i => i.complete && i.naturalWidth > 0).length"
-    assert tab.until(drawn) >= 2
+    tab.until(f"{drawn} >= 2")  # until both are drawn (until returns the first true value, 1 included)
     assert tab.errors == []
 
 

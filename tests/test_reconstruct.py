@@ -105,7 +105,8 @@ def test_a_folder_with_a_frame_missing_writes_nothing(foreign: dict[str, Any], t
     frames.mkdir()
     for source in sorted((foreign["folder"] / "frames").glob("*.png"))[:-1]:
         (frames / source.name).write_bytes(source.read_bytes())
-    with pytest.raises(FramesError, match="the pattern description has 42 frames, 41 files"):
+    counted = r"the pattern description has 42 frames \(columns: 20 Gray; rows: 20 Gray; white and black 2\), 41 files"
+    with pytest.raises(FramesError, match=counted):
         reconstruct_folder(
             frames,
             foreign["folder"] / "patterns.yaml",

@@ -212,13 +212,8 @@ def _cal_command(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-
         "+fixed_centre and/or +fixed_aspect (k1k2+fixed_aspect); default: the config's calibration.model",
     )
     cal.add_argument("--camera-model", default=None, help="the cameras' lens model (as --model); default: --model's")
-    cal.add_argument(
-        "--world",
-        choices=["board", "camera"],
-        default=None,
-        help="the frame the calibration is written in: board (the first view's board, z = 0 its plane; the "
-        "simulated bench's) or camera (the first camera's); default: the config's calibration.world (board)",
-    )
+    frames = "board (the first view's board, z = 0 its plane; the simulated bench's) or camera (the first camera's)"
+    cal.add_argument("--world", choices=["board", "camera"], help=f"the calibration's frame: {frames}; default: board")
     cal.add_argument(
         "--projector-model", default=None, help="the projectors' lens model (as --model); default: --model's"
     )

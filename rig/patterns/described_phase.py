@@ -67,28 +67,7 @@ def decode_phase(
             least = spec.gray.black_threshold if spec.gray is not None else phase.min_modulation
             ok &= frames[index[Role("white")]] - frames[index[Role("black")]] >= least
         readable = ok.copy() if readable is None else readable & ok  # lit enough to read, before unwrapping
-        if phase.unwrap == "gray":
-            white, black = _references(frames, index, offset, modulation)
-            value, strength = read_gray(axis, white, black)
-            x = gray_unwrapped(value, wrapped[0], phase.gray_unit == "half_period", ok)
-            ok &= strength >= spec.code.min_contrast
-        elif phase.unwrap == "none":
-            x = spanning(wrapped[0], spec.pixels(axis))
-            counts[f"phase_noise_millipx_{axis}"] = _noise_millipx(frames, index, axis, spec, measured[0], ok)
-        elif phase.unwrap == "micro":
-            singles = [_frame(frames, index, Role("phase", axis, f), spec) for f in range(1, len(frequencies))]
-            periods = [q.period_px for q in frequencies]
-            x, clear = micro_unwrapped(
-                wrapped[0][0], offset, modulation, singles, periods, phase.start_deg, spec.pixels(axis)
-            )
-            counts[f"unwrap_doubtful_{axis}"] = int((ok & ~clear).sum())
-            ok &= clear
-        else:
-            unwrapping = heterodyne if phase.unwrap == "heterodyne" else hierarchical
-            x, doubt = unwrapping(wrapped, spec.pixels(axis))
-            counts[f"unwrap_doubtful_{axis}"] = int((ok & (doubt > MAX_DOUBT)).sum())
-            ok &= doubt <= MAX_DOUBT
-            x = combined(x, wrapped)
+        x, ok = _unwrapped(frames, spec, index, axis, measured, offset, modulation, ok, read_gray, counts)
         counts[f"beyond_projector_{axis}"] = int((ok & ~((x > -0.5) & (x < spec.pixels(axis) - 0.5))).sum())
         ok &= (x > -0.5) & (x < spec.pixels(axis) - 0.5)
         coords["u" if axis == "columns" else "v"] = (x + np.float32(spec.projector.first_pixel_centre)).astype(
@@ -104,6 +83,47 @@ def decode_phase(
     assert readable is not None
     counts["lit"] = int(readable.sum())
     return LineCodec.correspondence(coords, valid, quality, texture, counts)
+
+
+def _unwrapped(
+    frames: NormalizedFrames,
+    spec: PatternSpec,
+    index: dict[Role, int],
+    axis: Axis,
+    measured: list[tuple[np.ndarray, np.ndarray, np.ndarray]],
+    offset: np.ndarray,
+    modulation: np.ndarray,
+    ok: np.ndarray,
+    read_gray: GrayReader,
+    counts: dict[str, int],
+) -> tuple[np.ndarray, np.ndarray]:
+    """The axis' coordinate as the description's unwrapping reads it, and the pixels still valid
+    (counting those it drops in `counts`)."""
+    phase = spec.phase
+    assert phase is not None
+    frequencies = phase.of(axis)
+    shifted = [q for q in frequencies if q.steps >= 3]
+    wrapped = [(m[0], q.period_px) for m, q in zip(measured, shifted, strict=True)]
+    if phase.unwrap == "gray":
+        white, black = _references(frames, index, offset, modulation)
+        value, strength = read_gray(axis, white, black)
+        x = gray_unwrapped(value, wrapped[0], phase.gray_unit == "half_period", ok)
+        return x, ok & (strength >= spec.code.min_contrast)
+    if phase.unwrap == "none":
+        counts[f"phase_noise_millipx_{axis}"] = _noise_millipx(frames, index, axis, spec, measured[0], ok)
+        return spanning(wrapped[0], spec.pixels(axis)), ok
+    if phase.unwrap == "micro":
+        singles = [_frame(frames, index, Role("phase", axis, f), spec) for f in range(1, len(frequencies))]
+        periods = [q.period_px for q in frequencies]
+        x, clear = micro_unwrapped(
+            wrapped[0][0], offset, modulation, singles, periods, phase.start_deg, spec.pixels(axis)
+        )
+        counts[f"unwrap_doubtful_{axis}"] = int((ok & ~clear).sum())
+        return x, ok & clear
+    unwrapping = heterodyne if phase.unwrap == "heterodyne" else hierarchical
+    x, doubt = unwrapping(wrapped, spec.pixels(axis))
+    counts[f"unwrap_doubtful_{axis}"] = int((ok & (doubt > MAX_DOUBT)).sum())
+    return combined(x, wrapped), ok & (doubt <= MAX_DOUBT)
 
 
 def _wrapped(
