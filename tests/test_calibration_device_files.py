@@ -9,6 +9,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+import yaml
 
 from rig.calibrate.foreign import ForeignCalibrationOptions, read_foreign_calibration
 from rig.errors import CalibrationError
@@ -76,7 +77,8 @@ def test_opencv_camera_samples_are_a_pair_with_a_third_file_for_their_pose(tmp_p
 def test_matlab_stereo_parameters_read_from_a_mat_file_and_from_json(tmp_path: Path) -> None:
     write.matlab_mat(tmp_path, PAIR)
     document = json.loads(write.matlab_json(tmp_path, PAIR)[0].read_text())
-    for name in ("stereo.mat", "stereo.json"):
+    (tmp_path / "stereo.yaml").write_text(yaml.safe_dump(document))  # a YAML export of the same struct
+    for name in ("stereo.mat", "stereo.json", "stereo.yaml"):
         found = read_foreign_calibration(tmp_path / name)
         assert found.format == "MATLAB stereoParameters" and found.unit == "millimeters" and found.projector
         assert np.allclose(found.camera.K, CAMERA_K) and np.allclose(found.camera.dist, CAMERA_DIST)
