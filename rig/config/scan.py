@@ -174,6 +174,13 @@ class ExposureConfig(Strict):
         "exposure), so that one exposure long enough for the darkest lit surface reads the brightest too; "
         "with hdr, the bracket is taken with the masks (rig.pipeline.projection_mask)",
     )
+    deblur_px: float = Field(
+        0.0,
+        ge=0.0,
+        le=0.9,
+        description="the cameras' optical blur, a Gaussian's sigma in pixels: frames are deconvolved by it before "
+        "they are decoded, so a dark pixel beside a bright one reads its own pattern (rig.patterns.deblur); 0: off",
+    )
     drop_outshone: bool = Field(
         False,
         description="leave out every pixel beside a far brighter one (a black part on white paper): the lens's blur "

@@ -14,6 +14,7 @@ import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
 
 from rig.errors import DecodeError
+from rig.patterns.deblur import Deblur
 from rig.patterns.saturation import saturated_in, without_saturated
 from rig.patterns.spec import PatternSpec
 from rig.patterns.spill import without_outshone
@@ -162,6 +163,7 @@ class Codec(abc.ABC):
     Params: ClassVar[type[CodecParams]] = CodecParams
     # leave out the pixels a far brighter neighbour's blur drowns (rig.patterns.spill)
     drops_outshone: bool = False
+    deblur_px: float = 0.0  # the camera's blur, undone before decoding (rig.patterns.deblur); 0: as captured
     # (H, W) float32 in (0, 1], the share of each projector pixel's light that every pattern sends
     # (adaptive projection: rig.pipeline.projection_mask); None sends all of it
     intensity_mask: np.ndarray | None = None
@@ -216,6 +218,9 @@ class Codec(abc.ABC):
         shapes = {f.shape[:2] for f in frames}
         if len(shapes) != 1:
             raise DecodeError(f"{self.name}: frames differ in size: {sorted(shapes)}")
+        if self.deblur_px > 0:
+            restore = Deblur(self.deblur_px, full_scale).restored
+            frames = [restore(f) for f in frames]
         normalized = NormalizedFrames(frames, full_scale)
         white, black = normalized[0], normalized[1]
         lit = (white - black) >= self.params.black_threshold

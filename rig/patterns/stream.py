@@ -18,6 +18,7 @@ import numpy as np
 from rig.errors import DecodeError
 from rig.lazy import lazy_module
 from rig.patterns.base import Correspondence, luminance
+from rig.patterns.deblur import Deblur
 from rig.patterns.saturation import SaturationMask
 from rig.patterns.spill import SpillScreen
 from rig.workers import in_row_strips
@@ -41,6 +42,7 @@ class FrameStream(abc.ABC):
         self.dtype: np.dtype | None = None
         self.saturation = SaturationMask(full_scale)
         self.spill = SpillScreen() if codec.drops_outshone else None
+        self.deblur = Deblur(codec.deblur_px, full_scale) if codec.deblur_px > 0 else None
 
     def add(self, frame: np.ndarray) -> None:
         expected = self.codec.frame_count
@@ -53,6 +55,8 @@ class FrameStream(abc.ABC):
             raise DecodeError(f"{self.codec.name}: frames differ in size: {sorted({self.shape, size})}")
         elif frame.dtype != self.dtype:
             raise DecodeError(f"{self.codec.name}: frames differ in type: {self.dtype}, {frame.dtype}")
+        if self.deblur is not None:
+            frame = self.deblur.restored(frame)
         self._consume(self.added, frame)
         self.saturation.add(frame)
         if self.spill is not None:

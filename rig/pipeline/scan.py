@@ -88,6 +88,7 @@ def make_codec(rig: Rig, projector: int, name: str | None = None, params: CodecP
     lut = rig.response_luts[projector] if rig.response_luts else None
     codec = cls(tuple(rig.config.projectors[projector].resolution), params, lut)
     codec.drops_outshone = rig.config.scan.exposure.drop_outshone
+    codec.deblur_px = rig.config.scan.exposure.deblur_px
     if rig.intensity_masks:
         codec.intensity_mask = rig.intensity_masks[projector]
     return codec
