@@ -8,7 +8,6 @@ import json
 import re
 from pathlib import Path
 
-import cv2
 import numpy as np
 import pytest
 
@@ -16,15 +15,8 @@ from rig.calibrate.files import load_calibration, write_calibration
 from rig.calibrate.foreign import ForeignCalibrationOptions, read_foreign_calibration
 from rig.calibrate.solve import DeviceCalibration
 from rig.errors import CalibrationError
+from tests.calibration_writers import storage as _storage
 from tests.test_foreign_calibration import CAMERA_DIST, CAMERA_K, PROJECTOR_K, ROTATION, TRANSLATION
-
-
-def _storage(path: Path, fields: dict[str, object]) -> Path:
-    storage = cv2.FileStorage(str(path), cv2.FILE_STORAGE_WRITE)
-    for key, value in fields.items():
-        storage.write(key, value)
-    storage.release()
-    return path
 
 
 def _slstudio(path: Path, **extra: object) -> Path:
