@@ -29,6 +29,19 @@ def _bench(name: str, scene: str, camera_position: list[float] | None = None) ->
     return data
 
 
+def _half(data: dict[str, Any]) -> dict[str, Any]:
+    """The bench's camera at half its resolution, the same view. A closed-form model's error is
+    geometric: at half resolution it measured the same to 1 % (1.5565 against 1.5495 mm for the
+    parallel model 1 mm off its plane, 6.37 against 6.36 at 4 mm, 6.056 against 6.051 and 35.587
+    against 35.585 for the radius ratio 1 and 5 mm off its axis), in a quarter of the time."""
+    camera = data["cameras"][0]
+    width, height = camera["resolution"]
+    camera["resolution"] = [width // 2, height // 2]
+    k = camera["geometry"]["intrinsics"]
+    k.update({"fx": k["fx"] / 2, "fy": k["fy"] / 2, "cx": (width // 2 - 1) / 2, "cy": (height // 2 - 1) / 2})
+    return data
+
+
 def _scan(config: RigConfig) -> tuple[float, np.ndarray]:
     """rms (mm) of a scan and its kept ring points."""
     with open_rig(config) as the_rig:
@@ -54,7 +67,7 @@ def test_models_reconstruct_plane_and_sphere(tmp_path, bench: str, scene: str) -
 
 
 def test_parallel_model_agrees_with_the_general_cone_when_its_assumption_holds(tmp_path) -> None:  # type: ignore[no-untyped-def]
-    data = _bench("sim-parallel.yaml", "plane")
+    data = _half(_bench("sim-parallel.yaml", "plane"))
     _, model = _scan(_config(tmp_path, data))
     data["scan"]["rings"]["model"] = "cone"
     data["scan"]["rings"]["tangential_period_px"] = None  # the radius alone, as the closed form reads it
@@ -66,18 +79,18 @@ def test_parallel_model_agrees_with_the_general_cone_when_its_assumption_holds(t
 def test_parallel_model_breaks_when_the_camera_also_rolls(tmp_path) -> None:  # type: ignore[no-untyped-def]
     """The model ignores rotation about any axis but the projector's y; a camera 1 or 4 mm off that
     plane (about 0.1 and 0.4 degrees of tilt) puts the depth off by about Z * tilt."""
-    small = _rms(_config(tmp_path, _bench("sim-parallel.yaml", "plane", [-300.0, 1.0, 520.0])))
-    large = _rms(_config(tmp_path, _bench("sim-parallel.yaml", "plane", [-300.0, 4.0, 520.0])))
+    small = _rms(_config(tmp_path, _half(_bench("sim-parallel.yaml", "plane", [-300.0, 1.0, 520.0]))))
+    large = _rms(_config(tmp_path, _half(_bench("sim-parallel.yaml", "plane", [-300.0, 4.0, 520.0]))))
     assert 1.0 < small < 2.0  # measured 1.55 mm
     assert large == pytest.approx(4 * small, rel=0.2)  # error grows in proportion to the violation
-    data = _bench("sim-parallel.yaml", "plane", [-300.0, 4.0, 520.0])
+    data = _half(_bench("sim-parallel.yaml", "plane", [-300.0, 4.0, 520.0]))
     data["scan"]["rings"]["model"] = "cone"
     assert _rms(_config(tmp_path, data)) <= 0.20  # the calibrated general model does not care
 
 
 def test_radius_ratio_breaks_when_the_camera_leaves_the_axis(tmp_path) -> None:  # type: ignore[no-untyped-def]
-    small = _rms(_config(tmp_path, _bench("sim-coaxial.yaml", "plane", [1.0, 0.0, 450.0])))
-    large = _rms(_config(tmp_path, _bench("sim-coaxial.yaml", "plane", [5.0, 0.0, 450.0])))
+    small = _rms(_config(tmp_path, _half(_bench("sim-coaxial.yaml", "plane", [1.0, 0.0, 450.0]))))
+    large = _rms(_config(tmp_path, _half(_bench("sim-coaxial.yaml", "plane", [5.0, 0.0, 450.0]))))
     assert 4.0 < small < 8.0  # measured 6.1 mm: the model is very sensitive to the camera's position
     assert large > 4 * small
 
