@@ -106,6 +106,23 @@ class V4l2Options(_Strict):
     )
 
 
+class ReplayOptions(_Strict):
+    """The replay camera's source and pace (drivers.replay)."""
+
+    source: str | None = Field(
+        None, description="the folder of recorded frames (relative paths: to the config file); null: frames in memory"
+    )
+    files: str = Field("*", min_length=1, max_length=200, description="which of the folder's images, a glob")
+    rate_hz: float = Field(30.0, gt=0.0, le=1000.0, description="frames per second, as the camera would deliver them")
+    loop: bool = Field(True, description="start again after the last frame (else the camera falls silent)")
+    buffered_frames: int = Field(0, ge=0, le=8, description="frames the driver holds, as a V4L2 driver does")
+    advance: Literal["capture", "clock"] = Field(
+        "capture",
+        description="capture: each capture takes the source's next frame (no sooner than a frame period after the "
+        "last), so a scan's patterns meet the frames recorded for them; clock: free-running, frame k at k / rate",
+    )
+
+
 class OakOptions(_Strict):
     device_id: str | None = Field(None, description="the OAK's id (slrig devices); default: the first found")
     socket: Literal["CAM_A", "CAM_B", "CAM_C", "CAM_D"] = "CAM_B"

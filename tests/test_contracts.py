@@ -9,11 +9,15 @@ from __future__ import annotations
 import contextlib
 import copy
 import os
+import shutil
 import signal
+import tempfile
 from pathlib import Path
 from typing import Any
 from unittest import mock
 
+import cv2
+import numpy as np
 import pytest
 import yaml
 
@@ -185,6 +189,33 @@ class TestOakCamera(CameraContract):
         return Kit(device, cleanup=[patch.stop])
 
 
+class TestReplayCamera(CameraContract):
+    """The replay driver, built through the table, playing a folder of frames at 30 Hz, free-running
+    and holding two of them, as a V4L2 driver does (the other way, a frame per capture, is
+    TestReplayCameraByCapture)."""
+
+    advance = "clock"
+
+    def make_kit(self, plan: FaultPlan | None = None) -> Kit[Camera] | None:
+        folder = Path(tempfile.mkdtemp(prefix="replay-"))
+        for k in range(5):
+            cv2.imwrite(str(folder / f"frame_{k}.png"), np.full((48, 64), 40 * k, np.uint8))
+        data = _bench_data("bench-hdmi-uvc.yaml")  # a real projector's config: a replay camera is no simulation
+        data["cameras"][0] |= {"driver": "replay", "resolution": [64, 48]}
+        data["cameras"][0].pop("v4l2", None)
+        replay = {"source": str(folder), "rate_hz": 30.0, "buffered_frames": 2, "advance": self.advance}
+        data["cameras"][0]["replay"] = replay
+        device, _ = _built(data, DeviceKind.CAMERA)
+        if plan is not None:
+            device.inject(plan)  # type: ignore[attr-defined]
+        cleanup = [lambda: shutil.rmtree(folder, ignore_errors=True)]
+        return Kit(device, buffers=self.advance == "clock", cleanup=cleanup)
+
+
+class TestReplayCameraByCapture(TestReplayCamera):
+    advance = "capture"
+
+
 # --- power controls -------------------------------------------------------------------------------
 def _power_data(section: dict[str, Any]) -> dict[str, Any]:
     data = _bench_data("bench-hdmi-uvc.yaml")
@@ -228,6 +259,7 @@ CONTRACT_RUNS: dict[tuple[DeviceKind, str], type] = {
     (DeviceKind.CAMERA, "sim"): TestSimCamera,
     (DeviceKind.CAMERA, "v4l2"): TestV4l2Camera,
     (DeviceKind.CAMERA, "oak"): TestOakCamera,
+    (DeviceKind.CAMERA, "replay"): TestReplayCamera,
     (DeviceKind.POWER, "benq"): TestBenQPower,
     (DeviceKind.POWER, "epson"): TestEpsonPower,
     (DeviceKind.POWER, "optoma"): TestOptomaPower,

@@ -10,6 +10,7 @@ from drivers.dlp.lcr4500 import Lcr4500Projector
 from drivers.hdmi.projector import HdmiProjector
 from drivers.oak.camera import OakCamera
 from drivers.pjlink import PJLinkPowerControl
+from drivers.replay import ReplayCamera
 from drivers.serial_projector import SerialPowerControl
 from drivers.v4l2 import V4l2Camera
 from rig.assembly.world import World
@@ -92,3 +93,9 @@ def oak_camera(config: CameraConfig, index: int, world: World) -> Camera:
     return OakCamera(
         config.name, config.resolution, o.device_id, o.socket, config.exposure_us, o.iso, o.focus, o.fps, o.backend
     )
+
+
+def replay_camera(config: CameraConfig, index: int, world: World) -> Camera:
+    r = config.replay
+    assert r is not None  # validated: the table requires the replay section
+    return ReplayCamera(config.name, config.resolution, r, exposure_us=config.exposure_us, bit_depth=config.bit_depth)

@@ -24,6 +24,7 @@ from drivers.options import (
     LightCrafterOptions,
     OakOptions,
     PowerOptions,
+    ReplayOptions,
     SimCameraOptions,
     SimProjectorOptions,
     V4l2Options,
@@ -118,6 +119,14 @@ DRIVERS: tuple[DriverEntry, ...] = (
         "a Luxonis OAK camera through DepthAI, in a worker process (FSIN trigger input)",
         f"{_HARDWARE}:oak_camera",
         {"oak": OakOptions},
+        Capabilities(trigger_input=True),
+    ),
+    DriverEntry(
+        "replay",
+        DeviceKind.CAMERA,
+        "recorded frames (a folder, or memory) played at a set rate: free-running, or one per trigger",
+        f"{_HARDWARE}:replay_camera",
+        {"replay": ReplayOptions},
         Capabilities(trigger_input=True),
     ),
     DriverEntry(

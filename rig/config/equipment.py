@@ -15,6 +15,7 @@ from drivers.options import (
     LightCrafterOptions,
     OakOptions,
     PowerOptions,
+    ReplayOptions,
     SimCameraOptions,
     SimProjectorOptions,
     V4l2Options,
@@ -71,6 +72,9 @@ class CameraConfig(CameraSettings, Strict):
         None, description="the v4l2 driver's section (at least device: /dev/video0 or a stable link)"
     )
     oak: OakOptions = OakOptions()
+    replay: ReplayOptions | None = Field(
+        None, description="the replay driver's section: the folder of recorded frames and the rate they play at"
+    )
 
     @model_validator(mode="after")
     def _driver_fits(self) -> CameraConfig:

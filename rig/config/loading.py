@@ -55,6 +55,8 @@ def _resolve_paths(data: dict, base: Path) -> None:  # type: ignore[type-arg]
     resolve(simulation.get("scene") if isinstance(simulation, dict) else None, "path")
     resolve(simulation.get("texture") if isinstance(simulation, dict) else None, "path")
     resolve(data.get("calibration"), "file")
+    for camera in data.get("cameras") or []:
+        resolve(camera.get("replay") if isinstance(camera, dict) else None, "source")
 
 
 def _check_files(config: RigConfig, source: str) -> None:
