@@ -119,7 +119,9 @@ class ReplayCamera(Camera):
     def _do_capture(self, deadline: float) -> Frame:
         if self.trigger is TriggerMode.EXTERNAL or self.options.advance == "capture":
             index = self._delivered + 1
-            due = max(self._last_due + self._period(), time.monotonic())
+            due = max(
+                self._last_due + self._period(), time.monotonic() + self._exposure_us * 1e-6
+            )  # exposed after the call
         else:
             index, due = self._free_running_index()
         self._check_fault(index, deadline)
