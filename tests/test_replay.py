@@ -52,3 +52,16 @@ def test_frames_of_another_size_are_refused_at_open(tmp_path: Path) -> None:
     config = config_from_dict(_replaying(small_config_data(), tmp_path / "frames"), "wrong size")
     with pytest.raises(DeviceError, match=r"frames are 12x10, the camera is configured 320x256"), open_rig(config):
         pass
+
+
+def test_the_doctor_names_a_missing_source_folder(tmp_path: Path) -> None:
+    from rig.doctor.checks import check
+
+    config = config_from_dict(_replaying(small_config_data(), tmp_path / "gone"), "replay")
+    problems = [p["problem"] for p in check(config) if p["device"] == "camera0"]
+    assert problems == [f"replay.source {tmp_path / 'gone'}: no such folder"]
+    (tmp_path / "empty").mkdir()
+    config = config_from_dict(_replaying(small_config_data(), tmp_path / "empty", files="*.png"), "replay")
+    assert [p["problem"] for p in check(config) if p["device"] == "camera0"] == [
+        f"replay.source {tmp_path / 'empty'}: no file matches '*.png'"
+    ]

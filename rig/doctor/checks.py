@@ -78,6 +78,19 @@ def _oak(c: CameraConfig) -> list[str]:
     return found
 
 
+def _replay(c: CameraConfig) -> list[str]:
+    """The recorded frames' folder is there, and holds images."""
+    source = c.replay.source if c.replay is not None else None
+    if source is None:
+        return []
+    folder = Path(source)
+    if not folder.is_dir():
+        return [f"replay.source {folder}: no such folder"]
+    if not any(folder.glob(c.replay.files)):
+        return [f"replay.source {folder}: no file matches {c.replay.files!r}"]
+    return []
+
+
 def _nothing(device: Any) -> list[str]:
     return []
 
@@ -90,6 +103,7 @@ NEEDS: dict[tuple[DeviceKind, str], Callable[[Any], list[str]]] = {
     (DeviceKind.CAMERA, "sim"): _nothing,
     (DeviceKind.CAMERA, "v4l2"): _v4l2,
     (DeviceKind.CAMERA, "oak"): _oak,
+    (DeviceKind.CAMERA, "replay"): _replay,
     (DeviceKind.POWER, "pjlink"): _nothing,  # a network address: nothing to check on this machine
     (DeviceKind.POWER, "benq"): _serial_port,
     (DeviceKind.POWER, "epson"): _serial_port,
