@@ -162,3 +162,8 @@ def test_a_description_that_runs_but_misleads_is_warned_with_numbers() -> None:
     found = decode_described(_seen(described_patterns(single)), single, 255)
     stated = [w for w in decoded_warnings(single, found) if "read without unwrapping" in w]
     assert len(stated) == 2 and all(re.search(r"times 420 / 2 pi \(median 0\.\d\d px here\)", w) for w in stated)
+    spanning = _phase({"frequencies": [{"period_px": 400, "steps": 8}, {"period_px": 16, "steps": 8}],
+                       "unwrap": "hierarchical"})  # fmt: skip
+    found = decode_described(_seen(described_patterns(spanning)), spanning, 255)
+    ends = [w for w in decoded_warnings(spanning, found) if "ends within" in w]
+    assert len(ends) == 1 and "the longest period, 400 px, ends within 4 px of the 400 columns' end" in ends[0]

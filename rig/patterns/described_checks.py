@@ -10,6 +10,7 @@ from rig.patterns.spec import PatternSpec
 
 LEAST_DECODED = 0.5  # of the lit pixels: fewer decoded says the description is doubtful
 MOST_BEYOND = 0.05  # of the lit pixels decoded beyond the projector's edge
+EDGE_GAP_PX = 4  # a spanning period this little longer than the projector tells its ends apart poorly
 
 
 def decoded_warnings(spec: PatternSpec, found: Correspondence) -> list[str]:
@@ -26,6 +27,15 @@ def decoded_warnings(spec: PatternSpec, found: Correspondence) -> list[str]:
                 f"phase.unwrap none: one {period:g} px period across the {spec.pixels(axis)} {axis}, read without "
                 f"unwrapping: its coordinates are as coarse as its phase noise times {period:g} / 2 pi ({measured})"
             )
+    if spec.phase is not None and spec.phase.unwrap in ("hierarchical", "none"):
+        for axis in spec.axes:
+            longest = max(f.period_px for f in spec.phase.of(axis))
+            if longest < spec.pixels(axis) + EDGE_GAP_PX:
+                out.append(
+                    f"phase.frequencies ({axis}): the longest period, {longest:g} px, ends within {EDGE_GAP_PX} px of "
+                    f"the {spec.pixels(axis)} {axis}' end: the first and last {axis} read alike within the phase "
+                    "noise, and the edge pixels may land at the far side"
+                )
     reasons = {k: v for k, v in counts.items() if v > 0 and k.startswith(("low_", "weak_", "unwrap_", "beyond_"))}
     detail = ", ".join(f"{k.replace('_', ' ')} {v}" for k, v in reasons.items())
     if lit and decoded < LEAST_DECODED * lit:
