@@ -32,7 +32,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 from rig.assembly import open_rig
 from rig.config import load_config
 from rig.pipeline.capture import capture
-from rig.pipeline.live import _pair_depth, _prepare, live_codecs
+from rig.pipeline.live import live_codecs, pair_depth, prepare_triangulation
 from rig.progress import ProgressTracker
 
 Item = tuple[int, int, np.ndarray, float]  # sequence, frame index, frame, when it arrived
@@ -60,14 +60,14 @@ def measure(rate_hz: float, seconds: float) -> dict[str, Any]:
     config = load_config()
     with open_rig(config) as rig:
         codecs = live_codecs(rig)
-        _prepare(rig, codecs)
+        prepare_triangulation(rig, codecs)
         frames = capture(rig, codecs, ProgressTracker(None), keep_frames=True, overlap_cue=False)[(0, 0)]
         rig.all_dark()
         full_scale = config.cameras[0].full_scale
         warm = codecs[0].stream(full_scale)  # compiled and cached once, before the clock runs
         for frame in frames:
             warm.add(frame)
-        _pair_depth(rig, 0, 0, warm.finish())
+        pair_depth(rig, 0, 0, warm.finish())
         items: queue.Queue[Item | None] = queue.Queue()
         counts = {"sequences": 0, "dropped": 0}
         feeder = threading.Thread(target=feed, args=(frames, rate_hz, seconds, items, counts), daemon=True)
@@ -81,7 +81,7 @@ def measure(rate_hz: float, seconds: float) -> dict[str, Any]:
             assert stream is not None
             stream.add(frame)
             if index == len(frames) - 1:
-                depth = _pair_depth(rig, 0, 0, stream.finish())
+                depth = pair_depth(rig, 0, 0, stream.finish())
                 latencies.append((time.monotonic() - arrived) * 1e3)
                 clouds += int(np.isfinite(depth).any())
         wall, cpu = time.monotonic() - wall, time.process_time() - cpu

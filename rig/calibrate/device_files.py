@@ -127,13 +127,13 @@ def _ros(path: Path, values: dict[str, Any]) -> DeviceFile:
 
 def _underworld_xml(path: Path, camera: dict[str, Any]) -> DeviceFile:
     names = {
-        "camera_matrix": "Camera.Matrix",
-        "camera_distortion": "Camera.Distortion",
-        "camera_width": "Camera.Width",
-        "camera_height": "Camera.Height",
+        "camera_matrix": "Matrix",
+        "camera_distortion": "Distortion",
+        "camera_width": "Width",
+        "camera_height": "Height",
     }
-    fields = {field: camera[name.split(".")[1]] for field, name in names.items() if name.split(".")[1] in camera}
-    found = {field: name for field, name in names.items() if name.split(".")[1] in camera}
+    fields = _present(camera, names)
+    found = {field: f"Camera.{name}" for field, name in _present_names(camera, names).items()}
     return DeviceFile("3DUNDERWORLD", path, fields, found, board_pose=(camera["Rotation"], camera["Translation"]))
 
 

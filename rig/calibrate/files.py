@@ -98,3 +98,23 @@ def load_calibration(path: Path) -> tuple[dict[str, CameraModel], str]:
         return models, digest
     except (OSError, ValueError, KeyError, TypeError) as exc:
         raise CalibrationError(f"calibration file {path}: cannot read: {exc}") from None
+
+
+def own_calibration_json(paths: list[Path]) -> Path | None:
+    """slrig's own calibration.json, where `paths` are it alone or a folder holding it."""
+    if len(paths) != 1:
+        return None
+    own = paths[0] / JSON_NAME if paths[0].is_dir() else paths[0]
+    return own if own.name == JSON_NAME and (own.is_file() or not paths[0].is_dir()) else None
+
+
+def load_devices(path: Path, names: tuple[str, ...]) -> tuple[list[CameraModel], str]:
+    """The named devices' models from calibration.json, and its hash; CalibrationError naming the
+    devices it does not hold."""
+    models, digest = load_calibration(path)
+    missing = [n for n in names if n not in models]
+    if missing:
+        raise CalibrationError(
+            f"calibration file {path}: has no device {', '.join(missing)} (its: {', '.join(models)})"
+        )
+    return [models[n] for n in names], digest

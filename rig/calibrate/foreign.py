@@ -26,6 +26,7 @@ import numpy as np
 from pydantic import Field
 
 from rig.calibrate.device_files import device_file, paired
+from rig.calibrate.files import calibration_world, load_devices, own_calibration_json
 from rig.calibrate.foreign_files import read_values
 from rig.calibrate.formats import FIELDS, GENERIC, UNITS_MM, CalibrationFormat, detected, slrig_devices
 from rig.calibrate.nested_formats import flattened
@@ -88,6 +89,11 @@ def read_foreign_calibration(
         )
     paths = [paths] if isinstance(paths, Path) else list(paths)
     where = " + ".join(str(p) for p in paths)
+    own_json = own_calibration_json(paths)
+    if own_json is not None:
+        camera, projector, _, world = own_calibration(own_json, options)
+        found = {"camera_matrix": f"{options.camera}.K", "projector_matrix": f"{options.projector}.K"}
+        return ForeignCalibration(camera, projector, None, found, "slrig", "world_to_device", "mm", world)
     values, chosen = _told(where, [(path, read_values(path)) for path in paths])
     if chosen is None:
         return _own(where, slrig_devices(values), options, str(values.get("world", "board")))
@@ -148,12 +154,13 @@ def _unit(fields: _Fields, options: ForeignCalibrationOptions) -> tuple[float, s
         return options.translation_scale, chosen.unit if named is None else str(named)
     if named is None:
         return chosen.scale_mm or 1.0, chosen.unit
-    if str(named).strip().lower() not in UNITS_MM:
+    key = str(named).strip().lower()
+    if key not in UNITS_MM:
         raise fields.error(
             str(chosen.unit_field),
             f"{named!r} is not a unit slrig knows ({', '.join(UNITS_MM)}); give --translation-scale",
         )
-    return UNITS_MM[str(named).strip().lower()], str(named)
+    return UNITS_MM[key], str(named)
 
 
 def _merged(files: list[tuple[Path, dict[str, Any]]]) -> dict[str, Any]:
@@ -166,6 +173,14 @@ def _merged(files: list[tuple[Path, dict[str, Any]]]) -> dict[str, Any]:
                 raise CalibrationError(f"calibration file {path}: {key}: also in {origin[key]}; give it once")
             values[key], origin[key] = value, path
     return values
+
+
+def own_calibration(path: Path, options: ForeignCalibrationOptions) -> tuple[CameraModel, CameraModel, str, str]:
+    """The options' camera and projector of slrig's calibration.json (its hash checked), the
+    hash, and the frame it is written in."""
+    refuse_for_own(str(path), options)
+    (camera, projector), digest = load_devices(path, (options.camera, options.projector))
+    return camera, projector, digest, calibration_world(path)
 
 
 def refuse_for_own(where: str, options: ForeignCalibrationOptions) -> None:

@@ -201,23 +201,8 @@ def detected(values: dict[str, Any]) -> CalibrationFormat:
 
 
 def slrig_devices(values: dict[str, Any]) -> dict[str, dict[str, Any]]:
-    """slrig's own calibration.yaml, or calibration.json: its devices' maps by name, as the YAML
-    names their fields (none for another format's file)."""
-    listed = values.get("devices")
-    if isinstance(listed, list) and "sha256" in values:  # calibration.json: a list of devices
-        return {
-            str(d["name"]): {
-                "kind": d.get("kind"),
-                "image_width": d["resolution"][0],
-                "image_height": d["resolution"][1],
-                "camera_matrix": d["K"],
-                "distortion_coefficients": d.get("dist", [0.0] * 5),
-                "rotation_world_to_device": d["R"],
-                "translation_world_to_device": d["t"],
-            }
-            for d in listed
-            if isinstance(d, dict) and {"name", "resolution", "K", "R", "t"} <= d.keys()
-        }
+    """slrig's own calibration.yaml: its devices' maps by name (none for another format's file;
+    its calibration.json is read by rig.calibrate.files.load_calibration)."""
     return {
         name: value
         for name, value in values.items()

@@ -146,15 +146,13 @@ def solve_and_write(
     if projectors:
         names, sizes = [n for n, _ in projectors], [s for _, s in projectors]
         devices += calibrate_projectors(collected, board, devices, names, sizes, projector_model)
-    devices, *board_in_world = reframed(devices, world)  # (R, t) of the board frame in the world
+    devices, rotation, translation = reframed(devices, world)  # the board frame in the world: R X + t
     summary = report(devices)
     cameras_done = devices[: len(cameras)]
     summary["board_check"] = board_checks(collected, board, cameras_done, devices[len(cameras) :])
     summary["world"] = {"frame": world}
     if projectors:
-        placed = world_check(
-            collected, board, devices[0], devices[len(cameras)], (board_in_world[0], board_in_world[1])
-        )
+        placed = world_check(collected, board, devices[0], devices[len(cameras)], (rotation, translation))
         summary["world"]["first_view_board"] = placed
     board_warning = board.config.orientation_warning()
     if board_warning is not None:

@@ -67,7 +67,7 @@ def decode_phase(
             least = spec.gray.black_threshold if spec.gray is not None else phase.min_modulation
             ok &= frames[index[Role("white")]] - frames[index[Role("black")]] >= least
         readable = ok.copy() if readable is None else readable & ok  # lit enough to read, before unwrapping
-        x, ok = _unwrapped(frames, spec, index, axis, measured, offset, modulation, ok, read_gray, counts)
+        x, ok = _unwrapped(frames, spec, index, axis, measured, wrapped, offset, modulation, ok, read_gray, counts)
         counts[f"beyond_projector_{axis}"] = int((ok & ~((x > -0.5) & (x < spec.pixels(axis) - 0.5))).sum())
         ok &= (x > -0.5) & (x < spec.pixels(axis) - 0.5)
         coords["u" if axis == "columns" else "v"] = (x + np.float32(spec.projector.first_pixel_centre)).astype(
@@ -91,6 +91,7 @@ def _unwrapped(
     index: dict[Role, int],
     axis: Axis,
     measured: list[tuple[np.ndarray, np.ndarray, np.ndarray]],
+    wrapped: list[Wrapped],
     offset: np.ndarray,
     modulation: np.ndarray,
     ok: np.ndarray,
@@ -102,8 +103,6 @@ def _unwrapped(
     phase = spec.phase
     assert phase is not None
     frequencies = phase.of(axis)
-    shifted = [q for q in frequencies if q.steps >= 3]
-    wrapped = [(m[0], q.period_px) for m, q in zip(measured, shifted, strict=True)]
     if phase.unwrap == "gray":
         white, black = _references(frames, index, offset, modulation)
         value, strength = read_gray(axis, white, black)

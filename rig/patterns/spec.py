@@ -215,19 +215,19 @@ class PatternSpec(Strict):
     def frame_breakdown(self) -> str:
         """Where a description's frame count comes from, to print beside it: ' (columns: 24 phase
         (16 px x 8 steps, ...), 10 Gray; white and black 2)'."""
-        parts = []
+        roles, parts = self.roles(), []
         for axis in self.axes:
             pieces = []
             if self.phase is not None:
                 carriers = f" x {self.phase.modulation.steps} carrier shifts" if self.phase.modulation else ""
                 each = ", ".join(f"{f.period_px:g} px x {f.steps}" for f in self.phase.of(axis))
-                count = sum(1 for r in self.roles() if r.kind == "phase" and r.axis == axis)
+                count = sum(1 for r in roles if r.kind == "phase" and r.axis == axis)
                 pieces.append(f"{count} phase ({each}{carriers})")
-            bits = sum(1 for r in self.roles() if r.kind == "bit" and r.axis == axis)
+            bits = sum(1 for r in roles if r.kind == "bit" and r.axis == axis)
             if bits:
                 pieces.append(f"{bits} Gray")
             parts.append(f"{axis}: {', '.join(pieces)}")
-        references = sum(1 for r in self.roles() if r.kind in ("white", "black"))
+        references = sum(1 for r in roles if r.kind in ("white", "black"))
         if references:
             parts.append(f"white and black {references}")
         return f" ({'; '.join(parts)})"

@@ -110,7 +110,7 @@ def run_live(
     (asked before each one), handing each result to `publish`; projectors dark at the end,
     however it ends."""
     codecs = live_codecs(rig, scan)
-    _prepare(rig, codecs)
+    prepare_triangulation(rig, codecs)
     exposures = live_exposures(rig, (scan or rig.config.scan).live.hdr)
     stats = stats if stats is not None else LiveStats()
     if stats.sequences == 0:
@@ -168,7 +168,7 @@ def live_sequence(
     for p, c in pairs:
         corrs = decoded[(p, c)]
         corr = corrs[0] if len(corrs) == 1 else merge_exposures(corrs, len(corrs) - 1)
-        depth = _pair_depth(rig, p, c, corr)
+        depth = pair_depth(rig, p, c, corr)
         points += int(np.isfinite(depth).sum())
         depths.setdefault(c, depth)  # a camera's depth image: from the first projector that lights it
     ready = time.perf_counter()
@@ -188,7 +188,7 @@ def _no_depth(rig: Rig, camera: int) -> np.ndarray:
     return np.full((height, width), np.nan, np.float32)
 
 
-def _prepare(rig: Rig, codecs: list[Codec]) -> None:
+def prepare_triangulation(rig: Rig, codecs: list[Codec]) -> None:
     """Compute each pair's per-pixel triangulation terms now, so the first sequence is as quick as
     the others."""
     for p, codec in enumerate(codecs):
@@ -198,7 +198,7 @@ def _prepare(rig: Rig, codecs: list[Codec]) -> None:
                 fast_terms(triangulator(rig, p, c), axes[0])
 
 
-def _pair_depth(rig: Rig, projector: int, camera: int, corr: Correspondence) -> np.ndarray:
+def pair_depth(rig: Rig, projector: int, camera: int, corr: Correspondence) -> np.ndarray:
     """The pair's depth image: the organised fast path, or the general triangulation where the pair
     needs it."""
     fast = pair_cloud(rig, projector, camera, corr)

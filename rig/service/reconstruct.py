@@ -17,12 +17,12 @@ from typing import Any
 
 import numpy as np
 
-from rig.calibrate.files import JSON_NAME, load_calibration
 from rig.calibrate.foreign import (
     ForeignCalibrationOptions,
     check_resolution,
+    own_calibration,
+    own_calibration_json,
     read_foreign_calibration,
-    refuse_for_own,
 )
 from rig.config import RigConfig, config_from_dict
 from rig.errors import CalibrationError
@@ -131,16 +131,10 @@ def calibration_models(
     """The camera and projector of slrig's calibration.json (by the options' device names) or of
     another tool's file (or files, read together), and the calibration's hash."""
     paths = path if isinstance(path, list) else [path]
-    own = paths[0] / JSON_NAME if paths[0].is_dir() else paths[0]
-    if own.name == JSON_NAME and len(paths) == 1 and (own.is_file() or not paths[0].is_dir()):
-        refuse_for_own(str(own), options)
-        models, digest = load_calibration(own)
-        missing = [n for n in (options.camera, options.projector) if n not in models]
-        if missing:
-            raise CalibrationError(
-                f"calibration file {own}: has no device {', '.join(missing)} (its: {', '.join(models)})"
-            )
-        return models[options.camera], models[options.projector], digest
+    own = own_calibration_json(paths)
+    if own is not None:
+        camera, projector, digest, _ = own_calibration(own, options)
+        return camera, projector, digest
     found = read_foreign_calibration(paths, options)
     digest = (
         _file_hash(paths[0])
