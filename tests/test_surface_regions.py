@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from rig.evaluate.promise import between_rings
-from rig.evaluate.regions import pixel_areas, region_errors, surface_regions, weighted_quantile
+from rig.evaluate.regions import pixel_areas, region_errors, support_plane, surface_regions, weighted_quantile
 
 
 def _plane_grid(height: int, width: int, spacing_mm: float, slope: float = 0.0, z0: float = 0.0) -> np.ndarray:
@@ -33,7 +33,38 @@ def test_a_depth_step_splits_the_surface_into_regions() -> None:
     assert len(np.unique(labels)) == 2
     left, right = labels.reshape(10, 20)[:, :10], labels.reshape(10, 20)[:, 10:]
     assert len(np.unique(left)) == len(np.unique(right)) == 1 and left[0, 0] != right[0, 0]
-    assert len(np.unique(surface_regions(grid, valid, max_jump_mm=10.0))) == 1
+    assert len(np.unique(surface_regions(grid, valid, max_jump_mm=10.0, split_support=False))) == 1
+
+
+def _cone_on_a_plane() -> tuple[np.ndarray, np.ndarray]:
+    """A 60x60 view of a plane at 0.5 mm a pixel, and a cone rising from it with no step (slope
+    0.6, 6 mm tall): the object joins its support wherever it touches it. Returns grid, cone."""
+    grid = _plane_grid(60, 60, 0.5)
+    r = np.hypot(grid[..., 0] - 15.0, grid[..., 1] - 15.0)
+    grid[..., 2] = np.maximum(0.0, 0.6 * (10.0 - r))
+    return grid, r < 7.0  # the cone, less its foot (within 3 pixel spacings of the plane)
+
+
+def test_an_object_that_touches_its_support_without_a_step_is_a_region_of_its_own() -> None:
+    grid, cone = _cone_on_a_plane()
+    valid = np.ones(cone.shape, bool)
+    assert len(np.unique(surface_regions(grid, valid, max_jump_mm=2.0, split_support=False))) == 1
+    labels = surface_regions(grid, valid, max_jump_mm=2.0).reshape(cone.shape)
+    assert len(np.unique(labels[cone])) == 1 and len(np.unique(labels[~cone])) == 2  # the plane, the cone's foot
+    assert labels[cone][0] != labels[0, 0]
+    tip = np.hypot(grid[..., 0] - 15.0, grid[..., 1] - 15.0) < 3.0
+    distances = np.where(tip, 0.5, 0.0).ravel()  # the cone's tip 0.5 mm off: 4 % of the view, 18 % of the cone
+    areas = pixel_areas(grid, valid, 2.0)
+    joined = region_errors(distances, areas, surface_regions(grid, valid, 2.0, split_support=False), q=0.95)[1]
+    assert max(r.quantile_mm for r in joined) == 0.0  # the plane hides it
+    split = region_errors(distances, areas, labels.ravel(), q=0.95)[1]
+    assert max(r.quantile_mm for r in split) == 0.5  # on its own it fails
+
+
+def test_no_plane_large_enough_is_no_support() -> None:
+    v, u = np.mgrid[0:50, 0:50].astype(float) * 0.5
+    bowl = np.stack([u, v, 0.05 * ((u - 12) ** 2 + (v - 12) ** 2)], axis=-1)  # curved everywhere
+    assert not support_plane(bowl, np.ones((50, 50), bool)).any()
 
 
 def test_the_weighted_quantile_counts_weight_not_samples() -> None:

@@ -4,7 +4,9 @@ A surface measured per point or per pixel gives a flat background, which most pi
 weight of the object on it, and a steep object side, which few pixels see, almost none. Here each
 covered pixel of a camera grid counts the area of the surface it stands for (its footprint), and
 the surface is split into connected regions wherever neighbouring pixels' points jump apart (a
-depth step), so that an object and the bench it stands on are judged each on its own.
+depth step), and apart from the plane it stands on (the bench or turntable, which an object joins
+without a step wherever it touches it: a saddle's edges, a lying cylinder), so that an object and
+the bench it stands on are judged each on its own.
 """
 
 from __future__ import annotations
@@ -17,6 +19,9 @@ from scipy.sparse.csgraph import connected_components
 
 STEP_MM = 2.0  # neighbouring points this far apart lie on two sides of a depth step
 MIN_REGION_SHARE = 0.01  # regions smaller than this share of the area are not judged on their own
+SUPPORT_SHARE = 0.2  # a plane holding this share of the view's pixels is what the object stands on
+SUPPORT_SPACINGS = 3.0  # a pixel within this many pixel spacings of that plane lies on it
+_SUPPORT_SAMPLE, _SUPPORT_TRIALS = 4000, 256
 
 
 def pixel_areas(grid: np.ndarray, valid: np.ndarray, max_jump_mm: float) -> np.ndarray:
@@ -27,15 +32,19 @@ def pixel_areas(grid: np.ndarray, valid: np.ndarray, max_jump_mm: float) -> np.n
     return footprints(grid, valid, max_jump_mm)[0]
 
 
-def surface_regions(grid: np.ndarray, valid: np.ndarray, max_jump_mm: float) -> np.ndarray:
+def surface_regions(grid: np.ndarray, valid: np.ndarray, max_jump_mm: float, split_support: bool = True) -> np.ndarray:
     """A region label per valid pixel: pixels joined through 4-neighbours whose points lie within
-    `max_jump_mm` of each other, so a depth step separates the surfaces on its two sides."""
-    return footprints(grid, valid, max_jump_mm)[1]
+    `max_jump_mm` of each other, so a depth step separates the surfaces on its two sides, and (with
+    `split_support`) both on or both off the support plane (support_plane)."""
+    return footprints(grid, valid, max_jump_mm, split_support)[1]
 
 
-def footprints(grid: np.ndarray, valid: np.ndarray, max_jump_mm: float | np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def footprints(
+    grid: np.ndarray, valid: np.ndarray, max_jump_mm: float | np.ndarray, split_support: bool = True
+) -> tuple[np.ndarray, np.ndarray]:
     """pixel_areas and surface_regions of the valid pixels, from one pass over the neighbours;
-    `max_jump_mm` one distance, or one per pixel (H, W) for the step from it to the next."""
+    `max_jump_mm` one distance, or one per pixel (H, W) for the step from it to the next. With
+    `split_support`, the pixels on the support plane (support_plane) are regions apart from the rest."""
     du, joined_u = _joins(grid, valid, 1, max_jump_mm)
     dv, joined_v = _joins(grid, valid, 0, max_jump_mm)
     step_u, step_v = _step(du, 1), _step(dv, 0)
@@ -46,7 +55,44 @@ def footprints(grid: np.ndarray, valid: np.ndarray, max_jump_mm: float | np.ndar
     index = np.full(valid.shape, -1)
     count = int(valid.sum())
     index[valid] = np.arange(count)
+    if split_support:  # the object and its support meet, but are two regions
+        on = support_plane(grid, valid)
+        joined_u &= on[:, 1:] == on[:, :-1]
+        joined_v &= on[1:, :] == on[:-1, :]
     return area, joined_labels(joined_u, joined_v, index, count)
+
+
+def support_plane(grid: np.ndarray, valid: np.ndarray) -> np.ndarray:
+    """(H, W) bool: the valid pixels whose points lie within SUPPORT_SPACINGS pixel spacings (the
+    median distance between neighbouring points) of the view's largest plane, where that plane
+    holds SUPPORT_SHARE of the valid pixels within one spacing; all False where no plane does. The plane is
+    found by a fixed-seed RANSAC on a sample and refit to its inliers (the same view, the same plane)."""
+    on = np.zeros(valid.shape, dtype=bool)
+    points = grid[valid].astype(np.float64)
+    if len(points) < 3:
+        return on
+    steps = np.linalg.norm(grid[:, 1:] - grid[:, :-1], axis=-1)[valid[:, 1:] & valid[:, :-1]]
+    tolerance = SUPPORT_SPACINGS * float(np.median(steps)) if len(steps) else 0.0
+    rng = np.random.default_rng(0)
+    sample = points[rng.choice(len(points), min(len(points), _SUPPORT_SAMPLE), replace=False)]
+    corners = sample[rng.integers(0, len(sample), (_SUPPORT_TRIALS, 3))]
+    normals = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
+    lengths = np.linalg.norm(normals, axis=1)
+    usable = lengths > 1e-12
+    if not usable.any():
+        return on
+    normals, corners = normals[usable] / lengths[usable, None], corners[usable]
+    offsets = np.einsum("ij,ij->i", normals, corners[:, 0])
+    # Scored within one spacing: a plane holds its points that close, a curved surface only a band.
+    tight = tolerance / SUPPORT_SPACINGS
+    best = int(np.argmax((np.abs(sample @ normals.T - offsets) <= tight).sum(axis=0)))
+    inliers = sample[np.abs(sample @ normals[best] - offsets[best]) <= tight]
+    centre = inliers.mean(axis=0)
+    normal = np.linalg.svd(inliers - centre, full_matrices=False)[2][2]
+    distance = np.abs((points - centre) @ normal)
+    if (distance <= tight).sum() >= SUPPORT_SHARE * len(points):
+        on[valid] = distance <= tolerance
+    return on
 
 
 def joined_labels(right: np.ndarray, down: np.ndarray, index: np.ndarray, count: int) -> np.ndarray:

@@ -8,7 +8,7 @@ import numpy as np
 
 from rig.config import RigConfig
 from rig.evaluate.distances import root_mean_square, surface_distances
-from rig.evaluate.regions import STEP_MM, footprints, region_errors
+from rig.evaluate.regions import region_errors
 from rig.evaluate.wholeness import object_error, true_areas, wholeness
 from rig.patterns import codec_class
 from rig.pipeline.scan import PairResult, ScanResult
@@ -29,11 +29,11 @@ def surface_metrics(pair: PairResult, truth: PixelTruth) -> dict[str, Any]:
     close = np.zeros(valid.size, dtype=bool)
     close[np.flatnonzero(valid.ravel())[dist <= COMPLETE_WITHIN_MM]] = True
     empty = len(dist) == 0
-    by_area = {} if empty else area_metrics(pair.surface.grid, valid, dist)
+    areas = None if empty else true_areas(truth)
+    by_area = {} if areas is None else area_metrics(valid, dist, areas)
     samples = pair.correspondence.samples
     whole = {}
-    if not empty and samples is not None and samples.ring_radii_px is not None:
-        areas = true_areas(truth)
+    if areas is not None and samples is not None and samples.ring_radii_px is not None:
         whole = object_error(valid, dist, truth, area=areas[0])
         whole.update(wholeness(valid, truth, samples.ring_radii_px, samples.center_px, areas))
     return {
@@ -48,12 +48,14 @@ def surface_metrics(pair: PairResult, truth: PixelTruth) -> dict[str, Any]:
     }
 
 
-def area_metrics(grid: np.ndarray, valid: np.ndarray, dist: np.ndarray) -> dict[str, Any]:
+def area_metrics(valid: np.ndarray, dist: np.ndarray, true: tuple[np.ndarray, np.ndarray]) -> dict[str, Any]:
     """The surface's error by area (rig.evaluate.regions): its area-weighted p95 over the whole view,
-    and over each region a depth step bounds that holds MIN_REGION_SHARE of the area or more,
-    largest first."""
-    areas, labels = footprints(grid.astype(np.float32), valid, STEP_MM)  # float32: half the steps' memory
-    whole, regions = region_errors(dist, areas, labels, AREA_QUANTILE)
+    and over each true region (a depth step or the support plane bounds it) that holds
+    MIN_REGION_SHARE of the area or more, largest first. Each covered pixel weighs the true area it
+    sees and counts in the true region it sees (`true`: true_areas), so a surface that runs on
+    past an object's edge errs on the bench beyond it, not on the object."""
+    area, region = true[0][valid], true[1][valid]
+    whole, regions = region_errors(dist, area, np.where(region >= 0, region, region.max() + 1), AREA_QUANTILE)
     return {
         "surface_area_p95_mm": whole.quantile_mm,
         "surface_worst_region_p95_mm": max((r.quantile_mm for r in regions), default=whole.quantile_mm),
