@@ -66,7 +66,7 @@ def _pieces(key: np.ndarray) -> np.ndarray:
     """(H, W) a label per connected piece (4-neighbours) of pixels sharing one `key` (>= 0)."""
     right = (key[:, :-1] >= 0) & (key[:, :-1] == key[:, 1:])
     down = (key[:-1] >= 0) & (key[:-1] == key[1:])
-    return joined_labels(right, down, np.arange(key.size).reshape(key.shape), key.size).reshape(key.shape)
+    return joined_labels(right, down, np.ones(key.shape, bool)).reshape(key.shape)
 
 
 def _bounded(band: np.ndarray, labels: np.ndarray, pieces: np.ndarray, rings: int) -> tuple[np.ndarray, np.ndarray]:

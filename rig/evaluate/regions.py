@@ -14,8 +14,10 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.sparse import coo_matrix
-from scipy.sparse.csgraph import connected_components
+
+from rig.lazy import lazy_module
+
+fused = lazy_module("rig.fused_regions")  # numba compiles on first use
 
 STEP_MM = 2.0  # neighbouring points this far apart lie on two sides of a depth step
 MIN_REGION_SHARE = 0.01  # regions smaller than this share of the area are not judged on their own
@@ -42,39 +44,37 @@ def surface_regions(grid: np.ndarray, valid: np.ndarray, max_jump_mm: float, spl
 def footprints(
     grid: np.ndarray, valid: np.ndarray, max_jump_mm: float | np.ndarray, split_support: bool = True
 ) -> tuple[np.ndarray, np.ndarray]:
-    """pixel_areas and surface_regions of the valid pixels, from one pass over the neighbours;
-    `max_jump_mm` one distance, or one per pixel (H, W) for the step from it to the next. With
-    `split_support`, the pixels on the support plane (support_plane) are regions apart from the rest."""
-    du, joined_u = _joins(grid, valid, 1, max_jump_mm)
-    dv, joined_v = _joins(grid, valid, 0, max_jump_mm)
-    step_u, step_v = _step(du, 1), _step(dv, 0)
-    area = np.linalg.norm(np.cross(step_u, step_v), axis=-1)  # NaN where a direction is unknown
-    lengths_u, lengths_v = np.linalg.norm(step_u, axis=-1), np.linalg.norm(step_v, axis=-1)
-    square = np.where(np.isfinite(lengths_u), lengths_u, lengths_v) ** 2  # one direction known: a square pixel
-    area = np.nan_to_num(np.where(np.isfinite(area), area, square)[valid], nan=0.0)
-    index = np.full(valid.shape, -1)
-    count = int(valid.sum())
-    index[valid] = np.arange(count)
+    """pixel_areas and surface_regions of the valid pixels, from one pass over the neighbours
+    (rig.fused_regions); `max_jump_mm` one distance, or one per pixel (H, W) for the step from it
+    to the next. With `split_support`, the pixels on the support plane (support_plane) are regions
+    apart from the rest."""
+    limit = np.broadcast_to(np.asarray(max_jump_mm, np.float64), valid.shape)
+    valid = np.ascontiguousarray(valid, np.bool_)
+    right, down, area = fused.joins_and_areas(grid, valid, np.ascontiguousarray(limit))
     if split_support:  # the object and its support meet, but are two regions
         on = support_plane(grid, valid)
-        joined_u &= on[:, 1:] == on[:, :-1]
-        joined_v &= on[1:, :] == on[:-1, :]
-    return area, joined_labels(joined_u, joined_v, index, count)
+        right &= on[:, 1:] == on[:, :-1]
+        down &= on[1:, :] == on[:-1, :]
+    return area[valid], fused.joined_labels(right, down, valid)
 
 
 def support_plane(grid: np.ndarray, valid: np.ndarray) -> np.ndarray:
     """(H, W) bool: the valid pixels whose points lie within SUPPORT_SPACINGS pixel spacings (the
     median distance between neighbouring points) of the view's largest plane, where that plane
-    holds SUPPORT_SHARE of the valid pixels within one spacing; all False where no plane does. The plane is
-    found by a fixed-seed RANSAC on a sample and refit to its inliers (the same view, the same plane)."""
+    holds SUPPORT_SHARE of the valid pixels within one spacing; all False where no plane does. The
+    plane is found by a fixed-seed RANSAC on a sample and refit to its inliers (the same view, the
+    same plane)."""
     on = np.zeros(valid.shape, dtype=bool)
-    points = grid[valid].astype(np.float64)
-    if len(points) < 3:
+    flat = np.flatnonzero(valid)
+    if len(flat) < 3:
         return on
-    steps = np.linalg.norm(grid[:, 1:] - grid[:, :-1], axis=-1)[valid[:, 1:] & valid[:, :-1]]
+    rows = slice(None, None, max(1, valid.shape[0] // 64))  # a few dozen rows tell the spacing
+    pairs = valid[rows, 1:] & valid[rows, :-1]
+    steps = np.linalg.norm(grid[rows, 1:] - grid[rows, :-1], axis=-1)[pairs]
     tolerance = SUPPORT_SPACINGS * float(np.median(steps)) if len(steps) else 0.0
     rng = np.random.default_rng(0)
-    sample = points[rng.choice(len(points), min(len(points), _SUPPORT_SAMPLE), replace=False)]
+    points = grid.reshape(-1, 3)
+    sample = points[rng.choice(flat, min(len(flat), _SUPPORT_SAMPLE), replace=False)].astype(np.float64)
     corners = sample[rng.integers(0, len(sample), (_SUPPORT_TRIALS, 3))]
     normals = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
     lengths = np.linalg.norm(normals, axis=1)
@@ -89,46 +89,17 @@ def support_plane(grid: np.ndarray, valid: np.ndarray) -> np.ndarray:
     inliers = sample[np.abs(sample @ normals[best] - offsets[best]) <= tight]
     centre = inliers.mean(axis=0)
     normal = np.linalg.svd(inliers - centre, full_matrices=False)[2][2]
-    distance = np.abs((points - centre) @ normal)
-    if (distance <= tight).sum() >= SUPPORT_SHARE * len(points):
-        on[valid] = distance <= tolerance
+    distance = np.abs(points[flat] @ normal - centre @ normal)
+    if (distance <= tight).sum() >= SUPPORT_SHARE * len(flat):
+        on.ravel()[flat] = distance <= tolerance
     return on
 
 
-def joined_labels(right: np.ndarray, down: np.ndarray, index: np.ndarray, count: int) -> np.ndarray:
-    """A label per node of the pixels' graph: pixel (r, c) is node index[r, c] (of `count`), joined to
-    its right neighbour where `right` (H, W-1) and to the one below where `down` (H-1, W)."""
-    rows = np.concatenate([index[:, :-1][right], index[:-1, :][down]])
-    cols = np.concatenate([index[:, 1:][right], index[1:, :][down]])
-    graph = coo_matrix((np.ones(len(rows), np.int8), (rows, cols)), shape=(count, count))
-    return connected_components(graph, directed=False)[1]
-
-
-def _joins(
-    grid: np.ndarray, valid: np.ndarray, axis: int, max_jump_mm: float | np.ndarray
-) -> tuple[np.ndarray, np.ndarray]:
-    """The difference (mm, 3-vector) from each pixel to the next along `axis`, NaN where the two are
-    not both valid and within `max_jump_mm` (one shorter along `axis`), and where they are."""
-    ahead = (slice(None), slice(1, None)) if axis == 1 else (slice(1, None), slice(None))
-    behind = (slice(None), slice(None, -1)) if axis == 1 else (slice(None, -1), slice(None))
-    diff = grid[ahead] - grid[behind]
-    limit = max_jump_mm[behind] if isinstance(max_jump_mm, np.ndarray) else max_jump_mm
-    joined = valid[ahead] & valid[behind] & (np.linalg.norm(diff, axis=-1) <= limit)
-    return np.where(joined[..., None], diff, np.nan), joined
-
-
-def _step(diff: np.ndarray, axis: int) -> np.ndarray:
-    """Per pixel, the step to the next pixel's point along `axis`: the mean of its two one-sided
-    differences (`diff`, from _joins) where both are known, else the one there is, else NaN."""
-    shape = list(diff.shape)
-    shape[axis] += 1
-    forward, backward = np.full(shape, np.nan, diff.dtype), np.full(shape, np.nan, diff.dtype)
-    if axis == 1:
-        forward[:, :-1], backward[:, 1:] = diff, diff
-    else:
-        forward[:-1], backward[1:] = diff, diff
-    central = (forward + backward) / 2
-    return np.where(np.isfinite(central), central, np.where(np.isfinite(forward), forward, backward))
+def joined_labels(right: np.ndarray, down: np.ndarray, valid: np.ndarray) -> np.ndarray:
+    """A label per valid pixel (row-major) of the graph joining each pixel to its right neighbour
+    where `right` (H, W-1) and to the one below where `down` (H-1, W); regions are numbered in the
+    order of their first pixel."""
+    return fused.joined_labels(right, down, np.ascontiguousarray(valid, np.bool_))
 
 
 def weighted_quantile(values: np.ndarray, weights: np.ndarray, q: float) -> float:

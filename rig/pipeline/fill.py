@@ -21,6 +21,10 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from rig.geometry import CameraModel
+from rig.lazy import lazy_module
+from rig.workers import batches, pool
+
+fused = lazy_module("rig.fused_fill")  # numba compiles on first use
 
 _CHUNK = 16_384  # candidate pixels fitted at a time (a few MB per (N, k, 3) array)
 
@@ -166,42 +170,20 @@ def _fit_and_meet(
     settings: FillSettings,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Per pixel, the weighted quadratic height field of its used samples (positions and slopes, in a
-    frame along their mean normal) met by its ray (origins, unit directions), NaN where it misses;
-    and the rms of the samples' heights off the fit (mm). Samples of two levels joined by a step fit
-    a ramp between them, which their own slopes contradict: the heights stray by millimetres."""
-    near, facing = points[index], normals[index]  # (N, k, 3)
-    weight = use.astype(np.float64)
-    origin = (near * weight[..., None]).sum(axis=1) / weight.sum(axis=1)[:, None]
-    up = (facing * weight[..., None]).sum(axis=1)
-    up /= np.linalg.norm(up, axis=1, keepdims=True)
-    e1 = np.cross(up, np.where(np.abs(up[:, :1]) < 0.9, [[1.0, 0.0, 0.0]], [[0.0, 1.0, 0.0]]))
-    e1 /= np.linalg.norm(e1, axis=1, keepdims=True)
-    e2 = np.cross(up, e1)
-    frame = np.stack([e1, e2, up], axis=1)  # (N, 3, 3): rows are the axes
-    local = np.einsum("nij,nkj->nki", frame, near - origin[:, None, :])
-    slope_n = np.einsum("nij,nkj->nki", frame, facing)
-    # x and y in units of the neighbourhood's size: every column of the fit of order one
-    scale = np.sqrt((weight[..., None] * local[..., :2] ** 2).sum(axis=(1, 2)) / weight.sum(axis=1)) + 1e-6
-    x, y, z = local[..., 0] / scale[:, None], local[..., 1] / scale[:, None], local[..., 2]
-    nz = np.where(np.abs(slope_n[..., 2]) > 0.2, slope_n[..., 2], np.nan)  # steeper: no slope from it
-    hx, hy = -slope_n[..., 0] / nz * scale[:, None], -slope_n[..., 1] / nz * scale[:, None]
-    one, zero = np.ones_like(x), np.zeros_like(x)
-    value = np.stack([one, x, y, x * x, x * y, y * y], axis=-1)
-    d_x = np.stack([zero, one, zero, 2 * x, y, zero], axis=-1)
-    d_y = np.stack([zero, zero, one, zero, x, 2 * y], axis=-1)
-    slope_weight = np.where(np.isfinite(hx), weight, 0.0)
-    rows = np.concatenate([value, d_x, d_y], axis=1)  # (N, 3k, 6)
-    target = np.concatenate([z, np.nan_to_num(hx), np.nan_to_num(hy)], axis=1)
-    w = np.concatenate([weight, slope_weight, slope_weight], axis=1)
-    weighted = rows * w[..., None]
-    normal = np.matmul(weighted.transpose(0, 2, 1), rows)
-    normal[:, 3:, 3:] += settings.bend_ridge * weight.sum(axis=1)[:, None, None] * np.eye(3)
-    right = np.matmul(weighted.transpose(0, 2, 1), target[..., None])[..., 0]
-    coef = np.linalg.solve(normal, right[..., None])[..., 0]
-    heights = np.einsum("nkj,nj->nk", value, coef) - z
-    misfit = np.sqrt((weight * heights**2).sum(axis=1) / weight.sum(axis=1))
-    unscale = np.column_stack([1.0 / scale, 1.0 / scale, np.ones_like(scale)])  # the fit's own units
-    frame = frame * unscale[:, :, None]
+    frame along their mean normal: rig.fused_fill) met by its ray (origins, unit directions), NaN
+    where it misses; and the rms of the samples' heights off the fit (mm). Samples of two levels
+    joined by a step fit a ramp between them, which their own slopes contradict: the heights stray
+    by millimetres."""
+    count = len(index)
+    coef, frame = np.empty((count, 6)), np.empty((count, 3, 3))
+    origin, misfit = np.empty((count, 3)), np.empty(count)
+    arrays = (np.ascontiguousarray(points, np.float64), np.ascontiguousarray(normals, np.float64))
+    index, use = np.ascontiguousarray(index, np.int64), np.ascontiguousarray(use, np.bool_)
+
+    def fit(span: tuple[int, int]) -> None:
+        fused.fit_height_fields(*arrays, index, use, settings.bend_ridge, coef, frame, origin, misfit, *span)
+
+    list(pool().map(fit, batches(count)))
     return _meet(coef, frame, origin, rays), misfit
 
 

@@ -1,0 +1,133 @@
+"""A surface's pixel footprints and connected regions (rig.evaluate.regions), compiled by numba.
+
+Every simulated scan is judged by area against the truth, 1.3 million pixels on the default bench:
+as numpy passes and SciPy's connected components over a sparse graph this took 0.7 s per view
+(line profile, scratch). Two loops over the rows do it here. Compiled on first use and cached
+beside this file.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+KERNEL = {"nogil": True, "cache": True}
+
+
+@njit(**KERNEL)
+def joins_and_areas(grid: np.ndarray, valid: np.ndarray, limit: np.ndarray) -> tuple[np.ndarray, ...]:
+    """Which pixels join their right neighbour (H, W-1) and the one below (H-1, W): both valid and
+    their points within `limit` (H, W, the pixel's own) of each other; and each pixel's area (H, W):
+    the cross product of its steps along the rows and the columns (the mean of its two joined
+    differences, or the one it has), or the square of the one step it has, 0 with none."""
+    height, width = valid.shape
+    right = np.zeros((height, max(width - 1, 0)), np.bool_)
+    down = np.zeros((max(height - 1, 0), width), np.bool_)
+    for y in range(height):
+        for x in range(width):
+            if not valid[y, x]:
+                continue
+            if x + 1 < width and valid[y, x + 1]:
+                right[y, x] = _apart(grid, y, x, y, x + 1) <= limit[y, x]
+            if y + 1 < height and valid[y + 1, x]:
+                down[y, x] = _apart(grid, y, x, y + 1, x) <= limit[y, x]
+    area = np.zeros((height, width))
+    su = np.zeros(3)
+    sv = np.zeros(3)
+    for y in range(height):
+        for x in range(width):
+            if not valid[y, x]:
+                continue
+            has_u = _step(grid, y, x, 0, 1, x > 0 and right[y, x - 1], x + 1 < width and right[y, x], su)
+            has_v = _step(grid, y, x, 1, 0, y > 0 and down[y - 1, x], y + 1 < height and down[y, x], sv)
+            if has_u and has_v:
+                cx = su[1] * sv[2] - su[2] * sv[1]
+                cy = su[2] * sv[0] - su[0] * sv[2]
+                cz = su[0] * sv[1] - su[1] * sv[0]
+                area[y, x] = np.sqrt(cx * cx + cy * cy + cz * cz)
+            elif has_u:
+                area[y, x] = su[0] ** 2 + su[1] ** 2 + su[2] ** 2
+            elif has_v:
+                area[y, x] = sv[0] ** 2 + sv[1] ** 2 + sv[2] ** 2
+    return right, down, area
+
+
+@njit(**KERNEL)
+def _apart(grid: np.ndarray, y0: int, x0: int, y1: int, x1: int) -> float:
+    total = 0.0
+    for c in range(3):
+        total += (float(grid[y1, x1, c]) - float(grid[y0, x0, c])) ** 2
+    return np.sqrt(total)
+
+
+@njit(**KERNEL)
+def _step(grid: np.ndarray, y: int, x: int, dy: int, dx: int, back: bool, ahead: bool, out: np.ndarray) -> bool:
+    """The step to the next pixel along (dy, dx) into `out`: the mean of the joined differences
+    behind and ahead, or the one there is; False with neither."""
+    if not (back or ahead):
+        return False
+    count = 0
+    for c in range(3):
+        out[c] = 0.0
+    if back:
+        for c in range(3):
+            out[c] += float(grid[y, x, c]) - float(grid[y - dy, x - dx, c])
+        count += 1
+    if ahead:
+        for c in range(3):
+            out[c] += float(grid[y + dy, x + dx, c]) - float(grid[y, x, c])
+        count += 1
+    for c in range(3):
+        out[c] /= count
+    return True
+
+
+@njit(**KERNEL)
+def joined_labels(right: np.ndarray, down: np.ndarray, valid: np.ndarray) -> np.ndarray:
+    """A label per valid pixel (row-major) of the graph joining pixels through `right` and `down`,
+    numbered in the order of each region's first pixel (as SciPy's connected components number
+    them)."""
+    height, width = valid.shape
+    node = -np.ones((height, width), np.int64)
+    count = 0
+    for y in range(height):
+        for x in range(width):
+            if valid[y, x]:
+                node[y, x] = count
+                count += 1
+    parent = np.arange(count)
+    for y in range(height):
+        for x in range(width):
+            if not valid[y, x]:
+                continue
+            if x + 1 < width and right[y, x]:
+                _union(parent, node[y, x], node[y, x + 1])
+            if y + 1 < height and down[y, x]:
+                _union(parent, node[y, x], node[y + 1, x])
+    label = -np.ones(count, np.int64)
+    out = np.empty(count, np.int64)
+    regions = 0
+    for n in range(count):
+        root = _find(parent, n)
+        if label[root] < 0:
+            label[root] = regions
+            regions += 1
+        out[n] = label[root]
+    return out
+
+
+@njit(**KERNEL)
+def _find(parent: np.ndarray, n: int) -> int:
+    root = n
+    while parent[root] != root:
+        root = parent[root]
+    while parent[n] != root:  # path compression
+        parent[n], n = root, parent[n]
+    return root
+
+
+@njit(**KERNEL)
+def _union(parent: np.ndarray, a: int, b: int) -> None:
+    ra, rb = _find(parent, a), _find(parent, b)
+    if ra != rb:
+        parent[max(ra, rb)] = min(ra, rb)
