@@ -207,7 +207,8 @@ def _sequences_beyond_buffers(url: str) -> int:
     """How many full-size depth events overflow every buffer a stalled client's stream passes."""
     png = httpx.get(f"{url}/v1/live/depth.png", timeout=5).content
     event_bytes = len(png) * 4 // 3  # the event carries the PNG in base64
-    kernel_bytes = int(Path("/proc/sys/net/ipv4/tcp_wmem").read_text().split()[2])
+    wmem = Path("/proc/sys/net/ipv4/tcp_wmem")  # Linux's most a send buffer grows to; else its default
+    kernel_bytes = int(wmem.read_text().split()[2]) if wmem.exists() else 4 << 20
     server_bytes = 1 << 16  # the server's write buffer before it waits for the socket
     client_bytes = 1 << 16  # the client's receive window and its kernel's slack
     return (kernel_bytes + server_bytes + client_bytes) // event_bytes + 3

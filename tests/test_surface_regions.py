@@ -7,7 +7,14 @@ import numpy as np
 import pytest
 
 from rig.evaluate.promise import between_rings
-from rig.evaluate.regions import pixel_areas, region_errors, support_plane, surface_regions, weighted_quantile
+from rig.evaluate.regions import (
+    footprints,
+    pixel_areas,
+    region_errors,
+    support_plane,
+    surface_regions,
+    weighted_quantile,
+)
 
 
 def _plane_grid(height: int, width: int, spacing_mm: float, slope: float = 0.0, z0: float = 0.0) -> np.ndarray:
@@ -188,3 +195,28 @@ def test_holes_are_found_where_the_rings_promise_a_surface_and_measured_by_its_d
     assert holes["holes"] == 1 and holes["largest"][0]["pixels"] == 120
     assert holes["area_mm2"] == pytest.approx(120.0, rel=1e-6)
     assert holes["largest"][0]["center_px"] == [35.5, 24.5]
+
+
+def test_scattered_or_broken_points_find_no_support_and_never_fail() -> None:
+    grid = _plane_grid(40, 40, 0.5)
+    checker = (np.add.outer(np.arange(40), np.arange(40)) % 2).astype(bool)  # no two neighbours valid
+    assert not support_plane(grid, checker).any()
+    valid = np.ones((40, 40), bool)
+    broken = grid.copy()
+    broken[::3, ::3] = np.nan  # points lost at pixels still marked valid
+    on = support_plane(broken, valid)
+    assert on[1:, 1:][~np.isnan(broken[1:, 1:, 0])].all()  # the rest of the plane is still the support
+    areas, labels = footprints(broken, valid, 2.0)
+    assert len(areas) == len(labels) == valid.sum()
+
+
+def test_surface_over_no_true_surface_is_judged_as_a_region_of_its_own() -> None:
+    from rig.evaluate.surface import area_metrics
+
+    valid = np.ones((20, 20), bool)
+    true_area, true_region = np.full((20, 20), 0.25), np.zeros((20, 20), int)
+    true_area[:, 16:], true_region[:, 16:] = 0.0, -1  # the truth sees nothing here: 20 % of the covered pixels
+    dist = np.where(true_region < 0, 50.0, 0.01).ravel()  # a surface spanning empty space, 50 mm off
+    metrics = area_metrics(valid, dist, (true_area, true_region))
+    assert metrics["surface_worst_region_p95_mm"] == 50.0
+    assert metrics["surface_area_p95_mm"] == 50.0  # a fifth of the area: the whole view's p95 sees it

@@ -31,7 +31,7 @@ def pixel_areas(grid: np.ndarray, valid: np.ndarray, max_jump_mm: float) -> np.n
     product of its steps to the neighbouring pixels' points (central where both exist, one-sided at
     an edge or a depth step over `max_jump_mm`, which is no part of either surface); a pixel with no
     such neighbour along a direction takes its other direction's step."""
-    return footprints(grid, valid, max_jump_mm)[0]
+    return footprints(grid, valid, max_jump_mm, split_support=False)[0]
 
 
 def surface_regions(grid: np.ndarray, valid: np.ndarray, max_jump_mm: float, split_support: bool = True) -> np.ndarray:
@@ -44,13 +44,16 @@ def surface_regions(grid: np.ndarray, valid: np.ndarray, max_jump_mm: float, spl
 def footprints(
     grid: np.ndarray, valid: np.ndarray, max_jump_mm: float | np.ndarray, split_support: bool = True
 ) -> tuple[np.ndarray, np.ndarray]:
-    """pixel_areas and surface_regions of the valid pixels, from one pass over the neighbours
-    (rig.fused_regions); `max_jump_mm` one distance, or one per pixel (H, W) for the step from it
-    to the next. With `split_support`, the pixels on the support plane (support_plane) are regions
-    apart from the rest."""
-    limit = np.broadcast_to(np.asarray(max_jump_mm, np.float64), valid.shape)
-    valid = np.ascontiguousarray(valid, np.bool_)
-    right, down, area = fused.joins_and_areas(grid, valid, np.ascontiguousarray(limit))
+    """pixel_areas and surface_regions of the valid pixels, from two compiled passes over the
+    neighbours (rig.fused_regions); `max_jump_mm` one distance, or one per pixel (H, W) for the step
+    from it to the next. With `split_support`, the pixels on the support plane (support_plane) are
+    regions apart from the rest."""
+    if grid.shape[:2] != valid.shape:
+        raise ValueError(f"grid {grid.shape} and valid {valid.shape}: one pixel grid, please")
+    # One layout and one writability for the compiled loop: no extra compiled versions.
+    limit = np.require(np.broadcast_to(np.asarray(max_jump_mm, np.float64), valid.shape), np.float64, ["C", "W"])
+    grid, valid = np.ascontiguousarray(grid), np.ascontiguousarray(valid, np.bool_)
+    right, down, area = fused.joins_and_areas(grid, valid, limit)
     if split_support:  # the object and its support meet, but are two regions
         on = support_plane(grid, valid)
         right &= on[:, 1:] == on[:, :-1]
@@ -71,7 +74,10 @@ def support_plane(grid: np.ndarray, valid: np.ndarray) -> np.ndarray:
     rows = slice(None, None, max(1, valid.shape[0] // 64))  # a few dozen rows tell the spacing
     pairs = valid[rows, 1:] & valid[rows, :-1]
     steps = np.linalg.norm(grid[rows, 1:] - grid[rows, :-1], axis=-1)[pairs]
+    steps = steps[np.isfinite(steps)]
     tolerance = SUPPORT_SPACINGS * float(np.median(steps)) if len(steps) else 0.0
+    if not tolerance > 0:  # no spacing to scale by (scattered pixels): no plane either
+        return on
     rng = np.random.default_rng(0)
     points = grid.reshape(-1, 3)
     sample = points[rng.choice(flat, min(len(flat), _SUPPORT_SAMPLE), replace=False)].astype(np.float64)
@@ -87,9 +93,11 @@ def support_plane(grid: np.ndarray, valid: np.ndarray) -> np.ndarray:
     tight = tolerance / SUPPORT_SPACINGS
     best = int(np.argmax((np.abs(sample @ normals.T - offsets) <= tight).sum(axis=0)))
     inliers = sample[np.abs(sample @ normals[best] - offsets[best]) <= tight]
+    if len(inliers) < 3:
+        return on
     centre = inliers.mean(axis=0)
     normal = np.linalg.svd(inliers - centre, full_matrices=False)[2][2]
-    distance = np.abs(points[flat] @ normal - centre @ normal)
+    distance = np.nan_to_num(np.abs(points[flat] @ normal - centre @ normal), nan=np.inf)
     if (distance <= tight).sum() >= SUPPORT_SHARE * len(flat):
         on.ravel()[flat] = distance <= tolerance
     return on
@@ -99,6 +107,9 @@ def joined_labels(right: np.ndarray, down: np.ndarray, valid: np.ndarray) -> np.
     """A label per valid pixel (row-major) of the graph joining each pixel to its right neighbour
     where `right` (H, W-1) and to the one below where `down` (H-1, W); regions are numbered in the
     order of their first pixel."""
+    height, width = valid.shape
+    if right.shape != (height, max(width - 1, 0)) or down.shape != (max(height - 1, 0), width):
+        raise ValueError(f"joins {right.shape}, {down.shape} do not fit pixels {valid.shape}")
     return fused.joined_labels(right, down, np.ascontiguousarray(valid, np.bool_))
 
 

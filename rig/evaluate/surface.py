@@ -55,7 +55,13 @@ def area_metrics(valid: np.ndarray, dist: np.ndarray, true: tuple[np.ndarray, np
     sees and counts in the true region it sees (`true`: true_areas), so a surface that runs on
     past an object's edge errs on the bench beyond it, not on the object."""
     area, region = true[0][valid], true[1][valid]
-    whole, regions = region_errors(dist, area, np.where(region >= 0, region, region.max() + 1), AREA_QUANTILE)
+    # Surface where the truth sees nothing (spanning empty space) is judged too, as a region of its
+    # own, each pixel weighing what a pixel typically sees.
+    nowhere = region < 0
+    if nowhere.any():
+        area = np.where(nowhere, float(np.median(area[~nowhere])) if (~nowhere).any() else 1.0, area)
+        region = np.where(nowhere, region.max(initial=-1) + 1, region)
+    whole, regions = region_errors(dist, area, region, AREA_QUANTILE)
     return {
         "surface_area_p95_mm": whole.quantile_mm,
         "surface_worst_region_p95_mm": max((r.quantile_mm for r in regions), default=whole.quantile_mm),

@@ -2,8 +2,8 @@
 promise a surface at that the surface covers, the inner disc inside the innermost ring, and the
 error on the object alone (the bench plane left out).
 
-Each true surface is a region of the camera's view that a depth step bounds (rig.evaluate.regions,
-on the true points). The surface is promised between two rings the camera sees on it
+Each true surface is a region of the camera's view that a depth step or the support plane bounds
+(rig.evaluate.regions, on the true points). The surface is promised between two rings the camera sees on it
 (rig.evaluate.promise): a strip with a ring on one side only (beyond the last ring a limb lets the
 camera see, up to a shadow's edge) is not, and is reported apart: the share of the lit object the
 promise spans, and the share of it the surface covers.

@@ -27,7 +27,7 @@ def delaunay(xy: np.ndarray) -> np.ndarray:
         return np.zeros((0, 3), np.int64)
     with _last_lock:
         last = _last
-    if last is not None and last[0].shape == xy.shape and np.array_equal(last[0], xy):
+    if last is not None and last[0].shape == xy.shape and last[0].dtype == xy.dtype and np.array_equal(last[0], xy):
         return last[1].copy()
     tri = _triangulated(xy)
     with _last_lock:
