@@ -237,11 +237,13 @@ def _closed_form(model: str, camera: CameraModel, projector: CameraModel, sample
     raise ValueError(f"unknown ring model {model!r}")
 
 
-def sample_normals(points: np.ndarray, camera_xy: np.ndarray, directions: np.ndarray, max_edge_px: float) -> np.ndarray:
+def sample_normals(
+    points: np.ndarray, camera_xy: np.ndarray, directions: np.ndarray, max_edge_px: float, tri: np.ndarray | None = None
+) -> np.ndarray:
     """Unit normals of scattered surface samples, from a Delaunay triangulation of their camera
     positions (which links neighbouring rings); triangles with an image edge longer than
     `max_edge_px` are dropped. Oriented toward the camera; samples in no triangle face the camera."""
-    tri = delaunay(camera_xy)
+    tri = delaunay(camera_xy) if tri is None else tri
     if len(tri):
         xy = camera_xy[tri]
         longest = np.max(np.linalg.norm(xy - np.roll(xy, 1, axis=1), axis=2), axis=1)
@@ -267,14 +269,16 @@ def ring_coverage(rings: RingPoints, samples: RingSamples, min_samples: int = 50
     }
 
 
-def ring_pointset(rings: RingPoints, camera: CameraModel, corr: Correspondence, source: int) -> PointSet:
+def ring_pointset(
+    rings: RingPoints, camera: CameraModel, corr: Correspondence, source: int, tri: np.ndarray | None = None
+) -> PointSet:
     """The PointSet of the kept ring points (normals from their triangulation, colour of the lit
     frame at the nearest pixel, `pixel` that nearest pixel: PairResult.grid and the depth maps
     place each point there, with no (H, W, 3) grid held for a few ten thousand points)."""
     keep = np.flatnonzero(rings.kept)
     points = rings.points[keep]
     xy = rings.camera_xy[keep]
-    normals = sample_normals(points, xy, rings.directions[keep], max_edge_px=_MAX_TRIANGLE_EDGE_PX)
+    normals = sample_normals(points, xy, rings.directions[keep], _MAX_TRIANGLE_EDGE_PX, tri)
     col = np.clip(np.rint(xy[:, 0]).astype(np.int64), 0, camera.width - 1)
     row = np.clip(np.rint(xy[:, 1]).astype(np.int64), 0, camera.height - 1)
     pixel = row * camera.width + col

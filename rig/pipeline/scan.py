@@ -29,6 +29,7 @@ from rig.pipeline.rings import (
     triangulate_rings,
 )
 from rig.pipeline.surface import RingBands, RingSurface, SurfaceSettings, interpolate_surface
+from rig.pipeline.triangulation import delaunay
 from rig.progress import ProgressCallback, ProgressTracker
 from rig.rig import Rig
 
@@ -125,8 +126,10 @@ def reconstruct_pair(
             grid[valid & ~keep] = np.nan
             valid = keep
     t_mid = time.perf_counter()
+    # the kept samples' triangulation serves their normals and the surface between the rings
+    tri = None if rings is None else delaunay(rings.camera_xy[rings.kept])
     if rings is not None:
-        points, grid = ring_pointset(rings, model, corr, source=source), None
+        points, grid = ring_pointset(rings, model, corr, source, tri), None
     elif fast is not None:
         points, grid = cloud.into_pointset(source), None
     else:
@@ -141,15 +144,18 @@ def reconstruct_pair(
     surface = None
     if rings is not None and rig.config.scan.surface.interpolate:
         t = time.perf_counter()
-        surface = ring_surface(rig, projector, camera, rings, corr)
+        surface = ring_surface(rig, projector, camera, rings, corr, tri)
         counts.update({f"surface_{k}": v for k, v in surface.counts.items()})
         if elapsed is not None:
             elapsed["surface"] = elapsed.get("surface", 0.0) + time.perf_counter() - t
     return PairResult(projector, camera, corr, grid, points, rings, counts, coverage, surface)
 
 
-def ring_surface(rig: Rig, projector: int, camera: int, rings: RingPoints, corr: Correspondence) -> RingSurface:
-    """The surface between the kept ring samples, with holes where the projector left the camera dark."""
+def ring_surface(
+    rig: Rig, projector: int, camera: int, rings: RingPoints, corr: Correspondence, tri: np.ndarray | None = None
+) -> RingSurface:
+    """The surface between the kept ring samples (`tri`: their Delaunay triangles, where known), with
+    holes where the projector left the camera dark."""
     config = rig.config.scan.surface
     keep = rings.kept
     lit = ring_lit(rig, corr)
@@ -163,6 +169,7 @@ def ring_surface(rig: Rig, projector: int, camera: int, rings: RingPoints, corr:
         config.interpolant,
         SurfaceSettings(max_gap_px=config.max_gap_px),
         ring_bands(corr),
+        tri,
     )
     if config.colour == "white":
         return surface

@@ -131,13 +131,13 @@ def ring_triangles(
     camera: CameraModel,
     projector: CameraModel,
     settings: SurfaceSettings,
+    tri: np.ndarray | None = None,
 ) -> RingTriangles:
-    """The kept triangles of the samples' image Delaunay triangulation (see the module docstring)."""
-    _, rays = camera.rays(xy)
-    directions = np.asarray(rays)
+    """The kept triangles of the samples' image Delaunay triangulation `tri` (see the module docstring)."""
+    directions = np.asarray(camera.rays(xy)[1])
     # the samples' neighbours along their rings need no triangles: found while OpenCV triangulates
     neighbours = pool().submit(ring_pairs, points, xy, ring, settings.normal_smoothing_px)
-    tri = delaunay(xy)
+    tri = delaunay(xy) if tri is None else tri
     counts = {"triangles": len(tri)}
     r = ring[tri]
     span = r.max(axis=1) - r.min(axis=1)
@@ -207,16 +207,16 @@ def interpolate_surface(
     method: Interpolant = "quadratic",
     settings: SurfaceSettings | None = None,
     bands: RingBands | None = None,
+    tri: np.ndarray | None = None,
 ) -> RingSurface:
     """The dense surface of one pair's kept ring samples (points, sub-pixel camera positions, ring
-    index) by `method` (see the module docstring). `lit` (H, W) marks the pixels the projector
-    lights: a triangle over dark pixels spans a shadow (or no surface at all). With `bands`, a pixel
-    whose interpolated point the projector would light outside the annulus or away from the angle
-    that pixel read is a hole: the triangle there bridges a depth edge its corners cannot see."""
+    index) by `method` (module docstring). `lit` (H, W): the pixels the projector lights (a triangle
+    over dark ones spans a shadow). With `bands`, a pixel whose point the projector would light outside
+    the annulus or angle that pixel read is a hole: its triangle bridges an edge its corners miss."""
     if method not in INTERPOLANTS:
         raise ValueError(f"unknown interpolant {method!r}; known: {', '.join(INTERPOLANTS)}")
-    settings = settings or SurfaceSettings()
-    triangles = ring_triangles(points, xy, ring, camera, projector, settings)
+    settings = settings or SurfaceSettings()  # `tri`: the samples' Delaunay triangles, if known
+    triangles = ring_triangles(points, xy, ring, camera, projector, settings, tri)
     counts = triangles.counts
     pixel, owner = rasterize(xy, triangles.tri, camera.width, camera.height)
     if lit is not None:
