@@ -11,7 +11,6 @@ import json
 import os
 import shutil
 import signal
-import socket
 import subprocess
 import time
 from pathlib import Path
@@ -19,6 +18,8 @@ from typing import Any
 
 import cv2
 import numpy as np
+
+from tests.ports import free_port
 
 FIREFOX = shutil.which("firefox-esr") or shutil.which("firefox")
 # Headless Firefox has WebGL only through Mesa's software EGL (no display, no GPU): forced here.
@@ -50,7 +51,7 @@ class Firefox:
         profile.mkdir(parents=True, exist_ok=True)
         lines = (f"user_pref({json.dumps(k)}, {json.dumps(v)});" for k, v in PREFERENCES.items())
         (profile / "user.js").write_text("\n".join(lines) + "\n")
-        port = _free_port()
+        port = free_port()
         self.timeout_s = timeout_s
         with log.open("ab") as err:
             self.process = subprocess.Popen(
@@ -236,9 +237,3 @@ def _finder(selector: str) -> str:
         text = json.dumps(selector.removeprefix("text="))
         return f"[...document.querySelectorAll('button, a')].find((e) => e.textContent.trim() === {text})"
     return f"document.querySelector({json.dumps(selector)})"
-
-
-def _free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return int(s.getsockname()[1])

@@ -27,16 +27,11 @@ from rig.cli import main
 from rig.service.jobs import JobStore
 from rig.service.runner import DB_NAME
 from tests.conftest import default_config_data, ply_xyz, small_config_data, wait_done, write_config
+from tests.ports import free_port
 
 REPO = Path(__file__).resolve().parents[1]
 KEY = "0123456789abcdef" * 2
 AUTH = {"X-API-Key": KEY}
-
-
-def _free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return int(s.getsockname()[1])
 
 
 def status_code(sock: socket.socket) -> int:
@@ -54,11 +49,18 @@ class Daemon:
     """`python -m rig.cli serve` in its own process; its stderr goes to `log`."""
 
     def __init__(self, config: Path, log: Path, env: dict[str, str] | None = None) -> None:
-        self.port = _free_port()
-        self.url = f"http://127.0.0.1:{self.port}"
         self.log = log
-        environment = {**os.environ, "SLRIG_API_KEY": KEY, **(env or {})}
-        with log.open("ab") as err:
+        for _ in range(5):  # another program may take the port between our check and the child's bind
+            if self._start(config, {**os.environ, "SLRIG_API_KEY": KEY, **(env or {})}):
+                return
+        raise AssertionError(f"no port was free for the daemon: {log.read_text()}")
+
+    def _start(self, config: Path, environment: dict[str, str]) -> bool:
+        """Starts the daemon on a fresh port: True when it answers, False when the port was taken."""
+        self.port = free_port()
+        self.url = f"http://127.0.0.1:{self.port}"
+        already = self.log.stat().st_size if self.log.exists() else 0
+        with self.log.open("ab") as err:
             self.process = subprocess.Popen(
                 [sys.executable, "-m", "rig.cli", "serve", "--config", str(config), "--port", str(self.port)],
                 cwd=REPO,
@@ -69,10 +71,13 @@ class Daemon:
         deadline = time.monotonic() + 60
         while time.monotonic() < deadline:
             if self.process.poll() is not None:
-                raise AssertionError(f"the daemon exited: {log.read_text()}")
+                said = self.log.read_bytes()[already:].decode(errors="replace")
+                if f"--port {self.port}:" in said and "is in use" in said:
+                    return False
+                raise AssertionError(f"the daemon exited: {self.log.read_text()}")
             try:
                 if httpx.get(f"{self.url}/v1/health", timeout=1).status_code == 200:
-                    return
+                    return True
             except httpx.TransportError:
                 time.sleep(0.1)
         raise AssertionError("the daemon did not come up")

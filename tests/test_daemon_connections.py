@@ -16,7 +16,8 @@ import httpx
 import pytest
 
 from tests.conftest import small_config_data
-from tests.test_daemon import AUTH, KEY, REPO, Daemon, _config, _free_port, status_code
+from tests.ports import free_port
+from tests.test_daemon import AUTH, KEY, REPO, Daemon, _config, status_code
 
 STREAMS_CAP = 64  # rig.api.streams.MAX_EVENT_STREAMS, as the README states it
 PER_CLIENT_CAP = 16  # rig.api.streams.MAX_EVENT_STREAMS_PER_CLIENT
@@ -93,7 +94,7 @@ def test_silent_connections_are_closed_and_a_stalled_body_gets_408(busy: tuple[D
 
 def test_a_port_in_use_is_refused_naming_it(small_config_path: Path) -> None:
     with socket.socket() as holder:
-        port = _free_port()
+        port = free_port()
         holder.bind(("127.0.0.1", port))
         holder.listen()
         run = subprocess.run(

@@ -30,7 +30,8 @@ from rig.service import tasks
 from rig.service.jobs import JobKind, JobState, JobStore
 from rig.service.runner import DB_NAME, JobService
 from tests.conftest import default_config_data, small_config_data, write_config
-from tests.test_daemon import AUTH, KEY, REPO, Daemon, _config, _free_port
+from tests.ports import free_port
+from tests.test_daemon import AUTH, KEY, REPO, Daemon, _config
 
 STUCK_S = 60.0  # the stalled camera's capture timeout: a stop must not wait it out
 SHUTDOWN_S = 10.0  # service.shutdown_timeout_s (its largest): nor this
@@ -226,7 +227,7 @@ def test_a_stop_in_the_moment_the_daemon_starts_listening_is_a_stop_not_a_failur
     exit 0 and no traceback, as for any stop (it was exit 1, "could not serve", or an IndexError)."""
     config = _config(tmp_path, small_config_data())
     for attempt, delay in enumerate((0.0, 0.005, 0.01, 0.02, 0.04)):
-        port = _free_port()
+        port = free_port()
         log = tmp_path / f"early-{attempt}.log"
         with log.open("wb") as err:
             process = subprocess.Popen(
