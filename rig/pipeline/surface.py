@@ -25,6 +25,7 @@ import numpy as np
 from scipy.interpolate import CloughTocher2DInterpolator
 
 from rig.geometry import CameraModel
+from rig.pipeline.disc_fill import disc_points
 from rig.pipeline.fill import FillSettings, fill_candidates, fill_points
 from rig.pipeline.flanks import foreshortening, grown_flanks
 from rig.pipeline.normals import (
@@ -292,9 +293,11 @@ def _filled(
     candidate = fill_candidates(mask, bands.annulus, lit)
     in_triangle = np.flatnonzero(np.bincount(tri.ravel(), minlength=len(points)) > 0)
     annulus = bands.annulus.ravel()[candidate].astype(np.int64)
-    found = fill_points(
-        points[in_triangle], normals[in_triangle], xy[in_triangle], ring[in_triangle], camera, candidate, annulus,
-        settings.fill_settings,
+    found = disc_points(grid, mask, candidate, annulus, camera)  # an inner disc the rings close around
+    rest = ~np.isfinite(found).all(axis=1)
+    found[rest] = fill_points(
+        points[in_triangle], normals[in_triangle], xy[in_triangle], ring[in_triangle], camera, candidate[rest],
+        annulus[rest], settings.fill_settings,
     )  # fmt: skip
     keep = np.isfinite(found).all(axis=1)
     keep[keep] = band_agreement(found[keep], candidate[keep], projector, bands, settings)

@@ -207,6 +207,13 @@ def _rehearsed(
     target = tolerance * settings.rehearsal_margin
     planned = nonuniform_rings(trial, edges, shape, settings, target, last_px)
     uniform = uniform_count(trial, edges, settings, target)
+    inward = np.arange(edges[0] - settings.bin_px, settings.min_radius_px - 1e-9, -settings.bin_px)[::-1]
+    if not (planned.met or uniform.met) and len(inward):
+        # the rings begin at the surface's innermost radius; the disc inside the first ring is filled
+        # across (rig.pipeline.disc_fill) and may err the most: try the rings from the least radius
+        edges, shape = np.concatenate([inward, edges]), np.concatenate([np.full(len(inward), shape[0]), shape])
+        planned = nonuniform_rings(trial, edges, shape, settings, target, last_px)
+        uniform = uniform_count(trial, edges, settings, target)
     even = uniform.met and (not planned.met or len(uniform.radii_px) < len(planned.radii_px))
     for name, found, chosen in (("rms_nonuniform", planned, not even), ("rms_uniform", uniform, even)):
         criteria[name] = {
