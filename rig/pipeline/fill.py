@@ -1,13 +1,15 @@
-"""The surface where no triangle between two rings reaches though rings enclose it: the inner disc
-inside the innermost ring, and holes between two rings where triangles were dropped.
+"""The surface where no triangle between two rings reaches though rings enclose it: holes between two
+rings where triangles were dropped, and the inner disc inside the innermost ring where that ring
+does not close around it (where it does, rig.pipeline.disc_fill fills it across).
 
 Such a pixel has read its annulus (between rings a-1 and a, or inside ring 0), so its point lies
 on its ray between those two rings' cones. Its neighbourhood is the ring samples near it in the
 image, of those two rings only, on one surface (samples farther apart in space than a steep slope
-allows for their distance in the image lie on two surfaces). A quadratic height field is fitted to
-their positions and normals (each sample gives a height and two slopes; a small ridge on the bends
-leaves a tangent plane where a single straight ring cannot show a bend across it), and the pixel's
-ray meets it. The point is kept only if it lies in the pixel's own annulus and near the polar angle
+allows for their distance in the image lie on two surfaces; the slope allowed grows as the nearest
+sample turns from the camera, so that a limb turning away stays one surface). A quadratic height
+field is fitted to their positions and normals (each sample gives a height and two slopes; a small
+ridge on the bends leaves a tangent plane where a single straight ring cannot show a bend across
+it), and the pixel's ray meets it. The point is kept only if it lies in the pixel's own annulus and near the polar angle
 it read (rig.pipeline.surface.band_agreement). Where samples of two surfaces both reach a pixel (the
 gap at a depth step, between the last ring on one side and the first on the other) nothing says on
 which side of the step the pixel lies: it stays a hole, and is reported as one.
@@ -34,7 +36,8 @@ class FillSettings:
     neighbours: int = 16  # ring samples near a pixel considered for its fit, half from each of its rings
     reach_px: float = 48.0  # no pixel farther than this from a sample of its rings is filled
     min_samples: int = 4  # samples on the pixel's surface a fit needs
-    steep_stretch: float = 3.0  # samples this many footprints apart per pixel of image lie on two surfaces
+    steep_stretch: float = 3.0  # samples this many footprints apart per pixel of image lie on two surfaces ...
+    min_facing: float = 0.25  # ... footprints stretched by 1 / cos(slant) of the nearest sample, to this at most
     bend_ridge: float = 0.05  # ridge on the bends, relative to the fit's own scale
     max_misfit_px: float = 2.0  # samples straying from their fit by more (rms, in footprints) span two surfaces
 
@@ -78,7 +81,7 @@ def fill_points(
             # most candidates lie beyond a surface's last ring: drop them before the costlier tests
             rows = np.flatnonzero(_enclosed(annulus[part], ring, index, np.isfinite(dist)))
             dist, index, ann = dist[rows], index[rows], annulus[part][rows]
-            use = _one_surface(points, xy, ring, camera, index, dist, ann, settings)
+            use = _one_surface(points, normals, xy, ring, camera, index, dist, ann, settings)
             use &= _enclosed(ann, ring, index, use)[:, None]
             enough = use.sum(axis=1) >= settings.min_samples
             if not enough.any():
@@ -123,6 +126,7 @@ class _RingNeighbours:
 
 def _one_surface(
     points: np.ndarray,
+    normals: np.ndarray,
     xy: np.ndarray,
     ring: np.ndarray,
     camera: CameraModel,
@@ -142,7 +146,10 @@ def _one_surface(
     rows = np.arange(len(index))
     reference = near[rows, first]
     ref_xy = xy[safe[rows, first]]
-    footprint = camera.mm_per_px(reference)
+    # a surface turned away from the camera stretches over fewer pixels: the reference's slant says how much
+    to_camera = camera.center - reference
+    facing = np.abs(np.einsum("ij,ij->i", normals[safe[rows, first]], to_camera)) / np.linalg.norm(to_camera, axis=1)
+    footprint = camera.mm_per_px(reference) / np.maximum(facing, settings.min_facing)
     apart_px = np.linalg.norm(xy[safe] - ref_xy[:, None, :], axis=2)
     apart_mm = np.linalg.norm(near - reference[:, None, :], axis=2)
     same = apart_mm <= settings.steep_stretch * footprint[:, None] * (apart_px + 1.0)

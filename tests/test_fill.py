@@ -1,0 +1,45 @@
+"""Which ring samples a filled pixel's fit may use (rig.pipeline.fill): one surface, however steeply
+it turns from the camera, never two across a step."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from rig.geometry import CameraModel
+from rig.pipeline.fill import FillSettings, _one_surface
+
+CAMERA = CameraModel(200, 200, np.array([[500.0, 0, 99.5], [0, 500.0, 99.5], [0, 0, 1]]), np.eye(3), np.zeros(3))
+
+
+def _on_plane(columns: np.ndarray, normal: np.ndarray, through: np.ndarray) -> np.ndarray:
+    """Where the rays of pixels (column, row 99.5) meet the plane through `through` with `normal`."""
+    rays = np.column_stack([(columns - 99.5) / 500.0, np.zeros(len(columns)), np.ones(len(columns))])
+    t = (through @ normal) / (rays @ normal)
+    return rays * t[:, None]
+
+
+def _use(points: np.ndarray, normals: np.ndarray, columns: np.ndarray) -> np.ndarray:
+    """The samples (all of ring 0 and 1 alternately) a pixel at column 99.5 may fit, nearest first."""
+    xy = np.column_stack([columns, np.full(len(columns), 99.5)])
+    ring = np.arange(len(columns)) % 2
+    index = np.arange(len(columns))[None, :]
+    dist = np.abs(columns - 99.5)[None, :]
+    return _one_surface(points, normals, xy, ring, CAMERA, index, dist, np.array([1]), FillSettings())[0]
+
+
+def test_a_flank_turned_80_degrees_from_the_camera_is_one_surface() -> None:
+    columns = 100.0 + np.arange(8)
+    slant = np.radians(80.0)
+    normal = np.array([-np.sin(slant), 0.0, -np.cos(slant)])  # toward the camera, turned 80 degrees
+    points = _on_plane(columns, normal, np.array([0.0, 0.0, 500.0]))
+    apart = np.linalg.norm(np.diff(points, axis=0), axis=1) / CAMERA.mm_per_px(points[:-1])
+    assert apart.min() > 3.0  # more than three footprints per image pixel: a step, to a camera-facing test
+    assert _use(points, np.tile(normal, (len(columns), 1)), columns).all()
+
+
+def test_samples_across_a_step_are_two_surfaces_and_the_pixel_is_left_open() -> None:
+    columns = 100.0 + np.arange(8)
+    facing = np.array([0.0, 0.0, -1.0])
+    points = _on_plane(columns, facing, np.array([0.0, 0.0, 500.0]))
+    points[4:] = _on_plane(columns[4:], facing, np.array([0.0, 0.0, 520.0]))  # 20 mm lower beyond a step
+    assert not _use(points, np.tile(facing, (len(columns), 1)), columns).any()
