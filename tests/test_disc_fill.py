@@ -4,7 +4,9 @@ by a pinhole camera whose every pixel's true point is known."""
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
+import rig.pipeline.disc_fill
 from rig.geometry import CameraModel
 from rig.pipeline.disc_fill import disc_points
 
@@ -63,3 +65,12 @@ def test_a_disc_left_open_or_read_as_another_annulus_is_not_filled() -> None:
         candidate = np.flatnonzero(radius < DISC_PX)  # the dark strip out to the edge is no candidate
         found = disc_points(grid, covered, candidate, np.full(len(candidate), annulus, dtype=np.int64), camera)
         assert np.isnan(found).all()
+
+
+def test_a_disc_larger_than_the_solve_is_bounded_for_is_left_to_the_fit(monkeypatch: pytest.MonkeyPatch) -> None:
+    camera, truth, radius = _dome()
+    found, _ = _filled(camera, truth, radius)
+    assert np.isfinite(found).all()
+    monkeypatch.setattr(rig.pipeline.disc_fill, "_MAX_DISC_PX", int((radius < DISC_PX).sum()) - 1)
+    found, _ = _filled(camera, truth, radius)
+    assert np.isnan(found).all()
