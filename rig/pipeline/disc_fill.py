@@ -36,6 +36,8 @@ def disc_points(
     inner disc the covered pixels (`covered`, flat bool; their points in `grid`, flat (H*W, 3))
     close around; NaN for the others."""
     found = np.full((len(candidate), 3), np.nan)
+    if not (annulus == 0).any():  # no pixel read the disc: nothing to label
+        return found
     shape = (camera.height, camera.width)
     is_candidate = np.zeros(covered.size, dtype=bool)
     is_candidate[candidate] = True
@@ -48,14 +50,11 @@ def disc_points(
     for k in _disc_holes(label.ravel(), stats, reads_disc, is_candidate, shape):
         x, y, w, h = (int(v) for v in stats[k, :4])
         box = (slice(y - 2, y + h + 2), slice(x - 2, x + w + 2))
-        hole = label[box] == k
-        known = np.where(
-            covered[_flat_of(box, shape)].reshape(hole.shape), _ray_distances(grid, camera, shape, box), np.nan
-        )
-        distance = _thin_plate(hole, known)
+        hole, in_box = label[box] == k, _flat_of(box, shape)
+        distance = _thin_plate(hole, np.where(covered[in_box], _ray_distances(grid, camera, in_box), np.nan))
         if distance is None:
             continue
-        flat = _flat_of(box, shape)[hole.ravel()]
+        flat = in_box[hole]
         wanted = is_candidate[flat]
         flat, t = flat[wanted], distance[hole][wanted]
         origins, directions = camera.pixel_rays
@@ -64,9 +63,9 @@ def disc_points(
 
 
 def _flat_of(box: tuple[slice, slice], shape: tuple[int, int]) -> np.ndarray:
-    """The flat image index of every pixel of `box`, row by row."""
+    """(h, w) the flat image index of every pixel of `box`."""
     rows, cols = np.mgrid[box[0], box[1]]
-    return (rows * shape[1] + cols).ravel()
+    return rows * shape[1] + cols
 
 
 def _disc_holes(
@@ -85,16 +84,12 @@ def _disc_holes(
     return [int(k) for k in np.flatnonzero(keep)]
 
 
-def _ray_distances(
-    grid: np.ndarray, camera: CameraModel, shape: tuple[int, int], box: tuple[slice, slice]
-) -> np.ndarray:
-    """(h, w) each pixel's covered point as its distance along its own ray; NaN where uncovered."""
-    flat = _flat_of(box, shape)
+def _ray_distances(grid: np.ndarray, camera: CameraModel, flat: np.ndarray) -> np.ndarray:
+    """The points of `grid` (flat, (H*W, 3)) at pixels `flat` (any shape) as distances along their own
+    rays, shaped like `flat`; NaN where there is none."""
     origins, directions = camera.pixel_rays
     offset = grid[flat] - np.asarray(origins[flat])
-    return np.einsum("ij,ij->i", offset, np.asarray(directions[flat])).reshape(
-        box[0].stop - box[0].start, box[1].stop - box[1].start
-    )
+    return np.einsum("...j,...j->...", offset, np.asarray(directions[flat]))
 
 
 def _thin_plate(hole: np.ndarray, known: np.ndarray) -> np.ndarray | None:

@@ -9,10 +9,11 @@ allows for their distance in the image lie on two surfaces; the slope allowed gr
 sample turns from the camera, so that a limb turning away stays one surface). A quadratic height
 field is fitted to their positions and normals (each sample gives a height and two slopes; a small
 ridge on the bends leaves a tangent plane where a single straight ring cannot show a bend across
-it), and the pixel's ray meets it. The point is kept only if it lies in the pixel's own annulus and near the polar angle
-it read (rig.pipeline.surface.band_agreement). Where samples of two surfaces both reach a pixel (the
-gap at a depth step, between the last ring on one side and the first on the other) nothing says on
-which side of the step the pixel lies: it stays a hole, and is reported as one.
+it), and the pixel's ray meets it. The point is kept only if it lies in the pixel's own annulus and
+near the polar angle it read (rig.pipeline.surface.band_agreement). Where samples of two surfaces
+both reach a pixel (the gap at a depth step, between the last ring on one side and the first on the
+other) nothing says on which side of the step the pixel lies: it stays a hole, and is reported as
+one.
 """
 
 from __future__ import annotations
@@ -147,7 +148,8 @@ def _one_surface(
     reference = near[rows, first]
     ref_xy = xy[safe[rows, first]]
     # a surface turned away from the camera stretches over fewer pixels: the reference's slant says how much
-    to_camera = camera.center - reference
+    orthographic = camera.projection == "orthographic"
+    to_camera = np.broadcast_to(-camera.axis, reference.shape) if orthographic else camera.center - reference
     facing = np.abs(np.einsum("ij,ij->i", normals[safe[rows, first]], to_camera)) / np.linalg.norm(to_camera, axis=1)
     footprint = camera.mm_per_px(reference) / np.maximum(facing, settings.min_facing)
     apart_px = np.linalg.norm(xy[safe] - ref_xy[:, None, :], axis=2)
