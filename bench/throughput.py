@@ -1,24 +1,31 @@
-"""Sustained throughput of live mode's pipeline, apart from the simulator: one live sequence of the
-default bench (1280x1024, live mode's codec: 4-step phase unwrapped by Gray code) captured once,
-then fed again and again by a thread as a camera at `--rate` Hz would deliver it, while the
-pipeline decodes each frame as it arrives and triangulates each finished sequence, as
-`rig.pipeline.live.live_sequence` does. A sequence that finds the queue still holding the last
-whole sequence is dropped whole (never frames mixed across sequences) and counted. Prints one JSON
-object: clouds per second, the camera's sequences per second, dropped sequences, latency from a
-sequence's last frame to its depth image (p50, p99), and CPU seconds per cloud.
+"""Sustained throughput of live mode's pipeline, apart from the simulator: one live sequence (live
+mode's codec: 4-step phase unwrapped by Gray code, 20 frames) captured once per camera on the
+simulated bench at each sensor size, then fed again and again by a thread as hardware-triggered
+cameras at `rate` Hz would deliver it (every camera's frame k at once). The pipeline is live
+mode's own (rig.pipeline.live, rig.pipeline.sustained): each frame decoded as it arrives, each
+finished sequence triangulated on a worker thread while the next is decoded. Two places drop whole
+sequences, never frames: the camera, when its buffer already holds a whole sequence the decoder
+has not read, and the worker, when a newer sequence replaces one still waiting.
 
-    python bench/throughput.py [--rate 120] [--seconds 10]
+Prints one JSON object {"cases": [...]}: per case clouds per second against the camera's
+sequences per second, sequences dropped, latency from a sequence's last frame to its depth images
+(p50, p99), CPU seconds per cloud, the bytes of a frame and of a sequence (every camera), and the
+process's peak resident memory (each case runs in a fresh process).
 
-A baseline for issue 43: the pipeline is sequential today (decode while the frames arrive, then
-triangulate before the next sequence is read), and the rig's own capture is left out (the
-simulator renders far slower than a camera delivers).
+    python bench/throughput.py [--docs] [--seconds 10]
+    python bench/throughput.py --case 1280x1024-1 [--seconds 10]   # one case, its JSON alone
+
+The simulator renders far slower than a camera delivers, so the rig's own capture is left out.
 """
 
 from __future__ import annotations
 
 import argparse
+import copy
 import json
 import queue
+import resource
+import subprocess
 import sys
 import threading
 import time
@@ -27,89 +34,187 @@ from typing import Any
 
 import numpy as np
 
+sys.path.insert(0, str(Path(__file__).resolve().parent))
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
+from _readme import markdown_table, replace_block
+
 from rig.assembly import open_rig
-from rig.config import load_config
+from rig.config import config_from_dict, load_config
 from rig.pipeline.capture import capture
-from rig.pipeline.live import live_codecs, pair_depth, prepare_triangulation
+from rig.pipeline.live import CapturedSequence, finish_sequence, live_codecs, prepare_triangulation
+from rig.pipeline.sustained import SequenceWorker
 from rig.progress import ProgressTracker
 
-Item = tuple[int, int, np.ndarray, float]  # sequence, frame index, frame, when it arrived
+# name: (width, height, bit depth, cameras, rate Hz): the default bench's sensor, a 5 MP and a
+# 12 MP machine-vision sensor at rates they reach over USB3 / GigE
+CASES: dict[str, tuple[int, int, int, int, float]] = {
+    "1280x1024-1": (1280, 1024, 8, 1, 120.0),
+    "1280x1024-2": (1280, 1024, 8, 2, 120.0),
+    "2448x2048-1": (2448, 2048, 8, 1, 60.0),
+    "2448x2048-2": (2448, 2048, 8, 2, 60.0),
+    "2448x2048-1-12bit": (2448, 2048, 12, 1, 60.0),
+    "4096x3000-1": (4096, 3000, 8, 1, 30.0),
+    "4096x3000-2": (4096, 3000, 8, 2, 30.0),
+}
+Item = tuple[int, int, list[np.ndarray], float]  # sequence, frame index, every camera's frame, arrival
 
 
-def feed(frames: list[np.ndarray], rate_hz: float, seconds: float, out: queue.Queue, counts: dict[str, int]) -> None:
-    """Frames at `rate_hz` for `seconds`, a sequence at a time; a sequence that would find the queue
-    holding more than one sequence's frames is dropped whole (the camera's frames still take their
-    time)."""
+def bench_config(width: int, height: int, bit_depth: int, cameras: int) -> dict[str, Any]:
+    """The default bench with its camera at this size (same field of view) and depth; a second
+    camera on the projector's other side, as far from it as the first."""
+    data = load_config().model_dump(mode="json")
+    camera = data["cameras"][0]
+    scale = width / camera["resolution"][0]
+    intrinsics = camera["geometry"]["intrinsics"]
+    camera["resolution"] = [width, height]
+    camera["bit_depth"] = bit_depth
+    camera["geometry"]["intrinsics"] = {
+        "fx": intrinsics["fx"] * scale,
+        "fy": intrinsics["fy"] * scale,
+        "cx": (width - 1) / 2,
+        "cy": (height - 1) / 2,
+    }
+    if cameras == 2:
+        second = copy.deepcopy(camera)
+        second["name"] = "camera1"
+        second["geometry"]["pose"]["position_mm"] = [300.0, 0.0, 600.0]
+        data["cameras"].append(second)
+    return data
+
+
+def feed(
+    frames: list[list[np.ndarray]], rate_hz: float, seconds: float, out: queue.Queue, counts: dict[str, int]
+) -> None:
+    """Frame k of every camera at `rate_hz`, a sequence at a time, for `seconds`; a sequence that
+    would find the queue holding a whole sequence's frames is dropped whole (its frames still take
+    their time, as a camera's do)."""
     period, start, sequence = 1.0 / rate_hz, time.monotonic(), 0
     while time.monotonic() - start < seconds:
         sequence += 1
-        dropped = out.qsize() > len(frames)  # the pipeline still has a whole sequence to read
+        dropped = out.qsize() >= len(frames)
         counts["sequences"] += 1
-        counts["dropped"] += dropped
+        counts["dropped_by_camera"] += dropped
         for index, frame in enumerate(frames):
             due = start + ((sequence - 1) * len(frames) + index + 1) * period
             time.sleep(max(0.0, due - time.monotonic()))
             if not dropped:
-                out.put((sequence, index, frame, time.monotonic()))
+                out.put((sequence, index, frame, time.perf_counter()))
     out.put(None)
 
 
-def measure(rate_hz: float, seconds: float) -> dict[str, Any]:
-    config = load_config()
+def measure_case(name: str, seconds: float) -> dict[str, Any]:
+    width, height, bit_depth, cameras, rate_hz = CASES[name]
+    config = config_from_dict(bench_config(width, height, bit_depth, cameras), f"throughput {name}")
     with open_rig(config) as rig:
         codecs = live_codecs(rig)
         prepare_triangulation(rig, codecs)
-        frames = capture(rig, codecs, ProgressTracker(None), keep_frames=True, overlap_cue=False)[(0, 0)]
+        captured = capture(rig, codecs, ProgressTracker(None), keep_frames=True, overlap_cue=False)
         rig.all_dark()
-        full_scale = config.cameras[0].full_scale
-        warm = codecs[0].stream(full_scale)  # compiled and cached once, before the clock runs
+        frames = [[captured[(0, c)][k] for c in range(cameras)] for k in range(codecs[0].frame_count)]
+        del captured
+        full_scale = [camera.full_scale for camera in config.cameras]
+
+        def streams() -> dict[tuple[int, int], list]:
+            return {(0, c): [codecs[0].stream(full_scale[c])] for c in range(cameras)}
+
+        def decoded(sequence: int, streams: dict, first_s: float, last_s: float) -> CapturedSequence:
+            return CapturedSequence(sequence, streams, first_s, last_s)
+
+        warm = streams()  # compiled and cached once, before the clock runs
         for frame in frames:
-            warm.add(frame)
-        pair_depth(rig, 0, 0, warm.finish())
+            for c in range(cameras):
+                warm[(0, c)][0].add(frame[c])
+        finish_sequence(rig, decoded(0, warm, 0.0, 0.0))
+        latencies: list[float] = []
+        worker: SequenceWorker[CapturedSequence, float] = SequenceWorker(
+            lambda seq: finish_sequence(rig, seq).latency_ms, latencies.append
+        )
         items: queue.Queue[Item | None] = queue.Queue()
-        counts = {"sequences": 0, "dropped": 0}
+        counts = {"sequences": 0, "dropped_by_camera": 0}
         feeder = threading.Thread(target=feed, args=(frames, rate_hz, seconds, items, counts), daemon=True)
-        latencies, clouds, stream = [], 0, None
+        current, first_s = streams(), 0.0
         cpu, wall = time.process_time(), time.monotonic()
         feeder.start()
-        while (item := items.get()) is not None:
-            _, index, frame, arrived = item
+        while (item := items.get(timeout=seconds + 60)) is not None:
+            sequence, index, frame, arrived = item
             if index == 0:
-                stream = codecs[0].stream(full_scale)
-            assert stream is not None
-            stream.add(frame)
+                current, first_s = streams(), arrived
+            for c in range(cameras):
+                current[(0, c)][0].add(frame[c])
             if index == len(frames) - 1:
-                depth = pair_depth(rig, 0, 0, stream.finish())
-                latencies.append((time.monotonic() - arrived) * 1e3)
-                clouds += int(np.isfinite(depth).any())
+                worker.submit(decoded(sequence, current, first_s, arrived))
+        worker.close(60.0)
         wall, cpu = time.monotonic() - wall, time.process_time() - cpu
-        feeder.join()
-    width, height = config.cameras[0].resolution
+        feeder.join(60.0)
+    clouds = len(latencies)
+    frame_bytes = frames[0][0].nbytes
     return {
-        "benchmark": "throughput",
-        "camera": f"{width}x{height} at {rate_hz:g} Hz",
-        "sequence": f"live mode's {config.scan.live.codec}: {len(frames)} frames",
+        "case": name,
+        "camera": f"{width}x{height} {bit_depth}-bit at {rate_hz:g} Hz",
+        "cameras": cameras,
+        "frames_per_sequence": len(frames),
         "seconds": round(wall, 2),
         "camera_sequences_per_s": round(rate_hz / len(frames), 2),
         "clouds_per_s": round(clouds / wall, 2),
         "sequences": counts["sequences"],
-        "dropped": counts["dropped"],
+        "dropped": counts["dropped_by_camera"] + worker.dropped,
+        "dropped_by_camera": counts["dropped_by_camera"],
+        "dropped_by_worker": worker.dropped,
         "latency_ms": {
-            "p50": round(float(np.percentile(latencies, 50)), 1),
-            "p99": round(float(np.percentile(latencies, 99)), 1),
+            "p50": round(float(np.percentile(latencies, 50)), 1) if latencies else None,
+            "p99": round(float(np.percentile(latencies, 99)), 1) if latencies else None,
         },
         "cpu_s_per_cloud": round(cpu / max(clouds, 1), 3),
+        "frame_mb": round(frame_bytes / 2**20, 2),
+        "sequence_mb": round(frame_bytes * len(frames) * cameras / 2**20, 1),
+        "peak_rss_mb": round(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024, 1),
     }
 
 
+def measure_all(seconds: float) -> dict[str, Any]:
+    cases = []
+    for name in CASES:  # each in a fresh process: its own peak memory
+        command = [sys.executable, __file__, "--case", name, "--seconds", str(seconds)]
+        done = subprocess.run(command, check=True, capture_output=True, text=True, timeout=1800)
+        cases.append(json.loads(done.stdout.strip().splitlines()[-1]))
+    return {"benchmark": "throughput", "cases": cases}
+
+
+def table(measured: dict[str, Any]) -> str:
+    header = ["camera", "cameras", "camera sequences/s", "clouds/s", "dropped", "latency p50 / p99 ms"]
+    header += ["CPU s per cloud", "frame MB", "sequence MB", "peak RSS MB"]
+    rows = [
+        [
+            c["camera"],
+            c["cameras"],
+            c["camera_sequences_per_s"],
+            c["clouds_per_s"],
+            f"{c['dropped']} of {c['sequences']}",
+            f"{c['latency_ms']['p50']} / {c['latency_ms']['p99']}",
+            c["cpu_s_per_cloud"],
+            c["frame_mb"],
+            c["sequence_mb"],
+            c["peak_rss_mb"],
+        ]
+        for c in measured["cases"]
+    ]
+    return markdown_table(header, rows) + "\n\nProduced by `python bench/throughput.py --docs`."
+
+
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0] if __doc__ else None)
-    parser.add_argument("--rate", type=float, default=120.0, help="the camera's frames per second")
-    parser.add_argument("--seconds", type=float, default=10.0, help="how long the camera delivers")
+    parser = argparse.ArgumentParser(description=(__doc__ or "").splitlines()[0])
+    parser.add_argument("--case", choices=sorted(CASES), help="measure this case alone, in this process")
+    parser.add_argument("--seconds", type=float, default=10.0, help="how long the cameras deliver, per case")
+    parser.add_argument("--docs", action="store_true", help="rewrite the throughput block of docs/results.md")
     args = parser.parse_args()
-    print(json.dumps(measure(args.rate, args.seconds)))
+    if args.case:
+        print(json.dumps(measure_case(args.case, args.seconds)))
+        return
+    measured = measure_all(args.seconds)
+    print(json.dumps(measured))
+    if args.docs:
+        replace_block("throughput-table", table(measured))
 
 
 if __name__ == "__main__":

@@ -130,8 +130,10 @@ def plane_triangulate(
             if ok:
                 denominator = c[y, x] + d[y, x] * u
                 normalised = u * scale + shift
-                s = (a[y, x] + b[y, x] * u) / denominator
-                ok = abs(denominator) >= tiny * np.sqrt(one + normalised * normalised) and s > 0
+                ok = abs(denominator) >= tiny * np.sqrt(one + normalised * normalised)
+                if ok:  # divided only then: a ray exactly in the plane would raise
+                    s = (a[y, x] + b[y, x] * u) / denominator
+                    ok = s > 0
                 if not ok:
                     s = nan
             decoded[y, x] = ok

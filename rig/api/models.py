@@ -345,7 +345,8 @@ class LiveView(BaseModel):
     params: dict[str, Any]
     hdr: Literal["auto"] | list[float] | None = Field(None, description="the exposures each sequence is taken at")
     seconds_left: float | None = Field(description="until its time limit; none: until stopped")
-    sequences: int = Field(description="sequences reconstructed in this session")
+    sequences: int = Field(description="the number of this session's newest reconstructed sequence")
+    dropped: int = Field(0, description="sequences captured but dropped whole: the machine fell behind")
     seconds: float = Field(description="from the session's first sequence to its latest")
     clouds_per_s: float = Field(description="over the last 32 sequences")
     latency_ms: LiveLatency | None = Field(description="from a sequence's last frame to its depth images")

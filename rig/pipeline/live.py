@@ -2,9 +2,11 @@
 depth image per camera for every sequence, as fast as projector and cameras allow.
 
 Each sequence is decoded while it is captured (rig.patterns.stream) and triangulated by the
-organised fast path where the pair allows it, so a sequence's depth images are ready a few
-milliseconds after its last frame. Nothing is stored. Whoever watches takes the newest frame
-(`publish` must not block): a slow reader skips sequences and never slows the rig.
+organised fast path where the pair allows it, on a worker thread while the next sequence is
+captured (rig.pipeline.sustained), so a sequence's depth images are ready a few milliseconds after
+its last frame and the rig does not wait for them. When triangulating falls behind, sequences are
+dropped whole and counted. Nothing is stored. Whoever watches takes the newest frame (`publish`
+must not block): a slow reader skips sequences and never slows the rig.
 """
 
 from __future__ import annotations
@@ -21,14 +23,17 @@ from rig.config.scan import ScanConfig
 from rig.errors import DecodeError, ScanError
 from rig.patterns import Codec, Correspondence
 from rig.patterns.lines import LineCodec
+from rig.patterns.stream import FrameStream
 from rig.pipeline.capture import capture
 from rig.pipeline.exposure import ExposureSettings, require_exposure, set_within_range, settled_exposures
 from rig.pipeline.hdr import bracketed, merge_exposures
 from rig.pipeline.organised import fast_terms
 from rig.pipeline.scan import is_reconstructed, make_codec, pair_cloud, reconstruct_pair, triangulator
+from rig.pipeline.sustained import SequenceWorker
 from rig.progress import ProgressTracker
 from rig.rig import Rig
 
+FINISH_TIMEOUT_S = 60.0  # the last sequence's triangulation, once live mode stops
 LATENCIES_KEPT = 256  # the summary's latency figures are over the last this many sequences
 RATE_OVER = 32  # clouds per second: over the last this many sequences
 
@@ -51,7 +56,9 @@ class LiveStats:
 
     started_s: float = field(default_factory=time.monotonic)  # reset when the first sequence starts
     last_ready_s: float | None = None
-    sequences: int = 0
+    sequences: int = 0  # the newest published sequence's number
+    captured: int = 0  # sequences captured (numbered from 1)
+    dropped: int = 0  # sequences captured but not triangulated: the machine fell behind
     points: int = 0
     latencies_ms: deque[float] = field(default_factory=lambda: deque(maxlen=LATENCIES_KEPT))
     ready_s: deque[float] = field(default_factory=lambda: deque(maxlen=RATE_OVER))
@@ -78,6 +85,7 @@ class LiveStats:
         latencies = sorted(self.latencies_ms)
         return {
             "sequences": self.sequences,
+            "dropped": self.dropped,
             "seconds": round(seconds, 3),
             "clouds_per_s": round(self.recent_rate(), 3),
             "latency_ms": None
@@ -115,13 +123,24 @@ def run_live(
     stats = stats if stats is not None else LiveStats()
     if stats.sequences == 0:
         stats.started_s = time.monotonic()  # the rate counts sequences, not the preparation
+
+    def published(frame: LiveFrame) -> None:
+        stats.add(frame)
+        publish(frame)
+
+    worker: SequenceWorker[CapturedSequence, LiveFrame] = SequenceWorker(
+        lambda captured: finish_sequence(rig, captured), published
+    )
+    dropped = stats.dropped
     try:
         while keep_going():
-            frame = live_sequence(rig, codecs, stats.sequences + 1, exposures)
-            stats.add(frame)
-            publish(frame)
+            stats.captured += 1
+            worker.submit(capture_sequence(rig, codecs, stats.captured, exposures))
+            stats.dropped = dropped + worker.dropped
     finally:
         rig.all_dark()
+        worker.close(FINISH_TIMEOUT_S)
+        stats.dropped = dropped + worker.dropped
     return stats
 
 
@@ -137,14 +156,31 @@ def live_exposures(rig: Rig, hdr: str | list[float] | None) -> list[list[float]]
     return bracketed(rig, hdr, looks, settings)
 
 
+@dataclass(frozen=True, eq=False)
+class CapturedSequence:
+    """A sequence whose frames are all in, decoded as they arrived: what finish_sequence needs."""
+
+    sequence: int
+    streams: dict[tuple[int, int], list[FrameStream]]  # per pair, one per exposure
+    started_s: float  # time.perf_counter() at its first pattern
+    last_frame_s: float  # ... when its last frame arrived
+
+
 def live_sequence(
     rig: Rig, codecs: list[Codec], sequence: int, exposures: list[list[float]] | None = None
 ) -> LiveFrame:
-    """Show the sequence once (at each of the cameras' `exposures`, merged per pixel, where given),
-    decoding as frames arrive; triangulate every pair."""
+    """Show the sequence once and triangulate it (capture_sequence, then finish_sequence)."""
+    return finish_sequence(rig, capture_sequence(rig, codecs, sequence, exposures))
+
+
+def capture_sequence(
+    rig: Rig, codecs: list[Codec], sequence: int, exposures: list[list[float]] | None = None
+) -> CapturedSequence:
+    """Show the sequence once (at each of the cameras' `exposures`, where given), decoding every
+    pair's frames as they arrive."""
     full_scale = [camera.full_scale for camera in rig.config.cameras]
     pairs = [(p, c) for p in range(len(codecs)) for c in range(len(rig.cameras)) if is_reconstructed(rig, (p, c))]
-    decoded: dict[tuple[int, int], list[Correspondence]] = {pair: [] for pair in pairs}
+    passes: dict[tuple[int, int], list[FrameStream]] = {pair: [] for pair in pairs}
     arrived = [0.0]
     start = time.perf_counter()
     for k in range(1 if exposures is None else len(exposures[0])):
@@ -159,25 +195,30 @@ def live_sequence(
 
         capture(rig, codecs, ProgressTracker(None), decode_now, keep_frames=False, overlap_cue=False)
         for pair, stream in streams.items():
-            try:
-                decoded[pair].append(stream.finish())
-            except DecodeError as exc:
-                raise ScanError(f"{rig.config.cameras[pair[1]].name}: {exc}") from exc
+            passes[pair].append(stream)
+    return CapturedSequence(sequence, passes, start, arrived[0])
+
+
+def finish_sequence(rig: Rig, captured: CapturedSequence) -> LiveFrame:
+    """Finish each pair's decode (merged per pixel over the exposures) and triangulate it."""
     depths: dict[int, np.ndarray] = {}
     points = 0
-    for p, c in pairs:
-        corrs = decoded[(p, c)]
+    for (p, c), streams in captured.streams.items():
+        try:
+            corrs = [stream.finish() for stream in streams]
+        except DecodeError as exc:
+            raise ScanError(f"{rig.config.cameras[c].name}: {exc}") from exc
         corr = corrs[0] if len(corrs) == 1 else merge_exposures(corrs, len(corrs) - 1)
         depth = pair_depth(rig, p, c, corr)
         points += int(np.isfinite(depth).sum())
         depths.setdefault(c, depth)  # a camera's depth image: from the first projector that lights it
     ready = time.perf_counter()
     return LiveFrame(
-        sequence=sequence,
+        sequence=captured.sequence,
         depths=tuple(depths[c] if c in depths else _no_depth(rig, c) for c in range(len(rig.cameras))),
         points=points,
-        latency_ms=(ready - arrived[0]) * 1e3,
-        sequence_ms=(ready - start) * 1e3,
+        latency_ms=(ready - captured.last_frame_s) * 1e3,
+        sequence_ms=(ready - captured.started_s) * 1e3,
         ready_s=time.monotonic(),
     )
 
