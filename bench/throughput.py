@@ -1,11 +1,12 @@
-"""Sustained throughput of live mode's pipeline, apart from the simulator: one live sequence (live
-mode's codec: 4-step phase unwrapped by Gray code, 20 frames) captured once per camera on the
-simulated bench at each sensor size, then fed again and again by a thread as hardware-triggered
-cameras at `rate` Hz would deliver it (every camera's frame k at once). The pipeline is live
-mode's own (rig.pipeline.live, rig.pipeline.sustained): each frame decoded as it arrives, each
-finished sequence triangulated on a worker thread while the next is decoded. Two places drop whole
-sequences, never frames: the camera, when its buffer already holds a whole sequence the decoder
-has not read, and the worker, when a newer sequence replaces one still waiting.
+"""Sustained throughput of live mode's pipeline, apart from the simulator: one live sequence
+(live mode's default, 4-step phase unwrapped by Gray code, 20 frames; or the shortest, cued_phase's
+3 + 3 steps, 6 frames) captured once per camera on the simulated bench at each sensor size, then
+fed again and again by a thread as hardware-triggered cameras at the case's rate would deliver it
+(every camera's frame k at once). The pipeline is live mode's own (rig.pipeline.live,
+rig.pipeline.sustained): each frame decoded as it arrives, each finished sequence triangulated on a
+worker thread while the next is decoded. Two places drop whole sequences, never frames: the
+camera, when its buffer already holds a whole sequence the decoder has not read, and the worker,
+when a newer sequence replaces one still waiting.
 
 Prints one JSON object {"cases": [...]}: per case clouds per second against the camera's
 sequences per second, sequences dropped, latency from a sequence's last frame to its depth images
@@ -13,7 +14,7 @@ sequences per second, sequences dropped, latency from a sequence's last frame to
 process's peak resident memory (each case runs in a fresh process).
 
     python bench/throughput.py [--docs] [--seconds 10]
-    python bench/throughput.py --case 1280x1024-1 [--seconds 10]   # one case, its JSON alone
+    python bench/throughput.py --case 6-1280x1024-8bit-1 [--seconds 10]   # one case, its JSON alone
 
 The simulator renders far slower than a camera delivers, so the rig's own capture is left out.
 """
@@ -41,29 +42,43 @@ from _readme import markdown_table, replace_block
 
 from rig.assembly import open_rig
 from rig.config import config_from_dict, load_config
+from rig.patterns import Codec
+from rig.patterns.stream import FrameStream
 from rig.pipeline.capture import capture
 from rig.pipeline.live import CapturedSequence, finish_sequence, live_codecs, prepare_triangulation
 from rig.pipeline.sustained import SequenceWorker
 from rig.progress import ProgressTracker
+from rig.rig import Rig
 
-# name: (width, height, bit depth, cameras, rate Hz): the default bench's sensor, a 5 MP and a
-# 12 MP machine-vision sensor at rates they reach over USB3 / GigE
-CASES: dict[str, tuple[int, int, int, int, float]] = {
-    "1280x1024-1": (1280, 1024, 8, 1, 120.0),
-    "1280x1024-2": (1280, 1024, 8, 2, 120.0),
-    "2448x2048-1": (2448, 2048, 8, 1, 60.0),
-    "2448x2048-2": (2448, 2048, 8, 2, 60.0),
-    "2448x2048-1-12bit": (2448, 2048, 12, 1, 60.0),
-    "4096x3000-1": (4096, 3000, 8, 1, 30.0),
-    "4096x3000-2": (4096, 3000, 8, 2, 30.0),
+# The sequences: live mode's default (4-step phase unwrapped by Gray code, 20 frames on this
+# projector) and the shortest, cued_phase (3 fringe steps and 3 of a single-period cue, 6 frames),
+# shown as a DLP shows 8-bit patterns: light linear in the level (3 steps need it: a gamma's second
+# harmonic would shift their phase, rig.patterns.cued_phase)
+SEQUENCES: dict[str, dict[str, Any]] = {
+    "20": {"codec": "phase", "params": None},
+    "6": {"codec": "cued_phase", "params": {"steps": 3}},
+}
+SENSORS = ((1280, 1024, 120.0, (8,)), (2448, 2048, 60.0, (8, 12)), (4096, 3000, 30.0, (8,)))  # and bit depths
+# name: (sequence, width, height, bit depth, cameras, rate Hz): the default bench's sensor, a 5 MP and
+# a 12 MP machine-vision sensor at rates they reach over USB3 / GigE
+CASES: dict[str, tuple[str, int, int, int, int, float]] = {
+    f"{frames}-{width}x{height}-{bits}bit-{cameras}": (frames, width, height, bits, cameras, rate)
+    for width, height, rate, depths in SENSORS
+    for bits in depths
+    for frames in SEQUENCES
+    for cameras in (1, 2)
+    if bits == 8 or (frames == "6" and cameras == 1)
 }
 Item = tuple[int, int, list[np.ndarray], float]  # sequence, frame index, every camera's frame, arrival
 
 
-def bench_config(width: int, height: int, bit_depth: int, cameras: int) -> dict[str, Any]:
-    """The default bench with its camera at this size (same field of view) and depth; a second
-    camera on the projector's other side, as far from it as the first."""
+def bench_config(sequence: str, width: int, height: int, bit_depth: int, cameras: int) -> dict[str, Any]:
+    """The default bench showing `sequence` in live mode, with its camera at this size (same field
+    of view) and depth; a second camera on the projector's other side, as far from it as the first."""
     data = load_config().model_dump(mode="json")
+    data["scan"]["live"] = SEQUENCES[sequence]
+    if sequence == "6":
+        data["projectors"][0]["sim"]["gamma"] = 1.0
     camera = data["cameras"][0]
     scale = width / camera["resolution"][0]
     intrinsics = camera["geometry"]["intrinsics"]
@@ -103,9 +118,36 @@ def feed(
     out.put(None)
 
 
+class Sustained:
+    """One pair per camera of the rig's first projector, fed whole sequences of frames and decoding
+    as they arrive, a SequenceWorker triangulating each finished one (live mode's pipeline)."""
+
+    def __init__(self, rig: Rig, codec: Codec, cameras: int) -> None:
+        self.rig, self.codec, self.cameras = rig, codec, cameras
+        self.full_scale = [camera.full_scale for camera in rig.config.cameras]
+        self.latencies: list[float] = []
+        self.worker: SequenceWorker[CapturedSequence, float] = SequenceWorker(
+            lambda seq: finish_sequence(rig, seq).latency_ms, self.latencies.append
+        )
+        self._streams = self._new()
+        self._first_s = 0.0
+
+    def _new(self) -> dict[tuple[int, int], list[FrameStream]]:
+        return {(0, c): [self.codec.stream(self.full_scale[c])] for c in range(self.cameras)}
+
+    def add(self, sequence: int, index: int, frame: list[np.ndarray], arrived_s: float) -> None:
+        """Frame `index` of every camera; the last one hands the sequence to the worker."""
+        if index == 0:
+            self._streams, self._first_s = self._new(), arrived_s
+        for c in range(self.cameras):
+            self._streams[(0, c)][0].add(frame[c])
+        if index == self.codec.frame_count - 1:
+            self.worker.submit(CapturedSequence(sequence, self._streams, self._first_s, arrived_s))
+
+
 def measure_case(name: str, seconds: float) -> dict[str, Any]:
-    width, height, bit_depth, cameras, rate_hz = CASES[name]
-    config = config_from_dict(bench_config(width, height, bit_depth, cameras), f"throughput {name}")
+    sequence, width, height, bit_depth, cameras, rate_hz = CASES[name]
+    config = config_from_dict(bench_config(sequence, width, height, bit_depth, cameras), f"throughput {name}")
     with open_rig(config) as rig:
         codecs = live_codecs(rig)
         prepare_triangulation(rig, codecs)
@@ -113,54 +155,35 @@ def measure_case(name: str, seconds: float) -> dict[str, Any]:
         rig.all_dark()
         frames = [[captured[(0, c)][k] for c in range(cameras)] for k in range(codecs[0].frame_count)]
         del captured
-        full_scale = [camera.full_scale for camera in config.cameras]
-
-        def streams() -> dict[tuple[int, int], list]:
-            return {(0, c): [codecs[0].stream(full_scale[c])] for c in range(cameras)}
-
-        def decoded(sequence: int, streams: dict, first_s: float, last_s: float) -> CapturedSequence:
-            return CapturedSequence(sequence, streams, first_s, last_s)
-
-        warm = streams()  # compiled and cached once, before the clock runs
-        for frame in frames:
-            for c in range(cameras):
-                warm[(0, c)][0].add(frame[c])
-        finish_sequence(rig, decoded(0, warm, 0.0, 0.0))
-        latencies: list[float] = []
-        worker: SequenceWorker[CapturedSequence, float] = SequenceWorker(
-            lambda seq: finish_sequence(rig, seq).latency_ms, latencies.append
-        )
+        warm = Sustained(rig, codecs[0], cameras)  # compiled and cached once, before the clock runs
+        for index, frame in enumerate(frames):
+            warm.add(0, index, frame, 0.0)
+        warm.worker.close(60.0)
+        pipeline = Sustained(rig, codecs[0], cameras)
         items: queue.Queue[Item | None] = queue.Queue()
         counts = {"sequences": 0, "dropped_by_camera": 0}
         feeder = threading.Thread(target=feed, args=(frames, rate_hz, seconds, items, counts), daemon=True)
-        current, first_s = streams(), 0.0
         cpu, wall = time.process_time(), time.monotonic()
         feeder.start()
         while (item := items.get(timeout=seconds + 60)) is not None:
-            sequence, index, frame, arrived = item
-            if index == 0:
-                current, first_s = streams(), arrived
-            for c in range(cameras):
-                current[(0, c)][0].add(frame[c])
-            if index == len(frames) - 1:
-                worker.submit(decoded(sequence, current, first_s, arrived))
-        worker.close(60.0)
+            pipeline.add(*item)
+        pipeline.worker.close(60.0)
         wall, cpu = time.monotonic() - wall, time.process_time() - cpu
         feeder.join(60.0)
-    clouds = len(latencies)
-    frame_bytes = frames[0][0].nbytes
+    latencies, clouds, frame_bytes = pipeline.latencies, len(pipeline.latencies), frames[0][0].nbytes
     return {
         "case": name,
         "camera": f"{width}x{height} {bit_depth}-bit at {rate_hz:g} Hz",
         "cameras": cameras,
+        "sequence": f"{config.scan.live.codec}, {len(frames)} frames",
         "frames_per_sequence": len(frames),
         "seconds": round(wall, 2),
         "camera_sequences_per_s": round(rate_hz / len(frames), 2),
         "clouds_per_s": round(clouds / wall, 2),
         "sequences": counts["sequences"],
-        "dropped": counts["dropped_by_camera"] + worker.dropped,
+        "dropped": counts["dropped_by_camera"] + pipeline.worker.dropped,
         "dropped_by_camera": counts["dropped_by_camera"],
-        "dropped_by_worker": worker.dropped,
+        "dropped_by_worker": pipeline.worker.dropped,
         "latency_ms": {
             "p50": round(float(np.percentile(latencies, 50)), 1) if latencies else None,
             "p99": round(float(np.percentile(latencies, 99)), 1) if latencies else None,
@@ -182,10 +205,11 @@ def measure_all(seconds: float) -> dict[str, Any]:
 
 
 def table(measured: dict[str, Any]) -> str:
-    header = ["camera", "cameras", "camera sequences/s", "clouds/s", "dropped", "latency p50 / p99 ms"]
+    header = ["sequence", "camera", "cameras", "camera sequences/s", "clouds/s", "dropped", "latency p50 / p99 ms"]
     header += ["CPU s per cloud", "frame MB", "sequence MB", "peak RSS MB"]
     rows = [
         [
+            c["sequence"],
             c["camera"],
             c["cameras"],
             c["camera_sequences_per_s"],

@@ -136,3 +136,58 @@ def phase_unwrap(
             if lower_quality:
                 quality[y, x] = min(quality[y, x], m)
     return low_count
+
+
+# what cued_unwrap finds at a pixel (rig.patterns.cued_phase numbers them alike: a test holds them together)
+UNLIT, DECODED, CUE_OFF, OUTSIDE = 0, 1, 2, 3
+
+
+@njit(**KERNEL)
+def cued_unwrap(
+    steps: tuple[Image, ...],
+    weight_sin: np.ndarray,
+    weight_cos: np.ndarray,
+    cue_period: np.float32,
+    period: np.float32,
+    extent: int,
+    min_modulation: np.float32,
+    cue_margin: np.float32,
+    modulation: Image,
+    coordinate: Image,
+    status: Image,
+    top: int,
+    bottom: int,
+) -> None:
+    """The cue's steps read whole (as phase_wrap reads a period's) and the fine coordinate in
+    `coordinate` (mod `period`, phase_wrap's fraction) unwrapped by it, in one pass
+    (rig.patterns.cued_phase): written over it, NaN where not DECODED. `status`: UNLIT where either
+    modulation is below `min_modulation`, CUE_OFF where the cue lies further than `cue_margin`
+    periods from the result, OUTSIDE where the result is beyond [-0.5, extent - 0.5)."""
+    two_pi, nan = np.float32(2 * np.pi), np.float32(np.nan)
+    per_radian, amplitude = cue_period / two_pi, np.float32(2.0 / len(steps))
+    beyond = np.float32(extent) + period / np.float32(2)  # a cue past here is noise about 0
+    lowest, highest = np.float32(-0.5), np.float32(extent) - np.float32(0.5)
+    width = coordinate.shape[1]
+    s, c = np.empty(width, np.float32), np.empty(width, np.float32)
+    for y in range(top, bottom):
+        s[:] = 0
+        c[:] = 0
+        for n in range(len(steps)):
+            row, ws, wc = steps[n][y], weight_sin[n], weight_cos[n]
+            for x in range(width):
+                value = np.float32(row[x])
+                s[x] += value * ws
+                c[x] += value * wc
+        for x in range(width):
+            sy, cx = s[x], c[x]
+            angle = atan2(sy, cx)
+            angle = angle + two_pi if angle < 0 else angle
+            cue = angle * per_radian
+            cue = cue - cue_period if cue > beyond else cue
+            fine = coordinate[y, x]
+            result = np.float32(np.floor((cue - fine) / period + np.float32(0.5))) * period + fine
+            found = DECODED if lowest < result < highest else OUTSIDE
+            found = found if abs(result - cue) <= cue_margin * period else CUE_OFF
+            lit = min(modulation[y, x], np.sqrt(sy * sy + cx * cx) * amplitude) >= min_modulation
+            status[y, x] = found if lit else UNLIT
+            coordinate[y, x] = result if lit and found == DECODED else nan

@@ -8,6 +8,7 @@ from pydantic import Field, field_validator, model_validator
 
 from rig.config.common import Strict
 from rig.patterns import CodecParams, codec_class, codec_names
+from rig.patterns.cued_phase import CuedPhaseParams
 from rig.patterns.gray import GrayParams
 from rig.patterns.phase import PhaseParams
 from rig.patterns.radial import RadialParams
@@ -201,6 +202,7 @@ class ScanConfig(Strict):
     phase: PhaseParams = PhaseParams()
     rings: RingsParams = RingsParams()
     radial: RadialParams = RadialParams()
+    cued_phase: CuedPhaseParams = CuedPhaseParams()
     capture_timeout_s: float = Field(5.0, gt=0.0, le=120.0)
     max_depth_jump_mm: float | None = Field(
         2.0,

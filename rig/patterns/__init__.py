@@ -1,5 +1,6 @@
 """Codecs by name: `codec_class("gray")`. Importing this package registers the built-in codecs."""
 
+from rig.patterns import cued_phase as _cued_phase  # noqa: F401 - registers the codec
 from rig.patterns import gray as _gray  # noqa: F401 - registers the codec
 from rig.patterns import phase as _phase  # noqa: F401 - registers the codec
 from rig.patterns import radial as _radial  # noqa: F401 - registers the codec

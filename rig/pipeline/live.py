@@ -27,8 +27,8 @@ from rig.patterns.stream import FrameStream
 from rig.pipeline.capture import capture
 from rig.pipeline.exposure import ExposureSettings, require_exposure, set_within_range, settled_exposures
 from rig.pipeline.hdr import bracketed, merge_exposures
-from rig.pipeline.organised import fast_terms
-from rig.pipeline.scan import is_reconstructed, make_codec, pair_cloud, reconstruct_pair, triangulator
+from rig.pipeline.organised import fast_terms, organised_depth
+from rig.pipeline.scan import is_reconstructed, make_codec, reconstruct_pair, triangulator
 from rig.pipeline.sustained import SequenceWorker
 from rig.progress import ProgressTracker
 from rig.rig import Rig
@@ -240,11 +240,16 @@ def prepare_triangulation(rig: Rig, codecs: list[Codec]) -> None:
 
 
 def pair_depth(rig: Rig, projector: int, camera: int, corr: Correspondence) -> np.ndarray:
-    """The pair's depth image: the organised fast path, or the general triangulation where the pair
-    needs it."""
-    fast = pair_cloud(rig, projector, camera, corr)
-    if fast is not None:
-        return fast[0].depth_image()
+    """The pair's depth image: the organised fast path's depth alone, or the general triangulation
+    where the pair needs it."""
+    axis = "u" if corr.u is not None else "v"
+    terms = None
+    if corr.samples is None and (corr.u is None) != (corr.v is None):
+        terms = fast_terms(triangulator(rig, projector, camera), axis)
+    if terms is not None:
+        coded = corr.u if corr.u is not None else corr.v
+        assert coded is not None
+        return organised_depth(terms, corr, coded, rig.config.scan.max_depth_jump_mm)
     model = rig.camera_models[camera]
     grid = reconstruct_pair(rig, projector, camera, corr, source=0).grid
     return ((grid - model.center) @ model.axis).astype(np.float32)

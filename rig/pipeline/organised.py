@@ -128,6 +128,35 @@ def organised_cloud(
 ) -> tuple[OrganisedCloud, dict[str, int]]:
     """Triangulate, drop isolated points (depth jumps over `max_jump_mm`, None: none dropped),
     normals and colours; the counts as reconstruct_pair reports them."""
+    ray, depth, keep, counts = _triangulated(terms, corr, coded, max_jump_mm)
+    height = coded.shape[0]
+    first = np.zeros(height + 1, np.int64)  # row y's kept pixels are normals[first[y]:first[y + 1]]
+    np.cumsum(np.count_nonzero(keep, axis=1), out=first[1:])
+    normals = np.empty((int(first[-1]), 3), np.float32)
+    in_row_strips(
+        height,
+        lambda rows: fused.kept_normals(
+            ray, terms.directions, _NORMAL_STEP, keep, first, normals, rows.start, rows.stop
+        ),
+    )
+    cloud = OrganisedCloud(origin, ray, terms.directions, depth, normals, keep, first, texture_rgb(corr), corr.quality)
+    return cloud, counts
+
+
+def organised_depth(
+    terms: PlaneTerms, corr: Correspondence, coded: np.ndarray, max_jump_mm: float | None
+) -> np.ndarray:
+    """The depth image alone (H, W) float32 in mm, NaN where organised_cloud keeps no point: what
+    live mode shows, without the normals and colours a cloud carries."""
+    _, depth, keep, _ = _triangulated(terms, corr, coded, max_jump_mm)
+    depth[~keep] = np.nan
+    return depth
+
+
+def _triangulated(
+    terms: PlaneTerms, corr: Correspondence, coded: np.ndarray, max_jump_mm: float | None
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, dict[str, int]]:
+    """Ray parameters and depths (H, W), the points kept (isolated ones dropped), and the counts."""
     height, width = coded.shape
     ray, depth = np.empty((height, width), np.float32), np.empty((height, width), np.float32)
     decoded = np.empty((height, width), bool)
@@ -149,14 +178,4 @@ def organised_cloud(
             ),
         )
         counts["rejected_depth_jump"] = sum(dropped)
-    first = np.zeros(height + 1, np.int64)  # row y's kept pixels are normals[first[y]:first[y + 1]]
-    np.cumsum(np.count_nonzero(keep, axis=1), out=first[1:])
-    normals = np.empty((int(first[-1]), 3), np.float32)
-    in_row_strips(
-        height,
-        lambda rows: fused.kept_normals(
-            ray, terms.directions, _NORMAL_STEP, keep, first, normals, rows.start, rows.stop
-        ),
-    )
-    cloud = OrganisedCloud(origin, ray, terms.directions, depth, normals, keep, first, texture_rgb(corr), corr.quality)
-    return cloud, counts
+    return ray, depth, keep, counts
