@@ -18,6 +18,24 @@ REPO = Path(__file__).resolve().parent.parent
 README = REPO / "README.md"
 
 
+def as_measured(config: Any, codec: str) -> tuple[Any, str]:
+    """The rig (a RigConfig) `codec` is measured on, and its name in a table: `config`, or, for a
+    codec that misreads a projector whose light is not linear in the level (Codec.needs_linear_light:
+    cued_phase's 3 steps), the same with the simulated projectors' gamma at 1, as a DLP shows 8-bit
+    patterns."""
+    from rig.config import config_from_dict
+    from rig.patterns import codec_class
+
+    size = tuple(config.projectors[0].resolution)
+    if not codec_class(codec)(size, getattr(config.scan, codec, None)).needs_linear_light:
+        return config, codec
+    data = config.model_dump(mode="json")
+    for projector in data["projectors"]:
+        if projector.get("sim") is not None:
+            projector["sim"]["gamma"] = 1.0
+    return config_from_dict(data, f"{codec} on a linear projector"), f"{codec} (linear projector)"
+
+
 def replace_block(name: str, text: str) -> None:
     """Rewrite the block `name` in whichever page of the manual holds it, signed (provenance())."""
     start, end = f"<!-- {name}:start -->", f"<!-- {name}:end -->"

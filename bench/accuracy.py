@@ -13,7 +13,7 @@ from typing import Any
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-from _readme import ACCURACY_HEADER, accuracy_cells, markdown_table, run
+from _readme import ACCURACY_HEADER, accuracy_cells, as_measured, markdown_table, run
 
 from rig.assembly import open_rig
 from rig.config import RigConfig, load_config
@@ -58,7 +58,8 @@ def measure_all() -> dict[str, object]:
     for scene, spec in SCENES.items():
         config = base.with_scene(spec)
         for codec in codec_names():
-            results.append({"scene": scene, "codec": codec, **measure(config, codec)})
+            measured_on, label = as_measured(config, codec)
+            results.append({"scene": scene, "codec": label, **measure(measured_on, codec)})
     return {
         "benchmark": "accuracy",
         "machine": platform.machine(),

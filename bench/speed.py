@@ -40,10 +40,11 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+import yaml
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-from _readme import markdown_table, replace_block
+from _readme import as_measured, markdown_table, replace_block
 
 from rig.assembly import open_rig
 from rig.config import RigConfig, config_from_dict, load_config
@@ -70,13 +71,15 @@ from rig.cli import main
 from rig.workers import release_free_memory
 def status_mb(key):
     return next(int(line.split()[1]) for line in open("/proc/self/status") if line.startswith(key + ":")) / 1024
-code = main(["scan", "--codec", sys.argv[1], "--out", sys.argv[2] + "-first", "--json"])
+config_file = sys.argv[3:]  # the rig to scan, where not the default
+rig_options = ["--config", *config_file] if config_file else []
+code = main(["scan", "--codec", sys.argv[1], "--out", sys.argv[2] + "-first", "--json", *rig_options])
 whole = status_mb("VmHWM")
 from pathlib import Path
 from rig.assembly import open_rig
 from rig.config import load_config
 from rig.service.tasks import scan_to_directory
-with open_rig(load_config().with_codec(sys.argv[1])) as rig:
+with open_rig(load_config(*config_file).with_codec(sys.argv[1])) as rig:
     scan_to_directory(rig, Path(sys.argv[2] + "-warm"), "warm")
     release_free_memory()
     fixed = status_mb("VmRSS")
@@ -268,10 +271,14 @@ def live(seconds: float = 5.0) -> dict[str, object]:
     return {"codec": codec.name, "steps": getattr(codec.params, "steps", None), **stats.as_dict()}
 
 
-def peak_memory(codec_name: str) -> dict[str, float | None]:
+def peak_memory(codec_name: str, config: RigConfig | None = None) -> dict[str, float | None]:
     with tempfile.TemporaryDirectory() as tmp:
+        rig_file = []
+        if config is not None:  # another rig than the default: as a file, for a fresh process
+            rig_file = [os.path.join(tmp, "rig.yaml")]
+            Path(rig_file[0]).write_text(yaml.safe_dump(config.model_dump(mode="json")))
         out = subprocess.run(
-            [sys.executable, "-c", _PEAK_SNIPPET, codec_name, os.path.join(tmp, "scan")],
+            [sys.executable, "-c", _PEAK_SNIPPET, codec_name, os.path.join(tmp, "scan"), *rig_file],
             capture_output=True,
             text=True,
             check=True,
@@ -289,8 +296,10 @@ def peak_memory(codec_name: str) -> dict[str, float | None]:
 
 
 def codec_row(name: str, bandwidth_gb_s: float) -> dict[str, float | None]:
-    row = reconstruction(name, bandwidth_gb_s=bandwidth_gb_s)
-    memory = peak_memory(name)
+    config, label = as_measured(load_config(), name)
+    linear = config if label != name else None  # the rig a codec needing linear light is measured on
+    row = reconstruction(name, config=linear, bandwidth_gb_s=bandwidth_gb_s)
+    memory = peak_memory(name, linear)
     per_scan = memory["per_scan_mb"]
     return {
         **row,
@@ -327,7 +336,7 @@ def readme_text(result: dict[str, Any]) -> str:
     f, r, lv = result["simulated_frame_1280x1024"], result["recognition"], result["live"]
     rows = [
         [
-            name,
+            as_measured(load_config(), name)[1],
             c["frames"],
             c["last_frame_to_cloud_ms"],
             c["decode_ms"],

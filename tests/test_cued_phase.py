@@ -52,6 +52,9 @@ def test_six_frames_without_a_white_or_dark_one_read_the_projector_column() -> N
 
 
 def test_an_uncorrected_gamma_is_refused_with_three_steps_and_read_with_four() -> None:
+    with open_rig(config_from_dict(_bench(2.2, 3), "cued")) as rig:  # what benches ask to pick a rig
+        assert make_codec(rig, 0).needs_linear_light and not make_codec(rig, 0, "phase").needs_linear_light
+    assert not cued_phase.CuedPhaseCodec((256, 192), cued_phase.CuedPhaseParams(steps=4)).needs_linear_light
     with pytest.raises(DecodeError, match=r"calibrate its response.*4 steps"):
         _decoded_error(_bench(2.2, 3))
     error, corr = _decoded_error(_bench(2.2, 4))  # 4 steps cancel the gamma's second harmonic

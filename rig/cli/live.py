@@ -65,7 +65,7 @@ def cmd_live(args: argparse.Namespace) -> int:
         latency = summary["latency_ms"] or {}
         print(
             f"live {codec.name}: {summary['sequences']} sequences in {summary['seconds']} s, "
-            f"{summary['clouds_per_s']} clouds/s; latency from last frame to depth median "
-            f"{latency.get('median')} ms, p95 {latency.get('p95')} ms"
+            f"{summary['clouds_per_s']} clouds/s, {summary['dropped']} dropped; latency from last frame to depth "
+            f"median {latency.get('median')} ms, p95 {latency.get('p95')} ms"
         )
     return 0

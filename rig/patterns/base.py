@@ -205,6 +205,13 @@ class Codec(abc.ABC):
         """Patterns per scan, without making them."""
         return 2 + self._coded_frame_count()
 
+    @property
+    def needs_linear_light(self) -> bool:
+        """Whether a projector whose light is not linear in the level (an uncorrected gamma) makes
+        this codec misread it, not just read it less well: it then needs a DLP's patterns or a
+        calibrated response (`slrig calibrate response`)."""
+        return False
+
     def description(self) -> PatternSpec | None:
         """This codec's frames as a pattern description (rig.patterns.spec), so that the reader of
         others' captures reads slrig's own; None where a description cannot say what it shows."""

@@ -86,6 +86,10 @@ class CuedPhaseCodec(LineCodec):
         return self.extent(self.axis) + self.params.period_px
 
     @property
+    def needs_linear_light(self) -> bool:
+        return self.params.steps == 3  # 4 steps and more cancel a gamma's second harmonic
+
+    @property
     def frame_count(self) -> int:
         return self._coded_frame_count()  # no white or dark frame
 
