@@ -16,6 +16,7 @@ sustained run above that, also against the frames of two sequences (each case in
 
     python bench/throughput.py [--docs] [--seconds 10]
     python bench/throughput.py --case 6-1280x1024-8bit-1 [--seconds 10]   # one case, its JSON alone
+    python bench/throughput.py --table measured.json   # the docs' block again, from a JSON it printed
 
 The simulator renders far slower than a camera delivers, so the rig's own capture is left out.
 """
@@ -39,7 +40,7 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from _readme import markdown_table, replace_block
+from _readme import as_measured, markdown_table, replace_block
 
 from rig.assembly import open_rig
 from rig.config import config_from_dict, load_config
@@ -54,8 +55,7 @@ from rig.workers import release_free_memory
 
 # The sequences: live mode's default (4-step phase unwrapped by Gray code, 20 frames on this
 # projector) and the shortest, cued_phase (3 fringe steps and 3 of a single-period cue, 6 frames),
-# shown as a DLP shows 8-bit patterns: light linear in the level (3 steps need it: a gamma's second
-# harmonic would shift their phase, rig.patterns.cued_phase)
+# shown as a DLP shows 8-bit patterns, light linear in the level (as_measured: 3 steps need it)
 SEQUENCES: dict[str, dict[str, Any]] = {
     "20": {"codec": "phase", "params": None},
     "6": {"codec": "cued_phase", "params": {"steps": 3}},
@@ -79,8 +79,6 @@ def bench_config(sequence: str, width: int, height: int, bit_depth: int, cameras
     of view) and depth; a second camera on the projector's other side, as far from it as the first."""
     data = load_config().model_dump(mode="json")
     data["scan"]["live"] = SEQUENCES[sequence]
-    if sequence == "6":
-        data["projectors"][0]["sim"]["gamma"] = 1.0
     camera = data["cameras"][0]
     scale = width / camera["resolution"][0]
     intrinsics = camera["geometry"]["intrinsics"]
@@ -150,6 +148,7 @@ class Sustained:
 def measure_case(name: str, seconds: float) -> dict[str, Any]:
     sequence, width, height, bit_depth, cameras, rate_hz = CASES[name]
     config = config_from_dict(bench_config(sequence, width, height, bit_depth, cameras), f"throughput {name}")
+    config, _ = as_measured(config, config.scan.live.codec)
     with open_rig(config) as rig:
         codecs = live_codecs(rig)
         prepare_triangulation(rig, codecs)
@@ -179,6 +178,7 @@ def measure_case(name: str, seconds: float) -> dict[str, Any]:
         "case": name,
         "camera": f"{width}x{height} {bit_depth}-bit at {rate_hz:g} Hz",
         "cameras": cameras,
+        "codec": config.scan.live.codec,
         "sequence": f"{config.scan.live.codec}, {len(frames)} frames",
         "frames_per_sequence": len(frames),
         "seconds": round(wall, 2),
@@ -220,7 +220,9 @@ def measure_all(seconds: float) -> dict[str, Any]:
     cases = []
     for name in CASES:  # each in a fresh process: its own peak memory
         command = [sys.executable, __file__, "--case", name, "--seconds", str(seconds)]
-        done = subprocess.run(command, check=True, capture_output=True, text=True, timeout=1800)
+        done = subprocess.run(command, capture_output=True, text=True, timeout=1800)
+        if done.returncode:
+            raise SystemExit(f"throughput case {name} failed:\n{done.stderr[-3000:]}")
         cases.append(json.loads(done.stdout.strip().splitlines()[-1]))
     return {"benchmark": "throughput", "cases": cases}
 
@@ -231,7 +233,7 @@ def table(measured: dict[str, Any]) -> str:
     header.append("that / two sequences")
     rows = [
         [
-            c["sequence"],
+            f"{as_measured(load_config(), c['sequence'].split(',')[0])[1]}, {c['frames_per_sequence']} frames",
             c["camera"],
             c["cameras"],
             c["camera_sequences_per_s"],
@@ -255,7 +257,11 @@ def main() -> None:
     parser.add_argument("--case", choices=sorted(CASES), help="measure this case alone, in this process")
     parser.add_argument("--seconds", type=float, default=10.0, help="how long the cameras deliver, per case")
     parser.add_argument("--docs", action="store_true", help="rewrite the throughput block of docs/results.md")
+    parser.add_argument("--table", type=Path, help="rewrite the block from this JSON, which the bench printed before")
     args = parser.parse_args()
+    if args.table:
+        replace_block("throughput-table", table(json.loads(args.table.read_text())))
+        return
     if args.case:
         print(json.dumps(measure_case(args.case, args.seconds)))
         return

@@ -139,7 +139,7 @@ def phase_unwrap(
 
 
 # what cued_unwrap finds at a pixel (rig.patterns.cued_phase numbers them alike: a test holds them together)
-UNLIT, DECODED, CUE_OFF, OUTSIDE = 0, 1, 2, 3
+UNLIT, DECODED, CUE_OFF, OUTSIDE, LOW_MODULATION = 0, 1, 2, 3, 4
 
 
 @njit(**KERNEL)
@@ -150,6 +150,7 @@ def cued_unwrap(
     cue_period: np.float32,
     period: np.float32,
     extent: int,
+    black_threshold: np.float32,
     min_modulation: np.float32,
     cue_margin: np.float32,
     modulation: Image,
@@ -160,9 +161,10 @@ def cued_unwrap(
 ) -> None:
     """The cue's steps read whole (as phase_wrap reads a period's) and the fine coordinate in
     `coordinate` (mod `period`, phase_wrap's fraction) unwrapped by it, in one pass
-    (rig.patterns.cued_phase): written over it, NaN where not DECODED. `status`: UNLIT where either
-    modulation is below `min_modulation`, CUE_OFF where the cue lies further than `cue_margin`
-    periods from the result, OUTSIDE where the result is beyond [-0.5, extent - 0.5)."""
+    (rig.patterns.cued_phase): written over it, NaN where not DECODED. `status`: UNLIT where twice
+    the fringes' modulation is below `black_threshold`, LOW_MODULATION where either modulation is
+    below `min_modulation`, CUE_OFF where the cue lies further than `cue_margin` periods from the
+    result, OUTSIDE where the result is beyond [-0.5, extent - 0.5)."""
     two_pi, nan = np.float32(2 * np.pi), np.float32(np.nan)
     per_radian, amplitude = cue_period / two_pi, np.float32(2.0 / len(steps))
     beyond = np.float32(extent) + period / np.float32(2)  # a cue past here is noise about 0
@@ -188,6 +190,8 @@ def cued_unwrap(
             result = np.float32(np.floor((cue - fine) / period + np.float32(0.5))) * period + fine
             found = DECODED if lowest < result < highest else OUTSIDE
             found = found if abs(result - cue) <= cue_margin * period else CUE_OFF
-            lit = min(modulation[y, x], np.sqrt(sy * sy + cx * cx) * amplitude) >= min_modulation
-            status[y, x] = found if lit else UNLIT
-            coordinate[y, x] = result if lit and found == DECODED else nan
+            fringe = modulation[y, x]
+            found = found if min(fringe, np.sqrt(sy * sy + cx * cx) * amplitude) >= min_modulation else LOW_MODULATION
+            found = found if fringe + fringe >= black_threshold else UNLIT
+            status[y, x] = found
+            coordinate[y, x] = result if found == DECODED else nan

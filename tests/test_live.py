@@ -268,3 +268,20 @@ def test_a_slow_client_drops_frames_and_never_slows_the_rig(tmp_path: Path) -> N
     finally:
         stack.close()
         daemon.stop()
+
+
+def test_a_failure_during_live_mode_is_the_one_raised_and_the_projector_ends_dark(small_config: RigConfig) -> None:
+    """The worker still finishing a sequence when live mode fails must not hide why it failed."""
+    asked = iter(range(3))
+
+    def keep_going() -> bool:
+        if next(asked, None) is None:
+            raise RuntimeError("the operator pulled the plug")
+        return True
+
+    frames: list[LiveFrame] = []
+    with open_rig(small_config) as rig:
+        with pytest.raises(RuntimeError, match="pulled the plug"):
+            run_live(rig, frames.append, keep_going)
+        assert all(p.is_dark for p in rig.projectors)  # type: ignore[attr-defined]
+    assert [f.sequence for f in frames][-1] == 3  # the last sequence was finished all the same

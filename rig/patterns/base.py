@@ -152,8 +152,10 @@ def sent_levels(pattern: np.ndarray, mask: np.ndarray | None, lut: np.ndarray | 
 class Codec(abc.ABC):
     """Encoder and decoder for one pattern family.
 
-    Frame order is the pattern order; every codec starts with a fully lit and a dark frame, which
-    give the texture and the lit mask. Subclasses implement `_coded_patterns` and `_decode`.
+    Frame order is the pattern order; a codec starts with a fully lit and a dark frame, which give
+    the texture and the lit mask (one that shows none, rig.patterns.cued_phase, overrides
+    `iter_patterns`, `frame_count`, `_decoded` and `references`). Subclasses implement
+    `_coded_patterns` and `_decode`.
     """
 
     name: ClassVar[str]
@@ -228,16 +230,25 @@ class Codec(abc.ABC):
         if self.deblur_px > 0:
             restore = Deblur(self.deblur_px, full_scale).restored
             frames = [restore(f) for f in frames]
-        normalized = NormalizedFrames(frames, full_scale)
-        white, black = normalized[0], normalized[1]
-        lit = (white - black) >= self.params.black_threshold
-        corr = self._decode(NormalizedFrames(frames[2:], full_scale), white, black, lit, frames[0])
+        corr = self._decoded(frames, full_scale)
         saturated = saturated_in(frames, full_scale)
         if saturated is not None:
             corr = without_saturated(corr, saturated)
         if self.drops_outshone:
-            corr = without_outshone(corr, frames[0], frames[1])
+            corr = without_outshone(corr, *self.references(frames, corr))
         return dataclasses.replace(corr, full_scale=full_scale)
+
+    def _decoded(self, frames: list[np.ndarray], full_scale: int) -> Correspondence:
+        """The frames read by `_decode`, after the white and dark frames that give the lit mask."""
+        normalized = NormalizedFrames(frames, full_scale)
+        white, black = normalized[0], normalized[1]
+        lit = (white - black) >= self.params.black_threshold
+        return self._decode(NormalizedFrames(frames[2:], full_scale), white, black, lit, frames[0])
+
+    def references(self, frames: list[np.ndarray], corr: Correspondence) -> tuple[np.ndarray, np.ndarray]:
+        """The white and the dark frame of a capture (for the spill screen, rig.patterns.spill):
+        its first two frames, for every codec that shows them."""
+        return frames[0], frames[1]
 
     @abc.abstractmethod
     def _coded_patterns(self) -> list[np.ndarray]: ...

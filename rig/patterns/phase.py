@@ -140,10 +140,7 @@ class PhaseStream(FrameStream):
 
     def __init__(self, codec: PhaseCodec, full_scale: int) -> None:
         super().__init__(codec, full_scale)
-        steps = codec.params.steps
-        delta = 2 * np.pi * np.arange(steps) / steps
-        self._weight_sin = (np.sin(delta) / full_scale).astype(np.float32)
-        self._weight_cos = (np.cos(delta) / full_scale).astype(np.float32)
+        self._weights = step_weights(codec.params.steps, full_scale)
         self._pending = [(axis, GrayBits(codec._gray_bits(axis))) for axis in codec.axes()]  # axes still to read
         self._min_strength = least_counts(codec.params.white_threshold, full_scale)
         self._base = DenseBase(codec, full_scale, keep_contrast=False)
@@ -173,18 +170,7 @@ class PhaseStream(FrameStream):
         """After a period's last step: the modulation, and the phase as a fraction of a period
         ready for the period index (near a wrap, the index of the code shifted by half a period)."""
         steps, self._steps = tuple(self._steps), []
-        params = self.codec.params
-        amplitude, period = np.float32(2.0 / params.steps), np.float32(params.period_px)
-        shape = steps[0].shape
-        fraction, modulation, near = np.empty(shape, np.float32), np.empty(shape, np.float32), np.empty(shape, np.uint8)
-        weight_sin, weight_cos = self._weight_sin, self._weight_cos
-        in_row_strips(
-            shape[0],
-            lambda rows: fused_phase.phase_wrap(
-                steps, weight_sin, weight_cos, amplitude, period, modulation, near, fraction, rows.start, rows.stop
-            ),
-        )
-        self._wrapped = (fraction, near, modulation)
+        self._wrapped = wrapped_steps(steps, self._weights, self.codec.params.period_px)
 
     def _unwrap(self, axis: str, reader: GrayBits) -> np.ndarray:
         assert self._wrapped is not None
@@ -225,3 +211,26 @@ class PhaseStream(FrameStream):
     def _finish(self) -> Correspondence:
         assert self._quality is not None
         return self._base.correspondence(self._coords, self._quality)
+
+
+def step_weights(steps: int, full_scale: int) -> tuple[np.ndarray, np.ndarray]:
+    """The sine and cosine weights of N phase steps in integer counts (of `full_scale`)."""
+    delta = 2 * np.pi * np.arange(steps) / steps
+    return (np.sin(delta) / full_scale).astype(np.float32), (np.cos(delta) / full_scale).astype(np.float32)
+
+
+def wrapped_steps(
+    steps: tuple[np.ndarray, ...], weights: tuple[np.ndarray, np.ndarray], period_px: int
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """A period's steps read whole (rig.fused_phase.phase_wrap): the phase as a fraction of the
+    period in pixels (one period less past 3 pi / 2), whether it is near a wrap, and the modulation."""
+    shape = steps[0].shape
+    fraction, modulation, near = np.empty(shape, np.float32), np.empty(shape, np.float32), np.empty(shape, np.uint8)
+    amplitude, period = np.float32(2.0 / len(steps)), np.float32(period_px)
+    in_row_strips(
+        shape[0],
+        lambda rows: fused_phase.phase_wrap(
+            steps, weights[0], weights[1], amplitude, period, modulation, near, fraction, rows.start, rows.stop
+        ),
+    )
+    return fraction, near, modulation

@@ -6,7 +6,8 @@ On the simulated dark-and-white box (50:1) HDR read the dark pixel beside an edg
 the next one 0.13 mm (medians), against 0.04 mm further in; the bright side's first pixel 0.13 mm
 (kept: most of its light is its own).
 
-Where the contrast (white frame less dark frame, the first two frames of every codec) among a
+Where the contrast (white frame less dark frame: a codec's first two frames, or the fringes' peak
+and trough of cued_phase, which shows neither; Codec.references) among a
 pixel and its 8 neighbours spans more than `SPILL_RATIO` from darkest to brightest, every pixel
 there below `PLATEAU` of the brightest is left out and counted (`rejected_outshone`): the dark
 side's first pixels (the one so lit by spill that it looks half bright among them), not the

@@ -74,7 +74,8 @@ class FrameStream(abc.ABC):
 
     @abc.abstractmethod
     def _consume(self, index: int, frame: np.ndarray) -> None:
-        """Frame `index` (0 is the white frame, 1 the dark one) has arrived."""
+        """Frame `index` has arrived (0 is the white frame and 1 the dark one, for every codec but
+        cued_phase, which shows neither)."""
 
     @abc.abstractmethod
     def _finish(self) -> Correspondence: ...

@@ -11,7 +11,9 @@ must not block): a slow reader skips sequences and never slows the rig.
 
 from __future__ import annotations
 
+import logging
 import statistics
+import threading
 import time
 from collections import deque
 from collections.abc import Callable
@@ -28,12 +30,13 @@ from rig.pipeline.capture import capture
 from rig.pipeline.exposure import ExposureSettings, require_exposure, set_within_range, settled_exposures
 from rig.pipeline.hdr import bracketed, merge_exposures
 from rig.pipeline.organised import fast_terms, organised_depth
-from rig.pipeline.scan import is_reconstructed, make_codec, reconstruct_pair, triangulator
+from rig.pipeline.scan import is_reconstructed, make_codec, organised_terms, reconstruct_pair, triangulator
 from rig.pipeline.sustained import SequenceWorker
 from rig.progress import ProgressTracker
 from rig.rig import Rig
 
 FINISH_TIMEOUT_S = 60.0  # the last sequence's triangulation, once live mode stops
+log = logging.getLogger(__name__)
 LATENCIES_KEPT = 256  # the summary's latency figures are over the last this many sequences
 RATE_OVER = 32  # clouds per second: over the last this many sequences
 
@@ -63,24 +66,32 @@ class LiveStats:
     latencies_ms: deque[float] = field(default_factory=lambda: deque(maxlen=LATENCIES_KEPT))
     ready_s: deque[float] = field(default_factory=lambda: deque(maxlen=RATE_OVER))
     sequence_ms: deque[float] = field(default_factory=lambda: deque(maxlen=LATENCIES_KEPT))
+    # the sequence worker adds while the daemon's handlers read: each holds this
+    lock: threading.Lock = field(default_factory=threading.Lock, repr=False, compare=False)
 
     def add(self, frame: LiveFrame) -> None:
-        self.sequences = frame.sequence
-        self.last_ready_s = frame.ready_s
-        self.ready_s.append(frame.ready_s)
-        self.points = frame.points
-        self.latencies_ms.append(frame.latency_ms)
-        self.sequence_ms.append(frame.sequence_ms)
+        with self.lock:
+            self.sequences = frame.sequence
+            self.last_ready_s = frame.ready_s
+            self.ready_s.append(frame.ready_s)
+            self.points = frame.points
+            self.latencies_ms.append(frame.latency_ms)
+            self.sequence_ms.append(frame.sequence_ms)
 
     def recent_rate(self) -> float:
         """Sequences per second over the last RATE_OVER (from the first sequence's start while
         there is only one)."""
-        if len(self.ready_s) >= 2:
-            return (len(self.ready_s) - 1) / max(self.ready_s[-1] - self.ready_s[0], 1e-9)
+        ready = list(self.ready_s)  # a copy: the worker may be adding
+        if len(ready) >= 2:
+            return (len(ready) - 1) / max(ready[-1] - ready[0], 1e-9)
         elapsed = (self.last_ready_s or self.started_s) - self.started_s
         return self.sequences / elapsed if elapsed > 0 else 0.0
 
     def as_dict(self) -> dict[str, object]:
+        with self.lock:
+            return self._figures()
+
+    def _figures(self) -> dict[str, object]:
         seconds = (self.last_ready_s or self.started_s) - self.started_s
         latencies = sorted(self.latencies_ms)
         return {
@@ -131,17 +142,32 @@ def run_live(
     worker: SequenceWorker[CapturedSequence, LiveFrame] = SequenceWorker(
         lambda captured: finish_sequence(rig, captured), published
     )
-    dropped = stats.dropped
+    dropped, ended = stats.dropped, False
     try:
         while keep_going():
+            captured = capture_sequence(rig, codecs, stats.captured + 1, exposures)
             stats.captured += 1
-            worker.submit(capture_sequence(rig, codecs, stats.captured, exposures))
+            worker.submit(captured)
             stats.dropped = dropped + worker.dropped
+        ended = True
     finally:
-        rig.all_dark()
-        worker.close(FINISH_TIMEOUT_S)
-        stats.dropped = dropped + worker.dropped
+        try:
+            rig.all_dark()
+        finally:
+            _close(worker, raise_failure=ended)
+            stats.dropped = dropped + worker.dropped
     return stats
+
+
+def _close(worker: SequenceWorker, raise_failure: bool) -> None:
+    """Finish the sequence still waiting; where live mode is already failing, a failure of the
+    worker's is logged, not raised in place of the one that ended it."""
+    try:
+        worker.close(FINISH_TIMEOUT_S)
+    except Exception:
+        if raise_failure:
+            raise
+        log.exception("live mode: the last sequence failed too")
 
 
 def live_exposures(rig: Rig, hdr: str | list[float] | None) -> list[list[float]] | None:
@@ -164,13 +190,6 @@ class CapturedSequence:
     streams: dict[tuple[int, int], list[FrameStream]]  # per pair, one per exposure
     started_s: float  # time.perf_counter() at its first pattern
     last_frame_s: float  # ... when its last frame arrived
-
-
-def live_sequence(
-    rig: Rig, codecs: list[Codec], sequence: int, exposures: list[list[float]] | None = None
-) -> LiveFrame:
-    """Show the sequence once and triangulate it (capture_sequence, then finish_sequence)."""
-    return finish_sequence(rig, capture_sequence(rig, codecs, sequence, exposures))
 
 
 def capture_sequence(
@@ -242,14 +261,9 @@ def prepare_triangulation(rig: Rig, codecs: list[Codec]) -> None:
 def pair_depth(rig: Rig, projector: int, camera: int, corr: Correspondence) -> np.ndarray:
     """The pair's depth image: the organised fast path's depth alone, or the general triangulation
     where the pair needs it."""
-    axis = "u" if corr.u is not None else "v"
-    terms = None
-    if corr.samples is None and (corr.u is None) != (corr.v is None):
-        terms = fast_terms(triangulator(rig, projector, camera), axis)
-    if terms is not None:
-        coded = corr.u if corr.u is not None else corr.v
-        assert coded is not None
-        return organised_depth(terms, corr, coded, rig.config.scan.max_depth_jump_mm)
+    fast = organised_terms(rig, projector, camera, corr)
+    if fast is not None:
+        return organised_depth(fast[0], corr, fast[1], rig.config.scan.max_depth_jump_mm)
     model = rig.camera_models[camera]
     grid = reconstruct_pair(rig, projector, camera, corr, source=0).grid
     return ((grid - model.center) @ model.axis).astype(np.float32)

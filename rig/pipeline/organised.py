@@ -50,10 +50,6 @@ class OrganisedCloud:
     quality: np.ndarray  # (H, W) float32
     used: bool = False  # into_pointset has taken the images
 
-    def depth_image(self) -> np.ndarray:
-        """Depth along the camera axis (H, W) float32 in mm, NaN where there is no point."""
-        return np.where(self.valid, self.depth, np.float32(np.nan))
-
     def grid(self) -> np.ndarray:
         """World points (H, W, 3) float64, NaN where not valid (PairResult.grid)."""
         grid = np.moveaxis(self.directions * self.ray, 0, -1).astype(np.float64)

@@ -16,7 +16,7 @@ from rig.pipeline.colour import interpolate_colour, sample_colours
 from rig.pipeline.dense import PairTriangulator, pair_pointset, reject_isolated, texture_rgb
 from rig.pipeline.merge import expected_error_mm, local_noise_mm, merge, triangulation_angles
 from rig.pipeline.mesh import Mesh, grid_mesh
-from rig.pipeline.organised import OrganisedCloud, fast_terms, organised_cloud
+from rig.pipeline.organised import OrganisedCloud, PlaneTerms, fast_terms, organised_cloud
 from rig.pipeline.overlap import overlap_from_cue
 from rig.pipeline.pointset import PointSet
 from rig.pipeline.realign import align_pairs
@@ -198,16 +198,23 @@ def pair_cloud(
 ) -> tuple[OrganisedCloud, dict[str, int]] | None:
     """A dense correspondence's organised cloud by the fast path (rig.pipeline.organised): points,
     normals and colours as camera images; None where the pair needs the general path."""
+    fast = organised_terms(rig, projector, camera, corr)
+    if fast is None:
+        return None
+    origin = rig.camera_models[camera].center
+    return organised_cloud(fast[0], origin, corr, fast[1], rig.config.scan.max_depth_jump_mm)
+
+
+def organised_terms(
+    rig: Rig, projector: int, camera: int, corr: Correspondence
+) -> tuple[PlaneTerms, np.ndarray] | None:
+    """The pair's per-pixel plane terms and the one coordinate `corr` codes, where the fast path
+    (rig.pipeline.organised) can triangulate it: a dense correspondence of one axis."""
     if corr.samples is not None or (corr.u is None) == (corr.v is None):
         return None
-    axis = "u" if corr.u is not None else "v"
+    coded, axis = (corr.u, "u") if corr.u is not None else (corr.v, "v")
     terms = fast_terms(triangulator(rig, projector, camera), axis)
-    if terms is None:
-        return None
-    coded = corr.u if corr.u is not None else corr.v
-    assert coded is not None
-    origin = rig.camera_models[camera].center
-    return organised_cloud(terms, origin, corr, coded, rig.config.scan.max_depth_jump_mm)
+    return None if terms is None or coded is None else (terms, coded)
 
 
 def triangulator(rig: Rig, projector: int, camera: int) -> PairTriangulator:

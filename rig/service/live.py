@@ -3,7 +3,8 @@ the rig) whenever no job is waiting, watched by any number of clients.
 
 The worker writes the newest frame into one slot; readers take whatever is newest when they are
 ready for it, so a slow reader skips sequences and never holds the rig back. A queued job pauses
-live mode (a triggered scan never waits for a preview); it resumes once the queue is empty.
+live mode (a triggered scan waits for no preview, only for the sequence being triangulated as it
+stops, a few milliseconds); it resumes once the queue is empty.
 """
 
 from __future__ import annotations
