@@ -55,6 +55,22 @@ def atan2(y: np.float32, x: np.float32) -> np.float32:
 
 
 @njit(**KERNEL)
+def _step_sums(
+    steps: tuple[Image, ...], weight_sin: np.ndarray, weight_cos: np.ndarray, y: int, s: np.ndarray, c: np.ndarray
+) -> None:
+    """Row `y`'s sums of the steps times their sine and cosine weights, in step order (as the batch
+    decoder adds them), into `s` and `c`."""
+    s[:] = 0
+    c[:] = 0
+    for n in range(len(steps)):
+        row, ws, wc = steps[n][y], weight_sin[n], weight_cos[n]
+        for x in range(s.shape[0]):
+            value = np.float32(row[x])
+            s[x] += value * ws
+            c[x] += value * wc
+
+
+@njit(**KERNEL)
 def phase_wrap(
     steps: tuple[Image, ...],
     weight_sin: np.ndarray,
@@ -76,14 +92,7 @@ def phase_wrap(
     width = modulation.shape[1]
     s, c = np.empty(width, np.float32), np.empty(width, np.float32)
     for y in range(top, bottom):
-        s[:] = 0
-        c[:] = 0
-        for n in range(len(steps)):
-            row, ws, wc = steps[n][y], weight_sin[n], weight_cos[n]
-            for x in range(width):
-                value = np.float32(row[x])
-                s[x] += value * ws
-                c[x] += value * wc
+        _step_sums(steps, weight_sin, weight_cos, y, s, c)
         for x in range(width):
             sy, cx = s[x], c[x]
             modulation[y, x] = np.sqrt(sy * sy + cx * cx) * amplitude
@@ -172,14 +181,7 @@ def cued_unwrap(
     width = coordinate.shape[1]
     s, c = np.empty(width, np.float32), np.empty(width, np.float32)
     for y in range(top, bottom):
-        s[:] = 0
-        c[:] = 0
-        for n in range(len(steps)):
-            row, ws, wc = steps[n][y], weight_sin[n], weight_cos[n]
-            for x in range(width):
-                value = np.float32(row[x])
-                s[x] += value * ws
-                c[x] += value * wc
+        _step_sums(steps, weight_sin, weight_cos, y, s, c)
         for x in range(width):
             sy, cx = s[x], c[x]
             angle = atan2(sy, cx)
