@@ -75,9 +75,7 @@ class CuedPhaseCodec(LineCodec):
     Params = CuedPhaseParams
     params: CuedPhaseParams  # type: ignore[assignment]  # a LineCodec's axes, without its Gray settings
 
-    def __init__(self, *args: object, **kwargs: object) -> None:
-        super().__init__(*args, **kwargs)  # type: ignore[arg-type]
-        self._warned_s = -WARN_EVERY_S
+    _warned_s = -WARN_EVERY_S  # when this codec last warned (time.monotonic); set per instance then
 
     @property
     def axis(self) -> str:
@@ -112,10 +110,13 @@ class CuedPhaseCodec(LineCodec):
             (fringe(period, n), self.axis) for period in (self.params.period_px, self.cue_period) for n in range(steps)
         ]
 
+    def decode(self, frames: list[np.ndarray], full_scale: int) -> Correspondence:
+        self.refuse_deblur()  # before the base class deblurs the frames
+        return super().decode(frames, full_scale)
+
     def _decoded(self, frames: list[np.ndarray], full_scale: int) -> Correspondence:
         """The reference decoder (numpy), as the module docstring says; the stream's compiled passes
         give the same within float rounding."""
-        self.refuse_deblur()
         steps, period = self.params.steps, np.float32(self.params.period_px)
         grey = [integer_frame(self, f).astype(np.float32) / np.float32(full_scale) for f in frames]
         fine, fine_modulation = _phase(grey[:steps], period)
@@ -281,7 +282,8 @@ class CuedPhaseStream(FrameStream):
             raise DecodeError(f"{self.codec.name}: the stream finished before its last frame")
         coordinate, status = self._result
         peak, modulation = self._peak, self._wrapped[1]
-        if self.spill is not None:  # the white and dark frames it would take: the fringes' peak and trough
-            self.spill.add(0, peak)
-            self.spill.add(1, trough(peak, modulation, self.full_scale))
-        return self.codec.accounted(coordinate, status, self.saturation.mask, modulation, peak, self.full_scale)
+        corr = self.codec.accounted(coordinate, status, self.saturation.mask, modulation, peak, self.full_scale)
+        if self.spill is not None:  # the white and dark frames it takes, as the batch decoder's (Codec.references)
+            for index, reference in enumerate(self.codec.references([], corr)):
+                self.spill.add(index, reference)
+        return corr
