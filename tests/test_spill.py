@@ -11,6 +11,7 @@ import pytest
 from rig.config import config_from_dict
 from rig.patterns import codec_class
 from rig.patterns.base import Codec, Correspondence
+from rig.patterns.spill import outshone
 from rig.patterns.stream import decode_streamed
 from rig.pipeline.scan import make_codec
 from tests.conftest import UNCLIPPED_FULL_SCALE, small_config_data
@@ -62,6 +63,22 @@ def test_the_dark_side_of_an_edge_reads_toward_the_bright_side_and_is_left_out()
     assert np.nanmax(_column_error(screened)[good]) < 0.5 * np.nanmax(error[at_edges])
     assert screened.valid[inner].all()  # no pixel away from an edge is lost
     assert screened.valid[albedo > 0.5].mean() > 0.9  # nor is the bright side's plateau
+
+
+@pytest.mark.parametrize("clipped_at", [None, 0.9])
+def test_at_a_fifty_to_one_edge_only_the_pixels_mostly_lit_by_spill_are_left_out(clipped_at: float | None) -> None:
+    """Across a 50:1 edge seen through a 0.6 px blur the dark side's first pixel takes 89 % of its
+    light from the bright side and is left out; the next takes 11 % and is kept (the box's HDR
+    read it so, beside a neighbour clipped in the long exposure)."""
+    albedo = np.where(np.arange(40) < 20, 1.0, 0.02).astype(np.float32)[None].repeat(9, axis=0)
+    white = cv2.GaussianBlur(albedo, (0, 0), 0.6)
+    spilled = 1.0 - albedo / white  # the share of each pixel's light that is not its own
+    if clipped_at is not None:
+        white = np.minimum(white, np.float32(clipped_at))
+    left_out = outshone(white, np.zeros_like(white))[4]
+    np.testing.assert_allclose(spilled[4, 20:22], [0.89, 0.11], atol=0.01)
+    assert left_out[20] and not left_out[21:].any()  # the first dark pixel only
+    assert not left_out[:20].any()  # and none of the bright side
 
 
 def test_a_uniform_surface_loses_no_pixel() -> None:

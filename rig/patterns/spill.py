@@ -8,12 +8,15 @@ the next one 0.13 mm (medians), against 0.04 mm further in; the bright side's fi
 
 Where the contrast (white frame less dark frame: a codec's first two frames, or the fringes' peak
 and trough of cued_phase, which shows neither; Codec.references) among a
-pixel and its 8 neighbours spans more than `SPILL_RATIO` from darkest to brightest, every pixel
-there below `PLATEAU` of the brightest is left out and counted (`rejected_outshone`): the dark
-side's first pixels (the one so lit by spill that it looks half bright among them), not the
-bright side's plateau. A wider blur makes a run of such steps, each caught in turn. The ratio
-does not depend on the exposure, so HDR cannot read these pixels; dimming the bright side's
-patterns (adaptive projection) lowers it, so that fewer are lost.
+pixel and its 8 neighbours spans more than `SPILL_RATIO` from darkest to brightest, a pixel there
+below `PLATEAU` of the brightest and more than `OWN` times the darkest is left out and counted
+(`rejected_outshone`): the dark side's first pixel (so lit by spill that it looks half bright among
+them), not the bright side's plateau, nor the dark pixel next in, whose light is still mostly its
+own (HDR on the box: it read 12 % above the dark plateau beside a clipped neighbour, and keeping
+such pixels took completeness from 94.8 to 97.2 % at rms 0.060 -> 0.065 mm, matte 0.049). A wider
+blur makes a run of such steps, each caught in turn. The ratio does not depend on the exposure, so
+HDR cannot read these pixels; dimming the bright side's patterns (adaptive projection) lowers it,
+so that fewer are lost.
 
 Off unless `scan.exposure.drop_outshone`: the ring planner's pilot leans on the shadow-edge pixels
 it drops (on the staircase it then planned 26 rings for 0.2 mm instead of 32, and the surface
@@ -33,6 +36,7 @@ if TYPE_CHECKING:  # the base's decode applies these: types only, no import back
     from rig.patterns.base import Correspondence
 
 SPILL_RATIO = 4.0  # an edge this strong (brightest to darkest of 3 x 3) drowns its dark side's first pixels
+OWN = 1.25  # a pixel at most this far above its darkest neighbour keeps most of its light its own
 PLATEAU = 0.7  # of the brightest nearby: the bright side, whose first pixel lost a little of its light
 
 
@@ -43,7 +47,7 @@ def outshone(white: np.ndarray, black: np.ndarray) -> np.ndarray:
     disc = np.ones((3, 3), np.uint8)
     brightest = cv2.dilate(contrast, disc)
     darkest = np.maximum(cv2.erode(contrast, disc), np.float32(0.0))
-    return (brightest > SPILL_RATIO * darkest) & (contrast < PLATEAU * brightest)
+    return (brightest > SPILL_RATIO * darkest) & (contrast < PLATEAU * brightest) & (contrast > OWN * darkest)
 
 
 def without_outshone(corr: Correspondence, white: np.ndarray, black: np.ndarray) -> Correspondence:
