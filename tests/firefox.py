@@ -183,13 +183,28 @@ class Tab:
 
     def click(self, selector: str) -> None:
         target = self.element(selector)
-        self.evaluate(f"{_finder(selector)}.scrollIntoView({{block: 'center'}})")
+        self._settle_in_view(selector)
         pointer = [
             {"type": "pointerMove", "x": 0, "y": 0, "origin": {"type": "element", "element": target}},
             {"type": "pointerDown", "button": 0},
             {"type": "pointerUp", "button": 0},
         ]
         self._actions([{"type": "pointer", "id": "mouse", "actions": pointer}])
+
+    def _settle_in_view(self, selector: str, timeout_s: float = 5.0) -> None:
+        """Scroll the element to the middle of the view until it stays there: the page may still be
+        laying out (a picture that loads above it moves it down after the scroll)."""
+        where = (
+            f"(e => {{ e.scrollIntoView({{block: 'center'}}); const r = e.getBoundingClientRect(); "
+            f"return [r.top, r.bottom <= innerHeight && r.top >= 0]; }})({_finder(selector)})"
+        )
+        deadline, last = time.monotonic() + timeout_s, None
+        while time.monotonic() < deadline:
+            now = self.evaluate(where)
+            if now == last and now[1]:
+                return
+            last = now
+            time.sleep(0.05)
 
     def fill(self, selector: str, text: str) -> None:
         """Focus the field, clear it, and type `text` key by key."""
