@@ -32,6 +32,7 @@ COMMANDS = {
     "reconstruct": ("rig.cli.reconstructing", "cmd_reconstruct"),
     "calibration": ("rig.cli.calibration_files", "cmd_calibration"),
     "store": ("rig.cli.storing", "cmd_store"),
+    "batch": ("rig.cli.batching", "cmd_batch"),
 }
 
 

@@ -6,6 +6,7 @@ import argparse
 from pathlib import Path
 
 from rig import __version__
+from rig.cli.batch_arguments import batch_command
 from rig.config import SCENE_KINDS
 from rig.patterns import codec_names
 
@@ -370,6 +371,6 @@ def parser() -> argparse.ArgumentParser:
     sub = parser.add_subparsers(dest="command", required=True)
     commands = (_scan_command, _live_command, _evaluate_command, _plan_command, _serve_command, _devices_command)
     more = (_doctor_command, _cal_command, _recognition_commands, _reconstruct_command, _calibration_command)
-    for add in (*commands, *more, _store_command):
+    for add in (*commands, *more, _store_command, batch_command):
         add(sub)
     return parser

@@ -52,10 +52,12 @@ def reconstruct_folder(
     config: RigConfig,
     options: ForeignCalibrationOptions | None = None,
     progress: ProgressCallback | None = None,
+    origin: dict[str, Any] | None = None,
 ) -> tuple[Path, ScanResult]:
     """Reconstruct `frames_dir` into a new scan directory `target`; nothing is written when an
     input is refused (PatternSpecError, FramesError, CalibrationError, DecodeError). `patterns` is
-    the description's file, or the description itself (a REST request's, recorded as inline)."""
+    the description's file, or the description itself (a REST request's, recorded as inline);
+    `origin`: more to record of where the reconstruction came from (a batch's input digest)."""
     options = options or ForeignCalibrationOptions()
     spec = patterns if isinstance(patterns, PatternSpec) else load_pattern_spec(patterns)
     ProgressTracker(progress).report("read", 0.05)
@@ -70,6 +72,7 @@ def reconstruct_folder(
         "frames": str(frames_dir),
         "patterns": "inline" if isinstance(patterns, PatternSpec) else str(patterns),
         "patterns_sha256": _spec_hash(spec) if isinstance(patterns, PatternSpec) else _file_hash(patterns),
+        **(origin or {}),
     }
     return reconstruct_frames(frames, spec, calibration, target, scan_id, config, options, inputs, progress, models)
 

@@ -1,0 +1,149 @@
+"""`slrig batch reprocess` on a local Dask cluster of two processes (rig.batch): an archive of small
+scans reprocessed as `slrig reconstruct` reprocesses each, a corrupt input reported while the rest
+finish, a rerun that skips what is done, a worker killed mid-scan that loses no scan, outputs made
+from another input never overwritten, and scans too large for any worker refused up front."""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import os
+import shutil
+from collections.abc import Iterator
+from pathlib import Path
+
+import pytest
+
+pytest.importorskip("distributed", reason="Dask is not installed (pip install -e '.[dask]')")
+
+from distributed.diagnostics.plugin import WorkerPlugin
+
+from rig.batch import Cluster, connect, find_inputs, reprocess_archive
+from rig.cli import main
+from rig.errors import UsageError
+from tests.conftest import small_config_data, write_config
+
+CODECS = ("gray", "phase", "gray")
+
+
+@pytest.fixture(scope="module")
+def archive(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """Three scans that kept their frames, and a copy of the first with a frame cut short."""
+    from rig.assembly import open_rig
+    from rig.config import load_config
+    from rig.service.tasks import scan_to_directory
+
+    root = tmp_path_factory.mktemp("archive")
+    config = load_config(write_config(root, small_config_data()))
+    scans = root / "scans"
+    with open_rig(config) as rig:
+        for number, codec in enumerate(CODECS):
+            scan_to_directory(rig, scans / f"scan-{number}", f"20261129-120000-00000{number}", codec, keep_frames=True)
+    corrupt = scans / "scan-corrupt"
+    shutil.copytree(scans / "scan-0", corrupt)
+    frame = next((corrupt / "frames").rglob("005.png"))
+    frame.write_bytes(frame.read_bytes()[:200])
+    return scans
+
+
+@pytest.fixture(scope="module")
+def cluster() -> Iterator[Cluster]:
+    with connect("local", workers=2) as running:
+        yield running
+
+
+def _body(ply: Path) -> bytes:
+    """The cloud without its header's comment, which names each scan's own id."""
+    data = ply.read_bytes()
+    head, body = data.split(b"end_header\n", 1)
+    return b"\n".join(line for line in head.split(b"\n") if not line.startswith(b"comment")) + body
+
+
+def test_an_archive_is_reprocessed_as_one_by_one_and_a_rerun_skips_it(
+    archive: Path, cluster: Cluster, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    from rig.service.tasks import reprocess_to_directory
+
+    out = tmp_path / "out"
+    address = cluster.client.scheduler.address  # the command joins the running cluster, as on many machines
+    assert main(["batch", "reprocess", str(archive), "--out", str(out), "--scheduler", address, "--json"]) == 1
+    lines = [json.loads(line) for line in capsys.readouterr().out.splitlines()]
+    summary = lines[-1]
+    assert (summary["event"], summary["done"], summary["skipped"], summary["failed"]) == ("summary", 3, 0, 1)
+    failed = summary["failed_inputs"][0]
+    assert failed["name"] == "scan-corrupt" and "cannot be read" in failed["error"]
+    assert {e["name"] for e in lines[:-1] if e["event"] == "done"} == {f"scan-{n}" for n in range(3)}
+    assert not (out / "scan-corrupt").exists() and not list(out.glob("*.partial"))
+    for number in range(3):
+        alone, _ = reprocess_to_directory(archive / f"scan-{number}", tmp_path / f"alone-{number}", "alone")
+        assert _body(out / f"scan-{number}" / "cloud.ply") == _body(alone / "cloud.ply")
+    written = {p: p.stat().st_mtime_ns for p in out.rglob("*")}
+    again = reprocess_archive(cluster, find_inputs([archive]), out, [])
+    assert sorted(s["name"] for s in again.skipped) == [f"scan-{n}" for n in range(3)]
+    assert not again.done and [f["name"] for f in again.failed] == ["scan-corrupt"]
+    assert {p: p.stat().st_mtime_ns for p in out.rglob("*")} == written  # nothing rewritten
+
+
+class _KillOnce(WorkerPlugin):
+    """Kills its worker's process the first time a scan starts executing on any worker (a marker
+    file says it has), as the kernel's OOM killer or a crash would."""
+
+    def __init__(self, marker: str) -> None:
+        self.marker = marker
+
+    def transition(self, key: object, start: str, finish: str, **kwargs: object) -> None:
+        if finish == "executing" and "reprocess-" in str(key) and not os.path.exists(self.marker):
+            with open(self.marker, "w") as stream:
+                stream.write(str(key))
+            os._exit(1)
+
+
+def test_a_worker_killed_mid_scan_loses_no_scan(archive: Path, cluster: Cluster, tmp_path: Path) -> None:
+    marker = tmp_path / "killed"
+    inputs = [i for i in find_inputs([archive]) if i.name != "scan-corrupt"]
+    cluster.client.register_plugin(_KillOnce(str(marker)), name="kill-once")
+    try:
+        summary = reprocess_archive(cluster, inputs, tmp_path / "out", [])
+    finally:
+        cluster.client.unregister_worker_plugin("kill-once")
+    assert marker.exists()  # a worker died holding a scan ...
+    assert sorted(s["name"] for s in summary.done) == [f"scan-{n}" for n in range(3)]  # ... and every scan is done
+    assert not summary.failed
+
+
+def test_an_output_made_from_another_input_is_not_overwritten(archive: Path, cluster: Cluster, tmp_path: Path) -> None:
+    out = tmp_path / "out"
+    (out / "scan-1").mkdir(parents=True)
+    (out / "scan-1" / "mine.txt").write_text("someone's work")
+    summary = reprocess_archive(cluster, find_inputs([archive / "scan-1"]), out, [])
+    assert "not overwritten" in summary.failed[0]["error"]
+    assert (out / "scan-1" / "mine.txt").read_text() == "someone's work"
+
+
+def test_a_scan_larger_than_any_worker_is_refused_before_it_runs(
+    archive: Path, cluster: Cluster, tmp_path: Path
+) -> None:
+    small = dataclasses.replace(cluster, worker_memory=[1_000_000])
+    summary = reprocess_archive(small, find_inputs([archive / "scan-0"]), tmp_path / "out", [])
+    assert "the largest worker offers 0.0 GB" in summary.failed[0]["error"]
+    assert not (tmp_path / "out").exists()
+
+
+def test_inputs_that_are_not_scans_are_refused_naming_them(archive: Path, tmp_path: Path) -> None:
+    with pytest.raises(UsageError, match="neither a scan directory"):
+        find_inputs([tmp_path])
+    twin = tmp_path / "elsewhere" / "scan-0"
+    shutil.copytree(archive / "scan-0", twin)
+    with pytest.raises(UsageError, match="both would be written to scan-0"):
+        find_inputs([archive / "scan-0", twin])
+
+
+def test_without_dask_batch_says_how_to_get_it(
+    monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    import importlib.util
+
+    real = importlib.util.find_spec
+    monkeypatch.setattr(importlib.util, "find_spec", lambda name, *a: None if name == "distributed" else real(name, *a))
+    assert main(["batch", "reprocess", "anything", "--out", "out"]) == 2
+    assert "pip install -e '.[dask]'" in capsys.readouterr().err
