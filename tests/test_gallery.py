@@ -131,3 +131,44 @@ def test_a_gallery_too_small_to_standardise_is_compared_raw_against_the_raw_thre
     found = identify(probe, entries, matrix, threshold=thresholds)  # type: ignore[arg-type]
     assert found.comparison == "raw" and found.threshold == 0.9 and found.label == "bob"
     assert found.matches[0].score == pytest.approx(scores(probe, matrix, "raw")[1])
+
+
+@pytest.mark.parametrize("comparison", ["standardised", "raw"])
+def test_the_prepared_matrix_identifies_as_the_gallery_does_and_follows_its_changes(
+    tmp_path: Path, comparison: str
+) -> None:
+    from rig.recognition.matrix import matrix_of
+
+    rng = np.random.default_rng(7)
+    shared = rng.uniform(1.0, 2.0, 10)
+    with Gallery(tmp_path / "gallery.db") as gallery:
+        for n in range(40):  # 8 labels of 5 entries, each a label's shape plus noise
+            label = f"label-{n % 8}"
+            features = shared + 0.3 * np.random.default_rng(n % 8).normal(size=10) + 0.02 * rng.normal(size=10)
+            gallery.add(label, f"scan-{n}", _descriptor(features))
+        entries, features = gallery.features()
+        probe = features[13] + 0.01 * rng.normal(size=10)
+        matrix = matrix_of(gallery)
+        np.testing.assert_allclose(matrix.scores(probe, comparison), scores(probe, features, comparison), atol=1e-12)
+        expected = identify(probe, entries, features, top=5, comparison=comparison)
+        found = matrix.identify(probe, top=5, comparison=comparison)
+        assert found.label == expected.label == "label-5"
+        assert [(m.label, m.entry_id, m.scan_id) for m in found.matches] == [
+            (m.label, m.entry_id, m.scan_id) for m in expected.matches
+        ]
+        assert matrix_of(gallery) is matrix  # unchanged: not read again
+        gallery.add("label-new", "scan-new", _descriptor(probe))
+        again = matrix_of(gallery)
+        assert again is not matrix and again.identify(probe, comparison=comparison).label == "label-new"
+
+
+def test_many_entries_are_added_all_together_or_not_at_all(tmp_path: Path) -> None:
+    with Gallery(tmp_path / "gallery.db") as gallery:
+        gallery.add("alice", "scan-a", _descriptor(_features(1)))
+        batch = [("bob", "scan-b", _descriptor(_features(2))), ("carol", "scan-a", _descriptor(_features(3)))]
+        with pytest.raises(GalleryError, match="scan-a is in the gallery already \\(label 'alice'\\)"):
+            gallery.add_many(batch)
+        assert [e.scan_id for e in gallery.entries()] == ["scan-a"]  # bob went back out with carol
+        added = gallery.add_many([batch[0], ("carol", "scan-c", _descriptor(_features(3)))])
+        assert [(e.label, e.scan_id) for e in added] == [("bob", "scan-b"), ("carol", "scan-c")]
+        assert [e.id for e in added] == [e.id for e in gallery.entries()[1:]]

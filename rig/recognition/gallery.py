@@ -98,14 +98,36 @@ class Gallery:
             )
 
     def add(self, label: str, scan_id: str, descriptor: Descriptor) -> Entry:
-        if not LABEL.fullmatch(label):
-            raise GalleryError(
-                f"label {label!r}: not a plain name (1 to 64 letters, digits, '.', '_' or '-', "
-                "starting with a letter or digit)"
-            )
-        self.check_settings(descriptor.settings)
+        return self.add_many([(label, scan_id, descriptor)])[0]
+
+    def add_many(self, items: list[tuple[str, str, Descriptor]]) -> list[Entry]:
+        """Add (label, scan id, descriptor) items in one transaction: all of them, or (GalleryError
+        naming the first refused) none."""
+        for label, _, descriptor in items:
+            if not LABEL.fullmatch(label):
+                raise GalleryError(
+                    f"label {label!r}: not a plain name (1 to 64 letters, digits, '.', '_' or '-', "
+                    "starting with a letter or digit)"
+                )
+            self.check_settings(descriptor.settings)
+        if len({d.settings for _, _, d in items}) > 1:
+            raise GalleryError("the descriptors to add were made with different settings: they cannot be compared")
         if self._db is None:
             self._db = _connect(self.path)
+        added = []
+        self._db.execute("BEGIN")
+        try:
+            for label, scan_id, descriptor in items:
+                added.append(self._insert(label, scan_id, descriptor))
+            self._db.execute("COMMIT")
+        except BaseException:
+            self._db.execute("ROLLBACK")
+            raise
+        return added
+
+    def _insert(self, label: str, scan_id: str, descriptor: Descriptor) -> Entry:
+        assert self._db is not None
+        created = time.time()
         try:
             cursor = self._db.execute(
                 "INSERT INTO entries (label, scan_id, settings, features, distances, reference, created) "
@@ -117,13 +139,13 @@ class Gallery:
                     descriptor.features.astype("<f8").tobytes(),
                     descriptor.distances.astype("<f8").tobytes(),
                     json.dumps(descriptor.reference.tolist()),
-                    time.time(),
+                    created,
                 ),
             )
         except sqlite3.IntegrityError:
             held = self._db.execute("SELECT label FROM entries WHERE scan_id = ?", (scan_id,)).fetchone()
             raise GalleryError(f"scan {scan_id} is in the gallery already (label {held[0]!r})") from None
-        return self.entry(int(cursor.lastrowid or 0))
+        return Entry(int(cursor.lastrowid or 0), label, scan_id, descriptor.settings, created)
 
     def entry(self, entry_id: int) -> Entry:
         row = (
@@ -163,6 +185,24 @@ class Gallery:
             return [], np.zeros((0, 0))
         matrix = np.frombuffer(b"".join(row[5] for row in rows), "<f8").reshape(len(rows), -1)
         return [_entry(row[:5]) for row in rows], matrix
+
+    def columns(self) -> tuple[np.ndarray, list[str], list[str], np.ndarray]:
+        """Every entry's id, label and scan id, and its features one row each: what identification
+        reads, without building an Entry per row (rig.recognition.matrix)."""
+        if self._db is None:
+            return np.zeros(0, np.int64), [], [], np.zeros((0, 0))
+        rows = self._db.execute("SELECT id, label, scan_id, features FROM entries ORDER BY id").fetchall()
+        if not rows:
+            return np.zeros(0, np.int64), [], [], np.zeros((0, 0))
+        ids, labels, scan_ids, blobs = zip(*rows, strict=True)
+        features = np.frombuffer(b"".join(blobs), "<f8").reshape(len(rows), -1)
+        return np.asarray(ids, np.int64), list(labels), list(scan_ids), features
+
+    def signature(self) -> tuple[object, ...]:
+        """What changes whenever an entry is added or removed (the count, the newest id, the newest time)."""
+        if self._db is None:
+            return (0, None, None)
+        return tuple(self._db.execute("SELECT count(*), max(id), max(created) FROM entries").fetchone())
 
 
 def _connect(path: Path) -> sqlite3.Connection:

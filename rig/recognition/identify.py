@@ -67,10 +67,16 @@ def standardised(features: np.ndarray, gallery: np.ndarray) -> np.ndarray:
     of the shape's own harmonics, and with it the scan noise it holds in a probe. Adding a common
     s0 to every spread, the median (the fudge factor of the SAM statistic, Tusher et al. 2001),
     weighs such features down and leaves those that vary well above the median as they were."""
+    mean, spread = standard_scale(gallery)
+    return (features - mean) / spread
+
+
+def standard_scale(gallery: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The gallery's (N, F) mean and moderated spread per feature (see `standardised`)."""
     spread = gallery.std(axis=0)
     floor = float(np.median(spread))
     spread = np.where(spread > 1e-9 * max(float(spread.max()), 1e-300), np.hypot(spread, floor), np.inf)
-    return (features - gallery.mean(axis=0)) / spread
+    return gallery.mean(axis=0), spread
 
 
 def scores(probe: np.ndarray, gallery: np.ndarray, comparison: Comparison = "standardised") -> np.ndarray:
@@ -81,6 +87,14 @@ def scores(probe: np.ndarray, gallery: np.ndarray, comparison: Comparison = "sta
     centred = probe - probe.mean()
     norms = np.linalg.norm(rows, axis=1) * np.linalg.norm(centred)
     return rows @ centred / np.maximum(norms, 1e-300)
+
+
+def check_probe(probe: np.ndarray, gallery: np.ndarray) -> None:
+    """RecognitionError for an empty gallery (N, F) or a probe that is not F features."""
+    if not len(gallery):
+        raise RecognitionError(EMPTY_GALLERY)
+    if probe.shape != gallery.shape[1:]:
+        raise RecognitionError(f"the probe has {probe.size} features, the gallery's entries {gallery.shape[1]}")
 
 
 def identify(
@@ -94,10 +108,7 @@ def identify(
     """The `top` labels best matching `probe` (each label's best entry), and the label it is
     identified as (UNKNOWN below `threshold`, or below the threshold of the comparison made when
     given one per comparison). Raises RecognitionError for an empty gallery."""
-    if not entries:
-        raise RecognitionError(EMPTY_GALLERY)
-    if probe.shape != gallery.shape[1:]:
-        raise RecognitionError(f"the probe has {probe.size} features, the gallery's entries {gallery.shape[1]}")
+    check_probe(probe, gallery)
     comparison = compared_as(comparison, len(gallery))
     if isinstance(threshold, dict):
         threshold = threshold[comparison]

@@ -20,7 +20,8 @@ from rig.config import config_from_dict
 from rig.errors import RecognitionError, SlrigError
 from rig.recognition.descriptor import Descriptor, DescriptorSettings, describe
 from rig.recognition.gallery import GALLERY_NAME, Entry, Gallery
-from rig.recognition.identify import EMPTY_GALLERY, Comparison, Identification, identify
+from rig.recognition.identify import EMPTY_GALLERY, Comparison, Identification
+from rig.recognition.matrix import matrix_of
 from rig.store.ply import read_cloud_ply, read_mesh_vertices
 
 # below these scores a probe is "unknown": the equal-error thresholds bench/recognition.py measured
@@ -83,13 +84,12 @@ def identify_scan(
 ) -> tuple[str, Identification]:
     """`folder`'s scan identified against the gallery; `threshold` None: the default for the
     comparison made (a gallery of fewer than 3 entries is compared raw)."""
-    entries, features = gallery.features()
     settings = gallery.settings()
     if settings is None:
         raise RecognitionError(EMPTY_GALLERY)
     scan_id, descriptor = describe_scan(folder, settings)
     limit = DEFAULT_THRESHOLDS if threshold is None else threshold
-    return scan_id, identify(descriptor.features, entries, features, top, limit, comparison)
+    return scan_id, matrix_of(gallery).identify(descriptor.features, top, limit, comparison)
 
 
 def settings_from(options: dict[str, Any]) -> DescriptorSettings | None:
