@@ -61,7 +61,7 @@ def _noop(x: int) -> int:
 
 
 def _imported() -> None:
-    import rig.batch.task  # noqa: F401  (as the loop's process has it imported before its clock starts)
+    import rig.batch.tasks  # noqa: F401  (as the loop's process has it imported before its clock starts)
 
 
 def on_cluster(scans: Path, out: Path, workers: int) -> dict[str, Any]:

@@ -147,3 +147,41 @@ def test_without_dask_batch_says_how_to_get_it(
     monkeypatch.setattr(importlib.util, "find_spec", lambda name, *a: None if name == "distributed" else real(name, *a))
     assert main(["batch", "reprocess", "anything", "--out", "out"]) == 2
     assert "pip install -e '.[dask]'" in capsys.readouterr().err
+
+
+def test_eval_measures_each_scan_again_as_its_scan_measured_it(archive: Path, cluster: Cluster) -> None:
+    from rig.batch.recognise import accuracy_summary, evaluate_archive
+
+    summary = evaluate_archive(cluster, find_inputs([archive]), [])
+    assert [f["name"] for f in summary.failed] == ["scan-corrupt"]
+    for result in summary.done:
+        stored = json.loads((archive / result["name"] / "manifest.json").read_text())["metrics"]
+        pair = next(iter(stored))
+        assert result["metrics"][pair]["rms_mm"] == pytest.approx(stored[pair]["rms_mm"], rel=1e-9)
+        assert result["metrics"][pair]["completeness"] == stored[pair]["completeness"]
+    accuracy = accuracy_summary(summary.done)
+    assert len(accuracy["scans"]) == 3 and accuracy["worst_rms_mm"] >= accuracy["median_rms_mm"] > 0
+
+
+def test_describe_fills_a_gallery_that_identifies_its_scans_and_a_rerun_skips_them(
+    archive: Path, cluster: Cluster, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    from rig.recognition.gallery import Gallery
+    from rig.service.recognition import identify_scan
+
+    gallery_file = tmp_path / "gallery.db"
+    scans = [str(archive / f"scan-{n}") for n in range(3)]
+    address = cluster.client.scheduler.address
+    command = ["batch", "describe", *scans, "--gallery", str(gallery_file), "--label-from", "name"]
+    assert main([*command, "--scheduler", address, "--json"]) == 0
+    summary = json.loads(capsys.readouterr().out.splitlines()[-1])
+    assert (summary["done"], summary["skipped"], summary["failed"]) == (3, 0, 0)
+    with Gallery(gallery_file) as gallery:
+        assert sorted(e.label for e in gallery.entries()) == ["scan-0", "scan-1", "scan-2"]
+        _, found = identify_scan(gallery, archive / "scan-1", 3, None)
+        assert found.matches[0].label == "scan-1" and found.matches[0].score == pytest.approx(1.0)
+    assert main([*command, "--scheduler", address, "--json"]) == 0
+    again = json.loads(capsys.readouterr().out.splitlines()[-1])
+    assert (again["done"], again["skipped"]) == (0, 3)
+    assert main(["batch", "describe", scans[0], "--gallery", str(gallery_file)]) == 2
+    assert "--label NAME (one label for every scan) or --label-from" in capsys.readouterr().err

@@ -14,8 +14,9 @@ from typing import Any
 from rig.assembly.memory import scan_memory
 from rig.batch.archive import ArchiveInput
 from rig.batch.cluster import MEMORY, Cluster
-from rig.batch.task import reprocess_one
+from rig.batch.tasks import reprocess_one
 from rig.config import config_from_dict
+from rig.errors import SlrigError
 from rig.progress import ProgressCallback, ProgressTracker
 from rig.store.image_header import image_header
 
@@ -56,6 +57,30 @@ def reprocess_archive(
     progress: ProgressCallback | None = None,
 ) -> BatchSummary:
     """Every input reprocessed into out/<its name> on `cluster` (see the module docstring)."""
+    return run_archive(cluster, inputs, Work("reprocess", reprocess_one, (out, calibration)), on_event, progress)
+
+
+@dataclass(frozen=True)
+class Work:
+    """What each input's task is: `task(item, *args)` returning a summary with "status" done or
+    skipped; `received`, where given, turns each done summary into the one recorded (on the client:
+    a descriptor added to the gallery, and left out of the summary)."""
+
+    stage: str
+    task: Callable[..., dict[str, Any]]
+    args: tuple[Any, ...]
+    received: Callable[[dict[str, Any]], dict[str, Any]] | None = None
+
+
+def run_archive(
+    cluster: Cluster,
+    inputs: list[ArchiveInput],
+    work: Work,
+    on_event: EventCallback | None = None,
+    progress: ProgressCallback | None = None,
+) -> BatchSummary:
+    """`work` on every input, one task each, sized by the memory its scan needs (see the module
+    docstring); each outcome reported to `on_event` as it comes."""
     summary = BatchSummary()
     tracker = ProgressTracker(progress)
     largest = max(cluster.worker_memory, default=None)
@@ -71,26 +96,37 @@ def reprocess_archive(
             _failed(summary, on_event, item, f"needs {needed / 1e9:.1f} GB, {offered}")
             continue
         resources = {MEMORY: max(1, needed)} if largest is not None else None
-        future = cluster.client.submit(
-            reprocess_one, item, out, calibration, key=f"reprocess-{item.name}", resources=resources, pure=False
-        )
-        futures[future] = item
+        key = f"{work.stage}-{item.name}"
+        futures[cluster.client.submit(work.task, item, *work.args, key=key, resources=resources, pure=False)] = item
     from distributed import as_completed  # an optional extra: cluster.connect has checked it is here
 
     finished = len(summary.failed)
     for future in as_completed(list(futures)):
         item = futures.pop(future)
         finished += 1
-        if future.status == "finished":
-            result = future.result()
+        result, error = _outcome(future, work)
+        if error is not None:
+            _failed(summary, on_event, item, error)
+        else:
             (summary.done if result["status"] == "done" else summary.skipped).append(result)
             if on_event is not None:
                 on_event({"event": result["status"], **result})
-        else:
-            _failed(summary, on_event, item, _reason(future.exception()))
         future.release()
-        tracker.report("reprocess", finished / max(1, len(inputs)), item.name)
+        tracker.report(work.stage, finished / max(1, len(inputs)), item.name)
     return summary
+
+
+def _outcome(future: Any, work: Work) -> tuple[dict[str, Any], str | None]:
+    """A finished task's summary (as `work.received` makes it), or why it failed."""
+    if future.status != "finished":
+        return {}, _reason(future.exception())
+    result = future.result()
+    if work.received is None or result["status"] != "done":
+        return result, None
+    try:
+        return work.received(result), None
+    except SlrigError as exc:  # what the client did with it was refused (a gallery's settings)
+        return {}, f"{type(exc).__name__}: {exc}"
 
 
 def _failed(summary: BatchSummary, on_event: EventCallback | None, item: ArchiveInput, error: str) -> None:

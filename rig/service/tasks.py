@@ -5,7 +5,8 @@ from __future__ import annotations
 
 import dataclasses
 import json
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
@@ -103,13 +104,33 @@ def reprocess_to_directory(
     """Decode and triangulate a stored scan's frames again (no devices), with another calibration
     folder and `overrides` of its scan section, and write a new scan directory."""
     tracker = ProgressTracker(progress)
+    with reprocessed(source, calibration, overrides, tracker, target.parent) as (geometry, result):
+        tracker.report("store", 0.95)
+        metrics, errors = measure_on_bench(geometry, result)
+        path = write_scan(geometry, result, target, scan_id, metrics, origin, errors)
+    return path, result
+
+
+@contextmanager
+def reprocessed(
+    source: Path,
+    calibration: Path | None = None,
+    overrides: dict[str, Any] | None = None,
+    tracker: ProgressTracker | None = None,
+    writes_to: Path | None = None,
+) -> Iterator[tuple[Rig, ScanResult]]:
+    """A stored scan's frames decoded and triangulated again, on a rig of its geometry only (open
+    while the caller uses it: its ground truth, for a simulated scan); `writes_to`: where the result
+    will be stored, whose free space is checked first."""
+    tracker = tracker or ProgressTracker(None)
     manifest, frames = read_frames(source)
     data = manifest["config"]
     if calibration is not None:
         data["calibration"]["file"] = str(calibration)
     data["scan"].update(overrides or {})
     config = config_from_dict(data, f"scan {manifest['scan_id']}")
-    check_free_space(target.parent, expected_scan_bytes(config, {}), "this reprocessing")
+    if writes_to is not None:
+        check_free_space(writes_to, expected_scan_bytes(config, {}), "this reprocessing")
     tracker.report("decode", 0.6)
     passes = len(next(iter((manifest.get("exposure") or {}).get("exposures_us", {}).values()), []))
     with open_rig(config, with_devices=False) as geometry:
@@ -118,10 +139,7 @@ def reprocess_to_directory(
             result.exposure = manifest["exposure"]
         else:
             result = reconstruct_frames(geometry, manifest["codec"]["name"], frames, tracker)
-        tracker.report("store", 0.95)
-        metrics, errors = measure_on_bench(geometry, result)
-        path = write_scan(geometry, result, target, scan_id, metrics, origin, errors)
-    return path, result
+        yield geometry, result
 
 
 def reconstruction_to_directory(

@@ -1,6 +1,8 @@
-"""One input reprocessed, as a worker runs it: the frames read from the shared path (never shipped
-through the scheduler), the output written under its final name only when complete (the same
-atomic rules as the daemon's scans), and an output already made from the same input skipped."""
+"""What a worker does with one input, reading it from the shared path (frames are never shipped
+through the scheduler): reprocess it into an output directory (written under its final name only
+when complete, the same atomic rules as the daemon's scans; an output already made from the same
+input skipped), measure it again against the simulated bench's truth, or describe it for the
+recognition gallery."""
 
 from __future__ import annotations
 
@@ -12,9 +14,12 @@ from rig.batch.archive import DIGEST_KEY, ArchiveInput, input_digest, output_dig
 from rig.calibrate.foreign import ForeignCalibrationOptions
 from rig.config import load_config
 from rig.errors import StoreError
+from rig.evaluate.merged import measure_on_bench
 from rig.pipeline.scan import ScanResult
+from rig.recognition.descriptor import DescriptorSettings
+from rig.service.recognition import describe_scan
 from rig.service.reconstruct import reconstruct_folder
-from rig.service.tasks import reprocess_to_directory
+from rig.service.tasks import reprocess_to_directory, reprocessed
 from rig.store.scandir import DESCRIPTION_NAME, new_scan_id
 
 
@@ -63,3 +68,33 @@ def _frames_folder(item: ArchiveInput, target: Path, scan_id: str, calibration: 
     patterns = item.path / DESCRIPTION_NAME
     config, options, origin = load_config(None), ForeignCalibrationOptions(), {DIGEST_KEY: digest}
     return reconstruct_folder(item.path, patterns, where, target, scan_id, config, options, origin=origin)[1]
+
+
+def evaluate_one(item: ArchiveInput, calibration: list[Path]) -> dict[str, Any]:
+    """A simulated scan's frames reconstructed again (with `calibration`, else its own) and measured
+    against the truth of the bench its manifest describes; nothing is written."""
+    if item.kind != "scan":
+        raise StoreError(f"{item.path}: a frames folder has no simulated bench to measure against")
+    if len(calibration) > 1:
+        raise StoreError(f"{item.path}: a scan directory is reprocessed with one slrig calibration (a folder)")
+    start = time.monotonic()
+    with reprocessed(item.path, calibration[0] if calibration else None) as (geometry, result):
+        if geometry.truth is None:
+            raise StoreError(f"{item.path}: not a scan of the simulated bench (no ground truth to measure against)")
+        metrics, _ = measure_on_bench(geometry, result)
+    return {
+        "name": item.name,
+        "status": "done",
+        "codec": result.codec,
+        "points": len(result.cloud),
+        "metrics": metrics,
+        "seconds": round(time.monotonic() - start, 3),
+    }
+
+
+def describe_one(item: ArchiveInput, settings: DescriptorSettings) -> dict[str, Any]:
+    """A scan's recognition descriptor (rig.service.recognition.describe_scan), for the client to add."""
+    if item.kind != "scan":
+        raise StoreError(f"{item.path}: a frames folder has no surface to describe (reprocess it first)")
+    scan_id, descriptor = describe_scan(item.path, settings)
+    return {"name": item.name, "status": "done", "scan_id": scan_id, "descriptor": descriptor}
