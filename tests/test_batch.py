@@ -9,8 +9,10 @@ import dataclasses
 import json
 import os
 import shutil
+import time
 from collections.abc import Iterator
 from pathlib import Path
+from typing import Any
 
 import pytest
 
@@ -185,3 +187,90 @@ def test_describe_fills_a_gallery_that_identifies_its_scans_and_a_rerun_skips_th
     assert (again["done"], again["skipped"]) == (0, 3)
     assert main(["batch", "describe", scans[0], "--gallery", str(gallery_file)]) == 2
     assert "--label NAME (one label for every scan) or --label-from" in capsys.readouterr().err
+
+
+class _HoldReprocessing(WorkerPlugin):
+    """Holds every reprocessing task at its start until a file appears (at most 30 s), and notes
+    each one's key: the test sees what ran on the cluster, and what the daemon did meanwhile."""
+
+    def __init__(self, release: str, ran: str) -> None:
+        self.release, self.ran = release, ran
+
+    def transition(self, key: object, start: str, finish: str, **kwargs: object) -> None:
+        if finish == "executing" and str(key).startswith("reprocess-"):
+            with open(self.ran, "a") as stream:
+                stream.write(f"{key}\n")
+            deadline = time.monotonic() + 30
+            while not os.path.exists(self.release) and time.monotonic() < deadline:
+                time.sleep(0.05)
+
+
+def _ended(service: Any, job_id: str, timeout_s: float = 120) -> Any:
+    from rig.service.jobs import JobState
+
+    deadline = time.monotonic() + timeout_s
+    while time.monotonic() < deadline:
+        job = service.job(job_id)
+        if job.state not in (JobState.QUEUED, JobState.RUNNING):
+            return job
+        time.sleep(0.05)
+    raise AssertionError(f"job {job_id} still {service.job(job_id).state} after {timeout_s} s")
+
+
+def test_the_daemon_hands_reprocessing_to_the_cluster_and_keeps_its_worker_for_the_rig(
+    cluster: Cluster, tmp_path: Path
+) -> None:
+    from rig.config import load_config
+    from rig.service.errors import JobConflictError
+    from rig.service.jobs import JobState
+    from rig.service.runner import JobService
+    from rig.service.tasks import reprocess_to_directory
+
+    data = small_config_data()
+    data["output"] = {"data_dir": str(tmp_path / "data")}
+    data["compute"] = {"scheduler": cluster.client.scheduler.address}
+    service = JobService(load_config(write_config(tmp_path, data)))
+    service.start()
+    release, ran = tmp_path / "release", tmp_path / "ran"
+    cluster.client.register_plugin(_HoldReprocessing(str(release), str(ran)), name="hold")
+    try:
+        source = _ended(service, service.submit_scan({"keep_frames": True}).id)
+        assert source.state is JobState.DONE
+        job = service.submit_reprocess(source.id, {})
+        while not ran.exists():  # the cluster has it, held
+            time.sleep(0.05)
+        assert ran.read_text().split() == [f"reprocess-{job.id}"]
+        with pytest.raises(JobConflictError, match="running task cannot be stopped"):
+            service.cancel(job.id, "scan")
+        scan = _ended(service, service.submit_scan({}).id)  # the rig's worker is free meanwhile
+        assert scan.state is JobState.DONE and service.job(job.id).state is JobState.RUNNING
+        release.touch()
+        done = _ended(service, job.id)
+        assert done.state is JobState.DONE, done.error
+        alone, _ = reprocess_to_directory(tmp_path / "data" / "scans" / source.id, tmp_path / "alone", "alone")
+        assert _body(tmp_path / "data" / "scans" / job.id / "cloud.ply") == _body(alone / "cloud.ply")
+    finally:
+        release.touch()
+        cluster.client.unregister_worker_plugin("hold")
+        service.shutdown()
+
+
+def test_a_scheduler_that_does_not_answer_fails_the_job_naming_it(archive: Path, tmp_path: Path) -> None:
+    from rig.config import load_config
+    from rig.service.jobs import JobState
+    from rig.service.runner import JobService
+    from tests.ports import free_port
+
+    data = small_config_data()
+    data["output"] = {"data_dir": str(tmp_path / "data")}
+    data["compute"] = {"scheduler": f"tcp://127.0.0.1:{free_port()}"}
+    service = JobService(load_config(write_config(tmp_path, data)))
+    service.start()
+    try:
+        source = _ended(service, service.submit_scan({"keep_frames": True}).id)
+        failed = _ended(service, service.submit_reprocess(source.id, {}).id)
+        assert failed.state is JobState.FAILED
+        assert "compute.scheduler: no Dask scheduler answered at tcp://127.0.0.1" in (failed.error or "")
+        assert _ended(service, service.submit_scan({}).id).state is JobState.DONE  # the rig goes on
+    finally:
+        service.shutdown()

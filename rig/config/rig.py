@@ -3,10 +3,11 @@ stores and serves."""
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 from typing import Literal
 
-from pydantic import Field, ValidationError, model_validator
+from pydantic import Field, ValidationError, field_validator, model_validator
 
 from rig.config.calibration import CalibrationConfig
 from rig.config.common import Name, Strict
@@ -76,6 +77,23 @@ class ServiceConfig(Strict):
     )
 
 
+class ComputeConfig(Strict):
+    """Where work that needs no device may run: a Dask scheduler the daemon hands reprocessing to."""
+
+    scheduler: str | None = Field(
+        None,
+        description="a running Dask scheduler (tcp://HOST:8786) whose workers see output.data_dir at the same path: "
+        "the daemon's reprocessing jobs run there while its own worker keeps the rig; none: on the daemon's worker",
+    )
+
+    @field_validator("scheduler")
+    @classmethod
+    def _an_address(cls, value: str | None) -> str | None:
+        if value is not None and not re.fullmatch(r"(tcp|tls)://(\[[0-9a-fA-F:]+\]|[^\s/:\[\]]+):[0-9]{1,5}", value):
+            raise ValueError(f"{value!r} is not a Dask scheduler's address (tcp://HOST:PORT or tls://HOST:PORT)")
+        return value
+
+
 class RigConfig(Strict):
     """A rig description: its devices, the scene when it is simulated, and how it scans."""
 
@@ -95,6 +113,7 @@ class RigConfig(Strict):
     )
     output: OutputConfig = Field(OutputConfig(), description="where results go")
     service: ServiceConfig = Field(ServiceConfig(), description="`slrig serve`: queue, limits, connections")
+    compute: ComputeConfig = Field(ComputeConfig(), description="where reprocessing without devices runs")
 
     @property
     def simulated(self) -> bool:

@@ -67,3 +67,8 @@ class SetupRefusedError(SlrigError):
 class MigrationError(SlrigError):
     """Raised when a data directory cannot be moved (`slrig store migrate`): not a data directory, a
     target that exists or lies on another file system; nothing was moved."""
+
+
+class RemoteUnavailableError(SlrigError):
+    """Raised when a job is handed to `compute.scheduler` and no Dask scheduler answers there (or
+    Dask is not installed); the job fails with this reason, and the daemon's worker goes on."""

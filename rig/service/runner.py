@@ -21,10 +21,9 @@ from rig.config import RigConfig
 from rig.errors import CaptureFaultError, ConfigError, PlanError, SlrigError
 from rig.progress import ProgressCallback
 from rig.rig import Rig
-from rig.service import tasks
 from rig.service.adaptive import check_scan_request
 from rig.service.aim import AimMode
-from rig.service.calibrating import calibration_settings, calibration_to_directory, captured_views
+from rig.service.calibrating import calibration_settings, captured_views
 from rig.service.camera_settings import CameraSettings
 from rig.service.errors import (
     JobCancelledError,
@@ -37,9 +36,11 @@ from rig.service.events import EventHub, progress_reporter
 from rig.service.frames import FrameTap
 from rig.service.idle import IdleWork
 from rig.service.imports import reconstruction_inputs, remove_leftovers
+from rig.service.job_work import JobWork
 from rig.service.jobs import DB_NAME, Job, JobKind, JobState, JobStore
 from rig.service.live import LiveMode
 from rig.service.recovery import clear_leftovers, discard, hide_folder, lock_data_dir
+from rig.service.remote import RemoteJobs
 from rig.service.space import check_free_space, expected_scan_bytes, storage_problems
 from rig.service.status import device_views, result_file
 from rig.service.stopping import WorkerRig
@@ -51,7 +52,7 @@ from rig.workers import release_free_memory
 log = logging.getLogger(__name__)
 
 
-class JobService:
+class JobService(JobWork):
     """Owns the job store, the queue, the worker thread and the open rig."""
 
     def __init__(self, config: RigConfig, max_queue: int = 8, health_stale_s: float = 120.0) -> None:
@@ -74,6 +75,8 @@ class JobService:
         self._stopping = False
         self._rigs = WorkerRig(config, self._cond, lambda: self._stopping, self._checkpoint)
         self._cancel = self._rigs.cancel
+        scheduler = config.compute.scheduler
+        self._remote = RemoteJobs(scheduler, self._remote_ended) if scheduler else None
         waiting = lambda: bool(self._queue) or self._stopping  # noqa: E731 - a job waits: live and aim mode pause
         pieces = (self._rigs, self.live, self.aim, self.camera_settings, self.calls)
         self._idle = IdleWork(*pieces, self._checkpoint, waiting, self._fault)
@@ -121,6 +124,8 @@ class JobService:
             self._shut_down = True
             self.begin_stop()
             stopped = self._rigs.let_go(self._worker, timeout_s, wait_for_worker)  # dark first, before bookkeeping
+            if self._remote is not None:
+                self._remote.close()  # its running jobs: interrupted with the rest
             self.store.interrupt_unfinished("the daemon stopped before this job finished")
             if self.store.unsaved:  # the next start marks them interrupted
                 log.error("job states not written at shutdown: %s", self.store.unsaved)
@@ -198,6 +203,8 @@ class JobService:
 
     def cancel(self, job_id: str, kind: JobKind) -> Job:
         self.job(job_id, kind)  # it exists and is of this kind
+        if self._remote is not None:
+            self._remote.refuse_cancel(job_id)
         with self._cond:
             if job_id in self._queue:
                 self._queue.remove(job_id)
@@ -211,7 +218,7 @@ class JobService:
         """Delete a job not running: folder hidden and record gone under the lock, contents after."""
         self.job(job_id, kind)
         with self._cond:
-            if self._current == job_id:
+            if self._current == job_id or (self._remote is not None and self._remote.running(job_id)):
                 raise JobConflictError(f"{kind} {job_id} is running; cancel it first")
             doomed = hide_folder(self.job_folder(Job.placeholder(job_id, kind)), lambda: self.store.delete(job_id))
             if job_id in self._queue:  # only once the record is gone (StorageFullError: still queued)
@@ -274,7 +281,7 @@ class JobService:
             return
         self._publish_state(job_id)
         reprocess = any(k in job.request for k in ("source", "reconstruct", "images"))  # files only: no devices
-        handler: Callable[[Job, ProgressCallback], dict[str, Any]]
+        handler: Callable[[Job, ProgressCallback], dict[str, Any] | None]
         if job.kind is JobKind.CALIBRATION:
             handler = self._calibration
         elif "reconstruct" in job.request:
@@ -309,7 +316,8 @@ class JobService:
         else:
             if not reprocess:
                 self._rig_error = None
-            self._finish(job_id, JobState.DONE, result=result, stage="done", fraction=1.0)
+            if result is not None:  # None: handed to the cluster, which records it (_remote_ended)
+                self._finish(job_id, JobState.DONE, result=result, stage="done", fraction=1.0)
 
     def _finish(self, job_id: str, state: JobState, **fields: Any) -> None:
         with self._cond:  # the rig reads idle (or its fault) by the time anyone sees the job ended
@@ -351,44 +359,3 @@ class JobService:
     def busy_with(self) -> str | None:  # the job running, or the next queued: device calls wait for neither
         with self._cond:
             return self._current or (self._queue[0] if self._queue else None)
-
-    # --- the jobs (rig.service.tasks does the work) ----------------------------------------
-    def _scan(self, job: Job, progress: ProgressCallback) -> dict[str, Any]:
-        check_free_space(self.data_dir, expected_scan_bytes(self.config, job.request), "this scan")
-        target = self.scans_dir / job.id
-        path, result = tasks.scan_job_to_directory(self._rigs.open(), target, job.id, job.request, progress)
-        return tasks.scan_summary(path, result)
-
-    def _reprocess(self, job: Job, progress: ProgressCallback) -> dict[str, Any]:
-        request = job.request
-        source = self.job(request["source"], JobKind.SCAN)  # JobNotFoundError if deleted since
-        calibration = self.job(request["calibration"], JobKind.CALIBRATION) if request.get("calibration") else None
-        overrides = {"max_depth_jump_mm": request["max_depth_jump_mm"]} if "max_depth_jump_mm" in request else {}
-        path, result = tasks.reprocess_to_directory(
-            self.scans_dir / source.id,
-            self.scans_dir / job.id,
-            job.id,
-            calibration=None if calibration is None else self.job_folder(calibration),
-            overrides=overrides,
-            origin={"reprocessed_from": source.id, "calibration": request.get("calibration")},
-            progress=progress,
-        )
-        return tasks.scan_summary(path, result)
-
-    def _reconstruct(self, job: Job, progress: ProgressCallback) -> dict[str, Any]:
-        inputs = (self.data_dir, self._calibration_folder, job.request["reconstruct"], self.scans_dir / job.id)
-        return tasks.reconstruction_to_directory(*inputs, job.id, self.config, progress)
-
-    def _calibration_folder(self, calibration_id: str) -> Path:
-        calibration = self.job(calibration_id, JobKind.CALIBRATION)
-        if calibration.state is not JobState.DONE or calibration.request.get("what") == "response":
-            raise JobConflictError(f"calibration {calibration_id} is not a finished geometric calibration")
-        return self.job_folder(calibration)
-
-    def _calibration(self, job: Job, progress: ProgressCallback) -> dict[str, Any]:
-        out = self.calibrations_dir / job.id
-        try:
-            return calibration_to_directory(self._rigs.open, self.config, self.data_dir, job.request, out, progress)
-        finally:
-            if "images" not in job.request:
-                self._rigs.drop()  # the simulated bench showed boards: a fresh rig for the next job

@@ -111,6 +111,21 @@ def reprocess_to_directory(
     return path, result
 
 
+def reprocess_job(
+    source: Path,
+    target: Path,
+    scan_id: str,
+    calibration: Path | None,
+    overrides: dict[str, Any],
+    origin: dict[str, Any],
+    progress: ProgressCallback | None = None,
+) -> dict[str, Any]:
+    """A reprocessing job's work, on the daemon's worker or a cluster's (rig.service.remote): the
+    new scan directory written, and its summary."""
+    path, result = reprocess_to_directory(source, target, scan_id, calibration, overrides, origin, progress)
+    return scan_summary(path, result)
+
+
 @contextmanager
 def reprocessed(
     source: Path,
