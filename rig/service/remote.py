@@ -7,7 +7,8 @@ workers read the source frames and write the new scan directory at the same path
 (shared storage), under the same atomic rules (rig.store.scandir.write_scan). Dask cannot stop a
 task once a worker runs it, so a running remote job cannot be cancelled; a daemon that stops
 records it interrupted (if the cluster still finishes it, its folder stays beside the interrupted
-record, and deleting the job removes both). Dask is an optional extra: it is imported when the first job is handed over."""
+record, and deleting the job removes both). Dask is an optional extra: it is imported when the
+first job is handed over."""
 
 from __future__ import annotations
 
