@@ -86,6 +86,30 @@ def test_an_archive_is_reprocessed_as_one_by_one_and_a_rerun_skips_it(
     assert {p: p.stat().st_mtime_ns for p in out.rglob("*")} == written  # nothing rewritten
 
 
+def test_another_systems_frames_folder_is_reconstructed_with_the_calibration_given(
+    archive: Path, cluster: Cluster, tmp_path: Path
+) -> None:
+    from rig.assembly import open_rig
+    from rig.calibrate.foreign import ForeignCalibrationOptions, write_opencv_stereo
+    from rig.config import load_config
+    from rig.service.reconstruct import reconstruct_folder
+
+    folder = tmp_path / "captures" / "theirs"
+    shutil.copytree(archive / "scan-0" / "frames" / "projector0_camera0", folder)  # frames and patterns.yaml
+    config = load_config(write_config(tmp_path, small_config_data()))
+    with open_rig(config, with_devices=False) as rig:
+        calibration = write_opencv_stereo(tmp_path / "stereo.yml", rig.camera_models[0], rig.projector_models[0])
+    summary = reprocess_archive(cluster, find_inputs([folder]), tmp_path / "out", [calibration])
+    assert [d["name"] for d in summary.done] == ["theirs"], summary.failed
+    options = ForeignCalibrationOptions()
+    alone, _ = reconstruct_folder(
+        folder, folder / "patterns.yaml", calibration, tmp_path / "alone", "a", config, options
+    )
+    assert _body(tmp_path / "out" / "theirs" / "cloud.ply") == _body(alone / "cloud.ply")
+    without = reprocess_archive(cluster, find_inputs([folder]), tmp_path / "out2", [])
+    assert "needs --calibration" in without.failed[0]["error"]
+
+
 class _KillOnce(WorkerPlugin):
     """Kills its worker's process the first time a scan starts executing on any worker (a marker
     file says it has), as the kernel's OOM killer or a crash would."""
