@@ -27,7 +27,7 @@ import numpy as np
 
 from drivers.base import Camera, Frame
 from drivers.errors import DeviceDisconnectedError, DeviceError, DeviceTimeoutError
-from drivers.fakes.faults import Fault, FaultPlan
+from drivers.faults import Fault, FaultPlan
 from drivers.options import ReplayOptions
 from drivers.sequences import TriggerMode
 
@@ -72,7 +72,7 @@ class ReplayCamera(Camera):
         self._fault: FaultPlan | None = None
 
     def inject(self, plan: FaultPlan) -> None:
-        """A fault as the protocol fakes take it (drivers.fakes.faults), counted in frames."""
+        """A fault as the protocol fakes take it (drivers.faults), counted in frames."""
         self._fault = plan
 
     @property

@@ -110,7 +110,7 @@ def batches(count: int, per_thread: int = 2) -> list[tuple[int, int]]:
 def in_row_strips(rows: int, work: Callable[[slice], object], per_thread: int = 1) -> None:
     """Run `work(rows_slice)` over horizontal strips of an image `rows` high on the pool and wait for
     all of them. Row strips of C-ordered arrays are contiguous, so numpy and the compiled loops
-    (rig.fused) write into them in place. Not for work already on the pool."""
+    (rig.kernels.dense) write into them in place. Not for work already on the pool."""
     spans = batches(rows, per_thread)
     if len(spans) == 1:
         work(slice(0, rows))

@@ -23,9 +23,9 @@ import yaml
 
 from drivers.base import Camera, Device, PowerControl, Projector, ProjectorMode
 from drivers.fakes.dlpc350 import FakeLcr4500, finder_for
-from drivers.fakes.faults import Fault, FaultPlan
 from drivers.fakes.pjlink import FakePJLinkProjector
 from drivers.fakes.v4l2 import FakeVideoCapture
+from drivers.faults import Fault, FaultPlan
 from drivers.testing import CameraContract, Kit, PowerControlContract, ProjectorContract
 from rig.assembly.build import build_devices, geometry_model, world_of
 from rig.config import DRIVERS, DeviceKind, RigConfig, config_from_dict, load_config

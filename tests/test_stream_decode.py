@@ -150,9 +150,9 @@ def test_a_stream_refuses_other_sizes_and_counts() -> None:
 
 
 def test_the_phase_streams_atan2_is_within_float_rounding_of_atan2() -> None:
-    """rig.fused_phase.atan2 (a polynomial, so that the phase loop vectorises) against atan2 in
+    """rig.kernels.phase.atan2 (a polynomial, so that the phase loop vectorises) against atan2 in
     float64, over every direction and the axes, where float32 itself rounds by up to 2.4e-7 rad."""
-    from rig.fused_phase import atan2
+    from rig.kernels.phase import atan2
 
     angles = np.linspace(-np.pi, np.pi, 200_001)
     radii = np.geomspace(1e-6, 1e3, angles.size)

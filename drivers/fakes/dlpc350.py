@@ -14,7 +14,7 @@ from typing import Any
 from drivers.dlp import lcr4500 as lcr
 from drivers.dlp.commands import COMMANDS, IMAGE_LUT, PATTERN_LUT_ENTRY
 from drivers.dlp.lut import LUT_TRIGGER_CONTINUE, MIN_EXPOSURE_US, patterns_of_depth
-from drivers.fakes.faults import Fault, FaultPlan
+from drivers.faults import Fault, FaultPlan
 
 
 def _refusal(command: int, data: bytes, read: bool, mailbox: int) -> str | None:

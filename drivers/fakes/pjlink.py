@@ -9,7 +9,7 @@ import socket
 import threading
 import time
 
-from drivers.fakes.faults import Fault, FaultPlan
+from drivers.faults import Fault, FaultPlan
 from drivers.pjlink_commands import COMMANDS
 
 QUERY_ANSWERS = {"LAMP": "1200 1", "INST": "11 31 32", "NAME": "bench", "INF1": "FAKE", "INF2": "PJLINK"}

@@ -16,7 +16,7 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
-from drivers.fakes.faults import Fault, FaultPlan
+from drivers.faults import Fault, FaultPlan
 from drivers.v4l2_controls import refuses
 
 

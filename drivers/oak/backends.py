@@ -11,7 +11,7 @@ from typing import Any
 
 import numpy as np
 
-from drivers.fakes.faults import Fault, FaultPlan
+from drivers.faults import Fault, FaultPlan
 
 
 class BackendError(Exception):
@@ -105,7 +105,7 @@ class FakeBackend:
     def __init__(self, s: OakSettings) -> None:
         self.faults: dict[str, Any] = {}
         for item in filter(None, os.environ.get("SLRIG_FAKE_OAK", "").split(",")):
-            if "@" in item:  # a FaultPlan (drivers.fakes.faults), counted in frames
+            if "@" in item:  # a FaultPlan (drivers.faults), counted in frames
                 plan = FaultPlan.parse(item)
                 self.faults["stall_after" if plan.fault is Fault.SILENCE else "xlink_after"] = plan.after
                 continue

@@ -6,7 +6,7 @@ import time
 
 from drivers.base import Camera, Frame
 from drivers.errors import DeviceDisconnectedError, DeviceTimeoutError
-from drivers.fakes.faults import Fault, FaultPlan
+from drivers.faults import Fault, FaultPlan
 from drivers.options import SimFaults
 from drivers.sequences import TriggerMode
 from drivers.sim.bench import SimBench
@@ -31,7 +31,7 @@ class SimCamera(Camera):
         self._faults = faults or bench.camera_options[index].faults
 
     def inject(self, plan: FaultPlan) -> None:
-        """A fault as the protocol fakes take it (drivers.fakes.faults), counted in frames."""
+        """A fault as the protocol fakes take it (drivers.faults), counted in frames."""
         if plan.fault is Fault.SILENCE:
             self._faults = SimFaults(stall_after_frames=plan.after)
         else:

@@ -10,7 +10,7 @@ import pytest
 
 from drivers.base import Camera
 from drivers.errors import DeviceDisconnectedError, DeviceError, DeviceStateError, DeviceTimeoutError
-from drivers.fakes.faults import Fault
+from drivers.faults import Fault
 from drivers.testing.kit import FAULT_GRACE_S, Contract, Kit, fails_within
 
 CAPTURE_TIMEOUT_S = 1.0

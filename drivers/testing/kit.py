@@ -10,7 +10,7 @@ from typing import Generic, TypeVar
 import pytest
 
 from drivers.base import Device
-from drivers.fakes.faults import Fault, FaultPlan
+from drivers.faults import Fault, FaultPlan
 
 D = TypeVar("D", bound=Device)
 

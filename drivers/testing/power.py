@@ -7,7 +7,7 @@ import pytest
 
 from drivers.base import PowerControl
 from drivers.errors import DeviceError, DeviceStateError
-from drivers.fakes.faults import Fault
+from drivers.faults import Fault
 from drivers.testing.kit import FAULT_GRACE_S, Contract, Kit, fails_within
 
 

@@ -8,7 +8,7 @@ import pytest
 
 from drivers.base import Projector, ProjectorMode
 from drivers.errors import DeviceError, DeviceStateError
-from drivers.fakes.faults import Fault
+from drivers.faults import Fault
 from drivers.sequences import PatternSequence, SequenceEntry, TriggerMode
 from drivers.testing.kit import FAULT_GRACE_S, Contract, Kit, fails_within
 

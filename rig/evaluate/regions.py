@@ -17,7 +17,7 @@ import numpy as np
 
 from rig.lazy import lazy_module
 
-fused = lazy_module("rig.fused_regions")  # numba compiles on first use
+fused = lazy_module("rig.kernels.regions")  # numba compiles on first use
 
 STEP_MM = 2.0  # neighbouring points this far apart lie on two sides of a depth step
 MIN_REGION_SHARE = 0.01  # regions smaller than this share of the area are not judged on their own
@@ -45,7 +45,7 @@ def footprints(
     grid: np.ndarray, valid: np.ndarray, max_jump_mm: float | np.ndarray, split_support: bool = True
 ) -> tuple[np.ndarray, np.ndarray]:
     """pixel_areas and surface_regions of the valid pixels, from two compiled passes over the
-    neighbours (rig.fused_regions); `max_jump_mm` one distance, or one per pixel (H, W) for the step
+    neighbours (rig.kernels.regions); `max_jump_mm` one distance, or one per pixel (H, W) for the step
     from it to the next. With `split_support`, the pixels on the support plane (support_plane) are
     regions apart from the rest."""
     if grid.shape[:2] != valid.shape:

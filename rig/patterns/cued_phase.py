@@ -47,10 +47,10 @@ from rig.patterns.saturation import saturated_in, without_saturated
 from rig.patterns.stream import FrameStream, integer_frame
 from rig.workers import in_row_strips
 
-fused_phase = lazy_module("rig.fused_phase")  # numba compiles on first use: not for --help
+fused_phase = lazy_module("rig.kernels.phase")  # numba compiles on first use: not for --help
 log = logging.getLogger(__name__)
 
-# a pixel's status (as rig.fused_phase.cued_unwrap writes it), and one more: clipped in a frame
+# a pixel's status (as rig.kernels.phase.cued_unwrap writes it), and one more: clipped in a frame
 UNLIT, DECODED, CUE_OFF, OUTSIDE, LOW_MODULATION, SATURATED = 0, 1, 2, 3, 4, 5
 CUE_OFF_WARNING = 0.05  # of the lit pixels: more whose cue is off is worth a warning ...
 CUE_OFF_REFUSED = 0.2  # ... and this many, a refusal (a linear projector: 0.07 %; a gamma of 2.2: 33 %)
@@ -159,7 +159,7 @@ class CuedPhaseCodec(LineCodec):
         peak: np.ndarray,
         full_scale: int,
     ) -> Correspondence:
-        """The Correspondence from each pixel's status (rig.fused_phase.cued_unwrap's): a lit pixel
+        """The Correspondence from each pixel's status (rig.kernels.phase.cued_unwrap's): a lit pixel
         clipped in any frame counts as saturated, whatever else it read (a clipped step throws its
         cue off too); the coordinates NaN where not decoded."""
         if saturated is not None:
@@ -232,7 +232,7 @@ class CuedPhaseStream(FrameStream):
     """The fine steps held until the last one, then read in one pass into the wrapped phase and
     the modulation (rig.patterns.phase.wrapped_steps), and the texture made while the cue's frames
     come; the cue's steps likewise, read with the unwrapping in one pass
-    (rig.fused_phase.cued_unwrap). The spill screen, where the codec has one, takes the fringes'
+    (rig.kernels.phase.cued_unwrap). The spill screen, where the codec has one, takes the fringes'
     peak and trough for the white and dark frames it looks at."""
 
     codec: CuedPhaseCodec

@@ -27,7 +27,7 @@ from rig.patterns.spec import Frequency, GrayCode, PatternSpec, PhaseShift, Proj
 from rig.patterns.stream import DenseBase, FrameStream, GrayBits
 from rig.workers import in_row_strips
 
-fused_phase = lazy_module("rig.fused_phase")  # numba compiles on first use: not for --help
+fused_phase = lazy_module("rig.kernels.phase")  # numba compiles on first use: not for --help
 
 
 class PhaseParams(LineParams):
@@ -131,7 +131,7 @@ class PhaseCodec(LineCodec):
 
 class PhaseStream(FrameStream):
     """The phase decoder fed frame by frame: a period's steps are held until its last step arrives
-    and are then read in one pass into the wrapped phase and the modulation (rig.fused_phase), each
+    and are then read in one pass into the wrapped phase and the modulation (rig.kernels.phase), each
     Gray pair is read in integer counts as it arrives (GrayBits); after the last pair only the
     unwrapping remains. The steps are summed in the batch decoder's order, but with weights scaled
     by full scale and the phase from a polynomial atan2: coordinates agree within float rounding."""
@@ -222,7 +222,7 @@ def step_weights(steps: int, full_scale: int) -> tuple[np.ndarray, np.ndarray]:
 def wrapped_steps(
     steps: tuple[np.ndarray, ...], weights: tuple[np.ndarray, np.ndarray], period_px: int
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """A period's steps read whole (rig.fused_phase.phase_wrap): the phase as a fraction of the
+    """A period's steps read whole (rig.kernels.phase.phase_wrap): the phase as a fraction of the
     period in pixels (one period less past 3 pi / 2), whether it is near a wrap, and the modulation."""
     shape = steps[0].shape
     fraction, modulation, near = np.empty(shape, np.float32), np.empty(shape, np.float32), np.empty(shape, np.uint8)

@@ -23,7 +23,7 @@ from rig.patterns.saturation import SaturationMask
 from rig.patterns.spill import SpillScreen
 from rig.workers import in_row_strips
 
-fused = lazy_module("rig.fused")  # numba compiles on first use: not for --help
+fused = lazy_module("rig.kernels.dense")  # numba compiles on first use: not for --help
 
 if TYPE_CHECKING:
     from rig.patterns.base import Codec
@@ -114,7 +114,7 @@ def integer_frame(codec: Codec, frame: np.ndarray) -> np.ndarray:
 
 class GrayBits:
     """A Gray code read one (pattern, inverse) pair at a time, most significant bit first, in
-    integer counts: one pass over the two frames per pair (rig.fused.gray_pair), a band of rows per
+    integer counts: one pass over the two frames per pair (rig.kernels.dense.gray_pair), a band of rows per
     thread. The binary value's bits so far give the XOR of the Gray bits, so the pass reads and
     writes only the value and the two weakest strengths.
 
@@ -221,7 +221,7 @@ class DenseBase:
 
     def accept(self, reader: GrayBits, extent: int, min_strength: int, count_name: str) -> np.ndarray:
         """A Gray-coded axis read whole: its coordinate (float32, NaN where not valid), the pixels
-        with a weak bit or a code beyond `extent` dropped, in one pass (rig.fused.gray_accept)."""
+        with a weak bit or a code beyond `extent` dropped, in one pass (rig.kernels.dense.gray_accept)."""
         value, strength, lit, valid = reader.value(), reader.strength(), self.lit, self.valid
         assert lit is not None and valid is not None
         coordinate, dropped = np.empty(value.shape, np.float32), []

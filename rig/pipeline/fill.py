@@ -27,7 +27,7 @@ from rig.geometry import CameraModel
 from rig.lazy import lazy_module
 from rig.workers import batches, pool
 
-fused = lazy_module("rig.fused_fill")  # numba compiles on first use
+fused = lazy_module("rig.kernels.fill")  # numba compiles on first use
 
 _CHUNK = 16_384  # candidate pixels fitted at a time (a few MB per (N, k, 3) array)
 
@@ -179,7 +179,7 @@ def _fit_and_meet(
     settings: FillSettings,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Per pixel, the weighted quadratic height field of its used samples (positions and slopes, in a
-    frame along their mean normal: rig.fused_fill) met by its ray (origins, unit directions), NaN
+    frame along their mean normal: rig.kernels.fill) met by its ray (origins, unit directions), NaN
     where it misses; and the rms of the samples' heights off the fit (mm). Samples of two levels
     joined by a step fit a ramp between them, which their own slopes contradict: the heights stray
     by millimetres."""

@@ -5,7 +5,7 @@ the PointSet and the stored scan are built from it afterwards.
 
 It computes what rig.pipeline.dense computes (PairTriangulator.triangulate, reject_isolated,
 grid_normals, texture_rgb), in float32 and relative to the camera centre, each step one pass of a
-compiled loop (rig.fused) per band of rows: points agree within float32 rounding of the stored
+compiled loop (rig.kernels.dense) per band of rows: points agree within float32 rounding of the stored
 coordinates. It covers a pinhole camera and a projector coding one axis without distortion or skew
 (the default benches); other pairs take the general path.
 """
@@ -23,7 +23,7 @@ from rig.pipeline.dense import PairTriangulator, texture_rgb
 from rig.pipeline.pointset import PointSet
 from rig.workers import in_row_strips
 
-fused = lazy_module("rig.fused")  # numba compiles on first use: not for --help
+fused = lazy_module("rig.kernels.dense")  # numba compiles on first use: not for --help
 
 _MIN_SUPPORT = 3  # as reject_isolated: neighbours within the depth-jump limit a point needs
 _NORMAL_STEP = 2  # as grid_normals: neighbours this many pixels away span the tangent plane

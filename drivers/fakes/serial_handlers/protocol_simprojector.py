@@ -13,7 +13,7 @@ import urllib.parse
 
 from serial.serialutil import PortNotOpenError, SerialBase, SerialException, Timeout
 
-from drivers.fakes.faults import Fault, FaultPlan
+from drivers.faults import Fault, FaultPlan
 from drivers.serial_commands import frames
 
 

@@ -17,8 +17,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-KERNEL = {"nogil": True, "cache": True}
-Image = np.ndarray  # (H, W), or (3, H, W) for points, directions and normals
+from rig.kernels import KERNEL, Image
 
 
 @njit(**KERNEL)

@@ -3,7 +3,7 @@
 Each pixel's quadratic height field is a 6x6 weighted least-squares problem over its few dozen
 sample rows. As numpy passes over (pixels, rows, 6) arrays it took 0.5 s for the default bench's
 ring scan (line profile, scratch); one loop per pixel keeps each problem in registers. Like
-rig.fused, the loop releases the GIL and takes a span of pixels [start, stop) for rig.workers'
+rig.kernels.dense, the loop releases the GIL and takes a span of pixels [start, stop) for rig.workers'
 pool, and is compiled on first use and cached beside this file.
 """
 
@@ -12,7 +12,8 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-KERNEL = {"nogil": True, "cache": True}
+from rig.kernels import KERNEL
+
 _TERMS = 6  # 1, x, y, x^2, xy, y^2
 
 

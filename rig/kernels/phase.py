@@ -1,5 +1,5 @@
 """The phase decoder's per-pixel loops (rig.patterns.phase.PhaseStream), compiled by numba as
-rig.fused's are: one band of rows [top, bottom) per call, the GIL released.
+rig.kernels.dense's are: one band of rows [top, bottom) per call, the GIL released.
 
 A period's steps are read in one pass after its last step arrives (each frame read once, its sums
 kept in registers for a row) rather than added into two float32 images step by step, which read and
@@ -13,7 +13,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from rig.fused import KERNEL, Image
+from rig.kernels import KERNEL, Image
 
 # atan(t) / t as a polynomial in t * t on [0, 1]: least-squares coefficients, reweighted toward the
 # largest error (fitted in float64, evaluated in float32). Largest error against atan: 9.5e-8 rad,

@@ -11,7 +11,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-KERNEL = {"nogil": True, "cache": True}
+from rig.kernels import KERNEL
 
 
 @njit(**KERNEL)

@@ -1,0 +1,10 @@
+"""The compiled per-pixel loops (numba), on their own floor: they import numpy and numba only, and
+every layer that needs one loads it lazily (rig.lazy), so that a command that does not run one
+does not compile it. `dense`: Gray decoding, contrast, plane triangulation, kept points and normals;
+`phase`: phase shifting's wrap and unwrap; `fill`: the ring surface's height-field fits; `regions`:
+evaluation's surface regions. Each is compiled on first use and cached beside it (__pycache__)."""
+
+import numpy as np
+
+KERNEL = {"nogil": True, "cache": True}  # every loop: released GIL (rig.workers runs bands of rows), cached
+Image = np.ndarray  # (H, W), or (3, H, W) for points, directions and normals
