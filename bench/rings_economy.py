@@ -39,7 +39,8 @@ from rig.assembly import open_rig
 from rig.config import config_from_dict, load_config
 from rig.errors import PlanError
 from rig.evaluate.pairs import evaluate_pair
-from rig.pipeline.scan import ScanResult, run_scan
+from rig.pipeline.results import ScanResult
+from rig.pipeline.scan import run_scan
 from rig.plan.ring_plan import pilot_views, plan_rings
 from rig.rig import Rig
 from rig.service.adaptive import with_plan

@@ -18,7 +18,8 @@ from rig.geometry import CameraModel, look_at_rotation
 from rig.pipeline.capture import CUE
 from rig.pipeline.colour import interpolate_colour, sample_colours
 from rig.pipeline.dense import texture_rgb
-from rig.pipeline.scan import PairResult, make_codec, run_scan
+from rig.pipeline.results import PairResult
+from rig.pipeline.scan import make_codec, run_scan
 from rig.service.adaptive import adaptive_scan
 from rig.store.images import preview_png
 

@@ -22,7 +22,8 @@ from rig.geometry import CameraModel
 from rig.pipeline.capture import CUE
 from rig.pipeline.merge import compare_across_pairs, expected_error_mm, thin
 from rig.pipeline.pointset import PointSet
-from rig.pipeline.scan import ScanResult, run_scan
+from rig.pipeline.results import ScanResult
+from rig.pipeline.scan import run_scan
 from rig.rig import Rig
 from rig.store.ply import ply_bytes
 from rig.store.scandir import read_frames, write_scan

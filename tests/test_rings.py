@@ -16,7 +16,8 @@ from rig.geometry.cone import ray_cone
 from rig.patterns import codec_class
 from rig.patterns.radial import RadialParams
 from rig.patterns.rings import RingsParams
-from rig.pipeline.scan import PairResult, make_codec, run_scan
+from rig.pipeline.results import PairResult
+from rig.pipeline.scan import make_codec, run_scan
 from rig.rig import Rig
 from tests.conftest import UNCLIPPED_FULL_SCALE, make_device, unclipped
 

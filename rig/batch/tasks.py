@@ -15,7 +15,7 @@ from rig.calibrate.foreign import ForeignCalibrationOptions
 from rig.config import load_config
 from rig.errors import StoreError
 from rig.evaluate.merged import measure_on_bench
-from rig.pipeline.scan import ScanResult
+from rig.pipeline.results import ScanResult
 from rig.recognition.descriptor import DescriptorSettings
 from rig.service.recognition import describe_scan
 from rig.service.reconstruct import reconstruct_folder

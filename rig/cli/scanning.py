@@ -15,7 +15,7 @@ from rig.evaluate.merged import evaluate_merge
 from rig.evaluate.pairs import evaluate_on_bench
 from rig.evaluate.surface import pattern_economy
 from rig.pipeline.hdr import scan_with_exposure
-from rig.pipeline.scan import ScanResult
+from rig.pipeline.results import ScanResult
 from rig.plan.ring_plan import RingPlan
 from rig.service.tasks import adaptive_scan_to_directory, scan_to_directory
 from rig.store.scandir import new_scan_id

@@ -12,7 +12,7 @@ from __future__ import annotations
 import numpy as np
 
 from rig.pipeline.dense import texture_rgb
-from rig.pipeline.scan import PairResult
+from rig.pipeline.results import PairResult
 from rig.rig import PixelTruth
 
 # Pixels the projector lights this weakly (relative to the median) carry mostly noise once unshaded.

@@ -17,7 +17,8 @@ import numpy as np
 
 from rig.evaluate.regions import MIN_REGION_SHARE, STEP_MM, footprints
 from rig.geometry import CameraModel
-from rig.pipeline.scan import PairResult, ring_bands, ring_lit
+from rig.pipeline.results import PairResult
+from rig.pipeline.scan import ring_bands, ring_lit
 from rig.pipeline.surface import Interpolant, RingBands, RingSurface, SurfaceSettings, interpolate_surface
 from rig.rig import Rig
 

@@ -13,7 +13,7 @@ from rig.evaluate.pairs import COMPLETE_WITHIN_MM, evaluate_on_bench, point_erro
 from rig.pipeline.merge import sampling_distance
 from rig.pipeline.overlap import precision_recall
 from rig.pipeline.pointset import PointSet
-from rig.pipeline.scan import ScanResult
+from rig.pipeline.results import ScanResult
 from rig.rig import Rig
 
 SURFACE_SPACING_MM = 1.0

@@ -13,7 +13,7 @@ from rig.evaluate.rings import ring_coverage_on_bench
 from rig.evaluate.surface import surface_metrics
 from rig.geometry import CameraModel
 from rig.pipeline.realign import moved_pair
-from rig.pipeline.scan import PairResult
+from rig.pipeline.results import PairResult
 from rig.rig import GroundTruth, PixelTruth, Rig
 from rig.workers import point_blocks
 

@@ -6,7 +6,7 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from rig.evaluate.distances import root_mean_square
-from rig.pipeline.scan import PairResult
+from rig.pipeline.results import PairResult
 from rig.rig import PixelTruth
 
 # A true ring crossing counts as recovered when a kept point of the same ring lies this close (pixels).

@@ -35,7 +35,8 @@ from rig.pipeline.exposure import (
     within_range,
 )
 from rig.pipeline.projection_mask import masked_rig
-from rig.pipeline.scan import ScanResult, is_reconstructed, make_codec, reconstruct_frames, run_scan
+from rig.pipeline.results import ScanResult
+from rig.pipeline.scan import is_reconstructed, make_codec, reconstruct_frames, run_scan
 from rig.progress import ProgressCallback, ProgressTracker
 from rig.rig import Rig
 

@@ -42,7 +42,8 @@ from rig.pipeline.exposure import (
     shortest_looks,
     within_range,
 )
-from rig.pipeline.scan import PairResult, run_scan
+from rig.pipeline.results import PairResult
+from rig.pipeline.scan import run_scan
 from rig.progress import ProgressCallback, ProgressTracker
 from rig.rig import Rig
 

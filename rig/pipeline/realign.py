@@ -4,16 +4,13 @@ before they are merged (scan.merge.refine: icp)."""
 from __future__ import annotations
 
 import dataclasses
-from typing import TYPE_CHECKING
 
 import numpy as np
 
 from rig.pipeline.icp import AlignmentRefusedError, point_to_plane
 from rig.pipeline.pointset import PointSet
-
-if TYPE_CHECKING:
-    from rig.pipeline.scan import PairResult
-    from rig.rig import Rig
+from rig.pipeline.results import PairResult
+from rig.rig import Rig
 
 
 def moved_pair(pair: PairResult, rotation: np.ndarray, shift: np.ndarray) -> PairResult:

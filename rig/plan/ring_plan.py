@@ -22,7 +22,7 @@ from rig.errors import PlanError
 from rig.geometry import CameraModel
 from rig.patterns.circular import farthest_corner_px
 from rig.patterns.rings import EDGE_RAMP_PX, RingsParams
-from rig.pipeline.scan import ScanResult
+from rig.pipeline.results import ScanResult
 from rig.pipeline.surface import Interpolant
 from rig.plan.rehearsal import Rehearsal, noise_mm, organised, pilot_surface
 from rig.plan.rings import (

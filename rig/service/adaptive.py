@@ -10,7 +10,8 @@ from typing import Any
 from rig.config import RigConfig, config_from_dict
 from rig.errors import ConfigError, PlanError
 from rig.evaluate.holdout import held_out_error
-from rig.pipeline.scan import ScanResult, run_scan
+from rig.pipeline.results import ScanResult
+from rig.pipeline.scan import run_scan
 from rig.plan.rehearsal import rehearsal_progress
 from rig.plan.ring_plan import RingPlan, pilot_views, plan_rings
 from rig.plan.signature import disagreement

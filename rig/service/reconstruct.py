@@ -32,7 +32,8 @@ from rig.patterns.base import Correspondence
 from rig.patterns.described import decode_described
 from rig.patterns.described_checks import decoded_warnings
 from rig.patterns.spec import PatternSpec
-from rig.pipeline.scan import ScanResult, reconstruct_pair
+from rig.pipeline.results import ScanResult
+from rig.pipeline.scan import reconstruct_pair
 from rig.progress import ProgressCallback, ProgressTracker
 from rig.rig import Rig
 from rig.store.frames import FrameSet, frame_files, load_pattern_spec, open_frames

@@ -14,7 +14,8 @@ from rig.assembly import open_rig
 from rig.config import RigConfig, config_from_dict
 from rig.evaluate.merged import measure_on_bench
 from rig.pipeline.hdr import reconstruct_exposures, scan_with_exposure
-from rig.pipeline.scan import ScanResult, reconstruct_frames
+from rig.pipeline.results import ScanResult
+from rig.pipeline.scan import reconstruct_frames
 from rig.plan.ring_plan import RingPlan
 from rig.progress import ProgressCallback, ProgressTracker
 from rig.rig import Rig
