@@ -138,3 +138,19 @@ def test_modules_and_functions_are_small_enough_to_read_in_one_sitting() -> None
                     long_functions.append(f"{name}:{node.lineno} {node.name}: {length} lines")
     assert not long_modules, f"modules over {MAX_MODULE_LINES} lines: {long_modules}"
     assert not long_functions, f"functions over {MAX_FUNCTION_LINES} lines: {long_functions}"
+
+
+def test_no_module_imports_itself_back_through_others() -> None:
+    """No circle between modules, counting every import: at call time, and under TYPE_CHECKING
+    (grimp reads them all). A Protocol says what one module needs of another's class instead."""
+    import grimp
+
+    graph = grimp.build_graph("rig", "drivers", cache_dir=None)
+    circles = []
+    for module in sorted(graph.modules):
+        for imported in graph.find_modules_directly_imported_by(module):
+            if module < imported and graph.find_shortest_chain(imported=module, importer=imported):
+                circles.append(
+                    f"{module} <-> {imported}: {graph.find_shortest_chain(imported=module, importer=imported)}"
+                )
+    assert circles == []

@@ -8,10 +8,10 @@ from typing import Any
 import numpy as np
 import pytest
 
-from rig import fused_phase
 from rig.assembly import open_rig
 from rig.config import config_from_dict
 from rig.errors import DecodeError
+from rig.kernels import phase as phase_kernels
 from rig.patterns import cued_phase
 from rig.patterns.stream import decode_streamed
 from rig.pipeline.live import run_live
@@ -81,8 +81,8 @@ def test_live_mode_shows_the_six_frame_sequence() -> None:
 
 def test_the_kernel_and_the_codec_number_a_pixels_status_alike() -> None:
     names = ("UNLIT", "DECODED", "CUE_OFF", "OUTSIDE", "LOW_MODULATION")
-    assert [getattr(fused_phase, n) for n in names] == [getattr(cued_phase, n) for n in names]
-    assert cued_phase.SATURATED not in [getattr(fused_phase, n) for n in names]
+    assert [getattr(phase_kernels, n) for n in names] == [getattr(cued_phase, n) for n in names]
+    assert cued_phase.SATURATED not in [getattr(phase_kernels, n) for n in names]
 
 
 def test_colour_frames_with_the_spill_screen_decode_alike_in_batch_and_stream() -> None:

@@ -73,7 +73,7 @@ def test_pairs_the_fast_path_does_not_cover_take_the_general_path() -> None:
 def test_a_ray_that_runs_in_its_plane_is_no_point_and_no_error() -> None:
     """A camera whose baseline to the projector runs along the coded planes (or a pixel whose ray
     does, exactly): the plane meets the ray nowhere, a zero denominator, which must not raise."""
-    from rig import fused
+    from rig.kernels import dense
 
     shape = (2, 3)
     image = np.ones(shape, np.float32)
@@ -81,7 +81,7 @@ def test_a_ray_that_runs_in_its_plane_is_no_point_and_no_error() -> None:
     c = np.array([[0.0, 1.0, 0.0], [1.0, 0.0, 2.0]], np.float32)  # denominator c + d u: 0 where c is
     ray, depth = np.empty(shape, np.float32), np.empty(shape, np.float32)
     decoded = np.empty(shape, bool)
-    fused.plane_triangulate(
+    dense.plane_triangulate(
         image, np.ones(shape, bool), image, zero, c, zero, np.float32(0.0), np.float32(0.0), image,
         ray, depth, decoded, 0, shape[0],
     )  # fmt: skip

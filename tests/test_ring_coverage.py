@@ -171,7 +171,7 @@ def test_where_the_coarse_angle_leaves_the_period_ambiguous_the_rings_neighbours
     scan's (0.02 rad, where a 16 px period on a ring of 200 px is 0.08 rad): where the ring runs
     along the epipolar line only the angle places a sample, and without its neighbours the coarse
     angle could not choose the period. Every sample is placed, and on its true point."""
-    from rig.patterns.base import RingSamples
+    from rig.patterns.correspondence import RingSamples
     from rig.pipeline.rings import triangulate_rings
 
     camera = make_device(640, 512, 900.0, (-100.0, 0.0, 600.0), (0.0, 0.0, 30.0))

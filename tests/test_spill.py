@@ -10,7 +10,8 @@ import pytest
 
 from rig.config import config_from_dict
 from rig.patterns import codec_class
-from rig.patterns.base import Codec, Correspondence
+from rig.patterns.base import Codec
+from rig.patterns.correspondence import Correspondence
 from rig.patterns.spill import outshone
 from rig.patterns.stream import decode_streamed
 from rig.pipeline.scan import make_codec

@@ -182,7 +182,8 @@ class SimBench:
             if self.scene.texture is not None:
                 albedo[hit] = self.scene.texture.colour_at(points[hit])[:, ::-1]
             albedo = albedo.reshape(model.height, model.width, 3)
-            paint_planar_textures(albedo, points, faces, self.scene)
+            textures = [o.texture for o in self.scene.objects]
+            paint_planar_textures(albedo, points, faces, textures, self.scene.face_object)
             mono = albedo @ np.array([0.114, 0.587, 0.299], dtype=np.float32)  # BGR luminance weights
             depth = np.zeros(len(hit))
             depth[hit] = points[hit] @ model.axis - model.axis @ model.center  # device-frame z

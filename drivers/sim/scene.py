@@ -11,21 +11,9 @@ from pathlib import Path
 import numpy as np
 import trimesh
 
-from drivers.sim.texture import SolidTexture
+from drivers.sim.texture import PlanarTexture, SolidTexture
 
 Albedo = float | tuple[float, float, float]  # grey, or linear RGB, each in [0, 1]
-
-
-@dataclass(frozen=True, eq=False)
-class PlanarTexture:
-    """A printed image on a planar object: albedo image (H, W) float32 in [0, 1], `mm_per_px` of
-    it, and the plane's frame in the world: point = origin + x * axes[:, 0] + y * axes[:, 1], with
-    image pixel (col, row) at (x, y) = ((col + 0.5) * mm_per_px, (row + 0.5) * mm_per_px)."""
-
-    image: np.ndarray
-    mm_per_px: float
-    origin: np.ndarray
-    axes: np.ndarray  # (3, 3) columns: the plane's x, y and normal in world coordinates
 
 
 @dataclass(frozen=True, eq=False)

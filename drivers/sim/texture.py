@@ -7,14 +7,24 @@ Colours are linear RGB in [0, 1]. Every texture is a pure function of the world 
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Protocol
+from typing import Protocol
 
 import cv2
 import numpy as np
 
-if TYPE_CHECKING:
-    from drivers.sim.scene import Scene
+
+@dataclass(frozen=True, eq=False)
+class PlanarTexture:
+    """A printed image on a planar object: albedo image (H, W) float32 in [0, 1], `mm_per_px` of
+    it, and the plane's frame in the world: point = origin + x * axes[:, 0] + y * axes[:, 1], with
+    image pixel (col, row) at (x, y) = ((col + 0.5) * mm_per_px, (row + 0.5) * mm_per_px)."""
+
+    image: np.ndarray
+    mm_per_px: float
+    origin: np.ndarray
+    axes: np.ndarray  # (3, 3) columns: the plane's x, y and normal in world coordinates
 
 
 class SolidTexture(Protocol):
@@ -114,17 +124,23 @@ def read_decal_image(path: str, max_side: int = 4096) -> np.ndarray:
     return np.where(image <= 0.04045, image / 12.92, ((image + 0.055) / 1.055) ** 2.4).astype(np.float32)
 
 
-def paint_planar_textures(albedo: np.ndarray, points: np.ndarray, faces: np.ndarray, scene: Scene) -> None:
+def paint_planar_textures(
+    albedo: np.ndarray,
+    points: np.ndarray,
+    faces: np.ndarray,
+    textures: Sequence[PlanarTexture | None],
+    face_object: np.ndarray,
+) -> None:
     """Albedo of printed planes, averaged over 4x4 samples per pixel: the sub-pixel positions on
-    the plane come from the local derivatives of the plane coordinates across the pixel grid."""
+    the plane come from the local derivatives of the plane coordinates across the pixel grid.
+    `textures`: each scene object's (None: not printed); `face_object`: each face's object."""
     shape = albedo.shape[:2]
-    for index, obj in enumerate(scene.objects):
-        if obj.texture is None:
+    for index, tex in enumerate(textures):
+        if tex is None:
             continue
-        mine = (faces >= 0) & (scene.face_object[np.maximum(faces, 0)] == index)
+        mine = (faces >= 0) & (face_object[np.maximum(faces, 0)] == index)
         if not mine.any():
             continue
-        tex = obj.texture
         local = (points - tex.origin) @ tex.axes[:, :2] / tex.mm_per_px - 0.5  # texture pixel coords
         local[~mine] = np.nan
         grid = local.reshape(*shape, 2).astype(np.float32)

@@ -17,7 +17,7 @@ import numpy as np
 
 from rig.lazy import lazy_module
 
-fused = lazy_module("rig.kernels.regions")  # numba compiles on first use
+region_kernels = lazy_module("rig.kernels.regions")  # numba compiles on first use
 
 STEP_MM = 2.0  # neighbouring points this far apart lie on two sides of a depth step
 MIN_REGION_SHARE = 0.01  # regions smaller than this share of the area are not judged on their own
@@ -53,12 +53,12 @@ def footprints(
     # One layout and one writability for the compiled loop: no extra compiled versions.
     limit = np.require(np.broadcast_to(np.asarray(max_jump_mm, np.float64), valid.shape), np.float64, ["C", "W"])
     grid, valid = np.ascontiguousarray(grid), np.ascontiguousarray(valid, np.bool_)
-    right, down, area = fused.joins_and_areas(grid, valid, limit)
+    right, down, area = region_kernels.joins_and_areas(grid, valid, limit)
     if split_support:  # the object and its support meet, but are two regions
         on = support_plane(grid, valid)
         right &= on[:, 1:] == on[:, :-1]
         down &= on[1:, :] == on[:-1, :]
-    return area[valid], fused.joined_labels(right, down, valid)
+    return area[valid], region_kernels.joined_labels(right, down, valid)
 
 
 def support_plane(grid: np.ndarray, valid: np.ndarray) -> np.ndarray:
@@ -110,7 +110,7 @@ def joined_labels(right: np.ndarray, down: np.ndarray, valid: np.ndarray) -> np.
     height, width = valid.shape
     if right.shape != (height, max(width - 1, 0)) or down.shape != (max(height - 1, 0), width):
         raise ValueError(f"joins {right.shape}, {down.shape} do not fit pixels {valid.shape}")
-    return fused.joined_labels(right, down, np.ascontiguousarray(valid, np.bool_))
+    return region_kernels.joined_labels(right, down, np.ascontiguousarray(valid, np.bool_))
 
 
 def weighted_quantile(values: np.ndarray, weights: np.ndarray, q: float) -> float:

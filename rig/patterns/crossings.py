@@ -83,3 +83,20 @@ class Crossings:
             self.step[keep],
             None if self.ring is None else self.ring[keep],
         )
+
+
+@dataclass(frozen=True, eq=False)
+class LocatedRings:
+    """The ring points a ring decode has located before the fine angle: their crossings, coarse polar
+    angle, what was rejected, and the coarse bands every pixel lies in (RingsCodec._bands)."""
+
+    crossings: Crossings
+    theta: np.ndarray
+    counts: dict[str, int]
+    bands: dict[str, np.ndarray]
+
+    @property
+    def ends(self) -> tuple[np.ndarray, np.ndarray]:
+        """The crossings' two pixels, a then b, as one index of 2M pixels."""
+        a, b = self.crossings.a, self.crossings.b
+        return np.concatenate([a[0], b[0]]), np.concatenate([a[1], b[1]])

@@ -39,7 +39,8 @@ from pydantic import Field
 
 from rig.errors import DecodeError
 from rig.lazy import lazy_module
-from rig.patterns.base import CodecParams, Correspondence
+from rig.patterns.base import CodecParams
+from rig.patterns.correspondence import Correspondence
 from rig.patterns.lines import LineCodec
 from rig.patterns.phase import step_weights, wrapped_steps
 from rig.patterns.registry import register
@@ -47,7 +48,7 @@ from rig.patterns.saturation import saturated_in, without_saturated
 from rig.patterns.stream import FrameStream, integer_frame
 from rig.workers import in_row_strips
 
-fused_phase = lazy_module("rig.kernels.phase")  # numba compiles on first use: not for --help
+phase_kernels = lazy_module("rig.kernels.phase")  # numba compiles on first use: not for --help
 log = logging.getLogger(__name__)
 
 # a pixel's status (as rig.kernels.phase.cued_unwrap writes it), and one more: clipped in a frame
@@ -268,7 +269,7 @@ class CuedPhaseStream(FrameStream):
         status = np.empty(coordinate.shape, np.uint8)
         in_row_strips(
             coordinate.shape[0],
-            lambda rows: fused_phase.cued_unwrap(
+            lambda rows: phase_kernels.cued_unwrap(
                 held, self._weights[0], self._weights[1], np.float32(codec.cue_period),
                 np.float32(params.period_px), codec.extent(codec.axis), np.float32(params.black_threshold),
                 np.float32(params.min_modulation), np.float32(params.cue_margin), modulation, coordinate, status,

@@ -8,7 +8,7 @@ from collections.abc import Iterator, Sequence
 import numpy as np
 
 from rig.errors import DecodeError
-from rig.patterns.base import Correspondence, NormalizedFrames
+from rig.patterns.correspondence import Correspondence, NormalizedFrames
 from rig.patterns.described_phase import decode_phase, phase_pattern
 from rig.patterns.diamond import mirror_image
 from rig.patterns.graycode import read_bits

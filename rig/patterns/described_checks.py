@@ -5,7 +5,7 @@ a phase read without unwrapping."""
 
 from __future__ import annotations
 
-from rig.patterns.base import Correspondence
+from rig.patterns.correspondence import Correspondence
 from rig.patterns.spec import PatternSpec
 
 LEAST_DECODED = 0.5  # of the lit pixels: fewer decoded says the description is doubtful

@@ -29,7 +29,7 @@ from collections.abc import Callable
 import cv2
 import numpy as np
 
-from rig.patterns.base import Correspondence, NormalizedFrames
+from rig.patterns.correspondence import Correspondence, NormalizedFrames
 from rig.patterns.lines import LineCodec, stretch
 from rig.patterns.micro_phase import micro_unwrapped
 from rig.patterns.spec import Axis, PatternSpec, Role

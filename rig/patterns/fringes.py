@@ -6,7 +6,7 @@ import math
 
 import numpy as np
 
-from rig.patterns.base import NormalizedFrames, fraction
+from rig.patterns.correspondence import NormalizedFrames, fraction
 
 
 def fringe_images(phase: np.ndarray, steps: int) -> list[np.ndarray]:

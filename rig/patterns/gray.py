@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from rig.patterns.base import Correspondence, NormalizedFrames, least_counts
+from rig.patterns.correspondence import Correspondence, NormalizedFrames, least_counts
 from rig.patterns.graycode import bit_count, decode_gray, gray_planes, planes_with_inverses
 from rig.patterns.lines import LineCodec, LineParams
 from rig.patterns.registry import register

@@ -9,7 +9,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 if TYPE_CHECKING:
-    from rig.patterns.base import NormalizedFrames
+    from rig.patterns.correspondence import NormalizedFrames
 
 
 def bit_count(values: int) -> int:

@@ -9,7 +9,8 @@ from typing import Literal
 import numpy as np
 from pydantic import Field
 
-from rig.patterns.base import Codec, CodecParams, Correspondence
+from rig.patterns.base import Codec, CodecParams
+from rig.patterns.correspondence import Correspondence
 
 Directions = Literal["columns", "rows", "both"]
 

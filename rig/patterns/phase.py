@@ -19,7 +19,8 @@ import numpy as np
 from pydantic import Field, field_validator
 
 from rig.lazy import lazy_module
-from rig.patterns.base import Correspondence, NormalizedFrames, even_period, least_counts
+from rig.patterns.base import even_period
+from rig.patterns.correspondence import Correspondence, NormalizedFrames, least_counts
 from rig.patterns.graycode import bit_count, decode_gray, gray_planes, planes_with_inverses
 from rig.patterns.lines import LineCodec, LineParams
 from rig.patterns.registry import register
@@ -27,7 +28,7 @@ from rig.patterns.spec import Frequency, GrayCode, PatternSpec, PhaseShift, Proj
 from rig.patterns.stream import DenseBase, FrameStream, GrayBits
 from rig.workers import in_row_strips
 
-fused_phase = lazy_module("rig.kernels.phase")  # numba compiles on first use: not for --help
+phase_kernels = lazy_module("rig.kernels.phase")  # numba compiles on first use: not for --help
 
 
 class PhaseParams(LineParams):
@@ -185,7 +186,7 @@ class PhaseStream(FrameStream):
         in_row_strips(
             half.shape[0],
             lambda rows: low.append(
-                fused_phase.phase_unwrap(
+                phase_kernels.phase_unwrap(
                     half,
                     near,
                     fraction,
@@ -229,7 +230,7 @@ def wrapped_steps(
     amplitude, period = np.float32(2.0 / len(steps)), np.float32(period_px)
     in_row_strips(
         shape[0],
-        lambda rows: fused_phase.phase_wrap(
+        lambda rows: phase_kernels.phase_wrap(
             steps, weights[0], weights[1], amplitude, period, modulation, near, fraction, rows.start, rows.stop
         ),
     )

@@ -21,16 +21,9 @@ import math
 import numpy as np
 from pydantic import Field, field_validator
 
-from rig.patterns.base import (
-    CodecParams,
-    Correspondence,
-    NormalizedFrames,
-    PixelCoord,
-    even_period,
-    fraction,
-    least_counts,
-)
+from rig.patterns.base import CodecParams, PixelCoord, even_period
 from rig.patterns.circular import CircularCodec
+from rig.patterns.correspondence import Correspondence, NormalizedFrames, fraction, least_counts
 from rig.patterns.fringes import RunningSums, fringe_images, summed
 from rig.patterns.graycode import bit_count, decode_gray, gray_planes, planes_with_inverses
 from rig.patterns.registry import register

@@ -24,15 +24,15 @@ camera pixels that read the same ring index: its position is the linear zero cro
 from __future__ import annotations
 
 import functools
-from dataclasses import dataclass
 from typing import Annotated, Literal
 
 import numpy as np
 from pydantic import Field, model_validator
 
-from rig.patterns.base import CodecParams, Correspondence, NormalizedFrames, PixelCoord, RingSamples
+from rig.patterns.base import CodecParams, PixelCoord
 from rig.patterns.circular import CircularCodec
-from rig.patterns.crossings import Crossings
+from rig.patterns.correspondence import Correspondence, NormalizedFrames, RingSamples
+from rig.patterns.crossings import Crossings, LocatedRings
 from rig.patterns.fringes import PointSums, fringe_images, phase_sums
 from rig.patterns.graycode import bit_count, decode_gray, gray_planes, planes_with_inverses
 from rig.patterns.registry import register
@@ -216,7 +216,7 @@ class RingsCodec(CircularCodec):
         zone_strong: np.ndarray,
         lit: np.ndarray,
         coarse: tuple[np.ndarray, np.ndarray],
-    ) -> RingPoints:
+    ) -> LocatedRings:
         """The ring points among the edge pattern's sign changes, once the ring index (`zone`, read
         strongly enough where `zone_strong`) and the coarse angle's sums are known."""
         p = self.params
@@ -229,7 +229,7 @@ class RingsCodec(CircularCodec):
         assert crossings.ring is not None
         theta = np.arctan2(*crossings.between(*coarse))
         on_frame = self._on_frame(crossings.ring, theta)
-        return RingPoints(
+        return LocatedRings(
             crossings=crossings.select(on_frame),
             theta=theta[on_frame].astype(np.float64),
             counts={"rejected_edge_jump": int((ramp > limit).sum()), "rejected_off_frame": int((~on_frame).sum())},
@@ -237,7 +237,7 @@ class RingsCodec(CircularCodec):
         )
 
     def correspondence(
-        self, found: RingPoints, fine: PointSums | None, contrast: np.ndarray, lit: np.ndarray, texture: np.ndarray
+        self, found: LocatedRings, fine: PointSums | None, contrast: np.ndarray, lit: np.ndarray, texture: np.ndarray
     ) -> Correspondence:
         """The ring points as samples, with the fine angle's phase where the fine code was read
         (its sums at each crossing's two pixels)."""
@@ -327,20 +327,3 @@ class RingsCodec(CircularCodec):
             "annulus": np.where(sure, annulus, -1).astype(np.int16),
             "angle": np.where(readable, np.arctan2(s, c), np.nan).astype(np.float32),
         }
-
-
-@dataclass(frozen=True, eq=False)
-class RingPoints:
-    """The ring points a decode has located before the fine angle: their crossings, coarse polar
-    angle, what was rejected, and the coarse bands every pixel lies in (RingsCodec._bands)."""
-
-    crossings: Crossings
-    theta: np.ndarray
-    counts: dict[str, int]
-    bands: dict[str, np.ndarray]
-
-    @property
-    def ends(self) -> tuple[np.ndarray, np.ndarray]:
-        """The crossings' two pixels, a then b, as one index of 2M pixels."""
-        a, b = self.crossings.a, self.crossings.b
-        return np.concatenate([a[0], b[0]]), np.concatenate([a[1], b[1]])

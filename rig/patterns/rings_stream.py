@@ -12,17 +12,36 @@ After the last frame only the fine angle at the ring points and the samples rema
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
+from typing import Any, Protocol
 
 import numpy as np
 
-from rig.patterns.base import Correspondence, NormalizedFrames, least_counts
-from rig.patterns.crossings import Crossings
+from rig.patterns.correspondence import Correspondence, NormalizedFrames, least_counts
+from rig.patterns.crossings import Crossings, LocatedRings
 from rig.patterns.fringes import PointSums, phase_sums
 from rig.patterns.stream import DenseBase, FrameStream, GrayBits
 
-if TYPE_CHECKING:
-    from rig.patterns.rings import RingPoints, RingsCodec
+
+class RingsCodec(Protocol):
+    """What the stream needs of the ring codec (rig.patterns.rings.RingsCodec): the same steps its
+    batch decode takes, so that both give the same samples; this module does not import the codec's."""
+
+    name: str
+    params: Any
+    frame_count: int
+    drops_outshone: bool
+    deblur_px: float
+    fine_periods: np.ndarray | None
+
+    def decode(self, frames: list[np.ndarray], full_scale: int) -> Correspondence: ...
+
+    def stream(self, full_scale: int) -> FrameStream: ...
+
+    def _zone_bits(self) -> int: ...
+
+    def locate(self, *args: Any) -> LocatedRings: ...
+
+    def correspondence(self, *args: Any) -> Correspondence: ...
 
 
 class RingsStream(FrameStream):
@@ -40,7 +59,7 @@ class RingsStream(FrameStream):
         self._edge: np.ndarray | None = None
         self._candidates: Crossings | None = None
         self._reader: GrayBits | None = GrayBits(bits)
-        self._found: RingPoints | None = None
+        self._found: LocatedRings | None = None
         self._fine: PointSums | None = None
 
     def _consume(self, index: int, frame: np.ndarray) -> None:

@@ -10,12 +10,10 @@ one exposure is the one another exposure (HDR) reads: the rule is one rule for e
 from __future__ import annotations
 
 import dataclasses
-from typing import TYPE_CHECKING
 
 import numpy as np
 
-if TYPE_CHECKING:  # the base's decode applies these: types only, no import back
-    from rig.patterns.base import Correspondence, RingSamples
+from rig.patterns.correspondence import Correspondence, RingSamples
 
 
 class SaturationMask:

@@ -21,13 +21,24 @@ plus) or -1 (minus), x the projector coordinate (pixel centres at integers). The
 from __future__ import annotations
 
 import math
-from typing import TYPE_CHECKING, Literal
+from typing import Any, Literal, Protocol
 
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 
-if TYPE_CHECKING:
-    from rig.patterns.spec import PatternSpec
+
+class Described(Protocol):
+    """What check_unwrapping reads of a pattern description (rig.patterns.spec.PatternSpec, which
+    imports this module)."""
+
+    @property
+    def phase(self) -> PhaseShift | None: ...
+
+    @property
+    def gray(self) -> Any: ...  # its Gray block: axes, reference
+
+    def pixels(self, axis: Axis) -> int: ...
+
 
 Axis = Literal["columns", "rows"]
 MICRO_MARGIN = 0.25  # least distance, in fringe amplitudes, between two columns' micro readings (sum of squares)
@@ -110,7 +121,7 @@ def _check_counts(phase: PhaseShift, axis: Axis) -> None:
             raise ValueError(f"{where}[{i}].steps {frequency.steps}: an N-step phase needs 3 or more")
 
 
-def check_unwrapping(spec: PatternSpec) -> None:
+def check_unwrapping(spec: Described) -> None:
     """The phase block's unwrapping can reach across the projector; ValueError naming the field
     and the numbers."""
     phase = spec.phase

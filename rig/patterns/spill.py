@@ -25,15 +25,11 @@ bridged the stairs' front edge).
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
-
 import cv2
 import numpy as np
 
+from rig.patterns.correspondence import Correspondence
 from rig.patterns.saturation import without_pixels
-
-if TYPE_CHECKING:  # the base's decode applies these: types only, no import back
-    from rig.patterns.base import Correspondence
 
 SPILL_RATIO = 4.0  # an edge this strong (brightest to darkest of 3 x 3) drowns its dark side's first pixels
 OWN = 1.25  # a pixel at most this far above its darkest neighbour keeps most of its light its own

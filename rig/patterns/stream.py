@@ -11,22 +11,34 @@ from __future__ import annotations
 
 import abc
 import dataclasses
-from typing import TYPE_CHECKING
+from typing import Any, Protocol
 
 import numpy as np
 
 from rig.errors import DecodeError
 from rig.lazy import lazy_module
-from rig.patterns.base import Correspondence, luminance
+from rig.patterns.correspondence import Correspondence, luminance
 from rig.patterns.deblur import Deblur
 from rig.patterns.saturation import SaturationMask
 from rig.patterns.spill import SpillScreen
 from rig.workers import in_row_strips
 
-fused = lazy_module("rig.kernels.dense")  # numba compiles on first use: not for --help
+kernels = lazy_module("rig.kernels.dense")  # numba compiles on first use: not for --help
 
-if TYPE_CHECKING:
-    from rig.patterns.base import Codec
+
+class Codec(Protocol):
+    """What a stream needs of its codec (rig.patterns.base.Codec is one): its stream does not
+    import the codecs' module, which makes streams."""
+
+    name: str
+    params: Any
+    frame_count: int
+    drops_outshone: bool
+    deblur_px: float
+
+    def decode(self, frames: list[np.ndarray], full_scale: int) -> Correspondence: ...
+
+    def stream(self, full_scale: int) -> FrameStream: ...
 
 
 class FrameStream(abc.ABC):
@@ -153,7 +165,7 @@ class GrayBits:
         value, weakest, second = self._value, self._weakest, self._second
         in_row_strips(
             value.shape[0],
-            lambda rows: fused.gray_pair(pattern, inverse, shift, value, weakest, second, rows.start, rows.stop),
+            lambda rows: kernels.gray_pair(pattern, inverse, shift, value, weakest, second, rows.start, rows.stop),
         )
         self.read += 1
 
@@ -209,7 +221,7 @@ class DenseBase:
         in_row_strips(
             image.shape[0],
             lambda rows: counts.append(
-                fused.contrast_and_lit(white, image, scale, threshold, contrast, lit, valid, rows.start, rows.stop)
+                kernels.contrast_and_lit(white, image, scale, threshold, contrast, lit, valid, rows.start, rows.stop)
             ),
         )
         self._contrast, self._white, self.lit, self.valid = contrast, None, lit, valid
@@ -225,12 +237,8 @@ class DenseBase:
         value, strength, lit, valid = reader.value(), reader.strength(), self.lit, self.valid
         assert lit is not None and valid is not None
         coordinate, dropped = np.empty(value.shape, np.float32), []
-        in_row_strips(
-            value.shape[0],
-            lambda rows: dropped.append(
-                fused.gray_accept(value, strength, min_strength, extent, lit, valid, coordinate, rows.start, rows.stop)
-            ),
-        )
+        arrays = (value, strength, min_strength, extent, lit, valid, coordinate)
+        in_row_strips(value.shape[0], lambda rows: dropped.append(kernels.gray_accept(*arrays, rows.start, rows.stop)))
         self.narrowed(count_name, sum(dropped), coordinate)
         return coordinate
 

@@ -27,7 +27,7 @@ from rig.geometry import CameraModel
 from rig.lazy import lazy_module
 from rig.workers import batches, pool
 
-fused = lazy_module("rig.kernels.fill")  # numba compiles on first use
+fill_kernels = lazy_module("rig.kernels.fill")  # numba compiles on first use
 
 _CHUNK = 16_384  # candidate pixels fitted at a time (a few MB per (N, k, 3) array)
 
@@ -190,7 +190,7 @@ def _fit_and_meet(
     index, use = np.ascontiguousarray(index, np.int64), np.ascontiguousarray(use, np.bool_)
 
     def fit(span: tuple[int, int]) -> None:
-        fused.fit_height_fields(*arrays, index, use, settings.bend_ridge, coef, frame, origin, misfit, *span)
+        fill_kernels.fit_height_fields(*arrays, index, use, settings.bend_ridge, coef, frame, origin, misfit, *span)
 
     list(pool().map(fit, batches(count)))
     return _meet(coef, frame, origin, rays), misfit

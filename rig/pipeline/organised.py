@@ -23,7 +23,7 @@ from rig.pipeline.dense import PairTriangulator, texture_rgb
 from rig.pipeline.pointset import PointSet
 from rig.workers import in_row_strips
 
-fused = lazy_module("rig.kernels.dense")  # numba compiles on first use: not for --help
+kernels = lazy_module("rig.kernels.dense")  # numba compiles on first use: not for --help
 
 _MIN_SUPPORT = 3  # as reject_isolated: neighbours within the depth-jump limit a point needs
 _NORMAL_STEP = 2  # as grid_normals: neighbours this many pixels away span the tangent plane
@@ -67,7 +67,7 @@ class OrganisedCloud:
         points, pixel = np.empty((count, 3), np.float32), np.empty(count, np.int32)
         in_row_strips(
             len(self.ray),
-            lambda rows: fused.kept_points(
+            lambda rows: kernels.kept_points(
                 self.ray, self.directions, self.valid, self.first, self.origin, points, pixel, rows.start, rows.stop
             ),
         )
@@ -131,7 +131,7 @@ def organised_cloud(
     normals = np.empty((int(first[-1]), 3), np.float32)
     in_row_strips(
         height,
-        lambda rows: fused.kept_normals(
+        lambda rows: kernels.kept_normals(
             ray, terms.directions, _NORMAL_STEP, keep, first, normals, rows.start, rows.stop
         ),
     )
@@ -158,7 +158,7 @@ def _triangulated(
     decoded = np.empty((height, width), bool)
     in_row_strips(
         height,
-        lambda rows: fused.plane_triangulate(
+        lambda rows: kernels.plane_triangulate(
             coded, corr.valid, terms.a, terms.b, terms.c, terms.d, terms.scale, terms.shift,
             terms.along_axis, ray, depth, decoded, rows.start, rows.stop,
         ),
@@ -170,7 +170,7 @@ def _triangulated(
         in_row_strips(
             height,
             lambda rows: dropped.append(
-                fused.reject_isolated(depth, decoded, jump, _MIN_SUPPORT, keep, ray, rows.start, rows.stop)
+                kernels.reject_isolated(depth, decoded, jump, _MIN_SUPPORT, keep, ray, rows.start, rows.stop)
             ),
         )
         counts["rejected_depth_jump"] = sum(dropped)

@@ -28,7 +28,7 @@ from rig.config import RigConfig, config_from_dict
 from rig.errors import CalibrationError
 from rig.geometry import CameraModel
 from rig.geometry.triangulate import ray_plane, ray_ray_midpoint
-from rig.patterns.base import Correspondence
+from rig.patterns.correspondence import Correspondence
 from rig.patterns.described import decode_described
 from rig.patterns.described_checks import decoded_warnings
 from rig.patterns.spec import PatternSpec
