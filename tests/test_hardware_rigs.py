@@ -59,6 +59,7 @@ def _offscreen_oak_rig() -> dict[str, Any]:
 def test_a_rig_of_real_drivers_scans_end_to_end(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     path = write_config(tmp_path, _offscreen_oak_rig())
     out = tmp_path / "scan"
+    before = set(_children())  # what earlier tests left (multiprocessing's resource tracker, say)
     assert main(["scan", "--config", str(path), "--out", str(out), "--json"]) == 0
     summary = json.loads(capsys.readouterr().out)
     manifest = json.loads((out / "manifest.json").read_text())
@@ -66,7 +67,7 @@ def test_a_rig_of_real_drivers_scans_end_to_end(tmp_path: Path, capsys: pytest.C
     assert manifest["devices"]["cameras"][0]["driver"] == "oak"
     assert manifest["economy"]["frames_projected"] == summary["frames"] == 2 + 2 * 8
     assert manifest["metrics"] == {}  # no ground truth for a real rig
-    assert _children() == []  # both worker processes are gone
+    assert set(_children()) <= before  # both worker processes are gone
 
 
 def test_a_missing_camera_fails_cleanly(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
@@ -74,9 +75,10 @@ def test_a_missing_camera_fails_cleanly(tmp_path: Path, capsys: pytest.CaptureFi
     data["projectors"][0]["hdmi"] = {"video_driver": "offscreen"}
     data["cameras"][0]["v4l2"]["device"] = "/dev/video-not-attached"
     path = write_config(tmp_path, data)
+    before = set(_children())
     with pytest.raises(DeviceNotFoundError, match="does not exist"):
         open_rig(load_config(path))
-    assert _children() == []  # the display worker that did start was stopped
+    assert set(_children()) <= before  # the display worker that did start was stopped
     assert main(["scan", "--config", str(path), "--out", str(tmp_path / "x")]) == 1
     assert "does not exist" in capsys.readouterr().err
 
