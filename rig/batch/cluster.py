@@ -60,7 +60,7 @@ def connect(scheduler: str = "local", workers: int | None = None) -> Iterator[Cl
     from distributed import Client, LocalCluster
 
     if scheduler == "local":
-        count = workers or os.cpu_count() or 1
+        count = workers if workers is not None else (os.cpu_count() or 1)
         if count < 1:
             raise UsageError(f"--workers {count}: at least one worker")
         memory = local_worker_memory(count)

@@ -11,7 +11,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from rig.assembly.memory import scan_memory
+from rig.assembly.memory import CAMERA_BYTES_PER_PIXEL, scan_memory
 from rig.batch.archive import ArchiveInput
 from rig.batch.cluster import MEMORY, Cluster
 from rig.batch.tasks import reprocess_one
@@ -21,7 +21,6 @@ from rig.progress import ProgressCallback, ProgressTracker
 from rig.store.image_header import image_header
 
 EventCallback = Callable[[dict[str, Any]], None]
-FRAMES_BYTES_PER_PIXEL = 150  # a frames folder: per camera pixel, decoding and triangulation (rig.assembly.memory)
 
 
 @dataclass
@@ -45,7 +44,7 @@ def memory_needed(item: ArchiveInput) -> int:
         return 0
     header = image_header(frames[0])
     sample_bytes = header.channels * (2 if header.bits_per_sample > 8 else 1)
-    return header.pixels * (len(frames) * sample_bytes + FRAMES_BYTES_PER_PIXEL)
+    return header.pixels * (len(frames) * sample_bytes + CAMERA_BYTES_PER_PIXEL)
 
 
 def reprocess_archive(
