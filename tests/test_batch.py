@@ -164,9 +164,8 @@ def test_inputs_that_are_not_scans_are_refused_naming_them(archive: Path, tmp_pa
         find_inputs([archive / "scan-0", twin])
     with pytest.raises(UsageError, match="--workers 0: at least one worker"), connect("local", workers=0):
         pass
-    with pytest.raises(UsageError, match="--scheduler http://x:1: 'local', or a scheduler's address"):
-        with connect("http://x:1"):
-            pass
+    with pytest.raises(UsageError, match="--scheduler http://x:1: 'local', or a scheduler"), connect("http://x:1"):
+        pass
 
 
 def test_without_dask_batch_says_how_to_get_it(
