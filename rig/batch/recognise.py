@@ -53,7 +53,7 @@ def describe_archive(
     if settings is not None:
         gallery.check_settings(settings)
     chosen = gallery.settings() or settings or DescriptorSettings()
-    held = set(gallery.columns()[2])
+    held = gallery.scan_ids()
     todo, skipped = [], []
     for item in inputs:
         scan_id = _scan_id(item)

@@ -198,6 +198,12 @@ class Gallery:
         features = np.frombuffer(b"".join(blobs), "<f8").reshape(len(rows), -1)
         return np.asarray(ids, np.int64), list(labels), list(scan_ids), features
 
+    def scan_ids(self) -> set[str]:
+        """The scans the gallery holds (an entry each)."""
+        if self._db is None:
+            return set()
+        return {row[0] for row in self._db.execute("SELECT scan_id FROM entries")}
+
     def signature(self) -> tuple[object, ...]:
         """What changes whenever an entry is added or removed (the count, the newest id, the newest time)."""
         if self._db is None:
