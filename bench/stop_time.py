@@ -37,8 +37,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 from _daemon import daemon_config  # noqa: E402
 
+from rig.service.job_service import DB_NAME  # noqa: E402
 from rig.service.jobs import JobStore  # noqa: E402
-from rig.service.runner import DB_NAME  # noqa: E402
 from tests.conftest import default_config_data  # noqa: E402
 from tests.test_daemon import AUTH, Daemon  # noqa: E402  # the suite's daemon in a process
 

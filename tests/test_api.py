@@ -18,8 +18,8 @@ from rig.api.app import create_app
 from rig.api.security import ApiSettings
 from rig.config import load_config
 from rig.service.errors import JobConflictError
+from rig.service.job_service import DB_NAME, JobService
 from rig.service.jobs import JobStore
-from rig.service.runner import DB_NAME, JobService
 from tests.conftest import default_config_data, ply_xyz, small_config_data, wait_done, write_config
 
 KEY = "k" * 32

@@ -16,7 +16,7 @@ import yaml
 from fastapi.testclient import TestClient
 
 from rig.cli import main
-from rig.service.runner import JobService
+from rig.service.job_service import JobService
 from tests.conftest import shared_data, wait_done
 from tests.test_api import AUTH, _client, _service
 from tests.test_calibrate_described import PROCAM

@@ -12,8 +12,8 @@ from pathlib import Path
 import pytest
 from fastapi.testclient import TestClient
 
+from rig.service.job_service import DB_NAME, JobService
 from rig.service.jobs import JobKind
-from rig.service.runner import DB_NAME, JobService
 from tests.test_api import AUTH, _client, _service
 
 

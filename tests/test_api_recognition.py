@@ -9,7 +9,7 @@ import pytest
 from fastapi.testclient import TestClient
 
 from rig.config import load_config
-from rig.service.runner import JobService
+from rig.service.job_service import JobService
 from tests.conftest import default_config_data, wait_done, write_config
 from tests.test_api import AUTH, _client
 

@@ -18,7 +18,7 @@ from rig.patterns.described import described_patterns
 from rig.patterns.spec import opencv_graycode
 from rig.service.errors import ImportRefusedError
 from rig.service.imports import store_file
-from rig.service.runner import JobService
+from rig.service.job_service import JobService
 from tests.conftest import wait_done
 from tests.test_api import AUTH, _client, _service
 from tests.test_reconstruct import _opencv_calibration

@@ -14,7 +14,7 @@ import pytest
 from fastapi.testclient import TestClient
 
 from rig.service import space
-from rig.service.runner import JobService
+from rig.service.job_service import JobService
 from rig.service.space import RESERVE_BYTES
 from tests.bombs import write_png_bomb
 from tests.test_api import AUTH, _client, _service

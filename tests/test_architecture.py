@@ -57,7 +57,7 @@ def test_every_module_of_rig_has_a_floor_and_runtime_code_no_fake(tmp_path: Path
 _PROBE = """
 import json, sys
 from rig.config import load_config
-import rig.cli, rig.cli.serving, rig.daemon.server, rig.service.runner, rig.assembly.hardware
+import rig.cli, rig.cli.serving, rig.daemon.server, rig.service.job_service, rig.assembly.hardware
 from rig.assembly import open_rig
 with open_rig(load_config(sys.argv[1])) as the_rig:
     kinds = [type(d).__name__ for d in (*the_rig.projectors, *the_rig.cameras)]

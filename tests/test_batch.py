@@ -250,8 +250,8 @@ def test_the_daemon_hands_reprocessing_to_the_cluster_and_keeps_its_worker_for_t
 ) -> None:
     from rig.config import load_config
     from rig.service.errors import JobConflictError
+    from rig.service.job_service import JobService
     from rig.service.jobs import JobState
-    from rig.service.runner import JobService
     from rig.service.tasks import reprocess_to_directory
 
     data = small_config_data()
@@ -285,8 +285,8 @@ def test_the_daemon_hands_reprocessing_to_the_cluster_and_keeps_its_worker_for_t
 
 def test_a_scheduler_that_does_not_answer_fails_the_job_naming_it(archive: Path, tmp_path: Path) -> None:
     from rig.config import load_config
+    from rig.service.job_service import JobService
     from rig.service.jobs import JobState
-    from rig.service.runner import JobService
     from tests.ports import free_port
 
     data = small_config_data()

@@ -19,7 +19,7 @@ from rig.api.app import create_app
 from rig.api.security import ApiSettings
 from rig.config import load_config
 from rig.patterns import codec_class
-from rig.service.runner import JobService
+from rig.service.job_service import JobService
 from tests.conftest import ply_vertex, small_config_data, wait_done, write_config
 
 KEY = "0123456789abcdef" * 2

@@ -13,7 +13,7 @@ from fastapi.testclient import TestClient
 from rig.api.app import create_app
 from rig.api.security import ApiSettings
 from rig.config import load_config
-from rig.service.runner import JobService
+from rig.service.job_service import JobService
 from tests.conftest import small_config_data, write_config
 from tests.test_hardware_rigs import REPO_CONFIG_DIR
 

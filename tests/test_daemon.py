@@ -24,8 +24,8 @@ import numpy as np
 import pytest
 
 from rig.cli import main
+from rig.service.job_service import DB_NAME
 from rig.service.jobs import JobStore
-from rig.service.runner import DB_NAME
 from tests.conftest import default_config_data, ply_xyz, small_config_data, wait_done, write_config
 from tests.ports import free_port
 

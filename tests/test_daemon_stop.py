@@ -27,8 +27,8 @@ from rig.assembly import open_rig
 from rig.config import load_config
 from rig.evaluate.merged import measure_on_bench
 from rig.service import tasks
+from rig.service.job_service import DB_NAME, JobService
 from rig.service.jobs import JobKind, JobState, JobStore
-from rig.service.runner import DB_NAME, JobService
 from tests.conftest import default_config_data, small_config_data, write_config
 from tests.ports import free_port
 from tests.test_daemon import AUTH, KEY, REPO, Daemon, _config

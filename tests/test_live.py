@@ -26,7 +26,7 @@ from rig.cli import main
 from rig.config import RigConfig, load_config
 from rig.errors import ConfigError
 from rig.pipeline.live import LiveFrame, run_live
-from rig.service.runner import JobService
+from rig.service.job_service import JobService
 from tests.conftest import small_config_data, wait_done, write_config
 from tests.test_daemon import KEY, Daemon
 

@@ -172,7 +172,7 @@ def test_where_the_coarse_angle_leaves_the_period_ambiguous_the_rings_neighbours
     along the epipolar line only the angle places a sample, and without its neighbours the coarse
     angle could not choose the period. Every sample is placed, and on its true point."""
     from rig.patterns.correspondence import RingSamples
-    from rig.pipeline.rings import triangulate_rings
+    from rig.pipeline.ring_triangulation import triangulate_rings
 
     camera = make_device(640, 512, 900.0, (-100.0, 0.0, 600.0), (0.0, 0.0, 30.0))
     projector = make_device(512, 384, 750.0, (100.0, 0.0, 620.0), (0.0, 0.0, 30.0))

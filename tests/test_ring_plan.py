@@ -19,7 +19,7 @@ from rig.geometry.curvature import principal_curvatures
 from rig.pipeline.scan import run_scan
 from rig.plan.rehearsal import noise_mm, pilot_surface, rehearse, ring_samples
 from rig.plan.ring_plan import RingPlan, pilot_views, plan_rings
-from rig.plan.rings import PilotView, _PooledSpectrum, graded, minimum_rings, place_rings, ring_polar
+from rig.plan.ring_spacing import PilotView, _PooledSpectrum, graded, minimum_rings, place_rings, ring_polar
 from rig.service.adaptive import with_plan
 
 # Lee & Krim 2017, Table 1: model, N (initial patterns), f_s, N_s (minimum patterns), as published.

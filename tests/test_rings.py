@@ -263,7 +263,7 @@ def test_ring_radii_and_count_must_agree() -> None:
 
 def test_a_ring_sample_off_its_neighbours_depth_is_rejected() -> None:
     from rig.geometry import CameraModel
-    from rig.pipeline.rings import RingPoints, along_ring_support
+    from rig.pipeline.ring_triangulation import RingPoints, along_ring_support
 
     camera = CameraModel(640, 480, np.array([[500.0, 0, 320], [0, 500.0, 240], [0, 0, 1]]), np.eye(3), np.zeros(3))
     n = 40

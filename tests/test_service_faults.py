@@ -19,8 +19,8 @@ import pytest
 
 from rig.config import load_config
 from rig.service.errors import StorageFullError
+from rig.service.job_service import DB_NAME, JobService
 from rig.service.jobs import JobKind, JobState, JobStore
-from rig.service.runner import DB_NAME, JobService
 from rig.service.space import RESERVE_BYTES
 from tests.conftest import small_config_data, wait_done, write_config
 from tests.test_api import AUTH, _client
@@ -239,7 +239,7 @@ KILLER = """
 import os, signal, sys
 import rig.service.recovery as recovery
 from rig.config import load_config
-from rig.service.runner import JobService
+from rig.service.job_service import JobService
 
 service = JobService(load_config(sys.argv[1]))
 service.start()
@@ -295,7 +295,7 @@ import json, os, signal, sys, time
 import rig.store.atomic as atomic
 from rig.config import load_config
 from rig.service.jobs import JobKind
-from rig.service.runner import JobService
+from rig.service.job_service import JobService
 
 original, calls = atomic.write_atomic, []
 def dying(*args, **kwargs):

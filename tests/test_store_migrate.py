@@ -10,7 +10,7 @@ import pytest
 
 from rig.cli import main
 from rig.config import load_config
-from rig.service.runner import JobService
+from rig.service.job_service import JobService
 from tests.conftest import small_config_data, wait_done, write_config
 from tests.test_api import AUTH, _client, _service
 

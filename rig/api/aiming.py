@@ -25,7 +25,7 @@ from rig.patterns.setup import SETUP_PATTERNS
 from rig.service.aim import AimRequest
 from rig.service.errors import SetupRefusedError
 from rig.service.frames import TappedFrame
-from rig.service.runner import JobService
+from rig.service.job_service import JobService
 
 Errors = dict[int | str, dict[str, Any]]
 CameraIndex = Annotated[int, Path(ge=0, le=15, description="the camera's index in the config")]

@@ -68,8 +68,8 @@ from rig.service.errors import (
     StorageFullError,
     TooManyOpenError,
 )
+from rig.service.job_service import JobService
 from rig.service.jobs import JobKind
-from rig.service.runner import JobService
 
 log = logging.getLogger(__name__)
 

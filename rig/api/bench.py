@@ -18,7 +18,7 @@ from rig.api.security import MUTATING, READING
 from rig.doctor.checks import check
 from rig.rig import Rig
 from rig.service.errors import SetupRefusedError
-from rig.service.runner import JobService
+from rig.service.job_service import JobService
 
 ProjectorName = Annotated[str, Path(pattern=r"^[A-Za-z0-9][A-Za-z0-9_.-]{0,63}$", description="a projector's name")]
 

@@ -25,8 +25,8 @@ from fastapi import Path as PathParam
 from rig.api.models import JOB_ID_PATTERN
 from rig.api.security import READING
 from rig.service.errors import JobNotFoundError
+from rig.service.job_service import JobService
 from rig.service.jobs import JobKind
-from rig.service.runner import JobService
 from rig.store.ply import read_cloud_ply, read_mesh_ply
 from rig.store.scandir import TRUTH_ERRORS
 

@@ -24,7 +24,7 @@ from rig.api.security import MUTATING, READING
 from rig.api.streams import SSE_PING_S, event_stream, sse
 from rig.pipeline.live import LiveFrame
 from rig.service.errors import JobNotFoundError, ServiceStoppingError
-from rig.service.runner import JobService
+from rig.service.job_service import JobService
 from rig.store.images import depth_colour_jpeg, depth_image_png
 
 LIVE_POLL_S = 0.01  # a stream looks for a newer frame this often

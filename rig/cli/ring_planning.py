@@ -16,7 +16,7 @@ from rig.config import config_from_dict, load_config
 from rig.errors import PlanError, StoreError
 from rig.plan.rehearsal import rehearsal_progress
 from rig.plan.ring_plan import RingPlan, plan_rings
-from rig.plan.rings import PilotView
+from rig.plan.ring_spacing import PilotView
 from rig.progress import ProgressCallback, ProgressTracker
 from rig.service.adaptive import plan_from_pilot
 from rig.store.ply import read_cloud_ply

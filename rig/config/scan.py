@@ -65,7 +65,7 @@ class SurfaceConfig(Strict):
 
 
 class RingPlanSettings(Strict):
-    """How an adaptive scan plans its rings from a pilot scan (rig.plan.rings)."""
+    """How an adaptive scan plans its rings from a pilot scan (rig.plan.ring_spacing)."""
 
     tolerance_mm: float = Field(
         0.2,

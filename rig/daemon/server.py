@@ -28,7 +28,7 @@ from rig.daemon.connections import guarded_protocol
 from rig.daemon.logs import redact_access_log
 from rig.daemon.sdnotify import Notifier
 from rig.errors import ConfigError, UsageError
-from rig.service.runner import JobService
+from rig.service.job_service import JobService
 
 log = logging.getLogger(__name__)
 

@@ -9,7 +9,7 @@ import numpy as np
 from rig.evaluate.colour import colour_metrics
 from rig.evaluate.distances import LOCAL_MM as _LOCAL_MM
 from rig.evaluate.distances import pixel_distances, root_mean_square
-from rig.evaluate.rings import ring_coverage_on_bench
+from rig.evaluate.ring_recovery import ring_coverage_on_bench
 from rig.evaluate.surface import surface_metrics
 from rig.geometry import CameraModel
 from rig.pipeline.realign import moved_pair
@@ -72,7 +72,7 @@ def evaluate_pair(
     point near one surface while its ray meets another), and completeness: the fraction of camera
     pixels that see a lit, unshadowed true surface and got a point within 1 mm of it. Ring points are
     measured on their sub-pixel rays, which needs the truth's `source` (its ray casts), and add ring
-    coverage (rig.evaluate.rings). `dist`: the distances of the pair's points, when already measured."""
+    coverage (rig.evaluate.ring_recovery). `dist`: the distances of the pair's points, when already measured."""
     if dist is None:
         dist = point_distances(pair, truth, source)
     target = truth.hit & truth.lit

@@ -12,7 +12,7 @@ import numpy as np
 from rig.patterns import Correspondence
 from rig.pipeline.mesh import Mesh
 from rig.pipeline.pointset import PointSet
-from rig.pipeline.rings import RingPoints
+from rig.pipeline.ring_triangulation import RingPoints
 from rig.pipeline.surface import RingSurface
 
 
@@ -27,7 +27,7 @@ class PairResult:
     points: PointSet
     rings: RingPoints | None = None  # sparse ring codecs: every triangulated sample, with diagnostics
     counts: dict[str, int] = field(default_factory=dict)
-    ring_coverage: dict[str, object] | None = None  # sparse ring codecs: rig.pipeline.rings.ring_coverage
+    ring_coverage: dict[str, object] | None = None  # sparse ring codecs: rig.pipeline.ring_triangulation.ring_coverage
     surface: RingSurface | None = None  # sparse ring codecs: the surface interpolated between the rings
 
     @property

@@ -20,7 +20,7 @@ from rig.pipeline.overlap import overlap_from_cue
 from rig.pipeline.pointset import PointSet
 from rig.pipeline.realign import align_pairs
 from rig.pipeline.results import PairResult, ScanResult
-from rig.pipeline.rings import (
+from rig.pipeline.ring_triangulation import (
     RingPoints,
     across_ring_support,
     along_ring_support,

@@ -152,7 +152,7 @@ def ring_samples(
         annulus = annuli(pilot, radii)
     footprint = pilot.footprint_mm
     # A ring scan finds no sample at the end of a ring stretch (its pixels straddle the boundary:
-    # rig.pipeline.rings.along_ring_support) nor at the frame's border; the pilot's own pixels
+    # rig.pipeline.ring_triangulation.along_ring_support) nor at the frame's border; the pilot's own pixels
     # there are its least reliable, and their normals would bend whole triangles.
     inside = cv2.erode(pilot.valid.astype(np.uint8), np.ones((3, 3), np.uint8)).astype(bool)
     found: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = []

@@ -1,4 +1,4 @@
-"""A ring plan: planned from a pilot (rig.plan.rings), kept in a file that later scans reuse.
+"""A ring plan: planned from a pilot (rig.plan.ring_spacing), kept in a file that later scans reuse.
 
 The file is JSON (YAML is read too): the radii to project, both criteria, the spacing profile they
 came from, and what the pilot was. A scan takes a plan's radii as its rings codec's `radii_px`.
@@ -25,7 +25,7 @@ from rig.patterns.rings import EDGE_RAMP_PX, RingsParams
 from rig.pipeline.results import ScanResult
 from rig.pipeline.surface import Interpolant
 from rig.plan.rehearsal import Rehearsal, noise_mm, organised, pilot_surface
-from rig.plan.rings import (
+from rig.plan.ring_spacing import (
     Demand,
     PilotView,
     demand,

@@ -24,7 +24,7 @@ import numpy as np
 from rig.config.scan import RingPlanSettings
 from rig.pipeline.surface import Interpolant
 from rig.plan.rehearsal import PilotSurface, Rehearsal, rehearse
-from rig.plan.rings import Demand, graded, place_rings
+from rig.plan.ring_spacing import Demand, graded, place_rings
 
 _SEARCH_STEPS = 9  # bisection steps over the profile's scale (and over the uniform count)
 

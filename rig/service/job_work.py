@@ -1,5 +1,5 @@
 """What each kind of job does on the job service's worker (rig.service.tasks does the work): a mixin
-of rig.service.runner.JobService, which picks the handler and records how the job ended."""
+of rig.service.job_service.JobService, which picks the handler and records how the job ended."""
 
 from __future__ import annotations
 

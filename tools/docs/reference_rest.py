@@ -13,7 +13,7 @@ from rig.api.app import create_app
 from rig.api.security import ApiSettings
 from rig.config import config_from_dict
 from rig.config.loading import DEFAULT_CONFIG
-from rig.service.runner import JobService
+from rig.service.job_service import JobService
 
 METHODS = ("get", "post", "put", "delete")
 
