@@ -41,6 +41,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from _readme import as_measured, markdown_table, replace_block
+from _ring_latency import RING_CODECS, ring_latency
 
 from rig.assembly import open_rig
 from rig.config import config_from_dict, load_config
@@ -217,14 +218,14 @@ def held_from_now() -> float:
 
 
 def measure_all(seconds: float) -> dict[str, Any]:
-    cases = []
-    for name in CASES:  # each in a fresh process: its own peak memory
+    cases, rings = [], []
+    for name in (*CASES, *RING_CODECS):  # each in a fresh process: its own peak memory
         command = [sys.executable, __file__, "--case", name, "--seconds", str(seconds)]
         done = subprocess.run(command, capture_output=True, text=True, timeout=1800)
         if done.returncode:
             raise SystemExit(f"throughput case {name} failed:\n{done.stderr[-3000:]}")
-        cases.append(json.loads(done.stdout.strip().splitlines()[-1]))
-    return {"benchmark": "throughput", "cases": cases}
+        (rings if name in RING_CODECS else cases).append(json.loads(done.stdout.strip().splitlines()[-1]))
+    return {"benchmark": "throughput", "cases": cases, "ring_codecs": rings}
 
 
 def table(measured: dict[str, Any]) -> str:
@@ -249,12 +250,25 @@ def table(measured: dict[str, Any]) -> str:
         ]
         for c in measured["cases"]
     ]
-    return markdown_table(header, rows) + "\n\nProduced by `python bench/throughput.py --docs`."
+    text = markdown_table(header, rows)
+    if measured.get("ring_codecs"):
+        ring_header = ["codec (default bench, 120 Hz)", "frames", "points", "last frame to points ms (worst)"]
+        ring_header.append("to the surface and colour ms (worst)")
+        text += "\n\n" + markdown_table(ring_header, [_ring_row(r) for r in measured["ring_codecs"]])
+    return text + "\n\nProduced by `python bench/throughput.py --docs`."
+
+
+def _ring_row(r: dict[str, Any]) -> list[object]:
+    surface = "no surface"
+    if "last_frame_to_surface_ms" in r:
+        surface = f"{r['last_frame_to_surface_ms']} ({r['last_frame_to_surface_ms_worst']})"
+    points = f"{r['last_frame_to_points_ms']} ({r['last_frame_to_points_ms_worst']})"
+    return [r["codec"], r["frames"], r["points"], points, surface]
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=(__doc__ or "").splitlines()[0])
-    parser.add_argument("--case", choices=sorted(CASES), help="measure this case alone, in this process")
+    parser.add_argument("--case", choices=sorted([*CASES, *RING_CODECS]), help="measure this case alone, here")
     parser.add_argument("--seconds", type=float, default=10.0, help="how long the cameras deliver, per case")
     parser.add_argument("--docs", action="store_true", help="rewrite the throughput block of docs/results.md")
     parser.add_argument("--table", type=Path, help="rewrite the block from this JSON, which the bench printed before")
@@ -263,7 +277,8 @@ def main() -> None:
         replace_block("throughput-table", table(json.loads(args.table.read_text())))
         return
     if args.case:
-        print(json.dumps(measure_case(args.case, args.seconds)))
+        case = args.case
+        print(json.dumps(ring_latency(case) if case in RING_CODECS else measure_case(case, args.seconds)))
         return
     measured = measure_all(args.seconds)
     print(json.dumps(measured))

@@ -74,10 +74,13 @@ def fill_points(
         if not all(r in near.trees for r in bounding):  # beyond a surface's last ring: nothing encloses it
             continue
         of_annulus = np.flatnonzero(annulus == a)
+        if a > 0:  # most lie beyond a surface's last ring: one of their rings out of reach (cheap to ask)
+            at = _positions(pixel[of_annulus], camera.width)
+            of_annulus = of_annulus[near.reaches(at, bounding, settings.reach_px)]
         for start in range(0, len(of_annulus), _CHUNK):
             part = of_annulus[start : start + _CHUNK]
             at = pixel[part]
-            query = np.column_stack([at % camera.width, at // camera.width]).astype(np.float64)
+            query = _positions(at, camera.width)
             dist, index = near.query(query, bounding, settings.neighbours, settings.reach_px)
             # most candidates lie beyond a surface's last ring: drop them before the costlier tests
             rows = np.flatnonzero(_enclosed(annulus[part], ring, index, np.isfinite(dist)))
@@ -106,6 +109,15 @@ class _RingNeighbours:
         self.trees = {r: cKDTree(xy[m]) for r, m in self.members.items()}
         self.tree, self.ring = cKDTree(xy), ring
 
+    def reaches(self, at: np.ndarray, rings: tuple[int, ...], reach: float) -> np.ndarray:
+        """(N,) whether a sample of each of `rings` lies within `reach` of each position: what a
+        pixel between two rings needs to be enclosed by them (_enclosed)."""
+        ok = np.ones(len(at), dtype=bool)
+        for r in rings:
+            dist, _ = self.trees[r].query(at, k=1, distance_upper_bound=reach, workers=-1)
+            ok &= np.isfinite(dist)
+        return ok
+
     def query(self, at: np.ndarray, rings: tuple[int, ...], k: int, reach: float) -> tuple[np.ndarray, np.ndarray]:
         """(N, 2k) distances (inf beyond `reach`, or for a sample listed already) and sample indices
         (0 there) of each position's `k` nearest samples of any ring, then of `rings`' (k / len(rings)
@@ -123,6 +135,11 @@ class _RingNeighbours:
             indices.append(index)
         dist, index = np.concatenate(dists, axis=1), np.concatenate(indices, axis=1)
         return dist, np.where(np.isfinite(dist), index, 0)
+
+
+def _positions(pixel: np.ndarray, width: int) -> np.ndarray:
+    """(N, 2) image positions (x, y) of flat pixels."""
+    return np.column_stack([pixel % width, pixel // width]).astype(np.float64)
 
 
 def _one_surface(
