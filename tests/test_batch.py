@@ -213,6 +213,11 @@ def test_describe_fills_a_gallery_that_identifies_its_scans_and_a_rerun_skips_th
     assert main([*command, "--scheduler", address, "--json"]) == 0
     again = json.loads(capsys.readouterr().out.splitlines()[-1])
     assert (again["done"], again["skipped"]) == (0, 3)
+    from rig.batch.recognise import describe_archive, labeller
+
+    with Gallery(tmp_path / "other.db") as gallery:  # a label the gallery would refuse: refused before describing
+        refused = describe_archive(cluster, find_inputs([archive / "scan-0"]), gallery, labeller("two words", None))
+    assert refused.failed[0]["name"] == "scan-0" and "not a plain name" in refused.failed[0]["error"]
     assert main(["batch", "describe", scans[0], "--gallery", str(gallery_file)]) == 2
     assert "--label NAME (one label for every scan) or --label-from" in capsys.readouterr().err
 

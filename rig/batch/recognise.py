@@ -22,7 +22,7 @@ from rig.batch.tasks import describe_one, evaluate_one
 from rig.errors import UsageError
 from rig.progress import ProgressCallback
 from rig.recognition.descriptor import DescriptorSettings
-from rig.recognition.gallery import Gallery
+from rig.recognition.gallery import LABEL, Gallery
 
 LABEL_SOURCES = ("parent", "name")
 
@@ -54,11 +54,14 @@ def describe_archive(
         gallery.check_settings(settings)
     chosen = gallery.settings() or settings or DescriptorSettings()
     held = gallery.scan_ids()
-    todo, skipped = [], []
+    todo, skipped, refused = [], [], []
     for item in inputs:
-        scan_id = _scan_id(item)
+        scan_id, label = _scan_id(item), label_of(item)
         if scan_id is not None and scan_id in held:
             skipped.append({"name": item.name, "status": "skipped", "scan_id": scan_id, "path": str(item.path)})
+        elif not LABEL.fullmatch(label):  # refused before its description is made
+            error = f"label {label!r}: not a plain name (letters, digits, '.', '_' or '-', at most 64)"
+            refused.append({"name": item.name, "status": "failed", "path": str(item.path), "error": error})
         else:
             todo.append(item)
     labels = {item.name: label_of(item) for item in todo}
@@ -67,11 +70,11 @@ def describe_archive(
         entry = gallery.add(labels[result["name"]], result["scan_id"], result.pop("descriptor"))
         return {**result, "label": entry.label, "entry_id": entry.id}
 
-    for record in skipped:
+    for record in (*skipped, *refused):
         if on_event is not None:
-            on_event({"event": "skipped", **record})
+            on_event({"event": record["status"], **record})
     summary = run_archive(cluster, todo, Work("describe", describe_one, (chosen,), added), on_event, progress)
-    summary.skipped[:0] = skipped
+    summary.skipped[:0], summary.failed[:0] = skipped, refused
     return summary
 
 
