@@ -54,7 +54,7 @@ def describe_archive(
         gallery.check_settings(settings)
     chosen = gallery.settings() or settings or DescriptorSettings()
     held = gallery.scan_ids()
-    todo, skipped, refused = [], [], []
+    todo, skipped, refused, labels = [], [], [], {}
     for item in inputs:
         scan_id, label = _scan_id(item), label_of(item)
         if scan_id is not None and scan_id in held:
@@ -64,7 +64,7 @@ def describe_archive(
             refused.append({"name": item.name, "status": "failed", "path": str(item.path), "error": error})
         else:
             todo.append(item)
-    labels = {item.name: label_of(item) for item in todo}
+            labels[item.name] = label
 
     def added(result: dict[str, Any]) -> dict[str, Any]:
         entry = gallery.add(labels[result["name"]], result["scan_id"], result.pop("descriptor"))

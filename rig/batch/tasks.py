@@ -6,6 +6,7 @@ recognition gallery."""
 
 from __future__ import annotations
 
+import json
 import time
 from pathlib import Path
 from typing import Any
@@ -78,9 +79,9 @@ def evaluate_one(item: ArchiveInput, calibration: list[Path]) -> dict[str, Any]:
     if len(calibration) > 1:
         raise StoreError(f"{item.path}: a scan directory is reprocessed with one slrig calibration (a folder)")
     start = time.monotonic()
+    if json.loads((item.path / "manifest.json").read_text())["config"].get("simulation") is None:  # before decoding
+        raise StoreError(f"{item.path}: not a scan of the simulated bench (no ground truth to measure against)")
     with reprocessed(item.path, calibration[0] if calibration else None) as (geometry, result):
-        if geometry.truth is None:
-            raise StoreError(f"{item.path}: not a scan of the simulated bench (no ground truth to measure against)")
         metrics, _ = measure_on_bench(geometry, result)
     return {
         "name": item.name,

@@ -74,13 +74,14 @@ def fill_points(
         if not all(r in near.trees for r in bounding):  # beyond a surface's last ring: nothing encloses it
             continue
         of_annulus = np.flatnonzero(annulus == a)
+        positions = _positions(pixel[of_annulus], camera.width)
         if a > 0:  # most lie beyond a surface's last ring: one of their rings out of reach (cheap to ask)
-            at = _positions(pixel[of_annulus], camera.width)
-            of_annulus = of_annulus[near.reaches(at, bounding, settings.reach_px)]
+            reached = near.reaches(positions, bounding, settings.reach_px)
+            of_annulus, positions = of_annulus[reached], positions[reached]
         for start in range(0, len(of_annulus), _CHUNK):
             part = of_annulus[start : start + _CHUNK]
             at = pixel[part]
-            query = _positions(at, camera.width)
+            query = positions[start : start + _CHUNK]
             dist, index = near.query(query, bounding, settings.neighbours, settings.reach_px)
             # most candidates lie beyond a surface's last ring: drop them before the costlier tests
             rows = np.flatnonzero(_enclosed(annulus[part], ring, index, np.isfinite(dist)))

@@ -112,12 +112,25 @@ def identify(
     comparison = compared_as(comparison, len(gallery))
     if isinstance(threshold, dict):
         threshold = threshold[comparison]
-    score = scores(probe, gallery, comparison)
-    best: dict[str, Match] = {}
-    for i in np.argsort(-score, kind="stable"):
-        entry = entries[int(i)]
-        if entry.label not in best:
-            best[entry.label] = Match(entry.label, float(score[i]), entry.id, entry.scan_id)
-    matches = list(best.values())[: max(top, 1)]
+    labels = [e.label for e in entries]
+    codes = np.unique(np.asarray(labels, dtype=object), return_inverse=True)[1]
+    ids, scan_ids = [e.id for e in entries], [e.scan_id for e in entries]
+    found = ranked(scores(probe, gallery, comparison), codes, labels, ids, scan_ids, top)
+    return verdict_of(found, threshold, comparison)
+
+
+def ranked(
+    score: np.ndarray, codes: np.ndarray, labels: list[str], ids: list[int] | np.ndarray, scan_ids: list[str], top: int
+) -> list[Match]:
+    """The `top` labels by their best entry's `score`, best first (`codes`: each entry's label as
+    an integer, which one sort groups)."""
+    order = np.argsort(-score, kind="stable")
+    _, first = np.unique(codes[order], return_index=True)  # each label's best, in order
+    best = order[np.sort(first)[: max(top, 1)]]
+    return [Match(labels[i], float(score[i]), int(ids[i]), scan_ids[i]) for i in best]
+
+
+def verdict_of(matches: list[Match], threshold: float, comparison: Comparison) -> Identification:
+    """The label identified: the best match's, or UNKNOWN below `threshold`."""
     label = matches[0].label if matches[0].score >= threshold else UNKNOWN
     return Identification(label, matches, threshold, comparison)

@@ -18,13 +18,13 @@ import numpy as np
 
 from rig.recognition.gallery import Gallery
 from rig.recognition.identify import (
-    UNKNOWN,
     Comparison,
     Identification,
-    Match,
     check_probe,
     compared_as,
+    ranked,
     standard_scale,
+    verdict_of,
 )
 
 
@@ -84,13 +84,8 @@ class GalleryMatrix:
         check_probe(probe, self.features)
         comparison = compared_as(comparison, len(self))
         limit = threshold[comparison] if isinstance(threshold, dict) else threshold
-        score = self.scores(probe, comparison)
-        order = np.argsort(-score, kind="stable")
-        _, first = np.unique(self._label_codes[order], return_index=True)  # each label's best, in order
-        best = order[np.sort(first)[: max(top, 1)]]
-        matches = [Match(self.labels[i], float(score[i]), int(self.ids[i]), self.scan_ids[i]) for i in best]
-        label = matches[0].label if matches[0].score >= limit else UNKNOWN
-        return Identification(label, matches, limit, comparison)
+        found = ranked(self.scores(probe, comparison), self._label_codes, self.labels, self.ids, self.scan_ids, top)
+        return verdict_of(found, limit, comparison)
 
 
 def read_matrix(gallery: Gallery) -> GalleryMatrix:
