@@ -19,7 +19,7 @@ import numpy as np
 
 from rig.errors import ConfigError, ScanError
 from rig.patterns import Codec, Correspondence, RingSamples
-from rig.patterns.saturation import subset_samples, without_pixels
+from rig.patterns.saturation import subset_samples
 from rig.patterns.stream import decode_streamed
 from rig.pipeline.capture import CUE, Frames, capture
 from rig.pipeline.exposure import (
@@ -34,6 +34,7 @@ from rig.pipeline.exposure import (
     shortest_looks,
     within_range,
 )
+from rig.pipeline.mask_skew import MaskSkew
 from rig.pipeline.projection_mask import masked_rig
 from rig.pipeline.results import ScanResult
 from rig.pipeline.scan import is_reconstructed, make_codec, reconstruct_frames, run_scan
@@ -112,15 +113,15 @@ def run_hdr_scan(
     codec_name: str | None = None,
     progress: ProgressCallback | None = None,
     report: ExposureReport | None = None,
-    screens: dict[tuple[int, int], np.ndarray] | None = None,
+    skews: dict[tuple[int, int], MaskSkew] | None = None,
     keep_frames: bool = False,
 ) -> ScanResult:
     """A scan whose patterns are captured at each camera's exposures (`exposures_us[camera]`, one
     list per camera, all of one length: the k-th pass sets each camera to its k-th), merged per
     pixel (merge_exposures); the frames of the last pass are the ones kept for the overlap cue. With
     `keep_frames` every pass's frames are kept, one pass after another (reconstruct_exposures reads
-    them again). `screens`: per pair, camera pixels no pass reads (adaptive projection's steep mask
-    edges: rig.pipeline.projection_mask)."""
+    them again). `skews`: per pair, what takes adaptive projection's mask lean off each pass's
+    decode (rig.pipeline.mask_skew); the blur each pass measured is recorded in `report`."""
     for camera in rig.cameras:
         require_exposure(camera, "HDR")
     passes = {len(e) for e in exposures_us}
@@ -135,6 +136,7 @@ def run_hdr_scan(
     t0 = time.perf_counter()
     frames: dict[tuple[int, int], list[np.ndarray]] = {}
     kept: dict[tuple[int, int], list[np.ndarray]] = {}
+    blurs: dict[str, list[float | None]] = {}
     for k in range(count):
         set_within_range(rig.cameras, [exposures[k] for exposures in exposures_us])
         streams = {(p, c): codecs[p].stream(rig.config.cameras[c].full_scale) for p, c in pairs}
@@ -149,8 +151,9 @@ def run_hdr_scan(
                 kept[pair] = images if pair[0] == CUE else [*kept.get(pair, []), *images]
         for pair, stream in streams.items():
             corr = stream.finish()
-            if screens is not None and pair in screens:
-                corr = without_pixels(corr, screens[pair], "rejected_mask_edge")
+            if skews is not None and pair in skews:
+                corr, blur = skews[pair].applied(corr)
+                blurs.setdefault(_pair_name(rig, pair), []).append(blur)
             decoded[pair].append(corr)
     capture_ms = (time.perf_counter() - t0) * 1e3
     merged = {pair: corrs[0] if count == 1 else merge_exposures(corrs, count - 1) for pair, corrs in decoded.items()}
@@ -160,12 +163,21 @@ def run_hdr_scan(
     if count > 1:
         result.descriptions = {}  # a pattern description tells of one pass: others' readers would misread them
     if report is not None:
-        report.exposures_us = {
-            camera.name: [within_range(camera, x) for x in e]
-            for camera, e in zip(rig.cameras, exposures_us, strict=True)
-        }
-        result.exposure = report.as_dict()
+        result.exposure = _recorded(rig, report, exposures_us, blurs)
     return result
+
+
+def _recorded(
+    rig: Rig, report: ExposureReport, exposures_us: list[list[float]], blurs: dict[str, list[float | None]]
+) -> dict[str, object]:
+    """The manifest's `exposure`: `report` with each camera's exposures as set, and the lens blur
+    adaptive projection measured on each pass of each pair (rig.pipeline.mask_skew)."""
+    report.exposures_us = {
+        camera.name: [within_range(camera, x) for x in e] for camera, e in zip(rig.cameras, exposures_us, strict=True)
+    }
+    if report.projection is not None and blurs:
+        report.projection = {**report.projection, "projector_blur_px": blurs}
+    return report.as_dict()
 
 
 def scan_with_exposure(
@@ -196,14 +208,18 @@ def scan_with_exposure(
     if config.hdr is None:  # the masked rig's cameras are at the scan's exposure
         exposures = [[camera.exposure_us] for camera in rig.cameras]
         result = run_hdr_scan(
-            adaptive.rig, exposures, codec_name, tracker.part(0.3, 1.0), report, adaptive.screens, keep_frames
+            adaptive.rig, exposures, codec_name, tracker.part(0.3, 1.0), report, adaptive.skews, keep_frames
         )
     else:
         result = _scan_at_exposures(
-            adaptive.rig, settings, report, codec_name, tracker.part(0.3, 1.0), keep_frames, adaptive.screens
+            adaptive.rig, settings, report, codec_name, tracker.part(0.3, 1.0), keep_frames, adaptive.skews
         )
     result.frames_projected += adaptive.prescan_frames
     return result
+
+
+def _pair_name(rig: Rig, pair: tuple[int, int]) -> str:
+    return f"{rig.config.projectors[pair[0]].name}/{rig.config.cameras[pair[1]].name}"
 
 
 def _check_ranges(rig: Rig, exposure: object, hdr: object) -> None:
@@ -228,7 +244,7 @@ def _scan_at_exposures(
     codec_name: str | None,
     progress: ProgressCallback | None,
     keep_frames: bool,
-    screens: dict[tuple[int, int], np.ndarray] | None = None,
+    skews: dict[tuple[int, int], MaskSkew] | None = None,
 ) -> ScanResult:
     """A scan at one exposure (the cameras' as set, or auto) or bracketed for HDR (rig.config)."""
     config = rig.config.scan.exposure
@@ -241,7 +257,7 @@ def _scan_at_exposures(
         result.exposure = report.as_dict()
         return result
     exposures = bracketed(rig, config.hdr, looks, settings)
-    return run_hdr_scan(rig, exposures, codec_name, progress, report, screens, keep_frames)
+    return run_hdr_scan(rig, exposures, codec_name, progress, report, skews, keep_frames)
 
 
 def bracketed(

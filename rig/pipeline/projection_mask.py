@@ -19,6 +19,8 @@ and Waddington & Kofman: a per-pixel projector intensity from a pre-scan).
 6. A look with the masks at the scan's exposure: where a pixel still passes the target (a pixel
    the pre-scan could not map; a response not quite a power), its projector pixels are dimmed
    again, `rounds` times at most.
+7. The scan with the masks; where a mask steps, its lens's blur leans the patterns toward the
+   brighter side, and each decode has that lean taken off (rig.pipeline.mask_skew).
 
 The masks leave every codec as it is: each pattern, its white and dark frames alike, is sent dimmed
 (rig.patterns.base.sent_levels), and a codec compares each pixel with its own white and dark.
@@ -42,21 +44,23 @@ from rig.pipeline.exposure import (
     shortest_looks,
     within_range,
 )
+from rig.pipeline.mask_skew import MaskSkew
 from rig.pipeline.results import PairResult
 from rig.pipeline.scan import run_scan
 from rig.progress import ProgressCallback, ProgressTracker
 from rig.rig import Rig
 
 MAP_REACH_PX = 8  # a camera pixel without a pre-scan point takes its nearest mapped neighbour's within this
-STEEP_REACH_PX, STEEP_RATIO = 2, 1.5  # a mask whose light changes more than this within this is steep there
 
 
 @dataclass(frozen=True)
 class MaskSettings:
     dynamic_range: float = 16.0  # the most a mask dims (a dimmed pattern keeps 256 / 16 levels)
-    margin_px: int = 2  # projector pixels about each dimmed one dimmed as much (map error, lens blur)
-    smooth_px: float = 1.0  # the mask's edges softened by this much (Gaussian sigma, projector pixels)
+    margin_px: int = 1  # projector pixels about each dimmed one dimmed as much (the map's error)
+    smooth_px: float = 0.0  # the mask's edges softened by this much (Gaussian sigma, projector pixels)
     rounds: int = 2  # looks with the masks, each dimming again where a pixel still clips
+    max_shift_px: float = 0.25  # a pixel the mask's steps lean further than this is left out (mask_skew)
+    fallback_blur_px: float = 0.75  # the projector's blur where the scan cannot measure it (mask_skew)
 
 
 def scan_exposure(look: Look, short: Look, settings: ExposureSettings, light_range: float) -> float:
@@ -121,29 +125,13 @@ def scattered_mask(
 @dataclass(frozen=True)
 class AdaptiveProjection:
     """What masked_rig made: the rig with its masks (sharing the devices), what it did for the
-    manifest, the pattern frames its pre-scan projected, and per (projector, camera) pair the camera
-    pixels that lie on a steep edge of the mask (steep_pixels)."""
+    manifest, the pattern frames its pre-scan projected, and per (projector, camera) pair what
+    takes the masks' lean off its decode (rig.pipeline.mask_skew)."""
 
     rig: Rig
     record: dict[str, object]
     prescan_frames: int
-    screens: dict[tuple[int, int], np.ndarray]
-
-
-def steep_pixels(mask: np.ndarray, exponent: float, u: np.ndarray, v: np.ndarray) -> np.ndarray:
-    """(H, W) the camera pixels (at projector columns `u`, rows `v`) whose light comes from where
-    the mask's light changes by more than STEEP_RATIO within STEEP_REACH_PX: the lenses' blur turns
-    a slope of the light into a shift of the pattern toward the bright side, as an albedo edge does
-    (rig.patterns.spill), so a codec reads them off."""
-    light = mask.astype(np.float32) ** np.float32(exponent)
-    size = 2 * STEEP_REACH_PX + 1
-    window = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (size, size))
-    steep = cv2.dilate(light, window) > STEEP_RATIO * cv2.erode(light, window)
-    height, width = steep.shape
-    known = np.isfinite(u) & np.isfinite(v)
-    cols = np.clip(np.rint(np.where(known, u, 0)), 0, width - 1).astype(np.int64)
-    rows = np.clip(np.rint(np.where(known, v, 0)), 0, height - 1).astype(np.int64)
-    return known & steep[rows, cols]
+    skews: dict[tuple[int, int], MaskSkew]
 
 
 @dataclass
@@ -154,6 +142,7 @@ class _Map:
     camera: int
     u: np.ndarray
     v: np.ndarray
+    own: np.ndarray  # the camera pixels the pre-scan gave a point of their own
 
 
 def masked_rig(
@@ -178,10 +167,7 @@ def masked_rig(
         for camera, look, short in zip(rig.cameras, looks, shorts, strict=True)
     ]
     pre = run_scan(rig, progress=tracker.part(0.0, 0.9, "pre-scan "))  # the cameras at the short looks' exposures
-    maps = [
-        _Map(pair.projector, pair.camera, *projector_pixels(pair, rig.projector_models[pair.projector]))
-        for pair in pre.pairs
-    ]
+    maps = [_map_of(pair, rig.projector_models[pair.projector]) for pair in pre.pairs]
     masks = [np.ones((p.resolution[1], p.resolution[0]), np.float32) for p in rig.projectors]
     shares = [light_share(short, exposure, settings) for short, exposure in zip(shorts, exposures, strict=True)]
     masks = _dimmed(rig, masks, maps, shares, mask_settings, exponent)
@@ -205,8 +191,19 @@ def masked_rig(
         "rounds": rounds,
         "masks": [_summary(mask) for mask in masks],
     }
-    screens = {(m.projector, m.camera): steep_pixels(masks[m.projector], exponent, m.u, m.v) for m in maps}
-    return AdaptiveProjection(masked, record, pre.frames_projected, screens)
+    light = [mask ** np.float32(exponent) for mask in masks]
+    skews = {
+        (m.projector, m.camera): MaskSkew(
+            light[m.projector], m.u, m.v, m.own, mask_settings.max_shift_px, mask_settings.fallback_blur_px
+        )
+        for m in maps
+    }
+    return AdaptiveProjection(masked, record, pre.frames_projected, skews)
+
+
+def _map_of(pair: PairResult, projector: CameraModel) -> _Map:
+    u, v = projector_pixels(pair, projector)
+    return _Map(pair.projector, pair.camera, u, v, np.isfinite(pair.grid).all(axis=2))
 
 
 def response_exponent(rig: Rig, shorts: list[Look], settings: ExposureSettings) -> float:

@@ -1,0 +1,123 @@
+"""Where an intensity mask steps (rig.pipeline.projection_mask: bright dark paint beside a dimmed
+white), the projector's lens blurs each pattern across the step, and a camera pixel near it sees
+its neighbours' patterns weighted by their light: the brighter side's lean in. A phase, a Gray edge
+or a ring edge read there lies toward the undimmed side. On the simulated dark-and-white box it
+was a third of a projector pixel on the first pixels either side of a step, 0.3 mm and more.
+
+The lean is foretold from the mask: a Gaussian blur of the light the mask lets through, and the
+centre of that light about each projector pixel (along the coded direction) less the pixel itself.
+The blur is the projector's and is not on any data sheet, so it is measured on the scan itself:
+where the pre-scan (unmasked, nothing to lean) gave a camera pixel its own point, the masked
+decode's coordinate less the pre-scan's is the lean; the blur whose foretold lean is nearest
+(median) over the pixels near a step is taken. Each decoded coordinate then has its lean taken
+off (a few fixed-point steps: the lean is foretold at the true coordinate), and a pixel whose lean
+exceeds `max_shift_px` is left out (`rejected_mask_edge`): there the light is mostly a neighbour's,
+and the foretelling too coarse to trust. Sparse codecs (rings) keep their sub-pixel samples as
+decoded; the pixels they lie between are left out where the lean passes the bound, with the blur
+at `fallback_blur_px`.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass
+
+import cv2
+import numpy as np
+from scipy import ndimage
+
+from rig.patterns.correspondence import Correspondence
+from rig.patterns.saturation import without_pixels
+
+BLURS_PX = np.round(np.arange(0.2, 1.55, 0.05), 2)  # the projector blurs tried (Gaussian sigma, projector pixels)
+NEAR_STEP_PX = 0.05  # a pixel whose lean at the widest blur tried passes this lies near a step
+MIN_NEAR = 200  # fewer pixels near a step than this: the blur is not measured (fallback_blur_px)
+FIXED_POINT_STEPS = 3
+AXES = {"u": 1, "v": 0}  # a coordinate and the projector image axis it runs along
+
+
+def lean(light: np.ndarray, blur_px: float, axis: int) -> np.ndarray:
+    """(h, w) how far (projector pixels, along `axis`) the blurred light about each projector pixel
+    centres away from it (see the module docstring)."""
+    pad = int(np.ceil(4 * blur_px)) + 1  # the light beyond the image as at its edge, where it is
+    light = np.pad(light.astype(np.float32, copy=False), pad, mode="edge")
+    positions = np.arange(-pad, light.shape[axis] - pad, dtype=np.float32)
+    position = positions[None, :] if axis == 1 else positions[:, None]
+    blurred = cv2.GaussianBlur(light, (0, 0), blur_px, borderType=cv2.BORDER_REPLICATE)
+    moment = cv2.GaussianBlur(light * position, (0, 0), blur_px, borderType=cv2.BORDER_REPLICATE)
+    shift = moment / np.maximum(blurred, np.float32(1e-12)) - position
+    return shift[pad:-pad, pad:-pad]
+
+
+def _at(image: np.ndarray, u: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """`image` (projector pixels) bilinearly at columns `u`, rows `v` (any shape; 0 outside)."""
+    coordinates = np.stack([np.ravel(v), np.ravel(u)])
+    return ndimage.map_coordinates(image, coordinates, order=1, mode="constant", cval=0.0).reshape(np.shape(u))
+
+
+@dataclass(frozen=True)
+class MaskSkew:
+    """One (projector, camera) pair's mask and pre-scan map, to take the mask's lean off a decode.
+    `light`: (h, w) the share of light the mask lets through; `u`, `v`: (H, W) the projector pixel
+    each camera pixel lights (NaN where unknown); `own`: the camera pixels the pre-scan gave a
+    point of their own (the rest of the map is a neighbour's)."""
+
+    light: np.ndarray
+    u: np.ndarray
+    v: np.ndarray
+    own: np.ndarray
+    max_shift_px: float
+    fallback_blur_px: float
+
+    def blur_px(self, corr: Correspondence) -> float | None:
+        """The projector blur that best foretells how far `corr`'s coordinates moved from the
+        pre-scan's near the mask's steps; None where too few pixels lie near one."""
+        observed, predicted = [], []
+        for name, axis in AXES.items():
+            decoded = getattr(corr, name)
+            if decoded is None:
+                continue
+            mapped = self.u if name == "u" else self.v
+            use = self.own & corr.valid & np.isfinite(decoded) & np.isfinite(self.u) & np.isfinite(self.v)
+            u, v = self.u[use], self.v[use]
+            near = np.abs(_at(lean(self.light, float(BLURS_PX[-1]), axis), u, v)) > NEAR_STEP_PX
+            observed.append((decoded[use] - mapped[use])[near])
+            predicted.append([_at(lean(self.light, float(b), axis), u[near], v[near]) for b in BLURS_PX])
+        if sum(len(o) for o in observed) < MIN_NEAR:
+            return None
+        misses = [
+            np.median(np.abs(np.concatenate([o - p[i] for o, p in zip(observed, predicted, strict=True)])))
+            for i in range(len(BLURS_PX))
+        ]
+        return float(BLURS_PX[int(np.argmin(misses))])
+
+    def applied(self, corr: Correspondence) -> tuple[Correspondence, float | None]:
+        """`corr` with the mask's lean taken off its coordinates and the pixels leaning too far left
+        out, and the blur measured (None where it could not be: fallback_blur_px was used)."""
+        measured = self.blur_px(corr)
+        blur = self.fallback_blur_px if measured is None else measured
+        coded = [name for name in AXES if getattr(corr, name) is not None]
+        leans = {name: lean(self.light, blur, AXES[name]) for name in (coded or AXES)}
+        if not coded:  # sparse samples: their pixels' lean where the pre-scan mapped them
+            mapped = np.isfinite(self.u) & np.isfinite(self.v)
+            u, v = np.where(mapped, self.u, -1.0), np.where(mapped, self.v, -1.0)
+            far = mapped & np.logical_or.reduce([np.abs(_at(s, u, v)) > self.max_shift_px for s in leans.values()])
+            return without_pixels(corr, far, "rejected_mask_edge"), None
+        decoded = {name: getattr(corr, name) for name in coded}
+        fixed = corr.valid & np.logical_and.reduce([np.isfinite(c) for c in decoded.values()])
+        fixed &= np.isfinite(self.u) & np.isfinite(self.v)  # steps lie only where the pre-scan mapped
+        start = {"u": self.u[fixed], "v": self.v[fixed], **{name: c[fixed] for name, c in decoded.items()}}
+        true = dict(start)
+        shifts = {name: np.zeros(int(fixed.sum())) for name in coded}
+        for _ in range(FIXED_POINT_STEPS):
+            shifts = {name: _at(leans[name], true["u"], true["v"]) for name in coded}
+            true = {**true, **{name: start[name] - shifts[name] for name in coded}}
+        replaced = {}
+        for name, coordinate in decoded.items():
+            moved = coordinate.copy()
+            moved[fixed] = true[name]
+            replaced[name] = moved
+        corr = dataclasses.replace(corr, **replaced)
+        far = np.zeros(corr.valid.shape, dtype=bool)
+        far[fixed] = np.logical_or.reduce([np.abs(s) > self.max_shift_px for s in shifts.values()])
+        return without_pixels(corr, far, "rejected_mask_edge"), measured
