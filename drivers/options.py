@@ -7,7 +7,7 @@ every number. Nothing here imports a driver: reading a config loads no device co
 
 from __future__ import annotations
 
-from typing import Literal
+from typing import Any, Literal, Protocol
 
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 
@@ -17,6 +17,20 @@ LIGHTCRAFTER_MIN_8BIT_PERIOD_US = 8333  # 8-bit patterns at up to 120 Hz (LightC
 
 class _Strict(BaseModel):
     model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
+
+
+class DeviceConfig(Protocol):
+    """What a driver's factory and machine check read of its device's config (rig.config's
+    ProjectorConfig or CameraConfig): its name, its size, and every section by its name
+    (`device.v4l2`, `device.power`; a camera's CameraSettings too)."""
+
+    @property
+    def name(self) -> str: ...
+
+    @property
+    def resolution(self) -> tuple[int, int]: ...
+
+    def __getattr__(self, section: str) -> Any: ...
 
 
 class CameraSettings(_Strict):
@@ -93,6 +107,8 @@ class PowerOptions(_Strict):
 
 
 class V4l2Options(_Strict):
+    """A V4L2/UVC camera (drivers.v4l2): at least its device node, /dev/video0 or a stable link."""
+
     device: str = Field(description="/dev/video0, or better a stable /dev/v4l/by-id/... or udev link")
     pixel_format: str = Field("GREY", min_length=4, max_length=4, description="V4L2 fourcc: GREY, Y16 , YUYV, MJPG")
     buffer_frames: int = Field(2, ge=1, le=8)
@@ -124,6 +140,8 @@ class ReplayOptions(_Strict):
 
 
 class OakOptions(_Strict):
+    """A Luxonis OAK camera (drivers.oak): which device and socket, and its sensor's settings."""
+
     device_id: str | None = Field(None, description="the OAK's id (slrig devices); default: the first found")
     socket: Literal["CAM_A", "CAM_B", "CAM_C", "CAM_D"] = "CAM_B"
     iso: int = Field(400, ge=100, le=1600)

@@ -16,6 +16,7 @@ from drivers.errors import (
     DeviceProtocolError,
     DeviceTimeoutError,
 )
+from drivers.options import DeviceConfig
 
 PJLINK_PORT = 4352
 ERRORS = {
@@ -29,6 +30,12 @@ POWER_STATES = {"0": "off", "1": "on", "2": "cooling", "3": "warming"}
 
 class PJLinkPowerControl(PowerControl):
     """A networked projector's housekeeping over PJLink class 1."""
+
+    @classmethod
+    def from_config(cls, device: DeviceConfig) -> PJLinkPowerControl:
+        """The control a projector config's `power` section (protocol pjlink, host) describes."""
+        p = device.power
+        return cls(f"{device.name}-power", p.host, p.port, p.password, p.timeout_s)
 
     def __init__(
         self, name: str, host: str, port: int = PJLINK_PORT, password: str | None = None, timeout_s: float = 3.0

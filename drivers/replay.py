@@ -28,7 +28,7 @@ import numpy as np
 from drivers.base import Camera, Frame
 from drivers.errors import DeviceDisconnectedError, DeviceError, DeviceTimeoutError
 from drivers.faults import Fault, FaultPlan
-from drivers.options import ReplayOptions
+from drivers.options import DeviceConfig, ReplayOptions
 from drivers.sequences import TriggerMode
 
 IMAGE_SUFFIXES = (".png", ".bmp", ".tif", ".tiff", ".jpg", ".jpeg", ".pgm")
@@ -52,6 +52,13 @@ def source_files(folder: Path, pattern: str) -> list[Path]:
 
 class ReplayCamera(Camera):
     """Recorded frames, played as a camera delivers them (see the module docstring)."""
+
+    @classmethod
+    def from_config(cls, device: DeviceConfig) -> ReplayCamera:
+        """The camera a config's `replay` section and camera settings describe."""
+        return cls(
+            device.name, device.resolution, device.replay, exposure_us=device.exposure_us, bit_depth=device.bit_depth
+        )
 
     def __init__(
         self,
@@ -176,3 +183,16 @@ class ReplayCamera(Camera):
         if image.ndim == 3 and image.shape[2] == 4:
             image = image[..., :3]
         return image
+
+
+def machine_problems(device: DeviceConfig) -> list[str]:
+    """The recorded frames' folder is there, and holds images (slrig doctor)."""
+    source = device.replay.source if device.replay is not None else None
+    if source is None:
+        return []
+    folder = Path(source)
+    if not folder.is_dir():
+        return [f"replay.source {folder}: no such folder"]
+    if not any(folder.glob(device.replay.files)):
+        return [f"replay.source {folder}: no file matches {device.replay.files!r}"]
+    return []

@@ -17,6 +17,8 @@ from typing import ClassVar
 
 from drivers.base import PowerControl
 from drivers.errors import DeviceDisconnectedError, DeviceNotFoundError, DeviceProtocolError, DeviceTimeoutError
+from drivers.machine import access_problem
+from drivers.options import DeviceConfig
 
 SIM_HANDLERS = "drivers.fakes.serial_handlers"  # `simprojector://<vendor>?fault=...` URLs for tests and demos
 
@@ -190,6 +192,12 @@ class SerialPowerControl(PowerControl):
     """Power, input and blank of a projector on a serial port (`url`: /dev/ttyUSB0, socket://...,
     or simprojector://benq for the simulated one)."""
 
+    @classmethod
+    def from_config(cls, device: DeviceConfig) -> SerialPowerControl:
+        """The control a projector config's `power` section (a vendor's protocol, url) describes."""
+        p = device.power
+        return cls(f"{device.name}-power", p.url, p.protocol, p.timeout_s)
+
     def __init__(self, name: str, url: str, vendor: str, timeout_s: float = 2.0, baudrate: int | None = None) -> None:
         super().__init__(name)
         if vendor not in COMMAND_SETS:
@@ -293,3 +301,10 @@ class SerialPowerControl(PowerControl):
 
     def _do_blank(self, on: bool) -> None:
         self._exchange(self.commands.blank(on))
+
+
+def machine_problems(device: DeviceConfig) -> list[str]:
+    """A serial port the service user may open, where the `power` url names a device node (slrig doctor)."""
+    url = device.power.url if device.power is not None else None
+    problem = access_problem(url, "dialout") if url and url.startswith("/dev/") else None
+    return [problem] if problem else []

@@ -26,6 +26,8 @@ from drivers.errors import (
     DeviceProtocolError,
     DeviceTimeoutError,
 )
+from drivers.machine import access_problem
+from drivers.options import DeviceConfig
 
 V4L2_EXPOSURE_UNIT_US = 100.0
 V4L2_MANUAL_EXPOSURE = 1  # V4L2_EXPOSURE_MANUAL, as OpenCV's V4L2 backend takes it
@@ -53,6 +55,23 @@ def _opencv_capture(device: str) -> VideoCaptureLike:
 
 class V4l2Camera(Camera):
     """A V4L2 camera at `device` (/dev/video0 or a /dev/v4l/by-id/ link)."""
+
+    @classmethod
+    def from_config(cls, device: DeviceConfig) -> V4l2Camera:
+        """The camera a config's `v4l2` section and camera settings describe."""
+        v = device.v4l2
+        return cls(
+            device.name,
+            v.device,
+            device.resolution,
+            v.pixel_format,
+            device.exposure_us,
+            device.gain,
+            v.buffer_frames,
+            v.frame_period_s,
+            mono=not device.color,
+            max_exposure_us=v.max_exposure_us,
+        )
 
     def __init__(
         self,
@@ -191,3 +210,9 @@ class V4l2Camera(Camera):
             bit_depth=bit_depth,
             meta={"dropped_before": self.dropped},
         )
+
+
+def machine_problems(device: DeviceConfig) -> list[str]:
+    """The video node, and the service user's access to it (slrig doctor)."""
+    problem = access_problem(device.v4l2.device, "video") if device.v4l2 is not None else None
+    return [problem] if problem else []

@@ -146,16 +146,17 @@ def test_doctor_names_what_a_real_bench_lacks(tmp_path: Path, capsys: pytest.Cap
 def test_doctor_looks_for_the_lightcrafter_on_usb(
     tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
 ) -> None:
+    from drivers.dlp import hdmi_patterns as lightcrafter
     from rig.config import REPO_CONFIG_DIR
-    from rig.doctor import checks as doctor
 
     config = str(REPO_CONFIG_DIR / "bench-lightcrafter-uvc.yaml")
-    monkeypatch.setattr(doctor, "usb_devices", lambda: {"devices": [{"id": "1d6b:0002", "bus": 1, "address": 1}]})
+    hub = {"devices": [{"vid": 0x1D6B, "pid": 0x0002, "bus": 1, "address": 1}]}
+    monkeypatch.setattr(lightcrafter, "attached_usb", lambda: hub)
     assert main(["doctor", "--config", config, "--json"]) == 1
     problems = " | ".join(p["problem"] for p in json.loads(capsys.readouterr().out)["problems"])
     assert "no LightCrafter 4500 (USB 0451:6401) attached" in problems
-    attached = {"devices": [{"id": "0451:6401", "bus": None, "address": None}]}
-    monkeypatch.setattr(doctor, "usb_devices", lambda: attached)
+    attached = {"devices": [{"vid": 0x0451, "pid": 0x6401, "bus": None, "address": None}]}
+    monkeypatch.setattr(lightcrafter, "attached_usb", lambda: attached)
     assert main(["doctor", "--config", config, "--json"]) == 1
     problems = " | ".join(p["problem"] for p in json.loads(capsys.readouterr().out)["problems"])
     assert "0451:6401" not in problems

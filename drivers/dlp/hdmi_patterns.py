@@ -24,6 +24,7 @@ restarts from its first entry on START without a new validation, and LUT trigger
 from __future__ import annotations
 
 import contextlib
+import os
 import time
 
 import numpy as np
@@ -31,7 +32,10 @@ import numpy as np
 from drivers.base import Projector, ProjectorMode
 from drivers.dlp.lcr4500 import Lcr4500Projector
 from drivers.errors import DeviceStateError
+from drivers.hdmi import projector as hdmi
 from drivers.hdmi.projector import HdmiProjector
+from drivers.machine import attached_usb
+from drivers.options import DeviceConfig
 from drivers.sequences import PatternSequence, SequenceEntry, TriggerMode
 
 CHANNEL_OF_PATTERN = (1, 0, 2)  # 8-bit pattern k of a frame is green, red, blue (RGB indices)
@@ -54,6 +58,16 @@ def pack_frames(images: tuple[np.ndarray, ...] | list[np.ndarray], per_frame: in
 
 class LightCrafterHdmiProjector(Projector):
     """A projector made of the LightCrafter's USB control and an HDMI display output."""
+
+    @classmethod
+    def from_config(cls, device: DeviceConfig) -> LightCrafterHdmiProjector:
+        """The LightCrafter a config's `lightcrafter` section (USB control) and `hdmi` section
+        (its video input) describe; with sync hardware it plays whole sequences."""
+        lc = device.lightcrafter
+        control = Lcr4500Projector(f"{device.name}-usb", lc.serial_number, lc.usb_timeout_s)
+        video = HdmiProjector.from_config(device)
+        sequence = device.sync == "hardware"
+        return cls(device.name, control, video, sequence, lc.patterns_per_frame, lc.input_latency_s)
 
     def __init__(
         self,
@@ -155,3 +169,24 @@ class LightCrafterHdmiProjector(Projector):
         finally:
             with contextlib.suppress(Exception):  # the LEDs are off; the input is the second line
                 self.video.dark()
+
+
+LIGHTCRAFTER_USB = (0x0451, 0x6401)  # the DLPC350's USB id
+
+
+def machine_problems(device: DeviceConfig) -> list[str]:
+    """What this machine lacks to drive a LightCrafter 4500: the board on USB, a node the service
+    user may open, and its HDMI output (slrig doctor)."""
+    listing = attached_usb()
+    if "error" in listing:
+        return [str(listing["error"]), *hdmi.machine_problems(device)]
+    found = [d for d in listing["devices"] if (d["vid"], d["pid"]) == LIGHTCRAFTER_USB]
+    if not found:
+        problem = "no LightCrafter 4500 (USB 0451:6401) attached: is it powered and its USB cable in?"
+        return [problem, *hdmi.machine_problems(device)]
+    bus, address = found[0]["bus"], found[0]["address"]
+    node = f"/dev/bus/usb/{bus:03d}/{address:03d}" if bus is not None and address is not None else ""
+    problems = []
+    if node and os.path.exists(node) and not os.access(node, os.R_OK | os.W_OK):
+        problems.append(f"no access to {node}: install systemd/60-slrig.rules and add the service user to 'plugdev'")
+    return problems + hdmi.machine_problems(device)

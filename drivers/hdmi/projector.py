@@ -3,6 +3,8 @@
 
 from __future__ import annotations
 
+import glob
+import os
 import zlib
 
 import numpy as np
@@ -10,6 +12,8 @@ import numpy as np
 from drivers.base import Projector, ProjectorMode
 from drivers.childproc import WorkerDevice, WorkerProcess
 from drivers.errors import DeviceDisconnectedError, DeviceNotFoundError, DeviceProtocolError, DeviceTimeoutError
+from drivers.machine import package_problem
+from drivers.options import DeviceConfig
 
 
 class HdmiProjector(WorkerDevice, Projector):
@@ -17,6 +21,12 @@ class HdmiProjector(WorkerDevice, Projector):
     (tests). `last_present_s` is the monotonic time the last pattern reached the display buffer."""
 
     mode = ProjectorMode.STREAMING
+
+    @classmethod
+    def from_config(cls, device: DeviceConfig) -> HdmiProjector:
+        """The projector a config's `hdmi` section describes."""
+        h = device.hdmi
+        return cls(device.name, device.resolution, h.display, h.video_driver, start_timeout_s=h.start_timeout_s)
 
     def __init__(
         self,
@@ -124,3 +134,18 @@ class HdmiProjector(WorkerDevice, Projector):
             self._worker = None
         self._start_worker()
         self._send(b"D\n")  # and confirm it is black
+
+
+def machine_problems(device: DeviceConfig) -> list[str]:
+    """What this machine lacks to show a config's `hdmi` output: under kmsdrm, a GPU's output it may
+    open, and pygame-ce (slrig doctor)."""
+    if device.hdmi.video_driver != "kmsdrm":
+        return []
+    found = []
+    cards = glob.glob("/dev/dri/card*")
+    if not cards:
+        found.append("no /dev/dri/card*: no display output (kmsdrm needs a GPU with a connected output)")
+    elif not any(os.access(c, os.R_OK | os.W_OK) for c in cards):
+        found.append("no access to /dev/dri: add the service user to the 'video' group")
+    pygame = package_problem("pygame", "pip install 'slrig[hdmi]'")
+    return found + ([pygame.replace("pygame is", "pygame-ce is")] if pygame else [])

@@ -18,6 +18,8 @@ from drivers.errors import (
     DeviceProtocolError,
     DeviceTimeoutError,
 )
+from drivers.machine import UDEV_RULES, package_problem
+from drivers.options import DeviceConfig
 from drivers.sequences import TriggerMode
 
 _ERRORS: dict[str, type[DeviceError]] = {
@@ -32,6 +34,14 @@ class OakCamera(WorkerDevice, Camera):
     """One camera socket of an OAK (CAM_A colour, CAM_B / CAM_C mono on an OAK-D) as a mono stream
     with manual exposure and, for global-shutter sensors, external trigger (FSIN). `backend` is
     "depthai", or "fake" for tests and demos without the device."""
+
+    @classmethod
+    def from_config(cls, device: DeviceConfig) -> OakCamera:
+        """The camera a config's `oak` section and camera settings describe."""
+        o = device.oak
+        return cls(
+            device.name, device.resolution, o.device_id, o.socket, device.exposure_us, o.iso, o.focus, o.fps, o.backend
+        )
 
     def __init__(
         self,
@@ -161,3 +171,13 @@ class OakCamera(WorkerDevice, Camera):
 
 def _iso(gain: float) -> int:
     return max(100, min(1600, round(gain * 100)))  # the range depthai's setManualExposure takes
+
+
+def machine_problems(device: DeviceConfig) -> list[str]:
+    """DepthAI, and the udev rules that let the service user open an OAK (slrig doctor)."""
+    if device.oak.backend != "depthai":
+        return []
+    found = [p for p in (package_problem("depthai", "pip install depthai"),) if p]
+    if not UDEV_RULES.exists():
+        found.append(f"{UDEV_RULES} is missing: install systemd/60-slrig.rules (OAKs need plugdev access)")
+    return found

@@ -3,7 +3,6 @@ geometry that reconstruction uses (the config's, or a calibration's) and the pro
 
 from __future__ import annotations
 
-import importlib
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
@@ -12,21 +11,25 @@ import numpy as np
 
 from drivers.base import Camera, Device, Projector
 from rig.assembly.memory import check_memory
+from rig.assembly.power import ProjectorPower
 from rig.assembly.world import World
 from rig.calibrate.files import JSON_NAME, calibration_world, load_calibration
 from rig.calibrate.response import load_response_luts
-from rig.config import DeviceKind, DriverEntry, Geometry, RigConfig, driver
+from rig.config import DeviceKind, DriverEntry, Geometry, RigConfig, driver, named
 from rig.errors import ConfigError
 from rig.geometry import CameraModel, look_at_rotation
 from rig.rig import Rig
 
-Factory = Callable[[Any, int, World], Device]
+
+def factory_of(entry: DriverEntry) -> Callable[..., Any]:
+    """The factory the table names for a driver."""
+    return named(entry.factory)  # type: ignore[no-any-return]
 
 
-def factory_of(entry: DriverEntry) -> Factory:
-    """The function the table names for a driver (imported now: only drivers a rig uses load)."""
-    module, _, name = entry.factory.partition(":")
-    return getattr(importlib.import_module(module), name)  # type: ignore[no-any-return]
+def built(entry: DriverEntry, config: Any, index: int, world: World) -> Any:
+    """The device the driver's factory builds from its config (the simulated bench's, in its world)."""
+    factory = factory_of(entry)
+    return factory(config, index, world) if entry.simulated else factory(config)
 
 
 def geometry_model(geometry: Geometry, resolution: tuple[int, int]) -> CameraModel:
@@ -95,15 +98,13 @@ def world_of(config: RigConfig, cameras: list[CameraModel], projectors: list[Cam
 def build_devices(config: RigConfig, world: World) -> tuple[list[Device], list[Projector], list[Camera]]:
     """Housekeeping devices (power controls), projectors and cameras of `config`, each built by
     its driver's factory in `world`; none is opened yet."""
-    extras = [
-        factory_of(driver(DeviceKind.POWER, p.power.protocol))(p, i, world)
+    extras: list[Device] = [
+        ProjectorPower(built(driver(DeviceKind.POWER, p.power.protocol), p, i, world), p.power.input)
         for i, p in enumerate(config.projectors)
         if p.power is not None
     ]
-    projectors = [
-        factory_of(driver(DeviceKind.PROJECTOR, p.driver))(p, i, world) for i, p in enumerate(config.projectors)
-    ]
-    cameras = [factory_of(driver(DeviceKind.CAMERA, c.driver))(c, i, world) for i, c in enumerate(config.cameras)]
+    projectors = [built(driver(DeviceKind.PROJECTOR, p.driver), p, i, world) for i, p in enumerate(config.projectors)]
+    cameras = [built(driver(DeviceKind.CAMERA, c.driver), c, i, world) for i, c in enumerate(config.cameras)]
     return extras, projectors, cameras  # type: ignore[return-value]
 
 

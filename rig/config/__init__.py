@@ -6,7 +6,7 @@ and what each can do, are the table in rig.config.drivers.
 """
 
 from rig.config.calibration import BoardConfig, BoardPose, CalibrationConfig
-from rig.config.drivers import DRIVERS, Capabilities, DeviceKind, DriverEntry, driver, drivers_of
+from rig.config.drivers import DRIVERS, Capabilities, DeviceKind, DriverEntry, driver, drivers_of, named
 from rig.config.equipment import CameraConfig, PowerConfig, ProjectorConfig
 from rig.config.geometry import Geometry, Intrinsics, Pose
 from rig.config.loading import DEFAULT_CONFIG, REPO_CONFIG_DIR, config_from_dict, load_config
@@ -72,4 +72,5 @@ __all__ = [
     "driver",
     "drivers_of",
     "load_config",
+    "named",
 ]

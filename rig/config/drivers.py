@@ -1,17 +1,21 @@
 """The table of drivers: every `driver:` (and power `protocol:`) a config may name.
 
 Each entry maps a name to the config sections its driver reads (one options model each, from
-drivers.options), its capabilities, and its factory. The config's driver lists and driver checks
-derive from this table, and the assembly builds every device through it, simulated ones included.
+drivers.options), its capabilities, its factory, what it needs of the machine it runs on and the
+USB ids its devices show. Everything per driver derives from this table: the config's driver lists,
+its sections (rig.config.equipment) and driver checks, the assembly's devices, simulated ones
+included, `slrig doctor`'s checks and `slrig devices`' names. Adding a driver is its module, its
+options, its entry here, its protocol fake and its contract run (docs/architecture.md).
 
-Factories are named ("module:function"), not imported: reading the table, as every config
-validation does, loads no driver code, and the simulator (trimesh, Embree) loads only when a
-simulated rig is opened. The assembly resolves them (rig.assembly.build.factory_of).
+Factories and machine checks are named ("module:attribute"), not imported: reading the table, as
+every config validation does, loads no driver code, and the simulator (trimesh, Embree) loads only
+when a simulated rig is opened. The assembly resolves them (named).
 """
 
 from __future__ import annotations
 
 import enum
+import importlib
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from typing import Any
@@ -53,11 +57,17 @@ class DriverEntry:
     name: str
     kind: DeviceKind
     summary: str
-    factory: str  # "module:function"; the function takes (device config, index, world) and returns a Device
+    # "module:attribute": a real driver's takes its device's config (drivers.options.DeviceConfig),
+    # a simulated one's (device config, index, world); each returns a Device (a power entry's, its
+    # PowerControl)
+    factory: str
     sections: Mapping[str, type[BaseModel]] = field(default_factory=dict)  # config section -> its options
     capabilities: Capabilities = Capabilities()
     simulated: bool = False
     check: Callable[[Any], None] | None = None  # further checks of a device config; raises ValueError
+    needs: str | None = None  # "module:function": (device config) -> what this machine lacks for it
+    usb_ids: Mapping[tuple[int, int], str] = field(default_factory=dict)  # (vendor, product) -> what it is
+    given: frozenset[str] = frozenset()  # sections a config must write out (no defaults stand in)
 
 
 def _lightcrafter_fits(device: Any) -> None:
@@ -67,7 +77,6 @@ def _lightcrafter_fits(device: Any) -> None:
         device.lightcrafter.check_timing(device.pattern_period_us)
 
 
-_HARDWARE = "rig.assembly.hardware"
 _SIMULATED = "rig.assembly.simulated"
 
 DRIVERS: tuple[DriverEntry, ...] = (
@@ -84,18 +93,21 @@ DRIVERS: tuple[DriverEntry, ...] = (
         "hdmi",
         DeviceKind.PROJECTOR,
         "any projector as a display output, through a worker process (pygame-ce)",
-        f"{_HARDWARE}:hdmi_projector",
+        "drivers.hdmi.projector:HdmiProjector.from_config",
         {"hdmi": HdmiOptions},
         Capabilities(power_control=True),
+        needs="drivers.hdmi.projector:machine_problems",
     ),
     DriverEntry(
         "lightcrafter",
         DeviceKind.PROJECTOR,
         "TI DLP LightCrafter 4500: USB control (DLPC350) and its HDMI video input",
-        f"{_HARDWARE}:lightcrafter_projector",
+        "drivers.dlp.hdmi_patterns:LightCrafterHdmiProjector.from_config",
         {"hdmi": HdmiOptions, "lightcrafter": LightCrafterOptions},
         Capabilities(sequence_playback=True, power_control=True),
         check=_lightcrafter_fits,
+        needs="drivers.dlp.hdmi_patterns:machine_problems",
+        usb_ids={(0x0451, 0x6401): "TI DLP LightCrafter 4500 (DLPC350)"},
     ),
     DriverEntry(
         "sim",
@@ -110,30 +122,36 @@ DRIVERS: tuple[DriverEntry, ...] = (
         "v4l2",
         DeviceKind.CAMERA,
         "a V4L2/UVC camera through OpenCV's V4L2 backend",
-        f"{_HARDWARE}:v4l2_camera",
+        "drivers.v4l2:V4l2Camera.from_config",
         {"v4l2": V4l2Options},
+        needs="drivers.v4l2:machine_problems",
+        given=frozenset({"v4l2"}),
     ),
     DriverEntry(
         "oak",
         DeviceKind.CAMERA,
         "a Luxonis OAK camera through DepthAI, in a worker process (FSIN trigger input)",
-        f"{_HARDWARE}:oak_camera",
+        "drivers.oak.camera:OakCamera.from_config",
         {"oak": OakOptions},
         Capabilities(trigger_input=True),
+        needs="drivers.oak.camera:machine_problems",
+        usb_ids={(0x03E7, 0x2485): "Luxonis OAK (booting)", (0x03E7, 0xF63B): "Luxonis OAK"},
     ),
     DriverEntry(
         "replay",
         DeviceKind.CAMERA,
         "recorded frames (a folder, or memory) played at a set rate: free-running, or one per trigger",
-        f"{_HARDWARE}:replay_camera",
+        "drivers.replay:ReplayCamera.from_config",
         {"replay": ReplayOptions},
         Capabilities(trigger_input=True),
+        needs="drivers.replay:machine_problems",
+        given=frozenset({"replay"}),
     ),
     DriverEntry(
         "pjlink",
         DeviceKind.POWER,
         "PJLink class 1 over TCP: power, input, A/V mute",
-        f"{_HARDWARE}:pjlink_power",
+        "drivers.pjlink:PJLinkPowerControl.from_config",
         {"power": PowerOptions},
     ),
     *(
@@ -141,12 +159,23 @@ DRIVERS: tuple[DriverEntry, ...] = (
             vendor,
             DeviceKind.POWER,
             f"{vendor.capitalize()} RS-232 command set over a serial port: power, input, blank",
-            f"{_HARDWARE}:serial_power",
+            "drivers.serial_projector:SerialPowerControl.from_config",
             {"power": PowerOptions},
+            needs="drivers.serial_projector:machine_problems",
         )
         for vendor in ("benq", "epson", "optoma")
     ),
 )
+
+
+def named(reference: str) -> Any:
+    """What a "module:attribute" reference of the table names (imported now: only the drivers a
+    rig uses load)."""
+    module, _, path = reference.partition(":")
+    found: Any = importlib.import_module(module)
+    for attribute in path.split("."):
+        found = getattr(found, attribute)
+    return found
 
 
 def drivers_of(kind: DeviceKind) -> dict[str, DriverEntry]:

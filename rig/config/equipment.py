@@ -1,25 +1,16 @@
-"""Projectors and cameras in a config: driver, size, geometry, and the driver's own sections.
+"""Projectors and cameras in a config: driver, size, geometry, and the drivers' own sections.
 
-The driver names and the checks that depend on a driver come from the table in rig.config.drivers.
+The driver names, the drivers' sections and the checks that depend on a driver come from the
+table in rig.config.drivers: a driver added there adds its section here.
 """
 
 from __future__ import annotations
 
-from typing import Annotated, Literal
+from typing import Annotated, Any, Literal
 
-from pydantic import Field, model_validator
+from pydantic import Field, create_model, model_validator
 
-from drivers.options import (
-    CameraSettings,
-    HdmiOptions,
-    LightCrafterOptions,
-    OakOptions,
-    PowerOptions,
-    ReplayOptions,
-    SimCameraOptions,
-    SimProjectorOptions,
-    V4l2Options,
-)
+from drivers.options import CameraSettings, PowerOptions
 from rig.config.common import Name, Resolution, Strict
 from rig.config.drivers import DeviceKind, check_device, drivers_of
 from rig.config.geometry import Geometry
@@ -35,7 +26,28 @@ class PowerConfig(PowerOptions):
     protocol: PowerDriver  # type: ignore[valid-type]
 
 
-class ProjectorConfig(Strict):
+def driver_sections(kind: DeviceKind) -> dict[str, Any]:
+    """Every section a driver of `kind` reads (the table's), as fields: one a driver must be given
+    (DriverEntry.given) defaults to None, and the table's check asks for it; the rest default to
+    their options' defaults."""
+    entries = drivers_of(kind).values()
+    fields: dict[str, Any] = {}
+    for entry in entries:
+        for section, options in entry.sections.items():
+            if section in fields:
+                continue
+            readers = ", ".join(e.name for e in entries if section in e.sections)
+            about = f"the {section} section ({readers}): {(options.__doc__ or '').strip().splitlines()[0]}"
+            if any(section in e.given for e in entries):
+                fields[section] = (options | None, Field(None, description=about))
+            else:
+                fields[section] = (options, Field(options(), description=about))
+    return fields
+
+
+class _Projector(Strict):
+    """A projector: its driver, size and geometry, how patterns are timed, and its power control."""
+
     name: Name
     driver: ProjectorDriver = "sim"  # type: ignore[valid-type]
     resolution: Resolution
@@ -51,32 +63,30 @@ class ProjectorConfig(Strict):
         "plays the whole sequence and its trigger output starts every camera exposure",
     )
     pattern_period_us: int = Field(33334, ge=1000, le=10_000_000, description="pattern period (hardware sync)")
-    sim: SimProjectorOptions = SimProjectorOptions()
-    hdmi: HdmiOptions = HdmiOptions()
-    lightcrafter: LightCrafterOptions = LightCrafterOptions()
     power: PowerConfig | None = None
 
     @model_validator(mode="after")
-    def _driver_fits(self) -> ProjectorConfig:
+    def _driver_fits(self) -> Any:
         check_device(DeviceKind.PROJECTOR, self)
         return self
 
 
-class CameraConfig(CameraSettings, Strict):
+class _Camera(CameraSettings, Strict):
+    """A camera: its driver, size and geometry, and its settings (exposure, gain, bit depth, colour)."""
+
     name: Name
     driver: CameraDriver = "sim"  # type: ignore[valid-type]
     resolution: Resolution
     geometry: Geometry
-    sim: SimCameraOptions = SimCameraOptions()
-    v4l2: V4l2Options | None = Field(
-        None, description="the v4l2 driver's section (at least device: /dev/video0 or a stable link)"
-    )
-    oak: OakOptions = OakOptions()
-    replay: ReplayOptions | None = Field(
-        None, description="the replay driver's section: the folder of recorded frames and the rate they play at"
-    )
 
     @model_validator(mode="after")
-    def _driver_fits(self) -> CameraConfig:
+    def _driver_fits(self) -> Any:
         check_device(DeviceKind.CAMERA, self)
         return self
+
+
+# Each with a field per driver section of the table (`config.hdmi`, `config.v4l2`, ...).
+ProjectorConfig = create_model(
+    "ProjectorConfig", __base__=_Projector, __module__=__name__, **driver_sections(DeviceKind.PROJECTOR)
+)
+CameraConfig = create_model("CameraConfig", __base__=_Camera, __module__=__name__, **driver_sections(DeviceKind.CAMERA))

@@ -9,33 +9,30 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-KNOWN_USB = {
-    (0x0451, 0x6401): "TI DLP LightCrafter 4500 (DLPC350)",
-    (0x0451, 0xC900): "TI DLP LightCrafter 6500/9000 (DLPC900)",
-    (0x03E7, 0x2485): "Luxonis OAK (booting)",
-    (0x03E7, 0xF63B): "Luxonis OAK",
-}
+from drivers.machine import attached_usb
+from rig.config import DRIVERS
+
+OTHER_USB = {(0x0451, 0xC900): "TI DLP LightCrafter 6500/9000 (DLPC900)"}  # known, no driver yet
+
+
+def known_usb() -> dict[tuple[int, int], str]:
+    """USB ids inventory names: every driver's in the table (DriverEntry.usb_ids), and a few more."""
+    return {**OTHER_USB, **{ids: label for entry in DRIVERS for ids, label in entry.usb_ids.items()}}
 
 
 def usb_devices(finder: Callable[..., Any] | None = None) -> dict[str, Any]:
-    try:
-        import usb.core
-
-        found = list((finder or usb.core.find)(find_all=True))
-    except Exception as exc:
-        return {"error": f"cannot list USB devices ({exc}); install libusb-1.0-0", "devices": []}
-    devices = []
-    for d in found:
-        vid, pid = int(d.idVendor), int(d.idProduct)
-        devices.append(
-            {
-                "id": f"{vid:04x}:{pid:04x}",
-                "bus": getattr(d, "bus", None),
-                "address": getattr(d, "address", None),
-                "known": KNOWN_USB.get((vid, pid)),
-            }
-        )
-    return {"devices": devices}
+    listing = attached_usb(finder)
+    known = known_usb()
+    devices = [
+        {
+            "id": f"{d['vid']:04x}:{d['pid']:04x}",
+            "bus": d["bus"],
+            "address": d["address"],
+            "known": known.get((d["vid"], d["pid"])),
+        }
+        for d in listing["devices"]
+    ]
+    return {**listing, "devices": devices}
 
 
 def video_nodes(sysfs: str = "/sys/class/video4linux") -> list[dict[str, Any]]:
