@@ -31,10 +31,10 @@ from _readme import markdown_table, replace_block
 from rig.assembly import open_rig
 from rig.config import config_from_dict, load_config
 from rig.evaluate.colour import colour_metrics
+from rig.opened_rig import Rig
 from rig.pipeline.colour import COLOUR_METHODS, interpolate_colour, sample_colours
 from rig.pipeline.scan import run_scan
 from rig.plan.ring_plan import pilot_views, plan_rings
-from rig.rig import Rig
 from rig.service.adaptive import with_plan
 
 ROOT = Path(__file__).resolve().parent.parent

@@ -39,10 +39,10 @@ from rig.assembly import open_rig
 from rig.config import config_from_dict, load_config
 from rig.errors import PlanError
 from rig.evaluate.pairs import evaluate_pair
+from rig.opened_rig import Rig
 from rig.pipeline.results import ScanResult
 from rig.pipeline.scan import run_scan
 from rig.plan.ring_plan import pilot_views, plan_rings
-from rig.rig import Rig
 from rig.service.adaptive import with_plan
 from rig.store.ply import mesh_ply_bytes, ply_chunks
 

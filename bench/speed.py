@@ -48,6 +48,7 @@ from _readme import as_measured, markdown_table, replace_block
 
 from rig.assembly import open_rig
 from rig.config import RigConfig, config_from_dict, load_config
+from rig.opened_rig import Rig
 from rig.patterns import Codec, Correspondence, codec_names
 from rig.patterns.stream import decode_streamed
 from rig.pipeline.live import live_codecs, run_live
@@ -56,7 +57,6 @@ from rig.progress import ProgressTracker
 from rig.recognition.descriptor import describe
 from rig.recognition.gallery import Gallery
 from rig.recognition.identify import identify
-from rig.rig import Rig
 
 RATE_HZ = 120.0  # a DLP LightCrafter 4500 showing 8-bit patterns
 

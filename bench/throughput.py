@@ -45,13 +45,13 @@ from _ring_latency import RING_CODECS, ring_latency
 
 from rig.assembly import open_rig
 from rig.config import config_from_dict, load_config
+from rig.opened_rig import Rig
 from rig.patterns import Codec
 from rig.patterns.stream import FrameStream
 from rig.pipeline.capture import capture
 from rig.pipeline.live import CapturedSequence, finish_sequence, live_codecs, prepare_triangulation
 from rig.pipeline.sustained import SequenceWorker
 from rig.progress import ProgressTracker
-from rig.rig import Rig
 from rig.workers import release_free_memory
 
 # The sequences: live mode's default (4-step phase unwrapped by Gray code, 20 frames on this

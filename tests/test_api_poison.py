@@ -13,7 +13,7 @@ import pytest
 from fastapi.testclient import TestClient
 
 from rig.service.job_service import DB_NAME, JobService
-from rig.service.jobs import JobKind
+from rig.service.jobs import JobType
 from tests.test_api import AUTH, _client, _service
 
 
@@ -49,7 +49,7 @@ def test_a_poisoned_body_is_refused_and_nothing_is_queued(idle: tuple[JobService
     assert _raw(client, "/v1/scans", body) == 422
     listing = client.get("/v1/scans")
     assert listing.status_code == 200 and listing.json()["total"] == 0
-    assert service.store.list(JobKind.SCAN, None, 10, 0) == ([], 0)
+    assert service.store.list(JobType.SCAN, None, 10, 0) == ([], 0)
 
 
 def test_the_refusal_names_the_place_inside_a_free_form_object(idle: tuple[JobService, TestClient]) -> None:

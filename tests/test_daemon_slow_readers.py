@@ -15,7 +15,7 @@ from typing import Any
 import httpx
 import pytest
 
-from rig.service.jobs import DB_NAME, JobKind, JobStore
+from rig.service.jobs import DB_NAME, JobStore, JobType
 from tests.conftest import default_config_data, small_config_data, wait_done
 from tests.test_daemon import AUTH, KEY, Daemon, _config, status_code
 
@@ -173,7 +173,7 @@ def test_a_finished_response_the_client_never_reads_is_not_kept_for_ever(tmp_pat
     config = _config(tmp_path, small_config_data(), send_timeout_s=8.0, min_send_rate=65536)
     store = JobStore(tmp_path / "data" / DB_NAME)
     for k in range(90):  # records as a daemon keeps them, each with a large free-form plan
-        store.add(f"20261127-1200{k // 60:02d}-{k % 60:06x}", JobKind.SCAN, {"plan": {"notes": ["x" * 9_000] * 5}})
+        store.add(f"20261127-1200{k // 60:02d}-{k % 60:06x}", JobType.SCAN, {"plan": {"notes": ["x" * 9_000] * 5}})
     store.close()
     daemon = Daemon(config, tmp_path / "d.log")
     try:

@@ -28,7 +28,7 @@ from rig.config import load_config
 from rig.evaluate.merged import measure_on_bench
 from rig.service import tasks
 from rig.service.job_service import DB_NAME, JobService
-from rig.service.jobs import JobKind, JobState, JobStore
+from rig.service.jobs import JobState, JobStore, JobType
 from tests.conftest import default_config_data, small_config_data, write_config
 from tests.ports import free_port
 from tests.test_daemon import AUTH, KEY, REPO, Daemon, _config
@@ -134,7 +134,7 @@ def test_a_stalled_scan_is_cancelled_before_its_capture_timeout(tmp_path: Path) 
         deadline = time.monotonic() + STUCK_S / 2
         while service.job(job_id).fraction == 0 and time.monotonic() < deadline:
             time.sleep(0.01)
-        service.cancel(job_id, JobKind.SCAN)
+        service.cancel(job_id, JobType.SCAN)
         while service.job(job_id).state is JobState.RUNNING and time.monotonic() < deadline:
             time.sleep(0.01)
         assert service.job(job_id).state is JobState.CANCELLED  # the wait was cut, not timed out

@@ -19,12 +19,12 @@ from rig.cli import main
 from rig.config import REPO_CONFIG_DIR, config_from_dict, load_config
 from rig.evaluate.merged import evaluate_merge
 from rig.geometry import CameraModel
+from rig.opened_rig import Rig
 from rig.pipeline.capture import CUE
 from rig.pipeline.merge import compare_across_pairs, expected_error_mm, thin
 from rig.pipeline.pointset import PointSet
 from rig.pipeline.results import ScanResult
 from rig.pipeline.scan import run_scan
-from rig.rig import Rig
 from rig.store.ply import ply_bytes
 from rig.store.scandir import read_frames, write_scan
 

@@ -13,12 +13,12 @@ from rig.assembly import open_rig
 from rig.cli import main
 from rig.config import config_from_dict, load_config
 from rig.geometry.cone import ray_cone
+from rig.opened_rig import Rig
 from rig.patterns import codec_class
 from rig.patterns.radial import RadialParams
 from rig.patterns.rings import RingsParams
 from rig.pipeline.results import PairResult
 from rig.pipeline.scan import make_codec, run_scan
-from rig.rig import Rig
 from tests.conftest import UNCLIPPED_FULL_SCALE, make_device, unclipped
 
 SIZE = (1024, 768)

@@ -20,7 +20,7 @@ import pytest
 from rig.config import load_config
 from rig.service.errors import StorageFullError
 from rig.service.job_service import DB_NAME, JobService
-from rig.service.jobs import JobKind, JobState, JobStore
+from rig.service.jobs import JobState, JobStore, JobType
 from rig.service.space import RESERVE_BYTES
 from tests.conftest import small_config_data, wait_done, write_config
 from tests.test_api import AUTH, _client
@@ -48,15 +48,15 @@ def _refuse_writes(store: JobStore, refuse: bool) -> None:
 
 def test_a_store_that_cannot_write_keeps_states_in_memory_and_writes_them_later(tmp_path: Path) -> None:
     store = JobStore(tmp_path / DB_NAME)
-    job = store.add("20261125-000000-aaaaaa", JobKind.SCAN, {})
+    job = store.add("20261125-000000-aaaaaa", JobType.SCAN, {})
     store.transition(job.id, JobState.RUNNING)
     _refuse_writes(store, True)
     failed = store.transition(job.id, JobState.FAILED, error="cannot write scan: disk full")
     assert failed.state is JobState.FAILED and store.get(job.id).error == "cannot write scan: disk full"
-    assert store.list(JobKind.SCAN, None, 10, 0)[0][0].state is JobState.FAILED
+    assert store.list(JobType.SCAN, None, 10, 0)[0][0].state is JobState.FAILED
     assert "cannot be written" in (store.unsaved or "")
     with pytest.raises(StorageFullError, match="cannot be written"):
-        store.add("20261125-000000-bbbbbb", JobKind.SCAN, {})
+        store.add("20261125-000000-bbbbbb", JobType.SCAN, {})
     with pytest.raises(StorageFullError):
         store.delete(job.id)
     assert not store.flush()
@@ -70,14 +70,14 @@ def test_a_store_that_cannot_write_keeps_states_in_memory_and_writes_them_later(
 
 def test_held_states_decide_what_is_listed_and_what_a_stop_interrupts(tmp_path: Path) -> None:
     store = JobStore(tmp_path / DB_NAME)
-    ended = store.add("20261125-000000-aaaaaa", JobKind.SCAN, {}).id
-    waiting = store.add("20261125-000001-bbbbbb", JobKind.SCAN, {}).id
+    ended = store.add("20261125-000000-aaaaaa", JobType.SCAN, {}).id
+    waiting = store.add("20261125-000001-bbbbbb", JobType.SCAN, {}).id
     store.transition(ended, JobState.RUNNING)
     _refuse_writes(store, True)
     store.transition(ended, JobState.DONE, result={"files": []})
     store.transition(waiting, JobState.RUNNING)  # the table still says queued
-    assert [j.id for j in store.list(JobKind.SCAN, JobState.DONE, 10, 0)[0]] == [ended]
-    assert store.list(JobKind.SCAN, JobState.QUEUED, 10, 0) == ([], 0)
+    assert [j.id for j in store.list(JobType.SCAN, JobState.DONE, 10, 0)[0]] == [ended]
+    assert store.list(JobType.SCAN, JobState.QUEUED, 10, 0) == ([], 0)
     assert store.interrupt_unfinished("the daemon stopped") == [waiting]  # not the one that ended
     assert store.get(ended).state is JobState.DONE and store.get(ended).error is None
     _refuse_writes(store, False)
@@ -95,7 +95,7 @@ def test_a_refused_delete_leaves_a_queued_job_queued(tmp_path: Path) -> None:
     job = service.submit_scan({})
     _refuse_writes(service.store, True)
     with pytest.raises(StorageFullError):
-        service.delete(job.id, JobKind.SCAN)
+        service.delete(job.id, JobType.SCAN)
     assert service.job(job.id).state is JobState.QUEUED and job.id in service._queue  # it will still run
     _refuse_writes(service.store, False)
     service.store.close()
@@ -294,7 +294,7 @@ STORE_KILLER = """
 import json, os, signal, sys, time
 import rig.store.atomic as atomic
 from rig.config import load_config
-from rig.service.jobs import JobKind
+from rig.service.jobs import JobType
 from rig.service.job_service import JobService
 
 original, calls = atomic.write_atomic, []
@@ -314,7 +314,7 @@ if operation == "scan":
 elif operation == "reprocess":
     job = service.submit_reprocess(argument, {})
 else:
-    job = service.submit(JobKind.CALIBRATION, {"what": "camera", "views": 3})
+    job = service.submit(JobType.CALIBRATION, {"what": "camera", "views": 3})
 print(job.id, flush=True)
 time.sleep(120)  # killed long before
 """
@@ -340,7 +340,7 @@ def test_sigkill_while_a_job_stores_loses_nothing_and_leaves_nothing(tmp_path: P
     job_id = run.stdout.split()[0]
     restarted = _service(tmp_path)
     try:
-        kind = JobKind.CALIBRATION if operation == "calibration" else JobKind.SCAN
+        kind = JobType.CALIBRATION if operation == "calibration" else JobType.SCAN
         job = restarted.job(job_id, kind)
         assert job.state is JobState.INTERRUPTED
         assert not (restarted.job_folder(job)).exists()  # nothing half-written under the job's name

@@ -69,7 +69,7 @@ from rig.service.errors import (
     TooManyOpenError,
 )
 from rig.service.job_service import JobService
-from rig.service.jobs import JobKind
+from rig.service.jobs import JobType
 
 log = logging.getLogger(__name__)
 
@@ -129,8 +129,8 @@ def create_app(service: JobService, settings: ApiSettings, stopping: Callable[[]
     )
     _error_handlers(app)
     app.include_router(_general(service), prefix="/v1")
-    app.include_router(_jobs(service, JobKind.SCAN, "scans", is_stopping), prefix="/v1")
-    app.include_router(_jobs(service, JobKind.CALIBRATION, "calibrations", is_stopping), prefix="/v1")
+    app.include_router(_jobs(service, JobType.SCAN, "scans", is_stopping), prefix="/v1")
+    app.include_router(_jobs(service, JobType.CALIBRATION, "calibrations", is_stopping), prefix="/v1")
     app.include_router(recognition_router(service, ERRORS), prefix="/v1")
     app.include_router(reconstruction_router(service, ERRORS), prefix="/v1")
     app.include_router(live_router(service, ERRORS, is_stopping), prefix="/v1")
@@ -207,7 +207,7 @@ def _general(service: JobService) -> APIRouter:
     return router
 
 
-def _jobs(service: JobService, kind: JobKind, collection: str, stopping: Callable[[], bool]) -> APIRouter:
+def _jobs(service: JobService, kind: JobType, collection: str, stopping: Callable[[], bool]) -> APIRouter:
     """The routes of one job collection (scans, calibrations)."""
     router = APIRouter(prefix=f"/{collection}", tags=[collection], responses=ERRORS)
     base = f"/v1/{collection}"
@@ -217,14 +217,14 @@ def _jobs(service: JobService, kind: JobKind, collection: str, stopping: Callabl
     return router
 
 
-def _creating_routes(router: APIRouter, service: JobService, kind: JobKind, base: str) -> None:
+def _creating_routes(router: APIRouter, service: JobService, kind: JobType, base: str) -> None:
     """POST: a new job of this collection (and, for scans, a reprocessing of a stored one)."""
 
     def created(job_view: JobView, response: Response) -> JobView:
         response.headers["Location"] = job_view.links["self"]
         return job_view
 
-    if kind is JobKind.SCAN:
+    if kind is JobType.SCAN:
 
         @router.post("", status_code=status.HTTP_202_ACCEPTED, response_model=JobView, dependencies=MUTATING)
         def create_scan(body: ScanRequest, response: Response) -> JobView:
@@ -246,7 +246,7 @@ def _creating_routes(router: APIRouter, service: JobService, kind: JobKind, base
             return created(JobView.of(job, base), response)
 
 
-def _record_routes(router: APIRouter, service: JobService, kind: JobKind, base: str) -> None:
+def _record_routes(router: APIRouter, service: JobService, kind: JobType, base: str) -> None:
     """The job records: list, get, delete, cancel."""
 
     @router.get("", response_model=JobPage, dependencies=READING)
@@ -280,7 +280,7 @@ def _record_routes(router: APIRouter, service: JobService, kind: JobKind, base: 
         return JobView.of(job, base)
 
 
-def _result_routes(router: APIRouter, service: JobService, kind: JobKind, stopping: Callable[[], bool]) -> None:
+def _result_routes(router: APIRouter, service: JobService, kind: JobType, stopping: Callable[[], bool]) -> None:
     """What a job gives: its files, and its events as they happen."""
 
     @router.get(

@@ -16,7 +16,7 @@ from drivers.base import PowerControl
 from rig.api.models import _Request
 from rig.api.security import MUTATING, READING
 from rig.doctor.checks import check
-from rig.rig import Rig
+from rig.opened_rig import Rig
 from rig.service.errors import SetupRefusedError
 from rig.service.job_service import JobService
 

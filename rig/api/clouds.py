@@ -26,7 +26,7 @@ from rig.api.models import JOB_ID_PATTERN
 from rig.api.security import READING
 from rig.service.errors import JobNotFoundError
 from rig.service.job_service import JobService
-from rig.service.jobs import JobKind
+from rig.service.jobs import JobType
 from rig.store.ply import read_cloud_ply, read_mesh_ply
 from rig.store.scandir import TRUTH_ERRORS
 
@@ -115,10 +115,10 @@ def cloud_router(service: JobService, errors: dict[int | str, dict[str, Any]]) -
     router = APIRouter(prefix="/scans", tags=["scans"], responses=errors)
 
     def stored(job_id: str, name: str) -> Path:
-        job = service.job(job_id, JobKind.SCAN)
+        job = service.job(job_id, JobType.SCAN)
         if name not in (job.result or {}).get("files", []):
             raise JobNotFoundError(f"scan {job_id} has no {name}")
-        return service.file_path(job_id, JobKind.SCAN, name)
+        return service.file_path(job_id, JobType.SCAN, name)
 
     def errors_of(job_id: str) -> Path | None:
         try:

@@ -15,7 +15,7 @@ from rig.config import DeviceKind
 from rig.config.scan import ExposureUs
 from rig.patterns import codec_names
 from rig.recognition.gallery import LABEL
-from rig.service.jobs import JOB_ID, Job, JobKind, JobState
+from rig.service.jobs import JOB_ID, Job, JobState, JobType
 from rig.store.portable import json_problem
 
 JOB_ID_PATTERN = JOB_ID.pattern
@@ -227,7 +227,7 @@ class CalibrationRequest(_Request):
 
 class JobView(BaseModel):
     id: str
-    kind: JobKind
+    kind: JobType
     state: JobState | None = Field(description="none only for a damaged record whose state is unreadable")
     created: dt.datetime
     started: dt.datetime | None

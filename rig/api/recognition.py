@@ -14,7 +14,7 @@ from rig.api.security import MUTATING, READING
 from rig.recognition.gallery import Gallery
 from rig.service.errors import JobConflictError
 from rig.service.job_service import JobService
-from rig.service.jobs import JobKind, JobState
+from rig.service.jobs import JobState, JobType
 from rig.service.recognition import gallery_add, gallery_path, identify_scan, settings_from
 
 JobId = Annotated[str, Path(pattern=JOB_ID_PATTERN, description="a finished scan's id")]
@@ -27,7 +27,7 @@ def recognition_router(service: JobService, errors: dict[int | str, dict[str, An
     path = gallery_path(service.data_dir)
 
     def scan_folder(scan_id: str) -> FilePath:
-        job = service.job(scan_id, JobKind.SCAN)
+        job = service.job(scan_id, JobType.SCAN)
         if job.state is not JobState.DONE:
             raise JobConflictError(f"scan {scan_id} is {job.state}; only a finished scan can be described")
         return service.job_folder(job)

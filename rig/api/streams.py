@@ -35,7 +35,7 @@ def event_stream(request: Request, content: Callable[[], AsyncIterator[bytes]]) 
     return CountedStream(release, content(), media_type="text/event-stream", headers=SSE_HEADERS)
 
 
-def sse(kind: str, data: str, event_id: int | None = None) -> bytes:
+def sse(event: str, data: str, event_id: int | None = None) -> bytes:
     """One event; `data` is a JSON text (one line)."""
     head = "" if event_id is None else f"id: {event_id}\n"
-    return f"{head}event: {kind}\ndata: {data}\n\n".encode()
+    return f"{head}event: {event}\ndata: {data}\n\n".encode()

@@ -18,7 +18,7 @@ from rig.calibrate.response import load_response_luts
 from rig.config import DeviceKind, DriverEntry, Geometry, RigConfig, driver, named
 from rig.errors import ConfigError
 from rig.geometry import CameraModel, look_at_rotation
-from rig.rig import Rig
+from rig.opened_rig import Rig
 
 
 def factory_of(entry: DriverEntry) -> Callable[..., Any]:

@@ -6,7 +6,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
-from rig.rig import Clock, GroundTruth, MonotonicClock, SceneControl
+from rig.opened_rig import Clock, GroundTruth, MonotonicClock, SceneControl
 
 
 @dataclass

@@ -34,7 +34,7 @@ def board_image(frames: list[np.ndarray], spec: PatternSpec, source: BoardImage)
     """The 8-bit image the board is detected in: the white frame (auto, where there is one), the
     frames' mean (auto otherwise) or their modulation, stretched so its brightest 0.5 % are white."""
     roles = spec.roles()
-    whites = [i for i, role in enumerate(roles) if role.kind == "white"]
+    whites = [i for i, role in enumerate(roles) if role.shows == "white"]
     if source == "white" and not whites:
         raise CalibrationError("--board-image white: the pattern description has no white frame")
     if source in ("auto", "white") and whites:

@@ -18,7 +18,7 @@ from typing import Any
 import numpy as np
 
 from rig.errors import CalibrationError
-from rig.rig import Rig
+from rig.opened_rig import Rig
 from rig.store.atomic import write_atomic
 
 RESPONSE_NAME = "response.json"

@@ -19,9 +19,9 @@ from rig.calibrate.world import World, reframed, refuse_camera_world_for_the_ben
 from rig.config import RigConfig
 from rig.config.calibration import BoardPose, CalibrationConfig
 from rig.errors import CalibrationError
+from rig.opened_rig import Rig
 from rig.patterns.spec import PatternSpec
 from rig.progress import ProgressCallback, ProgressTracker
-from rig.rig import Rig
 from rig.store.atomic import write_atomic
 from rig.store.frames import load_pattern_spec
 

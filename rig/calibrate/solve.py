@@ -11,6 +11,7 @@ import numpy as np
 from rig.calibrate.boards import Board, Detection
 from rig.calibrate.models import REFERENCE, LensFit, LensModel, choose, fit
 from rig.calibrate.views import View
+from rig.config import DeviceKind
 from rig.errors import CalibrationError
 
 MIN_VIEWS = 3
@@ -24,7 +25,7 @@ class DeviceCalibration:
     """One device's calibrated model, world pose and quality."""
 
     name: str
-    kind: str  # "camera" or "projector"
+    kind: DeviceKind  # a camera or a projector
     resolution: tuple[int, int]
     K: np.ndarray
     dist: np.ndarray
@@ -97,7 +98,7 @@ def calibrate_cameras(
                 f"{rejected.get(0, 'board not found')}"
             )
         R, t = lens.poses[0]
-        out.append(_device(name, "camera", size, lens, R, t, rejected, detections, board))
+        out.append(_device(name, DeviceKind.CAMERA, size, lens, R, t, rejected, detections, board))
     return out
 
 
@@ -157,7 +158,7 @@ def calibrate_projectors(
         stereo_rms, R_cp, T_cp = stereo[0], stereo[5], np.ravel(stereo[6])
         R = R_cp @ camera.R
         t = R_cp @ camera.t + T_cp
-        device = _device(name, "projector", size, lens, R, t, rejected, detections, board)
+        device = _device(name, DeviceKind.PROJECTOR, size, lens, R, t, rejected, detections, board)
         device.stereo_rms_px = float(stereo_rms)
         out.append(device)
     return out
@@ -165,7 +166,7 @@ def calibrate_projectors(
 
 def _device(
     name: str,
-    kind: str,
+    kind: DeviceKind,
     size: tuple[int, int],
     lens: LensFit,
     R: np.ndarray,

@@ -17,10 +17,10 @@ import numpy as np
 
 from rig.calibrate.boards import Board, Detection
 from rig.errors import CalibrationError
+from rig.opened_rig import Rig
 from rig.patterns import Codec, Correspondence
 from rig.patterns.phase import PhaseCodec, PhaseParams
 from rig.progress import ProgressCallback, ProgressTracker
-from rig.rig import Rig
 
 HOMOGRAPHY_WINDOW_PX = 15.0  # half-size of the camera window for local homographies
 MIN_DECODED_IN_WINDOW = 30

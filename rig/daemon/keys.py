@@ -238,8 +238,8 @@ def _require_regular(mode: int, path: Path, source: str) -> None:
     """Raises ConfigError when `mode` is not a regular file's."""
     if stat.S_ISREG(mode):
         return
-    kind = next((name for test, name in FILE_KINDS if test(mode)), "not a regular file")
-    raise ConfigError(source, [f"{source}: {path} is {kind}, not a regular file holding the key"])
+    what = next((name for test, name in FILE_KINDS if test(mode)), "not a regular file")
+    raise ConfigError(source, [f"{source}: {path} is {what}, not a regular file holding the key"])
 
 
 def _generated_key(path: Path) -> str:

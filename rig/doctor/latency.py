@@ -9,7 +9,7 @@ from typing import Any
 
 import numpy as np
 
-from rig.rig import LATENCY_FILE, Rig
+from rig.opened_rig import LATENCY_FILE, Rig
 from rig.store.atomic import write_atomic
 
 

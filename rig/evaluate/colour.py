@@ -11,9 +11,9 @@ from __future__ import annotations
 
 import numpy as np
 
+from rig.opened_rig import PixelTruth
 from rig.pipeline.dense import texture_rgb
 from rig.pipeline.results import PairResult
-from rig.rig import PixelTruth
 
 # Pixels the projector lights this weakly (relative to the median) carry mostly noise once unshaded.
 _MIN_RELATIVE_IRRADIANCE = 0.2

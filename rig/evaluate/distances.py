@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from rig.rig import PixelTruth
+from rig.opened_rig import PixelTruth
 from rig.workers import point_blocks
 
 # Within this distance of the pixel's own true point the surface is treated as its tangent plane;

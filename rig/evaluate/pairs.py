@@ -12,9 +12,9 @@ from rig.evaluate.distances import pixel_distances, root_mean_square
 from rig.evaluate.ring_recovery import ring_coverage_on_bench
 from rig.evaluate.surface import surface_metrics
 from rig.geometry import CameraModel
+from rig.opened_rig import GroundTruth, PixelTruth, Rig
 from rig.pipeline.realign import moved_pair
 from rig.pipeline.results import PairResult
-from rig.rig import GroundTruth, PixelTruth, Rig
 from rig.workers import point_blocks
 
 COMPLETE_WITHIN_MM = 1.0

@@ -10,9 +10,9 @@ from rig.config import RigConfig
 from rig.evaluate.distances import root_mean_square, surface_distances
 from rig.evaluate.regions import region_errors
 from rig.evaluate.wholeness import object_error, true_areas, wholeness
+from rig.opened_rig import PixelTruth
 from rig.patterns import codec_class
 from rig.pipeline.results import PairResult, ScanResult
-from rig.rig import PixelTruth
 
 COMPLETE_WITHIN_MM = 1.0
 AREA_QUANTILE = 0.95

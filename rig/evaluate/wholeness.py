@@ -17,7 +17,7 @@ import numpy as np
 
 from rig.evaluate.promise import between_rings
 from rig.evaluate.regions import STEP_MM, footprints, weighted_quantile
-from rig.rig import PixelTruth
+from rig.opened_rig import PixelTruth
 
 OBJECT_ABOVE_MM = 1.0  # the bench plane is z = 0 in the world: the object is what stands above it
 CROWDED_PX = 12.0  # rings closer in the image are read poorly (8 to 12 px apart: a face's surface 1/3 covered)

@@ -110,11 +110,11 @@ def _virtual_patterns(spec: PatternSpec) -> list[np.ndarray]:
     width, height = spec.projector.resolution
     out = []
     for role in spec.roles():
-        if role.kind == "phase":
+        if role.shows == "phase":
             out.append(phase_pattern(spec, role))
             continue
-        if role.kind != "bit":
-            out.append(np.full((height, width), 255 if role.kind == "white" else 0, np.uint8))
+        if role.shows != "bit":
+            out.append(np.full((height, width), 255 if role.shows == "white" else 0, np.uint8))
             continue
         assert role.axis is not None
         size = width if role.axis == "columns" else height

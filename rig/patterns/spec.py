@@ -135,7 +135,7 @@ class GrayCode(Strict):
 class Role:
     """What one frame shows."""
 
-    kind: Literal["white", "black", "bit", "phase"]
+    shows: Literal["white", "black", "bit", "phase"]
     axis: Axis | None = None
     bit: int = 0  # a bit: 0 the most significant; a phase frame: its frequency
     inverse: bool = False
@@ -221,13 +221,13 @@ class PatternSpec(Strict):
             if self.phase is not None:
                 carriers = f" x {self.phase.modulation.steps} carrier shifts" if self.phase.modulation else ""
                 each = ", ".join(f"{f.period_px:g} px x {f.steps}" for f in self.phase.of(axis))
-                count = sum(1 for r in roles if r.kind == "phase" and r.axis == axis)
+                count = sum(1 for r in roles if r.shows == "phase" and r.axis == axis)
                 pieces.append(f"{count} phase ({each}{carriers})")
-            bits = sum(1 for r in roles if r.kind == "bit" and r.axis == axis)
+            bits = sum(1 for r in roles if r.shows == "bit" and r.axis == axis)
             if bits:
                 pieces.append(f"{bits} Gray")
             parts.append(f"{axis}: {', '.join(pieces)}")
-        references = sum(1 for r in roles if r.kind in ("white", "black"))
+        references = sum(1 for r in roles if r.shows in ("white", "black"))
         if references:
             parts.append(f"white and black {references}")
         return f" ({'; '.join(parts)})"

@@ -17,10 +17,10 @@ from drivers.base import Frame, ProjectorMode
 from drivers.errors import DeviceError
 from drivers.sequences import PatternSequence, SequenceEntry, TriggerMode
 from rig.errors import CaptureFaultError, ScanError
+from rig.opened_rig import Rig
 from rig.patterns import Codec
 from rig.patterns.base import sent_levels
 from rig.progress import ProgressTracker
-from rig.rig import Rig
 
 Frames = dict[tuple[int, int], list[np.ndarray]]
 FrameSink = Callable[[int, int, np.ndarray], None]  # (projector, camera, image)

@@ -23,8 +23,8 @@ import numpy as np
 
 from drivers.base import Camera
 from drivers.errors import DeviceStateError
+from rig.opened_rig import Rig
 from rig.pipeline.capture import lit_stills
-from rig.rig import Rig
 
 _CUT = 0.25  # a white frame clipping too much: the next look at a quarter of the exposure
 _LOOKS = 6  # pre-captures at most before auto-exposure settles on what it has

@@ -18,6 +18,7 @@ import time
 import numpy as np
 
 from rig.errors import ConfigError, ScanError
+from rig.opened_rig import Rig
 from rig.patterns import Codec, Correspondence, RingSamples
 from rig.patterns.saturation import subset_samples
 from rig.patterns.stream import decode_streamed
@@ -39,7 +40,6 @@ from rig.pipeline.projection_mask import masked_rig
 from rig.pipeline.results import ScanResult
 from rig.pipeline.scan import is_reconstructed, make_codec, reconstruct_frames, run_scan
 from rig.progress import ProgressCallback, ProgressTracker
-from rig.rig import Rig
 
 
 def merge_exposures(corrs: list[Correspondence], reference: int) -> Correspondence:

@@ -23,6 +23,7 @@ import numpy as np
 
 from rig.config.scan import ScanConfig
 from rig.errors import DecodeError, ScanError
+from rig.opened_rig import Rig
 from rig.patterns import Codec, Correspondence
 from rig.patterns.lines import LineCodec
 from rig.patterns.stream import FrameStream
@@ -33,7 +34,6 @@ from rig.pipeline.organised import fast_terms, organised_depth
 from rig.pipeline.scan import is_reconstructed, make_codec, organised_terms, reconstruct_pair, triangulator
 from rig.pipeline.sustained import SequenceWorker
 from rig.progress import ProgressTracker
-from rig.rig import Rig
 
 FINISH_TIMEOUT_S = 60.0  # the last sequence's triangulation, once live mode stops
 log = logging.getLogger(__name__)

@@ -36,6 +36,7 @@ import numpy as np
 from scipy import ndimage
 
 from rig.geometry.camera import CameraModel
+from rig.opened_rig import Rig
 from rig.pipeline.exposure import (
     ExposureSettings,
     Look,
@@ -48,7 +49,6 @@ from rig.pipeline.mask_skew import MaskSkew
 from rig.pipeline.results import PairResult
 from rig.pipeline.scan import run_scan
 from rig.progress import ProgressCallback, ProgressTracker
-from rig.rig import Rig
 
 MAP_REACH_PX = 8  # a camera pixel without a pre-scan point takes its nearest mapped neighbour's within this
 

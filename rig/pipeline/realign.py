@@ -7,10 +7,10 @@ import dataclasses
 
 import numpy as np
 
+from rig.opened_rig import Rig
 from rig.pipeline.icp import AlignmentRefusedError, point_to_plane
 from rig.pipeline.pointset import PointSet
 from rig.pipeline.results import PairResult
-from rig.rig import Rig
 
 
 def moved_pair(pair: PairResult, rotation: np.ndarray, shift: np.ndarray) -> PairResult:

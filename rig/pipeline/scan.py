@@ -8,6 +8,7 @@ import time
 import numpy as np
 
 from rig.errors import DecodeError, ScanError
+from rig.opened_rig import Rig
 from rig.patterns import Codec, CodecParams, Correspondence, codec_class
 from rig.patterns.stream import FrameStream, decode_streamed
 from rig.pipeline.capture import CUE, capture
@@ -31,7 +32,6 @@ from rig.pipeline.ring_triangulation import (
 from rig.pipeline.surface import RingBands, RingSurface, SurfaceSettings, interpolate_surface
 from rig.pipeline.triangulation import delaunay
 from rig.progress import ProgressCallback, ProgressTracker
-from rig.rig import Rig
 
 
 def make_codec(rig: Rig, projector: int, name: str | None = None, params: CodecParams | None = None) -> Codec:

@@ -19,9 +19,9 @@ from rig.calibrate.overrides import calibration_overrides
 from rig.calibrate.response import calibrate_response
 from rig.calibrate.session import CalibrationOutcome, calibrate, calibrate_described
 from rig.config import RigConfig
+from rig.opened_rig import Rig
 from rig.patterns.spec import PatternSpec
 from rig.progress import ProgressCallback, ProgressTracker
-from rig.rig import Rig
 from rig.service.errors import ImportRefusedError
 from rig.service.imports import folder_path, pattern_description
 from rig.store.atomic import publish_folder

@@ -12,7 +12,7 @@ import threading
 from typing import Any
 
 from rig.config import RigConfig
-from rig.rig import Rig
+from rig.opened_rig import Rig
 from rig.service.errors import SetupRefusedError
 from rig.service.worker_calls import WorkerCalls
 

@@ -10,7 +10,7 @@ from collections.abc import Callable
 from drivers.base import Frame
 from drivers.errors import DeviceError
 from rig.errors import CaptureFaultError
-from rig.rig import Rig
+from rig.opened_rig import Rig
 from rig.service.aim import AimMode
 from rig.service.camera_settings import CameraSettings
 from rig.service.errors import JobCancelledError

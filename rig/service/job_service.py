@@ -19,8 +19,8 @@ from typing import Any, TextIO
 from drivers.errors import DeviceError
 from rig.config import RigConfig
 from rig.errors import CaptureFaultError, ConfigError, PlanError, SlrigError
+from rig.opened_rig import Rig
 from rig.progress import ProgressCallback
-from rig.rig import Rig
 from rig.service.adaptive import check_scan_request
 from rig.service.aim import AimMode
 from rig.service.calibrating import calibration_settings, captured_views
@@ -37,7 +37,7 @@ from rig.service.frames import FrameTap
 from rig.service.idle import IdleWork
 from rig.service.imports import reconstruction_inputs, remove_leftovers
 from rig.service.job_work import JobWork
-from rig.service.jobs import DB_NAME, Job, JobKind, JobState, JobStore
+from rig.service.jobs import DB_NAME, Job, JobState, JobStore, JobType
 from rig.service.live import LiveMode
 from rig.service.recovery import clear_leftovers, discard, hide_folder, lock_data_dir
 from rig.service.remote import RemoteJobs
@@ -145,7 +145,7 @@ class JobService(JobWork):
         return found + storage_problems(self.data_dir, self.store)
 
     # --- requests --------------------------------------------------------------------------
-    def submit(self, kind: JobKind, request: dict[str, Any]) -> Job:
+    def submit(self, kind: JobType, request: dict[str, Any]) -> Job:
         """Queue a job; QueueFullError past max_queue, ServiceStoppingError while stopping."""
         with self._cond:
             if self._stopping:
@@ -171,37 +171,37 @@ class JobService(JobWork):
                     f"codec {request['codec']} does not fit this rig: {'; '.join(exc.problems)}"
                 ) from None
         check_free_space(self.data_dir, expected_scan_bytes(self.config, request), "a scan of this rig")
-        return self.submit(JobKind.SCAN, request)
+        return self.submit(JobType.SCAN, request)
 
     def submit_reprocess(self, source_id: str, request: dict[str, Any]) -> Job:
-        source = self.job(source_id, JobKind.SCAN)
+        source = self.job(source_id, JobType.SCAN)
         if source.state is not JobState.DONE:
             raise JobConflictError(f"scan {source_id} is {source.state}; only a finished scan can be reprocessed")
         if not (self.scans_dir / source_id / "frames").is_dir():
             raise JobConflictError(f"scan {source_id} kept no frames; scan with keep_frames: true to reprocess")
         if request.get("calibration"):
             self._calibration_folder(request["calibration"])
-        return self.submit(JobKind.SCAN, {**request, "source": source_id})
+        return self.submit(JobType.SCAN, {**request, "source": source_id})
 
     def submit_reconstruction(self, request: dict[str, Any]) -> Job:
         """Queue a reconstruction of uploaded frames; refused inputs are answered now, never queued."""
         reconstruction_inputs(self.data_dir, self._calibration_folder, request)
-        return self.submit(JobKind.SCAN, {"reconstruct": request})
+        return self.submit(JobType.SCAN, {"reconstruct": request})
 
     def submit_calibration(self, request: dict[str, Any]) -> Job:
         """Queue a calibration; a board, model or captures that are refused are answered now."""
         calibration_settings(self.config, request)
         if "images" in request:
             captured_views(self.data_dir, request)
-        return self.submit(JobKind.CALIBRATION, request)
+        return self.submit(JobType.CALIBRATION, request)
 
-    def job(self, job_id: str, kind: JobKind | None = None) -> Job:
+    def job(self, job_id: str, kind: JobType | None = None) -> Job:
         job = self.store.get(job_id)
         if kind is not None and job.kind != kind:
             raise JobNotFoundError(f"no {kind} {job_id}")
         return job
 
-    def cancel(self, job_id: str, kind: JobKind) -> Job:
+    def cancel(self, job_id: str, kind: JobType) -> Job:
         self.job(job_id, kind)  # it exists and is of this kind
         if self._remote is not None:
             self._remote.refuse_cancel(job_id)
@@ -214,7 +214,7 @@ class JobService(JobWork):
                 self._cancel.set()  # the worker records it when the job stops
         return self.store.get(job_id)
 
-    def delete(self, job_id: str, kind: JobKind) -> None:
+    def delete(self, job_id: str, kind: JobType) -> None:
         """Delete a job not running: folder hidden and record gone under the lock, contents after."""
         self.job(job_id, kind)
         with self._cond:
@@ -226,9 +226,9 @@ class JobService(JobWork):
         discard(doomed)
 
     def job_folder(self, job: Job) -> Path:
-        return (self.calibrations_dir if job.kind is JobKind.CALIBRATION else self.scans_dir) / job.id
+        return (self.calibrations_dir if job.kind is JobType.CALIBRATION else self.scans_dir) / job.id
 
-    def file_path(self, job_id: str, kind: JobKind, name: str) -> Path:
+    def file_path(self, job_id: str, kind: JobType, name: str) -> Path:
         """A result file of a finished job, by a name its result lists (never a path)."""
         job = self.job(job_id, kind)
         return result_file(job, self.job_folder(job), name)
@@ -282,7 +282,7 @@ class JobService(JobWork):
         self._publish_state(job_id)
         reprocess = any(k in job.request for k in ("source", "reconstruct", "images"))  # files only: no devices
         handler: Callable[[Job, ProgressCallback], dict[str, Any] | None]
-        if job.kind is JobKind.CALIBRATION:
+        if job.kind is JobType.CALIBRATION:
             handler = self._calibration
         elif "reconstruct" in job.request:
             handler = self._reconstruct

@@ -12,7 +12,7 @@ from rig.progress import ProgressCallback, ProgressEvent
 from rig.service import tasks
 from rig.service.calibrating import calibration_to_directory
 from rig.service.errors import JobConflictError
-from rig.service.jobs import Job, JobKind, JobState
+from rig.service.jobs import Job, JobState, JobType
 from rig.service.remote import RemoteJobs
 from rig.service.space import check_free_space, expected_scan_bytes
 from rig.service.stopping import WorkerRig
@@ -50,8 +50,8 @@ class JobWork:
         """What tasks.reprocess_job takes for a reprocessing job: source, target, id, calibration
         folder, overrides and origin."""
         request = job.request
-        source = self.job(request["source"], JobKind.SCAN)  # JobNotFoundError if deleted since
-        calibration = self.job(request["calibration"], JobKind.CALIBRATION) if request.get("calibration") else None
+        source = self.job(request["source"], JobType.SCAN)  # JobNotFoundError if deleted since
+        calibration = self.job(request["calibration"], JobType.CALIBRATION) if request.get("calibration") else None
         overrides = {"max_depth_jump_mm": request["max_depth_jump_mm"]} if "max_depth_jump_mm" in request else {}
         folder = None if calibration is None else self.job_folder(calibration)
         origin = {"reprocessed_from": source.id, "calibration": request.get("calibration")}
@@ -68,7 +68,7 @@ class JobWork:
         return tasks.reconstruction_to_directory(*inputs, job.id, self.config, progress)
 
     def _calibration_folder(self, calibration_id: str) -> Path:
-        calibration = self.job(calibration_id, JobKind.CALIBRATION)
+        calibration = self.job(calibration_id, JobType.CALIBRATION)
         if calibration.state is not JobState.DONE or calibration.request.get("what") == "response":
             raise JobConflictError(f"calibration {calibration_id} is not a finished geometric calibration")
         return self.job_folder(calibration)

@@ -41,7 +41,7 @@ class JobState(enum.StrEnum):
     INTERRUPTED = "interrupted"
 
 
-class JobKind(enum.StrEnum):
+class JobType(enum.StrEnum):
     SCAN = "scan"
     CALIBRATION = "calibration"
 
@@ -72,7 +72,7 @@ CREATE INDEX IF NOT EXISTS jobs_kind_created ON jobs (kind, created);
 
 # A listing's rows: a record of a kind this version does not know is listed with the scans (as a
 # damaged record, so that it can be seen and deleted).
-_KIND_MATCH = {JobKind.SCAN: "kind != 'calibration'", JobKind.CALIBRATION: "kind = 'calibration'"}
+_KIND_MATCH = {JobType.SCAN: "kind != 'calibration'", JobType.CALIBRATION: "kind = 'calibration'"}
 JOB_ID = re.compile(r"^[0-9]{8}-[0-9]{6}-[0-9a-f]{6}$")
 
 # SQLite's primary result codes for a database that cannot take a write now: busy, locked,
@@ -83,7 +83,7 @@ UNWRITABLE = frozenset({5, 6, 8, 10, 11, 13, 14, 26})
 @dataclass(frozen=True)
 class Job:
     id: str
-    kind: JobKind
+    kind: JobType
     state: JobState | None  # None: a placeholder for a record that is gone, or a state unreadable (see problem)
     request: dict[str, Any]
     created: float
@@ -100,7 +100,7 @@ class Job:
         return self.state in TERMINAL
 
     @classmethod
-    def placeholder(cls, job_id: str, kind: JobKind) -> Job:
+    def placeholder(cls, job_id: str, kind: JobType) -> Job:
         """A record's identity only (for a job whose record is gone)."""
         return cls(job_id, kind, None, {}, 0.0, None, None, None, 0.0, None, None)
 
@@ -150,7 +150,7 @@ class JobStore:
             self._write_error = f"the job database cannot be written: {exc}"
             raise StorageFullError(self._write_error) from exc
 
-    def add(self, job_id: str, kind: JobKind, request: dict[str, Any]) -> Job:
+    def add(self, job_id: str, kind: JobType, request: dict[str, Any]) -> Job:
         with self._lock:
             self._write(
                 "INSERT INTO jobs (id, kind, state, request, created) VALUES (?, ?, 'queued', ?, ?)",
@@ -249,7 +249,7 @@ class JobStore:
             self._pending.pop(job_id, None)
         log.info("job %s: deleted", job_id)
 
-    def list(self, kind: JobKind, state: JobState | None, limit: int, offset: int) -> tuple[list[Job], int]:
+    def list(self, kind: JobType, state: JobState | None, limit: int, offset: int) -> tuple[list[Job], int]:
         """Newest first; also the total matching, for paging. States held in memory count."""
         with self._lock:
             pending = {job_id: dict(values) for job_id, values in self._pending.items()}
@@ -342,7 +342,7 @@ def job_from_row(row: sqlite3.Row, pending: dict[str, Any]) -> Job:
         problems.append(f"id: {job_id!r} is not a job id the API serves; `slrig store check --repair` quarantines it")
     return Job(
         id=job_id if json_problem(job_id) is None else repr(job_id),
-        kind=column("kind", JobKind, JobKind.SCAN),
+        kind=column("kind", JobType, JobType.SCAN),
         state=column("state", JobState, None),
         request=column("request", record, {}),
         created=column("created", moment, 0.0),

@@ -28,6 +28,7 @@ from rig.config import RigConfig, config_from_dict
 from rig.errors import CalibrationError
 from rig.geometry import CameraModel
 from rig.geometry.triangulate import ray_plane, ray_ray_midpoint
+from rig.opened_rig import Rig
 from rig.patterns.correspondence import Correspondence
 from rig.patterns.described import decode_described
 from rig.patterns.described_checks import decoded_warnings
@@ -35,7 +36,6 @@ from rig.patterns.spec import PatternSpec
 from rig.pipeline.results import ScanResult
 from rig.pipeline.scan import reconstruct_pair
 from rig.progress import ProgressCallback, ProgressTracker
-from rig.rig import Rig
 from rig.store.frames import FrameSet, frame_files, load_pattern_spec, open_frames
 from rig.store.image_header import image_header
 from rig.store.scandir import write_scan

@@ -8,7 +8,7 @@ from typing import Any
 
 from drivers.base import Device
 from rig.config import DeviceKind, RigConfig
-from rig.rig import Rig
+from rig.opened_rig import Rig
 from rig.service.errors import JobConflictError, JobNotFoundError
 from rig.service.jobs import Job, JobState
 

@@ -24,7 +24,7 @@ from collections.abc import Callable
 
 from rig.assembly import open_rig
 from rig.config import RigConfig
-from rig.rig import Rig
+from rig.opened_rig import Rig
 from rig.service.errors import JobCancelledError
 
 log = logging.getLogger(__name__)

@@ -13,12 +13,12 @@ from typing import Any
 from rig.assembly import open_rig
 from rig.config import RigConfig, config_from_dict
 from rig.evaluate.merged import measure_on_bench
+from rig.opened_rig import Rig
 from rig.pipeline.hdr import reconstruct_exposures, scan_with_exposure
 from rig.pipeline.results import ScanResult
 from rig.pipeline.scan import reconstruct_frames
 from rig.plan.ring_plan import RingPlan
 from rig.progress import ProgressCallback, ProgressTracker
-from rig.rig import Rig
 from rig.service.adaptive import adaptive_scan, plan_check
 from rig.service.imports import reconstruction_inputs
 from rig.service.reconstruct import reconstruct_folder

@@ -12,7 +12,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from drivers.errors import DeviceError
-from rig.rig import Rig
+from rig.opened_rig import Rig
 from rig.service.errors import JobConflictError, SetupRefusedError
 
 CALL_TIMEOUT_S = 15.0  # opening a rig takes seconds (cameras, the simulator's first ray cast)

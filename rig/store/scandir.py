@@ -23,11 +23,11 @@ import yaml
 import rig
 from rig.errors import StoreError
 from rig.geometry import CameraModel
+from rig.opened_rig import Rig
 from rig.pipeline.capture import CUE
 from rig.pipeline.holes import surface_holes
 from rig.pipeline.results import PairResult, ScanResult
 from rig.pipeline.scan import ring_bands, ring_lit
-from rig.rig import Rig
 from rig.store.atomic import fsync_dir, publish_folder, write_atomic
 from rig.store.images import depth_image_png, grid_depth, mask_png, point_depth, preview_png, rgb_png
 from rig.store.ply import mesh_ply_bytes, ply_chunks
