@@ -5,7 +5,9 @@ most of a second."""
 from __future__ import annotations
 
 import importlib
+import sys
 import threading
+from collections.abc import Callable, Mapping
 from types import ModuleType
 from typing import Any
 
@@ -33,3 +35,22 @@ class LazyModule:
 def lazy_module(name: str) -> Any:
     """The module `name`, imported when first used."""
     return LazyModule(name)
+
+
+def face(package: str, names: Mapping[str, str]) -> tuple[Callable[[str], Any], Callable[[], list[str]]]:
+    """A package's face (PEP 562 `__getattr__` and `__dir__`): each public name, `names` mapping it
+    to the submodule that defines it, imported from there when first read and kept. Importing the
+    package loads none of its submodules: `from rig.pipeline import run_scan` costs what
+    `from rig.pipeline.scan import run_scan` did."""
+
+    def attribute(name: str) -> Any:
+        if name not in names:
+            raise AttributeError(f"module {package!r} has no attribute {name!r}")
+        value = getattr(importlib.import_module(f"{package}.{names[name]}"), name)
+        setattr(sys.modules[package], name, value)
+        return value
+
+    def listing() -> list[str]:
+        return sorted(set(names) | set(vars(sys.modules[package])))
+
+    return attribute, listing

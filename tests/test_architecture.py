@@ -156,6 +156,36 @@ def test_no_module_imports_itself_back_through_others() -> None:
     assert circles == []
 
 
+def _packages() -> list[str]:
+    return sorted(p.parent.name for p in (REPO / "rig").glob("*/__init__.py"))
+
+
+def test_packages_are_imported_through_their_faces() -> None:
+    """Between rig's packages, imports name the package (its face, `__init__.py`), never one of its
+    modules: a package's modules can move and split without its users changing (decision 0033)."""
+    packages, reaching = set(_packages()), []
+    for path in sorted((REPO / "rig").rglob("*.py")):
+        parts = path.relative_to(REPO / "rig").parts
+        own = parts[0] if len(parts) > 1 else None
+        for node in ast.walk(ast.parse(path.read_text())):
+            names = [node.module] if isinstance(node, ast.ImportFrom) and node.level == 0 and node.module else []
+            names += [a.name for a in node.names] if isinstance(node, ast.Import) else []
+            for name in names:
+                dotted = name.split(".")
+                if dotted[0] == "rig" and len(dotted) > 2 and dotted[1] in packages and dotted[1] != own:
+                    reaching.append(f"{path.relative_to(REPO)}:{node.lineno} {name}")
+    assert reaching == [], f"imports past a package's face: {reaching}"
+
+
+@pytest.mark.parametrize("package", _packages())
+def test_every_name_a_face_offers_is_there(package: str) -> None:
+    import importlib
+
+    face = importlib.import_module(f"rig.{package}")
+    for name in getattr(face, "__all__", []):
+        assert getattr(face, name, None) is not None, f"rig.{package} offers {name} but has none"
+
+
 def _named_in(page: str) -> tuple[set[str], set[str]]:
     """The dotted names (rig.x.y, drivers.x.y, Codec.x) and the paths (rig/..., tests/...) a page
     puts in backticks."""

@@ -19,7 +19,7 @@ from rig.errors import FramesError
 from rig.patterns.spec import FrameFiles
 from rig.store import frames as frames_module
 from rig.store.frames import MAX_FRAME_PIXELS, open_frames, read_frames
-from rig.store.image_header import ImageHeader, image_header
+from rig.store.image_header import ImageHeader, read_image_header
 from tests.bombs import write_png_bomb
 from tests.conftest import REPO
 
@@ -42,7 +42,7 @@ def test_the_bomb_is_a_valid_png(tmp_path: Path) -> None:
         image = cv2.imread(str(path), cv2.IMREAD_UNCHANGED)
         assert image.shape == (height, width) and not image.any()
         assert image.dtype == (np.uint16 if bits == 16 else np.uint8)
-        header = image_header(path)
+        header = read_image_header(path)
         assert (header.width, header.height, header.channels, header.bits_per_sample) == (width, height, 1, bits)
 
 

@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from rig.errors import FramesError
-from rig.store.image_header import ImageHeader, check_image_size, image_header, image_header_bytes
+from rig.store.image_header import ImageHeader, check_image_size, image_header_bytes, read_image_header
 
 BOMB_SIZE = 20000  # 20000 x 20000 at 16 bits: 800 MB of pixels in a 0.78 MB file
 SIZES = [(1, 1), (7, 5), (640, 480), (3, 1000)]
@@ -49,7 +49,7 @@ def test_the_header_of_what_opencv_writes_is_what_opencv_reads(
     for size in SIZES:
         path = tmp_path / f"image_{size[0]}x{size[1]}{suffix}"
         assert cv2.imwrite(str(path), _image(size, depth, channels))
-        header = image_header(path)
+        header = read_image_header(path)
         assert _fields(header) == _as_read(cv2.imread(str(path), cv2.IMREAD_UNCHANGED)), path.name
         assert header.format == {".png": "PNG", ".tif": "TIFF", ".bmp": "BMP", ".jpg": "JPEG"}[suffix]
         assert image_header_bytes(path.read_bytes()) == header
@@ -61,16 +61,16 @@ def test_a_progressive_jpeg_and_one_whose_frame_header_comes_late(tmp_path: Path
     JPEG_WALK_BYTES is refused rather than walked to."""
     path = tmp_path / "progressive.jpg"
     assert cv2.imwrite(str(path), _image((45, 31), np.uint8, 3), [cv2.IMWRITE_JPEG_PROGRESSIVE, 1])
-    assert _fields(image_header(path)) == (45, 31, 3, 8) == _as_read(cv2.imread(str(path), cv2.IMREAD_UNCHANGED))
+    assert _fields(read_image_header(path)) == (45, 31, 3, 8) == _as_read(cv2.imread(str(path), cv2.IMREAD_UNCHANGED))
     plain = cv2.imencode(".jpg", _image((45, 31), np.uint8, 1))[1].tobytes()
     comment = b"\xff\xfe" + struct.pack(">H", 65535) + bytes(65533)
     exif = b"\xff\xe1" + struct.pack(">H", 30002) + b"Exif\0\0" + bytes(29994)
     late = plain[:2] + exif + comment * 3 + b"\xff\xff\xff" + plain[2:]
     path.write_bytes(late)
-    assert _fields(image_header(path)) == (45, 31, 1, 8) == _as_read(cv2.imread(str(path), cv2.IMREAD_UNCHANGED))
+    assert _fields(read_image_header(path)) == (45, 31, 1, 8) == _as_read(cv2.imread(str(path), cv2.IMREAD_UNCHANGED))
     path.write_bytes(plain[:2] + comment * 17 + plain[2:])  # 1.1 MB of comments before the frame header
     with pytest.raises(FramesError, match=re.escape(f"{path}: not an image slrig can read (no JPEG frame header")):
-        image_header(path)
+        read_image_header(path)
 
 
 def _tiff(width: int, height: int, order: str, big: bool, long_sizes: bool, samples: int, bits: int) -> bytes:
@@ -114,7 +114,7 @@ def test_tiff_either_byte_order_classic_or_big_sizes_short_or_long(
     for samples, bits in ((1, 8), (1, 16), (3, 8), (3, 16)):
         path = tmp_path / f"{samples}x{bits}.tif"
         path.write_bytes(_tiff(37, 11, order, big, long_sizes, samples, bits))
-        header = image_header(path)
+        header = read_image_header(path)
         assert _fields(header) == (37, 11, samples, bits) == _as_read(cv2.imread(str(path), cv2.IMREAD_UNCHANGED))
         assert header.format == ("BigTIFF" if big else "TIFF")
 
@@ -143,7 +143,7 @@ def test_bmp_of_every_dib_header_bottom_up_and_top_down(tmp_path: Path, dib: int
             image = _image((21, 13), np.uint8, channels)
             path = tmp_path / f"{channels}_{top_down}.bmp"
             path.write_bytes(_bmp(image, dib, top_down))
-            header = image_header(path)
+            header = read_image_header(path)
             read = cv2.imread(str(path), cv2.IMREAD_UNCHANGED)
             assert _fields(header) == (21, 13, channels, 8)
             assert header.size == (read.shape[1], read.shape[0])
@@ -183,12 +183,12 @@ def test_only_the_header_is_read(tmp_path: Path, monkeypatch: pytest.MonkeyPatch
     monkeypatch.setattr(Path, "open", lambda self, *a, **k: _Counted(opened(self, *a, **k), counts))
     for path in paths:
         counts.clear()
-        assert image_header(path).size == (1200, 900)
+        assert read_image_header(path).size == (1200, 900)
         assert path.stat().st_size > 10**5 and sum(counts) < 1024, path.name
     monkeypatch.undo()
     for path, end in zip(paths[::2], (33, 30), strict=True):  # PNG: signature and IHDR; BMP: the DIB's first fields
         path.write_bytes(path.read_bytes()[:end])
-        assert image_header(path).size == (1200, 900)
+        assert read_image_header(path).size == (1200, 900)
 
 
 @pytest.mark.parametrize(
@@ -202,7 +202,7 @@ def test_every_truncation_of_a_header_is_refused_naming_the_file(
     never another exception; a prefix with the header has it whole."""
     path = tmp_path / f"frame_3{suffix}"
     assert cv2.imwrite(str(path), _image((50, 20), depth, channels))
-    data, whole = path.read_bytes(), image_header(path)
+    data, whole = path.read_bytes(), read_image_header(path)
     complete = []
     for end in range(len(data)):
         try:
@@ -213,7 +213,7 @@ def test_every_truncation_of_a_header_is_refused_naming_the_file(
     for end in (0, 3, 9, 25):
         path.write_bytes(data[:end])
         with pytest.raises(FramesError, match=re.escape(f"{path}: not an image slrig can read (")):
-            image_header(path)
+            read_image_header(path)
 
 
 @pytest.mark.parametrize(
@@ -242,7 +242,7 @@ def test_garbage_and_damaged_headers_are_refused_naming_the_file(tmp_path: Path,
     path = tmp_path / "frame_3.png"
     path.write_bytes(data)
     with pytest.raises(FramesError, match=re.escape(f"{path}: not an image slrig can read ({reason}")):
-        image_header(path)
+        read_image_header(path)
     with pytest.raises(FramesError, match=re.escape(f"upload 7: not an image slrig can read ({reason}")):
         image_header_bytes(data, "upload 7")
 
@@ -265,7 +265,7 @@ def test_damaged_headers_raise_only_frames_errors(tmp_path: Path) -> None:
 
 def test_unreadable_file_is_named(tmp_path: Path) -> None:
     with pytest.raises(FramesError, match=re.escape(f"{tmp_path}: cannot be read (")):
-        image_header(tmp_path)
+        read_image_header(tmp_path)
 
 
 def test_check_image_size_names_the_file_its_size_and_the_limit() -> None:

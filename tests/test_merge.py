@@ -26,7 +26,7 @@ from rig.pipeline.pointset import PointSet
 from rig.pipeline.results import ScanResult
 from rig.pipeline.scan import run_scan
 from rig.store.ply import ply_bytes
-from rig.store.scandir import read_frames, write_scan
+from rig.store.scandir import read_scan_frames, write_scan
 
 
 @pytest.fixture(scope="module")
@@ -69,7 +69,7 @@ def test_a_merged_scan_is_stored_and_reprocessed_with_its_overlap(
     assert manifest["merge"]["points_out"] == len(result.cloud)
     assert set(manifest["files"]["overlap"]) == {"camera-left", "camera-right"}
     assert (folder / "overlap_camera-left.png").is_file()
-    _, frames = read_frames(folder)
+    _, frames = read_scan_frames(folder)
     assert len(frames[(CUE, 0)]) == 4
     again = reconstruct_frames(the_rig, result.codec, frames, ProgressTracker(None))
     assert len(again.cloud) == len(result.cloud)

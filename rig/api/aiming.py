@@ -21,11 +21,8 @@ from rig.api.frame_views import FrameViews
 from rig.api.models import CodecName, _Request
 from rig.api.security import MUTATING, READING
 from rig.api.slots import Slots, client_address
-from rig.patterns.setup import SETUP_PATTERNS
-from rig.service.aim import AimRequest
-from rig.service.errors import SetupRefusedError
-from rig.service.frames import TappedFrame
-from rig.service.job_service import JobService
+from rig.patterns import SETUP_PATTERNS
+from rig.service import AimRequest, JobService, SetupRefusedError, TappedFrame
 
 Errors = dict[int | str, dict[str, Any]]
 CameraIndex = Annotated[int, Path(ge=0, le=15, description="the camera's index in the config")]

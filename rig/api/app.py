@@ -55,21 +55,21 @@ from rig.errors import (
     RecognitionError,
 )
 from rig.patterns import codec_class, codec_names
-from rig.service.errors import (
+from rig.service import (
     IllegalTransitionError,
     ImportNotFoundError,
     ImportRefusedError,
     ImportTooLargeError,
     JobConflictError,
     JobNotFoundError,
+    JobService,
+    JobType,
     QueueFullError,
     ServiceStoppingError,
     SetupRefusedError,
     StorageFullError,
     TooManyOpenError,
 )
-from rig.service.job_service import JobService
-from rig.service.jobs import JobType
 
 log = logging.getLogger(__name__)
 

@@ -15,10 +15,9 @@ from pydantic import BaseModel, Field
 from drivers.base import PowerControl
 from rig.api.models import _Request
 from rig.api.security import MUTATING, READING
-from rig.doctor.checks import check
+from rig.doctor import check
 from rig.opened_rig import Rig
-from rig.service.errors import SetupRefusedError
-from rig.service.job_service import JobService
+from rig.service import JobService, SetupRefusedError
 
 ProjectorName = Annotated[str, Path(pattern=r"^[A-Za-z0-9][A-Za-z0-9_.-]{0,63}$", description="a projector's name")]
 

@@ -24,11 +24,8 @@ from fastapi import Path as PathParam
 
 from rig.api.models import JOB_ID_PATTERN
 from rig.api.security import READING
-from rig.service.errors import JobNotFoundError
-from rig.service.job_service import JobService
-from rig.service.jobs import JobType
-from rig.store.ply import read_cloud_ply, read_mesh_ply
-from rig.store.scandir import TRUTH_ERRORS
+from rig.service import JobNotFoundError, JobService, JobType
+from rig.store import TRUTH_ERRORS, read_cloud_ply, read_mesh_ply
 
 DEFAULT_BUDGET = 300_000  # points: a quick first view of any scan (about 5 MB)
 MEDIA_TYPE = "application/vnd.slrig.cloud"

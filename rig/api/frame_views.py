@@ -13,8 +13,8 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
-from rig.patterns.setup import sharpness
-from rig.service.frames import TappedFrame
+from rig.patterns import sharpness
+from rig.service import TappedFrame
 
 HISTOGRAM_BINS = 64
 DARK_FRACTION = 0.02  # at or below 2 % of full scale: too dark to decode

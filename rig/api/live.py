@@ -22,10 +22,9 @@ from fastapi.responses import StreamingResponse
 from rig.api.models import LiveRequest, LiveView
 from rig.api.security import MUTATING, READING
 from rig.api.streams import SSE_PING_S, event_stream, sse
-from rig.pipeline.live import LiveFrame
-from rig.service.errors import JobNotFoundError, ServiceStoppingError
-from rig.service.job_service import JobService
-from rig.store.images import depth_colour_jpeg, depth_image_png
+from rig.pipeline import LiveFrame
+from rig.service import JobNotFoundError, JobService, ServiceStoppingError
+from rig.store import depth_colour_jpeg, depth_image_png
 
 LIVE_POLL_S = 0.01  # a stream looks for a newer frame this often
 DEPTH_UNIT_MM = 0.1  # live depth PNGs count tenths of a millimetre (to 6.5 m)

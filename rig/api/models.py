@@ -11,12 +11,11 @@ from typing import Annotated, Any, Literal, Union
 from pydantic import BaseModel, ConfigDict, Field, StringConstraints, ValidationInfo, field_validator, model_validator
 from pydantic.json_schema import SkipJsonSchema
 
-from rig.config import DeviceKind
-from rig.config.scan import ExposureUs
+from rig.config import DeviceKind, ExposureUs
 from rig.patterns import codec_names
-from rig.recognition.gallery import LABEL
-from rig.service.jobs import JOB_ID, Job, JobState, JobType
-from rig.store.portable import json_problem
+from rig.recognition import LABEL
+from rig.service import JOB_ID, Job, JobState, JobType
+from rig.store import json_problem
 
 JOB_ID_PATTERN = JOB_ID.pattern
 FILE_NAME_PATTERN = r"^[A-Za-z0-9][A-Za-z0-9_.-]{0,99}$"

@@ -11,11 +11,17 @@ from fastapi import APIRouter, Path, Response, status
 
 from rig.api.models import JOB_ID_PATTERN, GalleryAddRequest, IdentifyRequest
 from rig.api.security import MUTATING, READING
-from rig.recognition.gallery import Gallery
-from rig.service.errors import JobConflictError
-from rig.service.job_service import JobService
-from rig.service.jobs import JobState, JobType
-from rig.service.recognition import gallery_add, gallery_path, identify_scan, settings_from
+from rig.recognition import Gallery
+from rig.service import (
+    JobConflictError,
+    JobService,
+    JobState,
+    JobType,
+    gallery_add,
+    gallery_path,
+    identify_scan,
+    settings_from,
+)
 
 JobId = Annotated[str, Path(pattern=JOB_ID_PATTERN, description="a finished scan's id")]
 EntryId = Annotated[int, Path(ge=1, le=2**62, description="a gallery entry's id")]

@@ -13,10 +13,17 @@ from starlette.concurrency import run_in_threadpool
 
 from rig.api.models import FILE_NAME_PATTERN, JobView, ReconstructionRequest
 from rig.api.security import MUTATING, READING, UploadRule
-from rig.service.errors import StorageFullError
-from rig.service.imports import MAX_DEPTH, MAX_FILE_BYTES, SUFFIXES, list_imports, remove_folder, store_file
-from rig.service.job_service import JobService
-from rig.service.space import check_free_space
+from rig.service import (
+    MAX_DEPTH,
+    MAX_FILE_BYTES,
+    SUFFIXES,
+    JobService,
+    StorageFullError,
+    check_free_space,
+    list_imports,
+    remove_folder,
+    store_file,
+)
 
 Name = Annotated[str, Path(pattern=FILE_NAME_PATTERN, description="a plain name: letters, digits, '_', '.', '-'")]
 _SUFFIXES = "|".join(s.lstrip(".") for s in SUFFIXES)

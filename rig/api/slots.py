@@ -12,7 +12,7 @@ from typing import Any
 from fastapi.responses import FileResponse, StreamingResponse
 
 from rig.api.head import head_only
-from rig.service.errors import TooManyOpenError
+from rig.service import TooManyOpenError
 
 
 class Slots:

@@ -10,7 +10,7 @@ from fastapi.responses import StreamingResponse
 
 from rig.api.head import head_only
 from rig.api.slots import CountedStream, Slots, client_address
-from rig.service.errors import ServiceStoppingError, TooManyOpenError
+from rig.service import ServiceStoppingError, TooManyOpenError
 
 SSE_PING_S = 15.0  # a comment line this often keeps proxies from closing a quiet stream
 MAX_EVENT_STREAMS = 64  # each holds a connection and polls

@@ -13,8 +13,7 @@ from drivers.base import Camera, Device, Projector
 from rig.assembly.memory import check_memory
 from rig.assembly.power import ProjectorPower
 from rig.assembly.world import World
-from rig.calibrate.files import JSON_NAME, calibration_world, load_calibration
-from rig.calibrate.response import load_response_luts
+from rig.calibrate import JSON_NAME, calibration_world, load_calibration, load_response_luts
 from rig.config import DeviceKind, DriverEntry, Geometry, RigConfig, driver, named
 from rig.errors import ConfigError
 from rig.geometry import CameraModel, look_at_rotation

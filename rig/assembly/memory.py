@@ -15,7 +15,7 @@ from pathlib import Path
 
 from rig.config import CameraConfig, RigConfig
 from rig.errors import ConfigError
-from rig.patterns.registry import codec_class
+from rig.patterns import codec_class
 
 GB = 1_000_000_000
 # Measured on the simulated bench (`python bench/memory_model.py`, 27 scans: gray, phase, rings;

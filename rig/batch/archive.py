@@ -14,7 +14,7 @@ from pathlib import Path
 from typing import Literal
 
 from rig.errors import UsageError
-from rig.store.scandir import DESCRIPTION_NAME
+from rig.store import DESCRIPTION_NAME
 
 CHUNK_BYTES = 1 << 20
 DIGEST_KEY = "batch_input_sha256"  # in an output's manifest, under origin

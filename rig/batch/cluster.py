@@ -13,7 +13,7 @@ from contextlib import contextmanager
 from dataclasses import dataclass
 from typing import Any
 
-from rig.assembly.memory import FIXED_BYTES, available_memory
+from rig.assembly import FIXED_BYTES, available_memory
 from rig.errors import UsageError
 
 MEMORY = "MEMORY"  # the resource each worker offers and each scan asks for, in bytes

@@ -21,8 +21,7 @@ from rig.batch.run import BatchSummary, EventCallback, Work, run_archive
 from rig.batch.tasks import describe_one, evaluate_one
 from rig.errors import UsageError
 from rig.progress import ProgressCallback
-from rig.recognition.descriptor import DescriptorSettings
-from rig.recognition.gallery import LABEL, Gallery
+from rig.recognition import LABEL, DescriptorSettings, Gallery
 
 LABEL_SOURCES = ("parent", "name")
 

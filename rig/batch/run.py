@@ -11,14 +11,14 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from rig.assembly.memory import CAMERA_BYTES_PER_PIXEL, scan_memory
+from rig.assembly import CAMERA_BYTES_PER_PIXEL, scan_memory
 from rig.batch.archive import ArchiveInput
 from rig.batch.cluster import MEMORY, Cluster
 from rig.batch.tasks import reprocess_one
 from rig.config import config_from_dict
 from rig.errors import SlrigError
 from rig.progress import ProgressCallback, ProgressTracker
-from rig.store.image_header import image_header
+from rig.store import read_image_header
 
 EventCallback = Callable[[dict[str, Any]], None]
 
@@ -42,7 +42,7 @@ def memory_needed(item: ArchiveInput) -> int:
     frames = sorted(p for p in item.path.iterdir() if p.suffix.lower() in (".png", ".tif", ".tiff", ".bmp", ".jpg"))
     if not frames:
         return 0
-    header = image_header(frames[0])
+    header = read_image_header(frames[0])
     sample_bytes = header.channels * (2 if header.bits_per_sample > 8 else 1)
     return header.pixels * (len(frames) * sample_bytes + CAMERA_BYTES_PER_PIXEL)
 

@@ -12,16 +12,14 @@ from pathlib import Path
 from typing import Any
 
 from rig.batch.archive import DIGEST_KEY, ArchiveInput, input_digest, output_digest
-from rig.calibrate.foreign import ForeignCalibrationOptions
+from rig.calibrate import ForeignCalibrationOptions
 from rig.config import load_config
 from rig.errors import StoreError
-from rig.evaluate.merged import measure_on_bench
-from rig.pipeline.results import ScanResult
-from rig.recognition.descriptor import DescriptorSettings
-from rig.service.recognition import describe_scan
-from rig.service.reconstruct import reconstruct_folder
-from rig.service.tasks import reprocess_to_directory, reprocessed
-from rig.store.scandir import DESCRIPTION_NAME, new_scan_id
+from rig.evaluate import measure_on_bench
+from rig.pipeline import ScanResult
+from rig.recognition import DescriptorSettings
+from rig.service import describe_scan, reconstruct_folder, reprocess_to_directory, reprocessed
+from rig.store import DESCRIPTION_NAME, new_scan_id
 
 
 def reprocess_one(item: ArchiveInput, out: Path, calibration: list[Path]) -> dict[str, Any]:

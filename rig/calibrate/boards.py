@@ -7,7 +7,7 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
-from rig.config.calibration import BoardConfig
+from rig.config import BoardConfig
 
 WHITE, BLACK = 0.85, 0.05  # albedo of the printed board
 

@@ -22,10 +22,9 @@ import numpy as np
 from rig.calibrate.boards import Board
 from rig.calibrate.views import View, projector_corners
 from rig.errors import CalibrationError, FramesError
-from rig.patterns.described import decode_described
-from rig.patterns.spec import PatternSpec
+from rig.patterns import PatternSpec, decode_described
 from rig.progress import ProgressCallback, ProgressTracker
-from rig.store.frames import natural_order, read_frames
+from rig.store import natural_order, read_frames
 
 BoardImage = Literal["auto", "white", "mean", "modulation"]
 

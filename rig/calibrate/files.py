@@ -14,7 +14,7 @@ import numpy as np
 from rig.calibrate.solve import DeviceCalibration
 from rig.errors import CalibrationError
 from rig.geometry import CameraModel
-from rig.store.atomic import write_atomic
+from rig.store import write_atomic
 
 JSON_NAME = "calibration.json"
 YAML_NAME = "calibration.yaml"

@@ -30,7 +30,7 @@ from rig.calibrate.files import calibration_world, load_devices, own_calibration
 from rig.calibrate.foreign_files import read_values
 from rig.calibrate.formats import FIELDS, GENERIC, UNITS_MM, CalibrationFormat, detected, slrig_devices
 from rig.calibrate.nested_formats import flattened
-from rig.config.common import Strict
+from rig.config import Strict
 from rig.errors import CalibrationError
 from rig.geometry import CameraModel
 

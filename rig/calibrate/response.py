@@ -19,7 +19,7 @@ import numpy as np
 
 from rig.errors import CalibrationError
 from rig.opened_rig import Rig
-from rig.store.atomic import write_atomic
+from rig.store import write_atomic
 
 RESPONSE_NAME = "response.json"
 LEVELS = np.linspace(0, 255, 18).round().astype(int)  # 0, 15, 30, ... 255

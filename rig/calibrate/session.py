@@ -16,14 +16,12 @@ from rig.calibrate.report import coverage_png, report, residuals_png, view_capti
 from rig.calibrate.solve import DeviceCalibration, calibrate_cameras, calibrate_projectors
 from rig.calibrate.views import View, capture_placed_views, default_poses, load_folder_views
 from rig.calibrate.world import World, reframed, refuse_camera_world_for_the_bench, world_check
-from rig.config import RigConfig
-from rig.config.calibration import BoardPose, CalibrationConfig
+from rig.config import BoardPose, CalibrationConfig, RigConfig
 from rig.errors import CalibrationError
 from rig.opened_rig import Rig
-from rig.patterns.spec import PatternSpec
+from rig.patterns import PatternSpec
 from rig.progress import ProgressCallback, ProgressTracker
-from rig.store.atomic import write_atomic
-from rig.store.frames import load_pattern_spec
+from rig.store import load_pattern_spec, write_atomic
 
 Mode = Literal["camera", "projector", "rig"]
 

@@ -18,8 +18,7 @@ import numpy as np
 from rig.calibrate.boards import Board, Detection
 from rig.errors import CalibrationError
 from rig.opened_rig import Rig
-from rig.patterns import Codec, Correspondence
-from rig.patterns.phase import PhaseCodec, PhaseParams
+from rig.patterns import Codec, Correspondence, PhaseCodec, PhaseParams
 from rig.progress import ProgressCallback, ProgressTracker
 
 HOMOGRAPHY_WINDOW_PX = 15.0  # half-size of the camera window for local homographies

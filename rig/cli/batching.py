@@ -7,11 +7,21 @@ import json
 import sys
 from typing import Any
 
-from rig.batch import BatchSummary, Cluster, connect, find_inputs, reprocess_archive, require_dask
-from rig.batch.recognise import accuracy_summary, describe_archive, evaluate_archive, labeller
+from rig.batch import (
+    BatchSummary,
+    Cluster,
+    accuracy_summary,
+    connect,
+    describe_archive,
+    evaluate_archive,
+    find_inputs,
+    labeller,
+    reprocess_archive,
+    require_dask,
+)
 from rig.cli import EXIT_FAILED
 from rig.cli.common import progress_bar
-from rig.recognition.gallery import Gallery
+from rig.recognition import Gallery
 
 
 def cmd_batch(args: argparse.Namespace) -> int:

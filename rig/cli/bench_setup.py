@@ -7,14 +7,10 @@ import json
 from typing import Any
 
 from rig.assembly import open_rig
-from rig.calibrate.overrides import calibration_overrides
-from rig.calibrate.response import RESPONSE_NAME, calibrate_response
-from rig.calibrate.session import calibrate, calibrate_described
+from rig.calibrate import RESPONSE_NAME, calibrate, calibrate_described, calibrate_response, calibration_overrides
 from rig.cli.common import progress_bar
 from rig.config import load_config
-from rig.doctor.checks import check
-from rig.doctor.inventory import describe, inventory
-from rig.doctor.latency import measure_latency, store_latencies
+from rig.doctor import check, describe, machine_inventory, measure_latency, store_latencies
 from rig.errors import ConfigError
 
 
@@ -99,7 +95,7 @@ def cmd_doctor(args: argparse.Namespace) -> int:
 
 
 def cmd_devices(args: argparse.Namespace) -> int:
-    found = inventory()
+    found = machine_inventory()
     if args.json:
         print(json.dumps(found, allow_nan=False))
     else:

@@ -11,8 +11,8 @@ from typing import Any
 import numpy as np
 from pydantic import ValidationError
 
-from rig.calibrate.foreign import ForeignCalibration, ForeignCalibrationOptions, read_foreign_calibration
-from rig.config.problems import problems
+from rig.calibrate import ForeignCalibration, ForeignCalibrationOptions, read_foreign_calibration
+from rig.config import validation_problems
 from rig.errors import CalibrationError
 from rig.geometry import CameraModel
 
@@ -37,7 +37,9 @@ def calibration_options(args: argparse.Namespace) -> ForeignCalibrationOptions:
     try:
         return ForeignCalibrationOptions(**given)
     except ValidationError as exc:
-        raise CalibrationError("calibration options: " + "; ".join(_as_flag(line) for line in problems(exc))) from None
+        raise CalibrationError(
+            "calibration options: " + "; ".join(_as_flag(line) for line in validation_problems(exc))
+        ) from None
 
 
 def parse_fields(text: str) -> dict[str, str]:

@@ -11,9 +11,8 @@ from rig.assembly import open_rig
 from rig.config import load_config
 from rig.errors import UsageError
 from rig.patterns import codec_class
-from rig.pipeline.live import LiveFrame, LiveStats, live_codecs, run_live
-from rig.store.atomic import write_atomic
-from rig.store.images import depth_image_png
+from rig.pipeline import LiveFrame, LiveStats, live_codecs, run_live
+from rig.store import depth_image_png, write_atomic
 
 REPORT_EVERY_S = 1.0
 

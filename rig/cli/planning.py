@@ -11,12 +11,12 @@ from typing import Any
 import numpy as np
 import yaml
 
-from rig.assembly.simulated import build_scene
+from rig.assembly import build_scene
 from rig.cli.common import scene_override
 from rig.cli.ring_planning import cmd_plan_rings
 from rig.config import load_config
 from rig.errors import ConfigError
-from rig.plan.views import confirm_on_bench, plan_views
+from rig.plan import confirm_on_bench, plan_views
 
 
 def cmd_plan(args: argparse.Namespace) -> int:

@@ -9,9 +9,8 @@ from pathlib import Path
 
 from rig.config import load_config
 from rig.errors import RecognitionError
-from rig.recognition.gallery import Gallery
-from rig.recognition.identify import UNKNOWN, Comparison, Identification
-from rig.service.recognition import (
+from rig.recognition import UNKNOWN, Comparison, Gallery, Identification
+from rig.service import (
     gallery_add,
     gallery_path,
     identify_scan,

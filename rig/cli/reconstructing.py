@@ -12,10 +12,9 @@ from rig.cli.calibration_files import OPTIONS, calibration_options
 from rig.cli.common import progress_bar
 from rig.config import load_config
 from rig.errors import UsageError
-from rig.pipeline.results import ScanResult
-from rig.service.reconstruct import reconstruct_folder
-from rig.service.tasks import reprocess_to_directory
-from rig.store.scandir import DESCRIPTION_NAME, new_scan_id
+from rig.pipeline import ScanResult
+from rig.service import reconstruct_folder, reprocess_to_directory
+from rig.store import DESCRIPTION_NAME, new_scan_id
 
 
 def cmd_reconstruct(args: argparse.Namespace) -> int:

@@ -14,12 +14,10 @@ from rig.assembly import open_rig
 from rig.cli.common import progress_bar, scene_override
 from rig.config import config_from_dict, load_config
 from rig.errors import PlanError, StoreError
-from rig.plan.rehearsal import rehearsal_progress
-from rig.plan.ring_plan import RingPlan, plan_rings
-from rig.plan.ring_spacing import PilotView
+from rig.plan import PilotView, RingPlan, plan_rings, rehearsal_progress
 from rig.progress import ProgressCallback, ProgressTracker
-from rig.service.adaptive import plan_from_pilot
-from rig.store.ply import read_cloud_ply
+from rig.service import plan_from_pilot
+from rig.store import read_cloud_ply
 
 
 def cmd_plan_rings(args: argparse.Namespace) -> int:

@@ -11,14 +11,11 @@ from rig.assembly import open_rig
 from rig.cli.common import load, progress_bar, scene_override
 from rig.config import RigConfig
 from rig.errors import ConfigError, UsageError
-from rig.evaluate.merged import evaluate_merge
-from rig.evaluate.pairs import evaluate_on_bench
-from rig.evaluate.surface import pattern_economy
-from rig.pipeline.hdr import scan_with_exposure
-from rig.pipeline.results import ScanResult
-from rig.plan.ring_plan import RingPlan
-from rig.service.tasks import adaptive_scan_to_directory, scan_to_directory
-from rig.store.scandir import new_scan_id
+from rig.evaluate import evaluate_merge, evaluate_on_bench, pattern_economy
+from rig.pipeline import ScanResult, scan_with_exposure
+from rig.plan import RingPlan
+from rig.service import adaptive_scan_to_directory, scan_to_directory
+from rig.store import new_scan_id
 
 
 def cmd_scan(args: argparse.Namespace) -> int:

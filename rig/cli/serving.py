@@ -6,11 +6,9 @@ import argparse
 import logging
 import sys
 
-from rig.assembly.memory import check_memory
+from rig.assembly import check_memory
 from rig.config import load_config
-from rig.daemon.keys import load_api_keys
-from rig.daemon.logs import install_redaction
-from rig.daemon.server import serve
+from rig.daemon import install_redaction, load_api_keys, serve
 from rig.errors import ConfigError
 
 

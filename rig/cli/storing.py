@@ -7,8 +7,7 @@ import argparse
 import json
 
 from rig.config import load_config
-from rig.service.migrate import migrate_data_dir
-from rig.service.store_check import check_store
+from rig.service import check_store, migrate_data_dir
 
 EXIT_DAMAGED = 1
 

@@ -30,6 +30,16 @@ from rig.config.scenes import (
     TerrainScene,
     TextureConfig,
 )
+from rig.lazy import face
+
+# The names other packages use, each imported from its module when first read (rig.lazy.face).
+_LAZY = {
+    "ExposureUs": "scan",
+    "RingPlanSettings": "scan",
+    "Strict": "common",
+    "validation_problems": "problems",
+}
+__getattr__, __dir__ = face(__name__, _LAZY)
 
 __all__ = [
     "DEFAULT_CONFIG",
@@ -46,6 +56,7 @@ __all__ = [
     "CheckerTexture",
     "DeviceKind",
     "DriverEntry",
+    "ExposureUs",
     "Geometry",
     "GradientTexture",
     "ImageTexture",
@@ -58,6 +69,7 @@ __all__ = [
     "PowerConfig",
     "ProjectorConfig",
     "RigConfig",
+    "RingPlanSettings",
     "ScanConfig",
     "SceneConfig",
     "ServiceConfig",
@@ -65,6 +77,7 @@ __all__ = [
     "SphereOnPlaneScene",
     "SphereScene",
     "StepsScene",
+    "Strict",
     "StripesTexture",
     "TerrainScene",
     "TextureConfig",
@@ -73,4 +86,5 @@ __all__ = [
     "drivers_of",
     "load_config",
     "named",
+    "validation_problems",
 ]

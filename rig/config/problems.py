@@ -21,7 +21,7 @@ def _location(loc: tuple[int | str, ...]) -> str:
     return out
 
 
-def problems(exc: ValidationError) -> list[str]:
+def validation_problems(exc: ValidationError) -> list[str]:
     """One line per problem, each starting with the field it is about. Of the errors a union
     field gets (one per member it failed), the most specific is kept."""
     by_field: dict[str, tuple[int, str]] = {}

@@ -13,7 +13,7 @@ from rig.config.calibration import CalibrationConfig
 from rig.config.common import Name, Strict
 from rig.config.drivers import DeviceKind, driver, drivers_of
 from rig.config.equipment import CameraConfig, ProjectorConfig
-from rig.config.problems import problems
+from rig.config.problems import validation_problems
 from rig.config.scan import ScanConfig
 from rig.config.scenes import SimulationConfig
 from rig.errors import ConfigError
@@ -138,7 +138,7 @@ class RigConfig(Strict):
         try:
             live = self.scan.live_params()
         except ValidationError as exc:
-            found = "; ".join(problems(exc))
+            found = "; ".join(validation_problems(exc))
             raise ValueError(f"scan.live.params (for codec {self.scan.live.codec}): {found}") from None
         _check_codec_fits(self, self.scan.live.codec, "scan.live", live)
         return self
@@ -200,7 +200,7 @@ def validate_rig(data: object, source: str) -> RigConfig:
     try:
         return RigConfig.model_validate(data)
     except ValidationError as exc:
-        raise ConfigError(source, problems(exc)) from None
+        raise ConfigError(source, validation_problems(exc)) from None
 
 
 def _check_codec_fits(config: RigConfig, codec: str, field: str, params: object) -> None:

@@ -7,12 +7,16 @@ from typing import Annotated, Any, Literal
 from pydantic import Field, field_validator, model_validator
 
 from rig.config.common import Strict
-from rig.patterns import CodecParams, codec_class, codec_names
-from rig.patterns.cued_phase import CuedPhaseParams
-from rig.patterns.gray import GrayParams
-from rig.patterns.phase import PhaseParams
-from rig.patterns.radial import RadialParams
-from rig.patterns.rings import RingsParams
+from rig.patterns import (
+    CodecParams,
+    CuedPhaseParams,
+    GrayParams,
+    PhaseParams,
+    RadialParams,
+    RingsParams,
+    codec_class,
+    codec_names,
+)
 
 LIVE_PHASE_STEPS = 4
 

@@ -28,7 +28,7 @@ from typing import Any
 
 from uvicorn.protocols.http.h11_impl import H11Protocol
 
-from rig.api.security import header_key
+from rig.api import header_key
 
 log = logging.getLogger(__name__)
 

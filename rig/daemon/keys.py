@@ -23,7 +23,7 @@ import stat
 from dataclasses import dataclass
 from pathlib import Path
 
-from rig.api.security import check_key_strength
+from rig.api import check_key_strength
 from rig.errors import ConfigError
 
 log = logging.getLogger(__name__)

@@ -21,14 +21,13 @@ from collections.abc import Iterator
 
 import uvicorn
 
-from rig.api.app import create_app
-from rig.api.security import ApiSettings, is_loopback
+from rig.api import ApiSettings, create_app, is_loopback
 from rig.config import RigConfig
 from rig.daemon.connections import guarded_protocol
 from rig.daemon.logs import redact_access_log
 from rig.daemon.sdnotify import Notifier
 from rig.errors import ConfigError, UsageError
-from rig.service.job_service import JobService
+from rig.service import JobService
 
 log = logging.getLogger(__name__)
 

@@ -73,7 +73,7 @@ def oak_cameras() -> dict[str, Any]:
     return {"devices": [{"id": d.getDeviceId(), "name": getattr(d, "name", None)} for d in found]}
 
 
-def inventory(usb_finder: Callable[..., Any] | None = None) -> dict[str, Any]:
+def machine_inventory(usb_finder: Callable[..., Any] | None = None) -> dict[str, Any]:
     return {"usb": usb_devices(usb_finder), "video": video_nodes(), "serial": serial_ports(), "oak": oak_cameras()}
 
 

@@ -10,7 +10,7 @@ from typing import Any
 import numpy as np
 
 from rig.opened_rig import LATENCY_FILE, Rig
-from rig.store.atomic import write_atomic
+from rig.store import write_atomic
 
 
 def measure_latency(rig: Rig, projector: int, camera: int = 0, max_frames: int = 120) -> float:

@@ -12,8 +12,7 @@ from __future__ import annotations
 import numpy as np
 
 from rig.opened_rig import PixelTruth
-from rig.pipeline.dense import texture_rgb
-from rig.pipeline.results import PairResult
+from rig.pipeline import PairResult, texture_rgb
 
 # Pixels the projector lights this weakly (relative to the median) carry mostly noise once unshaded.
 _MIN_RELATIVE_IRRADIANCE = 0.2

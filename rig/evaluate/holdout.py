@@ -18,9 +18,16 @@ import numpy as np
 from rig.evaluate.regions import MIN_REGION_SHARE, STEP_MM, footprints
 from rig.geometry import CameraModel
 from rig.opened_rig import Rig
-from rig.pipeline.results import PairResult
-from rig.pipeline.scan import ring_bands, ring_lit
-from rig.pipeline.surface import Interpolant, RingBands, RingSurface, SurfaceSettings, interpolate_surface
+from rig.pipeline import (
+    Interpolant,
+    PairResult,
+    RingBands,
+    RingSurface,
+    SurfaceSettings,
+    interpolate_surface,
+    ring_bands,
+    ring_lit,
+)
 
 _MIN_SAMPLES = 50  # fewer left-out samples in a region: no verdict on it
 

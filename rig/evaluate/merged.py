@@ -11,10 +11,7 @@ from scipy.spatial import cKDTree
 from rig.evaluate.distances import root_mean_square
 from rig.evaluate.pairs import COMPLETE_WITHIN_MM, evaluate_on_bench, point_errors
 from rig.opened_rig import Rig
-from rig.pipeline.merge import sampling_distance
-from rig.pipeline.overlap import precision_recall
-from rig.pipeline.pointset import PointSet
-from rig.pipeline.results import ScanResult
+from rig.pipeline import PointSet, ScanResult, precision_recall, sampling_distance
 
 SURFACE_SPACING_MM = 1.0
 

@@ -13,8 +13,7 @@ from rig.evaluate.ring_recovery import ring_coverage_on_bench
 from rig.evaluate.surface import surface_metrics
 from rig.geometry import CameraModel
 from rig.opened_rig import GroundTruth, PixelTruth, Rig
-from rig.pipeline.realign import moved_pair
-from rig.pipeline.results import PairResult
+from rig.pipeline import PairResult, moved_pair
 from rig.workers import point_blocks
 
 COMPLETE_WITHIN_MM = 1.0

@@ -7,7 +7,7 @@ from scipy.spatial import cKDTree
 
 from rig.evaluate.distances import root_mean_square
 from rig.opened_rig import PixelTruth
-from rig.pipeline.results import PairResult
+from rig.pipeline import PairResult
 
 # A true ring crossing counts as recovered when a kept point of the same ring lies this close (pixels).
 _RECOVERED_WITHIN_PX = 1.0

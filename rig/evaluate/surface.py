@@ -12,7 +12,7 @@ from rig.evaluate.regions import region_errors
 from rig.evaluate.wholeness import object_error, true_areas, wholeness
 from rig.opened_rig import PixelTruth
 from rig.patterns import codec_class
-from rig.pipeline.results import PairResult, ScanResult
+from rig.pipeline import PairResult, ScanResult
 
 COMPLETE_WITHIN_MM = 1.0
 AREA_QUANTILE = 0.95

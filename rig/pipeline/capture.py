@@ -18,8 +18,7 @@ from drivers.errors import DeviceError
 from drivers.sequences import PatternSequence, SequenceEntry, TriggerMode
 from rig.errors import CaptureFaultError, ScanError
 from rig.opened_rig import Rig
-from rig.patterns import Codec
-from rig.patterns.base import sent_levels
+from rig.patterns import Codec, sent_levels
 from rig.progress import ProgressTracker
 
 Frames = dict[tuple[int, int], list[np.ndarray]]

@@ -5,8 +5,7 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
-from rig.geometry import CameraModel
-from rig.geometry.triangulate import closest_on_first_ray
+from rig.geometry import CameraModel, closest_on_first_ray
 from rig.patterns import Correspondence
 from rig.pipeline.pointset import PointSet
 

@@ -19,9 +19,7 @@ import numpy as np
 
 from rig.errors import ConfigError, ScanError
 from rig.opened_rig import Rig
-from rig.patterns import Codec, Correspondence, RingSamples
-from rig.patterns.saturation import subset_samples
-from rig.patterns.stream import decode_streamed
+from rig.patterns import Codec, Correspondence, RingSamples, decode_streamed, subset_samples
 from rig.pipeline.capture import CUE, Frames, capture
 from rig.pipeline.exposure import (
     STEP,

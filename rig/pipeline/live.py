@@ -21,12 +21,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from rig.config.scan import ScanConfig
+from rig.config import ScanConfig
 from rig.errors import DecodeError, ScanError
 from rig.opened_rig import Rig
-from rig.patterns import Codec, Correspondence
-from rig.patterns.lines import LineCodec
-from rig.patterns.stream import FrameStream
+from rig.patterns import Codec, Correspondence, FrameStream, LineCodec
 from rig.pipeline.capture import capture
 from rig.pipeline.exposure import ExposureSettings, require_exposure, set_within_range, settled_exposures
 from rig.pipeline.hdr import bracketed, merge_exposures

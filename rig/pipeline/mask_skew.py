@@ -26,8 +26,7 @@ import cv2
 import numpy as np
 from scipy import ndimage
 
-from rig.patterns.correspondence import Correspondence
-from rig.patterns.saturation import without_pixels
+from rig.patterns import Correspondence, without_pixels
 
 BLURS_PX = np.round(np.arange(0.2, 1.55, 0.05), 2)  # the projector blurs tried (Gaussian sigma, projector pixels)
 NEAR_STEP_PX = 0.05  # a pixel whose lean at the widest blur tried passes this lies near a step

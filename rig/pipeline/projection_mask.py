@@ -35,7 +35,7 @@ import cv2
 import numpy as np
 from scipy import ndimage
 
-from rig.geometry.camera import CameraModel
+from rig.geometry import CameraModel
 from rig.opened_rig import Rig
 from rig.pipeline.exposure import (
     ExposureSettings,

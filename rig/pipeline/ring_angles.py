@@ -22,8 +22,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.spatial import cKDTree
 
-from rig.geometry import CameraModel
-from rig.geometry.cone import ConeHits, affine_image, ray_half_plane
+from rig.geometry import CameraModel, ConeHits, affine_image, ray_half_plane
 from rig.patterns import RingSamples
 
 # A sample is rejected when its best reading misfits the decoded radius

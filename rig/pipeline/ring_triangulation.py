@@ -9,9 +9,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.spatial import cKDTree
 
-from rig.geometry import CameraModel
-from rig.geometry.cone import ray_cone, refine_on_distorted_ring
-from rig.geometry.ring_models import parallel_projection, radius_ratio
+from rig.geometry import CameraModel, parallel_projection, radius_ratio, ray_cone, refine_on_distorted_ring
 from rig.patterns import Correspondence, RingSamples
 from rig.pipeline.dense import texture_rgb
 from rig.pipeline.normals import accumulate_normals

@@ -9,8 +9,7 @@ import numpy as np
 
 from rig.errors import DecodeError, ScanError
 from rig.opened_rig import Rig
-from rig.patterns import Codec, CodecParams, Correspondence, codec_class
-from rig.patterns.stream import FrameStream, decode_streamed
+from rig.patterns import Codec, CodecParams, Correspondence, FrameStream, codec_class, decode_streamed
 from rig.pipeline.capture import CUE, capture
 from rig.pipeline.colour import interpolate_colour, sample_colours
 from rig.pipeline.dense import PairTriangulator, pair_pointset, reject_isolated, texture_rgb

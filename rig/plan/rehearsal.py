@@ -21,10 +21,9 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
-from rig.evaluate.promise import between_rings
-from rig.evaluate.regions import MIN_REGION_SHARE, STEP_MM, footprints, region_errors
+from rig.evaluate import MIN_REGION_SHARE, STEP_MM, between_rings, footprints, region_errors
 from rig.geometry import CameraModel
-from rig.pipeline.surface import Interpolant, RingBands, SurfaceSettings, interpolate_surface
+from rig.pipeline import Interpolant, RingBands, SurfaceSettings, interpolate_surface
 from rig.progress import ProgressTracker
 
 # Smoothing scale of the pilot's noise (camera pixels): a few pixels, far under any ring spacing.

@@ -17,13 +17,11 @@ import numpy as np
 import yaml
 from pydantic import ValidationError
 
-from rig.config.scan import RingPlanSettings
+from rig.config import RingPlanSettings
 from rig.errors import PlanError
 from rig.geometry import CameraModel
-from rig.patterns.circular import farthest_corner_px
-from rig.patterns.rings import EDGE_RAMP_PX, RingsParams
-from rig.pipeline.results import ScanResult
-from rig.pipeline.surface import Interpolant
+from rig.patterns import EDGE_RAMP_PX, RingsParams, farthest_corner_px
+from rig.pipeline import Interpolant, ScanResult
 from rig.plan.rehearsal import Rehearsal, noise_mm, organised, pilot_surface
 from rig.plan.ring_spacing import (
     Demand,

@@ -22,10 +22,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from rig.config.scan import RingPlanSettings
+from rig.config import RingPlanSettings
 from rig.errors import PlanError
-from rig.geometry import CameraModel
-from rig.geometry.curvature import SurfaceCurvature, curve_curvature, principal_curvatures
+from rig.geometry import CameraModel, SurfaceCurvature, curve_curvature, principal_curvatures
 
 # Numerical step for the radius gradient (mm).
 _STEP_MM = 0.05

@@ -21,8 +21,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from rig.config.scan import RingPlanSettings
-from rig.pipeline.surface import Interpolant
+from rig.config import RingPlanSettings
+from rig.pipeline import Interpolant
 from rig.plan.rehearsal import PilotSurface, Rehearsal, rehearse
 from rig.plan.ring_spacing import Demand, graded, place_rings
 

@@ -9,15 +9,12 @@ from typing import Any
 
 from rig.config import RigConfig, config_from_dict
 from rig.errors import ConfigError, PlanError
-from rig.evaluate.holdout import held_out_error
+from rig.evaluate import held_out_error
 from rig.opened_rig import Rig
-from rig.pipeline.results import ScanResult
-from rig.pipeline.scan import run_scan
-from rig.plan.rehearsal import rehearsal_progress
-from rig.plan.ring_plan import RingPlan, pilot_views, plan_rings
-from rig.plan.signature import disagreement
+from rig.pipeline import ScanResult, run_scan
+from rig.plan import RingPlan, disagreement, pilot_views, plan_rings, rehearsal_progress
 from rig.progress import ProgressCallback, ProgressTracker
-from rig.store.images import projector_view
+from rig.store import projector_view
 
 
 def plan_from_pilot(

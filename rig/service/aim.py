@@ -19,8 +19,7 @@ import numpy as np
 from rig.config import RigConfig
 from rig.errors import ConfigError
 from rig.opened_rig import Rig
-from rig.patterns import codec_class
-from rig.patterns.setup import SETUP_PATTERNS, setup_pattern
+from rig.patterns import SETUP_PATTERNS, codec_class, setup_pattern
 from rig.service.errors import JobConflictError, SetupRefusedError
 from rig.service.modes import WorkerMode
 

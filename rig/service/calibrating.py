@@ -15,16 +15,14 @@ from pathlib import Path
 from typing import Any
 
 from rig.assembly import open_rig
-from rig.calibrate.overrides import calibration_overrides
-from rig.calibrate.response import calibrate_response
-from rig.calibrate.session import CalibrationOutcome, calibrate, calibrate_described
+from rig.calibrate import CalibrationOutcome, calibrate, calibrate_described, calibrate_response, calibration_overrides
 from rig.config import RigConfig
 from rig.opened_rig import Rig
-from rig.patterns.spec import PatternSpec
+from rig.patterns import PatternSpec
 from rig.progress import ProgressCallback, ProgressTracker
 from rig.service.errors import ImportRefusedError
 from rig.service.imports import folder_path, pattern_description
-from rig.store.atomic import publish_folder
+from rig.store import publish_folder
 
 VIEW_PREFIX = "view_"  # the bench's own layout: one view_NN folder per board pose
 

@@ -20,16 +20,14 @@ from typing import Any
 
 from pydantic import ValidationError
 
-from rig.calibrate.foreign import ForeignCalibrationOptions
-from rig.config.problems import problems
+from rig.calibrate import ForeignCalibrationOptions
+from rig.config import validation_problems
 from rig.errors import FramesError, PatternSpecError
-from rig.patterns.spec import PatternSpec
+from rig.patterns import PatternSpec
 from rig.service.errors import ImportNotFoundError, ImportRefusedError, ImportTooLargeError, StorageFullError
 from rig.service.jobs import JOB_ID
 from rig.service.space import check_free_space
-from rig.store.atomic import write_atomic
-from rig.store.frames import frame_files, load_pattern_spec
-from rig.store.image_header import check_image_size, image_header_bytes
+from rig.store import check_image_size, frame_files, image_header_bytes, load_pattern_spec, write_atomic
 
 IMPORTS = "imports"
 NAME = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_.-]{0,99}$")
@@ -172,7 +170,7 @@ def reconstruction_inputs(
     try:
         options = ForeignCalibrationOptions.model_validate(request.get("calibration_options") or {})
     except ValidationError as exc:
-        raise ImportRefusedError("calibration_options: " + "; ".join(problems(exc))) from None
+        raise ImportRefusedError("calibration_options: " + "; ".join(validation_problems(exc))) from None
     try:
         frame_files(frames, spec.frames, len(spec.roles()), spec.frame_breakdown())
     except FramesError as exc:  # named as the client knows the folder, not by the daemon's path
@@ -194,5 +192,5 @@ def pattern_description(
     try:
         spec = PatternSpec.model_validate(described)
     except ValidationError as exc:
-        raise PatternSpecError("patterns", [f"patterns.{p}" for p in problems(exc)]) from None
+        raise PatternSpecError("patterns", [f"patterns.{p}" for p in validation_problems(exc)]) from None
     return spec, spec

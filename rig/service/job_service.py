@@ -45,8 +45,7 @@ from rig.service.space import check_free_space, expected_scan_bytes, storage_pro
 from rig.service.status import device_views, result_file
 from rig.service.stopping import WorkerRig
 from rig.service.worker_calls import WorkerCalls
-from rig.store.atomic import publishing_through
-from rig.store.scandir import new_scan_id
+from rig.store import new_scan_id, publishing_through
 from rig.workers import release_free_memory
 
 log = logging.getLogger(__name__)

@@ -22,7 +22,7 @@ from pathlib import Path
 from typing import Any
 
 from rig.service.errors import IllegalTransitionError, JobNotFoundError, StorageFullError
-from rig.store.portable import json_problem
+from rig.store import json_problem
 
 log = logging.getLogger(__name__)
 

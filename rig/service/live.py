@@ -17,7 +17,7 @@ from typing import Any
 from rig.config import RigConfig
 from rig.errors import ConfigError
 from rig.opened_rig import Rig
-from rig.pipeline.live import LiveFrame, LiveStats, run_live
+from rig.pipeline import LiveFrame, LiveStats, run_live
 from rig.service.errors import JobConflictError
 from rig.service.modes import WorkerMode
 

@@ -18,11 +18,19 @@ import numpy as np
 from rig.assembly import rig_geometry
 from rig.config import config_from_dict
 from rig.errors import RecognitionError, SlrigError
-from rig.recognition.descriptor import Descriptor, DescriptorSettings, describe
-from rig.recognition.gallery import GALLERY_NAME, Entry, Gallery
-from rig.recognition.identify import EMPTY_GALLERY, Comparison, Identification
-from rig.recognition.matrix import matrix_of
-from rig.store.ply import read_cloud_ply, read_mesh_vertices
+from rig.recognition import (
+    EMPTY_GALLERY,
+    GALLERY_NAME,
+    Comparison,
+    Descriptor,
+    DescriptorSettings,
+    Entry,
+    Gallery,
+    Identification,
+    describe,
+    matrix_of,
+)
+from rig.store import read_cloud_ply, read_mesh_vertices
 
 # below these scores a probe is "unknown": the equal-error thresholds bench/recognition.py measured
 # for the default descriptor (standardised) and the published one (raw) on the face set scanned

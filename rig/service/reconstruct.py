@@ -17,7 +17,7 @@ from typing import Any
 
 import numpy as np
 
-from rig.calibrate.foreign import (
+from rig.calibrate import (
     ForeignCalibrationOptions,
     check_resolution,
     own_calibration,
@@ -26,19 +26,12 @@ from rig.calibrate.foreign import (
 )
 from rig.config import RigConfig, config_from_dict
 from rig.errors import CalibrationError
-from rig.geometry import CameraModel
-from rig.geometry.triangulate import ray_plane, ray_ray_midpoint
+from rig.geometry import CameraModel, ray_plane, ray_ray_midpoint
 from rig.opened_rig import Rig
-from rig.patterns.correspondence import Correspondence
-from rig.patterns.described import decode_described
-from rig.patterns.described_checks import decoded_warnings
-from rig.patterns.spec import PatternSpec
-from rig.pipeline.results import ScanResult
-from rig.pipeline.scan import reconstruct_pair
+from rig.patterns import Correspondence, PatternSpec, decode_described, decoded_warnings
+from rig.pipeline import ScanResult, reconstruct_pair
 from rig.progress import ProgressCallback, ProgressTracker
-from rig.store.frames import FrameSet, frame_files, load_pattern_spec, open_frames
-from rig.store.image_header import image_header
-from rig.store.scandir import write_scan
+from rig.store import FrameSet, frame_files, load_pattern_spec, open_frames, read_image_header, write_scan
 
 CODEC_NAME = "described"
 SAMPLES = 4000  # pixels the depth of a code step is measured on
@@ -67,7 +60,7 @@ def reconstruct_folder(
     models = calibration_models(calibration, options)
     camera = models[0]
     first = frame_files(frames_dir, spec.frames, len(spec.roles()), spec.frame_breakdown())[0]
-    check_resolution(camera, image_header(first).size, "camera", "the frames are", _named(calibration))
+    check_resolution(camera, read_image_header(first).size, "camera", "the frames are", _named(calibration))
     frames = open_frames(frames_dir, spec.frames, len(spec.roles()), (camera.width, camera.height))
     inputs = {
         "frames": str(frames_dir),

@@ -7,7 +7,7 @@ import shutil
 from pathlib import Path
 from typing import Any
 
-from rig.assembly.memory import frame_sample_bytes, frames_per_scan
+from rig.assembly import frame_sample_bytes, frames_per_scan
 from rig.config import RigConfig
 from rig.service.errors import StorageFullError
 from rig.service.jobs import JobStore

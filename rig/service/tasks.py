@@ -12,18 +12,16 @@ from typing import Any
 
 from rig.assembly import open_rig
 from rig.config import RigConfig, config_from_dict
-from rig.evaluate.merged import measure_on_bench
+from rig.evaluate import measure_on_bench
 from rig.opened_rig import Rig
-from rig.pipeline.hdr import reconstruct_exposures, scan_with_exposure
-from rig.pipeline.results import ScanResult
-from rig.pipeline.scan import reconstruct_frames
-from rig.plan.ring_plan import RingPlan
+from rig.pipeline import ScanResult, reconstruct_exposures, reconstruct_frames, scan_with_exposure
+from rig.plan import RingPlan
 from rig.progress import ProgressCallback, ProgressTracker
 from rig.service.adaptive import adaptive_scan, plan_check
 from rig.service.imports import reconstruction_inputs
 from rig.service.reconstruct import reconstruct_folder
 from rig.service.space import check_free_space, expected_scan_bytes
-from rig.store.scandir import read_frames, write_scan
+from rig.store import read_scan_frames, write_scan
 
 
 def scan_to_directory(
@@ -139,7 +137,7 @@ def reprocessed(
     while the caller uses it: its ground truth, for a simulated scan); `writes_to`: where the result
     will be stored, whose free space is checked first."""
     tracker = tracker or ProgressTracker(None)
-    manifest, frames = read_frames(source)
+    manifest, frames = read_scan_frames(source)
     data = manifest["config"]
     if calibration is not None:
         data["calibration"]["file"] = str(calibration)

@@ -19,10 +19,10 @@ import numpy as np
 import yaml
 from pydantic import ValidationError
 
-from rig.config.problems import problems
+from rig.config import validation_problems
 from rig.errors import FramesError, PatternSpecError
-from rig.patterns.spec import FrameFiles, PatternSpec
-from rig.store.image_header import ImageHeader, check_image_size, image_header, image_header_bytes
+from rig.patterns import FrameFiles, PatternSpec
+from rig.store.image_header import ImageHeader, check_image_size, image_header_bytes, read_image_header
 
 _GREY = {"red": 2, "green": 1, "blue": 0}  # channels as OpenCV reads them (BGR)
 READERS = 4
@@ -93,7 +93,7 @@ def load_pattern_spec(path: Path) -> PatternSpec:
     try:
         return PatternSpec.model_validate(data)
     except ValidationError as exc:
-        raise PatternSpecError(str(path), problems(exc)) from None
+        raise PatternSpecError(str(path), validation_problems(exc)) from None
 
 
 def frame_files(folder: Path, files: FrameFiles, expected: int, breakdown: str = "") -> list[Path]:
@@ -171,7 +171,7 @@ def _kind(frame: np.ndarray) -> str:
 def _header(path: Path, data: bytes | None = None) -> ImageHeader:
     """The frame's header from its file (a few KB read) or from its bytes, read already."""
     try:
-        return image_header(path) if data is None else image_header_bytes(data, str(path))
+        return read_image_header(path) if data is None else image_header_bytes(data, str(path))
     except FramesError as exc:  # its message begins with the path
         raise FramesError(f"frame {exc}") from None
 

@@ -65,7 +65,7 @@ class _Reader:
         return FramesError(f"{self.name}: not an image slrig can read ({reason})")
 
 
-def image_header(path: Path) -> ImageHeader:
+def read_image_header(path: Path) -> ImageHeader:
     """The header of the image file `path`; FramesError naming it if the header is unknown, cut short
     or invalid, or the file cannot be read."""
     try:

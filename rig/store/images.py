@@ -6,7 +6,7 @@ import cv2
 import numpy as np
 
 from rig.geometry import CameraModel
-from rig.pipeline.pointset import PointSet
+from rig.pipeline import PointSet
 from rig.workers import BLOCK_POINTS, point_blocks
 
 BLOCK_ROWS = 64  # rows of a grid projected at a time: no copy of the whole

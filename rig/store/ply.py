@@ -9,8 +9,7 @@ from collections.abc import Iterator
 import numpy as np
 
 from rig.errors import StoreError
-from rig.pipeline.mesh import Mesh
-from rig.pipeline.pointset import PointSet
+from rig.pipeline import Mesh, PointSet
 from rig.workers import BLOCK_POINTS, point_blocks
 
 _VERTEX = np.dtype(

@@ -24,10 +24,7 @@ import rig
 from rig.errors import StoreError
 from rig.geometry import CameraModel
 from rig.opened_rig import Rig
-from rig.pipeline.capture import CUE
-from rig.pipeline.holes import surface_holes
-from rig.pipeline.results import PairResult, ScanResult
-from rig.pipeline.scan import ring_bands, ring_lit
+from rig.pipeline import CUE, PairResult, ScanResult, ring_bands, ring_lit, surface_holes
 from rig.store.atomic import fsync_dir, publish_folder, write_atomic
 from rig.store.images import depth_image_png, grid_depth, mask_png, point_depth, preview_png, rgb_png
 from rig.store.ply import mesh_ply_bytes, ply_chunks
@@ -280,7 +277,7 @@ def _write_frames(the_rig: Rig, result: ScanResult, partial: Path) -> dict[str, 
     return out
 
 
-def read_frames(folder: Path) -> tuple[dict[str, Any], dict[tuple[int, int], list[np.ndarray]]]:
+def read_scan_frames(folder: Path) -> tuple[dict[str, Any], dict[tuple[int, int], list[np.ndarray]]]:
     """The manifest of a stored scan and its raw frames by (projector, camera) index."""
     manifest = json.loads((folder / "manifest.json").read_text())
     stored = manifest["files"].get("frames")
