@@ -130,7 +130,7 @@ def test_roles_put_each_axis_phase_frames_before_its_gray_code() -> None:
         }
     )
     roles = spec.roles()
-    kinds = [r.kind for r in roles]
+    kinds = [r.shows for r in roles]
     # columns: 8 steps, 6 bits of 64 periods with inverses; rows: 8 steps, 6 bits of 48 periods
     assert kinds == ["phase"] * 8 + ["bit"] * 12 + ["phase"] * 8 + ["bit"] * 12
     assert spec.extent("columns") == 64 and spec.extent("rows") == 48

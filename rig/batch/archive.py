@@ -22,18 +22,18 @@ DIGEST_KEY = "batch_input_sha256"  # in an output's manifest, under origin
 
 @dataclass(frozen=True)
 class ArchiveInput:
-    """One scan to reprocess: `kind` "scan" (a scan directory with kept frames) or "frames" (a
+    """One scan to reprocess: `layout` "scan" (a scan directory with kept frames) or "frames" (a
     folder of frames with its pattern description)."""
 
     path: Path
-    kind: Literal["scan", "frames"]
+    layout: Literal["scan", "frames"]
 
     @property
     def name(self) -> str:
         return self.path.name
 
 
-def input_kind(path: Path) -> Literal["scan", "frames"] | None:
+def input_layout(path: Path) -> Literal["scan", "frames"] | None:
     if (path / "manifest.json").is_file():
         return "scan"
     if (path / DESCRIPTION_NAME).is_file():
@@ -47,13 +47,13 @@ def find_inputs(paths: Sequence[Path]) -> list[ArchiveInput]:
     the same output."""
     found: list[ArchiveInput] = []
     for path in paths:
-        kind = input_kind(path)
-        if kind is not None:
-            found.append(ArchiveInput(path, kind))
+        layout = input_layout(path)
+        if layout is not None:
+            found.append(ArchiveInput(path, layout))
             continue
         if not path.is_dir():
             raise UsageError(f"{path}: no such folder")
-        inside = [ArchiveInput(p, k) for p in sorted(path.iterdir()) if p.is_dir() and (k := input_kind(p))]
+        inside = [ArchiveInput(p, k) for p in sorted(path.iterdir()) if p.is_dir() and (k := input_layout(p))]
         if not inside:
             raise UsageError(
                 f"{path}: neither a scan directory (manifest.json), nor a frames folder ({DESCRIPTION_NAME}), "
@@ -70,7 +70,7 @@ def find_inputs(paths: Sequence[Path]) -> list[ArchiveInput]:
 
 def input_files(item: ArchiveInput) -> list[Path]:
     """The files the reprocessing of `item` reads, in a fixed order."""
-    if item.kind == "frames":
+    if item.layout == "frames":
         return sorted(p for p in item.path.iterdir() if p.is_file())
     manifest = json.loads((item.path / "manifest.json").read_text())
     stored = (manifest.get("files") or {}).get("frames") or {}

@@ -36,7 +36,7 @@ class BatchSummary:
 def memory_needed(item: ArchiveInput) -> int:
     """Bytes reprocessing `item` holds, from the memory model (a scan's config) or from its frames'
     size (a frames folder), beside a worker's fixed overhead."""
-    if item.kind == "scan":
+    if item.layout == "scan":
         manifest = json.loads((item.path / "manifest.json").read_text())
         return sum(scan_memory(config_from_dict(manifest["config"], f"scan {item.name}")).values())
     frames = sorted(p for p in item.path.iterdir() if p.suffix.lower() in (".png", ".tif", ".tiff", ".bmp", ".jpg"))

@@ -38,7 +38,7 @@ def reprocess_one(item: ArchiveInput, out: Path, calibration: list[Path]) -> dic
             "remove it or choose another --out"
         )
     scan_id = new_scan_id()
-    if item.kind == "scan":
+    if item.layout == "scan":
         result = _stored_scan(item, target, scan_id, calibration, digest)
     else:
         result = _frames_folder(item, target, scan_id, calibration, digest)
@@ -72,7 +72,7 @@ def _frames_folder(item: ArchiveInput, target: Path, scan_id: str, calibration: 
 def evaluate_one(item: ArchiveInput, calibration: list[Path]) -> dict[str, Any]:
     """A simulated scan's frames reconstructed again (with `calibration`, else its own) and measured
     against the truth of the bench its manifest describes; nothing is written."""
-    if item.kind != "scan":
+    if item.layout != "scan":
         raise StoreError(f"{item.path}: a frames folder has no simulated bench to measure against")
     if len(calibration) > 1:
         raise StoreError(f"{item.path}: a scan directory is reprocessed with one slrig calibration (a folder)")
@@ -93,7 +93,7 @@ def evaluate_one(item: ArchiveInput, calibration: list[Path]) -> dict[str, Any]:
 
 def describe_one(item: ArchiveInput, settings: DescriptorSettings) -> dict[str, Any]:
     """A scan's recognition descriptor (rig.service.recognition.describe_scan), for the client to add."""
-    if item.kind != "scan":
+    if item.layout != "scan":
         raise StoreError(f"{item.path}: a frames folder has no surface to describe (reprocess it first)")
     scan_id, descriptor = describe_scan(item.path, settings)
     return {"name": item.name, "status": "done", "scan_id": scan_id, "descriptor": descriptor}

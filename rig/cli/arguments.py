@@ -7,7 +7,7 @@ from pathlib import Path
 
 from rig import __version__
 from rig.cli.batch_arguments import batch_command
-from rig.config import SCENE_KINDS
+from rig.config import SCENE_SHAPES
 from rig.patterns import codec_names
 
 MESH_FIT_SIZE_MM = 150.0
@@ -102,7 +102,7 @@ def _evaluate_command(sub: argparse._SubParsersAction) -> None:  # type: ignore[
     evaluate.add_argument(
         "--scene",
         default=None,
-        help=f"scene name ({', '.join(k for k in SCENE_KINDS if k != 'mesh')}) or a "
+        help=f"scene name ({', '.join(k for k in SCENE_SHAPES if k != 'mesh')}) or a "
         f"PLY/OBJ/STL file (scaled to {MESH_FIT_SIZE_MM:.0f} mm)",
     )
 

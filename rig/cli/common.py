@@ -7,7 +7,7 @@ import sys
 from pathlib import Path
 
 from rig.cli.arguments import MESH_FIT_SIZE_MM
-from rig.config import SCENE_KINDS, RigConfig, load_config
+from rig.config import SCENE_SHAPES, RigConfig, load_config
 from rig.errors import ConfigError
 from rig.patterns import codec_class
 from rig.progress import ProgressCallback, StageLines, TerminalBar
@@ -27,12 +27,12 @@ def load(args: argparse.Namespace) -> RigConfig:
 
 
 def scene_override(config: RigConfig, scene: str) -> RigConfig:
-    if scene in SCENE_KINDS and scene != "mesh":
+    if scene in SCENE_SHAPES and scene != "mesh":
         return config.with_scene({"kind": scene})
     path = Path(scene)
     if path.is_file():
         return config.with_scene({"kind": "mesh", "path": str(path.resolve()), "fit_size_mm": MESH_FIT_SIZE_MM})
-    names = ", ".join(k for k in SCENE_KINDS if k != "mesh")
+    names = ", ".join(k for k in SCENE_SHAPES if k != "mesh")
     raise ConfigError("--scene", [f"--scene: {scene!r} is neither a scene name ({names}) nor a mesh file"])
 
 

@@ -13,7 +13,7 @@ from rig.config.loading import DEFAULT_CONFIG, REPO_CONFIG_DIR, config_from_dict
 from rig.config.rig import OutputConfig, RigConfig, ServiceConfig
 from rig.config.scan import MergeConfig, ScanConfig
 from rig.config.scenes import (
-    SCENE_KINDS,
+    SCENE_SHAPES,
     BlocksScene,
     BoxScene,
     CheckerTexture,
@@ -21,7 +21,7 @@ from rig.config.scenes import (
     ImageTexture,
     MeshScene,
     PlaneScene,
-    SceneConfig,
+    SceneShape,
     SimulationConfig,
     SphereOnPlaneScene,
     SphereScene,
@@ -45,7 +45,7 @@ __all__ = [
     "DEFAULT_CONFIG",
     "DRIVERS",
     "REPO_CONFIG_DIR",
-    "SCENE_KINDS",
+    "SCENE_SHAPES",
     "BlocksScene",
     "BoardConfig",
     "BoardPose",
@@ -71,7 +71,7 @@ __all__ = [
     "RigConfig",
     "RingPlanSettings",
     "ScanConfig",
-    "SceneConfig",
+    "SceneShape",
     "ServiceConfig",
     "SimulationConfig",
     "SphereOnPlaneScene",

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from pydantic import ValidationError
 
-from rig.config.scenes import SCENE_KINDS
+from rig.config.scenes import SCENE_SHAPES
 
 
 def _location(loc: tuple[int | str, ...]) -> str:
@@ -12,7 +12,7 @@ def _location(loc: tuple[int | str, ...]) -> str:
     for i, item in enumerate(loc):
         if isinstance(item, int):
             out += f"[{item}]"
-        elif i > 0 and loc[i - 1] == "scene" and item in SCENE_KINDS:
+        elif i > 0 and loc[i - 1] == "scene" and item in SCENE_SHAPES:
             continue  # the discriminator's tag adds nothing for the reader
         elif not str(item).isidentifier():
             continue  # a union member's tag, e.g. 'tuple[constrained-float, ...]'

@@ -98,11 +98,11 @@ class BlocksScene(Strict):
         return self
 
 
-SceneConfig = Annotated[
+SceneShape = Annotated[
     PlaneScene | SphereScene | BoxScene | SphereOnPlaneScene | TerrainScene | StepsScene | BlocksScene | MeshScene,
     Field(discriminator="kind"),
 ]
-SCENE_KINDS = ("plane", "sphere", "box", "sphere_on_plane", "terrain", "steps", "blocks", "mesh")
+SCENE_SHAPES = ("plane", "sphere", "box", "sphere_on_plane", "terrain", "steps", "blocks", "mesh")
 
 
 Colour = tuple[Fraction, Fraction, Fraction]  # linear [red, green, blue]
@@ -163,7 +163,7 @@ class MaterialConfig(Strict):
 
 
 class SimulationConfig(Strict):
-    scene: SceneConfig
+    scene: SceneShape
     material: MaterialConfig = Field(default_factory=MaterialConfig)
     texture: TextureConfig | None = Field(
         None, description="paint the whole scene with a procedural texture (in place of its albedo)"
