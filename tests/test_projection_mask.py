@@ -157,3 +157,26 @@ def test_the_command_line_takes_adaptive_projection(tmp_path: Path, capsys: pyte
     capsys.readouterr()
     assert main(["scan", "--config", str(config), "--adaptive", "--adaptive-projection", "--out", str(tmp_path / "x")])
     assert "--adaptive-projection: a planned ring scan takes the cameras' exposure" in capsys.readouterr().err
+
+
+def test_reprocessing_an_adaptive_scans_frames_takes_the_masks_lean_off_as_the_scan_did(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    config = write_config(tmp_path, _glossy(False))
+    out = tmp_path / "scan"
+    assert main(["scan", "--config", str(config), "--adaptive-projection", "--save-frames", "--out", str(out)]) == 0
+    manifest = json.loads((out / "manifest.json").read_text())
+    assert set(manifest["files"]["adaptive_projection"]) == {"projector0_camera0"}
+    again = tmp_path / "again"
+    assert main(["reconstruct", str(out), "--out", str(again), "--json"]) == 0
+    redone = json.loads((again / "manifest.json").read_text())
+    counts, recounted = manifest["pairs"][0]["counts"], redone["pairs"][0]["counts"]
+    assert recounted["rejected_mask_edge"] == counts["rejected_mask_edge"] > 0  # the same pixels left out
+    assert recounted["points"] == counts["points"]
+    assert redone["exposure"]["adaptive_projection"] == manifest["exposure"]["adaptive_projection"]
+    # a kept mask gone missing is refused, naming it, rather than reprocessed without its correction
+    (out / "adaptive_projection" / "projector0_camera0.npz").unlink()
+    capsys.readouterr()
+    assert main(["reconstruct", str(out), "--out", str(tmp_path / "third"), "--json"]) != 0
+    assert "adaptive_projection/projector0_camera0.npz" in capsys.readouterr().err
+    assert not (tmp_path / "third").exists()

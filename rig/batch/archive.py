@@ -73,9 +73,11 @@ def input_files(item: ArchiveInput) -> list[Path]:
     if item.layout == "frames":
         return sorted(p for p in item.path.iterdir() if p.is_file())
     manifest = json.loads((item.path / "manifest.json").read_text())
-    stored = (manifest.get("files") or {}).get("frames") or {}
+    files = manifest.get("files") or {}
+    stored = files.get("frames") or {}
     frames = [item.path / name for key in sorted(stored) for name in stored[key]]
-    return [item.path / "manifest.json", *frames]
+    masks = [item.path / name for _, name in sorted((files.get("adaptive_projection") or {}).items())]
+    return [item.path / "manifest.json", *frames, *masks]  # an adaptive scan's masks: reprocessing reads them
 
 
 def input_digest(item: ArchiveInput, calibration: Sequence[Path] = ()) -> str:

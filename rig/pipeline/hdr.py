@@ -213,6 +213,7 @@ def scan_with_exposure(
             adaptive.rig, settings, report, codec_name, tracker.part(0.3, 1.0), keep_frames, adaptive.skews
         )
     result.frames_projected += adaptive.prescan_frames
+    result.mask_skews = adaptive.skews
     return result
 
 
@@ -284,10 +285,16 @@ def _projected(result: ScanResult, codecs: list[Codec], passes: int) -> int:
 
 
 def reconstruct_exposures(
-    rig: Rig, codec_name: str, frames: Frames, passes: int, tracker: ProgressTracker
+    rig: Rig,
+    codec_name: str,
+    frames: Frames,
+    passes: int,
+    tracker: ProgressTracker,
+    skews: dict[tuple[int, int], MaskSkew] | None = None,
 ) -> ScanResult:
     """A stored HDR scan's frames (each pair's passes one after another, as run_hdr_scan keeps
-    them) decoded pass by pass, merged per pixel as the scan merged them, and triangulated."""
+    them) decoded pass by pass, merged per pixel as the scan merged them, and triangulated; with an
+    adaptive projection's kept masks (`skews`), each pass's decode has their lean taken off first."""
     codecs = [make_codec(rig, p, codec_name) for p in range(len(rig.config.projectors))]
     merged: dict[tuple[int, int], Correspondence] = {}
     last: Frames = {pair: images for pair, images in frames.items() if pair[0] == CUE}
@@ -304,7 +311,9 @@ def reconstruct_exposures(
         if is_reconstructed(rig, (p, c)):
             full_scale = rig.config.cameras[c].full_scale
             corrs = [decode_streamed(codecs[p], chunk, full_scale) for chunk in chunks]
-            merged[(p, c)] = merge_exposures(corrs, passes - 1)
+            if skews and (p, c) in skews:
+                corrs = [skews[(p, c)].applied(corr)[0] for corr in corrs]
+            merged[(p, c)] = corrs[0] if passes == 1 else merge_exposures(corrs, passes - 1)
     result = reconstruct_frames(rig, codec_name, last, tracker, decoded=merged)
     result.frames_projected = _projected(result, codecs, passes)
     return result

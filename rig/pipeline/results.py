@@ -10,6 +10,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from rig.patterns import Correspondence
+from rig.pipeline.mask_skew import MaskSkew
 from rig.pipeline.mesh import Mesh
 from rig.pipeline.pointset import PointSet
 from rig.pipeline.ring_triangulation import RingPoints
@@ -61,3 +62,5 @@ class ScanResult:
     images: dict[str, np.ndarray] = field(default_factory=dict)  # name -> RGB image stored as <name>.png
     descriptions: dict[int, dict[str, object]] = field(default_factory=dict)  # kept frames: projector -> spec
     warnings: list[str] = field(default_factory=list)  # what the operator should know of this result
+    # adaptive projection: per (projector, camera), what takes the masks' lean off a decode (kept with frames)
+    mask_skews: dict[tuple[int, int], MaskSkew] = field(default_factory=dict)

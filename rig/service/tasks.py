@@ -21,7 +21,7 @@ from rig.service.adaptive import adaptive_scan, plan_check
 from rig.service.imports import reconstruction_inputs
 from rig.service.reconstruct import reconstruct_folder
 from rig.service.space import check_free_space, expected_scan_bytes
-from rig.store import read_scan_frames, write_scan
+from rig.store import read_mask_skews, read_scan_frames, write_scan
 
 
 def scan_to_directory(
@@ -147,9 +147,10 @@ def reprocessed(
         check_free_space(writes_to, expected_scan_bytes(config, {}), "this reprocessing")
     tracker.report("decode", 0.6)
     passes = len(next(iter((manifest.get("exposure") or {}).get("exposures_us", {}).values()), []))
+    skews = read_mask_skews(source, manifest)
     with open_rig(config, with_devices=False) as geometry:
-        if passes > 1:  # an HDR scan's passes, merged again as the scan merged them
-            result = reconstruct_exposures(geometry, manifest["codec"]["name"], frames, passes, tracker)
+        if passes > 1 or skews:  # an HDR scan's passes merged again, an adaptive one's masks' lean taken off
+            result = reconstruct_exposures(geometry, manifest["codec"]["name"], frames, max(passes, 1), tracker, skews)
             result.exposure = manifest["exposure"]
         else:
             result = reconstruct_frames(geometry, manifest["codec"]["name"], frames, tracker)

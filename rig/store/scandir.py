@@ -27,6 +27,8 @@ from rig.opened_rig import Rig
 from rig.pipeline import CUE, PairResult, ScanResult, ring_bands, ring_lit, surface_holes
 from rig.store.atomic import fsync_dir, publish_folder, write_atomic
 from rig.store.images import depth_image_png, grid_depth, mask_png, point_depth, preview_png, rgb_png
+from rig.store.mask_files import FOLDER as MASKS
+from rig.store.mask_files import write_mask_skews
 from rig.store.ply import mesh_ply_bytes, ply_chunks
 
 DESCRIPTION_NAME = "patterns.yaml"  # beside kept frames: what they show, for `slrig reconstruct`
@@ -225,6 +227,8 @@ def write_scan(
             files.setdefault("overlap", {})[the_rig.config.cameras[c].name] = name
         if result.frames:
             files["frames"] = _write_frames(the_rig, result, partial)
+            if result.mask_skews:  # reprocessing takes the masks' lean off as the scan did
+                files[MASKS] = write_mask_skews(the_rig, result.mask_skews, partial)
         for name, image in result.images.items():  # e.g. an adaptive scan's pilot as the projector saw it
             write_atomic(partial / f"{name}.png", rgb_png(image))
             files.setdefault("images", {})[name] = f"{name}.png"
