@@ -70,8 +70,9 @@ class MaskSkew:
 
     def blur_px(self, corr: Correspondence) -> float | None:
         """The projector blur that best foretells how far `corr`'s coordinates moved from the
-        pre-scan's near the mask's steps; None where too few pixels lie near one."""
-        observed, predicted = [], []
+        pre-scan's near the mask's steps (every other blur tried, then the two beside the best);
+        None where too few pixels lie near one."""
+        near_steps = []  # per coded axis: (axis, observed lean, projector columns, rows)
         for name, axis in AXES.items():
             decoded = getattr(corr, name)
             if decoded is None:
@@ -80,15 +81,20 @@ class MaskSkew:
             use = self.own & corr.valid & np.isfinite(decoded) & np.isfinite(self.u) & np.isfinite(self.v)
             u, v = self.u[use], self.v[use]
             near = np.abs(_at(lean(self.light, float(BLURS_PX[-1]), axis), u, v)) > NEAR_STEP_PX
-            observed.append((decoded[use] - mapped[use])[near])
-            predicted.append([_at(lean(self.light, float(b), axis), u[near], v[near]) for b in BLURS_PX])
-        if sum(len(o) for o in observed) < MIN_NEAR:
+            near_steps.append((axis, (decoded[use] - mapped[use])[near], u[near], v[near]))
+        if sum(len(observed) for _, observed, _, _ in near_steps) < MIN_NEAR:
             return None
-        misses = [
-            np.median(np.abs(np.concatenate([o - p[i] for o, p in zip(observed, predicted, strict=True)])))
-            for i in range(len(BLURS_PX))
-        ]
-        return float(BLURS_PX[int(np.argmin(misses))])
+        misses: dict[int, float] = {}
+
+        def miss(i: int) -> float:
+            if i not in misses:
+                blur = float(BLURS_PX[i])
+                off = [observed - _at(lean(self.light, blur, axis), u, v) for axis, observed, u, v in near_steps]
+                misses[i] = float(np.median(np.abs(np.concatenate(off))))
+            return misses[i]
+
+        best = min(range(0, len(BLURS_PX), 2), key=miss)
+        return float(BLURS_PX[min((i for i in (best - 1, best, best + 1) if 0 <= i < len(BLURS_PX)), key=miss)])
 
     def applied(self, corr: Correspondence) -> tuple[Correspondence, float | None]:
         """`corr` with the mask's lean taken off its coordinates and the pixels leaning too far left
