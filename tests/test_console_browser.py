@@ -4,6 +4,7 @@ with no console error on any page."""
 
 from __future__ import annotations
 
+import re
 import shutil
 import time
 from collections.abc import Callable, Iterator
@@ -185,7 +186,8 @@ def test_the_live_page_updates(console: Console) -> None:
     console.page.click("text=Start")
     first = int(console.until("() => document.querySelector('img.depth')?.dataset.sequence", 60))
     console.until(f"() => Number(document.querySelector('img.depth').dataset.sequence) > {first}", 60)
-    assert "sequences/s" in console.page.locator(".figures").inner_text()
+    shown = console.page.locator(".figures").inner_text()
+    assert "sequences/s" in shown and re.search(r"· \d+ dropped", shown)  # whole sequences fallen behind on
     console.page.click("text=Stop")
     console.until("() => document.querySelector('.state').textContent === 'off'")
     assert console.errors == []

@@ -42,5 +42,5 @@ function draw(views, d, figures) {
     box.querySelector(".range").textContent = camera.range_mm ? `near ${camera.range_mm[0].toFixed(1)} mm (red) to far ${camera.range_mm[1].toFixed(1)} mm (blue)` : "no depth";
   });
   const rate = d.sequence_ms > 0 ? 1000 / d.sequence_ms : 0;
-  figures.textContent = `sequence ${d.sequence} · ${fmt.int(d.points)} points · ${rate.toFixed(1)} sequences/s · latency ${d.latency_ms.toFixed(0)} ms`;
+  figures.textContent = `sequence ${d.sequence} · ${fmt.int(d.points)} points · ${rate.toFixed(1)} sequences/s · latency ${d.latency_ms.toFixed(0)} ms · ${fmt.int(d.dropped ?? 0)} dropped`;
 }
