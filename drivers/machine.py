@@ -22,9 +22,11 @@ def access_problem(path: str, group: str) -> str | None:
     return None
 
 
-def package_problem(module: str, install: str) -> str | None:
-    """How to install `module` where it is not importable, or None."""
-    return None if importlib.util.find_spec(module) is not None else f"{module} is not installed: {install}"
+def package_problem(module: str, install: str, package: str | None = None) -> str | None:
+    """How to install `module` (of the distribution `package`, where named otherwise) where it is
+    not importable, or None."""
+    found = importlib.util.find_spec(module) is not None
+    return None if found else f"{package or module} is not installed: {install}"
 
 
 def attached_usb(finder: Callable[..., Any] | None = None) -> dict[str, Any]:

@@ -143,7 +143,7 @@ def test_adaptive_projection_reads_a_machined_part_whole_in_one_exposure() -> No
     # (rms 0.228 against 0.240 mm): the masks' lean taken off, with the blur it was measured at
     assert adaptive["completeness"] > 0.95 and adaptive["completeness"] > unmasked["completeness"] + 0.05
     assert adaptive["rms_mm"] < unmasked["rms_mm"]
-    (blur,) = projection["projector_blur_px"]["projector0/camera0"]
+    (blur,) = projection["projector_blur_px"]["projector0_camera0"]
     assert 0.5 <= blur <= 1.0  # the simulated lens's 0.5 px, with the sampling between pixels
 
 

@@ -147,5 +147,5 @@ def machine_problems(device: DeviceConfig) -> list[str]:
         found.append("no /dev/dri/card*: no display output (kmsdrm needs a GPU with a connected output)")
     elif not any(os.access(c, os.R_OK | os.W_OK) for c in cards):
         found.append("no access to /dev/dri: add the service user to the 'video' group")
-    pygame = package_problem("pygame", "pip install 'slrig[hdmi]'")
-    return found + ([pygame.replace("pygame is", "pygame-ce is")] if pygame else [])
+    pygame = package_problem("pygame", "pip install 'slrig[hdmi]'", "pygame-ce")
+    return found + ([pygame] if pygame else [])

@@ -114,7 +114,7 @@ def _depth_event(service: JobService, frame: LiveFrame, stride: int, colour: boo
         "points": frame.points,
         "latency_ms": round(frame.latency_ms, 2),
         "sequence_ms": round(frame.sequence_ms, 1),
-        "dropped": service.live.view()["dropped"],  # whole sequences the machine fell behind on, so far
+        "dropped": service.live.dropped(),  # whole sequences the machine fell behind on, so far
         "depth_unit_mm": DEPTH_UNIT_MM,
         "cameras": cameras,
     }

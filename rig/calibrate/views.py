@@ -173,7 +173,7 @@ def _save_view(rig: Rig, folder: Path, frames: dict[tuple[int | None, int], list
         if p is None:
             cv2.imwrite(str(folder / f"{camera}.png"), images[0])
             continue
-        sub = folder / f"{rig.config.projectors[p].name}_{camera}"
+        sub = folder / rig.config.pair_name(p, c)
         sub.mkdir(exist_ok=True)
         for k, image in enumerate(images):
             cv2.imwrite(str(sub / f"{k:03d}.png"), image)

@@ -120,6 +120,10 @@ class RigConfig(Strict):
         """Its devices are the simulated bench's (then it has a `simulation` section)."""
         return self.simulation is not None
 
+    def pair_name(self, projector: int, camera: int) -> str:
+        """How stored scans name a (projector, camera) pair: `projector0_camera0`."""
+        return f"{self.projectors[projector].name}_{self.cameras[camera].name}"
+
     @model_validator(mode="after")
     def _consistent(self) -> RigConfig:
         names = [d.name for d in (*self.projectors, *self.cameras)]

@@ -151,7 +151,7 @@ def run_hdr_scan(
             corr = stream.finish()
             if skews is not None and pair in skews:
                 corr, blur = skews[pair].applied(corr)
-                blurs.setdefault(_pair_name(rig, pair), []).append(blur)
+                blurs.setdefault(rig.config.pair_name(*pair), []).append(blur)
             decoded[pair].append(corr)
     capture_ms = (time.perf_counter() - t0) * 1e3
     merged = {pair: corrs[0] if count == 1 else merge_exposures(corrs, count - 1) for pair, corrs in decoded.items()}
@@ -215,10 +215,6 @@ def scan_with_exposure(
     result.frames_projected += adaptive.prescan_frames
     result.mask_skews = adaptive.skews
     return result
-
-
-def _pair_name(rig: Rig, pair: tuple[int, int]) -> str:
-    return f"{rig.config.projectors[pair[0]].name}/{rig.config.cameras[pair[1]].name}"
 
 
 def _check_ranges(rig: Rig, exposure: object, hdr: object) -> None:

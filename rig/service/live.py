@@ -99,6 +99,11 @@ class LiveMode(WorkerMode):
         with self._lock:
             return self._state, self._reason, self._session
 
+    def dropped(self) -> int:
+        """Sequences this session dropped whole so far (the machine fell behind)."""
+        with self._lock:
+            return self._stats.dropped
+
     def view(self) -> dict[str, Any]:
         with self._lock:
             config = self._wanted or self.config

@@ -24,7 +24,7 @@ def write_mask_skews(the_rig: Rig, skews: dict[tuple[int, int], MaskSkew], parti
     (partial / FOLDER).mkdir()
     names = {}
     for (p, c), skew in sorted(skews.items()):
-        key = f"{the_rig.config.projectors[p].name}_{the_rig.config.cameras[c].name}"
+        key = the_rig.config.pair_name(p, c)
         data = io.BytesIO()
         np.savez_compressed(
             data,

@@ -262,7 +262,7 @@ def _write_frames(the_rig: Rig, result: ScanResult, partial: Path) -> dict[str, 
     out: dict[str, list[str]] = {}
     for (p, c), images in sorted(result.frames.items()):
         camera = the_rig.config.cameras[c].name
-        key = f"overlap-cue_{camera}" if p < 0 else f"{the_rig.config.projectors[p].name}_{camera}"
+        key = f"overlap-cue_{camera}" if p < 0 else the_rig.config.pair_name(p, c)
         folder = partial / "frames" / key
         folder.mkdir(parents=True)
         fsync_dir(folder.parent)  # the new entry in frames/ (and frames/ in the scan) must survive
