@@ -141,6 +141,55 @@ def plane_triangulate(
 
 
 @njit(**KERNEL)
+def ray_ray_triangulate(
+    u: Image,
+    v: Image,
+    valid: Image,
+    directions: Image,
+    to_ray: np.ndarray,
+    offset: np.ndarray,
+    along_axis: Image,
+    ray: Image,
+    depth: Image,
+    decoded: Image,
+    top: int,
+    bottom: int,
+) -> None:
+    """Both projector coordinates decoded: the point of each unit camera ray closest to the
+    projector ray to_ray @ (u, v, 1) (PairTriangulator._ray_ray_fast, in float64 per pixel), as
+    plane_triangulate writes it; NaN where the rays are parallel or meet behind either device.
+    `offset`: the camera centre minus the projector centre."""
+    nan = np.float32(np.nan)
+    for y in range(top, bottom):
+        for x in range(u.shape[1]):
+            ok = valid[y, x]
+            s = nan
+            if ok:
+                cu, cv = np.float64(u[y, x]), np.float64(v[y, x])
+                p0 = to_ray[0, 0] * cu + to_ray[0, 1] * cv + to_ray[0, 2]
+                p1 = to_ray[1, 0] * cu + to_ray[1, 1] * cv + to_ray[1, 2]
+                p2 = to_ray[2, 0] * cu + to_ray[2, 1] * cv + to_ray[2, 2]
+                c0 = np.float64(directions[0, y, x])
+                c1 = np.float64(directions[1, y, x])
+                c2 = np.float64(directions[2, y, x])
+                b = c0 * p0 + c1 * p1 + c2 * p2
+                c = p0 * p0 + p1 * p1 + p2 * p2
+                e = p0 * offset[0] + p1 * offset[1] + p2 * offset[2]
+                f = c0 * offset[0] + c1 * offset[1] + c2 * offset[2]
+                denominator = c - b * b
+                ok = denominator >= 1e-6 * c
+                if ok:  # divided only then: parallel rays would raise
+                    along_camera = (b * e - c * f) / denominator
+                    ok = along_camera > 0 and (e - b * f) / denominator > 0
+                    s = np.float32(along_camera)
+                if not ok:
+                    s = nan
+            decoded[y, x] = ok
+            depth[y, x] = s * along_axis[y, x]
+            ray[y, x] = s
+
+
+@njit(**KERNEL)
 def _support_at_border(depth: Image, y: int, x: int, max_jump: np.float32) -> int:
     """How many of pixel (y, x)'s neighbours on the image lie within `max_jump` of its depth."""
     height, width = depth.shape
@@ -257,3 +306,20 @@ def kept_points(
                     out[k, axis] = np.float32(np.float64(s * directions[axis, y, x]) + origin[axis])
                 pixel[k] = y * width + x
                 k += 1
+
+
+@njit(**KERNEL)
+def ray_angles(
+    points: np.ndarray, camera: np.ndarray, projector: np.ndarray, out: np.ndarray, start: int, stop: int
+) -> None:
+    """The angle (degrees, float32) at each of points[start:stop] between the rays from the two
+    device centres (rig.pipeline.merge.triangulation_angles for pinhole devices)."""
+    to_degrees = np.float32(180 / np.pi)
+    c0, c1, c2 = np.float32(camera[0]), np.float32(camera[1]), np.float32(camera[2])
+    p0, p1, p2 = np.float32(projector[0]), np.float32(projector[1]), np.float32(projector[2])
+    for k in range(start, stop):
+        x, y, z = points[k, 0], points[k, 1], points[k, 2]
+        ax, ay, az = x - c0, y - c1, z - c2
+        bx, by, bz = x - p0, y - p1, z - p2
+        cos = (ax * bx + ay * by + az * bz) / np.sqrt((ax * ax + ay * ay + az * az) * (bx * bx + by * by + bz * bz))
+        out[k] = np.arccos(min(max(cos, np.float32(-1)), np.float32(1))) * to_degrees

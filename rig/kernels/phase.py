@@ -55,7 +55,7 @@ def atan2(y: np.float32, x: np.float32) -> np.float32:
 
 
 @njit(**KERNEL)
-def _step_sums(
+def step_sums(
     steps: tuple[Image, ...], weight_sin: np.ndarray, weight_cos: np.ndarray, y: int, s: np.ndarray, c: np.ndarray
 ) -> None:
     """Row `y`'s sums of the steps times their sine and cosine weights, in step order (as the batch
@@ -92,7 +92,7 @@ def phase_wrap(
     width = modulation.shape[1]
     s, c = np.empty(width, np.float32), np.empty(width, np.float32)
     for y in range(top, bottom):
-        _step_sums(steps, weight_sin, weight_cos, y, s, c)
+        step_sums(steps, weight_sin, weight_cos, y, s, c)
         for x in range(width):
             sy, cx = s[x], c[x]
             modulation[y, x] = np.sqrt(sy * sy + cx * cx) * amplitude
@@ -181,7 +181,7 @@ def cued_unwrap(
     width = coordinate.shape[1]
     s, c = np.empty(width, np.float32), np.empty(width, np.float32)
     for y in range(top, bottom):
-        _step_sums(steps, weight_sin, weight_cos, y, s, c)
+        step_sums(steps, weight_sin, weight_cos, y, s, c)
         for x in range(width):
             sy, cx = s[x], c[x]
             angle = atan2(sy, cx)

@@ -111,6 +111,11 @@ class Codec(abc.ABC):
         """Patterns per scan, without making them."""
         return 2 + self._coded_frame_count()
 
+    def coded_axes(self) -> str:
+        """The projector coordinates a decode gives at each pixel it decodes: "u", "v" or "uv"; ""
+        for a sparse codec (ring samples)."""
+        return ""
+
     @property
     def needs_linear_light(self) -> bool:
         """Whether a projector whose light is not linear in the level (an uncorrected gamma) makes

@@ -37,6 +37,9 @@ class LineCodec(Codec):
     def axes(self) -> list[str]:
         return {"columns": ["u"], "rows": ["v"], "both": ["u", "v"]}[self.params.directions]
 
+    def coded_axes(self) -> str:
+        return "".join(self.axes())
+
     def extent(self, axis: str) -> int:
         return self.width if axis == "u" else self.height
 

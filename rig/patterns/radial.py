@@ -21,13 +21,20 @@ import math
 import numpy as np
 from pydantic import Field, field_validator
 
+from rig.lazy import lazy_module
 from rig.patterns.base import CodecParams, PixelCoord, even_period
 from rig.patterns.circular import CircularCodec
-from rig.patterns.correspondence import Correspondence, NormalizedFrames, fraction, least_counts
+from rig.patterns.correspondence import Correspondence, NormalizedFrames, least_counts
 from rig.patterns.fringes import RunningSums, fringe_images, summed
 from rig.patterns.graycode import bit_count, decode_gray, gray_planes, planes_with_inverses
+from rig.patterns.phase import step_weights
 from rig.patterns.registry import register
 from rig.patterns.stream import DenseBase, FrameStream, GrayBits
+from rig.workers import in_row_strips
+
+radial_kernels = lazy_module("rig.kernels.radial")  # numba compiles on first use: not for --help
+# a level's steps (integer counts) and their sine and cosine weights (scaled to the counts)
+Steps = tuple[tuple[np.ndarray, ...], np.ndarray, np.ndarray]
 
 
 class RadialParams(CodecParams):
@@ -80,6 +87,9 @@ class RadialCodec(CircularCodec):
     Params = RadialParams
     params: RadialParams
 
+    def coded_axes(self) -> str:
+        return "uv"
+
     def _gray_bits(self) -> int:
         return bit_count(math.ceil((self.reach + 1) / (self.params.period_px // 2)))
 
@@ -106,7 +116,7 @@ class RadialCodec(CircularCodec):
         p = self.params
         bits = self._gray_bits()
         half, strength = decode_gray(frames[p.steps : p.steps + 2 * bits], bits)
-        decoding = RadialDecoding(self, lit, summed(frames, 0, p.steps), half, strength >= p.white_threshold)
+        decoding = RadialDecoding.from_sums(self, lit, summed(frames, 0, p.steps), half, strength >= p.white_threshold)
         first = p.steps + 2 * bits
         for periods, steps in self._angular_levels():
             decoding.add_level(periods, summed(frames, first, steps))
@@ -122,18 +132,39 @@ class RadialDecoding:
     radius from the radial phase and its Gray code, then theta refined by each angular level."""
 
     def __init__(
-        self, codec: RadialCodec, lit: np.ndarray, radial: RunningSums, half: np.ndarray, gray_strong: np.ndarray
+        self, codec: RadialCodec, lit: np.ndarray, radius: np.ndarray, radial_mod: np.ndarray, gray_strong: np.ndarray
     ) -> None:
         self.codec, self.lit, self.gray_strong = codec, lit, gray_strong
-        period = codec.params.period_px
-        phi, self.radial_mod = _phase(radial)
-        k1, k2 = half >> 1, (half + 1) >> 1
-        k = np.where(phi < np.pi / 2, k2, np.where(phi > 1.5 * np.pi, k2 - 1, k1))
-        self.radius = (k + phi / (2 * np.pi)) * period
+        self.radius, self.radial_mod = radius, radial_mod
         self.theta = np.zeros(lit.shape, dtype=np.float64)
         self.consistent = np.ones(lit.shape, dtype=bool)
         self.angular_mod = np.full(lit.shape, np.inf, dtype=np.float32)
         self.levels = 0
+
+    @classmethod
+    def from_sums(
+        cls, codec: RadialCodec, lit: np.ndarray, radial: RunningSums, half: np.ndarray, gray_strong: np.ndarray
+    ) -> RadialDecoding:
+        """From the radial phase's summed steps and the half-period index of its Gray code."""
+        period = codec.params.period_px
+        phi, radial_mod = _phase(radial)
+        k1, k2 = half >> 1, (half + 1) >> 1
+        k = np.where(phi < np.pi / 2, k2, np.where(phi > 1.5 * np.pi, k2 - 1, k1))
+        return cls(codec, lit, (k + phi / (2 * np.pi)) * period, radial_mod, gray_strong)
+
+    @classmethod
+    def from_steps(
+        cls, codec: RadialCodec, lit: np.ndarray, steps: Steps, half: np.ndarray, gray_strong: np.ndarray
+    ) -> RadialDecoding:
+        """from_sums from the radial phase's steps (integer counts, their weights), in one compiled
+        pass (rig.kernels.radial.radial_radius)."""
+        radius, radial_mod = np.empty(lit.shape, np.float64), np.empty(lit.shape, np.float32)
+        period = float(codec.params.period_px)
+        in_row_strips(
+            lit.shape[0],
+            lambda rows: radial_kernels.radial_radius(*steps, half, period, radius, radial_mod, rows.start, rows.stop),
+        )
+        return cls(codec, lit, radius, radial_mod, gray_strong)
 
     def add_level(self, periods: int, sums: RunningSums) -> None:
         """An angular level's summed steps: the first gives theta, each later one refines it where
@@ -149,6 +180,49 @@ class RadialDecoding:
         self.theta = np.where(usable, refined / periods, self.theta)
         self.angular_mod = np.where(usable, np.minimum(self.angular_mod, modulation), self.angular_mod)
         self.consistent &= ~usable | (disagreement <= p.max_unwrap_disagreement)
+
+    def add_level_steps(self, periods: int, steps: Steps) -> None:
+        """add_level from a level's steps (integer counts, their weights), in one compiled pass
+        (rig.kernels.radial.angular_level)."""
+        p, first = self.codec.params, self.levels == 0
+        self.levels += 1
+        if first:
+            self.angular_mod = np.empty(self.lit.shape, np.float32)
+        arrays = (self.radius, self.theta, self.angular_mod, self.consistent)
+        level = (float(periods), float(p.min_fringe_period_px), float(p.max_unwrap_disagreement))
+        in_row_strips(
+            self.lit.shape[0],
+            lambda rows: radial_kernels.angular_level(*steps, first, level, *arrays, rows.start, rows.stop),
+        )
+
+    def finest_level(self, periods: int, steps: Steps, texture: np.ndarray) -> Correspondence:
+        """add_level_steps for the finest level and then `correspondence`, in one compiled pass
+        (rig.kernels.radial.radial_finish)."""
+        codec, p, lit = self.codec, self.codec.params, self.lit
+        shape = lit.shape
+        u, v, quality = (np.empty(shape, np.float32) for _ in range(3))
+        radius, theta, valid = np.empty(shape, np.float32), np.empty(shape, np.float32), np.empty(shape, bool)
+        level = (float(periods), float(p.min_fringe_period_px), float(p.max_unwrap_disagreement))
+        constants = (level, np.float32(p.min_modulation), tuple(map(float, codec.center)), (codec.width, codec.height))
+        images = (self.gray_strong, self.consistent, self.radial_mod, self.angular_mod, self.radius, self.theta)
+        outputs = (u, v, valid, quality, radius, theta)
+        parts: list[tuple[int, ...]] = []
+        in_row_strips(
+            shape[0],
+            lambda rows: parts.append(
+                radial_kernels.radial_finish(*steps, *constants, lit, *images, *outputs, rows.start, rows.stop)
+            ),
+        )
+        lit_count, low_radial, low_angular, inconsistent, decoded = (sum(column) for column in zip(*parts, strict=True))
+        counts = {
+            "lit": lit_count,
+            "low_radial_modulation": low_radial,
+            "low_angular_modulation": low_angular,
+            "inconsistent_angle_levels": inconsistent,
+            "decoded": decoded,
+        }
+        extra = {"radius": radius, "theta": theta}
+        return Correspondence(valid=valid, quality=quality, texture=texture, u=u, v=v, extra=extra, counts=counts)
 
     def correspondence(self, texture: np.ndarray) -> Correspondence:
         codec, p, lit = self.codec, self.codec.params, self.lit
@@ -180,10 +254,11 @@ class RadialDecoding:
 
 
 class RadialStream(FrameStream):
-    """The radial decoder fed frame by frame: every phase step is added into its level's running
-    sums as it arrives, the Gray code read pair by pair in integer counts (GrayBits), each level
-    decoded after its last step (RadialDecoding, as the batch decoder does: the same results bit
-    for bit). After the last frame only the finest level and the coordinates remain."""
+    """The radial decoder fed frame by frame: each level's steps are held until its last one arrives
+    and are then read in one compiled pass (rig.kernels.radial), the Gray code read pair by pair in
+    integer counts (GrayBits); the finest level's pass also makes the coordinates, after the last
+    frame. The steps are summed in integer counts and the phase is a polynomial atan2 (as the phase
+    stream's), so coordinates agree with the batch decoder's within float rounding."""
 
     codec: RadialCodec
 
@@ -193,31 +268,33 @@ class RadialStream(FrameStream):
         self._base = DenseBase(codec, full_scale, keep_contrast=False)
         self._levels = list(codec._angular_levels())
         self._min_strength = least_counts(p.white_threshold, full_scale)
-        self._sums = RunningSums(p.steps)
         self._reader = GrayBits(codec._gray_bits())
         self._decoding: RadialDecoding | None = None
+        self._held: list[np.ndarray] = []  # the current level's steps, until its last one
+
+    def _steps(self) -> Steps:
+        steps, self._held = tuple(self._held), []
+        return steps, *step_weights(len(steps), self.full_scale)
 
     def _consume(self, index: int, frame: np.ndarray) -> None:
         image = self._base.coded_frame(index, frame)
         if image is None:
             return
-        if self._decoding is None and self._sums.done:  # the radial phase's Gray code
+        if self._decoding is None and len(self._held) == self.codec.params.steps:  # the radial phase's Gray code
             if self._reader.take(image):
                 lit, reader = self._base.lit, self._reader
                 assert lit is not None
                 half = reader.value().astype(np.int32)  # as the batch decoder reads it
-                self._decoding = RadialDecoding(
-                    self.codec, lit, self._sums, half, reader.strength() >= self._min_strength
-                )
-                self._sums = RunningSums(self._levels[0][1])
+                strong = reader.strength() >= self._min_strength
+                self._decoding = RadialDecoding.from_steps(self.codec, lit, self._steps(), half, strong)
             return
-        self._sums.add(fraction(image, self.full_scale))  # as NormalizedFrames converts it
-        if self._sums.done and self._decoding is not None:
-            periods, _ = self._levels.pop(0)
-            self._decoding.add_level(periods, self._sums)
-            if self._levels:
-                self._sums = RunningSums(self._levels[0][1])
+        self._held.append(np.ascontiguousarray(image))
+        periods, steps = self._levels[0]
+        if self._decoding is not None and len(self._held) == steps and len(self._levels) > 1:
+            self._decoding.add_level_steps(periods, self._steps())
+            self._levels.pop(0)
 
     def _finish(self) -> Correspondence:
-        assert self._decoding is not None and self._base.texture is not None
-        return self._decoding.correspondence(self._base.texture)
+        decoding, texture = self._decoding, self._base.texture
+        assert decoding is not None and texture is not None and len(self._levels) == 1
+        return decoding.finest_level(self._levels[0][0], self._steps(), texture)

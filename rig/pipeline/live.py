@@ -24,7 +24,7 @@ import numpy as np
 from rig.config import ScanConfig
 from rig.errors import DecodeError, ScanError
 from rig.opened_rig import Rig
-from rig.patterns import Codec, Correspondence, FrameStream, LineCodec
+from rig.patterns import Codec, Correspondence, FrameStream
 from rig.pipeline.capture import capture
 from rig.pipeline.exposure import ExposureSettings, require_exposure, set_within_range, settled_exposures
 from rig.pipeline.hdr import bracketed, merge_exposures
@@ -250,10 +250,9 @@ def prepare_triangulation(rig: Rig, codecs: list[Codec]) -> None:
     """Compute each pair's per-pixel triangulation terms now, so the first sequence is as quick as
     the others."""
     for p, codec in enumerate(codecs):
-        axes = codec.axes() if isinstance(codec, LineCodec) else []
         for c in range(len(rig.cameras)):
-            if len(axes) == 1 and is_reconstructed(rig, (p, c)):
-                fast_terms(triangulator(rig, p, c), axes[0])
+            if codec.coded_axes() and is_reconstructed(rig, (p, c)):
+                fast_terms(triangulator(rig, p, c), codec.coded_axes())
 
 
 def pair_depth(rig: Rig, projector: int, camera: int, corr: Correspondence) -> np.ndarray:
@@ -261,7 +260,7 @@ def pair_depth(rig: Rig, projector: int, camera: int, corr: Correspondence) -> n
     where the pair needs it."""
     fast = organised_terms(rig, projector, camera, corr)
     if fast is not None:
-        return organised_depth(fast[0], corr, fast[1], rig.config.scan.max_depth_jump_mm)
+        return organised_depth(fast, corr, rig.config.scan.max_depth_jump_mm)
     model = rig.camera_models[camera]
     grid = reconstruct_pair(rig, projector, camera, corr, source=0).grid
     return ((grid - model.center) @ model.axis).astype(np.float32)

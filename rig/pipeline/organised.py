@@ -6,12 +6,14 @@ the PointSet and the stored scan are built from it afterwards.
 It computes what rig.pipeline.dense computes (PairTriangulator.triangulate, reject_isolated,
 grid_normals, texture_rgb), in float32 and relative to the camera centre, each step one pass of a
 compiled loop (rig.kernels.dense) per band of rows: points agree within float32 rounding of the stored
-coordinates. It covers a pinhole camera and a projector coding one axis without distortion or skew
-(the default benches); other pairs take the general path.
+coordinates. It covers a pinhole camera and a pinhole projector without distortion coding one axis
+(without skew across it: a ray meets a plane) or both (radial, Gray code both ways: a ray meets a
+ray); other pairs take the general path.
 """
 
 from __future__ import annotations
 
+import abc
 from dataclasses import dataclass
 
 import numpy as np
@@ -29,6 +31,7 @@ _MIN_SUPPORT = 3  # as reject_isolated: neighbours within the depth-jump limit a
 _NORMAL_STEP = 2  # as grid_normals: neighbours this many pixels away span the tangent plane
 
 
+Images = np.ndarray  # (H, W), written a band of rows at a time
 _EMPTY = np.empty(0, np.float32)  # what a used-up cloud's images are
 
 
@@ -81,14 +84,33 @@ class OrganisedCloud:
         return PointSet(points, normals, colors, quality, source_index, pixel)
 
 
-class PlaneTerms:
-    """Per-pixel terms of a pair whose camera ray meets the plane of a projector column (or row)
-    x: the ray parameter is s = (a + b x) / (c + d x), with the ray direction and its component
-    along the camera axis (for depth jumps), all float32 (H, W)."""
+class PixelTerms(abc.ABC):
+    """Per-pixel terms of a pair computed once: each camera pixel's unit ray and its component along
+    the camera axis (for depth jumps), float32; subclasses triangulate what they code."""
 
-    def __init__(self, camera: CameraModel, terms: tuple[np.ndarray, ...], scale: float, shift: float) -> None:
+    def __init__(self, camera: CameraModel) -> None:
+        shape = (camera.height, camera.width)
+        directions = camera.pixel_rays[1]
+        self.directions = np.ascontiguousarray(directions.T.astype(np.float32)).reshape(3, *shape)
+        self.along_axis = (directions @ camera.axis).astype(np.float32).reshape(shape)
+
+    @abc.abstractmethod
+    def triangulate(self, corr: Correspondence, ray: Images, depth: Images, decoded: Images, rows: slice) -> None:
+        """Rows `rows` of each pixel's distance along its ray, its depth and whether it has a point
+        (rig.kernels.dense writes them in place)."""
+
+
+class PlaneTerms(PixelTerms):
+    """A pair whose camera ray meets the plane of a projector column (or row) x: the ray parameter
+    is s = (a + b x) / (c + d x), all float32 (H, W)."""
+
+    def __init__(
+        self, camera: CameraModel, axis: str, terms: tuple[np.ndarray, ...], scale: float, shift: float
+    ) -> None:
         """`terms`: PairTriangulator's plane terms (nd_a, nd_b, no_a, no_b, c0, c1) of a camera whose
         rays all leave its centre; x normalised = scale * coded + shift."""
+        super().__init__(camera)
+        self.axis = axis
         nd_a, nd_b, no_a, no_b, c0, c1 = terms
         shape = (camera.height, camera.width)
         # s = (c0 - no_a + (c1 - no_b) x) / (nd_a + nd_b x), with x = scale * coded + shift
@@ -97,35 +119,64 @@ class PlaneTerms:
         self.c = (nd_a + nd_b * shift).astype(np.float32).reshape(shape)
         self.d = (nd_b * scale).astype(np.float32).reshape(shape)
         self.scale, self.shift = np.float32(scale), np.float32(shift)
-        directions = camera.pixel_rays[1]
-        self.directions = np.ascontiguousarray(directions.T.astype(np.float32)).reshape(3, *shape)
-        self.along_axis = (directions @ camera.axis).astype(np.float32).reshape(shape)
+
+    def triangulate(self, corr: Correspondence, ray: Images, depth: Images, decoded: Images, rows: slice) -> None:
+        coded = corr.u if self.axis == "u" else corr.v
+        assert coded is not None
+        kernels.plane_triangulate(
+            coded, corr.valid, self.a, self.b, self.c, self.d, self.scale, self.shift,
+            self.along_axis, ray, depth, decoded, rows.start, rows.stop,
+        )  # fmt: skip
 
 
-def fast_terms(triangulator: PairTriangulator, axis: str) -> PlaneTerms | None:
-    """The pair's PlaneTerms for a code of one `axis` (computed once, kept with the triangulator),
-    or None where the pair needs the general path: a projector with distortion or skew, a camera
-    whose rays do not all leave its centre."""
+class RayRayTerms(PixelTerms):
+    """A pair with both projector coordinates decoded (radial, or Gray code in both directions): the
+    point of each camera ray closest to the projector ray of (u, v), PairTriangulator._ray_ray_fast
+    per pixel from the camera's rays and the projector's 3x3 map from (u, v, 1) to its ray."""
+
+    def __init__(self, camera: CameraModel, projector: CameraModel) -> None:
+        super().__init__(camera)
+        self.to_ray = projector.R.T @ np.linalg.inv(projector.K)
+        self.offset = np.asarray(camera.center - projector.center, np.float64)
+
+    def triangulate(self, corr: Correspondence, ray: Images, depth: Images, decoded: Images, rows: slice) -> None:
+        assert corr.u is not None and corr.v is not None
+        kernels.ray_ray_triangulate(
+            corr.u, corr.v, corr.valid, self.directions, self.to_ray, self.offset,
+            self.along_axis, ray, depth, decoded, rows.start, rows.stop,
+        )  # fmt: skip
+
+
+def fast_terms(triangulator: PairTriangulator, coded: str) -> PixelTerms | None:
+    """The pair's terms for a code of the axes `coded` ("u", "v" or "uv"; computed once, kept with
+    the triangulator), or None where the pair needs the general path: a projector with distortion
+    (or, for one axis, skew), a camera whose rays do not all leave its centre."""
     projector, camera = triangulator.projector, triangulator.camera
-    if projector.projection != "pinhole" or camera.projection != "pinhole" or not triangulator.planes_affine(axis):
+    if projector.projection != "pinhole" or camera.projection != "pinhole":
         return None
-    key = f"plane_terms_{axis}"
+    if projector.has_distortion if coded == "uv" else not triangulator.planes_affine(coded):
+        return None
+    key = f"pixel_terms_{coded}"
     if key not in triangulator.derived:
-        K = projector.K
-        focal, centre = (K[0, 0], K[0, 2]) if axis == "u" else (K[1, 1], K[1, 2])
-        triangulator.derived[key] = PlaneTerms(camera, triangulator.plane_terms(axis), 1.0 / focal, -centre / focal)
+        if coded == "uv":
+            triangulator.derived[key] = RayRayTerms(camera, projector)
+        else:
+            K = projector.K
+            focal, centre = (K[0, 0], K[0, 2]) if coded == "u" else (K[1, 1], K[1, 2])
+            terms = triangulator.plane_terms(coded)
+            triangulator.derived[key] = PlaneTerms(camera, coded, terms, 1.0 / focal, -centre / focal)
     found = triangulator.derived[key]
-    assert isinstance(found, PlaneTerms)
+    assert isinstance(found, PixelTerms)
     return found
 
 
 def organised_cloud(
-    terms: PlaneTerms, origin: np.ndarray, corr: Correspondence, coded: np.ndarray, max_jump_mm: float | None
+    terms: PixelTerms, origin: np.ndarray, corr: Correspondence, max_jump_mm: float | None
 ) -> tuple[OrganisedCloud, dict[str, int]]:
     """Triangulate, drop isolated points (depth jumps over `max_jump_mm`, None: none dropped),
     normals and colours; the counts as reconstruct_pair reports them."""
-    ray, depth, keep, counts = _triangulated(terms, corr, coded, max_jump_mm)
-    height = coded.shape[0]
+    ray, depth, keep, counts = _triangulated(terms, corr, max_jump_mm)
+    height = keep.shape[0]
     first = np.zeros(height + 1, np.int64)  # row y's kept pixels are normals[first[y]:first[y + 1]]
     np.cumsum(np.count_nonzero(keep, axis=1), out=first[1:])
     normals = np.empty((int(first[-1]), 3), np.float32)
@@ -139,30 +190,22 @@ def organised_cloud(
     return cloud, counts
 
 
-def organised_depth(
-    terms: PlaneTerms, corr: Correspondence, coded: np.ndarray, max_jump_mm: float | None
-) -> np.ndarray:
+def organised_depth(terms: PixelTerms, corr: Correspondence, max_jump_mm: float | None) -> np.ndarray:
     """The depth image alone (H, W) float32 in mm, NaN where organised_cloud keeps no point: what
     live mode shows, without the normals and colours a cloud carries."""
-    _, depth, keep, _ = _triangulated(terms, corr, coded, max_jump_mm)
+    _, depth, keep, _ = _triangulated(terms, corr, max_jump_mm)
     depth[~keep] = np.nan
     return depth
 
 
 def _triangulated(
-    terms: PlaneTerms, corr: Correspondence, coded: np.ndarray, max_jump_mm: float | None
+    terms: PixelTerms, corr: Correspondence, max_jump_mm: float | None
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, dict[str, int]]:
     """Ray parameters and depths (H, W), the points kept (isolated ones dropped), and the counts."""
-    height, width = coded.shape
+    height, width = corr.valid.shape
     ray, depth = np.empty((height, width), np.float32), np.empty((height, width), np.float32)
     decoded = np.empty((height, width), bool)
-    in_row_strips(
-        height,
-        lambda rows: kernels.plane_triangulate(
-            coded, corr.valid, terms.a, terms.b, terms.c, terms.d, terms.scale, terms.shift,
-            terms.along_axis, ray, depth, decoded, rows.start, rows.stop,
-        ),
-    )  # fmt: skip
+    in_row_strips(height, lambda rows: terms.triangulate(corr, ray, depth, decoded, rows))
     counts: dict[str, int] = {}
     keep = decoded
     if max_jump_mm is not None:

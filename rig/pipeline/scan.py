@@ -15,7 +15,7 @@ from rig.pipeline.colour import interpolate_colour, sample_colours
 from rig.pipeline.dense import PairTriangulator, pair_pointset, reject_isolated, texture_rgb
 from rig.pipeline.merge import expected_error_mm, local_noise_mm, merge, triangulation_angles
 from rig.pipeline.mesh import Mesh, grid_mesh
-from rig.pipeline.organised import OrganisedCloud, PlaneTerms, fast_terms, organised_cloud
+from rig.pipeline.organised import OrganisedCloud, PixelTerms, fast_terms, organised_cloud
 from rig.pipeline.overlap import overlap_from_cue
 from rig.pipeline.pointset import PointSet
 from rig.pipeline.realign import align_pairs
@@ -154,19 +154,16 @@ def pair_cloud(
     if fast is None:
         return None
     origin = rig.camera_models[camera].center
-    return organised_cloud(fast[0], origin, corr, fast[1], rig.config.scan.max_depth_jump_mm)
+    return organised_cloud(fast, origin, corr, rig.config.scan.max_depth_jump_mm)
 
 
-def organised_terms(
-    rig: Rig, projector: int, camera: int, corr: Correspondence
-) -> tuple[PlaneTerms, np.ndarray] | None:
-    """The pair's per-pixel plane terms and the one coordinate `corr` codes, where the fast path
-    (rig.pipeline.organised) can triangulate it: a dense correspondence of one axis."""
-    if corr.samples is not None or (corr.u is None) == (corr.v is None):
+def organised_terms(rig: Rig, projector: int, camera: int, corr: Correspondence) -> PixelTerms | None:
+    """The pair's per-pixel terms for what `corr` codes, where the fast path (rig.pipeline.organised)
+    can triangulate it: a dense correspondence of one axis or of both."""
+    if corr.samples is not None or (corr.u is None and corr.v is None):
         return None
-    coded, axis = (corr.u, "u") if corr.u is not None else (corr.v, "v")
-    terms = fast_terms(triangulator(rig, projector, camera), axis)
-    return None if terms is None or coded is None else (terms, coded)
+    coded = ("u" if corr.u is not None else "") + ("v" if corr.v is not None else "")
+    return fast_terms(triangulator(rig, projector, camera), coded)
 
 
 def triangulator(rig: Rig, projector: int, camera: int) -> PairTriangulator:
