@@ -166,6 +166,40 @@ def test_radius_and_fine_angle_place_exact_samples_exactly(dist: tuple[float, ..
     assert np.all(solution.chi2[found] < 1e-3) and np.median(solution.margin[found]) > 100
 
 
+def test_the_compiled_solver_reads_what_the_array_solver_reads() -> None:
+    """Noisy radius and angles (some samples misfit, some ambiguous, some with no branch): the
+    compiled per-sample solver (a projector without distortion) gives _solve_chunk's readings."""
+    from rig.pipeline import ring_angles
+
+    camera = make_device(640, 512, 900.0, (-100.0, 0.0, 600.0), (0.0, 0.0, 30.0))
+    projector = make_device(512, 384, 750.0, (100.0, 0.0, 620.0), (0.0, 0.0, 30.0))
+    rng = np.random.default_rng(12)
+    points = rng.uniform([-60, -60, 0], [60, 60, 80], (4000, 3))
+    origins, directions = camera.rays(camera.project(points)[0])
+    origins = np.ascontiguousarray(np.broadcast_to(origins, directions.shape))
+    center = (255.5, 191.5)
+    puv, _ = projector.project(points)
+    radius = np.hypot(puv[:, 0] - center[0], puv[:, 1] - center[1]) + rng.normal(0, 0.5, len(points))
+    theta = np.arctan2(puv[:, 1] - center[1], puv[:, 0] - center[0]) + rng.normal(0, 0.08, len(points))
+    periods = np.maximum(1, np.rint(2 * np.pi * radius / 16.0)).astype(np.int64)
+    fine = np.angle(np.exp(1j * (periods * theta + rng.normal(0, 0.3, len(points)))))
+    compiled = ring_angles.solve_ring_angles(
+        projector, origins, directions, radius, theta, fine, periods, center, 0.3, 0.3
+    )
+    rays = ring_angles._Rays(projector, origins, directions, center)
+    sigma = np.full(len(points), ring_angles.COARSE_SIGMA_RAD)
+    reference = ring_angles._solve_chunk(rays, radius, theta, fine, periods, 0.3, 0.3, sigma)
+    np.testing.assert_allclose(compiled.s, reference[0], rtol=1e-9)
+    np.testing.assert_allclose(compiled.chi2, reference[2], rtol=1e-9)
+    placed = np.isfinite(compiled.s)  # a sample no branch meets has no deviation to speak of
+    np.testing.assert_allclose(compiled.sigma_s[placed], reference[1][placed], rtol=1e-9)
+    margin = np.where(reference[3] < np.finfo(float).max, reference[3], np.inf)  # nan_to_num's largest float
+    np.testing.assert_allclose(compiled.margin, margin, rtol=1e-9)
+    misfit = np.isfinite(compiled.s) & (compiled.chi2 > ring_angles.MAX_ANGLE_CHI2)
+    ambiguous = np.isfinite(compiled.margin) & (compiled.margin < ring_angles.MIN_BRANCH_MARGIN)
+    assert misfit.any() and ambiguous.any() and (~np.isfinite(compiled.s)).any()  # every kind was read
+
+
 def test_where_the_coarse_angle_leaves_the_period_ambiguous_the_rings_neighbours_pick_it() -> None:
     """Samples along rings on a tilted plane, the fine angle exact and the coarse angle as noisy as a
     scan's (0.02 rad, where a 16 px period on a ring of 200 px is 0.08 rad): where the ring runs

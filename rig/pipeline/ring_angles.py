@@ -23,7 +23,11 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from rig.geometry import CameraModel, ConeHits, affine_image, ray_half_plane
+from rig.lazy import lazy_module
 from rig.patterns import RingSamples
+from rig.workers import batches, pool
+
+ring_kernels = lazy_module("rig.kernels.rings")  # numba compiles on first use: not for --help
 
 # A sample is rejected when its best reading misfits the decoded radius
 # and angles by more than this chi-square (a mixed pixel on a depth edge, read between two surfaces),
@@ -135,8 +139,13 @@ def solve_ring_angles(
     angles: `coarse_theta` (radians, absolute, with error `coarse_sigma`, one or per ray) and
     `fine_phase` (wrapped, of `fine_periods` periods per revolution)."""
     n = len(radius)
-    out = [np.full(n, np.nan), np.full(n, np.nan), np.full(n, np.inf), np.full(n, np.inf)]
     sigma = np.broadcast_to(np.asarray(coarse_sigma, dtype=np.float64), (n,))
+    if not projector.has_distortion:
+        return _solved_compiled(
+            projector, origins, directions, (radius, coarse_theta, fine_phase, fine_periods, sigma), center,
+            (radius_sigma_px, tangential_sigma_px),
+        )  # fmt: skip
+    out = [np.full(n, np.nan), np.full(n, np.nan), np.full(n, np.inf), np.full(n, np.inf)]
     for start in range(0, n, chunk):
         part = slice(start, min(n, start + chunk))
         rays = _Rays(projector, origins[part], directions[part], center)
@@ -153,6 +162,33 @@ def solve_ring_angles(
         for array, value in zip(out, solved, strict=True):
             array[part] = value
     return AngleSolution(*out)
+
+
+def _solved_compiled(
+    projector: CameraModel,
+    origins: np.ndarray,
+    directions: np.ndarray,
+    per_sample: tuple[np.ndarray, ...],
+    center: tuple[float, float],
+    sigmas: tuple[float, float],
+) -> AngleSolution:
+    """solve_ring_angles for a projector without distortion, a sample at a time in compiled code
+    (rig.kernels.rings.solve_angles): the same branches, scores and refinement as _solve_chunk."""
+    rays = _Rays(projector, origins, directions, center)
+    assert rays.affine is not None
+    terms = np.ascontiguousarray(np.column_stack(rays.affine), dtype=np.float64)
+    radius, coarse, phase, periods, sigma = (np.ascontiguousarray(a, dtype=np.float64) for a in per_sample)
+    out = np.empty((len(radius), 4))
+    constants = (BRANCH_WINDOW_RAD, (float(sigmas[0]), float(sigmas[1])), _ITERATIONS)
+    list(
+        pool().map(
+            lambda span: ring_kernels.solve_angles(
+                terms, radius, coarse, phase, periods, sigma, *constants, out, *span
+            ),
+            batches(len(radius)),
+        )
+    )
+    return AngleSolution(*(np.ascontiguousarray(out[:, k]) for k in range(4)))
 
 
 def _solve_chunk(
