@@ -197,3 +197,44 @@ def cued_unwrap(
             found = found if fringe + fringe >= black_threshold else UNLIT
             status[y, x] = found
             coordinate[y, x] = result if found == DECODED else nan
+
+
+@njit(**KERNEL)
+def twice_mean(frames: tuple[Image, ...], full_scale: np.float32, out: Image, top: int, bottom: int) -> None:
+    """Twice the frames' mean (float32, the sum in frame order as rig.patterns.cued_phase.texture
+    adds them), at most `full_scale`, truncated to `out`'s sample type: a fringe's peak."""
+    scale = np.float32(2.0 / len(frames))
+    width = out.shape[1]
+    total = np.empty(width, np.float32)
+    for y in range(top, bottom):
+        total[:] = 0
+        for n in range(len(frames)):
+            row = frames[n][y]
+            for x in range(width):
+                total[x] += np.float32(row[x])
+        for x in range(width):
+            out[y, x] = min(total[x] * scale, full_scale)
+
+
+@njit(**KERNEL)
+def account_status(
+    status: Image, saturated: Image, any_saturated: bool, coordinate: Image, valid: Image, top: int, bottom: int
+) -> np.ndarray:
+    """A lit pixel clipped in any frame (`saturated`, read only when `any_saturated`) gets status
+    `saturated_code` = LOW_MODULATION + 1; `valid` where DECODED, the coordinate NaN elsewhere.
+    Returns the count of each status (0 to LOW_MODULATION + 1)."""
+    saturated_code = LOW_MODULATION + 1
+    counts = np.zeros(saturated_code + 1, np.int64)
+    nan = np.float32(np.nan)
+    for y in range(top, bottom):
+        for x in range(status.shape[1]):
+            code = status[y, x]
+            if any_saturated and saturated[y, x] and code != UNLIT:
+                code = saturated_code
+                status[y, x] = code
+            counts[code] += 1
+            decoded = code == DECODED
+            valid[y, x] = decoded
+            if not decoded:
+                coordinate[y, x] = nan
+    return counts

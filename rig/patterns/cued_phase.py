@@ -56,6 +56,7 @@ UNLIT, DECODED, CUE_OFF, OUTSIDE, LOW_MODULATION, SATURATED = 0, 1, 2, 3, 4, 5
 CUE_OFF_WARNING = 0.05  # of the lit pixels: more whose cue is off is worth a warning ...
 CUE_OFF_REFUSED = 0.2  # ... and this many, a refusal (a linear projector: 0.07 %; a gamma of 2.2: 33 %)
 WARN_EVERY_S = 10.0  # live mode decodes 20 sequences a second: one warning in this long
+_NONE_CLIPPED = np.zeros((0, 0), bool)  # what account_status is given where no pixel clipped (never read)
 
 
 class CuedPhaseParams(CodecParams):
@@ -163,9 +164,16 @@ class CuedPhaseCodec(LineCodec):
         """The Correspondence from each pixel's status (rig.kernels.phase.cued_unwrap's): a lit pixel
         clipped in any frame counts as saturated, whatever else it read (a clipped step throws its
         cue off too); the coordinates NaN where not decoded."""
-        if saturated is not None:
-            status[saturated & (status != UNLIT)] = SATURATED
-        found = np.bincount(status.ravel(), minlength=SATURATED + 1)
+        valid, parts = np.empty(status.shape, bool), []
+        clipped = saturated is not None and bool(saturated.any())
+        marks = saturated if saturated is not None and clipped else _NONE_CLIPPED
+        in_row_strips(
+            status.shape[0],
+            lambda rows: parts.append(
+                phase_kernels.account_status(status, marks, clipped, coordinate, valid, rows.start, rows.stop)
+            ),
+        )
+        found = np.sum(parts, axis=0)
         names = {
             "decoded": DECODED,
             "cue_off": CUE_OFF,
@@ -174,13 +182,11 @@ class CuedPhaseCodec(LineCodec):
         }
         counts = {"lit": int(found[1:].sum()), **{name: int(found[code]) for name, code in names.items()}}
         self._judge_cue(counts)
-        valid = status == DECODED
-        coordinate[~valid] = np.nan
         corr = Correspondence(
             valid=valid, quality=quality, texture=peak, counts=counts, full_scale=full_scale,
             **{self.axis: coordinate},  # type: ignore[arg-type]
         )  # fmt: skip
-        return corr if saturated is None else without_saturated(corr, saturated)
+        return corr if not clipped else without_saturated(corr, saturated)
 
     def _judge_cue(self, counts: dict[str, int]) -> None:
         """DecodeError where the cue is off at over CUE_OFF_REFUSED of the lit pixels; a warning
@@ -213,7 +219,15 @@ def _phase(steps: list[np.ndarray], period: np.float32) -> tuple[np.ndarray, np.
 
 
 def texture(fine: list[np.ndarray], full_scale: int) -> np.ndarray:
-    """Twice the fine steps' mean, in the frames' sample type (each channel of a colour frame)."""
+    """Twice the fine steps' mean, in the frames' sample type (each channel of a colour frame); a
+    grey frame's in one compiled pass (rig.kernels.phase.twice_mean), the same sums."""
+    if fine[0].ndim == 2:
+        out, frames = np.empty(fine[0].shape, fine[0].dtype), tuple(np.ascontiguousarray(f) for f in fine)
+        in_row_strips(
+            out.shape[0],
+            lambda rows: phase_kernels.twice_mean(frames, np.float32(full_scale), out, rows.start, rows.stop),
+        )
+        return out
     total = np.zeros(fine[0].shape, np.float32)
     for frame in fine:
         total += frame
