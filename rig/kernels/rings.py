@@ -117,3 +117,106 @@ def solve_angles(
         margin = chi2[1 - first] - chi2[first]
         out[i, 0], out[i, 1], out[i, 2] = solved[first, 0], solved[first, 1], chi2[first]
         out[i, 3] = margin if np.isfinite(margin) or margin > 0 else np.inf
+
+
+@njit(nogil=True, cache=True)
+def _plane_agrees(
+    near: np.ndarray, part: np.ndarray, count: int, depth: float, max_jump: float, min_count: int, max_scatter: float
+) -> bool:
+    """rig.pipeline.ring_triangulation._plane_agrees at one point: the plane z = a + b dx + c dy
+    fitted to its neighbours near[:count] (dx, dy, z) where `part` predicts its depth (a) within
+    `max_jump` or four times the fit's scatter, with `min_count` of them and a scatter of at most
+    `max_scatter`."""
+    n = sx = sy = sxx = sxy = syy = sz = sxz = syz = 0.0
+    for j in range(count):
+        if part[j]:
+            dx, dy, z = near[j, 0], near[j, 1], near[j, 2]
+            n += 1.0
+            sx += dx
+            sy += dy
+            sxx += dx * dx
+            sxy += dx * dy
+            syy += dy * dy
+            sz += z
+            sxz += dx * z
+            syz += dy * z
+    if n < min_count:
+        return False
+    # the normal equations (ridged by 1e-6, as the array version) solved by Cramer's rule
+    a11, a22, a33 = n + 1e-6, sxx + 1e-6, syy + 1e-6
+    minor1, minor2, minor3 = a22 * a33 - sxy * sxy, sx * a33 - sxy * sy, sx * sxy - a22 * sy
+    det = a11 * minor1 - sx * minor2 + sy * minor3
+    c0 = (sz * minor1 - sx * (sxz * a33 - sxy * syz) + sy * (sxz * sxy - a22 * syz)) / det
+    c1 = (a11 * (sxz * a33 - sxy * syz) - sz * minor2 + sy * (sx * syz - sxz * sy)) / det
+    c2 = (a11 * (a22 * syz - sxz * sxy) - sx * (sx * syz - sxz * sy) + sz * minor3) / det
+    squares = 0.0
+    for j in range(count):
+        if part[j]:
+            off = near[j, 2] - (c0 + c1 * near[j, 0] + c2 * near[j, 1])
+            squares += off * off
+    scatter = math.sqrt(squares / max(n - 3.0, 1.0))
+    return scatter <= max_scatter and abs(depth - c0) <= max(max_jump, 4.0 * scatter)
+
+
+@njit(**KERNEL)
+def across_agrees(
+    xy: np.ndarray,
+    depth: np.ndarray,
+    ring: np.ndarray,
+    index: np.ndarray,
+    other: np.ndarray,
+    alive: np.ndarray,
+    judged: np.ndarray,
+    limits: tuple[float, int, int],
+    out: np.ndarray,
+    start: int,
+    stop: int,
+) -> None:
+    """rig.pipeline.ring_triangulation.across_ring_support for points judged[start:stop]: out[i]
+    False where point p = judged[i]'s nearest `neighbours` candidates of other rings still `alive`
+    (index[p] where other[p], nearest first)
+    span two rings or more, are `min_count` or more and neither one plane over them (scatter at
+    most half the limit) nor a plane over either side of their largest depth gap predicts it
+    within `max_jump` (limits: max_jump, neighbours, min_count)."""
+    max_jump, neighbours, min_count = limits
+    near = np.empty((neighbours, 3))
+    near_ring = np.empty(neighbours, np.int64)
+    every, below, above = np.ones(neighbours, np.bool_), np.empty(neighbours, np.bool_), np.empty(neighbours, np.bool_)
+    for i in range(start, stop):
+        p = judged[i]
+        count = 0
+        for j in range(index.shape[1]):
+            q = index[p, j]
+            if other[p, j] and alive[q] and count < neighbours:
+                near[count, 0], near[count, 1] = xy[q, 0] - xy[p, 0], xy[q, 1] - xy[p, 1]
+                near[count, 2], near_ring[count] = depth[q], ring[q]
+                count += 1
+        judgeable = count > 0 and near_ring[:count].min() < near_ring[:count].max()
+        if not judgeable or count < min_count:
+            out[i] = True
+            continue
+        if _plane_agrees(near, every, count, depth[p], max_jump, min_count, 0.5 * max_jump):
+            out[i] = True
+            continue
+        # two sides of the largest gap in the neighbours' depths, each judged on its own
+        z = np.sort(near[:count, 2])
+        split = np.argmax(z[1:] - z[:-1]) if count > 1 else 0
+        threshold = 0.5 * (z[split] + z[split + 1]) if count > 1 else np.nan
+        for j in range(count):
+            below[j] = near[j, 2] <= threshold
+            above[j] = not below[j]
+        either = False
+        for side in (below, above):
+            rings_on_side, first_ring, one_ring = 0, -1, True
+            for j in range(count):
+                if side[j]:
+                    rings_on_side += 1
+                    if first_ring < 0:
+                        first_ring = near_ring[j]
+                    one_ring = one_ring and near_ring[j] == first_ring
+            # samples of one ring alone lie on a curve, which fixes no plane: such a side cannot judge
+            if (rings_on_side > 0 and one_ring) or _plane_agrees(
+                near, side, count, depth[p], max_jump, min_count, np.inf
+            ):
+                either = True
+        out[i] = either

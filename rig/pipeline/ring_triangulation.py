@@ -10,12 +10,16 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from rig.geometry import CameraModel, parallel_projection, radius_ratio, ray_cone, refine_on_distorted_ring
+from rig.lazy import lazy_module
 from rig.patterns import Correspondence, RingSamples
 from rig.pipeline.dense import texture_rgb
 from rig.pipeline.normals import accumulate_normals
 from rig.pipeline.pointset import PointSet
 from rig.pipeline.ring_angles import Placed, place_by_fine_angle
 from rig.pipeline.triangulation import delaunay
+from rig.workers import batches, pool
+
+ring_kernels = lazy_module("rig.kernels.rings")  # numba compiles on first use: not for --help
 
 # Triangles of the sample mesh longer than this (camera pixels) bridge gaps, not neighbouring rings.
 _MAX_TRIANGLE_EDGE_PX = 80.0
@@ -138,34 +142,13 @@ def along_ring_support(
     return out
 
 
-def _plane_agrees(
-    dx: np.ndarray,
-    dy: np.ndarray,
-    z: np.ndarray,
-    depth: np.ndarray,
-    use: np.ndarray,
-    max_jump_mm: float,
-    min_count: int,
-    max_scatter_mm: float = np.inf,
-) -> np.ndarray:
-    """For each point, whether the plane z = a + b dx + c dy fitted to its neighbours (offsets `dx`,
-    `dy` in pixels, depths `z`, (N, K)) where `use` predicts its depth (the plane's `a`) within
-    `max_jump_mm` or four times the fit's scatter; False where fewer than `min_count` neighbours
-    support it or the fit scatters more than `max_scatter_mm` (no plane: two surfaces, which a
-    plane would interpolate between)."""
-    w = use.astype(np.float64)
-    sums = [np.sum(w * term, axis=1) for term in (1.0, dx, dy, dx * dx, dx * dy, dy * dy, z, dx * z, dy * z)]
-    n, sx, sy, sxx, sxy, syy, sz, sxz, syz = sums
-    normal = np.stack([np.stack([n, sx, sy], 1), np.stack([sx, sxx, sxy], 1), np.stack([sy, sxy, syy], 1)], 1)
-    coef = np.linalg.solve(normal + 1e-6 * np.eye(3), np.stack([sz, sxz, syz], 1)[..., None])[..., 0]
-    fitted = coef[:, :1] + coef[:, 1:2] * dx + coef[:, 2:3] * dy
-    scatter = np.sqrt(np.sum(w * (z - fitted) ** 2, axis=1) / np.maximum(n - 3, 1))
-    allowed = np.maximum(max_jump_mm, 4.0 * scatter)
-    return (n >= min_count) & (scatter <= max_scatter_mm) & (np.abs(depth - coef[:, 0]) <= allowed)
-
-
 def across_ring_support(
-    rings: RingPoints, camera: CameraModel, max_jump_mm: float, neighbours: int = 24, min_count: int = 6
+    rings: RingPoints,
+    camera: CameraModel,
+    max_jump_mm: float,
+    neighbours: int = 24,
+    min_count: int = 6,
+    passes: int = 2,
 ) -> np.ndarray:
     """Mask of kept ring points that the neighbouring rings agree with. A stretch of a ring that took
     a wrong index at a depth edge agrees with itself (so the along-ring test keeps it) but lies
@@ -173,56 +156,65 @@ def across_ring_support(
     their depths (the two sides of an edge, or two halves of one surface), and a plane is fitted to
     all of them (if they lie on one plane) and to each part: a point no fit predicts is rejected.
     Points whose neighbours come from one other ring only (a curve: a plane through it
-    extrapolates) are left alone. Run it twice: once the worst are gone, the fits see clearly."""
+    extrapolates) are left alone. It runs `passes` times over the same neighbourhoods, each without
+    the points the passes before rejected: once the worst are gone, the fits see clearly. Each
+    point is judged in compiled code (rig.kernels.rings.across_agrees): a neighbourhood's fits in
+    registers, not (points, neighbours) arrays."""
     kept = np.flatnonzero(rings.kept)
     out = rings.kept.copy()
     if len(kept) <= neighbours:
         return out
-    # Neighbouring rings lie farther off than a ring's own samples: a plane over them misses a
-    # curved surface by more, so only a gross disagreement (a ring stretch on the wrong surface,
-    # many millimetres off) counts.
-    max_jump_mm = ACROSS_RINGS_FACTOR * max_jump_mm
     xy = rings.camera_xy[kept]
     depth = (rings.points[kept] - camera.center) @ camera.axis
     ring = rings.ring[kept]
     # Candidates: every 4th sample, so a point's own ring (a sample a pixel) does not crowd out the
     # other rings among its nearest, and the fits span a wider patch.
     candidates = np.arange(0, len(kept), 4)
-    k = min(len(candidates), 2 * neighbours)
-    _, nearest = cKDTree(xy[candidates]).query(xy, k, workers=-1)
-    index = candidates[nearest]
+    index = _nearest_candidates(xy, ring, candidates, min(len(candidates), 2 * neighbours))
     other = ring[index] != ring[:, None]
-    # the nearest `neighbours` samples of other rings, packed to the front (stable: nearest first)
-    order = np.argsort(~other, axis=1, kind="stable")[:, :neighbours]
-    index = np.take_along_axis(index, order, axis=1)
-    use = np.take_along_axis(other, order, axis=1)
-    near_ring = ring[index]
-    judged = np.where(use, near_ring, np.iinfo(ring.dtype).max).min(axis=1) < np.where(
-        use, near_ring, np.iinfo(ring.dtype).min
-    ).max(axis=1)
-    dx, dy = xy[index, 0] - xy[:, :1], xy[index, 1] - xy[:, 1:]
-    z = depth[index]
-    agrees = _plane_agrees(dx, dy, z, depth, use, max_jump_mm, min_count, max_scatter_mm=0.5 * max_jump_mm)
-    doubt = np.flatnonzero(judged & ~agrees)  # on a smooth patch the one plane settles it
-    if len(doubt):
-        dx, dy, z, d, u = dx[doubt], dy[doubt], z[doubt], depth[doubt], use[doubt]
-        ordered = np.sort(np.where(u, z, np.nan), axis=1)  # NaN last
-        gaps = np.diff(ordered, axis=1)
-        split_at = np.argmax(np.where(np.isfinite(gaps), gaps, -np.inf), axis=1)
-        rows = np.arange(len(doubt))
-        threshold = 0.5 * (ordered[rows, split_at] + ordered[rows, split_at + 1])
-        below = u & (z <= threshold[:, None])
-        near = near_ring[doubt]
-        either = np.zeros(len(doubt), bool)
-        for part in (below, u & ~below):
-            # samples of one ring alone lie on a curve, which fixes no plane: such a side cannot judge
-            one_ring = np.where(part, near, np.iinfo(near.dtype).max).min(axis=1) == np.where(
-                part, near, np.iinfo(near.dtype).min
-            ).max(axis=1)
-            either |= _plane_agrees(dx, dy, z, d, part, max_jump_mm, min_count) | (part.any(axis=1) & one_ring)
-        agrees[doubt] = either
-    out[kept[judged & ~agrees & (use.sum(axis=1) >= min_count)]] = False
+    alive = np.ones(len(kept), bool)
+    points = (np.ascontiguousarray(xy), np.ascontiguousarray(depth), ring.astype(np.int64))
+    limits = (ACROSS_RINGS_FACTOR * max_jump_mm, neighbours, min_count)
+    for _ in range(passes):
+        judged = np.flatnonzero(alive)
+        agrees = _agrees(points, (index, other, alive, judged), limits)
+        alive[judged[~agrees]] = False
+    out[kept[~alive]] = False
     return out
+
+
+# A sample within this of a candidate of its ring (pixels) takes the candidate's nearest candidates.
+_SHARED_NEIGHBOURHOOD_PX = 3.0
+
+
+def _nearest_candidates(xy: np.ndarray, ring: np.ndarray, candidates: np.ndarray, k: int) -> np.ndarray:
+    """(N, k) the `k` candidates nearest each sample, nearest first. A sample within
+    _SHARED_NEIGHBOURHOOD_PX of a candidate of its own ring takes that candidate's (its fits span
+    ~50 px): the k nearest are searched for the candidates, and for the samples without one near."""
+    tree = cKDTree(xy[candidates])
+    distance, closest = tree.query(xy, 1, workers=-1)
+    closest = candidates[closest]
+    shared = (distance <= _SHARED_NEIGHBOURHOOD_PX) & (ring[closest] == ring)
+    searched = np.union1d(candidates, np.flatnonzero(~shared))
+    _, nearest = tree.query(xy[searched], k, workers=-1)
+    index = np.empty((len(xy), k), np.int64)
+    index[searched] = candidates[nearest.reshape(len(searched), k)]
+    take = np.flatnonzero(shared & ~np.isin(np.arange(len(xy)), searched))
+    index[take] = index[closest[take]]
+    return index
+
+
+def _agrees(
+    points: tuple[np.ndarray, ...], neighbourhoods: tuple[np.ndarray, ...], limits: tuple[float, int, int]
+) -> np.ndarray:
+    """rig.kernels.rings.across_agrees over the pool: each judged point's verdict
+    (`neighbourhoods`: every point's candidates, which are of other rings, which points are alive,
+    and the points judged)."""
+    judged = neighbourhoods[-1]
+    agrees = np.empty(len(judged), bool)
+    spans = batches(len(judged))
+    list(pool().map(lambda span: ring_kernels.across_agrees(*points, *neighbourhoods, limits, agrees, *span), spans))
+    return agrees
 
 
 def _closed_form(model: str, camera: CameraModel, projector: CameraModel, samples: RingSamples) -> np.ndarray:

@@ -61,8 +61,7 @@ def reconstruct_pair(
         limit = rig.config.scan.max_depth_jump_mm
         if limit is not None:
             supported = along_ring_support(rings, model, limit)
-            for _ in range(2):  # a second pass, once the first has removed the worst, sees more clearly
-                supported &= across_ring_support(dataclasses.replace(rings, kept=supported), model, limit)
+            supported &= across_ring_support(dataclasses.replace(rings, kept=supported), model, limit)
             counts["rejected_depth_jump"] = int((rings.kept & ~supported).sum())
             rings = dataclasses.replace(rings, kept=supported)
             counts["ring_points"] = int(supported.sum())
