@@ -143,3 +143,136 @@ def _solve(matrix: np.ndarray, right: np.ndarray) -> np.ndarray:
             total -= matrix[r, c] * out[c]
         out[r] = total / matrix[r, r]
     return out
+
+
+@njit(**KERNEL)
+def sample_cells(xy: np.ndarray, cell: float) -> tuple[np.ndarray, np.ndarray, float, float, int, int]:
+    """The samples `xy` (M, 2) sorted into square cells of side `cell`: their indices cell by cell,
+    where each cell's run starts ((cells + 1,)), the grid's corner and its size in cells."""
+    x0, y0 = xy[:, 0].min(), xy[:, 1].min()
+    nx, ny = int((xy[:, 0].max() - x0) / cell) + 1, int((xy[:, 1].max() - y0) / cell) + 1
+    home = np.empty(len(xy), np.int64)
+    starts = np.zeros(nx * ny + 1, np.int64)
+    for i in range(len(xy)):
+        home[i] = int((xy[i, 1] - y0) / cell) * nx + int((xy[i, 0] - x0) / cell)
+        starts[home[i] + 1] += 1
+    starts = np.cumsum(starts)
+    filled = starts[:-1].copy()
+    order = np.empty(len(xy), np.int64)
+    for i in range(len(xy)):
+        order[filled[home[i]]] = i
+        filled[home[i]] += 1
+    return order, starts, x0, y0, nx, ny
+
+
+@njit(nogil=True, cache=True, inline="always")
+def _insert(dist: np.ndarray, index: np.ndarray, size: int, found: int, d: float, sample: int) -> int:
+    """Put (d, sample) into the first `size` slots of the sorted (dist, index) holding `found`."""
+    if size == 0 or (found == size and d >= dist[size - 1]):
+        return found
+    slot = min(found, size - 1)
+    while slot > 0 and dist[slot - 1] > d:
+        dist[slot], index[slot] = dist[slot - 1], index[slot - 1]
+        slot -= 1
+    dist[slot], index[slot] = d, sample
+    return min(found + 1, size)
+
+
+@njit(**KERNEL)
+def fill_neighbourhoods(
+    xy: np.ndarray,
+    ring: np.ndarray,
+    members: np.ndarray,
+    cells: tuple[np.ndarray, np.ndarray, float, float, int, int],
+    at: np.ndarray,
+    annulus: np.ndarray,
+    sizes: tuple[int, float, float],
+    dist: np.ndarray,
+    index: np.ndarray,
+    start: int,
+    stop: int,
+) -> None:
+    """rig.pipeline.fill._neighbourhoods for pixels at[start:stop] (their annulus a: rings a - 1 and
+    a, or ring 0 inside it): the `k` nearest samples within `reach` of any ring, then the k / 2
+    nearest of each of its two rings (k of ring 0 alone; at most `members[r]`) not among those.
+    dist inf (index 0) for an empty slot, and everywhere for a pixel whose rings do not both reach
+    it (or do not exist). sizes: (k, reach, cell); cells: sample_cells of that side."""
+    k = sizes[0]
+    for i in range(start, stop):
+        dist[i, :] = np.inf
+        index[i, :] = 0
+        a = annulus[i]
+        first, second = (0, -1) if a == 0 else (a - 1, a)
+        if first >= len(members) or second >= len(members) or members[first] == 0:
+            continue
+        if second >= 0 and members[second] == 0:
+            continue
+        near = min(k, len(xy))
+        n_first = min(near if second < 0 else near // 2, members[first])
+        wanted = (near, n_first, 0 if second < 0 else min(near // 2, members[second]))
+        found = _search(xy, ring, cells, sizes[1:], at[i], (first, second), wanted, dist[i], index[i])
+        if found[1] == 0 or (second >= 0 and found[2] == 0):
+            dist[i, :] = np.inf
+            index[i, :] = 0
+            continue
+        for j in range(near, near + wanted[1] + wanted[2]):  # listed already among the nearest of any ring
+            for m in range(found[0]):
+                if index[i, m] == index[i, j] and np.isfinite(dist[i, j]):
+                    dist[i, j] = np.inf
+        for j in range(dist.shape[1]):
+            if not np.isfinite(dist[i, j]):
+                index[i, j] = 0
+
+
+@njit(nogil=True, cache=True)
+def _search(
+    xy: np.ndarray,
+    ring: np.ndarray,
+    cells: tuple[np.ndarray, np.ndarray, float, float, int, int],
+    lengths: tuple[float, float],
+    at: np.ndarray,
+    rings: tuple[int, int],
+    wanted: tuple[int, int, int],
+    row_d: np.ndarray,
+    row_i: np.ndarray,
+) -> tuple[int, int, int]:
+    """One pixel's three lists (nearest of any ring, of rings[0], of rings[1]; `wanted` long each,
+    laid end to end in row_d and row_i), searched ring of cells by ring of cells about the pixel's
+    until no cell left can hold a nearer sample; how many each found. lengths: (reach, cell)."""
+    order, starts, x0, y0, nx, ny = cells
+    reach, cell = lengths
+    near, n_first, n_second = wanted
+    tail = near + n_first
+    found = found_first = found_second = 0
+    px, py = at[0], at[1]
+    cx = min(max(int((px - x0) // cell), 0), nx - 1)
+    cy = min(max(int((py - y0) // cell), 0), ny - 1)
+    for step in range(int(reach // cell) + 2):
+        for gy in range(max(cy - step, 0), min(cy + step, ny - 1) + 1):
+            edge = gy == cy - step or gy == cy + step
+            for gx in range(max(cx - step, 0), min(cx + step, nx - 1) + 1):
+                if not edge and cx - step < gx < cx + step:
+                    continue
+                c = gy * nx + gx
+                for j in range(starts[c], starts[c + 1]):
+                    s = order[j]
+                    d = np.sqrt((xy[s, 0] - px) ** 2 + (xy[s, 1] - py) ** 2)
+                    if d >= reach:
+                        continue
+                    found = _insert(row_d, row_i, near, found, d, s)
+                    if ring[s] == rings[0]:
+                        found_first = _insert(row_d[near:], row_i[near:], n_first, found_first, d, s)
+                    elif ring[s] == rings[1]:
+                        found_second = _insert(row_d[tail:], row_i[tail:], n_second, found_second, d, s)
+        # every sample nearer than the searched block's nearest outside edge has been seen
+        inner = min(
+            px - (x0 + (cx - step) * cell), x0 + (cx + step + 1) * cell - px,
+            py - (y0 + (cy - step) * cell), y0 + (cy + step + 1) * cell - py,
+        )  # fmt: skip
+        if inner >= reach:
+            break
+        done = found == near and row_d[near - 1] <= inner
+        done = done and found_first == n_first and (n_first == 0 or row_d[near + n_first - 1] <= inner)
+        if done and found_second == n_second and (n_second == 0 or row_d[tail + n_second - 1] <= inner):
+            break
+    return found, found_first, found_second

@@ -198,25 +198,36 @@ def across_agrees(
         if _plane_agrees(near, every, count, depth[p], max_jump, min_count, 0.5 * max_jump):
             out[i] = True
             continue
-        # two sides of the largest gap in the neighbours' depths, each judged on its own
-        z = np.sort(near[:count, 2])
-        split = np.argmax(z[1:] - z[:-1]) if count > 1 else 0
-        threshold = 0.5 * (z[split] + z[split + 1]) if count > 1 else np.nan
+        out[i] = _either_side_agrees(near, near_ring, count, depth[p], max_jump, min_count, (below, above))
+
+
+@njit(nogil=True, cache=True)
+def _either_side_agrees(
+    near: np.ndarray,
+    near_ring: np.ndarray,
+    count: int,
+    depth: float,
+    max_jump: float,
+    min_count: int,
+    sides: tuple[np.ndarray, np.ndarray],
+) -> bool:
+    """Whether a plane over either side of the largest gap in the neighbours' depths predicts
+    `depth` (a side of one ring alone lies on a curve, which fixes no plane: it cannot judge, and
+    agrees). `sides`: two scratch masks at least `count` long."""
+    below, above = sides
+    z = np.sort(near[:count, 2])
+    split = np.argmax(z[1:] - z[:-1]) if count > 1 else 0
+    threshold = 0.5 * (z[split] + z[split + 1]) if count > 1 else np.nan
+    for j in range(count):
+        below[j] = near[j, 2] <= threshold
+        above[j] = not below[j]
+    for side in (below, above):
+        members, first_ring, one_ring = 0, -1, True
         for j in range(count):
-            below[j] = near[j, 2] <= threshold
-            above[j] = not below[j]
-        either = False
-        for side in (below, above):
-            rings_on_side, first_ring, one_ring = 0, -1, True
-            for j in range(count):
-                if side[j]:
-                    rings_on_side += 1
-                    if first_ring < 0:
-                        first_ring = near_ring[j]
-                    one_ring = one_ring and near_ring[j] == first_ring
-            # samples of one ring alone lie on a curve, which fixes no plane: such a side cannot judge
-            if (rings_on_side > 0 and one_ring) or _plane_agrees(
-                near, side, count, depth[p], max_jump, min_count, np.inf
-            ):
-                either = True
-        out[i] = either
+            if side[j]:
+                members += 1
+                first_ring = near_ring[j] if first_ring < 0 else first_ring
+                one_ring = one_ring and near_ring[j] == first_ring
+        if (members > 0 and one_ring) or _plane_agrees(near, side, count, depth, max_jump, min_count, np.inf):
+            return True
+    return False

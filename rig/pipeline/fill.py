@@ -21,7 +21,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.spatial import cKDTree
 
 from rig.geometry import CameraModel
 from rig.lazy import lazy_module
@@ -29,6 +28,7 @@ from rig.workers import batches, pool
 
 fill_kernels = lazy_module("rig.kernels.fill")  # numba compiles on first use
 
+_CELL_PX = 8.0  # the neighbour search's cells: a few samples each, about a ring's spacing
 _CHUNK = 16_384  # candidate pixels fitted at a time (a few MB per (N, k, 3) array)
 
 
@@ -67,75 +67,46 @@ def fill_points(
     found = np.full((len(pixel), 3), np.nan)
     if len(points) < settings.min_samples or len(pixel) == 0:
         return found
-    near = _RingNeighbours(xy, ring)
+    dist, index = _neighbourhoods(xy, ring, _positions(pixel, camera.width), annulus, settings)
+    # most candidates lie beyond a surface's last ring: drop them before the costlier tests
+    rows = np.flatnonzero(_enclosed(annulus, ring, index, np.isfinite(dist)))
     origins, directions = camera.pixel_rays
-    for a in np.unique(annulus):
-        bounding = (0,) if a == 0 else (int(a) - 1, int(a))
-        if not all(r in near.trees for r in bounding):  # beyond a surface's last ring: nothing encloses it
+    for start in range(0, len(rows), _CHUNK):
+        part = rows[start : start + _CHUNK]
+        d, i, ann = dist[part], index[part], annulus[part]
+        use = _one_surface(points, normals, xy, ring, camera, i, d, ann, settings)
+        use &= _enclosed(ann, ring, i, use)[:, None]
+        enough = use.sum(axis=1) >= settings.min_samples
+        if not enough.any():
             continue
-        of_annulus = np.flatnonzero(annulus == a)
-        positions = _positions(pixel[of_annulus], camera.width)
-        if a > 0:  # most lie beyond a surface's last ring: one of their rings out of reach (cheap to ask)
-            reached = near.reaches(positions, bounding, settings.reach_px)
-            of_annulus, positions = of_annulus[reached], positions[reached]
-        for start in range(0, len(of_annulus), _CHUNK):
-            part = of_annulus[start : start + _CHUNK]
-            at = pixel[part]
-            query = positions[start : start + _CHUNK]
-            dist, index = near.query(query, bounding, settings.neighbours, settings.reach_px)
-            # most candidates lie beyond a surface's last ring: drop them before the costlier tests
-            rows = np.flatnonzero(_enclosed(annulus[part], ring, index, np.isfinite(dist)))
-            dist, index, ann = dist[rows], index[rows], annulus[part][rows]
-            use = _one_surface(points, normals, xy, ring, camera, index, dist, ann, settings)
-            use &= _enclosed(ann, ring, index, use)[:, None]
-            enough = use.sum(axis=1) >= settings.min_samples
-            if not enough.any():
-                continue
-            rays = (np.asarray(origins[at[rows[enough]]]), np.asarray(directions[at[rows[enough]]]))
-            met, misfit_mm = _fit_and_meet(points, normals, index[enough], use[enough], rays, settings)
-            smooth = misfit_mm <= settings.max_misfit_px * camera.mm_per_px(np.nan_to_num(met))
-            found[part[rows[enough][smooth]]] = met[smooth]
+        at = pixel[part[enough]]
+        rays = (np.asarray(origins[at]), np.asarray(directions[at]))
+        met, misfit_mm = _fit_and_meet(points, normals, i[enough], use[enough], rays, settings)
+        smooth = misfit_mm <= settings.max_misfit_px * camera.mm_per_px(np.nan_to_num(met))
+        found[part[enough][smooth]] = met[smooth]
     return found
 
 
-class _RingNeighbours:
-    """The samples of each ring, searchable by image position: a pixel's neighbourhood takes an equal
-    share from each of its two rings, however much closer one of them runs (at a limb, or where one
-    ring ends, the nearest samples of all would be of one ring only)."""
+def _neighbourhoods(
+    xy: np.ndarray, ring: np.ndarray, at: np.ndarray, annulus: np.ndarray, settings: FillSettings
+) -> tuple[np.ndarray, np.ndarray]:
+    """(N, 2k) distances (inf beyond the reach, for a sample listed already, or everywhere for a
+    pixel its two rings do not both reach) and sample indices (0 there) of each pixel's `k` nearest
+    samples of any ring, then of its annulus' rings (k / 2 each): the first tell whether another
+    surface is in reach, the others join the fit. A grid of cells and a compiled search
+    (rig.kernels.fill.fill_neighbourhoods), a span of pixels per thread."""
+    k, reach = settings.neighbours, float(settings.reach_px)
+    xy = np.ascontiguousarray(xy, np.float64)
+    cells = fill_kernels.sample_cells(xy, _CELL_PX)
+    members = np.bincount(ring, minlength=int(annulus.max(initial=0)) + 1).astype(np.int64)
+    arrays = (xy, ring.astype(np.int64), members, cells, np.ascontiguousarray(at), annulus.astype(np.int64))
+    dist, index = np.empty((len(at), 2 * k)), np.empty((len(at), 2 * k), np.int64)
 
-    def __init__(self, xy: np.ndarray, ring: np.ndarray) -> None:
-        order = np.argsort(ring, kind="stable")
-        rings, starts = np.unique(ring[order], return_index=True)
-        self.members = dict(zip(rings.tolist(), np.split(order, starts[1:]), strict=True))
-        self.trees = {r: cKDTree(xy[m]) for r, m in self.members.items()}
-        self.tree, self.ring = cKDTree(xy), ring
+    def search(span: tuple[int, int]) -> None:
+        fill_kernels.fill_neighbourhoods(*arrays, (k, reach, _CELL_PX), dist, index, *span)
 
-    def reaches(self, at: np.ndarray, rings: tuple[int, ...], reach: float) -> np.ndarray:
-        """(N,) whether a sample of each of `rings` lies within `reach` of each position: what a
-        pixel between two rings needs to be enclosed by them (_enclosed)."""
-        ok = np.ones(len(at), dtype=bool)
-        for r in rings:
-            dist, _ = self.trees[r].query(at, k=1, distance_upper_bound=reach, workers=-1)
-            ok &= np.isfinite(dist)
-        return ok
-
-    def query(self, at: np.ndarray, rings: tuple[int, ...], k: int, reach: float) -> tuple[np.ndarray, np.ndarray]:
-        """(N, 2k) distances (inf beyond `reach`, or for a sample listed already) and sample indices
-        (0 there) of each position's `k` nearest samples of any ring, then of `rings`' (k / len(rings)
-        each): the first tell whether another surface is in reach, the others join the fit."""
-        k = min(k, len(self.ring))
-        dist, index = self.tree.query(at, k=k, distance_upper_bound=reach, workers=-1)
-        dists, indices = [dist.reshape(len(at), k)], [index.reshape(len(at), k)]
-        for r in rings:
-            members = self.members[r]
-            n = min(k // len(rings), len(members))
-            dist, index = self.trees[r].query(at, k=n, distance_upper_bound=reach, workers=-1)
-            dist, index = dist.reshape(len(at), n), members[np.minimum(index, len(members) - 1)].reshape(len(at), n)
-            dist[(index[:, :, None] == indices[0][:, None, :]).any(axis=2)] = np.inf  # among the nearest already
-            dists.append(dist)
-            indices.append(index)
-        dist, index = np.concatenate(dists, axis=1), np.concatenate(indices, axis=1)
-        return dist, np.where(np.isfinite(dist), index, 0)
+    list(pool().map(search, batches(len(at))))
+    return dist, index
 
 
 def _positions(pixel: np.ndarray, width: int) -> np.ndarray:
