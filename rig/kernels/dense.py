@@ -289,13 +289,16 @@ def kept_points(
     keep: Image,
     first: np.ndarray,
     origin: np.ndarray,
-    out: np.ndarray,
-    pixel: np.ndarray,
+    colours: np.ndarray,
+    quality: Image,
+    out: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray],
     top: int,
     bottom: int,
 ) -> None:
-    """The world points (float32, ray * direction + origin, the sum in float64) and flat pixel
-    indices of the `keep` pixels, in row-major order as kept_normals lays them out."""
+    """The world points (float32, ray * direction + origin, the sum in float64), flat pixel
+    indices, colours (`colours` (H, W, 3) at the pixel) and quality (float32) of the `keep` pixels,
+    in row-major order as kept_normals lays them out: `out` = (points, pixels, colours, quality)."""
+    points, pixel, colour, grade = out
     width = ray.shape[1]
     for y in range(top, bottom):
         k = first[y]
@@ -303,8 +306,10 @@ def kept_points(
             if keep[y, x]:
                 s = ray[y, x]
                 for axis in range(3):
-                    out[k, axis] = np.float32(np.float64(s * directions[axis, y, x]) + origin[axis])
+                    points[k, axis] = np.float32(np.float64(s * directions[axis, y, x]) + origin[axis])
+                    colour[k, axis] = colours[y, x, axis]
                 pixel[k] = y * width + x
+                grade[k] = np.float32(quality[y, x])
                 k += 1
 
 

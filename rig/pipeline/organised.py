@@ -60,26 +60,25 @@ class OrganisedCloud:
         return grid
 
     def into_pointset(self, source: int) -> PointSet:
-        """The cloud's PointSet, built by using the cloud up: its points and pixels are made at the
-        valid pixels by one compiled pass, its normals are the cloud's own, and each image is let
-        go once its field is gathered. The cloud is empty after."""
+        """The cloud's PointSet, built by using the cloud up: its points, pixels, colours and
+        quality are gathered at the valid pixels by one compiled pass, its normals are the cloud's
+        own, and the images are let go. The cloud is empty after."""
         if self.used:
             raise RuntimeError("this organised cloud was already made into its PointSet")
         self.used = True
         count = len(self.normals)
         points, pixel = np.empty((count, 3), np.float32), np.empty(count, np.int32)
+        colors, quality = np.empty((count, 3), np.uint8), np.empty(count, np.float32)
+        images = (np.ascontiguousarray(self.colours), np.ascontiguousarray(self.quality))
         in_row_strips(
             len(self.ray),
             lambda rows: kernels.kept_points(
-                self.ray, self.directions, self.valid, self.first, self.origin, points, pixel, rows.start, rows.stop
+                self.ray, self.directions, self.valid, self.first, self.origin, *images,
+                (points, pixel, colors, quality), rows.start, rows.stop,
             ),
-        )
-        self.ray = self.depth = self.valid = _EMPTY
+        )  # fmt: skip
+        self.ray = self.depth = self.valid = self.colours = self.quality = _EMPTY
         normals, self.normals = self.normals, _EMPTY
-        colors = self.colours.reshape(-1, 3)[pixel]
-        self.colours = _EMPTY
-        quality = self.quality.ravel()[pixel].astype(np.float32)
-        self.quality = _EMPTY
         source_index = np.full(count, source, dtype=np.uint8)
         return PointSet(points, normals, colors, quality, source_index, pixel)
 
