@@ -231,3 +231,42 @@ def _either_side_agrees(
         if (members > 0 and one_ring) or _plane_agrees(near, side, count, depth, max_jump, min_count, np.inf):
             return True
     return False
+
+
+@njit(**KERNEL)
+def along_support(
+    xy: np.ndarray,
+    ring: np.ndarray,
+    depth: np.ndarray,
+    cells: tuple[np.ndarray, np.ndarray, float, float, int, int],
+    limits: tuple[float, float],
+    support: np.ndarray,
+    offset: np.ndarray,
+    reach_sum: np.ndarray,
+    start: int,
+    stop: int,
+) -> None:
+    """For points [start:stop], the samples of their own ring within `reach` pixels (limits:
+    reach, max_jump; cells: rig.kernels.fill.sample_cells of side `reach`) whose depth is within
+    `max_jump`: how many (`support`), the sum of their offsets in the image (`offset` (N, 2)) and of
+    their distances (`reach_sum`)."""
+    order, starts, x0, y0, nx, ny = cells
+    reach, max_jump = limits
+    for i in range(start, stop):
+        cx, cy = int((xy[i, 0] - x0) / reach), int((xy[i, 1] - y0) / reach)
+        count, sx, sy, total = 0, 0.0, 0.0, 0.0
+        for gy in range(max(cy - 1, 0), min(cy + 1, ny - 1) + 1):
+            for gx in range(max(cx - 1, 0), min(cx + 1, nx - 1) + 1):
+                c = gy * nx + gx
+                for j in range(starts[c], starts[c + 1]):
+                    q = order[j]
+                    if q == i or ring[q] != ring[i] or abs(depth[q] - depth[i]) > max_jump:
+                        continue
+                    dx, dy = xy[q, 0] - xy[i, 0], xy[q, 1] - xy[i, 1]
+                    d = math.sqrt(dx * dx + dy * dy)
+                    if d <= reach:
+                        count += 1
+                        sx += dx
+                        sy += dy
+                        total += d
+        support[i], offset[i, 0], offset[i, 1], reach_sum[i] = count, sx, sy, total

@@ -20,6 +20,7 @@ from rig.pipeline.triangulation import delaunay
 from rig.workers import batches, pool
 
 ring_kernels = lazy_module("rig.kernels.rings")  # numba compiles on first use: not for --help
+fill_kernels = lazy_module("rig.kernels.fill")
 
 # Triangles of the sample mesh longer than this (camera pixels) bridge gaps, not neighbouring rings.
 _MAX_TRIANGLE_EDGE_PX = 80.0
@@ -120,20 +121,18 @@ def along_ring_support(
     if len(kept) < 2:
         return rings.kept.copy()
     depth = (rings.points[kept] - camera.center) @ camera.axis
-    # The ring index as a third coordinate far apart keeps neighbours on their own ring.
-    coords = np.column_stack([rings.camera_xy[kept], rings.ring[kept] * 10.0 * reach_px])
-    pairs = cKDTree(coords).query_pairs(reach_px, output_type="ndarray")
-    support = np.zeros(len(kept), np.int64)
-    offset_sum = np.zeros((len(kept), 2))
-    reach_sum = np.zeros(len(kept))
-    if len(pairs):
-        close = pairs[np.abs(depth[pairs[:, 0]] - depth[pairs[:, 1]]) <= max_jump_mm]
-        offset = coords[close[:, 1], :2] - coords[close[:, 0], :2]
-        length = np.linalg.norm(offset, axis=1)
-        for end, sign in ((0, 1.0), (1, -1.0)):
-            np.add.at(support, close[:, end], 1)
-            np.add.at(offset_sum, close[:, end], sign * offset)
-            np.add.at(reach_sum, close[:, end], length)
+    xy = np.ascontiguousarray(rings.camera_xy[kept], np.float64)
+    cells = fill_kernels.sample_cells(xy, float(reach_px))
+    support, offset_sum, reach_sum = np.empty(len(kept), np.int64), np.empty((len(kept), 2)), np.empty(len(kept))
+    arrays = (
+        xy,
+        rings.ring[kept].astype(np.int64),
+        np.ascontiguousarray(depth),
+        cells,
+        (float(reach_px), float(max_jump_mm)),
+    )
+    outputs = (support, offset_sum, reach_sum)
+    list(pool().map(lambda span: ring_kernels.along_support(*arrays, *outputs, *span), batches(len(kept))))
     # An end of a ring stretch (at a shadow, an occlusion or a depth edge) has its neighbours on one
     # side only: its pixels straddle the boundary and may see the far surface.
     one_sided = np.linalg.norm(offset_sum, axis=1) > _ONE_SIDED * np.maximum(reach_sum, 1e-9)
