@@ -93,7 +93,9 @@ def _neighbourhoods(
     """(N, 2k) distances (inf beyond the reach, for a sample listed already, or everywhere for a
     pixel its two rings do not both reach) and sample indices (0 there) of each pixel's `k` nearest
     samples of any ring, then of its annulus' rings (k / 2 each): the first tell whether another
-    surface is in reach, the others join the fit. A grid of cells and a compiled search
+    surface is in reach, the others join the fit, an equal share from each ring however much closer
+    one of them runs (at a limb, or where one ring ends, the nearest of all would be of one ring
+    only). A grid of cells and a compiled search
     (rig.kernels.fill.fill_neighbourhoods), a span of pixels per thread."""
     k, reach = settings.neighbours, float(settings.reach_px)
     xy = np.ascontiguousarray(xy, np.float64)
