@@ -13,6 +13,7 @@ import numpy as np
 from numba import njit
 
 from rig.kernels import KERNEL
+from rig.kernels.cells import Cells
 
 _TERMS = 6  # 1, x, y, x^2, xy, y^2
 
@@ -145,26 +146,6 @@ def _solve(matrix: np.ndarray, right: np.ndarray) -> np.ndarray:
     return out
 
 
-@njit(**KERNEL)
-def sample_cells(xy: np.ndarray, cell: float) -> tuple[np.ndarray, np.ndarray, float, float, int, int]:
-    """The samples `xy` (M, 2) sorted into square cells of side `cell`: their indices cell by cell,
-    where each cell's run starts ((cells + 1,)), the grid's corner and its size in cells."""
-    x0, y0 = xy[:, 0].min(), xy[:, 1].min()
-    nx, ny = int((xy[:, 0].max() - x0) / cell) + 1, int((xy[:, 1].max() - y0) / cell) + 1
-    home = np.empty(len(xy), np.int64)
-    starts = np.zeros(nx * ny + 1, np.int64)
-    for i in range(len(xy)):
-        home[i] = int((xy[i, 1] - y0) / cell) * nx + int((xy[i, 0] - x0) / cell)
-        starts[home[i] + 1] += 1
-    starts = np.cumsum(starts)
-    filled = starts[:-1].copy()
-    order = np.empty(len(xy), np.int64)
-    for i in range(len(xy)):
-        order[filled[home[i]]] = i
-        filled[home[i]] += 1
-    return order, starts, x0, y0, nx, ny
-
-
 @njit(nogil=True, cache=True, inline="always")
 def _insert(dist: np.ndarray, index: np.ndarray, size: int, found: int, d: float, sample: int) -> int:
     """Put (d, sample) into the first `size` slots of the sorted (dist, index) holding `found`."""
@@ -183,7 +164,7 @@ def fill_neighbourhoods(
     xy: np.ndarray,
     ring: np.ndarray,
     members: np.ndarray,
-    cells: tuple[np.ndarray, np.ndarray, float, float, int, int],
+    cells: Cells,
     at: np.ndarray,
     annulus: np.ndarray,
     sizes: tuple[int, float, float],
@@ -196,7 +177,7 @@ def fill_neighbourhoods(
     a, or ring 0 inside it): the `k` nearest samples within `reach` of any ring, then the k / 2
     nearest of each of its two rings (k of ring 0 alone; at most `members[r]`) not among those.
     dist inf (index 0) for an empty slot, and everywhere for a pixel whose rings do not both reach
-    it (or do not exist). sizes: (k, reach, cell); cells: sample_cells of that side."""
+    it (or do not exist). sizes: (k, reach, cell); cells: rig.kernels.cells.sample_cells of that side."""
     k = sizes[0]
     for i in range(start, stop):
         dist[i, :] = np.inf
@@ -228,7 +209,7 @@ def fill_neighbourhoods(
 def _search(
     xy: np.ndarray,
     ring: np.ndarray,
-    cells: tuple[np.ndarray, np.ndarray, float, float, int, int],
+    cells: Cells,
     lengths: tuple[float, float],
     at: np.ndarray,
     rings: tuple[int, int],

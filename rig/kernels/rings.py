@@ -12,6 +12,7 @@ import numpy as np
 from numba import njit
 
 from rig.kernels import KERNEL
+from rig.kernels.cells import Cells
 
 
 @njit(nogil=True, cache=True, inline="always")
@@ -238,7 +239,7 @@ def along_support(
     xy: np.ndarray,
     ring: np.ndarray,
     depth: np.ndarray,
-    cells: tuple[np.ndarray, np.ndarray, float, float, int, int],
+    cells: Cells,
     limits: tuple[float, float],
     support: np.ndarray,
     offset: np.ndarray,
@@ -247,7 +248,7 @@ def along_support(
     stop: int,
 ) -> None:
     """For points [start:stop], the samples of their own ring within `reach` pixels (limits:
-    reach, max_jump; cells: rig.kernels.fill.sample_cells of side `reach`) whose depth is within
+    reach, max_jump; cells: rig.kernels.cells.sample_cells of side `reach`) whose depth is within
     `max_jump`: how many (`support`), the sum of their offsets in the image (`offset` (N, 2)) and of
     their distances (`reach_sum`)."""
     order, starts, x0, y0, nx, ny = cells

@@ -184,16 +184,22 @@ class RadialDecoding:
     def add_level_steps(self, periods: int, steps: Steps) -> None:
         """add_level from a level's steps (integer counts, their weights), in one compiled pass
         (rig.kernels.radial.angular_level)."""
-        p, first = self.codec.params, self.levels == 0
+        first = self.levels == 0
         self.levels += 1
         if first:
             self.angular_mod = np.empty(self.lit.shape, np.float32)
         arrays = (self.radius, self.theta, self.angular_mod, self.consistent)
-        level = (float(periods), float(p.min_fringe_period_px), float(p.max_unwrap_disagreement))
+        level = self._level(periods)
         in_row_strips(
             self.lit.shape[0],
             lambda rows: radial_kernels.angular_level(*steps, first, level, *arrays, rows.start, rows.stop),
         )
+
+    def _level(self, periods: int) -> tuple[float, float, float]:
+        """A level as the compiled passes take it: its periods, the least fringe period it is read
+        at, and the disagreement with the level before that it allows."""
+        p = self.codec.params
+        return float(periods), float(p.min_fringe_period_px), float(p.max_unwrap_disagreement)
 
     def finest_level(self, periods: int, steps: Steps, texture: np.ndarray) -> Correspondence:
         """add_level_steps for the finest level and then `correspondence`, in one compiled pass
@@ -202,8 +208,8 @@ class RadialDecoding:
         shape = lit.shape
         u, v, quality = (np.empty(shape, np.float32) for _ in range(3))
         radius, theta, valid = np.empty(shape, np.float32), np.empty(shape, np.float32), np.empty(shape, bool)
-        level = (float(periods), float(p.min_fringe_period_px), float(p.max_unwrap_disagreement))
-        constants = (level, np.float32(p.min_modulation), tuple(map(float, codec.center)), (codec.width, codec.height))
+        extent = (codec.width, codec.height)
+        constants = (self._level(periods), np.float32(p.min_modulation), tuple(map(float, codec.center)), extent)
         images = (self.gray_strong, self.consistent, self.radial_mod, self.angular_mod, self.radius, self.theta)
         outputs = (u, v, valid, quality, radius, theta)
         parts: list[tuple[int, ...]] = []

@@ -27,6 +27,7 @@ from rig.lazy import lazy_module
 from rig.workers import batches, pool
 
 fill_kernels = lazy_module("rig.kernels.fill")  # numba compiles on first use
+cell_kernels = lazy_module("rig.kernels.cells")
 
 _CELL_PX = 8.0  # the neighbour search's cells: a few samples each, about a ring's spacing
 _CHUNK = 16_384  # candidate pixels fitted at a time (a few MB per (N, k, 3) array)
@@ -99,7 +100,7 @@ def _neighbourhoods(
     (rig.kernels.fill.fill_neighbourhoods), a span of pixels per thread."""
     k, reach = settings.neighbours, float(settings.reach_px)
     xy = np.ascontiguousarray(xy, np.float64)
-    cells = fill_kernels.sample_cells(xy, _CELL_PX)
+    cells = cell_kernels.sample_cells(xy, _CELL_PX)
     members = np.bincount(ring, minlength=int(annulus.max(initial=0)) + 1).astype(np.int64)
     arrays = (xy, ring.astype(np.int64), members, cells, np.ascontiguousarray(at), annulus.astype(np.int64))
     dist, index = np.empty((len(at), 2 * k)), np.empty((len(at), 2 * k), np.int64)

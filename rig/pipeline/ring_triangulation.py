@@ -20,7 +20,7 @@ from rig.pipeline.triangulation import delaunay
 from rig.workers import batches, pool
 
 ring_kernels = lazy_module("rig.kernels.rings")  # numba compiles on first use: not for --help
-fill_kernels = lazy_module("rig.kernels.fill")
+cell_kernels = lazy_module("rig.kernels.cells")
 
 # Triangles of the sample mesh longer than this (camera pixels) bridge gaps, not neighbouring rings.
 _MAX_TRIANGLE_EDGE_PX = 80.0
@@ -122,7 +122,7 @@ def along_ring_support(
         return rings.kept.copy()
     depth = (rings.points[kept] - camera.center) @ camera.axis
     xy = np.ascontiguousarray(rings.camera_xy[kept], np.float64)
-    cells = fill_kernels.sample_cells(xy, float(reach_px))
+    cells = cell_kernels.sample_cells(xy, float(reach_px))
     support, offset_sum, reach_sum = np.empty(len(kept), np.int64), np.empty((len(kept), 2)), np.empty(len(kept))
     arrays = (
         xy,
@@ -194,12 +194,12 @@ def _nearest_candidates(xy: np.ndarray, ring: np.ndarray, candidates: np.ndarray
     distance, closest = tree.query(xy, 1, workers=-1)
     closest = candidates[closest]
     shared = (distance <= _SHARED_NEIGHBOURHOOD_PX) & (ring[closest] == ring)
-    searched = np.union1d(candidates, np.flatnonzero(~shared))
+    shared[candidates] = False  # a candidate is searched for itself
+    searched = np.flatnonzero(~shared)
     _, nearest = tree.query(xy[searched], k, workers=-1)
     index = np.empty((len(xy), k), np.int64)
     index[searched] = candidates[nearest.reshape(len(searched), k)]
-    take = np.flatnonzero(shared & ~np.isin(np.arange(len(xy)), searched))
-    index[take] = index[closest[take]]
+    index[shared] = index[closest[shared]]
     return index
 
 

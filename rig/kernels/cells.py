@@ -1,0 +1,34 @@
+"""Image points sorted into a grid of square cells (a counting sort), compiled by numba: the
+neighbour searches of rig.kernels.fill and rig.kernels.rings scan a point's few cells instead of a
+k-d tree."""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+from rig.kernels import KERNEL
+
+# order (the points' indices cell by cell), starts (where each cell's run starts, cells + 1),
+# the grid's corner x0, y0 and its size in cells nx, ny
+Cells = tuple[np.ndarray, np.ndarray, float, float, int, int]
+
+
+@njit(**KERNEL)
+def sample_cells(xy: np.ndarray, cell: float) -> Cells:
+    """The samples `xy` (M, 2) sorted into square cells of side `cell`: their indices cell by cell,
+    where each cell's run starts ((cells + 1,)), the grid's corner and its size in cells."""
+    x0, y0 = xy[:, 0].min(), xy[:, 1].min()
+    nx, ny = int((xy[:, 0].max() - x0) / cell) + 1, int((xy[:, 1].max() - y0) / cell) + 1
+    home = np.empty(len(xy), np.int64)
+    starts = np.zeros(nx * ny + 1, np.int64)
+    for i in range(len(xy)):
+        home[i] = int((xy[i, 1] - y0) / cell) * nx + int((xy[i, 0] - x0) / cell)
+        starts[home[i] + 1] += 1
+    starts = np.cumsum(starts)
+    filled = starts[:-1].copy()
+    order = np.empty(len(xy), np.int64)
+    for i in range(len(xy)):
+        order[filled[home[i]]] = i
+        filled[home[i]] += 1
+    return order, starts, x0, y0, nx, ny
