@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 
 from rig.geometry import CameraModel
-from rig.pipeline.fill import FillSettings, _one_surface
+from rig.pipeline.fill import FillSettings, _footprints, _one_surface
 
 CAMERA = CameraModel(200, 200, np.array([[500.0, 0, 99.5], [0, 500.0, 99.5], [0, 0, 1]]), np.eye(3), np.zeros(3))
 
@@ -24,7 +24,8 @@ def _use(points: np.ndarray, normals: np.ndarray, columns: np.ndarray) -> np.nda
     ring = np.arange(len(columns)) % 2
     index = np.arange(len(columns))[None, :]
     dist = np.abs(columns - 99.5)[None, :]
-    return _one_surface(points, normals, xy, ring, CAMERA, index, dist, np.array([1]), FillSettings())[0]
+    footprint = _footprints(points, normals, CAMERA, FillSettings())
+    return _one_surface(points, footprint, xy, ring, (dist, index), np.array([1]), FillSettings())[0]
 
 
 def test_a_flank_turned_80_degrees_from_the_camera_is_one_surface() -> None:

@@ -146,6 +146,61 @@ def _solve(matrix: np.ndarray, right: np.ndarray) -> np.ndarray:
     return out
 
 
+@njit(**KERNEL)
+def one_surface(
+    points: np.ndarray,
+    xy: np.ndarray,
+    ring: np.ndarray,
+    footprint: np.ndarray,
+    neighbourhood: tuple[np.ndarray, np.ndarray],
+    annulus: np.ndarray,
+    stretch: float,
+    use: np.ndarray,
+    start: int,
+    stop: int,
+) -> None:
+    """rig.pipeline.fill._one_surface for pixels [start, stop): `use` (N, k) marks the samples of a
+    pixel's two rings (annulus a: rings a - 1 and a) on the surface of the nearest of them, none
+    where a sample in reach of any ring lies apart from that one by more than `stretch` times its
+    `footprint` (mm per pixel, per sample) per pixel of image plus one, and none where the used
+    samples are not of both rings (but inside ring 0). neighbourhood: (dist, index) (N, k), dist
+    inf for an empty slot (fill_neighbourhoods)."""
+    dist, index = neighbourhood
+    k = index.shape[1]
+    for n in range(start, stop):
+        use[n, :] = False
+        a = annulus[n]
+        first, best = -1, np.inf
+        for j in range(k):
+            r = ring[index[n, j]]
+            if dist[n, j] < best and (r == a or r == a - 1):
+                first, best = j, dist[n, j]
+        if first < 0:
+            continue
+        ref = index[n, first]
+        contested = False
+        for j in range(k):
+            if np.isfinite(dist[n, j]):
+                s = index[n, j]
+                apart_px = np.sqrt((xy[s, 0] - xy[ref, 0]) ** 2 + (xy[s, 1] - xy[ref, 1]) ** 2)
+                apart_mm = np.sqrt(
+                    (points[s, 0] - points[ref, 0]) ** 2
+                    + (points[s, 1] - points[ref, 1]) ** 2
+                    + (points[s, 2] - points[ref, 2]) ** 2
+                )
+                contested = contested or not apart_mm <= stretch * footprint[ref] * (apart_px + 1.0)
+        if contested:
+            continue
+        inner = outer = False
+        for j in range(k):
+            r = ring[index[n, j]]
+            use[n, j] = np.isfinite(dist[n, j]) and (r == a or r == a - 1)
+            inner = inner or (use[n, j] and r == a - 1)
+            outer = outer or (use[n, j] and r == a)
+        if a != 0 and not (inner and outer):
+            use[n, :] = False
+
+
 @njit(nogil=True, cache=True, inline="always")
 def _insert(dist: np.ndarray, index: np.ndarray, size: int, found: int, d: float, sample: int) -> int:
     """Put (d, sample) into the first `size` slots of the sorted (dist, index) holding `found`."""
@@ -160,11 +215,53 @@ def _insert(dist: np.ndarray, index: np.ndarray, size: int, found: int, d: float
 
 
 @njit(**KERNEL)
+def ring_presence(xy: np.ndarray, ring: np.ndarray, cells: Cells, cell: float, rings: int) -> np.ndarray:
+    """(cells, words) uint64: which of `rings` rings (bit r % 64 of word r // 64) have a sample in
+    each of the `cells` (side `cell`) of samples `xy`."""
+    _, _, x0, y0, nx, ny = cells
+    presence = np.zeros((nx * ny, (rings + 63) // 64), np.uint64)
+    for s in range(len(xy)):
+        c = int((xy[s, 1] - y0) / cell) * nx + int((xy[s, 0] - x0) / cell)
+        presence[c, ring[s] // 64] |= np.uint64(1) << np.uint64(ring[s] % 64)
+    return presence
+
+
+@njit(nogil=True, cache=True)
+def _both_present(
+    presence: np.ndarray, cells: Cells, lengths: tuple[float, float], at: np.ndarray, rings: tuple[int, int]
+) -> bool:
+    """Whether a cell within `reach` of `at` (a square of cells about it: it may overstate, never
+    miss) holds a sample of rings[0], and one holds a sample of rings[1] (or rings[1] is -1).
+    lengths: (reach, cell)."""
+    _, _, x0, y0, nx, ny = cells
+    reach, cell = lengths
+    lo_x = min(max(int((at[0] - reach - x0) // cell), 0), nx - 1)
+    hi_x = min(max(int((at[0] + reach - x0) // cell), 0), nx - 1)
+    lo_y = min(max(int((at[1] - reach - y0) // cell), 0), ny - 1)
+    hi_y = min(max(int((at[1] + reach - y0) // cell), 0), ny - 1)
+    seen_first, seen_second = False, rings[1] < 0
+    for gy in range(lo_y, hi_y + 1):
+        for gx in range(lo_x, hi_x + 1):
+            c = gy * nx + gx
+            seen_first = seen_first or _has(presence, c, rings[0])
+            seen_second = seen_second or _has(presence, c, rings[1])
+            if seen_first and seen_second:
+                return True
+    return False
+
+
+@njit(nogil=True, cache=True, inline="always")
+def _has(presence: np.ndarray, c: int, r: int) -> bool:
+    return r >= 0 and (presence[c, r // 64] >> np.uint64(r % 64)) & np.uint64(1) != 0
+
+
+@njit(**KERNEL)
 def fill_neighbourhoods(
     xy: np.ndarray,
     ring: np.ndarray,
     members: np.ndarray,
     cells: Cells,
+    presence: np.ndarray,
     at: np.ndarray,
     annulus: np.ndarray,
     sizes: tuple[int, float, float],
@@ -177,7 +274,8 @@ def fill_neighbourhoods(
     a, or ring 0 inside it): the `k` nearest samples within `reach` of any ring, then the k / 2
     nearest of each of its two rings (k of ring 0 alone; at most `members[r]`) not among those.
     dist inf (index 0) for an empty slot, and everywhere for a pixel whose rings do not both reach
-    it (or do not exist). sizes: (k, reach, cell); cells: rig.kernels.cells.sample_cells of that side."""
+    it (or do not exist). sizes: (k, reach, cell); cells: rig.kernels.cells.sample_cells of that side,
+    presence: ring_presence in them."""
     k = sizes[0]
     for i in range(start, stop):
         dist[i, :] = np.inf
@@ -188,6 +286,8 @@ def fill_neighbourhoods(
             continue
         if second >= 0 and members[second] == 0:
             continue
+        if not _both_present(presence, cells, sizes[1:], at[i], (first, second)):
+            continue  # most pixels beyond a surface's last ring: their outer ring is nowhere near
         near = min(k, len(xy))
         n_first = min(near if second < 0 else near // 2, members[first])
         wanted = (near, n_first, 0 if second < 0 else min(near // 2, members[second]))

@@ -21,16 +21,17 @@ from __future__ import annotations
 from typing import Literal
 
 import numpy as np
-from scipy.sparse import csr_matrix
 from scipy.spatial import cKDTree
 
+from rig.lazy import lazy_module
 from rig.pipeline.surface import RingSurface
-from rig.workers import pool
+from rig.workers import batches, pool
+
+colour_kernels = lazy_module("rig.kernels.colour")  # numba compiles on first use
 
 ColourMethod = Literal["nearest", "idw", "area"]
 COLOUR_METHODS: tuple[str, ...] = ("nearest", "idw", "area")
 
-_CHUNK = 1 << 15  # pixels per batch: bounds the (pixels x candidates) temporaries
 _SOFTENING_MM = 0.05  # keeps a pixel on a sample from taking an infinite weight
 
 
@@ -83,39 +84,21 @@ def interpolate_colour(
         out[pixel[beyond_faces]] = colours[nearest]
         pixel, owner = pixel[~beyond_faces], owner[~beyond_faces]
     # float32 about the samples' centre: a few hundred mm to 1e-4 mm, ample for weights. One row per
-    # coordinate: a batch gathers each from a small array, and index M (no sample) lies beyond reach.
+    # coordinate; index M (no sample) lies beyond any reach.
     centre = surface.vertices.mean(axis=0)
-    count = len(surface.vertices)
-    sample_xyz = np.hstack([(surface.vertices - centre).T, np.full((3, 1), 1e18)]).astype(np.float32)
+    samples = np.hstack([(surface.vertices - centre).T, np.full((3, 1), 1e18)]).astype(np.float32)
     padded_area = np.append(area, 0.0).astype(np.float32)
     padded_colours = np.vstack([colours, np.zeros((1, 3), np.float32)]).astype(np.float32)
+    at = (points[pixel] - centre).astype(np.float32)
+    mixed = np.empty((len(pixel), 3), np.float32)
+    arrays = (samples, padded_area, padded_colours, candidates, reach2, at, owner)
+    settings = (method == "nearest", min(neighbours, candidates.shape[1]), _SOFTENING_MM**2)
 
-    def colour_part(start: int) -> None:
-        part, tri = pixel[start : start + _CHUNK], owner[start : start + _CHUNK]
-        index = candidates[tri]  # (P, C)
-        at = (points[part] - centre).astype(np.float32)
-        d2 = np.zeros(index.shape, np.float32)
-        for axis in range(3):
-            offset = sample_xyz[axis][index]
-            offset -= at[:, axis, None]
-            d2 += offset * offset
-        beyond = d2 > reach2[tri, None]
-        if method == "nearest":
-            d2[beyond] = np.inf
-            order = np.argpartition(d2, min(neighbours, d2.shape[1]) - 1, axis=1)[:, :neighbours]
-            index = np.take_along_axis(index, order, axis=1)
-            weight = np.isfinite(np.take_along_axis(d2, order, axis=1)).astype(np.float32)
-        else:
-            d2 += np.float32(_SOFTENING_MM**2)
-            weight = np.divide(padded_area[index], d2, out=d2)
-            weight[beyond] = 0.0
-        # sum_c weight x colour as one sparse (pixels x samples) product: a single pass in C
-        rows, per_row = weight.shape
-        mix = csr_matrix((weight.ravel(), index.ravel(), np.arange(0, rows * per_row + 1, per_row)), (rows, count + 1))
-        total = np.maximum(weight.sum(axis=1), np.float32(1e-30))
-        out[part] = (mix @ padded_colours) / total[:, None]
+    def colour_part(span: tuple[int, int]) -> None:
+        colour_kernels.mix_colours(*arrays, settings, mixed, *span)
 
-    list(pool().map(colour_part, range(0, len(pixel), _CHUNK)))
+    list(pool().map(colour_part, batches(len(pixel))))
+    out[pixel] = mixed
     return out.reshape(height, width, 3)
 
 

@@ -30,7 +30,6 @@ fill_kernels = lazy_module("rig.kernels.fill")  # numba compiles on first use
 cell_kernels = lazy_module("rig.kernels.cells")
 
 _CELL_PX = 8.0  # the neighbour search's cells: a few samples each, about a ring's spacing
-_CHUNK = 16_384  # candidate pixels fitted at a time (a few MB per (N, k, 3) array)
 
 
 @dataclass(frozen=True)
@@ -69,22 +68,18 @@ def fill_points(
     if len(points) < settings.min_samples or len(pixel) == 0:
         return found
     dist, index = _neighbourhoods(xy, ring, _positions(pixel, camera.width), annulus, settings)
-    # most candidates lie beyond a surface's last ring: drop them before the costlier tests
-    rows = np.flatnonzero(_enclosed(annulus, ring, index, np.isfinite(dist)))
+    use = _one_surface(
+        points, _footprints(points, normals, camera, settings), xy, ring, (dist, index), annulus, settings
+    )
+    rows = np.flatnonzero(use.sum(axis=1) >= settings.min_samples)
+    if len(rows) == 0:
+        return found
     origins, directions = camera.pixel_rays
-    for start in range(0, len(rows), _CHUNK):
-        part = rows[start : start + _CHUNK]
-        d, i, ann = dist[part], index[part], annulus[part]
-        use = _one_surface(points, normals, xy, ring, camera, i, d, ann, settings)
-        use &= _enclosed(ann, ring, i, use)[:, None]
-        enough = use.sum(axis=1) >= settings.min_samples
-        if not enough.any():
-            continue
-        at = pixel[part[enough]]
-        rays = (np.asarray(origins[at]), np.asarray(directions[at]))
-        met, misfit_mm = _fit_and_meet(points, normals, i[enough], use[enough], rays, settings)
-        smooth = misfit_mm <= settings.max_misfit_px * camera.mm_per_px(np.nan_to_num(met))
-        found[part[enough][smooth]] = met[smooth]
+    at = pixel[rows]
+    rays = (np.asarray(origins[at]), np.asarray(directions[at]))
+    met, misfit_mm = _fit_and_meet(points, normals, index[rows], use[rows], rays, settings)
+    smooth = misfit_mm <= settings.max_misfit_px * camera.mm_per_px(np.nan_to_num(met))
+    found[rows[smooth]] = met[smooth]
     return found
 
 
@@ -102,7 +97,9 @@ def _neighbourhoods(
     xy = np.ascontiguousarray(xy, np.float64)
     cells = cell_kernels.sample_cells(xy, _CELL_PX)
     members = np.bincount(ring, minlength=int(annulus.max(initial=0)) + 1).astype(np.int64)
-    arrays = (xy, ring.astype(np.int64), members, cells, np.ascontiguousarray(at), annulus.astype(np.int64))
+    ring = ring.astype(np.int64)
+    presence = fill_kernels.ring_presence(xy, ring, cells, _CELL_PX, len(members))
+    arrays = (xy, ring, members, cells, presence, np.ascontiguousarray(at), annulus.astype(np.int64))
     dist, index = np.empty((len(at), 2 * k)), np.empty((len(at), 2 * k), np.int64)
 
     def search(span: tuple[int, int]) -> None:
@@ -117,49 +114,42 @@ def _positions(pixel: np.ndarray, width: int) -> np.ndarray:
     return np.column_stack([pixel % width, pixel // width]).astype(np.float64)
 
 
+def _footprints(points: np.ndarray, normals: np.ndarray, camera: CameraModel, settings: FillSettings) -> np.ndarray:
+    """(M,) the millimetres a pixel spans at each sample, stretched by 1 / the cosine of its slant
+    from the camera (to 1 / settings.min_facing at most): a surface turned away from the camera
+    stretches over fewer pixels."""
+    orthographic = camera.projection == "orthographic"
+    to_camera = np.broadcast_to(-camera.axis, points.shape) if orthographic else camera.center - points
+    facing = np.abs(np.einsum("ij,ij->i", normals, to_camera)) / np.linalg.norm(to_camera, axis=1)
+    return camera.mm_per_px(points) / np.maximum(facing, settings.min_facing)
+
+
 def _one_surface(
     points: np.ndarray,
-    normals: np.ndarray,
+    footprint: np.ndarray,
     xy: np.ndarray,
     ring: np.ndarray,
-    camera: CameraModel,
-    index: np.ndarray,
-    dist: np.ndarray,
+    neighbourhood: tuple[np.ndarray, np.ndarray],
     annulus: np.ndarray,
     settings: FillSettings,
 ) -> np.ndarray:
-    """(N, k) which neighbours a pixel's fit uses: samples of its two rings, on the surface of its
-    nearest such sample; none at all where any sample in reach (of any ring) lies on another surface."""
-    reached = np.isfinite(dist)
-    safe = np.where(reached, index, 0)
-    near = points[safe]  # (N, k, 3)
-    rings = ring[safe]
-    bounding = reached & ((rings == annulus[:, None]) | (rings == annulus[:, None] - 1))
-    first = np.argmin(np.where(bounding, dist, np.inf), axis=1)  # the nearest of them
-    rows = np.arange(len(index))
-    reference = near[rows, first]
-    ref_xy = xy[safe[rows, first]]
-    # a surface turned away from the camera stretches over fewer pixels: the reference's slant says how much
-    orthographic = camera.projection == "orthographic"
-    to_camera = np.broadcast_to(-camera.axis, reference.shape) if orthographic else camera.center - reference
-    facing = np.abs(np.einsum("ij,ij->i", normals[safe[rows, first]], to_camera)) / np.linalg.norm(to_camera, axis=1)
-    footprint = camera.mm_per_px(reference) / np.maximum(facing, settings.min_facing)
-    apart_px = np.linalg.norm(xy[safe] - ref_xy[:, None, :], axis=2)
-    apart_mm = np.linalg.norm(near - reference[:, None, :], axis=2)
-    same = apart_mm <= settings.steep_stretch * footprint[:, None] * (apart_px + 1.0)
-    contested = (reached & ~same).any(axis=1) | ~bounding.any(axis=1)
-    return bounding & same & ~contested[:, None]
+    """(N, k) which neighbours (dist, index: _neighbourhoods) a pixel's fit uses: samples of its two
+    rings, on the surface of its nearest such sample (samples farther apart in space than
+    `settings.steep_stretch` times the sample's `footprint` (_footprints) per pixel of image lie on
+    two surfaces); none at all where any sample in reach (of any ring) lies on another surface. None
+    either where they are not of both its rings (but inside ring 0): such a pixel lies beyond a
+    surface's last ring, and extrapolating there (a limb the projector grazes) errs by far more than
+    interpolating does, so it is left a hole. A compiled pass (rig.kernels.fill.one_surface)."""
+    dist, index = neighbourhood
+    use = np.empty(index.shape, dtype=bool)
+    arrays = (np.ascontiguousarray(points, np.float64), np.ascontiguousarray(xy, np.float64), ring.astype(np.int64))
+    terms = (footprint, (dist, index), annulus.astype(np.int64), float(settings.steep_stretch))
 
+    def judge(span: tuple[int, int]) -> None:
+        fill_kernels.one_surface(*arrays, *terms, use, *span)
 
-def _enclosed(annulus: np.ndarray, ring: np.ndarray, index: np.ndarray, use: np.ndarray) -> np.ndarray:
-    """(N,) pixels their samples enclose: inside the innermost ring (annulus 0, which the decode
-    read), or with samples of both rings of their annulus around them. A pixel that sees only one of
-    its rings lies beyond a surface's last ring: extrapolating there (a limb the projector grazes)
-    errs by far more than interpolating does, and it is left a hole."""
-    rings = ring[index]
-    inner = (use & (rings == annulus[:, None] - 1)).any(axis=1)
-    outer = (use & (rings == annulus[:, None])).any(axis=1)
-    return (annulus == 0) | (inner & outer)
+    list(pool().map(judge, batches(len(index))))
+    return use
 
 
 def _fit_and_meet(
