@@ -32,3 +32,30 @@ def sample_cells(xy: np.ndarray, cell: float) -> Cells:
         order[filled[home[i]]] = i
         filled[home[i]] += 1
     return order, starts, x0, y0, nx, ny
+
+
+@njit(**KERNEL)
+def pairs_within(xy: np.ndarray, cells: Cells, cell: float, radius: float) -> np.ndarray:
+    """(P, 2) every pair i < j of points `xy` at most `radius` apart, grouped by i; `cells`: sample_cells
+    of `xy` with side `cell` >= radius (a pair lies in neighbouring cells)."""
+    order, starts, x0, y0, nx, ny = cells
+    count = np.zeros(len(xy) + 1, np.int64)
+    for sweep in range(2):  # count each point's partners, then write them where the counts say
+        pairs = np.empty((count[-1] if sweep else 0, 2), np.int64)
+        filled = count[:-1].copy()
+        for i in range(len(xy)):
+            cx, cy = int((xy[i, 0] - x0) / cell), int((xy[i, 1] - y0) / cell)
+            for gy in range(max(cy - 1, 0), min(cy + 1, ny - 1) + 1):
+                for gx in range(max(cx - 1, 0), min(cx + 1, nx - 1) + 1):
+                    c = gy * nx + gx
+                    for m in range(starts[c], starts[c + 1]):
+                        j = order[m]
+                        if j > i and (xy[i, 0] - xy[j, 0]) ** 2 + (xy[i, 1] - xy[j, 1]) ** 2 <= radius * radius:
+                            if sweep:
+                                pairs[filled[i], 0], pairs[filled[i], 1] = i, j
+                                filled[i] += 1
+                            else:
+                                count[i + 1] += 1
+        if not sweep:
+            count = np.cumsum(count)
+    return pairs

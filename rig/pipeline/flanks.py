@@ -19,7 +19,7 @@ from __future__ import annotations
 import numpy as np
 
 from rig.geometry import CameraModel
-from rig.pipeline.normals import sum_at
+from rig.pipeline.normals import corner_sums
 
 Faces = tuple[np.ndarray, np.ndarray, np.ndarray]  # triangles (F, 3), unit normals (F, 3), weights (F,)
 
@@ -35,7 +35,7 @@ def grown_flanks(kept: Faces, held: Faces, directions: np.ndarray, max_turn_deg:
     count = len(directions)
     # the samples' normals as sums of their triangles' weighted normals (vertex_normals), grown
     # with each round's triangles
-    sums = sum_at(kept[0].T.ravel(), np.tile(kept[1] * kept[2][:, None], (3, 1)), count)
+    sums = corner_sums(kept[0], kept[1] * kept[2][:, None], count)
     for _ in range(MAX_ROUNDS):
         on_surface = np.linalg.norm(sums, axis=1) > 1e-12
         touching = np.flatnonzero(~admitted & (on_surface[held[0]].sum(axis=1) >= 2))
@@ -46,7 +46,7 @@ def grown_flanks(kept: Faces, held: Faces, directions: np.ndarray, max_turn_deg:
         if len(joins) == 0:
             break
         admitted[joins] = True
-        sums += sum_at(held[0][joins].T.ravel(), np.tile(held[1][joins] * held[2][joins, None], (3, 1)), count)
+        sums += corner_sums(held[0][joins], held[1][joins] * held[2][joins, None], count)
     return admitted
 
 

@@ -4,7 +4,11 @@ smoothed along its ring, and, where a sample sits on a crease, one per face corn
 from __future__ import annotations
 
 import numpy as np
-from scipy.spatial import cKDTree
+
+from rig.lazy import lazy_module
+
+normal_kernels = lazy_module("rig.kernels.normals")  # numba compiles on first use
+cell_kernels = lazy_module("rig.kernels.cells")
 
 # A corner normal further than CREASE_DEG from its face's normal may be a crease's (a sample at the
 # foot of a wall, whose normal also leans up the wall): that face then bends by the normals of the
@@ -39,7 +43,7 @@ def face_weights(edge_mm: np.ndarray) -> np.ndarray:
 def accumulate_normals(tri: np.ndarray, face: np.ndarray, directions: np.ndarray) -> np.ndarray:
     """Unit normals of the points of triangles `tri` (F, 3): the sum of the (weighted) `face`
     vectors of the triangles each is in; a point in none faces its camera ray `directions` back."""
-    normals = sum_at(tri.T.ravel(), np.tile(face, (3, 1)), len(directions))
+    normals = corner_sums(tri, face, len(directions))
     norm = np.linalg.norm(normals, axis=1)
     missing = norm < 1e-12
     normals[~missing] /= norm[~missing, None]
@@ -53,7 +57,8 @@ def ring_pairs(points: np.ndarray, xy: np.ndarray, ring: np.ndarray, radius_px: 
     smoothed_normals averages."""
     if radius_px <= 0 or len(xy) < 2:
         return np.zeros((0, 2), np.int64)
-    pairs = cKDTree(xy).query_pairs(radius_px, output_type="ndarray")
+    xy = np.ascontiguousarray(xy, np.float64)
+    pairs = cell_kernels.pairs_within(xy, cell_kernels.sample_cells(xy, radius_px), radius_px, radius_px)
     a, b = pairs[:, 0], pairs[:, 1]
     apart_mm = np.linalg.norm(points[a] - points[b], axis=1)
     apart_px = np.linalg.norm(xy[a] - xy[b], axis=1)
@@ -66,19 +71,18 @@ def smoothed_normals(normals: np.ndarray, pairs: np.ndarray, known: np.ndarray) 
     `known` (from triangles). Along a ring samples are a pixel apart, so each triangle's short edge,
     and with it its normal, is mostly the samples' noise; the quadratic interpolant carries a
     normal's error across the whole gap to the next ring."""
-    pairs = pairs[known[pairs[:, 0]] & known[pairs[:, 1]]]
     if len(pairs) == 0:
         return normals
-    total = normals + sum_at(
-        np.concatenate([pairs[:, 0], pairs[:, 1]]), normals[pairs[:, ::-1].T.ravel()], len(normals)
-    )
+    total = normals + normal_kernels.pair_sums(normals, pairs, known)
     return total / np.maximum(np.linalg.norm(total, axis=1), 1e-12)[:, None]
 
 
-def sum_at(index: np.ndarray, vectors: np.ndarray, count: int) -> np.ndarray:
-    """(count, 3): the sum of the rows of `vectors` at each `index` (np.add.at, by bincount: faster)."""
-    sums = np.column_stack([np.bincount(index, vectors[:, k], minlength=count) for k in range(3)])
-    return sums.astype(np.float64, copy=False)  # bincount of nothing is int64
+def corner_sums(tri: np.ndarray, vectors: np.ndarray, count: int) -> np.ndarray:
+    """(count, 3): per point, the sum of the `vectors` rows (F, 3) of the triangles `tri` (F, 3) it
+    is a corner of (a compiled loop: rig.kernels.normals)."""
+    sums = np.zeros((count, 3))
+    normal_kernels.corner_sums(np.ascontiguousarray(tri, np.int64), np.ascontiguousarray(vectors, np.float64), sums)
+    return sums
 
 
 def crease_normals(tri: np.ndarray, normals: np.ndarray, face: np.ndarray, weight: np.ndarray) -> np.ndarray:

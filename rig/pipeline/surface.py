@@ -25,6 +25,7 @@ import numpy as np
 from scipy.interpolate import CloughTocher2DInterpolator
 
 from rig.geometry import CameraModel
+from rig.lazy import lazy_module
 from rig.pipeline.disc_fill import disc_points
 from rig.pipeline.fill import FillSettings, fill_candidates, fill_points
 from rig.pipeline.flanks import foreshortening, grown_flanks
@@ -39,6 +40,8 @@ from rig.pipeline.normals import (
 from rig.pipeline.raster import FaceTerms, on_triangles, rasterize
 from rig.pipeline.triangulation import delaunay
 from rig.workers import batches, pool
+
+normal_kernels = lazy_module("rig.kernels.normals")  # numba compiles on first use
 
 Interpolant = Literal["linear", "quadratic", "cubic"]
 INTERPOLANTS: tuple[str, ...] = ("linear", "quadratic", "cubic")
@@ -191,11 +194,8 @@ def _off_its_corners(corners: np.ndarray, face: np.ndarray, max_excess_deg: floa
     """Triangles tilted away from a corner's normal (F, 3, 3) by `max_excess_deg` more than the
     corners' normals differ among themselves: the corners agree on a surface the triangle does not
     lie on, as when it joins the rings of two treads of a step. On a smooth surface a triangle's
-    normal lies among its corners' normals."""
-    bend = np.degrees(np.arccos(np.clip(np.einsum("fkj,fj->fk", corners, face), -1.0, 1.0))).max(axis=1)
-    apart = np.einsum("fkj,fkj->fk", corners, corners[:, _NEXT])
-    spread = np.degrees(np.arccos(np.clip(apart, -1.0, 1.0))).max(axis=1)
-    return bend - spread > max_excess_deg
+    normal lies among its corners' normals. A compiled pass (rig.kernels.normals.off_corners)."""
+    return normal_kernels.off_corners(np.ascontiguousarray(corners), np.ascontiguousarray(face), max_excess_deg)
 
 
 def interpolate_surface(
