@@ -1,9 +1,9 @@
 """Triangles steep to both devices: a flank turning away, or a bridge across a depth step.
 
 A triangle between two rings whose edge both the camera and the projector see foreshortened
-(foreshortening) is either a flank of the object turning away from both (a face's
-cheek toward its rim, where the rings crowd a few camera pixels apart) or a bridge from an object's
-last ring to the surface behind it. Alone, a triangle cannot tell which: both are steep. Its
+(rig.kernels.triangles.triangle_tests) is either a flank of the object turning away from both (a
+face's cheek toward its rim, where the rings crowd a few camera pixels apart) or a bridge from an
+object's last ring to the surface behind it. Alone, a triangle cannot tell which: both are steep. Its
 neighbours can. A flank continues the surface beside it, so its tilt is close to the normals its
 corners take from the triangles already kept; a bridge leans across a step, far from the normals
 of the surfaces on both its sides. So the steep triangles are held back, then admitted in rounds
@@ -18,13 +18,11 @@ from __future__ import annotations
 
 import numpy as np
 
-from rig.geometry import CameraModel
 from rig.pipeline.normals import corner_sums
 
 Faces = tuple[np.ndarray, np.ndarray, np.ndarray]  # triangles (F, 3), unit normals (F, 3), weights (F,)
 
 MAX_ROUNDS = 64  # a flank is admitted a ring per two rounds: a face's cheek crowds about ten rings
-_NEXT = [1, 2, 0]  # a triangle's edge k runs from corner k to corner _NEXT[k]
 
 
 def grown_flanks(kept: Faces, held: Faces, directions: np.ndarray, max_turn_deg: float) -> np.ndarray:
@@ -48,35 +46,3 @@ def grown_flanks(kept: Faces, held: Faces, directions: np.ndarray, max_turn_deg:
         admitted[joins] = True
         sums += corner_sums(held[0][joins], held[1][joins] * held[2][joins, None], count)
     return admitted
-
-
-def foreshortening(
-    points: np.ndarray,
-    tri: np.ndarray,
-    edge_px: np.ndarray,
-    edge_mm: np.ndarray,
-    camera: CameraModel,
-    projector: CameraModel,
-) -> np.ndarray:
-    """(F,) how foreshortened each triangle's edge that both devices see most foreshortened is: the
-    least over its edges of f_camera x f_projector, where f = (image length x mm per pixel at its
-    depth) / 3D length is the cosine of the edge's tilt out of a device's image plane.
-    A surface is rarely steep to both but where it turns away from them (grown_flanks keeps those);
-    an edge joining a surface to another that one device hides or shadows runs along a ray of one
-    and steeply for the other. `edge_px`,
-    `edge_mm`: the triangles' edges (F, 3) in the camera image and in space."""
-    product = np.ones_like(edge_mm)
-    for device, pixels in ((camera, edge_px), (projector, None)):
-        if pixels is None:
-            image = device.project(points)[0][tri]  # each sample once, then its corners
-            pixels = np.linalg.norm(image[:, _NEXT] - image, axis=2)
-        product *= np.minimum(1.0, pixels * _mm_per_px(device, points, tri) / np.maximum(edge_mm, 1e-12))
-    return product.min(axis=1)
-
-
-def _mm_per_px(device: CameraModel, points: np.ndarray, tri: np.ndarray) -> np.ndarray:
-    """Millimetres per pixel across a device's rays at the depth of each triangle edge's middle (F, 3)."""
-    if device.projection == "orthographic":
-        return np.full(tri.shape, 1.0 / device.K[0, 0])
-    depth = device.to_device(points)[:, 2][tri]
-    return 0.5 * (depth + depth[:, _NEXT]) / device.K[0, 0]

@@ -28,11 +28,9 @@ from rig.geometry import CameraModel
 from rig.lazy import lazy_module
 from rig.pipeline.disc_fill import disc_points
 from rig.pipeline.fill import FillSettings, fill_candidates, fill_points
-from rig.pipeline.flanks import foreshortening, grown_flanks
+from rig.pipeline.flanks import grown_flanks
 from rig.pipeline.normals import (
     crease_normals,
-    face_normals,
-    face_weights,
     ring_pairs,
     smoothed_normals,
     vertex_normals,
@@ -42,12 +40,12 @@ from rig.pipeline.triangulation import delaunay
 from rig.workers import batches, pool
 
 normal_kernels = lazy_module("rig.kernels.normals")  # numba compiles on first use
+triangle_kernels = lazy_module("rig.kernels.triangles")
+surface_kernels = lazy_module("rig.kernels.ring_surface")
 
 Interpolant = Literal["linear", "quadratic", "cubic"]
 INTERPOLANTS: tuple[str, ...] = ("linear", "quadratic", "cubic")
 
-# Near the rings' centre the polar angle says little (and is read poorly): no angle check inside this.
-_ANGLE_MIN_RADIUS_PX = 8.0
 _BRIDGE_ROUNDS = 4  # rounds of dropping triangles bent off their corners (ring_triangles)
 _PAIRS_TIMEOUT_S = 300.0  # a bound on waiting for the pool, far beyond the ~30 ms it takes
 
@@ -96,9 +94,6 @@ class RingSurface:
     flank: np.ndarray | None = None  # (F,) bool: faces steep to both devices, kept as a flank (rig.pipeline.flanks)
 
 
-_NEXT = [1, 2, 0]  # a triangle's edge k runs from corner k to corner _NEXT[k]
-
-
 @dataclass(frozen=True, eq=False)
 class RingTriangles:
     """The kept triangles of a pair's ring samples (ring_triangles)."""
@@ -142,26 +137,17 @@ def ring_triangles(
     # the samples' neighbours along their rings need no triangles: found while OpenCV triangulates
     neighbours = pool().submit(ring_pairs, points, xy, ring, settings.normal_smoothing_px)
     tri = delaunay(xy) if tri is None else tri
+    tested = _tested(points, xy, ring, camera, projector, directions, tri, settings.max_gap_px)
+    verdict, face, weight, slant, foreshortened = tested
     counts = {"triangles": len(tri)}
-    r = ring[tri]
-    span = r.max(axis=1) - r.min(axis=1)
-    image = xy[tri]
-    edge_px = np.linalg.norm(image[:, _NEXT] - image, axis=2)
-    gap = ((r == r[:, _NEXT]) & (edge_px > settings.max_gap_px)).any(axis=1)
-    keep = (span == 1) & ~gap
-    counts["dropped_ring_skipped"] = int((span > 1).sum())
-    counts["dropped_gap"] = int(((span == 1) & gap).sum())
-    counts["dropped_one_ring"] = int((span == 0).sum())
-    tri, edge_px = tri[keep], edge_px[keep]
-    corner = points[tri]
-    edge_mm = np.linalg.norm(corner[:, _NEXT] - corner, axis=2)
-    face = face_normals(points, tri, directions)
-    slant = np.abs(np.einsum("ij,ij->i", face, directions[tri[:, 0]]))
+    verdicts = {"ring_skipped": triangle_kernels.RING_SKIPPED, "gap": triangle_kernels.GAP}
+    for name, code in (*verdicts.items(), ("one_ring", triangle_kernels.ONE_RING)):
+        counts[f"dropped_{name}"] = int((verdict == code).sum())
+    keep = verdict == triangle_kernels.KEPT
+    tri, face, weight, slant, foreshortened = tri[keep], face[keep], weight[keep], slant[keep], foreshortened[keep]
     edge_on = slant < np.cos(np.radians(settings.max_slant_deg))
-    foreshortened = foreshortening(points, tri, edge_px, edge_mm, camera, projector)
     steep = ~edge_on & (foreshortened < settings.min_foreshortening)
     edge_on |= steep
-    weight = face_weights(edge_mm)
     held = (tri[steep], face[steep], weight[steep])  # a flank or a bridge: told apart once the rest is known
     tri, face, weight = tri[~edge_on], face[~edge_on], weight[~edge_on]
     normals = vertex_normals(tri, face, weight, directions)
@@ -188,6 +174,34 @@ def ring_triangles(
     steep = np.concatenate([np.zeros(len(tri) - counts["kept_flank"], dtype=bool), np.ones(counts["kept_flank"], bool)])
     counts["faces"] = len(tri)
     return RingTriangles(tri, face, weight, normals, counts, directions, pairs, steep)
+
+
+def _tested(
+    points: np.ndarray,
+    xy: np.ndarray,
+    ring: np.ndarray,
+    camera: CameraModel,
+    projector: CameraModel,
+    directions: np.ndarray,
+    tri: np.ndarray,
+    max_gap_px: float,
+) -> tuple[np.ndarray, ...]:
+    """Every triangle's verdict on its rings (rig.kernels.triangles), unit normal, weight
+    (face_weights), slant to the camera and foreshortening to both devices (foreshortening): one
+    compiled pass over the triangles, from the samples' depths and projector pixels."""
+    depths = np.ones((len(points), 2))
+    for k, device in enumerate((camera, projector)):
+        if device.projection != "orthographic":
+            depths[:, k] = device.to_device(points)[:, 2]
+    focal = (float(camera.K[0, 0]), float(projector.K[0, 0]))
+    count = len(tri)
+    out = (np.empty(count, np.int8), np.empty((count, 3)), np.empty(count), np.empty(count), np.empty(count))
+    triangle_kernels.triangle_tests(
+        np.ascontiguousarray(tri, np.int64), ring.astype(np.int64), np.ascontiguousarray(xy, np.float64),
+        projector.project(points)[0], np.ascontiguousarray(points, np.float64), directions, depths,
+        (float(max_gap_px), *focal), *out,
+    )  # fmt: skip
+    return out
 
 
 def _off_its_corners(corners: np.ndarray, face: np.ndarray, max_excess_deg: float) -> np.ndarray:
@@ -239,9 +253,7 @@ def interpolate_surface(
             origins, directions = (np.asarray(rays[part]) for rays in camera.pixel_rays)
             found = origins + _cubic_depth(points, xy, camera, part)[:, None] * directions
         else:
-            found = on_triangles(
-                terms, part, owner[span[0] : span[1]], _rays(camera, part, terms.origin is not None), camera.width
-            )
+            found = on_triangles(terms, part, owner[span[0] : span[1]], camera.pixel_rays, camera.width)
         grid[part] = found
         ok[span[0] : span[1]] = np.isfinite(found).all(axis=1)
         if bands is not None:
@@ -331,15 +343,6 @@ def _surface(
     )  # fmt: skip
 
 
-def _rays(camera: CameraModel, pixel: np.ndarray, common_origin: bool) -> tuple[np.ndarray, np.ndarray]:
-    """The rays of flat camera pixels: with a `common_origin` (the FaceTerms measure from it) that
-    origin once, each ray's own origin otherwise; the unit directions."""
-    origins, directions = camera.pixel_rays
-    if common_origin:
-        return origins[:1], np.asarray(directions[pixel])
-    return np.asarray(origins[pixel]), np.asarray(directions[pixel])
-
-
 def _without_shadowed(
     tri: np.ndarray, pixel: np.ndarray, owner: np.ndarray, lit: np.ndarray, max_unlit: float, counts: dict[str, int]
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -358,19 +361,18 @@ def band_agreement(
     found: np.ndarray, pixel: np.ndarray, projector: CameraModel, bands: RingBands, settings: SurfaceSettings
 ) -> np.ndarray:
     """Whether each interpolated point (at flat camera pixel `pixel`) projects into the annulus and
-    near the polar angle its pixel read; unread pixels agree with anything."""
-    u, v, z = projector.project_columns(found)  # a point that is NaN agrees with nothing
-    du, dv = u - bands.center_px[0], v - bands.center_px[1]
-    rho = np.hypot(du, dv)
-    annulus = bands.annulus.ravel()[pixel]
-    radii = np.concatenate([[-np.inf], bands.radii_px, [np.inf]])  # annulus a lies between radii[a], radii[a + 1]
-    a = np.clip(annulus, 0, len(bands.radii_px)).astype(np.intp)
-    inside = (rho >= radii[a] - settings.band_margin_px) & (rho <= radii[a + 1] + settings.band_margin_px)
-    inside |= annulus < 0  # unread: anywhere
-    angle = bands.angle.ravel()[pixel]
-    turned = np.abs(np.remainder(np.arctan2(dv, du) - angle + np.pi, 2 * np.pi) - np.pi)
-    aligned = ~np.isfinite(angle) | (turned <= settings.band_angle_rad) | (rho < _ANGLE_MIN_RADIUS_PX)
-    return (z > 0) & inside & aligned
+    near the polar angle its pixel read; unread pixels agree with anything, a NaN point with nothing.
+    Near the rings' centre the polar angle says little (and is read poorly): it is not checked there
+    (rig.kernels.ring_surface, which does it in one compiled loop)."""
+    agree = np.empty(len(pixel), dtype=bool)
+    device = tuple(np.ascontiguousarray(a, np.float64) for a in (projector.R, projector.t, projector.K, projector.dist))
+    kind = (projector.projection == "orthographic", projector.has_distortion)
+    centre = (float(bands.center_px[0]), float(bands.center_px[1]))
+    read = (bands.annulus.ravel(), bands.angle.ravel(), np.asarray(bands.radii_px, np.float64), *centre)
+    margins = (float(settings.band_margin_px), float(settings.band_angle_rad))
+    found = np.ascontiguousarray(found, np.float64)
+    surface_kernels.band_agreement(found, pixel, device, kind, read, margins, agree, 0, len(pixel))
+    return agree
 
 
 def _cubic_depth(points: np.ndarray, xy: np.ndarray, camera: CameraModel, pixel: np.ndarray) -> np.ndarray:

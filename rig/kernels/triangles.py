@@ -1,0 +1,138 @@
+"""The ring surface's triangles (rig.pipeline.surface, rig.pipeline.raster), compiled by numba: the
+tests every image triangle of the ring samples meets, and the camera pixels each kept one covers.
+As numpy passes over (triangles, 3) arrays these took a dozen passes each; here one loop per
+triangle computes what they did, in the same floating-point order."""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+from rig.kernels import KERNEL
+
+KEPT, RING_SKIPPED, GAP, ONE_RING = 0, 1, 2, 3  # a triangle's verdict on the rings it joins
+
+
+@njit(**KERNEL)
+def triangle_tests(
+    tri: np.ndarray,
+    ring: np.ndarray,
+    camera_xy: np.ndarray,
+    projector_xy: np.ndarray,
+    points: np.ndarray,
+    directions: np.ndarray,
+    depths: np.ndarray,
+    lengths: tuple[float, float, float],
+    verdict: np.ndarray,
+    face: np.ndarray,
+    weight: np.ndarray,
+    slant: np.ndarray,
+    foreshortened: np.ndarray,
+) -> None:
+    """Per triangle `tri` (F, 3) of the samples (ring index, image positions in the camera and the
+    projector, points, camera rays, depths (M, 2) in the camera and the projector, 1 for an
+    orthographic device): its `verdict` (KEPT: joins one ring to the next with no edge along a
+    ring longer than the gap; else why not) and, whatever it, its unit normal toward the camera
+    `face`, 1 / its longest edge in mm `weight`, |cos| of the normal with corner 0's ray `slant`,
+    and `foreshortened`: how foreshortened its edge that both devices see most foreshortened is,
+    the least over its edges of f_camera x f_projector, where f = (image length x mm per pixel at
+    its depth) / 3D length is the cosine of the edge's tilt out of a device's image plane
+    (rig.pipeline.flanks). lengths: (max gap px, camera focal px, projector focal px)."""
+    max_gap, camera_focal, projector_focal = lengths
+    edge_mm = np.empty(3)
+    for f in range(len(tri)):
+        a, b, c = tri[f, 0], tri[f, 1], tri[f, 2]
+        low, high = min(ring[a], ring[b], ring[c]), max(ring[a], ring[b], ring[c])
+        gap = False
+        least = np.inf
+        for k in range(3):
+            i, j = tri[f, k], tri[f, (k + 1) % 3]
+            edge_px = np.sqrt((camera_xy[j, 0] - camera_xy[i, 0]) ** 2 + (camera_xy[j, 1] - camera_xy[i, 1]) ** 2)
+            gap = gap or (ring[i] == ring[j] and edge_px > max_gap)
+            edge_mm[k] = np.sqrt(
+                (points[j, 0] - points[i, 0]) ** 2
+                + (points[j, 1] - points[i, 1]) ** 2
+                + (points[j, 2] - points[i, 2]) ** 2
+            )
+            along_px = np.sqrt(
+                (projector_xy[j, 0] - projector_xy[i, 0]) ** 2 + (projector_xy[j, 1] - projector_xy[i, 1]) ** 2
+            )
+            seen = 1.0 * min(
+                1.0, edge_px * (0.5 * (depths[i, 0] + depths[j, 0]) / camera_focal) / max(edge_mm[k], 1e-12)
+            )
+            seen *= min(
+                1.0, along_px * (0.5 * (depths[i, 1] + depths[j, 1]) / projector_focal) / max(edge_mm[k], 1e-12)
+            )
+            least = min(least, seen)
+        span = high - low
+        verdict[f] = RING_SKIPPED if span > 1 else ONE_RING if span == 0 else GAP if gap else KEPT
+        foreshortened[f] = least
+        weight[f] = 1.0 / max(max(edge_mm[0], edge_mm[1], edge_mm[2]), 1e-9)
+        _face_normal(points, directions, a, b, c, face[f])
+        slant[f] = abs(face[f, 0] * directions[a, 0] + face[f, 1] * directions[a, 1] + face[f, 2] * directions[a, 2])
+
+
+@njit(nogil=True, cache=True, inline="always")
+def _face_normal(points: np.ndarray, directions: np.ndarray, a: int, b: int, c: int, out: np.ndarray) -> None:
+    """rig.pipeline.normals.face_normals of one triangle, into `out`."""
+    ux, uy, uz = points[b, 0] - points[a, 0], points[b, 1] - points[a, 1], points[b, 2] - points[a, 2]
+    vx, vy, vz = points[c, 0] - points[a, 0], points[c, 1] - points[a, 1], points[c, 2] - points[a, 2]
+    nx, ny, nz = uy * vz - uz * vy, uz * vx - ux * vz, ux * vy - uy * vx
+    norm = max(np.sqrt(nx * nx + ny * ny + nz * nz), 1e-300)
+    nx, ny, nz = nx / norm, ny / norm, nz / norm
+    if nx * directions[a, 0] + ny * directions[a, 1] + nz * directions[a, 2] > 0:
+        nx, ny, nz = -nx, -ny, -nz
+    out[0], out[1], out[2] = nx, ny, nz
+
+
+@njit(**KERNEL)
+def rasterize(xy: np.ndarray, tri: np.ndarray, image: np.ndarray) -> None:
+    """rig.pipeline.raster.rasterize into `image` (H, W int64, -1 where no triangle): each
+    triangle's rows (corners sorted by y, ties in their order), each row's span between the long
+    edge and the short edge above or below the middle corner; a later triangle wins a shared pixel."""
+    height, width = image.shape
+    ys = np.empty(3)
+    for f in range(len(tri)):
+        order = _by_y(xy, tri[f], ys)
+        x0, y0 = xy[tri[f, order[0]], 0], xy[tri[f, order[0]], 1]
+        x1, y1 = xy[tri[f, order[1]], 0], xy[tri[f, order[1]], 1]
+        x2, y2 = xy[tri[f, order[2]], 0], xy[tri[f, order[2]], 1]
+        if not y2 > y0:
+            continue  # a flat triangle has no inside
+        top = min(max(np.ceil(y0), 0), height - 1)
+        bottom = min(max(np.floor(y2), 0), height - 1)
+        long_at, long_slope = _edge(x0, y0, x2, y2)
+        upper_at, upper_slope = _edge(x0, y0, x1, y1)
+        lower_at, lower_slope = _edge(x1, y1, x2, y2)
+        for row in range(int(top), int(bottom) + 1):
+            x_long = long_at + row * long_slope
+            x_short = lower_at + row * lower_slope if row > y1 else upper_at + row * upper_slope
+            first = int(min(max(np.ceil(min(x_long, x_short)), 0), width))
+            last = int(min(max(np.floor(max(x_long, x_short)), -1), width - 1))
+            for column in range(first, last + 1):
+                image[row, column] = f
+
+
+@njit(nogil=True, cache=True, inline="always")
+def _by_y(xy: np.ndarray, corners: np.ndarray, ys: np.ndarray) -> tuple[int, int, int]:
+    """The corners' positions sorted by y, equal ones in their order (a stable sort of three)."""
+    for k in range(3):
+        ys[k] = xy[corners[k], 1]
+    a, b, c = 0, 1, 2
+    if ys[b] < ys[a]:
+        a, b = b, a
+    if ys[c] < ys[b]:
+        b, c = c, b
+        if ys[b] < ys[a]:
+            a, b = b, a
+    return a, b, c
+
+
+@njit(nogil=True, cache=True, inline="always")
+def _edge(xa: float, ya: float, xb: float, yb: float) -> tuple[float, float]:
+    """rig.pipeline.raster._edge of one edge: x = at + y * slope, a flat one as x = xb."""
+    dy = yb - ya
+    if dy == 0:
+        return xb, 0.0
+    slope = (xb - xa) / dy
+    return xa - ya * slope, slope

@@ -1,0 +1,135 @@
+"""The ring surface's compiled loops (rig.kernels.triangles, rig.kernels.ring_surface) against the
+formulas they implement, written here as plain numpy, on devices the default bench does not have:
+a distorted and an orthographic projector, an orthographic camera (a ray per pixel)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from conftest import make_device
+
+from rig.geometry import CameraModel
+from rig.kernels.triangles import GAP, KEPT, ONE_RING, RING_SKIPPED
+from rig.pipeline.normals import face_normals, face_weights
+from rig.pipeline.raster import FaceTerms, on_triangles
+from rig.pipeline.surface import RingBands, SurfaceSettings, _tested, band_agreement
+
+RNG = np.random.default_rng(7)
+
+
+def _projectors() -> dict[str, CameraModel]:
+    return {
+        "pinhole": make_device(320, 240, 400.0, (80.0, 0.0, 600.0)),
+        "distorted": make_device(320, 240, 400.0, (80.0, 0.0, 600.0), dist=(0.08, -0.05, 0.001, -0.002, 0.01)),
+        "orthographic": make_device(320, 240, 0.8, (80.0, 0.0, 600.0), projection="orthographic"),
+    }
+
+
+def _bands(camera: CameraModel) -> RingBands:
+    """Random reads: a third of the pixels unread in annulus, a third unread in angle."""
+    shape = (camera.height, camera.width)
+    annulus = RNG.integers(-1, 9, size=shape).astype(np.int16)
+    angle = RNG.uniform(-np.pi, np.pi, size=shape).astype(np.float32)
+    angle[RNG.random(shape) < 0.3] = np.nan
+    return RingBands(annulus, angle, np.linspace(10.0, 120.0, 8), (160.0, 120.0))
+
+
+def _agreement(found: np.ndarray, pixel: np.ndarray, projector: CameraModel, bands: RingBands) -> np.ndarray:
+    """band_agreement's rule: in the annulus read (padded by band_margin_px), within band_angle_rad of
+    the angle read (not within 8 px of the centre), in front of the projector."""
+    settings = SurfaceSettings()
+    u, v, z = projector.project_columns(found)
+    du, dv = u - bands.center_px[0], v - bands.center_px[1]
+    rho = np.hypot(du, dv)
+    annulus = bands.annulus.ravel()[pixel]
+    radii = np.concatenate([[-np.inf], bands.radii_px, [np.inf]])
+    a = np.clip(annulus, 0, len(bands.radii_px)).astype(np.intp)
+    inside = (rho >= radii[a] - settings.band_margin_px) & (rho <= radii[a + 1] + settings.band_margin_px)
+    angle = bands.angle.ravel()[pixel]
+    turned = np.abs(np.remainder(np.arctan2(dv, du) - angle + np.pi, 2 * np.pi) - np.pi)
+    aligned = ~np.isfinite(angle) | (turned <= settings.band_angle_rad) | (rho < 8.0)
+    return (z > 0) & (inside | (annulus < 0)) & aligned
+
+
+@pytest.mark.parametrize("kind", ["pinhole", "distorted", "orthographic"])
+def test_band_agreement_follows_its_rule_on_every_kind_of_projector(kind: str) -> None:
+    projector = _projectors()[kind]
+    camera = make_device(160, 120, 200.0, (0.0, 0.0, 600.0))
+    bands = _bands(camera)
+    # points the projector sees all over its rings (and a few behind it, and NaN)
+    target = np.column_stack([RNG.uniform(-90, 90, 5000), RNG.uniform(-70, 70, 5000), RNG.uniform(-40, 40, 5000)])
+    target[:20] = projector.center + 50.0 * (projector.center - target[:20]) / 600.0  # behind
+    target[20:30] = np.nan
+    pixel = RNG.integers(0, camera.width * camera.height, size=len(target))
+    agree = band_agreement(target, pixel, projector, bands, SurfaceSettings())
+    expected = _agreement(target, pixel, projector, bands)
+    assert 0.05 < expected.mean() < 0.95  # both verdicts are exercised
+    np.testing.assert_array_equal(agree, expected)
+
+
+@pytest.mark.parametrize("projection", ["pinhole", "orthographic"])
+def test_points_on_faces_lie_on_their_planes_and_rays(projection: str) -> None:
+    """Linear: where each pixel's ray meets its face's plane; quadratic: within a quarter of the
+    face's longest edge of that point, on the same ray."""
+    f = 200.0 if projection == "pinhole" else 0.5
+    camera = make_device(160, 120, f, (0.0, 0.0, 600.0), projection=projection)
+    xy = np.array([[20.0, 15.0], [140.0, 20.0], [30.0, 110.0], [150.0, 100.0]])
+    depth = np.array([0.0, 10.0, -15.0, 5.0])
+    origins, directions = camera.rays(xy)
+    points = np.asarray(origins) + (600.0 + depth)[:, None] * np.asarray(directions)
+    tri = np.array([[0, 1, 2], [1, 3, 2]])
+    normals = np.array([[0.1, -0.2, -1.0], [-0.2, 0.1, -1.0], [0.3, 0.2, -1.0], [0.0, -0.3, -1.0]])  # a bent surface
+    normals /= np.linalg.norm(normals, axis=1)[:, None]
+    pixel = np.array([40 * 160 + 50, 60 * 160 + 80, 90 * 160 + 120, 70 * 160 + 130])
+    owner = np.array([0, 0, 1, 1])
+    origin = camera.center if projection == "pinhole" else None
+    linear = on_triangles(FaceTerms.of(points, xy, tri, None, origin), pixel, owner, camera.pixel_rays, camera.width)
+    o, d = (np.asarray(r)[pixel] for r in camera.pixel_rays)
+    corner = points[tri[owner]]
+    plane = np.cross(corner[:, 1] - corner[:, 0], corner[:, 2] - corner[:, 0])
+    t = np.einsum("ij,ij->i", plane, corner[:, 0] - o) / np.einsum("ij,ij->i", plane, d)
+    np.testing.assert_allclose(linear, o + t[:, None] * d, atol=1e-9)
+    quadratic = on_triangles(
+        FaceTerms.of(points, xy, tri, normals[tri], origin), pixel, owner, camera.pixel_rays, camera.width
+    )
+    off_ray = np.linalg.norm(np.cross(quadratic - o, d), axis=1)
+    assert off_ray.max() < 1e-9
+    longest = np.linalg.norm(corner - corner[:, [1, 2, 0]], axis=2).max(axis=1)
+    moved = np.linalg.norm(quadratic - linear, axis=1)
+    assert (moved <= 0.25 * longest + 1e-9).all() and moved.max() > 1e-3  # the tangent planes bend it
+
+
+@pytest.mark.parametrize("kind", ["pinhole", "orthographic"])
+def test_triangle_tests_give_numpys_normals_weights_and_foreshortening(kind: str) -> None:
+    camera = make_device(320, 240, 400.0, (0.0, 0.0, 600.0))
+    projector = _projectors()[kind]
+    count = 60
+    xy = np.column_stack([RNG.uniform(10, 310, count), RNG.uniform(10, 230, count)])
+    origins, directions = camera.rays(xy)
+    directions = np.asarray(directions)
+    points = np.asarray(origins) + RNG.uniform(560, 640, count)[:, None] * directions
+    ring = RNG.integers(0, 4, count)
+    tri = RNG.integers(0, count, size=(200, 3))
+    tri = tri[(tri[:, 0] != tri[:, 1]) & (tri[:, 1] != tri[:, 2]) & (tri[:, 0] != tri[:, 2])]
+    verdict, face, weight, slant, foreshortened = _tested(points, xy, ring, camera, projector, directions, tri, 60.0)
+    np.testing.assert_allclose(face, face_normals(points, tri, directions), atol=1e-12)
+    nxt = [1, 2, 0]
+    edge_mm = np.linalg.norm(points[tri][:, nxt] - points[tri], axis=2)
+    np.testing.assert_allclose(weight, face_weights(edge_mm), rtol=1e-12)
+    np.testing.assert_allclose(slant, np.abs(np.einsum("ij,ij->i", face, directions[tri[:, 0]])), atol=1e-12)
+    product = np.ones_like(edge_mm)
+    for device in (camera, projector):
+        image = device.project(points)[0][tri]
+        pixels = np.linalg.norm(image[:, nxt] - image, axis=2)
+        ortho = device.projection == "orthographic"
+        depth = np.ones(tri.shape) if ortho else device.to_device(points)[:, 2][tri]
+        mm = 0.5 * (depth + depth[:, nxt]) / device.K[0, 0]
+        product *= np.minimum(1.0, pixels * mm / np.maximum(edge_mm, 1e-12))
+    np.testing.assert_allclose(foreshortened, product.min(axis=1), rtol=1e-12)
+    r = ring[tri]
+    span = r.max(axis=1) - r.min(axis=1)
+    image_edge = np.linalg.norm(xy[tri][:, nxt] - xy[tri], axis=2)
+    gap = ((r == r[:, nxt]) & (image_edge > 60.0)).any(axis=1)
+    expected = np.where(span > 1, RING_SKIPPED, np.where(span == 0, ONE_RING, np.where(gap, GAP, KEPT)))
+    assert len(set(expected.tolist())) == 4  # every verdict is exercised
+    np.testing.assert_array_equal(verdict, expected)
