@@ -39,9 +39,12 @@ def fit_height_fields(
     Heights count once per sample, slopes (where the normal is not steeper than 0.2 off the
     plane) twice; `ridge` (times the weight) holds the bends toward zero. NaN where it is singular."""
     k = index.shape[1]
+    o, up, axes = np.empty(3), np.empty(3), np.empty((3, 3))  # scratch: one pixel's, reused
+    local, slope = np.empty((k, 3)), np.empty((k, 3))
+    normal, right, row = np.empty((_TERMS, _TERMS)), np.empty(_TERMS), np.empty(_TERMS)
     for n in range(start, stop):
         weight = 0.0
-        o, up = np.zeros(3), np.zeros(3)
+        o[:], up[:] = 0.0, 0.0
         for j in range(k):
             if use[n, j]:
                 weight += 1.0
@@ -49,8 +52,9 @@ def fit_height_fields(
                     o[c] += points[index[n, j], c]
                     up[c] += normals[index[n, j], c]
         o /= weight
-        axes = _axes(up / np.sqrt(np.sum(up**2)))
-        local, slope = np.zeros((k, 3)), np.zeros((k, 3))
+        up /= np.sqrt(up[0] ** 2 + up[1] ** 2 + up[2] ** 2)
+        _axes(up, axes)
+        local[:], slope[:] = 0.0, 0.0
         spread = 0.0
         for j in range(k):
             if use[n, j]:
@@ -61,32 +65,43 @@ def fit_height_fields(
                         slope[j, a] += axes[a, c] * normals[s, c]
                 spread += local[j, 0] ** 2 + local[j, 1] ** 2
         scale = np.sqrt(spread / weight) + 1e-6
-        coef[n] = _fit(local, slope, use[n], scale, ridge * weight)
+        _fit(local, slope, use[n], (scale, ridge * weight), (normal, right, row), coef[n])
         squares = 0.0
         for j in range(k):
             if use[n, j]:
                 squares += (_height(coef[n], local[j, 0] / scale, local[j, 1] / scale) - local[j, 2]) ** 2
         misfit[n] = np.sqrt(squares / weight)
-        frame[n, :2] = axes[:2] / scale
-        frame[n, 2] = axes[2]
-        origin[n] = o
+        for c in range(3):
+            frame[n, 0, c], frame[n, 1, c], frame[n, 2, c] = axes[0, c] / scale, axes[1, c] / scale, axes[2, c]
+            origin[n, c] = o[c]
 
 
-@njit(**KERNEL)
-def _axes(up: np.ndarray) -> np.ndarray:
-    """Rows e1, e2, up: a right-handed frame about the unit normal `up`."""
-    ref = np.array([1.0, 0.0, 0.0]) if abs(up[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
-    e1 = np.cross(up, ref)
-    e1 /= np.sqrt(np.sum(e1**2))
-    axes = np.empty((3, 3))
-    axes[0], axes[1], axes[2] = e1, np.cross(up, e1), up
-    return axes
+@njit(nogil=True, cache=True)
+def _axes(up: np.ndarray, axes: np.ndarray) -> None:
+    """Rows e1, e2, up of `axes`: a right-handed frame about the unit normal `up`."""
+    rx, ry, rz = (1.0, 0.0, 0.0) if abs(up[0]) < 0.9 else (0.0, 1.0, 0.0)
+    ex, ey, ez = up[1] * rz - up[2] * ry, up[2] * rx - up[0] * rz, up[0] * ry - up[1] * rx
+    size = np.sqrt(ex**2 + ey**2 + ez**2)
+    ex, ey, ez = ex / size, ey / size, ez / size
+    axes[0, 0], axes[0, 1], axes[0, 2] = ex, ey, ez
+    axes[1, 0], axes[1, 1], axes[1, 2] = up[1] * ez - up[2] * ey, up[2] * ex - up[0] * ez, up[0] * ey - up[1] * ex
+    axes[2, 0], axes[2, 1], axes[2, 2] = up[0], up[1], up[2]
 
 
-@njit(**KERNEL)
-def _fit(local: np.ndarray, slope: np.ndarray, use: np.ndarray, scale: float, ridge: float) -> np.ndarray:
-    """The height field's six coefficients from the used samples' local positions and normals."""
-    normal, right, row = np.zeros((_TERMS, _TERMS)), np.zeros(_TERMS), np.zeros(_TERMS)
+@njit(nogil=True, cache=True)
+def _fit(
+    local: np.ndarray,
+    slope: np.ndarray,
+    use: np.ndarray,
+    scales: tuple[float, float],
+    scratch: tuple[np.ndarray, np.ndarray, np.ndarray],
+    coef: np.ndarray,
+) -> None:
+    """The height field's six coefficients `coef` from the used samples' local positions and
+    normals; scales: (the neighbourhood's size, the ridge)."""
+    scale, ridge = scales
+    normal, right, row = scratch
+    normal[:], right[:] = 0.0, 0.0
     for j in range(len(use)):
         if not use[j]:
             continue
@@ -99,9 +114,12 @@ def _fit(local: np.ndarray, slope: np.ndarray, use: np.ndarray, scale: float, ri
             _accumulate(normal, right, row, -slope[j, 0] / nz * scale)
             row[0], row[1], row[2], row[3], row[4], row[5] = 0.0, 0.0, 1.0, 0.0, x, 2 * y
             _accumulate(normal, right, row, -slope[j, 1] / nz * scale)
+    for a in range(_TERMS):
+        for b in range(a):
+            normal[a, b] = normal[b, a]
     for t in range(3, _TERMS):
         normal[t, t] += ridge
-    return _solve(normal, right)
+    _solve(normal, right, coef)
 
 
 @njit(**KERNEL)
@@ -111,15 +129,19 @@ def _height(c: np.ndarray, x: float, y: float) -> float:
 
 @njit(**KERNEL)
 def _accumulate(normal: np.ndarray, right: np.ndarray, row: np.ndarray, target: float) -> None:
+    """Add a row of the least-squares system to its normal equations: their upper triangle only
+    (the lower is the same products, mirrored once all rows are in)."""
     for a in range(_TERMS):
-        right[a] += row[a] * target
-        for b in range(_TERMS):
-            normal[a, b] += row[a] * row[b]
+        if row[a] != 0.0:  # a slope's row is half zeros; adding their products adds nothing
+            right[a] += row[a] * target
+            for b in range(a, _TERMS):
+                normal[a, b] += row[a] * row[b]
 
 
 @njit(**KERNEL)
-def _solve(matrix: np.ndarray, right: np.ndarray) -> np.ndarray:
-    """Gaussian elimination with partial pivoting (both arguments are overwritten); NaN if singular."""
+def _solve(matrix: np.ndarray, right: np.ndarray, out: np.ndarray) -> None:
+    """Gaussian elimination with partial pivoting into `out` (both arguments are overwritten); NaN
+    if singular."""
     size = len(right)
     for col in range(size):
         pivot = col
@@ -127,7 +149,8 @@ def _solve(matrix: np.ndarray, right: np.ndarray) -> np.ndarray:
             if abs(matrix[r, col]) > abs(matrix[pivot, col]):
                 pivot = r
         if abs(matrix[pivot, col]) < 1e-300:
-            return np.full(size, np.nan)
+            out[:] = np.nan
+            return
         if pivot != col:
             for c in range(size):
                 matrix[col, c], matrix[pivot, c] = matrix[pivot, c], matrix[col, c]
@@ -137,13 +160,12 @@ def _solve(matrix: np.ndarray, right: np.ndarray) -> np.ndarray:
             for c in range(col, size):
                 matrix[r, c] -= factor * matrix[col, c]
             right[r] -= factor * right[col]
-    out = np.zeros(size)
+    out[:] = 0.0
     for r in range(size - 1, -1, -1):
         total = right[r]
         for c in range(r + 1, size):
             total -= matrix[r, c] * out[c]
         out[r] = total / matrix[r, r]
-    return out
 
 
 @njit(**KERNEL)
