@@ -59,3 +59,45 @@ def pairs_within(xy: np.ndarray, cells: Cells, cell: float, radius: float) -> np
         if not sweep:
             count = np.cumsum(count)
     return pairs
+
+
+@njit(**KERNEL)
+def k_nearest(
+    xy: np.ndarray, cells: Cells, cell: float, at: np.ndarray, index: np.ndarray, start: int, stop: int
+) -> None:
+    """For query points at[start:stop]: the indices of the k nearest points `xy` (index's width; at
+    most len(xy)), nearest first, into `index`; `cells`: sample_cells of `xy` with side `cell`.
+    Searched ring of cells by ring of cells about the query until no cell left can hold a nearer one."""
+    order, starts, x0, y0, nx, ny = cells
+    k = min(index.shape[1], len(xy))
+    dist = np.empty(k)
+    for q in range(start, stop):
+        px, py = at[q, 0], at[q, 1]
+        cx = min(max(int((px - x0) // cell), 0), nx - 1)
+        cy = min(max(int((py - y0) // cell), 0), ny - 1)
+        found = 0
+        for step in range(max(nx, ny) + 1):
+            for gy in range(max(cy - step, 0), min(cy + step, ny - 1) + 1):
+                edge = gy == cy - step or gy == cy + step
+                for gx in range(max(cx - step, 0), min(cx + step, nx - 1) + 1):
+                    if not edge and cx - step < gx < cx + step:
+                        continue
+                    c = gy * nx + gx
+                    for m in range(starts[c], starts[c + 1]):
+                        s = order[m]
+                        d = (xy[s, 0] - px) ** 2 + (xy[s, 1] - py) ** 2
+                        if found == k and d >= dist[k - 1]:
+                            continue
+                        slot = min(found, k - 1)
+                        while slot > 0 and dist[slot - 1] > d:
+                            dist[slot], index[q, slot] = dist[slot - 1], index[q, slot - 1]
+                            slot -= 1
+                        dist[slot], index[q, slot] = d, s
+                        found = min(found + 1, k)
+            # every point nearer than the searched block's nearest outside edge has been seen
+            inner = min(
+                px - (x0 + (cx - step) * cell), x0 + (cx + step + 1) * cell - px,
+                py - (y0 + (cy - step) * cell), y0 + (cy + step + 1) * cell - py,
+            )  # fmt: skip
+            if found == k and dist[k - 1] <= inner * inner:
+                break
