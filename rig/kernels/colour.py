@@ -1,6 +1,7 @@
-"""The colour between the rings (rig.pipeline.colour), compiled by numba: each pixel's weighted mean
-of its face's candidate samples in one loop, instead of (pixels x candidates) numpy temporaries
-and a sparse product (130 ms for the default bench's ring scan, against a few here). Distances are
+"""The colour between the rings (rig.pipeline.colour), compiled by numba: each face's reach, corners
+and share of area in one loop, and each pixel's weighted mean of its face's candidate samples in
+another, instead of (pixels x candidates) numpy temporaries and a sparse product (130 ms for the
+default bench's ring scan, against about 20 here). Distances are
 float32 about the samples' centre, as rig.pipeline.colour prepares them; sums are float64."""
 
 from __future__ import annotations
@@ -14,11 +15,56 @@ _NO_WEIGHT = 1e-30  # a pixel no candidate reaches divides by this: its colour i
 
 
 @njit(**KERNEL)
+def face_terms(
+    vertices: np.ndarray, faces: np.ndarray, ring: np.ndarray, reach2: np.ndarray, corners: np.ndarray, area: np.ndarray
+) -> None:
+    """Per face (F, 3) of samples `vertices` on rings `ring`: its squared reach `reach2` (twice its
+    longest edge, squared, float32), a corner on its lower and on its upper ring `corners` (F, 2:
+    the first of each), and a third of its area added to each corner's `area` (M,)."""
+    for f in range(len(faces)):
+        longest = 0.0
+        for k in range(3):
+            a, b = faces[f, k], faces[f, (k + 1) % 3]
+            dx, dy, dz = (
+                vertices[a, 0] - vertices[b, 0],
+                vertices[a, 1] - vertices[b, 1],
+                vertices[a, 2] - vertices[b, 2],
+            )
+            longest = max(longest, np.sqrt(dx**2 + dy**2 + dz**2))
+        reach2[f] = np.float32((2.0 * longest) ** 2)
+        low = high = 0
+        for k in range(1, 3):
+            low = k if ring[faces[f, k]] < ring[faces[f, low]] else low
+            high = k if ring[faces[f, k]] > ring[faces[f, high]] else high
+        corners[f, 0], corners[f, 1] = faces[f, low], faces[f, high]
+        p0, p1, p2 = faces[f, 0], faces[f, 1], faces[f, 2]
+        ux, uy, uz = (
+            vertices[p1, 0] - vertices[p0, 0],
+            vertices[p1, 1] - vertices[p0, 1],
+            vertices[p1, 2] - vertices[p0, 2],
+        )
+        vx, vy, vz = (
+            vertices[p2, 0] - vertices[p0, 0],
+            vertices[p2, 1] - vertices[p0, 1],
+            vertices[p2, 2] - vertices[p0, 2],
+        )
+        cx, cy, cz = uy * vz - uz * vy, uz * vx - ux * vz, ux * vy - uy * vx
+        third = 0.5 * np.sqrt(cx**2 + cy**2 + cz**2) / 3.0
+        for k in range(3):
+            area[faces[f, k]] += third
+
+
+@njit(nogil=True, cache=True, inline="always")
+def _minus(vertices: np.ndarray, a: int, b: int) -> tuple[float, float, float]:
+    return vertices[a, 0] - vertices[b, 0], vertices[a, 1] - vertices[b, 1], vertices[a, 2] - vertices[b, 2]
+
+
+@njit(**KERNEL)
 def mix_colours(
     samples: np.ndarray,
     area: np.ndarray,
     colours: np.ndarray,
-    candidates: np.ndarray,
+    candidates: tuple[np.ndarray, np.ndarray],
     reach2: np.ndarray,
     at: np.ndarray,
     owner: np.ndarray,
@@ -28,19 +74,23 @@ def mix_colours(
     stop: int,
 ) -> None:
     """Colours `out[start:stop]` (P, 3) of pixels at `at` (P, 3 float32, about the samples' centre)
-    in faces `owner`, from each face's `candidates` (F, C; index M is no sample, far beyond any
-    reach) within its squared reach `reach2` (F,): settings (nearest, L, softening squared):
-    the mean of the L nearest within reach, or the mean weighted by `area` / (d^2 + softening).
-    samples: (3, M + 1) float32 positions as rows; area (M + 1,); colours (M + 1, 3)."""
+    in faces `owner`, from each face's candidates within its squared reach `reach2` (F,): settings
+    (nearest, L, softening squared): the mean of the L nearest within reach, or the mean weighted by
+    `area` / (d^2 + softening). candidates: (along (M, k), each sample's nearest on its ring, index M
+    for none, far beyond any reach; corners (F, 2), face_terms'): a face's are its lower corner's
+    along, then its upper's. samples: (3, M + 1) float32 positions as rows; area (M + 1,); colours
+    (M + 1, 3)."""
     nearest, count, softening = settings
-    width = candidates.shape[1]
+    along, corners = candidates
+    k = along.shape[1]
+    width = 2 * k
     d2 = np.empty(width, np.float32)
     order = np.empty(width, np.int64)
     for p in range(start, stop):
         face = owner[p]
         reach = reach2[face]
         for j in range(width):
-            s = candidates[face, j]
+            s = along[corners[face, j // k], j % k]
             dx = samples[0, s] - at[p, 0]
             dy = samples[1, s] - at[p, 1]
             dz = samples[2, s] - at[p, 2]
@@ -49,14 +99,14 @@ def mix_colours(
         if nearest:
             taken = _nearest_within(d2, reach, count, order)
             for m in range(taken):
-                s = candidates[face, order[m]]
+                s = along[corners[face, order[m] // k], order[m] % k]
                 total += 1.0
                 r, g, b = r + colours[s, 0], g + colours[s, 1], b + colours[s, 2]
         else:
             for j in range(width):
                 if d2[j] > reach:
                     continue
-                s = candidates[face, j]
+                s = along[corners[face, j // k], j % k]
                 w = area[s] / (d2[j] + np.float32(softening))
                 total += w
                 r, g, b = r + w * colours[s, 0], g + w * colours[s, 1], b + w * colours[s, 2]

@@ -51,13 +51,6 @@ def sample_colours(texture: np.ndarray, xy: np.ndarray, full_scale: int) -> np.n
     return rgb.astype(np.float32)
 
 
-def sample_areas(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
-    """The surface area (mm^2) each sample stands for: a third of the area of its triangles."""
-    corner = vertices[faces]
-    area = 0.5 * np.linalg.norm(np.cross(corner[:, 1] - corner[:, 0], corner[:, 2] - corner[:, 0]), axis=1)
-    return np.bincount(faces.ravel(), np.repeat(area / 3.0, 3), minlength=len(vertices))
-
-
 def interpolate_colour(
     surface: RingSurface, colours: np.ndarray, method: ColourMethod = "area", neighbours: int = 8, stride: int = 1
 ) -> np.ndarray:
@@ -70,9 +63,12 @@ def interpolate_colour(
     out = np.full((height * width, 3), np.nan, dtype=np.float32)
     if len(surface.faces) == 0:
         return out.reshape(height, width, 3)
-    candidates, reach = _candidates(surface, neighbours)
-    reach2 = (reach**2).astype(np.float32)
-    area = sample_areas(surface.vertices, surface.faces) if method == "area" else np.ones(len(surface.vertices))
+    faces, count = np.ascontiguousarray(surface.faces, np.int64), len(surface.vertices)
+    reach2, corners, area = np.empty(len(faces), np.float32), np.empty((len(faces), 2), np.int64), np.zeros(count)
+    vertices = np.ascontiguousarray(surface.vertices, np.float64)
+    colour_kernels.face_terms(vertices, faces, surface.ring.astype(np.int64), reach2, corners, area)
+    area = area if method == "area" else np.ones(count)
+    along = _along_rings(surface, neighbours)
     on_grid = np.zeros_like(surface.valid)
     on_grid[::stride, ::stride] = True
     pixel = np.flatnonzero((surface.valid & on_grid).ravel())
@@ -91,8 +87,8 @@ def interpolate_colour(
     padded_colours = np.vstack([colours, np.zeros((1, 3), np.float32)]).astype(np.float32)
     at = (points[pixel] - centre).astype(np.float32)
     mixed = np.empty((len(pixel), 3), np.float32)
-    arrays = (samples, padded_area, padded_colours, candidates, reach2, at, owner)
-    settings = (method == "nearest", min(neighbours, candidates.shape[1]), _SOFTENING_MM**2)
+    arrays = (samples, padded_area, padded_colours, (along, corners), reach2, at, owner)
+    settings = (method == "nearest", min(neighbours, 2 * along.shape[1]), _SOFTENING_MM**2)
 
     def colour_part(span: tuple[int, int]) -> None:
         colour_kernels.mix_colours(*arrays, settings, mixed, *span)
@@ -102,24 +98,18 @@ def interpolate_colour(
     return out.reshape(height, width, 3)
 
 
-def _candidates(surface: RingSurface, neighbours: int) -> tuple[np.ndarray, np.ndarray]:
-    """Per face, its candidate samples (F, 2(L + 2); M where none): on each of its two rings, the
-    L + 2 samples nearest one of its corners there (two more than L: pixels across the face have
-    other nearest ones); and the reach, twice its longest edge (F,)."""
+def _along_rings(surface: RingSurface, neighbours: int) -> np.ndarray:
+    """(M, L + 2) per sample, the L + 2 samples of its ring nearest it (M where none): a face's
+    candidates are those of a corner on each of its two rings (two more than L: pixels across the
+    face have other nearest ones)."""
     vertices, faces, ring = surface.vertices, surface.faces, surface.ring
-    corner = vertices[faces]
-    reach = 2.0 * np.linalg.norm(corner - np.roll(corner, -1, axis=1), axis=2).max(axis=1)
     used = np.flatnonzero(np.bincount(faces.ravel(), minlength=len(vertices)) > 0)
     # rings far apart in a fourth coordinate: a sample's nearest in this tree are on its own ring
     spread = 10.0 * float(np.ptp(vertices, axis=0).max() + 1.0)
-    tree = cKDTree(np.column_stack([vertices[used], ring[used] * spread]))
+    tree = cKDTree(np.column_stack([vertices[used], ring[used] * spread]), balanced_tree=False)
     k = min(neighbours + 2, len(used))
     _, index = tree.query(tree.data, k=k, distance_upper_bound=spread / 2, workers=-1)
     index = np.asarray(index).reshape(len(used), k)
-    along = np.full((len(vertices) + 1, k), len(vertices))  # per sample: its ring's nearest
+    along = np.full((len(vertices), k), len(vertices))
     along[used] = np.where(index < len(used), used[np.minimum(index, len(used) - 1)], len(vertices))
-    # a corner on each of the face's two rings (a kept face joins one ring to the next)
-    corner_ring, rows = ring[faces], np.arange(len(faces))
-    on_low = faces[rows, np.argmin(corner_ring, axis=1)]
-    on_high = faces[rows, np.argmax(corner_ring, axis=1)]
-    return np.hstack([along[on_low], along[on_high]]), reach
+    return along
