@@ -1,8 +1,8 @@
 """The colour between the rings (rig.pipeline.colour), compiled by numba: each face's reach, corners
 and share of area in one loop, and each pixel's weighted mean of its face's candidate samples in
 another, instead of (pixels x candidates) numpy temporaries and a sparse product (130 ms for the
-default bench's ring scan, against about 20 here). Distances are
-float32 about the samples' centre, as rig.pipeline.colour prepares them; sums are float64."""
+default bench's ring scan, against about 20 here). Distances are float32 about the samples'
+centre, as rig.pipeline.colour prepares them; sums are float64."""
 
 from __future__ import annotations
 
