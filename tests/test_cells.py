@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from scipy.spatial import cKDTree
 
-from rig.kernels.cells import k_nearest, pairs_within, sample_cells
+from rig.kernels.cells import group_cells, k_nearest, nearest_within, pairs_within, sample_cells
 
 RNG = np.random.default_rng(11)
 
@@ -29,3 +29,19 @@ def test_pairs_within_are_the_k_d_trees_pairs() -> None:
     expected = cKDTree(points).query_pairs(4.0, output_type="ndarray")
     assert len(expected) > 1000
     assert {tuple(p) for p in pairs.tolist()} == {tuple(p) for p in expected.tolist()}
+
+
+def test_nearest_within_searches_one_group_within_the_reach() -> None:
+    points = np.column_stack([RNG.uniform(0, 300, 3000), RNG.uniform(0, 200, 3000)])
+    group = RNG.integers(0, 5, len(points))
+    cells = group_cells(points, group, 5, 16.0)
+    for query in RNG.uniform([0, 0], [300, 200], size=(200, 2)):
+        for g in (0, 3):
+            row_d, row_i = np.empty(6), np.empty(6, np.int64)
+            found = nearest_within(points, cells, (16.0, g, 25.0), (query[0], query[1]), row_d, row_i)
+            distance = np.linalg.norm(points - query, axis=1)
+            mine = np.flatnonzero((group == g) & (distance < 25.0))
+            expected = mine[np.argsort(distance[mine], kind="stable")][:6]
+            assert found == len(expected)
+            np.testing.assert_array_equal(row_i[:found], expected)
+            np.testing.assert_allclose(row_d[:found], distance[expected])

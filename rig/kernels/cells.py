@@ -18,12 +18,19 @@ Cells = tuple[np.ndarray, np.ndarray, float, float, int, int]
 def sample_cells(xy: np.ndarray, cell: float) -> Cells:
     """The samples `xy` (M, 2) sorted into square cells of side `cell`: their indices cell by cell,
     where each cell's run starts ((cells + 1,)), the grid's corner and its size in cells."""
+    return group_cells(xy, np.zeros(len(xy), np.int64), 1, cell)
+
+
+@njit(**KERNEL)
+def group_cells(xy: np.ndarray, group: np.ndarray, groups: int, cell: float) -> Cells:
+    """sample_cells of each of `groups` groups of the samples apart (`group`: each one's, such as
+    its ring), on one grid: group g's cells follow g x (cells of the grid) (starts: groups x cells + 1)."""
     x0, y0 = xy[:, 0].min(), xy[:, 1].min()
     nx, ny = int((xy[:, 0].max() - x0) / cell) + 1, int((xy[:, 1].max() - y0) / cell) + 1
     home = np.empty(len(xy), np.int64)
-    starts = np.zeros(nx * ny + 1, np.int64)
+    starts = np.zeros(groups * nx * ny + 1, np.int64)
     for i in range(len(xy)):
-        home[i] = int((xy[i, 1] - y0) / cell) * nx + int((xy[i, 0] - x0) / cell)
+        home[i] = group[i] * nx * ny + int((xy[i, 1] - y0) / cell) * nx + int((xy[i, 0] - x0) / cell)
         starts[home[i] + 1] += 1
     starts = np.cumsum(starts)
     filled = starts[:-1].copy()
@@ -32,6 +39,61 @@ def sample_cells(xy: np.ndarray, cell: float) -> Cells:
         order[filled[home[i]]] = i
         filled[home[i]] += 1
     return order, starts, x0, y0, nx, ny
+
+
+@njit(nogil=True, cache=True)
+def nearest_within(
+    xy: np.ndarray,
+    cells: Cells,
+    where: tuple[float, int, float],
+    at: tuple[float, float],
+    row_d: np.ndarray,
+    row_i: np.ndarray,
+) -> int:
+    """The len(row_d) samples of one group nearest the point `at` and nearer than a reach, nearest
+    first, into (row_d distances, row_i indices); how many there are. where: (cell side, group (0
+    for sample_cells), reach, inf for none). Searched ring of cells by ring of cells about the point
+    until no cell left can hold a nearer one."""
+    order, starts, x0, y0, nx, ny = cells
+    cell, group, reach = where
+    base, size, found = group * nx * ny, len(row_d), 0
+    px, py = at
+    cx = min(max(int((px - x0) // cell), 0), nx - 1)
+    cy = min(max(int((py - y0) // cell), 0), ny - 1)
+    steps = max(nx, ny) + 1
+    if np.isfinite(reach):
+        steps = min(steps, int(reach // cell) + 2)
+    for step in range(steps if size > 0 else 0):
+        for gy in range(max(cy - step, 0), min(cy + step, ny - 1) + 1):
+            edge = gy == cy - step or gy == cy + step
+            for gx in range(max(cx - step, 0), min(cx + step, nx - 1) + 1):
+                if not edge and cx - step < gx < cx + step:
+                    continue
+                c = base + gy * nx + gx
+                for j in range(starts[c], starts[c + 1]):
+                    s = order[j]
+                    d = np.sqrt((xy[s, 0] - px) ** 2 + (xy[s, 1] - py) ** 2)
+                    if d < reach and (found < size or d < row_d[size - 1]):
+                        found = _insert(row_d, row_i, found, d, s)
+        # every sample nearer than the searched block's nearest outside edge has been seen
+        inner = min(
+            px - (x0 + (cx - step) * cell), x0 + (cx + step + 1) * cell - px,
+            py - (y0 + (cy - step) * cell), y0 + (cy + step + 1) * cell - py,
+        )  # fmt: skip
+        if inner >= reach or (found == size and row_d[size - 1] <= inner):
+            break
+    return found
+
+
+@njit(nogil=True, cache=True, inline="always")
+def _insert(row_d: np.ndarray, row_i: np.ndarray, found: int, d: float, sample: int) -> int:
+    """Put (d, sample) into the sorted (row_d, row_i) holding `found`, dropping the last if full."""
+    slot = min(found, len(row_d) - 1)
+    while slot > 0 and row_d[slot - 1] > d:
+        row_d[slot], row_i[slot] = row_d[slot - 1], row_i[slot - 1]
+        slot -= 1
+    row_d[slot], row_i[slot] = d, sample
+    return min(found + 1, len(row_d))
 
 
 @njit(**KERNEL)
@@ -66,38 +128,8 @@ def k_nearest(
     xy: np.ndarray, cells: Cells, cell: float, at: np.ndarray, index: np.ndarray, start: int, stop: int
 ) -> None:
     """For query points at[start:stop]: the indices of the k nearest points `xy` (index's width; at
-    most len(xy)), nearest first, into `index`; `cells`: sample_cells of `xy` with side `cell`.
-    Searched ring of cells by ring of cells about the query until no cell left can hold a nearer one."""
-    order, starts, x0, y0, nx, ny = cells
+    most len(xy)), nearest first, into `index`; `cells`: sample_cells of `xy` with side `cell`."""
     k = min(index.shape[1], len(xy))
     dist = np.empty(k)
     for q in range(start, stop):
-        px, py = at[q, 0], at[q, 1]
-        cx = min(max(int((px - x0) // cell), 0), nx - 1)
-        cy = min(max(int((py - y0) // cell), 0), ny - 1)
-        found = 0
-        for step in range(max(nx, ny) + 1):
-            for gy in range(max(cy - step, 0), min(cy + step, ny - 1) + 1):
-                edge = gy == cy - step or gy == cy + step
-                for gx in range(max(cx - step, 0), min(cx + step, nx - 1) + 1):
-                    if not edge and cx - step < gx < cx + step:
-                        continue
-                    c = gy * nx + gx
-                    for m in range(starts[c], starts[c + 1]):
-                        s = order[m]
-                        d = (xy[s, 0] - px) ** 2 + (xy[s, 1] - py) ** 2
-                        if found == k and d >= dist[k - 1]:
-                            continue
-                        slot = min(found, k - 1)
-                        while slot > 0 and dist[slot - 1] > d:
-                            dist[slot], index[q, slot] = dist[slot - 1], index[q, slot - 1]
-                            slot -= 1
-                        dist[slot], index[q, slot] = d, s
-                        found = min(found + 1, k)
-            # every point nearer than the searched block's nearest outside edge has been seen
-            inner = min(
-                px - (x0 + (cx - step) * cell), x0 + (cx + step + 1) * cell - px,
-                py - (y0 + (cy - step) * cell), y0 + (cy + step + 1) * cell - py,
-            )  # fmt: skip
-            if found == k and dist[k - 1] <= inner * inner:
-                break
+        nearest_within(xy, cells, (cell, 0, np.inf), (at[q, 0], at[q, 1]), dist, index[q, :k])

@@ -13,7 +13,7 @@ import numpy as np
 from numba import njit
 
 from rig.kernels import KERNEL
-from rig.kernels.cells import Cells
+from rig.kernels.cells import Cells, nearest_within
 
 _TERMS = 6  # 1, x, y, x^2, xy, y^2
 
@@ -223,70 +223,14 @@ def one_surface(
             use[n, :] = False
 
 
-@njit(nogil=True, cache=True, inline="always")
-def _insert(dist: np.ndarray, index: np.ndarray, size: int, found: int, d: float, sample: int) -> int:
-    """Put (d, sample) into the first `size` slots of the sorted (dist, index) holding `found`."""
-    if size == 0 or (found == size and d >= dist[size - 1]):
-        return found
-    slot = min(found, size - 1)
-    while slot > 0 and dist[slot - 1] > d:
-        dist[slot], index[slot] = dist[slot - 1], index[slot - 1]
-        slot -= 1
-    dist[slot], index[slot] = d, sample
-    return min(found + 1, size)
-
-
-@njit(**KERNEL)
-def ring_presence(xy: np.ndarray, ring: np.ndarray, cells: Cells, cell: float, rings: int) -> np.ndarray:
-    """(cells, words) uint64: which of `rings` rings (bit r % 64 of word r // 64) have a sample in
-    each of the `cells` (side `cell`) of samples `xy`."""
-    _, _, x0, y0, nx, ny = cells
-    presence = np.zeros((nx * ny, (rings + 63) // 64), np.uint64)
-    for s in range(len(xy)):
-        c = int((xy[s, 1] - y0) / cell) * nx + int((xy[s, 0] - x0) / cell)
-        presence[c, ring[s] // 64] |= np.uint64(1) << np.uint64(ring[s] % 64)
-    return presence
-
-
-@njit(nogil=True, cache=True)
-def _both_present(
-    presence: np.ndarray, cells: Cells, lengths: tuple[float, float], at: np.ndarray, rings: tuple[int, int]
-) -> bool:
-    """Whether a cell within `reach` of `at` (a square of cells about it: it may overstate, never
-    miss) holds a sample of rings[0], and one holds a sample of rings[1] (or rings[1] is -1).
-    lengths: (reach, cell)."""
-    _, _, x0, y0, nx, ny = cells
-    reach, cell = lengths
-    lo_x = min(max(int((at[0] - reach - x0) // cell), 0), nx - 1)
-    hi_x = min(max(int((at[0] + reach - x0) // cell), 0), nx - 1)
-    lo_y = min(max(int((at[1] - reach - y0) // cell), 0), ny - 1)
-    hi_y = min(max(int((at[1] + reach - y0) // cell), 0), ny - 1)
-    seen_first, seen_second = False, rings[1] < 0
-    for gy in range(lo_y, hi_y + 1):
-        for gx in range(lo_x, hi_x + 1):
-            c = gy * nx + gx
-            seen_first = seen_first or _has(presence, c, rings[0])
-            seen_second = seen_second or _has(presence, c, rings[1])
-            if seen_first and seen_second:
-                return True
-    return False
-
-
-@njit(nogil=True, cache=True, inline="always")
-def _has(presence: np.ndarray, c: int, r: int) -> bool:
-    return r >= 0 and (presence[c, r // 64] >> np.uint64(r % 64)) & np.uint64(1) != 0
-
-
 @njit(**KERNEL)
 def fill_neighbourhoods(
     xy: np.ndarray,
-    ring: np.ndarray,
     members: np.ndarray,
-    cells: Cells,
-    presence: np.ndarray,
+    cells: tuple[Cells, Cells],
     at: np.ndarray,
     annulus: np.ndarray,
-    sizes: tuple[int, float, float],
+    sizes: tuple[int, float, float, float],
     dist: np.ndarray,
     index: np.ndarray,
     start: int,
@@ -296,9 +240,11 @@ def fill_neighbourhoods(
     a, or ring 0 inside it): the `k` nearest samples within `reach` of any ring, then the k / 2
     nearest of each of its two rings (k of ring 0 alone; at most `members[r]`) not among those.
     dist inf (index 0) for an empty slot, and everywhere for a pixel whose rings do not both reach
-    it (or do not exist). sizes: (k, reach, cell); cells: rig.kernels.cells.sample_cells of that side,
-    presence: ring_presence in them."""
-    k = sizes[0]
+    it (or do not exist). cells: rig.kernels.cells.sample_cells of the samples and group_cells of
+    them by ring; sizes: (k, reach, the cells' side, the ring cells' side). A pixel's rings are
+    searched first, each in its own cells: most candidates lie beyond a surface's last ring, and a
+    search for a ring that is nowhere near costs a look at a few empty cells."""
+    k, reach, cell, ring_cell = sizes
     for i in range(start, stop):
         dist[i, :] = np.inf
         index[i, :] = 0
@@ -308,74 +254,26 @@ def fill_neighbourhoods(
             continue
         if second >= 0 and members[second] == 0:
             continue
-        if not _both_present(presence, cells, sizes[1:], at[i], (first, second)):
-            continue  # most pixels beyond a surface's last ring: their outer ring is nowhere near
         near = min(k, len(xy))
         n_first = min(near if second < 0 else near // 2, members[first])
-        wanted = (near, n_first, 0 if second < 0 else min(near // 2, members[second]))
-        found = _search(xy, ring, cells, sizes[1:], at[i], (first, second), wanted, dist[i], index[i])
-        if found[1] == 0 or (second >= 0 and found[2] == 0):
+        n_second = 0 if second < 0 else min(near // 2, members[second])
+        point = (at[i, 0], at[i, 1])
+        tail = near + n_first
+        found = nearest_within(xy, cells[1], (ring_cell, first, reach), point, dist[i, near:tail], index[i, near:tail])
+        if found > 0 and second >= 0:
+            end = tail + n_second
+            found = nearest_within(
+                xy, cells[1], (ring_cell, second, reach), point, dist[i, tail:end], index[i, tail:end]
+            )
+        if found == 0:
             dist[i, :] = np.inf
             index[i, :] = 0
             continue
-        for j in range(near, near + wanted[1] + wanted[2]):  # listed already among the nearest of any ring
-            for m in range(found[0]):
+        found = nearest_within(xy, cells[0], (cell, 0, reach), point, dist[i, :near], index[i, :near])
+        for j in range(near, end):  # listed already among the nearest of any ring
+            for m in range(found):
                 if index[i, m] == index[i, j] and np.isfinite(dist[i, j]):
                     dist[i, j] = np.inf
         for j in range(dist.shape[1]):
             if not np.isfinite(dist[i, j]):
                 index[i, j] = 0
-
-
-@njit(nogil=True, cache=True)
-def _search(
-    xy: np.ndarray,
-    ring: np.ndarray,
-    cells: Cells,
-    lengths: tuple[float, float],
-    at: np.ndarray,
-    rings: tuple[int, int],
-    wanted: tuple[int, int, int],
-    row_d: np.ndarray,
-    row_i: np.ndarray,
-) -> tuple[int, int, int]:
-    """One pixel's three lists (nearest of any ring, of rings[0], of rings[1]; `wanted` long each,
-    laid end to end in row_d and row_i), searched ring of cells by ring of cells about the pixel's
-    until no cell left can hold a nearer sample; how many each found. lengths: (reach, cell)."""
-    order, starts, x0, y0, nx, ny = cells
-    reach, cell = lengths
-    near, n_first, n_second = wanted
-    tail = near + n_first
-    found = found_first = found_second = 0
-    px, py = at[0], at[1]
-    cx = min(max(int((px - x0) // cell), 0), nx - 1)
-    cy = min(max(int((py - y0) // cell), 0), ny - 1)
-    for step in range(int(reach // cell) + 2):
-        for gy in range(max(cy - step, 0), min(cy + step, ny - 1) + 1):
-            edge = gy == cy - step or gy == cy + step
-            for gx in range(max(cx - step, 0), min(cx + step, nx - 1) + 1):
-                if not edge and cx - step < gx < cx + step:
-                    continue
-                c = gy * nx + gx
-                for j in range(starts[c], starts[c + 1]):
-                    s = order[j]
-                    d = np.sqrt((xy[s, 0] - px) ** 2 + (xy[s, 1] - py) ** 2)
-                    if d >= reach:
-                        continue
-                    found = _insert(row_d, row_i, near, found, d, s)
-                    if ring[s] == rings[0]:
-                        found_first = _insert(row_d[near:], row_i[near:], n_first, found_first, d, s)
-                    elif ring[s] == rings[1]:
-                        found_second = _insert(row_d[tail:], row_i[tail:], n_second, found_second, d, s)
-        # every sample nearer than the searched block's nearest outside edge has been seen
-        inner = min(
-            px - (x0 + (cx - step) * cell), x0 + (cx + step + 1) * cell - px,
-            py - (y0 + (cy - step) * cell), y0 + (cy + step + 1) * cell - py,
-        )  # fmt: skip
-        if inner >= reach:
-            break
-        done = found == near and row_d[near - 1] <= inner
-        done = done and found_first == n_first and (n_first == 0 or row_d[near + n_first - 1] <= inner)
-        if done and found_second == n_second and (n_second == 0 or row_d[tail + n_second - 1] <= inner):
-            break
-    return found, found_first, found_second
