@@ -1,4 +1,4 @@
-"""The ring samples' normals (rig.pipeline.normals) and the ring triangles' bend test
+"""The ring samples' normals (rig.pipeline.normals) and the ring triangles' bend tests
 (rig.pipeline.surface), compiled by numba: sums over faces and pairs in one loop each, in numpy's
 bincount order (every face's corner 0, then 1, then 2), so the sums are numpy's to the last bit.
 As numpy passes they took a fifth of the ring surface's triangles (scratch profile, default bench).
@@ -23,9 +23,19 @@ def corner_sums(tri: np.ndarray, vectors: np.ndarray, sums: np.ndarray) -> None:
 
 
 @njit(**KERNEL)
-def pair_sums(normals: np.ndarray, pairs: np.ndarray, known: np.ndarray) -> np.ndarray:
-    """(M, 3) per sample, the sum of the `normals` of its `pairs` (P, 2) partners, counting only
-    pairs whose two normals are `known`."""
+def unit_or_facing(sums: np.ndarray, directions: np.ndarray) -> None:
+    """Scale each row of `sums` (M, 3) to unit length in place; a row of (almost) nothing becomes its
+    camera ray `directions` reversed (facing the camera)."""
+    for v in range(len(sums)):
+        norm = np.sqrt(sums[v, 0] ** 2 + sums[v, 1] ** 2 + sums[v, 2] ** 2)
+        for c in range(3):
+            sums[v, c] = -directions[v, c] if norm < 1e-12 else sums[v, c] / norm
+
+
+@njit(**KERNEL)
+def pair_smoothed(normals: np.ndarray, pairs: np.ndarray, known: np.ndarray) -> np.ndarray:
+    """(M, 3) each of `normals` plus those of its `pairs` (P, 2) partners, counting only pairs whose
+    two normals are `known`, scaled to unit length."""
     sums = np.zeros(normals.shape)
     for side in range(2):
         for p in range(len(pairs)):
@@ -33,26 +43,50 @@ def pair_sums(normals: np.ndarray, pairs: np.ndarray, known: np.ndarray) -> np.n
             if known[a] and known[b]:
                 for c in range(3):
                     sums[a, c] += normals[b, c]
+    for v in range(len(sums)):
+        for c in range(3):
+            sums[v, c] = normals[v, c] + sums[v, c]
+        norm = np.sqrt(sums[v, 0] ** 2 + sums[v, 1] ** 2 + sums[v, 2] ** 2)
+        norm = 1e-12 if norm < 1e-12 else norm
+        for c in range(3):
+            sums[v, c] /= norm
     return sums
 
 
+@njit(nogil=True, cache=True, inline="always")
+def _dot(u: np.ndarray, i: int, v: np.ndarray, j: int) -> float:
+    return u[i, 0] * v[j, 0] + u[i, 1] * v[j, 1] + u[i, 2] * v[j, 2]
+
+
 @njit(**KERNEL)
-def off_corners(corners: np.ndarray, face: np.ndarray, max_excess_deg: float) -> np.ndarray:
+def off_corners(normals: np.ndarray, tri: np.ndarray, face: np.ndarray, max_excess_deg: float) -> np.ndarray:
     """(F,) rig.pipeline.surface._off_its_corners: whether a face's unit normal `face` (F, 3) lies
-    further from one of its corners' normals `corners` (F, 3, 3) than the corners lie from each
-    other, by more than `max_excess_deg`."""
+    further from one of its corners' `normals` (M, 3; corners `tri` (F, 3)) than the corners lie
+    from each other, by more than `max_excess_deg`. The largest angle is the arccosine of the
+    least cosine: two arccosines a face, not six."""
     off = np.empty(len(face), np.bool_)
     for f in range(len(face)):
-        bend, spread = -np.inf, -np.inf
+        to_face, apart = np.inf, np.inf
         for k in range(3):
-            n = (k + 1) % 3
-            to_face = corners[f, k, 0] * face[f, 0] + corners[f, k, 1] * face[f, 1] + corners[f, k, 2] * face[f, 2]
-            apart = (
-                corners[f, k, 0] * corners[f, n, 0]
-                + corners[f, k, 1] * corners[f, n, 1]
-                + corners[f, k, 2] * corners[f, n, 2]
+            a, b = tri[f, k], tri[f, (k + 1) % 3]
+            to_face = min(to_face, normals[a, 0] * face[f, 0] + normals[a, 1] * face[f, 1] + normals[a, 2] * face[f, 2])
+            apart = min(
+                apart, normals[a, 0] * normals[b, 0] + normals[a, 1] * normals[b, 1] + normals[a, 2] * normals[b, 2]
             )
-            bend = max(bend, np.degrees(np.arccos(min(max(to_face, -1.0), 1.0))))
-            spread = max(spread, np.degrees(np.arccos(min(max(apart, -1.0), 1.0))))
+        bend = np.degrees(np.arccos(min(max(to_face, -1.0), 1.0)))
+        spread = np.degrees(np.arccos(min(max(apart, -1.0), 1.0)))
         off[f] = bend - spread > max_excess_deg
     return off
+
+
+@njit(**KERNEL)
+def bent_from_corners(normals: np.ndarray, tri: np.ndarray, face: np.ndarray, least_cosine: float) -> np.ndarray:
+    """(F,) whether a face's unit normal `face` (F, 3) lies further from one of its corners'
+    `normals` (M, 3; corners `tri` (F, 3)) than the angle whose cosine is `least_cosine`."""
+    bent = np.empty(len(face), np.bool_)
+    for f in range(len(face)):
+        bent[f] = False
+        for k in range(3):
+            a = tri[f, k]
+            bent[f] = bent[f] or _dot(normals, a, face, f) < least_cosine
+    return bent

@@ -68,21 +68,22 @@ def triangle_tests(
         verdict[f] = RING_SKIPPED if span > 1 else ONE_RING if span == 0 else GAP if gap else KEPT
         foreshortened[f] = least
         weight[f] = 1.0 / max(max(edge_mm[0], edge_mm[1], edge_mm[2]), 1e-9)
-        _face_normal(points, directions, a, b, c, face[f])
-        slant[f] = abs(face[f, 0] * directions[a, 0] + face[f, 1] * directions[a, 1] + face[f, 2] * directions[a, 2])
+        nx, ny, nz = _face_normal(points, directions, a, b, c)
+        face[f, 0], face[f, 1], face[f, 2] = nx, ny, nz
+        slant[f] = abs(nx * directions[a, 0] + ny * directions[a, 1] + nz * directions[a, 2])
 
 
 @njit(nogil=True, cache=True, inline="always")
-def _face_normal(points: np.ndarray, directions: np.ndarray, a: int, b: int, c: int, out: np.ndarray) -> None:
-    """rig.pipeline.normals.face_normals of one triangle, into `out`."""
+def _face_normal(points: np.ndarray, directions: np.ndarray, a: int, b: int, c: int) -> tuple[float, float, float]:
+    """rig.pipeline.normals.face_normals of one triangle."""
     ux, uy, uz = points[b, 0] - points[a, 0], points[b, 1] - points[a, 1], points[b, 2] - points[a, 2]
     vx, vy, vz = points[c, 0] - points[a, 0], points[c, 1] - points[a, 1], points[c, 2] - points[a, 2]
     nx, ny, nz = uy * vz - uz * vy, uz * vx - ux * vz, ux * vy - uy * vx
     norm = max(np.sqrt(nx * nx + ny * ny + nz * nz), 1e-300)
     nx, ny, nz = nx / norm, ny / norm, nz / norm
     if nx * directions[a, 0] + ny * directions[a, 1] + nz * directions[a, 2] > 0:
-        nx, ny, nz = -nx, -ny, -nz
-    out[0], out[1], out[2] = nx, ny, nz
+        return -nx, -ny, -nz
+    return nx, ny, nz
 
 
 @njit(**KERNEL)

@@ -44,10 +44,7 @@ def accumulate_normals(tri: np.ndarray, face: np.ndarray, directions: np.ndarray
     """Unit normals of the points of triangles `tri` (F, 3): the sum of the (weighted) `face`
     vectors of the triangles each is in; a point in none faces its camera ray `directions` back."""
     normals = corner_sums(tri, face, len(directions))
-    norm = np.linalg.norm(normals, axis=1)
-    missing = norm < 1e-12
-    normals[~missing] /= norm[~missing, None]
-    normals[missing] = -directions[missing]
+    normal_kernels.unit_or_facing(normals, np.ascontiguousarray(directions, np.float64))
     return normals
 
 
@@ -73,8 +70,7 @@ def smoothed_normals(normals: np.ndarray, pairs: np.ndarray, known: np.ndarray) 
     normal's error across the whole gap to the next ring."""
     if len(pairs) == 0:
         return normals
-    total = normals + normal_kernels.pair_sums(normals, pairs, known)
-    return total / np.maximum(np.linalg.norm(total, axis=1), 1e-12)[:, None]
+    return normal_kernels.pair_smoothed(normals, pairs, known)
 
 
 def corner_sums(tri: np.ndarray, vectors: np.ndarray, count: int) -> np.ndarray:

@@ -151,7 +151,7 @@ def ring_triangles(
     held = (tri[steep], face[steep], weight[steep])  # a flank or a bridge: told apart once the rest is known
     tri, face, weight = tri[~edge_on], face[~edge_on], weight[~edge_on]
     normals = vertex_normals(tri, face, weight, directions)
-    bent = (np.einsum("ikj,ij->ik", normals[tri], face) < np.cos(np.radians(settings.max_bend_deg))).any(axis=1)
+    bent = normal_kernels.bent_from_corners(normals, tri, face, np.cos(np.radians(settings.max_bend_deg)))
     tri, face, weight = tri[~bent], face[~bent], weight[~bent]
     pairs = neighbours.result(timeout=_PAIRS_TIMEOUT_S)
     # corners' normals as the interpolant takes them (smoothed along the rings), without the
@@ -160,7 +160,7 @@ def ring_triangles(
     dropped = int(edge_on.sum() + bent.sum())
     normals = _normals(tri, face, weight, directions, pairs)
     for _ in range(_BRIDGE_ROUNDS):
-        again = _off_its_corners(normals[tri], face, settings.max_bend_excess_deg)
+        again = _off_its_corners(normals, tri, face, settings.max_bend_excess_deg)
         if not again.any():
             break
         tri, face, weight, dropped = tri[~again], face[~again], weight[~again], dropped + int(again.sum())
@@ -204,12 +204,12 @@ def _tested(
     return out
 
 
-def _off_its_corners(corners: np.ndarray, face: np.ndarray, max_excess_deg: float) -> np.ndarray:
-    """Triangles tilted away from a corner's normal (F, 3, 3) by `max_excess_deg` more than the
+def _off_its_corners(normals: np.ndarray, tri: np.ndarray, face: np.ndarray, max_excess_deg: float) -> np.ndarray:
+    """Triangles `tri` tilted away from a corner's normal (`normals`) by `max_excess_deg` more than the
     corners' normals differ among themselves: the corners agree on a surface the triangle does not
     lie on, as when it joins the rings of two treads of a step. On a smooth surface a triangle's
     normal lies among its corners' normals. A compiled pass (rig.kernels.normals.off_corners)."""
-    return normal_kernels.off_corners(np.ascontiguousarray(corners), np.ascontiguousarray(face), max_excess_deg)
+    return normal_kernels.off_corners(normals, np.ascontiguousarray(tri, np.int64), face, max_excess_deg)
 
 
 def interpolate_surface(
