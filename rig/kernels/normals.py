@@ -23,6 +23,28 @@ def corner_sums(tri: np.ndarray, vectors: np.ndarray, sums: np.ndarray) -> None:
 
 
 @njit(**KERNEL)
+def area_faces(
+    points: np.ndarray, xy: np.ndarray, directions: np.ndarray, tri: np.ndarray, max_edge_px: float
+) -> tuple[np.ndarray, np.ndarray]:
+    """rig.pipeline.ring_triangulation.sample_normals' triangles: each one's area-weighted normal
+    toward the camera (F, 3), and whether its longest edge in the image (`xy`) is within `max_edge_px`."""
+    face, short = np.empty((len(tri), 3)), np.empty(len(tri), np.bool_)
+    for f in range(len(tri)):
+        longest = 0.0
+        for k in range(3):
+            a, b = tri[f, k], tri[f, (k + 2) % 3]
+            longest = max(longest, np.sqrt((xy[a, 0] - xy[b, 0]) ** 2 + (xy[a, 1] - xy[b, 1]) ** 2))
+        short[f] = longest <= max_edge_px
+        p0, p1, p2 = tri[f, 0], tri[f, 1], tri[f, 2]
+        ux, uy, uz = points[p1, 0] - points[p0, 0], points[p1, 1] - points[p0, 1], points[p1, 2] - points[p0, 2]
+        vx, vy, vz = points[p2, 0] - points[p0, 0], points[p2, 1] - points[p0, 1], points[p2, 2] - points[p0, 2]
+        nx, ny, nz = uy * vz - uz * vy, uz * vx - ux * vz, ux * vy - uy * vx
+        flip = -1.0 if nx * directions[p0, 0] + ny * directions[p0, 1] + nz * directions[p0, 2] > 0 else 1.0
+        face[f, 0], face[f, 1], face[f, 2] = flip * nx, flip * ny, flip * nz
+    return face, short
+
+
+@njit(**KERNEL)
 def unit_or_facing(sums: np.ndarray, directions: np.ndarray) -> None:
     """Scale each row of `sums` (M, 3) to unit length in place; a row of (almost) nothing becomes its
     camera ray `directions` reversed (facing the camera)."""

@@ -20,6 +20,7 @@ from rig.workers import batches, pool
 
 ring_kernels = lazy_module("rig.kernels.rings")  # numba compiles on first use: not for --help
 cell_kernels = lazy_module("rig.kernels.cells")
+normal_kernels = lazy_module("rig.kernels.normals")
 
 # Triangles of the sample mesh longer than this (camera pixels) bridge gaps, not neighbouring rings.
 _MAX_TRIANGLE_EDGE_PX = 80.0
@@ -243,15 +244,10 @@ def sample_normals(
     """Unit normals of scattered surface samples, from a Delaunay triangulation of their camera
     positions (which links neighbouring rings); triangles with an image edge longer than
     `max_edge_px` are dropped. Oriented toward the camera; samples in no triangle face the camera."""
-    tri = delaunay(camera_xy) if tri is None else tri
-    if len(tri):
-        xy = camera_xy[tri]
-        longest = np.max(np.linalg.norm(xy - np.roll(xy, 1, axis=1), axis=2), axis=1)
-        tri = tri[longest <= max_edge_px]
-    p = points[tri]
-    face = np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])  # area-weighted
-    facing = np.einsum("ij,ij->i", face, directions[tri[:, 0]]) > 0
-    face[facing] *= -1
+    tri = np.ascontiguousarray(delaunay(camera_xy) if tri is None else tri, np.int64)
+    arrays = (np.ascontiguousarray(a, np.float64) for a in (points, camera_xy, directions))
+    face, short = normal_kernels.area_faces(*arrays, tri, float(max_edge_px))
+    tri, face = tri[short], face[short]
     return accumulate_normals(tri, face, directions)
 
 
