@@ -13,6 +13,7 @@ from numba import njit
 
 from rig.kernels import KERNEL
 from rig.kernels.cells import Cells
+from rig.kernels.phase import atan2
 
 
 @njit(nogil=True, cache=True, inline="always")
@@ -271,3 +272,29 @@ def along_support(
                         sy += dy
                         total += d
         support[i], offset[i, 0], offset[i, 1], reach_sum[i] = count, sx, sy, total
+
+
+@njit(**KERNEL)
+def ring_bands(
+    read: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray],
+    sums: tuple[np.ndarray, np.ndarray],
+    thresholds: tuple[float, float],
+    annulus: np.ndarray,
+    angle: np.ndarray,
+    top: int,
+    bottom: int,
+) -> None:
+    """rig.patterns.rings' bands for rows [top, bottom): `annulus` (int16) from the zone and the
+    edge pattern's parity where the zone was read and the edge is strong enough, else -1; `angle`
+    (float32) the coarse polar angle where lit and modulated enough, else NaN. read: (edge, zone,
+    zone_ok, lit); sums: the coarse angle's (S, C); thresholds: (least edge contrast, 2 / steps)."""
+    edge, zone, zone_ok, lit = read
+    s, c = sums
+    least, scale = np.float32(thresholds[0]), np.float32(thresholds[1])
+    for y in range(top, bottom):
+        for x in range(edge.shape[1]):
+            z, e = zone[y, x], edge[y, x]
+            a = z if (z % 2 == 1) == (e > 0) else z + 1
+            annulus[y, x] = a if zone_ok[y, x] and abs(e) >= least else -1
+            modulation = scale * np.float32(math.hypot(s[y, x], c[y, x]))  # as float32 hypot rounds it
+            angle[y, x] = atan2(s[y, x], c[y, x]) if lit[y, x] and modulation >= least else np.nan

@@ -29,6 +29,7 @@ from typing import Annotated, Literal
 import numpy as np
 from pydantic import Field, model_validator
 
+from rig.lazy import lazy_module
 from rig.patterns.base import CodecParams, PixelCoord
 from rig.patterns.circular import CircularCodec
 from rig.patterns.correspondence import Correspondence, NormalizedFrames, RingSamples
@@ -38,6 +39,9 @@ from rig.patterns.graycode import bit_count, decode_gray, gray_planes, planes_wi
 from rig.patterns.registry import register
 from rig.patterns.rings_stream import RingsStream
 from rig.patterns.stream import FrameStream
+from rig.workers import in_row_strips
+
+ring_kernels = lazy_module("rig.kernels.rings")  # numba compiles on first use: not for --help
 
 # A crossing whose step is more than this many times the scan's median is a jump, not a ramp.
 _RAMP_MEDIAN_FACTOR = 1.5
@@ -316,14 +320,13 @@ class RingsCodec(CircularCodec):
     ) -> dict[str, np.ndarray]:
         """Where every pixel lies in the projector image, coarsely: `annulus` a (between rings a-1
         and a; -1 unread), from its zone and the edge pattern's parity, and `angle`, the coarse polar
-        angle (NaN unread). The surface between the rings checks its points against them."""
+        angle (NaN unread). The surface between the rings checks its points against them. One
+        compiled pass over row strips (rig.kernels.rings.ring_bands)."""
         p = self.params
-        lit_annulus_odd = edge > 0
-        annulus = np.where((zone % 2 == 1) == lit_annulus_odd, zone, zone + 1)
-        sure = zone_ok & (np.abs(edge) >= p.min_edge_contrast)
-        s, c = sums
-        readable = lit & ((2.0 / p.angle_steps) * np.hypot(s, c) >= p.min_edge_contrast)
-        return {
-            "annulus": np.where(sure, annulus, -1).astype(np.int16),
-            "angle": np.where(readable, np.arctan2(s, c), np.nan).astype(np.float32),
-        }
+        annulus, angle = np.empty(edge.shape, np.int16), np.empty(edge.shape, np.float32)
+        read, thresholds = (edge, zone, zone_ok, lit), (float(p.min_edge_contrast), 2.0 / p.angle_steps)
+        in_row_strips(
+            edge.shape[0],
+            lambda rows: ring_kernels.ring_bands(read, sums, thresholds, annulus, angle, rows.start, rows.stop),
+        )
+        return {"annulus": annulus, "angle": angle}

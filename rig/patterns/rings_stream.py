@@ -18,7 +18,7 @@ import numpy as np
 
 from rig.patterns.correspondence import Correspondence, NormalizedFrames, least_counts
 from rig.patterns.crossings import Crossings, LocatedRings
-from rig.patterns.fringes import PointSums, phase_sums
+from rig.patterns.fringes import PointSums, RunningSums
 from rig.patterns.stream import DenseBase, FrameStream, GrayBits
 
 
@@ -55,7 +55,8 @@ class RingsStream(FrameStream):
         self._coarse_from = 2 + 2 * bits  # coded frames before the coarse angle's first step
         self._fine_from = self._coarse_from + p.angle_steps
         self._min_zone_counts = least_counts(p.min_edge_contrast * 0.5, full_scale)
-        self._held: list[np.ndarray] = []  # the edge pattern, then the coarse angle's steps
+        self._held: list[np.ndarray] = []  # the edge pattern and its inverse
+        self._coarse: RunningSums | None = RunningSums(p.angle_steps)  # the coarse angle's steps, summed as they arrive
         self._edge: np.ndarray | None = None
         self._candidates: Crossings | None = None
         self._reader: GrayBits | None = GrayBits(bits)
@@ -75,7 +76,8 @@ class RingsStream(FrameStream):
             assert self._reader is not None
             self._reader.take(image)
         elif coded < self._fine_from:
-            self._held.append(image)
+            assert self._coarse is not None
+            self._coarse.add(NormalizedFrames([image], self.full_scale)[0])
             if coded == self._fine_from - 1:
                 self._locate()
         else:
@@ -89,13 +91,14 @@ class RingsStream(FrameStream):
         self._held = []
 
     def _locate(self) -> None:
-        base, reader, p = self._base, self._reader, self.codec.params
+        base, reader, p, sums = self._base, self._reader, self.codec.params, self._coarse
         assert base.lit is not None and reader is not None and self._edge is not None and self._candidates is not None
-        coarse = phase_sums(NormalizedFrames(self._held, self.full_scale), 0, p.angle_steps)
+        assert sums is not None
+        coarse = (sums.s, sums.c)
         zone = reader.value().astype(np.int32)  # as the batch decoder reads it
         strong = reader.strength() >= self._min_zone_counts
         self._found = self.codec.locate(self._candidates, self._edge, base.contrast(), zone, strong, base.lit, coarse)
-        self._held, self._edge, self._candidates, self._reader = [], None, None, None
+        self._coarse, self._edge, self._candidates, self._reader = None, None, None, None
         if self.codec.fine_periods is not None:
             self._fine = PointSums(self._found.ends, p.tangential_steps)
 
