@@ -17,6 +17,67 @@ _GRAZING = 0.1  # a tangent plane met at a cosine below this is left out (the li
 _ANGLE_MIN_RADIUS_PX = 8.0  # near the rings' centre the polar angle says little: not checked inside this
 
 
+@njit(**KERNEL)
+def face_terms(
+    points: np.ndarray,
+    xy: np.ndarray,
+    tri: np.ndarray,
+    corner_normals: np.ndarray,
+    origin: np.ndarray,
+    faces: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray],
+    corners: tuple[np.ndarray, np.ndarray],
+) -> None:
+    """rig.pipeline.raster.FaceTerms.of: per face `tri` (F, 3), into faces (plane (3, F),
+    plane_offset (F,), longest (F,), barycentric (3, 3, F)) and, with `corner_normals` (F, 3, 3;
+    empty for the linear interpolant), corners (their normals (3, 3, F), offsets (3, F)); offsets
+    from `origin` (zeros where rays have their own)."""
+    plane, plane_offset, longest, barycentric = faces
+    normals, corner_offset = corners
+    quadratic = len(corner_normals) == len(tri)
+    c = np.empty((3, 3))
+    for f in range(len(tri)):
+        for k in range(3):
+            for j in range(3):
+                c[k, j] = points[tri[f, k], j] - origin[j]
+        ux, uy, uz = c[1, 0] - c[0, 0], c[1, 1] - c[0, 1], c[1, 2] - c[0, 2]
+        vx, vy, vz = c[2, 0] - c[0, 0], c[2, 1] - c[0, 1], c[2, 2] - c[0, 2]
+        nx, ny, nz = uy * vz - uz * vy, uz * vx - ux * vz, ux * vy - uy * vx
+        norm = max(np.sqrt(nx * nx + ny * ny + nz * nz), 1e-300)
+        plane[0, f], plane[1, f], plane[2, f] = nx / norm, ny / norm, nz / norm
+        plane_offset[f] = plane[0, f] * c[0, 0] + plane[1, f] * c[0, 1] + plane[2, f] * c[0, 2]
+        edge = 0.0
+        for k in range(3):
+            n = (k + 1) % 3
+            edge = max(edge, np.sqrt((c[k, 0] - c[n, 0]) ** 2 + (c[k, 1] - c[n, 1]) ** 2 + (c[k, 2] - c[n, 2]) ** 2))
+        longest[f] = edge
+        _barycentric(xy, tri[f], barycentric, f)
+        if quadratic:
+            for k in range(3):
+                for j in range(3):
+                    normals[k, j, f] = corner_normals[f, k, j]
+                corner_offset[k, f] = (
+                    corner_normals[f, k, 0] * c[k, 0]
+                    + corner_normals[f, k, 1] * c[k, 1]
+                    + corner_normals[f, k, 2] * c[k, 2]
+                )
+
+
+@njit(nogil=True, cache=True, inline="always")
+def _barycentric(xy: np.ndarray, corners: np.ndarray, barycentric: np.ndarray, f: int) -> None:
+    """Face f's image barycentric weights as affine functions of the pixel: (b1, b2) = inverse of
+    the edges from corner 0 times (pixel - corner 0); corner 0's weight is 1 - b1 - b2."""
+    x0, y0 = xy[corners[0], 0], xy[corners[0], 1]
+    e1x, e1y = xy[corners[1], 0] - x0, xy[corners[1], 1] - y0
+    e2x, e2y = xy[corners[2], 0] - x0, xy[corners[2], 1] - y0
+    det = e1x * e2y - e1y * e2x
+    det = 1e-12 if abs(det) < 1e-12 else det
+    b1x, b1y, b2x, b2y = e2y / det, -e2x / det, -e1y / det, e1x / det
+    c1, c2 = -(b1x * x0 + b1y * y0), -(b2x * x0 + b2y * y0)
+    barycentric[0, 0, f], barycentric[0, 1, f], barycentric[0, 2, f] = -b1x - b2x, -b1y - b2y, 1.0 - c1 - c2
+    barycentric[1, 0, f], barycentric[1, 1, f], barycentric[1, 2, f] = b1x, b1y, c1
+    barycentric[2, 0, f], barycentric[2, 1, f], barycentric[2, 2, f] = b2x, b2y, c2
+
+
 @njit(nogil=True, cache=True, inline="always")
 def _along(normal: np.ndarray, offset: np.ndarray, f: int, ray: tuple[float, ...]) -> tuple[float, float]:
     """Where a ray (origin relative to the terms' origin, or zeros; direction: six numbers) meets

@@ -46,25 +46,16 @@ class FaceTerms:
     ) -> FaceTerms:
         """The terms of faces `tri`; with `corner_normals` (F, 3, 3; rig.pipeline.normals.crease_normals),
         those of the quadratic interpolant. `origin`: the point every ray starts from, if they share one."""
-        corner = points[tri] - (0.0 if origin is None else origin)
-        plane = np.cross(corner[:, 1] - corner[:, 0], corner[:, 2] - corner[:, 0])
-        plane /= np.maximum(np.linalg.norm(plane, axis=1), 1e-300)[:, None]
-        longest = np.linalg.norm(corner - corner[:, [1, 2, 0]], axis=2).max(axis=1)
-        image = xy[tri]
-        e1, e2 = image[:, 1] - image[:, 0], image[:, 2] - image[:, 0]
-        det = e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]
-        det = np.where(np.abs(det) < 1e-12, 1e-12, det)
-        # (b1, b2) = inverse @ (pixel - corner 0), as affine functions of the pixel
-        b1 = np.stack([e2[:, 1], -e2[:, 0]]) / det
-        b2 = np.stack([-e1[:, 1], e1[:, 0]]) / det
-        c1, c2 = -(b1 * image[:, 0].T).sum(axis=0), -(b2 * image[:, 0].T).sum(axis=0)
-        weights = np.stack(
-            [np.vstack([-b1[0] - b2[0], -b1[1] - b2[1], 1.0 - c1 - c2]), np.vstack([*b1, c1]), np.vstack([*b2, c2])]
-        )
-        offset = np.einsum("ij,ij->i", plane, corner[:, 0])
-        normals = None if corner_normals is None else np.ascontiguousarray(corner_normals.transpose(1, 2, 0))
-        corner_offset = None if corner_normals is None else np.einsum("fkj,fkj->kf", corner_normals, corner)
-        return FaceTerms(np.ascontiguousarray(plane.T), offset, longest, weights, origin, normals, corner_offset)
+        count, quadratic = len(tri), corner_normals is not None
+        faces = (np.empty((3, count)), np.empty(count), np.empty(count), np.empty((3, 3, count)))
+        corners = (np.empty((3, 3, count if quadratic else 0)), np.empty((3, count if quadratic else 0)))
+        surface_kernels.face_terms(
+            np.ascontiguousarray(points, np.float64), np.ascontiguousarray(xy, np.float64),
+            np.ascontiguousarray(tri, np.int64),
+            np.ascontiguousarray(corner_normals, np.float64) if quadratic else np.empty((0, 3, 3)),
+            np.zeros(3) if origin is None else np.asarray(origin, np.float64), faces, corners,
+        )  # fmt: skip
+        return FaceTerms(*faces, origin, *(corners if quadratic else (None, None)))
 
 
 def on_triangles(
