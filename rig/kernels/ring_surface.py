@@ -79,12 +79,13 @@ def _barycentric(xy: np.ndarray, corners: np.ndarray, barycentric: np.ndarray, f
 
 
 @njit(nogil=True, cache=True, inline="always")
-def _along(normal: np.ndarray, offset: np.ndarray, f: int, ray: tuple[float, ...]) -> tuple[float, float]:
+def _along(normal: np.ndarray, offset: np.ndarray, k: int, f: int, ray: tuple[float, ...]) -> tuple[float, float]:
     """Where a ray (origin relative to the terms' origin, or zeros; direction: six numbers) meets
-    face f's plane (normal (3, F) rows, offset (F,)), and the cosine between them; NaN where parallel."""
+    face f's plane k (normal (K, 3, F), offset (K, F)), and the cosine between them; NaN where
+    parallel."""
     ox, oy, oz, dx, dy, dz = ray
-    facing = normal[0, f] * dx + normal[1, f] * dy + normal[2, f] * dz
-    numerator = offset[f] - (normal[0, f] * ox + normal[1, f] * oy + normal[2, f] * oz)
+    facing = normal[k, 0, f] * dx + normal[k, 1, f] * dy + normal[k, 2, f] * dz
+    numerator = offset[k, f] - (normal[k, 0, f] * ox + normal[k, 1, f] * oy + normal[k, 2, f] * oz)
     return (numerator / facing if facing != 0 else np.nan), facing
 
 
@@ -105,6 +106,7 @@ def points_on_faces(
     normals (3, 3, F) and offsets (3, F), both empty (0, ...) for the linear interpolant) of
     FaceTerms; rays: origins (1, 3) shared, or (H*W, 3) one per pixel, and directions (H*W, 3)."""
     plane, plane_offset, longest, barycentric = faces
+    plane, plane_offset = plane.reshape((1, 3, -1)), plane_offset.reshape((1, -1))  # one plane per face
     corner_normals, corner_offset = corners
     origins, directions = rays
     shared = len(origins) == 1
@@ -115,13 +117,13 @@ def points_on_faces(
         ray = (0.0, 0.0, 0.0, directions[p, 0], directions[p, 1], directions[p, 2])
         if not shared:
             ray = (origins[p, 0], origins[p, 1], origins[p, 2], ray[3], ray[4], ray[5])
-        t_linear, _ = _along(plane, plane_offset, f, ray)
+        t_linear, _ = _along(plane, plane_offset, 0, f, ray)
         t = t_linear
         if quadratic:
             x, y = float(p % width), float(p // width)
             blend, steep = 0.0, False
             for k in range(3):
-                t_k, facing = _along(corner_normals[k], corner_offset[k], f, ray)
+                t_k, facing = _along(corner_normals, corner_offset, k, f, ray)
                 steep = steep or abs(facing) < _GRAZING
                 blend += (barycentric[k, 0, f] * x + barycentric[k, 1, f] * y + barycentric[k, 2, f]) * t_k
             reach = 0.25 * longest[f]
@@ -179,7 +181,8 @@ def band_agreement(
         angle = angles[pixel[n]]
         aligned = True
         if np.isfinite(angle) and rho >= _ANGLE_MIN_RADIUS_PX:
-            turned = abs((math.atan2(dv, du) - angle + math.pi) % (2 * math.pi) - math.pi)
+            turned = abs(math.atan2(dv, du) - angle)  # both in [-pi, pi]: at most one turn apart
+            turned = 2 * math.pi - turned if turned > math.pi else turned
             aligned = turned <= max_turn
         agree[n] = inside and aligned
 
