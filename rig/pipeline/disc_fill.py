@@ -32,22 +32,17 @@ _CROSS = cv2.getStructuringElement(cv2.MORPH_CROSS, (3, 3))
 def disc_points(
     grid: np.ndarray, covered: np.ndarray, candidate: np.ndarray, annulus: np.ndarray, camera: CameraModel
 ) -> np.ndarray:
-    """A point (N, 3) for each flat candidate pixel `candidate` (reading `annulus`, (N,)) inside an
-    inner disc the covered pixels (`covered`, flat bool; their points in `grid`, flat (H*W, 3))
-    close around; NaN for the others."""
+    """A point (N, 3) for each flat candidate pixel `candidate` (sorted; reading `annulus`, (N,))
+    inside an inner disc the covered pixels (`covered`, flat bool; their points in `grid`, flat
+    (H*W, 3)) close around; NaN for the others."""
     found = np.full((len(candidate), 3), np.nan)
     if not (annulus == 0).any():  # no pixel read the disc: nothing to label
         return found
     shape = (camera.height, camera.width)
-    is_candidate = np.zeros(covered.size, dtype=bool)
-    is_candidate[candidate] = True
-    reads_disc = np.zeros(covered.size, dtype=bool)
-    reads_disc[candidate[annulus == 0]] = True
     uncovered = (~covered).reshape(shape).astype(np.uint8)
     _, label, stats, _ = cv2.connectedComponentsWithStats(uncovered, connectivity=4)
-    position = np.full(covered.size, -1, dtype=np.int64)
-    position[candidate] = np.arange(len(candidate))
-    for k in _disc_holes(label.ravel(), stats, reads_disc, is_candidate, shape):
+    candidate_label = label.ravel()[candidate]
+    for k in _disc_holes(candidate_label, annulus == 0, stats, shape):
         x, y, w, h = (int(v) for v in stats[k, :4])
         box = (slice(y - 2, y + h + 2), slice(x - 2, x + w + 2))
         hole, in_box = label[box] == k, _flat_of(box, shape)
@@ -55,10 +50,11 @@ def disc_points(
         if distance is None:
             continue
         flat = in_box[hole]
-        wanted = is_candidate[flat]
-        flat, t = flat[wanted], distance[hole][wanted]
+        position = np.minimum(np.searchsorted(candidate, flat), len(candidate) - 1)  # candidate is sorted
+        wanted = candidate[position] == flat
+        flat, t, position = flat[wanted], distance[hole][wanted], position[wanted]
         origins, directions = camera.pixel_rays
-        found[position[flat]] = np.asarray(origins[flat]) + t[:, None] * np.asarray(directions[flat])
+        found[position] = np.asarray(origins[flat]) + t[:, None] * np.asarray(directions[flat])
     return found
 
 
@@ -69,14 +65,15 @@ def _flat_of(box: tuple[slice, slice], shape: tuple[int, int]) -> np.ndarray:
 
 
 def _disc_holes(
-    label: np.ndarray, stats: np.ndarray, reads_disc: np.ndarray, is_candidate: np.ndarray, shape: tuple[int, int]
+    candidate_label: np.ndarray, reads_disc: np.ndarray, stats: np.ndarray, shape: tuple[int, int]
 ) -> list[int]:
     """The uncovered components that are an inner disc closed in by covered pixels: off the image's
     border (two pixels, for the slopes), no larger than _MAX_DISC_PX, mostly annulus 0, and nearly
-    all candidates."""
+    all candidates (`candidate_label`: each candidate pixel's component; `reads_disc`: which of them
+    read annulus 0)."""
     size = stats[:, cv2.CC_STAT_AREA]
-    disc = np.bincount(label, reads_disc, minlength=len(stats))
-    candidates = np.bincount(label, is_candidate, minlength=len(stats))
+    disc = np.bincount(candidate_label[reads_disc], minlength=len(stats))
+    candidates = np.bincount(candidate_label, minlength=len(stats))
     x, y, w, h = (stats[:, i] for i in range(4))
     inside = (x >= 2) & (y >= 2) & (x + w <= shape[1] - 2) & (y + h <= shape[0] - 2)
     keep = inside & (size <= _MAX_DISC_PX) & (disc >= _MIN_DISC_SHARE * size)
