@@ -263,6 +263,7 @@ def interpolate_surface(
     list(pool().map(solve, [(0, len(pixel))] if method == "cubic" else batches(len(pixel))))
     if bands is not None:
         ok &= _in_bands(owner, agree, ok, len(tri), settings.max_band_disagreement, counts)
+    grid[pixel[~ok]] = np.nan  # the rest of the grid is NaN already but where the fill writes its points
     covered, owner = pixel[ok], owner[ok]
     if bands is not None and settings.fill:
         filled = _filled(points, normals, xy, ring, tri, camera, projector, covered, lit, bands, grid, settings)
@@ -329,12 +330,11 @@ def _surface(
     owner: np.ndarray,
     flank: np.ndarray,
 ) -> RingSurface:
-    """The RingSurface whose points are the rows `covered` of `grid` (flat, H*W x 3; the others are
-    cleared), each in face `owner`; `flank` marks the faces kept as a flank."""
+    """The RingSurface whose points are the rows `covered` of `grid` (flat, H*W x 3; NaN in the
+    others), each in face `owner`; `flank` marks the faces kept as a flank."""
     shape = (camera.height, camera.width)
     valid = np.zeros(grid.shape[0], dtype=bool)
     valid[covered] = True
-    grid[~valid] = np.nan
     triangle = np.full(grid.shape[0], -1, dtype=np.int32)
     triangle[covered] = owner
     return RingSurface(
