@@ -186,9 +186,10 @@ def _tested(
     tri: np.ndarray,
     max_gap_px: float,
 ) -> tuple[np.ndarray, ...]:
-    """Every triangle's verdict on its rings (rig.kernels.triangles), unit normal, weight
-    (face_weights), slant to the camera and foreshortening to both devices (foreshortening): one
-    compiled pass over the triangles, from the samples' depths and projector pixels."""
+    """Every triangle's verdict on its rings, unit normal toward the camera, weight (1 / its longest
+    edge: rig.pipeline.normals.vertex_normals), slant to the camera and foreshortening to both
+    devices (rig.pipeline.flanks): one compiled pass over the triangles
+    (rig.kernels.triangles.triangle_tests), from the samples' depths and projector pixels."""
     depths = np.ones((len(points), 2))
     for k, device in enumerate((camera, projector)):
         if device.projection != "orthographic":
@@ -205,8 +206,8 @@ def _tested(
 
 
 def _off_its_corners(normals: np.ndarray, tri: np.ndarray, face: np.ndarray, max_excess_deg: float) -> np.ndarray:
-    """Triangles `tri` tilted away from a corner's normal (`normals`) by `max_excess_deg` more than the
-    corners' normals differ among themselves: the corners agree on a surface the triangle does not
+    """Triangles `tri` tilted away from a corner's normal (`normals`) by `max_excess_deg` more than
+    the corners' normals differ among themselves: the corners agree on a surface the triangle does not
     lie on, as when it joins the rings of two treads of a step. On a smooth surface a triangle's
     normal lies among its corners' normals. A compiled pass (rig.kernels.normals.off_corners)."""
     return normal_kernels.off_corners(normals, np.ascontiguousarray(tri, np.int64), face, max_excess_deg)
