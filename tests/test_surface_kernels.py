@@ -34,9 +34,12 @@ def _bands(camera: CameraModel) -> RingBands:
     return RingBands(annulus, angle, np.linspace(10.0, 120.0, 8), (160.0, 120.0))
 
 
-def _agreement(found: np.ndarray, pixel: np.ndarray, projector: CameraModel, bands: RingBands) -> np.ndarray:
+def _agreement(
+    found: np.ndarray, pixel: np.ndarray, projector: CameraModel, bands: RingBands
+) -> tuple[np.ndarray, np.ndarray]:
     """band_agreement's rule: in the annulus read (padded by band_margin_px), within band_angle_rad of
-    the angle read (not within 8 px of the centre), in front of the projector."""
+    the angle read (not within 8 px of the centre), in front of the projector; and which points lie
+    within 1e-6 rad of the angle's limit (the compiled loop's float32 atan2 may place them either side)."""
     settings = SurfaceSettings()
     u, v, z = projector.project_columns(found)
     du, dv = u - bands.center_px[0], v - bands.center_px[1]
@@ -48,7 +51,7 @@ def _agreement(found: np.ndarray, pixel: np.ndarray, projector: CameraModel, ban
     angle = bands.angle.ravel()[pixel]
     turned = np.abs(np.remainder(np.arctan2(dv, du) - angle + np.pi, 2 * np.pi) - np.pi)
     aligned = ~np.isfinite(angle) | (turned <= settings.band_angle_rad) | (rho < 8.0)
-    return (z > 0) & (inside | (annulus < 0)) & aligned
+    return (z > 0) & (inside | (annulus < 0)) & aligned, np.abs(turned - settings.band_angle_rad) < 1e-6
 
 
 @pytest.mark.parametrize("kind", ["pinhole", "distorted", "orthographic"])
@@ -62,9 +65,10 @@ def test_band_agreement_follows_its_rule_on_every_kind_of_projector(kind: str) -
     target[20:30] = np.nan
     pixel = RNG.integers(0, camera.width * camera.height, size=len(target))
     agree = band_agreement(target, pixel, projector, bands, SurfaceSettings())
-    expected = _agreement(target, pixel, projector, bands)
+    expected, borderline = _agreement(target, pixel, projector, bands)
     assert 0.05 < expected.mean() < 0.95  # both verdicts are exercised
-    np.testing.assert_array_equal(agree, expected)
+    assert borderline.sum() <= 2
+    np.testing.assert_array_equal(agree[~borderline], expected[~borderline])
 
 
 @pytest.mark.parametrize("projection", ["pinhole", "orthographic"])

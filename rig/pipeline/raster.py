@@ -68,12 +68,25 @@ def on_triangles(
     itself small). A tangent plane the ray meets at a grazing angle leaves the linear point, and
     the mean stays within a quarter of the face's longest edge of it. `rays`: every camera pixel's
     (rig.geometry.CameraModel.pixel_rays). One compiled loop (rig.kernels.ring_surface)."""
-    found = np.empty((len(pixel), 3))
+    found, finite = np.empty((len(pixel), 3)), np.empty(len(pixel), bool)
+    points_on_faces(faces, pixel, owner, rays, width, (found, np.arange(len(pixel)), finite))
+    return found
+
+
+def points_on_faces(
+    faces: FaceTerms,
+    pixel: np.ndarray,
+    owner: np.ndarray,
+    rays: tuple[np.ndarray, np.ndarray],
+    width: int,
+    out: tuple[np.ndarray, np.ndarray, np.ndarray],
+) -> None:
+    """on_triangles into out (found, rows, finite): pixel n's point into found[rows[n]] (a flat
+    camera grid, with rows the pixels, saves a copy) and whether it is finite into finite[n]."""
     if faces.corner_normals is not None and faces.corner_offset is not None:
         corners = (faces.corner_normals, faces.corner_offset)
     else:
         corners = (np.empty((0, 3, 0)), np.empty((0, 0)))
     origins = np.asarray(rays[0]) if faces.origin is None else np.asarray(faces.origin, np.float64).reshape(1, 3)
     terms = (faces.plane, faces.plane_offset, faces.longest, faces.barycentric)
-    surface_kernels.points_on_faces(terms, corners, (origins, rays[1]), pixel, owner, width, found, 0, len(pixel))
-    return found
+    surface_kernels.points_on_faces(terms, corners, (origins, rays[1]), pixel, owner, width, out, 0, len(pixel))

@@ -35,7 +35,7 @@ from rig.pipeline.normals import (
     smoothed_normals,
     vertex_normals,
 )
-from rig.pipeline.raster import FaceTerms, on_triangles, rasterize
+from rig.pipeline.raster import FaceTerms, points_on_faces, rasterize
 from rig.pipeline.triangulation import delaunay
 from rig.workers import batches, pool
 
@@ -253,12 +253,13 @@ def interpolate_surface(
         if method == "cubic":
             origins, directions = (np.asarray(rays[part]) for rays in camera.pixel_rays)
             found = origins + _cubic_depth(points, xy, camera, part)[:, None] * directions
-        else:
-            found = on_triangles(terms, part, owner[span[0] : span[1]], camera.pixel_rays, camera.width)
-        grid[part] = found
-        ok[span[0] : span[1]] = np.isfinite(found).all(axis=1)
+            grid[part] = found
+            ok[span[0] : span[1]] = np.isfinite(found).all(axis=1)
+        else:  # straight into the grid
+            found_at = (grid, part, ok[span[0] : span[1]])
+            points_on_faces(terms, part, owner[span[0] : span[1]], camera.pixel_rays, camera.width, found_at)
         if bands is not None:
-            agree[span[0] : span[1]] = band_agreement(found, part, projector, bands, settings)
+            agree[span[0] : span[1]] = band_agreement(grid, part, projector, bands, settings, rows=part)
 
     # cubic: one interpolant over the whole image, not one per batch
     list(pool().map(solve, [(0, len(pixel))] if method == "cubic" else batches(len(pixel))))
@@ -359,10 +360,16 @@ def _without_shadowed(
 
 
 def band_agreement(
-    found: np.ndarray, pixel: np.ndarray, projector: CameraModel, bands: RingBands, settings: SurfaceSettings
+    found: np.ndarray,
+    pixel: np.ndarray,
+    projector: CameraModel,
+    bands: RingBands,
+    settings: SurfaceSettings,
+    rows: np.ndarray | None = None,
 ) -> np.ndarray:
-    """Whether each interpolated point (at flat camera pixel `pixel`) projects into the annulus and
-    near the polar angle its pixel read; unread pixels agree with anything, a NaN point with nothing.
+    """Whether each interpolated point (at flat camera pixel `pixel`; found[n], or found[rows[n]]
+    where `found` is a flat camera grid) projects into the annulus and near the polar angle its
+    pixel read; unread pixels agree with anything, a NaN point with nothing.
     Near the rings' centre the polar angle says little (and is read poorly): it is not checked there
     (rig.kernels.ring_surface, which does it in one compiled loop)."""
     agree = np.empty(len(pixel), dtype=bool)
@@ -371,8 +378,9 @@ def band_agreement(
     centre = (float(bands.center_px[0]), float(bands.center_px[1]))
     read = (bands.annulus.ravel(), bands.angle.ravel(), np.asarray(bands.radii_px, np.float64), *centre)
     margins = (float(settings.band_margin_px), float(settings.band_angle_rad))
-    found = np.ascontiguousarray(found, np.float64)
-    surface_kernels.band_agreement(found, pixel, device, kind, read, margins, agree, 0, len(pixel))
+    rows = np.arange(len(pixel)) if rows is None else rows
+    points = (np.ascontiguousarray(found, np.float64), rows)
+    surface_kernels.band_agreement(points, pixel, device, kind, read, margins, agree, 0, len(pixel))
     return agree
 
 
