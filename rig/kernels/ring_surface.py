@@ -2,8 +2,9 @@
 covered camera pixel's point on its triangle's interpolant, and whether the projector lights that
 point inside the ring band its pixel read. As numpy passes over a million pixels they took about
 100 ms on two threads for the default bench, 60 as these loops (one per pixel for each, a span of
-pixels per call for rig.workers' pool, writing straight into the camera grid), in the floating-point order of the numpy they replace (but the
-band's polar angle: float32's polynomial atan2, within 1e-7 rad)."""
+pixels per call for rig.workers' pool, writing straight into the camera grid), in the
+floating-point order of the numpy they replace (but the band's polar angle: float32's polynomial
+atan2, within 1e-7 rad)."""
 
 from __future__ import annotations
 
