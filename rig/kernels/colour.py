@@ -85,12 +85,14 @@ def mix_colours(
     k = along.shape[1]
     width = 2 * k
     d2 = np.empty(width, np.float32)
-    order = np.empty(width, np.int64)
+    order, which = np.empty(width, np.int64), np.empty(width, np.int64)
     for p in range(start, stop):
         face = owner[p]
         reach = reach2[face]
+        for j in range(width):  # the lower corner's along-ring neighbours, then the upper's
+            which[j] = along[corners[face, 0], j] if j < k else along[corners[face, 1], j - k]
         for j in range(width):
-            s = along[corners[face, j // k], j % k]
+            s = which[j]
             dx = samples[0, s] - at[p, 0]
             dy = samples[1, s] - at[p, 1]
             dz = samples[2, s] - at[p, 2]
@@ -99,14 +101,14 @@ def mix_colours(
         if nearest:
             taken = _nearest_within(d2, reach, count, order)
             for m in range(taken):
-                s = along[corners[face, order[m] // k], order[m] % k]
+                s = which[order[m]]
                 total += 1.0
                 r, g, b = r + colours[s, 0], g + colours[s, 1], b + colours[s, 2]
         else:
             for j in range(width):
                 if d2[j] > reach:
                     continue
-                s = along[corners[face, j // k], j % k]
+                s = which[j]
                 w = area[s] / (d2[j] + np.float32(softening))
                 total += w
                 r, g, b = r + w * colours[s, 0], g + w * colours[s, 1], b + w * colours[s, 2]
