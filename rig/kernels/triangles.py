@@ -137,3 +137,59 @@ def _edge(xa: float, ya: float, xb: float, yb: float) -> tuple[float, float]:
         return xb, 0.0
     slope = (xb - xa) / dy
     return xa - ya * slope, slope
+
+
+@njit(**KERNEL)
+def hilbert_distances(xy: np.ndarray, bits: int) -> np.ndarray:
+    """Each point's distance along a Hilbert curve over a grid of 2^bits x 2^bits cells spanning the
+    points' bounding box (its longer side): consecutive points along it are close in the image."""
+    x0, y0 = xy[:, 0].min(), xy[:, 1].min()
+    span = max(max(xy[:, 0].max() - x0, xy[:, 1].max() - y0), 1e-9)
+    cells = (1 << bits) - 1
+    distance = np.zeros(len(xy), np.int64)
+    for i in range(len(xy)):
+        x, y = int((xy[i, 0] - x0) * (cells / span)), int((xy[i, 1] - y0) * (cells / span))
+        side = 1 << (bits - 1)
+        while side > 0:  # the curve's quadrant at each scale, then the quadrant's turn for the next
+            right, upper = (x & side) > 0, (y & side) > 0
+            distance[i] += side * side * ((3 * right) ^ upper)
+            if not upper:
+                if right:
+                    x, y = side - 1 - x, side - 1 - y
+                x, y = y, x
+            side //= 2
+    return distance
+
+
+@njit(**KERNEL)
+def find_keys(keys: np.ndarray, wanted: np.ndarray) -> np.ndarray:
+    """The position in `keys` (N,) of each of `wanted` (any shape, flat here), -1 where absent (the
+    first position of a key that appears more than once): an open-addressing hash table."""
+    size = 1
+    while size < 2 * len(keys):
+        size *= 2
+    slots = np.full(size, -1, np.int64)
+    mask = size - 1
+    for i in range(len(keys)):
+        h = _mix(keys[i]) & mask
+        while slots[h] >= 0 and keys[slots[h]] != keys[i]:
+            h = (h + 1) & mask
+        if slots[h] < 0:
+            slots[h] = i
+    found = np.empty(wanted.size, np.int64)
+    flat = wanted.ravel()
+    for j in range(flat.size):
+        h = _mix(flat[j]) & mask
+        while slots[h] >= 0 and keys[slots[h]] != flat[j]:
+            h = (h + 1) & mask
+        found[j] = slots[h]
+    return found
+
+
+@njit(nogil=True, cache=True, inline="always")
+def _mix(key: np.int64) -> np.int64:
+    """A 64-bit finaliser (splitmix64's) spreading a key's bits over the table's slots."""
+    k = np.uint64(key)
+    k = (k ^ (k >> np.uint64(30))) * np.uint64(0xBF58476D1CE4E5B9)
+    k = (k ^ (k >> np.uint64(27))) * np.uint64(0x94D049BB133111EB)
+    return np.int64(k ^ (k >> np.uint64(31)))
