@@ -1,6 +1,7 @@
-"""Image points sorted into a grid of square cells (a counting sort), compiled by numba: the
-neighbour searches of rig.kernels.fill and rig.kernels.rings scan a point's few cells instead of a
-k-d tree."""
+"""Image points sorted into a grid of square cells (a counting sort), all together or a group (a
+ring) at a time, and the neighbour searches over them, compiled by numba: the ring codec's searches
+(rig.kernels.fill, rig.kernels.rings, rig.pipeline.normals, rig.pipeline.ring_triangulation) scan
+a point's few cells instead of a k-d tree, and stop when no cell left can hold a nearer point."""
 
 from __future__ import annotations
 
@@ -24,7 +25,7 @@ def sample_cells(xy: np.ndarray, cell: float) -> Cells:
 @njit(**KERNEL)
 def group_cells(xy: np.ndarray, group: np.ndarray, groups: int, cell: float) -> Cells:
     """sample_cells of each of `groups` groups of the samples apart (`group`: each one's, such as
-    its ring), on one grid: group g's cells follow g x (cells of the grid) (starts: groups x cells + 1)."""
+    its ring), on one grid: group g's cells are g x (the grid's cells) on (starts: groups x cells + 1)."""
     x0, y0 = xy[:, 0].min(), xy[:, 1].min()
     nx, ny = int((xy[:, 0].max() - x0) / cell) + 1, int((xy[:, 1].max() - y0) / cell) + 1
     home = np.empty(len(xy), np.int64)
