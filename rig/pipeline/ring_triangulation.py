@@ -190,8 +190,9 @@ def _nearest_candidates(xy: np.ndarray, ring: np.ndarray, candidates: np.ndarray
     """(N, k) the `k` candidates nearest each sample, nearest first. A sample within
     _SHARED_NEIGHBOURHOOD_PX of a candidate of its own ring takes that candidate's (its fits span
     ~50 px): the k nearest are searched for the candidates, and for the samples without one near.
-    A grid of cells about 1.5 candidates apart (the fastest of 0.7 to 4 on the default bench), searched in compiled code
-    (rig.kernels.cells.k_nearest) a span of samples per thread."""
+    A grid of cells 1.5 times the candidates' mean spacing wide (the fastest of 0.7 to 4 on the
+    default bench), searched in compiled code (rig.kernels.cells.k_nearest), a span of samples per
+    thread."""
     xy = np.ascontiguousarray(xy, np.float64)
     spots = np.ascontiguousarray(xy[candidates])
     cell = max(1.5 * np.sqrt(np.prod(np.ptp(spots, axis=0) + 1.0) / len(spots)), 1.0)  # ~2 candidates a cell
