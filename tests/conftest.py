@@ -58,6 +58,22 @@ def make_device(
     return CameraModel(width, height, K, R, -R @ pos, dist=np.array(dist), projection=projection)  # type: ignore[arg-type]
 
 
+def face_normals(points: np.ndarray, tri: np.ndarray, directions: np.ndarray) -> np.ndarray:
+    """(F, 3) unit normals of triangles `tri`, toward the camera (against corner 0's ray): what the
+    ring surface's compiled triangle tests give (rig.kernels.triangles), as numpy."""
+    p = points[tri]
+    face = np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])
+    face /= np.maximum(np.linalg.norm(face, axis=1), 1e-300)[:, None]
+    face[np.einsum("ij,ij->i", face, directions[tri[:, 0]]) > 0] *= -1
+    return face
+
+
+def face_weights(edge_mm: np.ndarray) -> np.ndarray:
+    """(F,) 1 / each triangle's longest edge, from its edges' lengths (F, 3) (the weight of a face's
+    normal in its corners', rig.pipeline.normals.vertex_normals)."""
+    return 1.0 / np.maximum(edge_mm.max(axis=1), 1e-9)
+
+
 def default_config_data() -> dict[str, Any]:
     return yaml.safe_load(DEFAULT_CONFIG.read_text())
 

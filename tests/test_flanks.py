@@ -4,9 +4,9 @@ not (rig.pipeline.flanks)."""
 from __future__ import annotations
 
 import numpy as np
+from conftest import face_normals, face_weights
 
 from rig.pipeline.flanks import grown_flanks
-from rig.pipeline.normals import face_normals, face_weights
 
 CAMERA = np.array([0.0, 0.0, 500.0])
 

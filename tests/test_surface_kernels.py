@@ -6,12 +6,11 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from conftest import make_device
+from conftest import face_normals, face_weights, make_device
 
 from rig.geometry import CameraModel
 from rig.kernels.triangles import GAP, KEPT, ONE_RING, RING_SKIPPED
-from rig.pipeline.normals import face_normals, face_weights
-from rig.pipeline.raster import FaceTerms, on_triangles
+from rig.pipeline.raster import FaceTerms, points_on_faces
 from rig.pipeline.surface import RingBands, SurfaceSettings, _tested, band_agreement
 
 RNG = np.random.default_rng(7)
@@ -71,6 +70,14 @@ def test_band_agreement_follows_its_rule_on_every_kind_of_projector(kind: str) -
     np.testing.assert_array_equal(agree[~borderline], expected[~borderline])
 
 
+def _on_faces(terms: FaceTerms, pixel: np.ndarray, owner: np.ndarray, camera: CameraModel) -> np.ndarray:
+    """Each pixel's point (N, 3), a row per pixel."""
+    found = np.empty((len(pixel), 3))
+    rows, finite = np.arange(len(pixel)), np.empty(len(pixel), bool)
+    points_on_faces(terms, pixel, owner, camera.pixel_rays, camera.width, (found, rows, finite))
+    return found
+
+
 @pytest.mark.parametrize("projection", ["pinhole", "orthographic"])
 def test_points_on_faces_lie_on_their_planes_and_rays(projection: str) -> None:
     """Linear: where each pixel's ray meets its face's plane; quadratic: within a quarter of the
@@ -87,15 +94,13 @@ def test_points_on_faces_lie_on_their_planes_and_rays(projection: str) -> None:
     pixel = np.array([40 * 160 + 50, 60 * 160 + 80, 90 * 160 + 120, 70 * 160 + 130])
     owner = np.array([0, 0, 1, 1])
     origin = camera.center if projection == "pinhole" else None
-    linear = on_triangles(FaceTerms.of(points, xy, tri, None, origin), pixel, owner, camera.pixel_rays, camera.width)
+    linear = _on_faces(FaceTerms.of(points, xy, tri, None, origin), pixel, owner, camera)
     o, d = (np.asarray(r)[pixel] for r in camera.pixel_rays)
     corner = points[tri[owner]]
     plane = np.cross(corner[:, 1] - corner[:, 0], corner[:, 2] - corner[:, 0])
     t = np.einsum("ij,ij->i", plane, corner[:, 0] - o) / np.einsum("ij,ij->i", plane, d)
     np.testing.assert_allclose(linear, o + t[:, None] * d, atol=1e-9)
-    quadratic = on_triangles(
-        FaceTerms.of(points, xy, tri, normals[tri], origin), pixel, owner, camera.pixel_rays, camera.width
-    )
+    quadratic = _on_faces(FaceTerms.of(points, xy, tri, normals[tri], origin), pixel, owner, camera)
     off_ray = np.linalg.norm(np.cross(quadratic - o, d), axis=1)
     assert off_ray.max() < 1e-9
     longest = np.linalg.norm(corner - corner[:, [1, 2, 0]], axis=2).max(axis=1)

@@ -7,9 +7,10 @@ radius and fine angle, judged across and along rings, and the rings' bands; `nor
 samples' normals and the bend tests; `triangles`: the ring triangles' tests and their
 rasterising; `ring_surface`: per-face terms, each pixel's point on its face and its band
 agreement; `fill`: the ring surface's neighbourhoods, one-surface test and height-field fits;
-`colour`: the colour between the rings; `cells`: image points in a grid of cells (all together or
-by ring) and the nearest-neighbour searches over it; `regions`: evaluation's surface regions.
-Each is compiled on first use and cached beside it (__pycache__)."""
+`colour`: the colour between the rings; `vectors`: three-vectors as rows, read in place; `cells`:
+image points in a grid of cells (all together or by ring) and the nearest-neighbour searches over
+it; `regions`: evaluation's surface regions. Each is compiled on first use and cached beside it
+(__pycache__)."""
 
 import numpy as np
 

@@ -10,6 +10,7 @@ import numpy as np
 from numba import njit
 
 from rig.kernels import KERNEL
+from rig.kernels.vectors import corner_cross, row_distance
 
 _NO_WEIGHT = 1e-30  # a pixel no candidate reaches divides by this: its colour is 0
 
@@ -24,39 +25,17 @@ def face_terms(
     for f in range(len(faces)):
         longest = 0.0
         for k in range(3):
-            a, b = faces[f, k], faces[f, (k + 1) % 3]
-            dx, dy, dz = (
-                vertices[a, 0] - vertices[b, 0],
-                vertices[a, 1] - vertices[b, 1],
-                vertices[a, 2] - vertices[b, 2],
-            )
-            longest = max(longest, np.sqrt(dx**2 + dy**2 + dz**2))
+            longest = max(longest, row_distance(vertices, faces[f, (k + 1) % 3], faces[f, k]))
         reach2[f] = np.float32((2.0 * longest) ** 2)
         low = high = 0
         for k in range(1, 3):
             low = k if ring[faces[f, k]] < ring[faces[f, low]] else low
             high = k if ring[faces[f, k]] > ring[faces[f, high]] else high
         corners[f, 0], corners[f, 1] = faces[f, low], faces[f, high]
-        p0, p1, p2 = faces[f, 0], faces[f, 1], faces[f, 2]
-        ux, uy, uz = (
-            vertices[p1, 0] - vertices[p0, 0],
-            vertices[p1, 1] - vertices[p0, 1],
-            vertices[p1, 2] - vertices[p0, 2],
-        )
-        vx, vy, vz = (
-            vertices[p2, 0] - vertices[p0, 0],
-            vertices[p2, 1] - vertices[p0, 1],
-            vertices[p2, 2] - vertices[p0, 2],
-        )
-        cx, cy, cz = uy * vz - uz * vy, uz * vx - ux * vz, ux * vy - uy * vx
+        cx, cy, cz = corner_cross(vertices, faces[f, 0], faces[f, 1], faces[f, 2])
         third = 0.5 * np.sqrt(cx**2 + cy**2 + cz**2) / 3.0
         for k in range(3):
             area[faces[f, k]] += third
-
-
-@njit(nogil=True, cache=True, inline="always")
-def _minus(vertices: np.ndarray, a: int, b: int) -> tuple[float, float, float]:
-    return vertices[a, 0] - vertices[b, 0], vertices[a, 1] - vertices[b, 1], vertices[a, 2] - vertices[b, 2]
 
 
 @njit(**KERNEL)

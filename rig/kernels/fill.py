@@ -14,6 +14,7 @@ from numba import njit
 
 from rig.kernels import KERNEL
 from rig.kernels.cells import Cells, nearest_within
+from rig.kernels.vectors import row_distance
 
 _TERMS = 6  # 1, x, y, x^2, xy, y^2
 
@@ -205,11 +206,7 @@ def one_surface(
             if np.isfinite(dist[n, j]):
                 s = index[n, j]
                 apart_px = np.sqrt((xy[s, 0] - xy[ref, 0]) ** 2 + (xy[s, 1] - xy[ref, 1]) ** 2)
-                apart_mm = np.sqrt(
-                    (points[s, 0] - points[ref, 0]) ** 2
-                    + (points[s, 1] - points[ref, 1]) ** 2
-                    + (points[s, 2] - points[ref, 2]) ** 2
-                )
+                apart_mm = row_distance(points, ref, s)
                 contested = contested or not apart_mm <= stretch * footprint[ref] * (apart_px + 1.0)
         if contested:
             continue

@@ -10,6 +10,7 @@ import numpy as np
 from numba import njit
 
 from rig.kernels import KERNEL
+from rig.kernels.vectors import corner_cross, row_dot
 
 
 @njit(**KERNEL)
@@ -35,10 +36,8 @@ def area_faces(
             a, b = tri[f, k], tri[f, (k + 2) % 3]
             longest = max(longest, np.sqrt((xy[a, 0] - xy[b, 0]) ** 2 + (xy[a, 1] - xy[b, 1]) ** 2))
         short[f] = longest <= max_edge_px
-        p0, p1, p2 = tri[f, 0], tri[f, 1], tri[f, 2]
-        ux, uy, uz = points[p1, 0] - points[p0, 0], points[p1, 1] - points[p0, 1], points[p1, 2] - points[p0, 2]
-        vx, vy, vz = points[p2, 0] - points[p0, 0], points[p2, 1] - points[p0, 1], points[p2, 2] - points[p0, 2]
-        nx, ny, nz = uy * vz - uz * vy, uz * vx - ux * vz, ux * vy - uy * vx
+        p0 = tri[f, 0]
+        nx, ny, nz = corner_cross(points, p0, tri[f, 1], tri[f, 2])
         flip = -1.0 if nx * directions[p0, 0] + ny * directions[p0, 1] + nz * directions[p0, 2] > 0 else 1.0
         face[f, 0], face[f, 1], face[f, 2] = flip * nx, flip * ny, flip * nz
     return face, short
@@ -75,11 +74,6 @@ def pair_smoothed(normals: np.ndarray, pairs: np.ndarray, known: np.ndarray) -> 
     return sums
 
 
-@njit(nogil=True, cache=True, inline="always")
-def _dot(u: np.ndarray, i: int, v: np.ndarray, j: int) -> float:
-    return u[i, 0] * v[j, 0] + u[i, 1] * v[j, 1] + u[i, 2] * v[j, 2]
-
-
 @njit(**KERNEL)
 def off_corners(normals: np.ndarray, tri: np.ndarray, face: np.ndarray, max_excess_deg: float) -> np.ndarray:
     """(F,) rig.pipeline.surface._off_its_corners: whether a face's unit normal `face` (F, 3) lies
@@ -91,10 +85,8 @@ def off_corners(normals: np.ndarray, tri: np.ndarray, face: np.ndarray, max_exce
         to_face, apart = np.inf, np.inf
         for k in range(3):
             a, b = tri[f, k], tri[f, (k + 1) % 3]
-            to_face = min(to_face, normals[a, 0] * face[f, 0] + normals[a, 1] * face[f, 1] + normals[a, 2] * face[f, 2])
-            apart = min(
-                apart, normals[a, 0] * normals[b, 0] + normals[a, 1] * normals[b, 1] + normals[a, 2] * normals[b, 2]
-            )
+            to_face = min(to_face, row_dot(normals, a, face, f))
+            apart = min(apart, row_dot(normals, a, normals, b))
         bend = np.degrees(np.arccos(min(max(to_face, -1.0), 1.0)))
         spread = np.degrees(np.arccos(min(max(apart, -1.0), 1.0)))
         off[f] = bend - spread > max_excess_deg
@@ -110,5 +102,5 @@ def bent_from_corners(normals: np.ndarray, tri: np.ndarray, face: np.ndarray, le
         bent[f] = False
         for k in range(3):
             a = tri[f, k]
-            bent[f] = bent[f] or _dot(normals, a, face, f) < least_cosine
+            bent[f] = bent[f] or row_dot(normals, a, face, f) < least_cosine
     return bent

@@ -104,12 +104,12 @@ def points_on_faces(
     start: int,
     stop: int,
 ) -> None:
-    """rig.pipeline.raster.on_triangles for pixels [start, stop): out (found, rows, finite): pixel
-    n's point into row rows[n] of `found` (a flat camera grid, or one row per pixel) and whether it
-    is finite into finite[n]. faces
-    (plane (3, F), plane_offset (F,), longest (F,), barycentric (3, 3, F)) and corners (their
-    normals (3, 3, F) and offsets (3, F), both empty (0, ...) for the linear interpolant) of
-    FaceTerms; rays: origins (1, 3) shared, or (H*W, 3) one per pixel, and directions (H*W, 3)."""
+    """rig.pipeline.raster.points_on_faces for pixels [start, stop): out (found, rows, finite):
+    pixel n's point into row rows[n] of `found` (a flat camera grid, or one row per pixel) and
+    whether it is finite into finite[n]. faces (plane (3, F), plane_offset (F,), longest (F,),
+    barycentric (3, 3, F)) and corners (their normals (3, 3, F) and offsets (3, F), both empty
+    (0, ...) for the linear interpolant) of FaceTerms; rays: origins (1, 3) shared, or (H*W, 3) one
+    per pixel, and directions (H*W, 3)."""
     plane, plane_offset, longest, barycentric = faces
     plane, plane_offset = plane.reshape((1, 3, -1)), plane_offset.reshape((1, -1))  # one plane per face
     corner_normals, corner_offset = corners

@@ -9,6 +9,7 @@ import numpy as np
 from numba import njit
 
 from rig.kernels import KERNEL
+from rig.kernels.vectors import corner_cross, row_distance
 
 KEPT, RING_SKIPPED, GAP, ONE_RING = 0, 1, 2, 3  # a triangle's verdict on the rings it joins
 
@@ -49,20 +50,14 @@ def triangle_tests(
             i, j = tri[f, k], tri[f, (k + 1) % 3]
             edge_px = np.sqrt((camera_xy[j, 0] - camera_xy[i, 0]) ** 2 + (camera_xy[j, 1] - camera_xy[i, 1]) ** 2)
             gap = gap or (ring[i] == ring[j] and edge_px > max_gap)
-            edge_mm[k] = np.sqrt(
-                (points[j, 0] - points[i, 0]) ** 2
-                + (points[j, 1] - points[i, 1]) ** 2
-                + (points[j, 2] - points[i, 2]) ** 2
-            )
+            edge_mm[k] = row_distance(points, i, j)
             along_px = np.sqrt(
                 (projector_xy[j, 0] - projector_xy[i, 0]) ** 2 + (projector_xy[j, 1] - projector_xy[i, 1]) ** 2
             )
-            seen = 1.0 * min(
-                1.0, edge_px * (0.5 * (depths[i, 0] + depths[j, 0]) / camera_focal) / max(edge_mm[k], 1e-12)
-            )
-            seen *= min(
-                1.0, along_px * (0.5 * (depths[i, 1] + depths[j, 1]) / projector_focal) / max(edge_mm[k], 1e-12)
-            )
+            # each device: (image length x mm per pixel at the edge's middle) / length, the cosine of its tilt
+            length = max(edge_mm[k], 1e-12)
+            seen = 1.0 * min(1.0, edge_px * (0.5 * (depths[i, 0] + depths[j, 0]) / camera_focal) / length)
+            seen *= min(1.0, along_px * (0.5 * (depths[i, 1] + depths[j, 1]) / projector_focal) / length)
             least = min(least, seen)
         span = high - low
         verdict[f] = RING_SKIPPED if span > 1 else ONE_RING if span == 0 else GAP if gap else KEPT
@@ -75,10 +70,8 @@ def triangle_tests(
 
 @njit(nogil=True, cache=True, inline="always")
 def _face_normal(points: np.ndarray, directions: np.ndarray, a: int, b: int, c: int) -> tuple[float, float, float]:
-    """rig.pipeline.normals.face_normals of one triangle."""
-    ux, uy, uz = points[b, 0] - points[a, 0], points[b, 1] - points[a, 1], points[b, 2] - points[a, 2]
-    vx, vy, vz = points[c, 0] - points[a, 0], points[c, 1] - points[a, 1], points[c, 2] - points[a, 2]
-    nx, ny, nz = uy * vz - uz * vy, uz * vx - ux * vz, ux * vy - uy * vx
+    """A triangle's unit normal, turned toward the camera (against corner a's ray)."""
+    nx, ny, nz = corner_cross(points, a, b, c)
     norm = max(np.sqrt(nx * nx + ny * ny + nz * nz), 1e-300)
     nx, ny, nz = nx / norm, ny / norm, nz / norm
     if nx * directions[a, 0] + ny * directions[a, 1] + nz * directions[a, 2] > 0:
@@ -131,7 +124,8 @@ def _by_y(xy: np.ndarray, corners: np.ndarray, ys: np.ndarray) -> tuple[int, int
 
 @njit(nogil=True, cache=True, inline="always")
 def _edge(xa: float, ya: float, xb: float, yb: float) -> tuple[float, float]:
-    """rig.pipeline.raster._edge of one edge: x = at + y * slope, a flat one as x = xb."""
+    """An edge from (xa, ya) down to (xb, yb) as x = at + y * slope; a flat edge as x = xb (it is
+    met only in its own row, where the other edges give its other end)."""
     dy = yb - ya
     if dy == 0:
         return xb, 0.0

@@ -17,27 +17,12 @@ CREASE_DEG = 30.0
 SIDE_DEG = 45.0
 
 
-def face_normals(points: np.ndarray, tri: np.ndarray, directions: np.ndarray) -> np.ndarray:
-    """(F, 3) unit normals of triangles `tri`, toward the camera (against the corners' rays)."""
-    p = points[tri]
-    face = np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])
-    face /= np.maximum(np.linalg.norm(face, axis=1), 1e-300)[:, None]
-    facing = np.einsum("ij,ij->i", face, directions[tri[:, 0]]) > 0
-    face[facing] *= -1
-    return face
-
-
 def vertex_normals(tri: np.ndarray, face: np.ndarray, weight: np.ndarray, directions: np.ndarray) -> np.ndarray:
     """Each sample's normal: its triangles' unit normals `face` weighted by `weight`, 1 / their
-    longest edge (face_weights). A triangle's normal belongs half-way across to the next ring, so
-    weighting each side by the inverse of its spacing interpolates the two sides' normals to the
-    sample, also where the rings are unevenly spaced."""
+    longest edge. A triangle's normal belongs half-way across to the next ring, so weighting each
+    side by the inverse of its spacing interpolates the two sides' normals to the sample, also
+    where the rings are unevenly spaced."""
     return accumulate_normals(tri, face * weight[:, None], directions)
-
-
-def face_weights(edge_mm: np.ndarray) -> np.ndarray:
-    """(F,) 1 / each triangle's longest edge, from its edges' lengths (F, 3) (see vertex_normals)."""
-    return 1.0 / np.maximum(edge_mm.max(axis=1), 1e-9)
 
 
 def accumulate_normals(tri: np.ndarray, face: np.ndarray, directions: np.ndarray) -> np.ndarray:

@@ -16,7 +16,7 @@ surface_kernels = lazy_module("rig.kernels.ring_surface")
 def rasterize(xy: np.ndarray, tri: np.ndarray, width: int, height: int) -> tuple[np.ndarray, np.ndarray]:
     """Camera pixels (flat indices) whose centres lie in the image triangles, and the triangle of
     each (a pixel on a shared edge goes to the later one). Scanline, one compiled loop over the
-    triangles (rig.kernels.triangles.rasterize: a few milliseconds for the default bench's 70,000)."""
+    triangles (rig.kernels.triangles.rasterize)."""
     image = np.full((height, width), -1, dtype=np.int64)
     triangle_kernels.rasterize(np.ascontiguousarray(xy, np.float64), np.ascontiguousarray(tri, np.int64), image)
     pixel = np.flatnonzero(image >= 0)
@@ -58,21 +58,6 @@ class FaceTerms:
         return FaceTerms(*faces, origin, *(corners if quadratic else (None, None)))
 
 
-def on_triangles(
-    faces: FaceTerms, pixel: np.ndarray, owner: np.ndarray, rays: tuple[np.ndarray, np.ndarray], width: int
-) -> np.ndarray:
-    """Each pixel's point on its triangle (`owner`): on the plane of the corners, or (with the faces'
-    corner normals: quadratic) the mean of that and the blend of the corners' tangent planes,
-    weighted by the pixel's barycentric coordinates in the image (against the 3D ones they differ by
-    the depth's relative change across a triangle, a fraction of a percent of a correction that is
-    itself small). A tangent plane the ray meets at a grazing angle leaves the linear point, and
-    the mean stays within a quarter of the face's longest edge of it. `rays`: every camera pixel's
-    (rig.geometry.CameraModel.pixel_rays). One compiled loop (rig.kernels.ring_surface)."""
-    found, finite = np.empty((len(pixel), 3)), np.empty(len(pixel), bool)
-    points_on_faces(faces, pixel, owner, rays, width, (found, np.arange(len(pixel)), finite))
-    return found
-
-
 def points_on_faces(
     faces: FaceTerms,
     pixel: np.ndarray,
@@ -81,8 +66,15 @@ def points_on_faces(
     width: int,
     out: tuple[np.ndarray, np.ndarray, np.ndarray],
 ) -> None:
-    """on_triangles into out (found, rows, finite): pixel n's point into found[rows[n]] (a flat
-    camera grid, with rows the pixels, saves a copy) and whether it is finite into finite[n]."""
+    """Each pixel's point on its triangle (`owner`): on the plane of the corners, or (with the faces'
+    corner normals: quadratic) the mean of that and the blend of the corners' tangent planes,
+    weighted by the pixel's barycentric coordinates in the image (against the 3D ones they differ by
+    the depth's relative change across a triangle, a fraction of a percent of a correction that is
+    itself small). A tangent plane the ray meets at a grazing angle leaves the linear point, and
+    the mean stays within a quarter of the face's longest edge of it. `rays`: every camera pixel's
+    (rig.geometry.CameraModel.pixel_rays). Into out (found, rows, finite): pixel n's point into
+    found[rows[n]] (a flat camera grid with rows the pixels saves a copy) and whether it is finite
+    into finite[n]. One compiled loop (rig.kernels.ring_surface)."""
     if faces.corner_normals is not None and faces.corner_offset is not None:
         corners = (faces.corner_normals, faces.corner_offset)
     else:

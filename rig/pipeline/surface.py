@@ -100,7 +100,7 @@ class RingTriangles:
 
     tri: np.ndarray  # (F, 3) sample indices
     face: np.ndarray  # (F, 3) unit normals, toward the camera
-    weight: np.ndarray  # (F,) 1 / longest edge (rig.pipeline.normals.face_weights)
+    weight: np.ndarray  # (F,) 1 / longest edge (rig.pipeline.normals.vertex_normals)
     normals: np.ndarray  # (M, 3) the samples' unit normals, toward the camera
     counts: dict[str, int]  # how many triangles each test dropped
     directions: np.ndarray  # (M, 3) the samples' camera rays
