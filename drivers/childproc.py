@@ -70,6 +70,8 @@ class WorkerProcess:
         fd = self._process.stdout.fileno()
         ready, _, _ = select.select([fd], [], [], max(0.0, deadline - time.monotonic()))
         if not ready:
+            if not self.alive:  # under load its exit can show before the closed pipe does
+                raise self._gone("exited without answering")
             raise DeviceTimeoutError(f"{self.name}: no answer from the worker in time")
         chunk = os.read(fd, 1 << 20)
         if not chunk:
