@@ -9,7 +9,9 @@ to clipping (at every exposure).
 Modes: `single` (the camera's own exposure), `auto` (auto-exposure from a pre-capture), `hdr`
 (auto-exposure, then as many exposures as the pre-capture asks for, two stops apart, merged per
 pixel), `adaptive` (adaptive projection: the patterns dimmed per projector pixel where the camera
-would clip, from a pre-scan, in one exposure), and both. `matte` is the same shape and exposure
+would clip, from a pre-scan, in one exposure; two passes with the masks' steps on either side of
+each edge where one pass would lose many pixels beside them, as `scan.exposure.adaptive_passes:
+auto` decides), `adaptive, one pass` (forced to one), and adaptive with HDR. `matte` is the same shape and exposure
 with the gloss and the dark paint taken away. The codec is the config's (phase); every mode leaves
 out the pixels outshone by a far brighter neighbour (scan.exposure.drop_outshone), the matte one too,
 but the deblurred ones, which undo the camera's blur instead (scan.exposure.deblur_px).
@@ -45,6 +47,7 @@ MODES: dict[str, dict[str, Any]] = {
     "auto": {"exposure": "auto", "hdr": None},
     "hdr": {"exposure": "auto", "hdr": "auto"},
     "adaptive": {"exposure": "auto", "hdr": None, "adaptive_projection": True},
+    "adaptive, one pass": {"exposure": "auto", "hdr": None, "adaptive_projection": True, "adaptive_passes": 1},
     "adaptive + hdr": {"exposure": "auto", "hdr": "auto", "adaptive_projection": True},
     # the camera's blur (0.6 px on this bench) undone instead of the outshone pixels left out
     "auto, deblurred": {"exposure": "auto", "hdr": None, "deblur_px": 0.6, "drop_outshone": False},

@@ -168,8 +168,9 @@ def test_a_scan_started_from_the_scan_page_reaches_done_and_the_viewer_draws_it(
 def test_the_scan_page_scans_with_hdr_and_says_at_which_exposures(console: Console) -> None:
     console.go("scan")
     page = console.page
-    page.check("input[name=adaptive]")  # a planned ring scan keeps the cameras' exposure: no choice of it
-    assert page.is_disabled("select[name=hdr]") and page.is_disabled("input[name=adaptive_projection]")
+    page.check("input[name=adaptive]")  # a planned ring scan takes them too: only the codec is the plan's
+    assert page.is_disabled("select[name=codec]")
+    assert page.is_enabled("select[name=hdr]") and page.is_enabled("input[name=adaptive_projection]")
     page.uncheck("input[name=adaptive]")
     page.select_option("select[name=codec]", "gray")
     page.fill("input[name=exposure]", "auto")

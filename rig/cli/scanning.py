@@ -34,10 +34,6 @@ def cmd_scan(args: argparse.Namespace) -> int:
             "--adaptive", ["--tolerance-mm, --tolerance-quantile and --save-plan plan rings: add --adaptive"]
         )
     plan = RingPlan.load(plan_file) if plan_file is not None else None
-    exposing = [n for n in ("exposure", "hdr", "adaptive_projection") if getattr(args, n, None)]
-    if (piloted or plan_file is not None) and exposing:
-        flag = "--" + exposing[0].replace("_", "-")
-        raise ConfigError(flag, [f"{flag}: a planned ring scan takes the cameras' exposure as set, not yet"])
     keep = config.scan.save_frames or getattr(args, "save_frames", False)
     with open_rig(config) as the_rig:
         if piloted or plan is not None:

@@ -179,6 +179,13 @@ class ExposureConfig(Strict):
         "exposure), so that one exposure long enough for the darkest lit surface reads the brightest too; "
         "with hdr, the bracket is taken with the masks (rig.pipeline.projection_mask)",
     )
+    adaptive_passes: Literal["auto", 1, 2] = Field(
+        "auto",
+        description="adaptive projection's passes at the one exposure: 2 moves the masks' steps to either side of "
+        "each edge of strong contrast, so the pixels one pass loses beside them are read by the other "
+        "(rig.pipeline.mask_passes); auto: 2 where over 1 % of the lit projector pixels lie where one pass's steps "
+        "would lean a decode too far to keep it",
+    )
     deblur_px: float = Field(
         0.0,
         ge=0.0,
@@ -196,6 +203,8 @@ class ExposureConfig(Strict):
     def _exposures(self) -> ExposureConfig:
         if isinstance(self.hdr, list) and not 2 <= len(self.hdr) <= 10:
             raise ValueError(f"hdr: 2 to 10 exposures, got {len(self.hdr)}")
+        if self.adaptive_passes == 2 and self.hdr is not None:
+            raise ValueError("adaptive_passes: two passes share one exposure; with hdr, one mask serves the bracket")
         return self
 
 

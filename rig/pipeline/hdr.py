@@ -1,25 +1,19 @@
 """HDR by exposure bracketing: the scan's patterns captured at several exposures, each decoded as
-it comes (saturated pixels already left out: rig.patterns.saturation), merged per pixel.
-
-At each pixel the merge takes the exposure that reads it best: the one whose decode is valid there
-with the highest quality (the codec's modulation or contrast, in fractions of full scale: it grows
-with the exposure until the pixel clips, and a clipped pixel is no longer valid). A dark rubber
-part is read at the longest exposure, a machined highlight at the shortest, the rest in between.
-Ring samples are kept from the exposure their pixel takes (a ring edge is read once, not once per
-exposure), and the coarse bands every pixel read with them. Works for every codec, since each
-exposure's Correspondence is the codec's own.
+it comes (saturated pixels already left out: rig.patterns.saturation), merged per pixel by the
+exposure that reads it best (rig.pipeline.pass_merge). Adaptive projection's scans run here too:
+one pass or two under different masks at one exposure (rig.pipeline.mask_passes), or a bracket
+under one mask, each pass's decode with its masks' lean taken off (rig.pipeline.mask_skew).
 """
 
 from __future__ import annotations
 
-import dataclasses
 import time
 
 import numpy as np
 
 from rig.errors import ConfigError, ScanError
 from rig.opened_rig import Rig
-from rig.patterns import Codec, Correspondence, RingSamples, decode_streamed, subset_samples
+from rig.patterns import Codec, Correspondence, decode_streamed
 from rig.pipeline.capture import CUE, Frames, capture
 from rig.pipeline.exposure import (
     STEP,
@@ -33,76 +27,12 @@ from rig.pipeline.exposure import (
     shortest_looks,
     within_range,
 )
-from rig.pipeline.mask_skew import MaskSkew
-from rig.pipeline.projection_mask import masked_rig
+from rig.pipeline.mask_skew import MaskSkew, Unleaned
+from rig.pipeline.pass_merge import merge_passes
+from rig.pipeline.projection_mask import AdaptiveProjection, MaskSettings, masked_rig
 from rig.pipeline.results import ScanResult
 from rig.pipeline.scan import is_reconstructed, make_codec, reconstruct_frames, run_scan
 from rig.progress import ProgressCallback, ProgressTracker
-
-
-def merge_exposures(corrs: list[Correspondence], reference: int) -> Correspondence:
-    """One Correspondence from the same pair's at several exposures (see the module docstring);
-    the texture and what is not per pixel from `reference`'s."""
-    score = np.stack([np.where(c.valid | _is_sparse(c), c.quality, -np.inf) for c in corrs])
-    if any(_is_sparse(c) for c in corrs):
-        score[np.stack([c.extra.get("saturated", np.zeros_like(c.valid)) for c in corrs])] = -np.inf
-    best = np.argmax(score, axis=0)
-    rows, cols = np.indices(best.shape)
-    base = corrs[reference]
-
-    def pick(arrays: list[np.ndarray]) -> np.ndarray:
-        return np.stack(arrays)[best, rows, cols]
-
-    valid = pick([c.valid for c in corrs]) if not _is_sparse(base) else np.zeros_like(base.valid)
-    u = None if base.u is None else pick([c.u for c in corrs if c.u is not None])
-    v = None if base.v is None else pick([c.v for c in corrs if c.v is not None])
-    extra = {
-        name: pick([c.extra[name] for c in corrs]) if array.shape == best.shape else array
-        for name, array in base.extra.items()
-        if name != "saturated"
-    }
-    extra["saturated"] = np.logical_and.reduce([c.extra.get("saturated", np.zeros_like(c.valid)) for c in corrs])
-    samples = _merged_samples(corrs, best)
-    if samples is not None:
-        nearest = np.rint(samples.camera_xy).astype(np.int64)
-        valid[nearest[:, 1], nearest[:, 0]] = True
-    counts = {
-        **base.counts,
-        "decoded": int(valid.sum()),
-        "hdr_exposures": len(corrs),
-        # what no exposure read for clipping; each exposure's own count is its share of the bracket
-        "rejected_saturated": int(extra["saturated"].sum()),
-        "rejected_saturated_per_exposure": sum(c.counts.get("rejected_saturated", 0) for c in corrs),
-    }
-    if samples is not None:
-        counts["ring_samples"] = len(samples)
-    quality = pick([c.quality for c in corrs])
-    return dataclasses.replace(
-        base, valid=valid, quality=quality, u=u, v=v, extra=extra, counts=counts, samples=samples
-    )
-
-
-def _is_sparse(corr: Correspondence) -> bool:
-    return corr.samples is not None
-
-
-def _merged_samples(corrs: list[Correspondence], best: np.ndarray) -> RingSamples | None:
-    """The ring samples of each exposure whose pixel that exposure reads best, all together."""
-    kept = []
-    for e, corr in enumerate(corrs):
-        if corr.samples is None:
-            return None
-        nearest = np.rint(corr.samples.camera_xy).astype(np.int64)
-        rows = np.clip(nearest[:, 1], 0, best.shape[0] - 1)
-        cols = np.clip(nearest[:, 0], 0, best.shape[1] - 1)
-        kept.append(subset_samples(corr.samples, best[rows, cols] == e))
-    first = kept[0]
-    joined = {
-        f.name: np.concatenate([getattr(s, f.name) for s in kept])
-        for f in dataclasses.fields(first)
-        if isinstance(getattr(first, f.name), np.ndarray) and f.name != "ring_radii_px"
-    }
-    return dataclasses.replace(first, **joined)
 
 
 def run_hdr_scan(
@@ -111,15 +41,16 @@ def run_hdr_scan(
     codec_name: str | None = None,
     progress: ProgressCallback | None = None,
     report: ExposureReport | None = None,
-    skews: dict[tuple[int, int], MaskSkew] | None = None,
+    adaptive: AdaptiveProjection | None = None,
     keep_frames: bool = False,
 ) -> ScanResult:
     """A scan whose patterns are captured at each camera's exposures (`exposures_us[camera]`, one
     list per camera, all of one length: the k-th pass sets each camera to its k-th), merged per
-    pixel (merge_exposures); the frames of the last pass are the ones kept for the overlap cue. With
-    `keep_frames` every pass's frames are kept, one pass after another (reconstruct_exposures reads
-    them again). `skews`: per pair, what takes adaptive projection's mask lean off each pass's
-    decode (rig.pipeline.mask_skew); the blur each pass measured is recorded in `report`."""
+    pixel (rig.pipeline.pass_merge); the frames of the last pass are the ones kept for the overlap
+    cue. With `keep_frames` every pass's frames are kept, one pass after another
+    (reconstruct_exposures reads them again). `adaptive`: the masks each pass sends and what takes
+    their lean off its decode (rig.pipeline.projection_mask); the blur each pass measured is
+    recorded in `report`."""
     for camera in rig.cameras:
         require_exposure(camera, "HDR")
     passes = {len(e) for e in exposures_us}
@@ -130,39 +61,45 @@ def run_hdr_scan(
     name = codec_name or rig.config.scan.codec
     codecs = [make_codec(rig, p, name) for p in range(len(rig.config.projectors))]
     pairs = [(p, c) for p in range(len(codecs)) for c in range(len(rig.cameras)) if is_reconstructed(rig, (p, c))]
-    decoded: dict[tuple[int, int], list[Correspondence]] = {pair: [] for pair in pairs}
+    decoded: dict[tuple[int, int], list[Unleaned]] = {pair: [] for pair in pairs}
     t0 = time.perf_counter()
     frames: dict[tuple[int, int], list[np.ndarray]] = {}
     kept: dict[tuple[int, int], list[np.ndarray]] = {}
-    blurs: dict[str, list[float | None]] = {}
     for k in range(count):
         set_within_range(rig.cameras, [exposures[k] for exposures in exposures_us])
+        shown = rig if adaptive is None else adaptive.rig_of(k)
+        for p, codec in enumerate(codecs):
+            codec.intensity_mask = shown.intensity_masks[p] if shown.intensity_masks else None
         streams = {(p, c): codecs[p].stream(rig.config.cameras[c].full_scale) for p, c in pairs}
 
         def decode_now(p: int, c: int, image: np.ndarray, streams: dict = streams) -> None:
             if (p, c) in streams:
                 streams[(p, c)].add(image)
 
-        frames = capture(rig, codecs, tracker, decode_now, keep_frames=keep_frames)
+        frames = capture(shown, codecs, tracker, decode_now, keep_frames=keep_frames)
         if keep_frames:
             for pair, images in frames.items():
                 kept[pair] = images if pair[0] == CUE else [*kept.get(pair, []), *images]
         for pair, stream in streams.items():
-            corr = stream.finish()
-            if skews is not None and pair in skews:
-                corr, blur = skews[pair].applied(corr)
-                blurs.setdefault(rig.config.pair_name(*pair), []).append(blur)
-            decoded[pair].append(corr)
+            decoded[pair].append(_unleaned(stream.finish(), adaptive, pair, k))
     capture_ms = (time.perf_counter() - t0) * 1e3
-    merged = {pair: corrs[0] if count == 1 else merge_exposures(corrs, count - 1) for pair, corrs in decoded.items()}
+    mask_passes = adaptive is not None and adaptive.passes > 1
+    merged = {pair: merge_passes(passes, mask_passes) for pair, passes in decoded.items()}
     result = reconstruct_frames(rig, name, kept if keep_frames else frames, tracker, keep_frames, decoded=merged)
     result.timings_ms = {"capture_ms": capture_ms, **result.timings_ms}
     result.frames_projected = _projected(result, codecs, count)
     if count > 1:
         result.descriptions = {}  # a pattern description tells of one pass: others' readers would misread them
     if report is not None:
-        result.exposure = _recorded(rig, report, exposures_us, blurs)
+        blurs = {rig.config.pair_name(*pair): [one.blur_px for one in passes] for pair, passes in decoded.items()}
+        result.exposure = _recorded(rig, report, exposures_us, blurs if adaptive is not None else {})
     return result
+
+
+def _unleaned(corr: Correspondence, adaptive: AdaptiveProjection | None, pair: tuple[int, int], k: int) -> Unleaned:
+    """Pass `k`'s decode of `pair` with its masks' lean taken off (as it is without masks)."""
+    skew = None if adaptive is None else adaptive.skew_of(pair, k)
+    return Unleaned.unmasked(corr) if skew is None else skew.applied(corr)
 
 
 def _recorded(
@@ -200,17 +137,17 @@ def scan_with_exposure(
         require_exposure(camera, "adaptive projection")
     tracker = ProgressTracker(progress)
     fixed = config.exposure if isinstance(config.exposure, float) else None
-    adaptive = masked_rig(rig, settings, fixed, tracker.part(0.0, 0.3))
+    passes = config.adaptive_passes if config.hdr is None else 1  # a bracket takes one mask at every exposure
+    adaptive = masked_rig(rig, settings, fixed, tracker.part(0.0, 0.3), MaskSettings(passes=passes), codec_name)
     report = ExposureReport("adaptive projection + hdr" if config.hdr is not None else "adaptive projection")
     report.projection = adaptive.record
-    if config.hdr is None:  # the masked rig's cameras are at the scan's exposure
-        exposures = [[camera.exposure_us] for camera in rig.cameras]
-        result = run_hdr_scan(
-            adaptive.rig, exposures, codec_name, tracker.part(0.3, 1.0), report, adaptive.skews, keep_frames
-        )
+    if config.hdr is None:  # the masked rig's cameras are at the scan's exposure, each pass at it
+        exposures = [[camera.exposure_us] * adaptive.passes for camera in rig.cameras]
+        rest = tracker.part(0.3, 1.0)
+        result = run_hdr_scan(adaptive.rig, exposures, codec_name, rest, report, adaptive, keep_frames)
     else:
         result = _scan_at_exposures(
-            adaptive.rig, settings, report, codec_name, tracker.part(0.3, 1.0), keep_frames, adaptive.skews
+            adaptive.rig, settings, report, codec_name, tracker.part(0.3, 1.0), keep_frames, adaptive
         )
     result.frames_projected += adaptive.prescan_frames
     result.mask_skews = adaptive.skews
@@ -239,9 +176,10 @@ def _scan_at_exposures(
     codec_name: str | None,
     progress: ProgressCallback | None,
     keep_frames: bool,
-    skews: dict[tuple[int, int], MaskSkew] | None = None,
+    adaptive: AdaptiveProjection | None = None,
 ) -> ScanResult:
-    """A scan at one exposure (the cameras' as set, or auto) or bracketed for HDR (rig.config)."""
+    """A scan at one exposure (the cameras' as set, or auto) or bracketed for HDR (rig.config);
+    `adaptive`: one mask for every exposure of the bracket."""
     config = rig.config.scan.exposure
     looks = None
     if config.exposure == "auto" or config.hdr == "auto" or isinstance(config.hdr, int):
@@ -252,7 +190,7 @@ def _scan_at_exposures(
         result.exposure = report.as_dict()
         return result
     exposures = bracketed(rig, config.hdr, looks, settings)
-    return run_hdr_scan(rig, exposures, codec_name, progress, report, skews, keep_frames)
+    return run_hdr_scan(rig, exposures, codec_name, progress, report, adaptive, keep_frames)
 
 
 def bracketed(
@@ -286,7 +224,7 @@ def reconstruct_exposures(
     frames: Frames,
     passes: int,
     tracker: ProgressTracker,
-    skews: dict[tuple[int, int], MaskSkew] | None = None,
+    skews: dict[tuple[int, int], list[MaskSkew]] | None = None,
 ) -> ScanResult:
     """A stored HDR scan's frames (each pair's passes one after another, as run_hdr_scan keeps
     them) decoded pass by pass, merged per pixel as the scan merged them, and triangulated; with an
@@ -307,9 +245,12 @@ def reconstruct_exposures(
         if is_reconstructed(rig, (p, c)):
             full_scale = rig.config.cameras[c].full_scale
             corrs = [decode_streamed(codecs[p], chunk, full_scale) for chunk in chunks]
-            if skews and (p, c) in skews:
-                corrs = [skews[(p, c)].applied(corr)[0] for corr in corrs]
-            merged[(p, c)] = corrs[0] if passes == 1 else merge_exposures(corrs, passes - 1)
+            masks = (skews or {}).get((p, c), [])
+            unleaned = [
+                masks[min(k, len(masks) - 1)].applied(one) if masks else Unleaned.unmasked(one)
+                for k, one in enumerate(corrs)
+            ]
+            merged[(p, c)] = merge_passes(unleaned, len(masks) > 1)
     result = reconstruct_frames(rig, codec_name, last, tracker, decoded=merged)
     result.frames_projected = _projected(result, codecs, passes)
     return result

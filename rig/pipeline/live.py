@@ -27,8 +27,9 @@ from rig.opened_rig import Rig
 from rig.patterns import Codec, Correspondence, FrameStream
 from rig.pipeline.capture import capture
 from rig.pipeline.exposure import ExposureSettings, require_exposure, set_within_range, settled_exposures
-from rig.pipeline.hdr import bracketed, merge_exposures
+from rig.pipeline.hdr import bracketed
 from rig.pipeline.organised import fast_terms, organised_depth
+from rig.pipeline.pass_merge import merge_exposures
 from rig.pipeline.scan import is_reconstructed, make_codec, organised_terms, reconstruct_pair, triangulator
 from rig.pipeline.sustained import SequenceWorker
 from rig.progress import ProgressTracker

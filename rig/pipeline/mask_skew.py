@@ -48,10 +48,27 @@ def lean(light: np.ndarray, blur_px: float, axis: int) -> np.ndarray:
     return shift[pad:-pad, pad:-pad]
 
 
-def _at(image: np.ndarray, u: np.ndarray, v: np.ndarray) -> np.ndarray:
+def sampled(image: np.ndarray, u: np.ndarray, v: np.ndarray) -> np.ndarray:
     """`image` (projector pixels) bilinearly at columns `u`, rows `v` (any shape; 0 outside)."""
     coordinates = np.stack([np.ravel(v), np.ravel(u)])
     return ndimage.map_coordinates(image, coordinates, order=1, mode="constant", cval=0.0).reshape(np.shape(u))
+
+
+@dataclass(frozen=True)
+class Unleaned:
+    """A decode with a mask's lean taken off (MaskSkew.applied): the Correspondence, the blur
+    measured (None where it could not be: fallback_blur_px was used), and `lean_px` (H, W): how far
+    the mask leaned each pixel (projector pixels, the most along any coded axis; 0 where the
+    pre-scan did not map it), which says how near a step of the mask it was read."""
+
+    corr: Correspondence
+    blur_px: float | None
+    lean_px: np.ndarray
+
+    @classmethod
+    def unmasked(cls, corr: Correspondence) -> Unleaned:
+        """A decode no mask leaned."""
+        return cls(corr, None, np.zeros(corr.valid.shape))
 
 
 @dataclass(frozen=True)
@@ -80,7 +97,7 @@ class MaskSkew:
             mapped = self.u if name == "u" else self.v
             use = self.own & corr.valid & np.isfinite(decoded) & np.isfinite(self.u) & np.isfinite(self.v)
             u, v = self.u[use], self.v[use]
-            near = np.abs(_at(lean(self.light, float(BLURS_PX[-1]), axis), u, v)) > NEAR_STEP_PX
+            near = np.abs(sampled(lean(self.light, float(BLURS_PX[-1]), axis), u, v)) > NEAR_STEP_PX
             near_steps.append((axis, (decoded[use] - mapped[use])[near], u[near], v[near]))
         if sum(len(observed) for _, observed, _, _ in near_steps) < MIN_NEAR:
             return None
@@ -89,25 +106,26 @@ class MaskSkew:
         def miss(i: int) -> float:
             if i not in misses:
                 blur = float(BLURS_PX[i])
-                off = [observed - _at(lean(self.light, blur, axis), u, v) for axis, observed, u, v in near_steps]
+                off = [observed - sampled(lean(self.light, blur, axis), u, v) for axis, observed, u, v in near_steps]
                 misses[i] = float(np.median(np.abs(np.concatenate(off))))
             return misses[i]
 
         best = min(range(0, len(BLURS_PX), 2), key=miss)
         return float(BLURS_PX[min((i for i in (best - 1, best, best + 1) if 0 <= i < len(BLURS_PX)), key=miss)])
 
-    def applied(self, corr: Correspondence) -> tuple[Correspondence, float | None]:
+    def applied(self, corr: Correspondence) -> Unleaned:
         """`corr` with the mask's lean taken off its coordinates and the pixels leaning too far left
-        out, and the blur measured (None where it could not be: fallback_blur_px was used)."""
+        out (see Unleaned)."""
         measured = self.blur_px(corr)
         blur = self.fallback_blur_px if measured is None else measured
         coded = [name for name in AXES if getattr(corr, name) is not None]
         leans = {name: lean(self.light, blur, AXES[name]) for name in (coded or AXES)}
+        lean_px = np.zeros(corr.valid.shape)
         if not coded:  # sparse samples: their pixels' lean where the pre-scan mapped them
             mapped = np.isfinite(self.u) & np.isfinite(self.v)
-            u, v = np.where(mapped, self.u, -1.0), np.where(mapped, self.v, -1.0)
-            far = mapped & np.logical_or.reduce([np.abs(_at(s, u, v)) > self.max_shift_px for s in leans.values()])
-            return without_pixels(corr, far, "rejected_mask_edge"), None
+            u, v = self.u[mapped], self.v[mapped]
+            lean_px[mapped] = np.max([np.abs(sampled(s, u, v)) for s in leans.values()], axis=0)
+            return Unleaned(without_pixels(corr, lean_px > self.max_shift_px, "rejected_mask_edge"), None, lean_px)
         decoded = {name: getattr(corr, name) for name in coded}
         fixed = corr.valid & np.logical_and.reduce([np.isfinite(c) for c in decoded.values()])
         fixed &= np.isfinite(self.u) & np.isfinite(self.v)  # steps lie only where the pre-scan mapped
@@ -115,7 +133,7 @@ class MaskSkew:
         true = dict(start)
         shifts = {name: np.zeros(int(fixed.sum())) for name in coded}
         for _ in range(FIXED_POINT_STEPS):
-            shifts = {name: _at(leans[name], true["u"], true["v"]) for name in coded}
+            shifts = {name: sampled(leans[name], true["u"], true["v"]) for name in coded}
             true = {**true, **{name: start[name] - shifts[name] for name in coded}}
         replaced = {}
         for name, coordinate in decoded.items():
@@ -123,6 +141,5 @@ class MaskSkew:
             moved[fixed] = true[name]
             replaced[name] = moved
         corr = dataclasses.replace(corr, **replaced)
-        far = np.zeros(corr.valid.shape, dtype=bool)
-        far[fixed] = np.logical_or.reduce([np.abs(s) > self.max_shift_px for s in shifts.values()])
-        return without_pixels(corr, far, "rejected_mask_edge"), measured
+        lean_px[fixed] = np.max([np.abs(s) for s in shifts.values()], axis=0)
+        return Unleaned(without_pixels(corr, lean_px > self.max_shift_px, "rejected_mask_edge"), measured, lean_px)

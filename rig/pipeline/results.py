@@ -62,5 +62,5 @@ class ScanResult:
     images: dict[str, np.ndarray] = field(default_factory=dict)  # name -> RGB image stored as <name>.png
     descriptions: dict[int, dict[str, object]] = field(default_factory=dict)  # kept frames: projector -> spec
     warnings: list[str] = field(default_factory=list)  # what the operator should know of this result
-    # adaptive projection: per (projector, camera), what takes the masks' lean off a decode (kept with frames)
-    mask_skews: dict[tuple[int, int], MaskSkew] = field(default_factory=dict)
+    # adaptive projection: per (projector, camera), per pass's masks, what takes their lean off a decode
+    mask_skews: dict[tuple[int, int], list[MaskSkew]] = field(default_factory=dict)

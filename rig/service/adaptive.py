@@ -1,6 +1,7 @@
 """An adaptive scan (dissertation ch.4 as a workflow): a dense pilot scan, a ring plan from its
 curvature, then the planned sparse ring scan. With a plan given (a file a lab keeps per kind of
-object), the pilot is skipped."""
+object), the pilot is skipped. The pilot and the ring scan both take the exposure, HDR and adaptive
+projection that `scan.exposure` asks for (rig.pipeline.hdr.scan_with_exposure)."""
 
 from __future__ import annotations
 
@@ -11,7 +12,7 @@ from rig.config import RigConfig, config_from_dict
 from rig.errors import ConfigError, PlanError
 from rig.evaluate import held_out_error
 from rig.opened_rig import Rig
-from rig.pipeline import ScanResult, run_scan
+from rig.pipeline import ScanResult, scan_with_exposure
 from rig.plan import RingPlan, disagreement, pilot_views, plan_rings, rehearsal_progress
 from rig.progress import ProgressCallback, ProgressTracker
 from rig.store import projector_view
@@ -30,7 +31,7 @@ def pilot_and_plan(
     """plan_from_pilot, and the pilot scan itself."""
     settings = the_rig.config.scan.adaptive
     tracker = ProgressTracker(progress)
-    pilot = run_scan(the_rig, settings.pilot_codec, progress=tracker.part(0.0, 0.5, "pilot "))
+    pilot = scan_with_exposure(the_rig, settings.pilot_codec, progress=tracker.part(0.0, 0.5, "pilot "))
     tracker.report("plan", 0.5)
     views = pilot_views(pilot, the_rig.camera_models, the_rig.projector_models)
     about = {"codec": pilot.codec, "frames_projected": pilot.frames_projected, "bytes_captured": pilot.bytes_captured}
@@ -54,9 +55,6 @@ def check_scan_request(config: RigConfig, request: dict[str, Any]) -> None:
         raise PlanError(f"codec: an adaptive or planned scan projects rings, not {codec}")
     if plan is not None:
         planned_config(config, RingPlan.from_dict(plan, "plan"))
-    for name in ("exposure", "hdr", "adaptive_projection"):
-        if (adaptive or plan is not None) and request.get(name) not in (None, False):
-            raise PlanError(f"{name}: a planned ring scan takes the cameras' exposure as set, not yet {name}")
     hdr = request.get("hdr", config.scan.exposure.hdr)
     if isinstance(hdr, list) and not 2 <= len(hdr) <= 10:
         raise PlanError(f"hdr: 2 to 10 exposures, got {len(hdr)}")
@@ -105,7 +103,7 @@ def adaptive_scan(
         pilot, plan = pilot_and_plan(the_rig, tolerance_mm, tracker.part(0.0, 0.6), quantile)
     sparse = with_plan(the_rig, plan)
     start = 0.0 if pilot is None else 0.6
-    result = run_scan(sparse, "rings", keep_frames=keep_frames, progress=tracker.part(start, 0.92, "rings "))
+    result = scan_with_exposure(sparse, "rings", tracker.part(start, 0.92, "rings "), keep_frames)
     result.adaptive = adaptive_record(plan, result, pilot is not None)
     result.adaptive["pilot_agreement_mm"] = pilot_agreement(plan, result, sparse)
     held_out = [e for e in (held_out_error(sparse, pair) for pair in result.pairs) if e is not None]

@@ -1,7 +1,8 @@
 """An adaptive-projection scan's masks kept with its frames (`adaptive_projection/<projector>_<camera>.npz`:
-the light each mask let through, the pre-scan's map of camera pixels to projector pixels and which
-of them had a point of their own), so that reprocessing the frames takes the masks' lean off as the
-scan did (rig.pipeline.mask_skew)."""
+the light each mask let through, (h, w) for the one mask of every pass or (passes, h, w) for a
+scan whose passes sent different masks; the pre-scan's map of camera pixels to projector pixels and
+which of them had a point of their own), so that reprocessing the frames takes the masks' lean off
+and merges the passes as the scan did (rig.pipeline.mask_skew, rig.pipeline.pass_merge)."""
 
 from __future__ import annotations
 
@@ -19,16 +20,19 @@ from rig.store.atomic import write_atomic
 FOLDER = "adaptive_projection"
 
 
-def write_mask_skews(the_rig: Rig, skews: dict[tuple[int, int], MaskSkew], partial: Path) -> dict[str, str]:
-    """Each pair's MaskSkew as one compressed .npz in the scan being written; the manifest's names."""
+def write_mask_skews(the_rig: Rig, skews: dict[tuple[int, int], list[MaskSkew]], partial: Path) -> dict[str, str]:
+    """Each pair's MaskSkews (one per pass's masks; the same map) as one compressed .npz in the scan
+    being written; the manifest's names."""
     (partial / FOLDER).mkdir()
     names = {}
-    for (p, c), skew in sorted(skews.items()):
+    for (p, c), per_pass in sorted(skews.items()):
         key = the_rig.config.pair_name(p, c)
+        skew = per_pass[0]
+        light = [one.light.astype(np.float32) for one in per_pass]
         data = io.BytesIO()
         np.savez_compressed(
             data,
-            light=skew.light.astype(np.float32),
+            light=light[0] if len(light) == 1 else np.stack(light),
             u=skew.u.astype(np.float32),
             v=skew.v.astype(np.float32),
             own=skew.own,
@@ -39,8 +43,9 @@ def write_mask_skews(the_rig: Rig, skews: dict[tuple[int, int], MaskSkew], parti
     return names
 
 
-def read_mask_skews(folder: Path, manifest: dict[str, Any]) -> dict[tuple[int, int], MaskSkew]:
-    """The masks a stored scan kept, by (projector, camera) index; none for a scan without them.
+def read_mask_skews(folder: Path, manifest: dict[str, Any]) -> dict[tuple[int, int], list[MaskSkew]]:
+    """The masks a stored scan kept, by (projector, camera) index, one per pass's masks; none for a
+    scan without them.
     StoreError naming the file where one is unreadable or does not fit the scan's camera."""
     stored = manifest.get("files", {}).get(FOLDER) or {}
     projectors = [p["name"] for p in manifest["config"]["projectors"]]
@@ -54,12 +59,13 @@ def read_mask_skews(folder: Path, manifest: dict[str, Any]) -> dict[tuple[int, i
     return skews
 
 
-def _read(path: Path, shape: tuple[int, int]) -> MaskSkew:
+def _read(path: Path, shape: tuple[int, int]) -> list[MaskSkew]:
     try:
         with np.load(path, allow_pickle=False) as data:
             light, u, v, own, bounds = (data[k] for k in ("light", "u", "v", "own", "bounds"))
     except (OSError, ValueError, KeyError) as exc:
         raise StoreError(f"{path}: not an adaptive projection's masks ({exc})") from None
-    if light.ndim != 2 or any(a.shape != shape for a in (u, v, own)) or bounds.shape != (2,):
+    if light.ndim not in (2, 3) or any(a.shape != shape for a in (u, v, own)) or bounds.shape != (2,):
         raise StoreError(f"{path}: the masks do not fit the scan's camera ({shape[1]}x{shape[0]})")
-    return MaskSkew(light, u, v, own.astype(bool), float(bounds[0]), float(bounds[1]))
+    per_pass = [light] if light.ndim == 2 else list(light)
+    return [MaskSkew(one, u, v, own.astype(bool), float(bounds[0]), float(bounds[1])) for one in per_pass]

@@ -24,7 +24,6 @@ export async function render(main) {
   add(main, h("h1", {}, "Scan"), form, progress);
   adaptive.addEventListener("change", () => {
     codec.disabled = adaptive.checked; tolerance.disabled = !adaptive.checked;
-    for (const control of [exposure, hdr, projection]) control.disabled = adaptive.checked;  // a planned scan keeps the cameras' exposure
   });
   tolerance.disabled = true;
 
@@ -37,12 +36,10 @@ export async function render(main) {
       if (!ringed) body.codec = codec.value;
       if (label.value) body.label = label.value;
       if (adaptive.checked && tolerance.value) body.tolerance_mm = Number(tolerance.value);
-      if (!ringed) {
-        const asked = exposure.value.trim();
-        if (asked) body.exposure = /^[0-9.]+$/.test(asked) ? Number(asked) : asked;
-        if (hdr.value) body.hdr = hdr.value === "auto" ? "auto" : Number(hdr.value);
-        if (projection.checked) body.adaptive_projection = true;
-      }
+      const asked = exposure.value.trim();  // a planned scan's pilot and rings both take them
+      if (asked) body.exposure = /^[0-9.]+$/.test(asked) ? Number(asked) : asked;
+      if (hdr.value) body.hdr = hdr.value === "auto" ? "auto" : Number(hdr.value);
+      if (projection.checked) body.adaptive_projection = true;
       if (plan.value.trim()) {
         try { body.plan = JSON.parse(plan.value); } catch { throw new Error("plan: not JSON"); }
       }
