@@ -15,7 +15,8 @@ auto` decides), `adaptive, one pass` (forced to one), and adaptive with HDR. `ma
 with the gloss and the dark paint taken away. The codec is the config's (phase); every mode leaves
 out the pixels outshone by a far brighter neighbour (scan.exposure.drop_outshone), the matte one too,
 but the deblurred ones, which undo the camera's blur instead (scan.exposure.deblur_px).
-Frames count the pre-scan's.
+Frames count the pre-scan's. With --docs it also draws docs/images/materials.png: for each scene,
+which of the lit surface's pixels each of FIGURE_MODES read (grey) and missed (red).
 """
 
 from __future__ import annotations
@@ -25,14 +26,21 @@ import sys
 from pathlib import Path
 from typing import Any
 
+import cv2
+import numpy as np
+
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 from _readme import markdown_table, run
 
 from rig.assembly import open_rig
 from rig.config import config_from_dict, load_config
-from rig.evaluate.pairs import evaluate_on_bench
+from rig.evaluate.pairs import coverage_on_bench, evaluate_on_bench, point_errors
 from rig.pipeline.hdr import scan_with_exposure
+
+IMAGE = Path(__file__).resolve().parent.parent / "docs/images/materials.png"
+FIGURE_MODES = ("matte", "single", "hdr", "adaptive")
+_COVERAGE: dict[tuple[str, str], tuple[np.ndarray, np.ndarray]] = {}  # (scene, mode): lit surface, read (H, W)
 
 DARK_AND_WHITE = {"kind": "checker", "size_mm": 25.0, "colours": [[0.02] * 3, [1.0] * 3]}
 # name: (scene, material, texture)
@@ -55,7 +63,9 @@ MODES: dict[str, dict[str, Any]] = {
 }
 
 
-def measure_scene(scene: dict[str, Any], material: dict[str, Any], texture: dict[str, Any] | None, mode: str) -> dict:
+def measure_scene(
+    scene: dict[str, Any], material: dict[str, Any], texture: dict[str, Any] | None, mode: str, name: str = ""
+) -> dict:
     data = load_config().model_dump(mode="json")
     data["simulation"]["scene"] = scene
     if mode != "matte":
@@ -67,7 +77,10 @@ def measure_scene(scene: dict[str, Any], material: dict[str, Any], texture: dict
         start = rig.truth.clock_s
         result = scan_with_exposure(rig)
         capture_s = rig.truth.clock_s - start
-        metrics = evaluate_on_bench(rig, result.pairs[0])
+        errors = point_errors(rig, result.pairs[0])
+        metrics = evaluate_on_bench(rig, result.pairs[0], errors)
+        if mode in FIGURE_MODES:
+            _COVERAGE[(name, mode)] = coverage_on_bench(rig, result.pairs[0], errors)
     counts = result.pairs[0].counts
     exposure = result.exposure or {}
     return {
@@ -86,7 +99,7 @@ def measure_all() -> dict[str, Any]:
         "benchmark": "materials",
         "python": platform.python_version(),
         "scenes": {
-            name: {mode: measure_scene(scene, material, texture, mode) for mode in MODES}
+            name: {mode: measure_scene(scene, material, texture, mode, name) for mode in MODES}
             for name, (scene, material, texture) in SCENES.items()
         },
     }
@@ -102,7 +115,35 @@ def table(measured: dict[str, Any]) -> str:
             rows.append([*cells, m["capture_s"], m["rejected_saturated"]])
     header = ["scene", "mode", "completeness", "rms mm", "p95 mm", "frames", "exposures ms", "capture s"]
     header.append("clipped px lost")
+    if _COVERAGE:
+        figure(measured, IMAGE)
     return markdown_table(header, rows) + "\n\nProduced by `python bench/materials.py --docs`."
+
+
+def figure(measured: dict[str, Any], path: Path, scale: int = 4) -> None:
+    """A row per scene, a column per FIGURE_MODES: the camera's view, each lit surface pixel grey
+    where the mode read it within 1 mm, red where it did not; its completeness in the corner."""
+    rows = []
+    for name in measured["scenes"]:
+        panels = []
+        for mode in FIGURE_MODES:
+            target, covered = _COVERAGE[(name, mode)]
+            image = np.full((*target.shape, 3), 40, np.uint8)
+            image[target] = (40, 40, 220)
+            image[covered] = (205, 205, 205)
+            size = (target.shape[1] // scale, target.shape[0] // scale)
+            small = cv2.resize(image, size, interpolation=cv2.INTER_AREA)
+            text = f"{mode}: {100 * measured['scenes'][name][mode]['completeness']:.1f} %"
+            (width, height), _ = cv2.getTextSize(text, cv2.FONT_HERSHEY_SIMPLEX, 0.6, 1)
+            cv2.rectangle(small, (0, 0), (width + 14, height + 14), (30, 30, 30), -1)  # legible over any panel
+            cv2.putText(small, text, (7, height + 7), cv2.FONT_HERSHEY_SIMPLEX, 0.6, (255, 255, 255), 1, cv2.LINE_AA)
+            panels.append(cv2.copyMakeBorder(small, 3, 3, 3, 3, cv2.BORDER_CONSTANT, value=(255, 255, 255)))
+        row = np.hstack(panels)
+        label = np.full((30, row.shape[1], 3), 255, np.uint8)
+        cv2.putText(label, name, (8, 21), cv2.FONT_HERSHEY_SIMPLEX, 0.65, (0, 0, 0), 1, cv2.LINE_AA)
+        rows.append(np.vstack([label, row]))
+    path.parent.mkdir(parents=True, exist_ok=True)
+    cv2.imwrite(str(path), np.vstack(rows))
 
 
 def main() -> None:

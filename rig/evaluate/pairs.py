@@ -74,11 +74,7 @@ def evaluate_pair(
     coverage (rig.evaluate.ring_recovery). `dist`: the distances of the pair's points, when already measured."""
     if dist is None:
         dist = point_distances(pair, truth, source)
-    target = truth.hit & truth.lit
-    good = np.zeros(target.size, dtype=bool)
-    for part in point_blocks(len(dist)):  # a block at a time: no gather of every close point's pixel
-        good[pair.points.pixel[part][dist[part] <= COMPLETE_WITHIN_MM]] = True
-    covered = good.reshape(target.shape) & target
+    target, covered = covered_pixels(pair, truth, dist)
     n = max(1, len(dist))
     empty = len(dist) == 0  # no points: no distances (None, which JSON can carry; NaN it cannot)
     metrics = {
@@ -106,6 +102,21 @@ def evaluate_pair(
         metrics.update(surface_metrics(pair, truth))
         metrics.update(colour_metrics(pair, truth))
     return metrics
+
+
+def covered_pixels(pair: PairResult, truth: PixelTruth, dist: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(H, W) the camera pixels that see a lit, unshadowed true surface, and those of them with a
+    point within COMPLETE_WITHIN_MM of it (`dist`: the pair's points' distances, point_distances)."""
+    target = truth.hit & truth.lit
+    good = np.zeros(target.size, dtype=bool)
+    for part in point_blocks(len(dist)):  # a block at a time: no gather of every close point's pixel
+        good[pair.points.pixel[part][dist[part] <= COMPLETE_WITHIN_MM]] = True
+    return target, good.reshape(target.shape) & target
+
+
+def coverage_on_bench(rig: Rig, pair: PairResult, errors: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """covered_pixels of one pair of a simulated scan, its `errors` as point_errors measured them."""
+    return covered_pixels(pair, _truth(rig).ground_truth(pair.camera, pair.projector), errors)
 
 
 def in_truth_frame(pair: PairResult, estimated: CameraModel, truth: CameraModel) -> PairResult:
