@@ -100,7 +100,7 @@ def gray_accept(
     return dropped
 
 
-@njit(**KERNEL)
+@njit(**KERNEL, error_model="numpy")
 def plane_triangulate(
     coded: Image,
     valid: Image,
@@ -119,22 +119,19 @@ def plane_triangulate(
 ) -> None:
     """Camera rays against the planes of coded projector columns (or rows): the ray parameter
     s = (a + b x) / (c + d x) (the point is s * direction, relative to the camera centre) and
-    its depth along the camera axis, NaN where not decoded or the ray runs along the plane or behind."""
-    nan, tiny, one = np.float32(np.nan), np.float32(1e-3), np.float32(1)
+    its depth along the camera axis, NaN where not decoded or the ray runs along the plane or behind.
+    Every pixel takes the same steps, whatever it reads (numpy's float division: a ray in the plane
+    gives inf, not an exception), so the loop runs in vector lanes: 2.5 times as fast as with a
+    branch per pixel on a 5 MP image."""
+    nan, tiny, one, zero = np.float32(np.nan), np.float32(1e-3), np.float32(1), np.float32(0)
     for y in range(top, bottom):
         for x in range(coded.shape[1]):
             u = coded[y, x]
-            ok = valid[y, x]
-            s = nan
-            if ok:
-                denominator = c[y, x] + d[y, x] * u
-                normalised = u * scale + shift
-                ok = abs(denominator) >= tiny * np.sqrt(one + normalised * normalised)
-                if ok:  # divided only then: a ray exactly in the plane would raise
-                    s = (a[y, x] + b[y, x] * u) / denominator
-                    ok = s > 0
-                if not ok:
-                    s = nan
+            denominator = c[y, x] + d[y, x] * u
+            normalised = u * scale + shift
+            s = (a[y, x] + b[y, x] * u) / denominator
+            ok = valid[y, x] and abs(denominator) >= tiny * np.sqrt(one + normalised * normalised) and s > zero
+            s = s if ok else nan
             decoded[y, x] = ok
             depth[y, x] = s * along_axis[y, x]
             ray[y, x] = s
@@ -187,6 +184,19 @@ def ray_ray_triangulate(
             decoded[y, x] = ok
             depth[y, x] = s * along_axis[y, x]
             ray[y, x] = s
+
+
+@njit(**KERNEL)
+def blank_unkept(depth: Image, keep: Image, top: int, bottom: int) -> int:
+    """NaN in `depth` where `keep` is clear (a depth image of the points kept); the count kept."""
+    nan, kept = np.float32(np.nan), 0
+    for y in range(top, bottom):
+        for x in range(depth.shape[1]):
+            if keep[y, x]:
+                kept += 1
+            else:
+                depth[y, x] = nan
+    return kept
 
 
 @njit(**KERNEL)

@@ -227,8 +227,8 @@ def finish_sequence(rig: Rig, captured: CapturedSequence) -> LiveFrame:
         except DecodeError as exc:
             raise ScanError(f"{rig.config.cameras[c].name}: {exc}") from exc
         corr = corrs[0] if len(corrs) == 1 else merge_exposures(corrs, len(corrs) - 1)
-        depth = pair_depth(rig, p, c, corr)
-        points += int(np.isfinite(depth).sum())
+        depth, found = pair_depth(rig, p, c, corr)
+        points += found
         depths.setdefault(c, depth)  # a camera's depth image: from the first projector that lights it
     ready = time.perf_counter()
     return LiveFrame(
@@ -256,12 +256,13 @@ def prepare_triangulation(rig: Rig, codecs: list[Codec]) -> None:
                 fast_terms(triangulator(rig, p, c), codec.coded_axes())
 
 
-def pair_depth(rig: Rig, projector: int, camera: int, corr: Correspondence) -> np.ndarray:
-    """The pair's depth image: the organised fast path's depth alone, or the general triangulation
-    where the pair needs it."""
+def pair_depth(rig: Rig, projector: int, camera: int, corr: Correspondence) -> tuple[np.ndarray, int]:
+    """The pair's depth image and the points it has: the organised fast path's depth alone, or the
+    general triangulation where the pair needs it."""
     fast = organised_terms(rig, projector, camera, corr)
     if fast is not None:
         return organised_depth(fast, corr, rig.config.scan.max_depth_jump_mm)
     model = rig.camera_models[camera]
     grid = reconstruct_pair(rig, projector, camera, corr, source=0).grid
-    return ((grid - model.center) @ model.axis).astype(np.float32)
+    depth = ((grid - model.center) @ model.axis).astype(np.float32)
+    return depth, int(np.isfinite(depth).sum())

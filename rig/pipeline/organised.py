@@ -189,12 +189,13 @@ def organised_cloud(
     return cloud, counts
 
 
-def organised_depth(terms: PixelTerms, corr: Correspondence, max_jump_mm: float | None) -> np.ndarray:
+def organised_depth(terms: PixelTerms, corr: Correspondence, max_jump_mm: float | None) -> tuple[np.ndarray, int]:
     """The depth image alone (H, W) float32 in mm, NaN where organised_cloud keeps no point: what
-    live mode shows, without the normals and colours a cloud carries."""
+    live mode shows, without the normals and colours a cloud carries; and the points it has."""
     _, depth, keep, _ = _triangulated(terms, corr, max_jump_mm)
-    depth[~keep] = np.nan
-    return depth
+    kept: list[int] = []
+    in_row_strips(depth.shape[0], lambda rows: kept.append(kernels.blank_unkept(depth, keep, rows.start, rows.stop)))
+    return depth, sum(kept)
 
 
 def _triangulated(
