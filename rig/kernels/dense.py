@@ -242,12 +242,13 @@ def reject_isolated(
     support = np.empty(depth.shape[1], np.int32)
     for y in range(top, bottom):
         _support_row(depth, y, max_jump, support)
-        for x in range(depth.shape[1]):
-            kept = decoded[y, x] and support[x] >= min_support
+        for x in range(depth.shape[1]):  # no branch per pixel: the loop runs in vector lanes
+            was = decoded[y, x]
+            kept = was and support[x] >= min_support
             keep[y, x] = kept
-            if decoded[y, x] and not kept:
-                dropped += 1
-                ray[y, x] = nan
+            lost = was and not kept
+            dropped += lost
+            ray[y, x] = nan if lost else ray[y, x]
     return dropped
 
 
