@@ -14,6 +14,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from rig.geometry.camera import CameraModel
+from rig.lazy import lazy_module
+
+_cone = lazy_module("rig.kernels.cone")
 
 
 @dataclass(frozen=True, eq=False)
@@ -43,34 +46,20 @@ def affine_image(projector: CameraModel, origins: np.ndarray, directions: np.nda
 def ray_cone(
     projector: CameraModel, origins: np.ndarray, directions: np.ndarray, radius: np.ndarray, center: tuple[float, float]
 ) -> ConeHits:
-    """Intersect rays (M, 3) with the cones of rings of `radius` (M,) about `center` (pixels)."""
-    u0, v0 = center
+    """Intersect rays (M, 3) with the cones of rings of `radius` (M,) about `center` (pixels): with
+    x(s) = alpha + s beta about the centre, the quadratic qa s^2 + 2 qb s + qc = 0 of the conic,
+    its roots in front of camera and projector (one where it is nearly linear), and at each the
+    projector angle, ds / dradius and the epipolar line's |cos| to the radial direction
+    (rig.kernels.cone, a sample at a time)."""
     alpha, beta = affine_image(projector, origins, directions)
-    a0, a1, a2 = alpha[:, 0] - u0 * alpha[:, 2], alpha[:, 1] - v0 * alpha[:, 2], alpha[:, 2]
-    b0, b1, b2 = beta[:, 0] - u0 * beta[:, 2], beta[:, 1] - v0 * beta[:, 2], beta[:, 2]
-    r2 = radius * radius
-    qa = b0 * b0 + b1 * b1 - r2 * b2 * b2
-    qb = a0 * b0 + a1 * b1 - r2 * a2 * b2
-    qc = a0 * a0 + a1 * a1 - r2 * a2 * a2
-    disc = qb * qb - qa * qc
-    with np.errstate(invalid="ignore", divide="ignore"):
-        root = np.sqrt(np.where(disc >= 0, disc, np.nan))
-        linear = np.abs(qa) < 1e-12 * (np.abs(qb) + 1e-300)
-        s = np.stack([(-qb - root) / qa, (-qb + root) / qa], axis=1)
-        s[linear] = (-qc[linear] / (2 * qb[linear]))[:, None]
-        x2 = a2[:, None] + s * b2[:, None]
-        s[(s <= 0) | (x2 <= 0) | ~np.isfinite(s)] = np.nan
-        if (linear).any():
-            s[linear, 1] = np.nan
-        x0 = a0[:, None] + s * b0[:, None]
-        x1 = a1[:, None] + s * b1[:, None]
-        theta = np.arctan2(x1 / x2, x0 / x2)
-        ds_dradius = radius[:, None] * x2 * x2 / (qa[:, None] * s + qb[:, None])
-        # Image of the camera ray near the root (the epipolar direction) against the radial direction.
-        du = beta[:, 0:1] * (alpha[:, 2:3] + s * beta[:, 2:3]) - (alpha[:, 0:1] + s * beta[:, 0:1]) * beta[:, 2:3]
-        dv = beta[:, 1:2] * (alpha[:, 2:3] + s * beta[:, 2:3]) - (alpha[:, 1:2] + s * beta[:, 1:2]) * beta[:, 2:3]
-        cos_beta = np.abs(x0 * du + x1 * dv) / (np.hypot(x0, x1) * np.hypot(du, dv))
-    points = origins[:, None, :] + s[..., None] * directions[:, None, :]
+    count = len(radius)
+    s, theta, ds_dradius, cos_beta = (np.empty((count, 2)) for _ in range(4))
+    points = np.empty((count, 2, 3))
+    _cone.cone_roots(
+        np.ascontiguousarray(alpha), np.ascontiguousarray(beta), np.asarray(radius, np.float64),
+        float(center[0]), float(center[1]), np.ascontiguousarray(origins, np.float64),
+        np.ascontiguousarray(directions, np.float64), s, points, theta, ds_dradius, cos_beta,
+    )  # fmt: skip
     return ConeHits(s=s, points=points, theta=theta, ds_dradius=ds_dradius, cos_beta=cos_beta)
 
 
