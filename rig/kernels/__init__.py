@@ -9,8 +9,8 @@ rasterising; `ring_surface`: per-face terms, each pixel's point on its face and 
 agreement; `fill`: the ring surface's neighbourhoods, one-surface test and height-field fits;
 `colour`: the colour between the rings; `vectors`: three-vectors as rows, read in place; `cells`:
 image points in a grid of cells (all together or by ring) and the nearest-neighbour searches over
-it; `regions`: evaluation's surface regions; `cone`: camera rays against their rings' cones. Each
-is compiled on first use and cached beside it (__pycache__)."""
+it; `regions`: evaluation's surface regions; `cone`: camera rays against their rings' cones;
+`lens`: lens distortion inverted. Each is compiled on first use and cached beside it (__pycache__)."""
 
 import numpy as np
 
