@@ -27,7 +27,7 @@ from rig.pipeline.exposure import (
     shortest_looks,
     within_range,
 )
-from rig.pipeline.mask_skew import MaskSkew, Unleaned
+from rig.pipeline.mask_skew import MaskSkew, Unleaned, unleaned
 from rig.pipeline.pass_merge import merge_passes
 from rig.pipeline.projection_mask import AdaptiveProjection, MaskSettings, masked_rig
 from rig.pipeline.results import ScanResult
@@ -65,6 +65,7 @@ def run_hdr_scan(
     t0 = time.perf_counter()
     frames: dict[tuple[int, int], list[np.ndarray]] = {}
     kept: dict[tuple[int, int], list[np.ndarray]] = {}
+    skews = {} if adaptive is None else adaptive.skews
     for k in range(count):
         set_within_range(rig.cameras, [exposures[k] for exposures in exposures_us])
         shown = rig if adaptive is None else adaptive.rig_of(k)
@@ -81,10 +82,9 @@ def run_hdr_scan(
             for pair, images in frames.items():
                 kept[pair] = images if pair[0] == CUE else [*kept.get(pair, []), *images]
         for pair, stream in streams.items():
-            decoded[pair].append(_unleaned(stream.finish(), adaptive, pair, k))
+            decoded[pair].append(unleaned(stream.finish(), skews.get(pair, []), k))
     capture_ms = (time.perf_counter() - t0) * 1e3
-    mask_passes = adaptive is not None and adaptive.passes > 1
-    merged = {pair: merge_passes(passes, mask_passes) for pair, passes in decoded.items()}
+    merged = {pair: merge_passes(passes, len(skews.get(pair, [])) > 1) for pair, passes in decoded.items()}
     result = reconstruct_frames(rig, name, kept if keep_frames else frames, tracker, keep_frames, decoded=merged)
     result.timings_ms = {"capture_ms": capture_ms, **result.timings_ms}
     result.frames_projected = _projected(result, codecs, count)
@@ -94,12 +94,6 @@ def run_hdr_scan(
         blurs = {rig.config.pair_name(*pair): [one.blur_px for one in passes] for pair, passes in decoded.items()}
         result.exposure = _recorded(rig, report, exposures_us, blurs if adaptive is not None else {})
     return result
-
-
-def _unleaned(corr: Correspondence, adaptive: AdaptiveProjection | None, pair: tuple[int, int], k: int) -> Unleaned:
-    """Pass `k`'s decode of `pair` with its masks' lean taken off (as it is without masks)."""
-    skew = None if adaptive is None else adaptive.skew_of(pair, k)
-    return Unleaned.unmasked(corr) if skew is None else skew.applied(corr)
 
 
 def _recorded(
@@ -245,12 +239,9 @@ def reconstruct_exposures(
         if is_reconstructed(rig, (p, c)):
             full_scale = rig.config.cameras[c].full_scale
             corrs = [decode_streamed(codecs[p], chunk, full_scale) for chunk in chunks]
-            masks = (skews or {}).get((p, c), [])
-            unleaned = [
-                masks[min(k, len(masks) - 1)].applied(one) if masks else Unleaned.unmasked(one)
-                for k, one in enumerate(corrs)
-            ]
-            merged[(p, c)] = merge_passes(unleaned, len(masks) > 1)
+            pair_skews = (skews or {}).get((p, c), [])
+            passes_read = [unleaned(one, pair_skews, k) for k, one in enumerate(corrs)]
+            merged[(p, c)] = merge_passes(passes_read, len(pair_skews) > 1)
     result = reconstruct_frames(rig, codec_name, last, tracker, decoded=merged)
     result.frames_projected = _projected(result, codecs, passes)
     return result

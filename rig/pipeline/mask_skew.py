@@ -143,3 +143,10 @@ class MaskSkew:
         corr = dataclasses.replace(corr, **replaced)
         lean_px[fixed] = np.max([np.abs(s) for s in shifts.values()], axis=0)
         return Unleaned(without_pixels(corr, lean_px > self.max_shift_px, "rejected_mask_edge"), measured, lean_px)
+
+
+def unleaned(corr: Correspondence, per_pass: list[MaskSkew], k: int) -> Unleaned:
+    """Pass `k`'s decode with its masks' lean taken off: `per_pass` holds a MaskSkew for each
+    pass's masks (one for every pass where they are the same, as in an HDR bracket; none without
+    masks, the decode as it is)."""
+    return per_pass[min(k, len(per_pass) - 1)].applied(corr) if per_pass else Unleaned.unmasked(corr)

@@ -148,12 +148,7 @@ class AdaptiveProjection:
 
     def rig_of(self, k: int) -> Rig:
         """The rig sending pass `k`'s masks."""
-        masks = self.pass_masks[min(k, self.passes - 1)]
-        return self.rig if masks is self.rig.intensity_masks else dataclasses.replace(self.rig, intensity_masks=masks)
-
-    def skew_of(self, pair: tuple[int, int], k: int) -> MaskSkew | None:
-        per_pass = self.skews.get(pair)
-        return None if not per_pass else per_pass[min(k, len(per_pass) - 1)]
+        return dataclasses.replace(self.rig, intensity_masks=self.pass_masks[min(k, self.passes - 1)])
 
 
 @dataclass
