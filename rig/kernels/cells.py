@@ -134,3 +134,24 @@ def k_nearest(
     dist = np.empty(k)
     for q in range(start, stop):
         nearest_within(xy, cells, (cell, 0, np.inf), (at[q, 0], at[q, 1]), dist, index[q, :k])
+
+
+@njit(**KERNEL)
+def k_nearest_in_group(
+    xy: np.ndarray,
+    cells: Cells,
+    where: tuple[float, float],
+    at: np.ndarray,
+    at_group: np.ndarray,
+    dist: np.ndarray,
+    index: np.ndarray,
+    start: int,
+    stop: int,
+) -> None:
+    """For query points at[start:stop] of groups at_group: the nearest points `xy` of the same group
+    nearer than a reach, nearest first, into (dist, index) rows (the rest inf and -1); `cells`:
+    group_cells of `xy`, where: (its cell side, the reach)."""
+    cell, reach = where
+    for q in range(start, stop):
+        dist[q, :], index[q, :] = np.inf, -1
+        nearest_within(xy, cells, (cell, at_group[q], reach), (at[q, 0], at[q, 1]), dist[q], index[q])

@@ -18,15 +18,16 @@ from rig.kernels.phase import atan2
 
 @njit(nogil=True, cache=True, inline="always")
 def _wrap(angle: float) -> float:
-    return (angle + math.pi) % (2 * math.pi) - math.pi
+    """The angle in [-pi, pi): by floor, not Python's float modulo (fmod, many times slower)."""
+    return angle - 2 * math.pi * math.floor((angle + math.pi) / (2 * math.pi))
 
 
 @njit(nogil=True, cache=True, inline="always")
-def _half_plane(terms: np.ndarray, i: int, theta: float) -> float:
+def _half_plane(terms: np.ndarray, i: int, sin: float, cos: float) -> float:
     """rig.geometry.ray_half_plane for ray i (its centred affine image `terms[i]`: a0, a1, a2, b0,
-    b1, b2) and one angle; NaN where the ray meets only the other half, or behind either device."""
+    b1, b2) and the angle of sine `sin` and cosine `cos`; NaN where the ray meets only the other
+    half, or behind either device."""
     a0, a1, a2, b0, b1, b2 = terms[i, 0], terms[i, 1], terms[i, 2], terms[i, 3], terms[i, 4], terms[i, 5]
-    sin, cos = math.sin(theta), math.cos(theta)
     below = b0 * sin - b1 * cos
     if below == 0:
         return np.nan
@@ -35,6 +36,13 @@ def _half_plane(terms: np.ndarray, i: int, theta: float) -> float:
     if not (s > 0 and a2 + s * b2 > 0 and along > 0 and np.isfinite(s)):
         return np.nan
     return s
+
+
+@njit(nogil=True, cache=True, inline="always")
+def _radius(terms: np.ndarray, i: int, s: float) -> float:
+    """Projector radius about the centre of ray i's point at s."""
+    w = terms[i, 2] + s * terms[i, 5]
+    return math.hypot((terms[i, 0] + s * terms[i, 3]) / w, (terms[i, 1] + s * terms[i, 4]) / w)
 
 
 @njit(nogil=True, cache=True, inline="always")
@@ -95,30 +103,47 @@ def solve_angles(
         reach = min(window, 6.0 * sc)
         lo = math.ceil((m * (coarse[i] - reach) - phase[i]) / two_pi)
         hi = math.floor((m * (coarse[i] + reach) - phase[i]) / two_pi)
-        best = (np.inf, np.nan, 0.0)  # (score, s, theta) of the best branch, then the second
-        second = (np.inf, np.nan, 0.0)
+        # (score, s, theta) of the best branch and of the second
+        best_score, best_s, best_theta = np.inf, np.nan, 0.0
+        second_score, second_s, second_theta = np.inf, np.nan, 0.0
         for branch in range(int(lo), int(hi) + 1):
             theta = (phase[i] + two_pi * branch) / m
-            s = _half_plane(terms, i, theta)
+            s = _half_plane(terms, i, math.sin(theta), math.cos(theta))
             if not np.isfinite(s):
                 continue
-            rho = _slopes(terms, i, s)[0]
-            score = ((rho - radius[i]) / sigmas[0]) ** 2 + (_wrap(theta - coarse[i]) / sc) ** 2
-            if score < best[0]:
-                best, second = (score, s, theta), best
-            elif score < second[0]:
-                second = (score, s, theta)
-        chi2 = np.empty(2)
-        solved = np.empty((2, 2))
-        for k, (score, s, theta) in enumerate((best, second)):
-            refined, sigma, misfit = _refine(terms, i, s, theta, radius[i], sigmas, iterations)
-            misfit += (_wrap(theta - coarse[i]) / sc) ** 2
-            chi2[k] = misfit if np.isfinite(refined) and np.isfinite(score) else np.inf
-            solved[k, 0], solved[k, 1] = refined, sigma
-        first = 0 if chi2[0] <= chi2[1] else 1
-        margin = chi2[1 - first] - chi2[first]
-        out[i, 0], out[i, 1], out[i, 2] = solved[first, 0], solved[first, 1], chi2[first]
+            score = ((_radius(terms, i, s) - radius[i]) / sigmas[0]) ** 2 + (_wrap(theta - coarse[i]) / sc) ** 2
+            if score < best_score:
+                second_score, second_s, second_theta = best_score, best_s, best_theta
+                best_score, best_s, best_theta = score, s, theta
+            elif score < second_score:
+                second_score, second_s, second_theta = score, s, theta
+        angles = (radius[i], coarse[i], sc)
+        s0, sigma0, chi0 = _refined(terms, i, (best_score, best_s, best_theta), angles, sigmas, iterations)
+        s1, sigma1, chi1 = _refined(terms, i, (second_score, second_s, second_theta), angles, sigmas, iterations)
+        if chi0 <= chi1:
+            out[i, 0], out[i, 1], out[i, 2], margin = s0, sigma0, chi0, chi1 - chi0
+        else:
+            out[i, 0], out[i, 1], out[i, 2], margin = s1, sigma1, chi1, chi0 - chi1
         out[i, 3] = margin if np.isfinite(margin) or margin > 0 else np.inf
+
+
+@njit(nogil=True, cache=True, inline="always")
+def _refined(
+    terms: np.ndarray,
+    i: int,
+    branch: tuple[float, float, float],
+    decoded: tuple[float, float, float],
+    sigmas: tuple[float, float],
+    iterations: int,
+) -> tuple[float, float, float]:
+    """A scored branch (score, s, theta) refined: its s, sigma and chi-square with the coarse angle's
+    misfit (infinite where the branch is missing or the refinement fails); decoded: the sample's
+    radius, coarse angle and the coarse angle's sigma."""
+    score, s, theta = branch
+    radius, coarse, coarse_sigma = decoded
+    refined, sigma, misfit = _refine(terms, i, s, theta, radius, sigmas, iterations)
+    misfit += (_wrap(theta - coarse) / coarse_sigma) ** 2
+    return refined, sigma, misfit if np.isfinite(refined) and np.isfinite(score) else np.inf
 
 
 @njit(nogil=True, cache=True)
@@ -166,7 +191,6 @@ def across_agrees(
     depth: np.ndarray,
     ring: np.ndarray,
     index: np.ndarray,
-    other: np.ndarray,
     alive: np.ndarray,
     judged: np.ndarray,
     limits: tuple[float, int, int],
@@ -176,7 +200,7 @@ def across_agrees(
 ) -> None:
     """rig.pipeline.ring_triangulation.across_ring_support for points judged[start:stop]: out[i]
     False where point p = judged[i]'s nearest `neighbours` candidates of other rings still `alive`
-    (index[p] where other[p], nearest first)
+    (index[p] of a ring other than its own, nearest first)
     span two rings or more, are `min_count` or more and neither one plane over them (scatter at
     most half the limit) nor a plane over either side of their largest depth gap predicts it
     within `max_jump` (limits: max_jump, neighbours, min_count)."""
@@ -189,7 +213,7 @@ def across_agrees(
         count = 0
         for j in range(index.shape[1]):
             q = index[p, j]
-            if other[p, j] and alive[q] and count < neighbours:
+            if ring[q] != ring[p] and alive[q] and count < neighbours:
                 near[count, 0], near[count, 1] = xy[q, 0] - xy[p, 0], xy[q, 1] - xy[p, 1]
                 near[count, 2], near_ring[count] = depth[q], ring[q]
                 count += 1

@@ -20,7 +20,6 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.spatial import cKDTree
 
 from rig.geometry import CameraModel, ConeHits, affine_image, ray_half_plane
 from rig.lazy import lazy_module
@@ -28,6 +27,7 @@ from rig.patterns import RingSamples
 from rig.workers import batches, pool
 
 ring_kernels = lazy_module("rig.kernels.rings")  # numba compiles on first use: not for --help
+cell_kernels = lazy_module("rig.kernels.cells")
 
 # A sample is rejected when its best reading misfits the decoded radius
 # and angles by more than this chi-square (a mixed pixel on a depth edge, read between two surfaces),
@@ -47,7 +47,6 @@ NEIGHBOUR_COUNT = 8
 NEIGHBOUR_REACH_PX = 12.0
 NEIGHBOUR_SCATTER_PERIODS = 0.05
 NEIGHBOUR_SIGMA_PERIODS = 0.05
-_RING_APART_PX = 1e6  # rings set this far apart in the neighbour search: neighbours share a ring
 _SLOPE_RIDGE = 1e-3  # holds a plane's unfixed slope near zero (radians per pixel, squared pixels)
 # Gauss-Newton iterations from a branch's ray-to-ray point.
 _ITERATIONS = 3
@@ -371,10 +370,7 @@ def neighbour_angles(
     to the nearest NEIGHBOUR_COUNT (at least 3; the slope across a straight run of ring, which its
     samples cannot fix, held near zero). Returns the prediction and the fit's rms (NaN where too few
     neighbours)."""
-    tree = cKDTree(np.column_stack([xy, ring * _RING_APART_PX]))
-    dist, near = tree.query(
-        np.column_stack([at_xy, at_ring * _RING_APART_PX]), k=NEIGHBOUR_COUNT, distance_upper_bound=NEIGHBOUR_REACH_PX
-    )
+    dist, near = _same_ring_nearest(xy, ring, at_xy, at_ring)
     found = np.isfinite(dist)
     near = np.where(found, near, 0)
     offset = np.where(found[..., None], xy[near] - at_xy[:, None, :], 0.0)  # (n, k, 2)
@@ -390,3 +386,24 @@ def neighbour_angles(
     fitted = np.einsum("nki,ni->nk", design, np.nan_to_num(coef))
     scatter = np.sqrt(np.sum(np.where(found, (fitted - value) ** 2, 0.0), axis=1) / np.maximum(found.sum(axis=1), 1))
     return np.where(enough, _wrap(base + coef[:, 0]), np.nan), np.where(enough, scatter, np.nan)
+
+
+def _same_ring_nearest(
+    xy: np.ndarray, ring: np.ndarray, at_xy: np.ndarray, at_ring: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """(n, NEIGHBOUR_COUNT) distances and indices of the samples (`xy`, `ring`) of each query's ring
+    within NEIGHBOUR_REACH_PX, nearest first (inf where fewer): the rings' own grids of cells
+    (rig.kernels.cells.group_cells), searched a span of queries per thread."""
+    xy = np.ascontiguousarray(xy, np.float64)
+    at_xy = np.ascontiguousarray(at_xy, np.float64)
+    rings = int(max(ring.max(initial=0), at_ring.max(initial=0))) + 1
+    cells = cell_kernels.group_cells(xy, ring.astype(np.int64), rings, NEIGHBOUR_REACH_PX)
+    dist, near = np.empty((len(at_xy), NEIGHBOUR_COUNT)), np.empty((len(at_xy), NEIGHBOUR_COUNT), np.int64)
+    where, groups = (NEIGHBOUR_REACH_PX, NEIGHBOUR_REACH_PX), at_ring.astype(np.int64)
+    list(
+        pool().map(
+            lambda span: cell_kernels.k_nearest_in_group(xy, cells, where, at_xy, groups, dist, near, *span),
+            batches(len(at_xy)),
+        )
+    )
+    return dist, near

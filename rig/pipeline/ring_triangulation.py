@@ -170,13 +170,12 @@ def across_ring_support(
     # other rings among its nearest, and the fits span a wider patch.
     candidates = np.arange(0, len(kept), 4)
     index = _nearest_candidates(xy, ring, candidates, min(len(candidates), 2 * neighbours))
-    other = ring[index] != ring[:, None]
     alive = np.ones(len(kept), bool)
     points = (np.ascontiguousarray(xy), np.ascontiguousarray(depth), ring.astype(np.int64))
     limits = (ACROSS_RINGS_FACTOR * max_jump_mm, neighbours, min_count)
     for _ in range(passes):
         judged = np.flatnonzero(alive)
-        agrees = _agrees(points, (index, other, alive, judged), limits)
+        agrees = _agrees(points, (index, alive, judged), limits)
         alive[judged[~agrees]] = False
     out[kept[~alive]] = False
     return out
@@ -184,6 +183,9 @@ def across_ring_support(
 
 # A sample within this of a candidate of its ring (pixels) takes the candidate's nearest candidates.
 _SHARED_NEIGHBOURHOOD_PX = 3.0
+# Each ring's own grid of candidates (for the one nearest a sample) has cells this wide: a grid per
+# ring of cells as fine as the reach would be larger than the image's pixels.
+_OWN_RING_CELL_PX = 16.0
 
 
 def _nearest_candidates(xy: np.ndarray, ring: np.ndarray, candidates: np.ndarray, k: int) -> np.ndarray:
@@ -192,16 +194,25 @@ def _nearest_candidates(xy: np.ndarray, ring: np.ndarray, candidates: np.ndarray
     ~50 px): the k nearest are searched for the candidates, and for the samples without one near.
     A grid of cells 1.5 times the candidates' mean spacing wide (the fastest of 0.7 to 4 on the
     default bench), searched in compiled code (rig.kernels.cells.k_nearest), a span of samples per
-    thread."""
+    thread; a sample's own ring's candidate in each ring's own grid of cells."""
     xy = np.ascontiguousarray(xy, np.float64)
     spots = np.ascontiguousarray(xy[candidates])
+    ring = ring.astype(np.int64)
+    groups = int(ring.max(initial=0)) + 1
+    own_cells = cell_kernels.group_cells(spots, ring[candidates], groups, _OWN_RING_CELL_PX)
+    dist, closest = np.empty((len(xy), 1)), np.empty((len(xy), 1), np.int64)
+    where = (_OWN_RING_CELL_PX, _SHARED_NEIGHBOURHOOD_PX)
+    list(
+        pool().map(
+            lambda span: cell_kernels.k_nearest_in_group(spots, own_cells, where, xy, ring, dist, closest, *span),
+            batches(len(xy)),
+        )
+    )
+    shared = np.isfinite(dist[:, 0])  # a candidate of its ring nearer than the reach
+    shared[candidates] = False  # a candidate is searched for itself
+    closest = candidates[np.maximum(closest[:, 0], 0)]
     cell = max(1.5 * np.sqrt(np.prod(np.ptp(spots, axis=0) + 1.0) / len(spots)), 1.0)  # ~2 candidates a cell
     cells = cell_kernels.sample_cells(spots, cell)
-    closest = _k_nearest(spots, cells, cell, xy, 1)[:, 0]
-    distance = np.linalg.norm(spots[closest] - xy, axis=1)
-    closest = candidates[closest]
-    shared = (distance <= _SHARED_NEIGHBOURHOOD_PX) & (ring[closest] == ring)
-    shared[candidates] = False  # a candidate is searched for itself
     searched = np.flatnonzero(~shared)
     index = np.empty((len(xy), k), np.int64)
     index[searched] = candidates[_k_nearest(spots, cells, cell, np.ascontiguousarray(xy[searched]), k)]
@@ -220,8 +231,7 @@ def _agrees(
     points: tuple[np.ndarray, ...], neighbourhoods: tuple[np.ndarray, ...], limits: tuple[float, int, int]
 ) -> np.ndarray:
     """rig.kernels.rings.across_agrees over the pool: each judged point's verdict
-    (`neighbourhoods`: every point's candidates, which are of other rings, which points are alive,
-    and the points judged)."""
+    (`neighbourhoods`: every point's candidates, which points are alive, and the points judged)."""
     judged = neighbourhoods[-1]
     agrees = np.empty(len(judged), bool)
     spans = batches(len(judged))
