@@ -44,3 +44,16 @@ def test_samples_across_a_step_are_two_surfaces_and_the_pixel_is_left_open() -> 
     points = _on_plane(columns, facing, np.array([0.0, 0.0, 500.0]))
     points[4:] = _on_plane(columns[4:], facing, np.array([0.0, 0.0, 520.0]))  # 20 mm lower beyond a step
     assert not _use(points, np.tile(facing, (len(columns), 1)), columns).any()
+
+
+def test_a_pixel_inside_the_innermost_ring_lists_each_sample_once() -> None:
+    """Inside ring 0 a pixel's fit takes the nearest samples of any ring, then ring 0's not among
+    them: a sample listed twice would weigh double in the fit."""
+    from rig.pipeline.fill import _neighbourhoods
+
+    xy = np.array([[10.0, 10.0], [12.0, 10.0], [30.0, 30.0], [60.0, 60.0]])
+    dist, index = _neighbourhoods(
+        xy, np.zeros(4, np.int64), np.array([[11.0, 11.0]]), np.array([0]), FillSettings(neighbours=4)
+    )
+    listed = index[0][np.isfinite(dist[0])]
+    assert sorted(listed) == [0, 1, 2]  # the three in reach, once each (the fourth is beyond 48 px)

@@ -256,6 +256,7 @@ def fill_neighbourhoods(
         n_second = 0 if second < 0 else min(near // 2, members[second])
         point = (at[i, 0], at[i, 1])
         tail = near + n_first
+        end = tail  # ring 0 alone: its list ends there
         found = nearest_within(xy, cells[1], (ring_cell, first, reach), point, dist[i, near:tail], index[i, near:tail])
         if found > 0 and second >= 0:
             end = tail + n_second
