@@ -95,7 +95,7 @@ def test_a_graded_profile_grows_a_gap_by_half_of_itself_at_most() -> None:
 
 def test_curvature_of_a_noisy_simulated_scan(pilot: tuple[list[PilotView], RingPlanSettings]) -> None:
     view = pilot[0][0]
-    c = principal_curvatures(view.points, view.viewpoint, radius_mm=5.0)
+    c = principal_curvatures(view.points, view.viewpoint, radius_mm=5.0, spacing_mm=2.5)  # as the planner reads it
     centre = np.array([0.0, 0.0, 60.0])  # the default scene: a sphere of radius 60 on the plane
     top = c.valid & (np.linalg.norm(c.points - centre, axis=1) > 55) & (c.points[:, 2] > 100)
     plane = (
