@@ -163,3 +163,23 @@ def test_a_frame_exposed_across_a_pattern_change_sees_both() -> None:
     after = bench.render(0, time_s=0.06).mean()  # 0.060-0.070: lit
     assert before == 0 and after > 0
     assert across == pytest.approx(after / 2, rel=0.01)
+
+
+def test_a_bench_built_again_reuses_the_geometry_and_a_moved_camera_or_scene_does_not() -> None:
+    """The ray casts are kept for the process by content (drivers.sim.memo): an equal scene and pose
+    built apart share them, read-only; a camera moved by a millimetre or another scene does not."""
+    from drivers.sim import memo
+
+    memo.forget()
+    first = _bench([sc.plane(300.0, 0.5)]).ground_truth(0, 0)
+    again = _bench([sc.plane(300.0, 0.5)]).ground_truth(0, 0)
+    assert again.points is not first.points and np.shares_memory(again.points, first.points)
+    with pytest.raises(ValueError, match="read-only"):
+        again.points[0, 0, 0] = 1.0
+    moved = make_device(320, 256, 450.0, (-99.0, 0.0, 600.0), (0.0, 0.0, 30.0))
+    elsewhere = SimBench(sc.build_scene([sc.plane(300.0, 0.5)]), [moved], [PROJECTOR]).ground_truth(0, 0)  # type: ignore[list-item]
+    assert not np.shares_memory(elsewhere.points, first.points)
+    other = _bench([sc.plane(300.0, 0.4)]).ground_truth(0, 0)
+    assert not np.shares_memory(other.points, first.points) and np.array_equal(
+        other.points, first.points, equal_nan=True
+    )

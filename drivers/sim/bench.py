@@ -18,8 +18,8 @@ import cv2
 import numpy as np
 
 from drivers.options import CameraSettings, SimCameraOptions, SimProjectorOptions
+from drivers.sim import memo
 from drivers.sim.materials import shininess, specular_gain
-from drivers.sim.raycast import RayCaster
 from drivers.sim.scene import Scene
 from drivers.sim.sensor import NoiseTable, expose
 from drivers.sim.texture import paint_planar_textures
@@ -94,7 +94,7 @@ class SimBench:
         self.projector_options = projector_options or [SimProjectorOptions() for _ in projectors]
         self.ambient = ambient
         self._noise = NoiseTable(np.random.default_rng(seed))
-        self._caster = RayCaster(scene.vertices, scene.faces)
+        self._scene_key, self._caster = memo.scene_caster(scene)
         self._views: dict[int, _CameraView] = {}
         self._illumination: dict[tuple[int, int], _Illumination] = {}
         self._truths: dict[tuple[int, int], PixelTruth] = {}
@@ -166,40 +166,47 @@ class SimBench:
     # --- geometry, computed once per pose --------------------------------------------------
     def _view(self, camera: int) -> _CameraView:
         if camera not in self._views:
-            model = self.cameras[camera]
-            origins, directions = model.pixel_rays
-            distance, faces = self._caster.first_hit(origins, directions)
-            hit = faces >= 0
-            points = np.full(origins.shape, np.nan)
-            points[hit] = origins[hit] + distance[hit, None] * directions[hit]
-            normals = np.zeros_like(points)
-            n = self._caster.face_normals(faces[hit])
-            flip = np.einsum("ij,ij->i", n, directions[hit]) > 0
-            n[flip] *= -1
-            normals[hit] = n
-            albedo = np.zeros((len(hit), 3), dtype=np.float32)
-            albedo[hit] = self.scene.face_albedo[faces[hit]][:, ::-1]
-            if self.scene.texture is not None:
-                albedo[hit] = self.scene.texture.colour_at(points[hit])[:, ::-1]
-            albedo = albedo.reshape(model.height, model.width, 3)
-            textures = [o.texture for o in self.scene.objects]
-            paint_planar_textures(albedo, points, faces, textures, self.scene.face_object)
-            mono = albedo @ np.array([0.114, 0.587, 0.299], dtype=np.float32)  # BGR luminance weights
-            depth = np.zeros(len(hit))
-            depth[hit] = points[hit] @ model.axis - model.axis @ model.center  # device-frame z
-            view = _CameraView(hit, points, normals, albedo, mono, depth, SeenSurface(points, hit))
-            if self.scene.glossy:
-                strength, roughness = self.scene.face_material()
-                lobe, exponent = np.zeros(len(hit)), np.zeros(len(hit))
-                lobe[hit], exponent[hit] = strength[faces[hit]], shininess(roughness[faces[hit]])
-                view = dataclasses.replace(view, specular=lobe, exponent=exponent)
-            self._views[camera] = view
+            key = (
+                None if self._scene_key is None else memo.digest(self._scene_key, memo.device_key(self.cameras[camera]))
+            )
+            self._views[camera] = memo.remembered("view", key, lambda: self._cast_view(camera))
         return self._views[camera]
+
+    def _cast_view(self, camera: int) -> _CameraView:
+        """What camera `camera` sees: the first hit of each pixel's ray, its normal, albedo and depth."""
+        model = self.cameras[camera]
+        origins, directions = model.pixel_rays
+        distance, faces = self._caster.first_hit(origins, directions)
+        hit = faces >= 0
+        points = np.full(origins.shape, np.nan)
+        points[hit] = origins[hit] + distance[hit, None] * directions[hit]
+        normals = np.zeros_like(points)
+        n = self._caster.face_normals(faces[hit])
+        flip = np.einsum("ij,ij->i", n, directions[hit]) > 0
+        n[flip] *= -1
+        normals[hit] = n
+        albedo = np.zeros((len(hit), 3), dtype=np.float32)
+        albedo[hit] = self.scene.face_albedo[faces[hit]][:, ::-1]
+        if self.scene.texture is not None:
+            albedo[hit] = self.scene.texture.colour_at(points[hit])[:, ::-1]
+        albedo = albedo.reshape(model.height, model.width, 3)
+        textures = [o.texture for o in self.scene.objects]
+        paint_planar_textures(albedo, points, faces, textures, self.scene.face_object)
+        mono = albedo @ np.array([0.114, 0.587, 0.299], dtype=np.float32)  # BGR luminance weights
+        depth = np.zeros(len(hit))
+        depth[hit] = points[hit] @ model.axis - model.axis @ model.center  # device-frame z
+        view = _CameraView(hit, points, normals, albedo, mono, depth, SeenSurface(points, hit))
+        if self.scene.glossy:
+            strength, roughness = self.scene.face_material()
+            lobe, exponent = np.zeros(len(hit)), np.zeros(len(hit))
+            lobe[hit], exponent[hit] = strength[faces[hit]], shininess(roughness[faces[hit]])
+            view = dataclasses.replace(view, specular=lobe, exponent=exponent)
+        return view
 
     def set_scene(self, scene: Scene) -> None:
         """Replace the scene (a calibration board moved to its next pose); geometry is recomputed."""
         self.scene = scene
-        self._caster = RayCaster(scene.vertices, scene.faces)
+        self._scene_key, self._caster = memo.scene_caster(scene)
         self._views.clear()
         self._illumination.clear()
         self._truths.clear()
@@ -207,7 +214,15 @@ class SimBench:
     def _lighting(self, camera: int, projector: int) -> _Illumination:
         key = (camera, projector)
         if key not in self._illumination:
-            self._illumination[key] = self._compute_lighting(camera, projector)
+            parts = (memo.device_key(self.cameras[camera]), memo.device_key(self.projectors[projector]))
+            kept = (
+                None
+                if self._scene_key is None
+                else memo.digest(self._scene_key, *parts, self.projector_options[projector])
+            )
+            self._illumination[key] = memo.remembered(
+                "lighting", kept, lambda: self._compute_lighting(camera, projector)
+            )
         return self._illumination[key]
 
     def _compute_lighting(self, camera: int, projector: int) -> _Illumination:
