@@ -24,10 +24,10 @@ import numpy as np
 from rig.geometry import CameraModel, ConeHits, affine_image, ray_half_plane
 from rig.lazy import lazy_module
 from rig.patterns import RingSamples
+from rig.pipeline.ring_neighbours import neighbour_angles
 from rig.workers import batches, pool
 
 ring_kernels = lazy_module("rig.kernels.rings")  # numba compiles on first use: not for --help
-cell_kernels = lazy_module("rig.kernels.cells")
 
 # A sample is rejected when its best reading misfits the decoded radius
 # and angles by more than this chi-square (a mixed pixel on a depth edge, read between two surfaces),
@@ -39,15 +39,12 @@ MIN_BRANCH_MARGIN = 9.0
 BRANCH_WINDOW_RAD = 0.3
 # Assumed error of the coarse angular code (radians), for scoring branches.
 COARSE_SIGMA_RAD = 0.05
-# An ambiguous sample is read again with the angle its ring's neighbours predict: from the nearest
-# NEIGHBOUR_COUNT placed samples of its ring within NEIGHBOUR_REACH_PX in the image, trusted when
-# their plane fits within NEIGHBOUR_SCATTER_PERIODS of a fine period and taken as that good to
-# NEIGHBOUR_SIGMA_PERIODS (a leave-one-out test on a face misses by 0.9 % of a period at p99.9).
-NEIGHBOUR_COUNT = 8
-NEIGHBOUR_REACH_PX = 12.0
+# An ambiguous sample is read again with the angle its ring's neighbours predict (the nearest placed
+# samples of its ring: rig.pipeline.ring_neighbours), trusted when their plane fits within
+# NEIGHBOUR_SCATTER_PERIODS of a fine period and taken as that good to NEIGHBOUR_SIGMA_PERIODS (a
+# leave-one-out test on a face misses by 0.9 % of a period at p99.9).
 NEIGHBOUR_SCATTER_PERIODS = 0.05
 NEIGHBOUR_SIGMA_PERIODS = 0.05
-_SLOPE_RIDGE = 1e-3  # holds a plane's unfixed slope near zero (radians per pixel, squared pixels)
 # Gauss-Newton iterations from a branch's ray-to-ray point.
 _ITERATIONS = 3
 _STEP_MM = 1e-3  # for numerical derivatives along the ray
@@ -360,50 +357,3 @@ def _resolve_from_neighbours(
     ):
         mine[wanted[fixed]] = theirs[fixed]
     return int(fixed.sum())
-
-
-def neighbour_angles(
-    xy: np.ndarray, ring: np.ndarray, angle: np.ndarray, at_xy: np.ndarray, at_ring: np.ndarray
-) -> tuple[np.ndarray, np.ndarray]:
-    """The projector angle at image points `at_xy` of rings `at_ring`, from the angles `angle` of
-    samples (`xy`, `ring`) of the same ring within NEIGHBOUR_REACH_PX: a plane over the image fitted
-    to the nearest NEIGHBOUR_COUNT (at least 3; the slope across a straight run of ring, which its
-    samples cannot fix, held near zero). Returns the prediction and the fit's rms (NaN where too few
-    neighbours)."""
-    dist, near = _same_ring_nearest(xy, ring, at_xy, at_ring)
-    found = np.isfinite(dist)
-    near = np.where(found, near, 0)
-    offset = np.where(found[..., None], xy[near] - at_xy[:, None, :], 0.0)  # (n, k, 2)
-    # angles relative to the first neighbour's, so the fit never meets the wrap at +-pi
-    base = angle[near[:, 0]]
-    value = np.where(found, _wrap(angle[near] - base[:, None]), 0.0)
-    design = np.concatenate([found[..., None].astype(np.float64), offset], axis=2)
-    normal = np.einsum("nki,nkj->nij", design, design) + np.diag([0.0, _SLOPE_RIDGE, _SLOPE_RIDGE])
-    rhs = np.einsum("nki,nk->ni", design, value)
-    enough = found.sum(axis=1) >= 3
-    coef = np.full((len(at_xy), 3), np.nan)
-    coef[enough] = np.linalg.solve(normal[enough], rhs[enough][..., None])[..., 0]
-    fitted = np.einsum("nki,ni->nk", design, np.nan_to_num(coef))
-    scatter = np.sqrt(np.sum(np.where(found, (fitted - value) ** 2, 0.0), axis=1) / np.maximum(found.sum(axis=1), 1))
-    return np.where(enough, _wrap(base + coef[:, 0]), np.nan), np.where(enough, scatter, np.nan)
-
-
-def _same_ring_nearest(
-    xy: np.ndarray, ring: np.ndarray, at_xy: np.ndarray, at_ring: np.ndarray
-) -> tuple[np.ndarray, np.ndarray]:
-    """(n, NEIGHBOUR_COUNT) distances and indices of the samples (`xy`, `ring`) of each query's ring
-    within NEIGHBOUR_REACH_PX, nearest first (inf where fewer): the rings' own grids of cells
-    (rig.kernels.cells.group_cells), searched a span of queries per thread."""
-    xy = np.ascontiguousarray(xy, np.float64)
-    at_xy = np.ascontiguousarray(at_xy, np.float64)
-    rings = int(max(ring.max(initial=0), at_ring.max(initial=0))) + 1
-    cells = cell_kernels.group_cells(xy, ring.astype(np.int64), rings, NEIGHBOUR_REACH_PX)
-    dist, near = np.empty((len(at_xy), NEIGHBOUR_COUNT)), np.empty((len(at_xy), NEIGHBOUR_COUNT), np.int64)
-    where, groups = (NEIGHBOUR_REACH_PX, NEIGHBOUR_REACH_PX), at_ring.astype(np.int64)
-    list(
-        pool().map(
-            lambda span: cell_kernels.k_nearest_in_group(xy, cells, where, at_xy, groups, dist, near, *span),
-            batches(len(at_xy)),
-        )
-    )
-    return dist, near
