@@ -24,12 +24,15 @@ ONE_THREAD = ("SLRIG_THREADS", "OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_N
 def pytest_configure(config: pytest.Config) -> None:
     """With one test process per core (xdist), each runs its pixel work on one thread: threads of
     two processes contending for two cores only wait on each other. Set before the workers start,
-    which inherit the environment. Python's bytecode is written even where the environment says not
-    to (PYTHONDONTWRITEBYTECODE): the workers and the hundred-odd CLI and daemon processes the tests
-    start would each compile rig's source again (0.4 s of CPU a process)."""
-    if not os.environ.get("PYTEST_XDIST_WORKER"):
-        os.environ.pop("PYTHONDONTWRITEBYTECODE", None)
-        sys.dont_write_bytecode = False
+    which inherit the environment. Where the environment says not to write Python's bytecode
+    (PYTHONDONTWRITEBYTECODE), the test run writes it all the same, under .pytest_cache rather than
+    beside the sources: the workers and the hundred-odd CLI and daemon processes the tests start
+    would each compile rig's source again (0.4 s of CPU a process)."""
+    if os.environ.get("PYTHONDONTWRITEBYTECODE") and not os.environ.get("PYTEST_XDIST_WORKER"):
+        prefix = str(REPO / ".pytest_cache" / "bytecode")
+        os.environ.pop("PYTHONDONTWRITEBYTECODE")
+        os.environ["PYTHONPYCACHEPREFIX"] = prefix
+        sys.dont_write_bytecode, sys.pycache_prefix = False, prefix
     if config.getoption("numprocesses", None) not in (None, 0) and not os.environ.get("PYTEST_XDIST_WORKER"):
         for name in ONE_THREAD:
             os.environ.setdefault(name, "1")

@@ -6,7 +6,15 @@ import numpy as np
 import pytest
 from scipy.spatial import cKDTree
 
-from rig.kernels.cells import group_cells, k_nearest, nearest_within, pairs_within, sample_cells
+from rig.kernels.cells import (
+    group_cell_side,
+    group_cells,
+    k_nearest,
+    k_nearest_in_group,
+    nearest_within,
+    pairs_within,
+    sample_cells,
+)
 
 RNG = np.random.default_rng(11)
 
@@ -45,3 +53,31 @@ def test_nearest_within_searches_one_group_within_the_reach() -> None:
             assert found == len(expected)
             np.testing.assert_array_equal(row_i[:found], expected)
             np.testing.assert_allclose(row_d[:found], distance[expected])
+
+
+def test_k_nearest_in_group_searches_each_querys_own_group_even_outside_the_grid() -> None:
+    """Queries beyond the points' bounding box, a reach shorter than a cell, and a group with no
+    points: each row holds its own group's nearest within the reach, then inf and -1."""
+    points = np.column_stack([RNG.uniform(0, 300, 3000), RNG.uniform(0, 200, 3000)])
+    group = RNG.integers(0, 4, len(points))  # group 4 has no points
+    side = group_cell_side(points, 5, 16.0)
+    cells = group_cells(points, group, 5, side)
+    queries = np.column_stack([RNG.uniform(-20, 320, 300), RNG.uniform(-20, 220, 300)])
+    query_group = RNG.integers(0, 5, len(queries))
+    dist, index = np.empty((300, 5)), np.empty((300, 5), np.int64)
+    k_nearest_in_group(points, cells, (side, 9.0), queries, query_group, dist, index, 0, len(queries))
+    for q, (query, g) in enumerate(zip(queries, query_group, strict=True)):
+        distance = np.linalg.norm(points - query, axis=1)
+        mine = np.flatnonzero((group == g) & (distance < 9.0))
+        expected = mine[np.argsort(distance[mine], kind="stable")][:5]
+        np.testing.assert_array_equal(index[q, : len(expected)], expected)
+        assert (index[q, len(expected) :] == -1).all() and np.isinf(dist[q, len(expected) :]).all()
+    assert (index[query_group == 4] == -1).all()
+
+
+def test_many_groups_widen_the_cells_so_the_grid_stays_bounded() -> None:
+    points = np.column_stack([RNG.uniform(0, 2448, 100), RNG.uniform(0, 2048, 100)])
+    assert group_cell_side(points, 8, 12.0) == 12.0  # 8 x 35,000 cells of 12 px: within the bound
+    wide = group_cell_side(points, 1024, 12.0)
+    cells = np.prod(np.ceil(np.ptp(points, axis=0) / wide) + 1)
+    assert wide > 12.0 and 1024 * cells <= 1.1e6

@@ -183,3 +183,8 @@ def test_a_bench_built_again_reuses_the_geometry_and_a_moved_camera_or_scene_doe
     assert not np.shares_memory(other.points, first.points) and np.array_equal(
         other.points, first.points, equal_nan=True
     )
+    dimmer = _bench([sc.plane(300.0, 0.5)], projector_options=[SimProjectorOptions(brightness=0.5)])
+    lit = first.lit & (first.white_irradiance > 0.1)  # a projector's brightness is in its lighting's key
+    np.testing.assert_allclose(
+        dimmer.ground_truth(0, 0).white_irradiance[lit] - 0.02, 0.5 * (first.white_irradiance[lit] - 0.02), rtol=1e-5
+    )

@@ -166,9 +166,7 @@ class SimBench:
     # --- geometry, computed once per pose --------------------------------------------------
     def _view(self, camera: int) -> _CameraView:
         if camera not in self._views:
-            key = (
-                None if self._scene_key is None else memo.digest(self._scene_key, memo.device_key(self.cameras[camera]))
-            )
+            key = memo.keyed(self._scene_key, memo.device_key(self.cameras[camera]))
             self._views[camera] = memo.remembered("view", key, lambda: self._cast_view(camera))
         return self._views[camera]
 
@@ -214,12 +212,8 @@ class SimBench:
     def _lighting(self, camera: int, projector: int) -> _Illumination:
         key = (camera, projector)
         if key not in self._illumination:
-            parts = (memo.device_key(self.cameras[camera]), memo.device_key(self.projectors[projector]))
-            kept = (
-                None
-                if self._scene_key is None
-                else memo.digest(self._scene_key, *parts, self.projector_options[projector])
-            )
+            devices = (memo.device_key(self.cameras[camera]), memo.device_key(self.projectors[projector]))
+            kept = memo.keyed(self._scene_key, *devices, self.projector_options[projector])
             self._illumination[key] = memo.remembered(
                 "lighting", kept, lambda: self._compute_lighting(camera, projector)
             )

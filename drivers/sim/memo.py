@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import dataclasses
 import hashlib
+import os
 import pickle
 import threading
 from collections import OrderedDict
@@ -23,11 +24,15 @@ from drivers.sim.scene import Scene
 
 T = TypeVar("T")
 
-# Entries kept, the least recently used dropped first: a 1280x1024 camera's view with its truth
-# search tree is about 160 MB, its lighting by one projector about 40 MB.
-MAX_ENTRIES = {"caster": 4, "view": 4, "lighting": 4}
+# At most this many of each kind, and this many bytes of arrays in all, the least recently used
+# dropped first: a 1280x1024 camera's view is about 100 MB (its truth search tree, once built, 60 MB
+# more), its lighting by one projector about 40 MB, the default scene's caster 10 MB (a 5-million-
+# face mesh's about 1 GB, which alone passes the budget and is not kept).
+MAX_ENTRIES = {"caster": 2, "view": 4, "lighting": 4}
+MAX_BYTES = 1 << 30
+DISABLE = "SLRIG_SIM_MEMO"  # set to 0: every open casts its rays again (to measure a first open)
 
-_kept: dict[str, OrderedDict[bytes, Any]] = {kind: OrderedDict() for kind in MAX_ENTRIES}
+_kept: OrderedDict[tuple[str, bytes], tuple[Any, int]] = OrderedDict()
 _lock = threading.Lock()
 
 
@@ -43,28 +48,55 @@ def digest(*parts: object) -> bytes | None:
     return h.digest()
 
 
-def device_key(device: Any) -> tuple[object, ...]:
-    """What fixes a device's rays: its size, intrinsics, pose, distortion and projection (not the
-    rays it caches)."""
-    return (device.width, device.height, device.K, device.R, device.t, device.dist, device.projection)
+def device_key(device: Any) -> tuple[object, ...] | None:
+    """What fixes a device's rays: its kind, size, intrinsics, pose, distortion and projection (not
+    the rays it caches); None for a device that does not show them (its geometry is not kept)."""
+    try:
+        return (
+            type(device).__qualname__,
+            device.width,
+            device.height,
+            device.K,
+            device.R,
+            device.t,
+            device.dist,
+            device.projection,
+        )
+    except AttributeError:
+        return None
+
+
+def keyed(*parts: object) -> bytes | None:
+    """digest(*parts), None where any part is None (unknown: not kept)."""
+    return None if any(part is None for part in parts) else digest(*parts)
 
 
 def remembered(kind: str, key: bytes | None, compute: Callable[[], T]) -> T:
-    """The `kind` entry kept under `key`, else `compute()` kept there (its arrays made read-only).
-    Computed outside the lock: two threads asking at once both compute, and one is kept."""
-    if key is None:
-        return compute()
+    """The `kind` entry kept under `key`, else `compute()` kept there; its arrays read-only either
+    way. Computed outside the lock: two threads asking at once both compute, and one is kept."""
+    if key is None or os.environ.get(DISABLE) == "0":
+        return _read_only(compute())
     with _lock:
-        entries = _kept[kind]
-        if key in entries:
-            entries.move_to_end(key)
-            return entries[key]
+        if (kind, key) in _kept:
+            _kept.move_to_end((kind, key))
+            return _kept[kind, key][0]
     value = _read_only(compute())
+    size = _nbytes(value)
     with _lock:
-        entries[key] = value
-        while len(entries) > MAX_ENTRIES[kind]:
-            entries.popitem(last=False)
+        _kept[kind, key] = (value, size)
+        _kept.move_to_end((kind, key))
+        _drop_beyond_budget(kind)
     return value
+
+
+def _drop_beyond_budget(kind: str) -> None:
+    """Drop the least recently used entries of `kind` past its count, then of any kind past the
+    byte budget (the newest entry too, if it alone passes it)."""
+    same = [k for k in _kept if k[0] == kind]
+    for stale in same[: max(0, len(same) - MAX_ENTRIES[kind])]:
+        del _kept[stale]
+    while _kept and sum(size for _, size in _kept.values()) > MAX_BYTES:
+        _kept.popitem(last=False)
 
 
 def scene_caster(scene: Scene) -> tuple[bytes | None, RayCaster]:
@@ -76,14 +108,21 @@ def scene_caster(scene: Scene) -> tuple[bytes | None, RayCaster]:
 def forget() -> None:
     """Drop every entry (for a test that measures a first open)."""
     with _lock:
-        for entries in _kept.values():
-            entries.clear()
+        _kept.clear()
+
+
+def _arrays(value: object) -> list[np.ndarray]:
+    """The arrays an entry holds in its fields (a dataclass's, or an object's attributes)."""
+    fields = vars(value) if hasattr(value, "__dict__") else {}
+    return [a for a in fields.values() if isinstance(a, np.ndarray)]
 
 
 def _read_only(value: T) -> T:
-    if dataclasses.is_dataclass(value) and not isinstance(value, type):
-        for field in dataclasses.fields(value):
-            array = getattr(value, field.name)
-            if isinstance(array, np.ndarray):
-                array.flags.writeable = False
+    if dataclasses.is_dataclass(value):
+        for array in _arrays(value):
+            array.flags.writeable = False
     return value
+
+
+def _nbytes(value: object) -> int:
+    return sum(a.nbytes for a in _arrays(value))

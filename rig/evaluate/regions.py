@@ -52,7 +52,10 @@ def footprints(
         raise ValueError(f"grid {grid.shape} and valid {valid.shape}: one pixel grid, please")
     # One layout and one writability for the compiled loop: no extra compiled versions.
     limit = np.require(np.broadcast_to(np.asarray(max_jump_mm, np.float64), valid.shape), np.float64, ["C", "W"])
-    grid, valid = np.ascontiguousarray(grid), np.ascontiguousarray(valid, np.bool_)
+    grid, valid = (
+        np.require(grid, None, ["C", "W"]),
+        np.require(valid, np.bool_, ["C", "W"]),
+    )  # truth arrays are read-only
     right, down, area = region_kernels.joins_and_areas(grid, valid, limit)
     if split_support:  # the object and its support meet, but are two regions
         on = support_plane(grid, valid)

@@ -22,6 +22,13 @@ def sample_cells(xy: np.ndarray, cell: float) -> Cells:
     return group_cells(xy, np.zeros(len(xy), np.int64), 1, cell)
 
 
+def group_cell_side(xy: np.ndarray, groups: int, smallest: float, max_cells: int = 1_000_000) -> float:
+    """The side of group_cells' cells for points `xy` in `groups` groups: `smallest`, or wider where
+    groups x cells would pass `max_cells` (8 bytes of run starts each, and as many again to fill)."""
+    area = float(np.prod(np.ptp(xy, axis=0) + 1.0)) if len(xy) else 1.0
+    return max(float(smallest), float(np.sqrt(groups * area / max_cells)))
+
+
 @njit(**KERNEL)
 def group_cells(xy: np.ndarray, group: np.ndarray, groups: int, cell: float) -> Cells:
     """sample_cells of each of `groups` groups of the samples apart (`group`: each one's, such as

@@ -100,9 +100,7 @@ def _neighbourhoods(
     k, reach = settings.neighbours, float(settings.reach_px)
     xy = np.ascontiguousarray(xy, np.float64)
     members = np.bincount(ring, minlength=int(annulus.max(initial=0)) + 1).astype(np.int64)
-    # wider still where many rings share a large image
-    area = float(np.prod(np.ptp(xy, axis=0) + 1.0))
-    ring_cell = max(_RING_CELL_PX, float(np.sqrt(len(members) * area / _MAX_RING_CELLS)))
+    ring_cell = cell_kernels.group_cell_side(xy, len(members), _RING_CELL_PX, _MAX_RING_CELLS)  # wider for many rings
     cells = (
         cell_kernels.sample_cells(xy, _CELL_PX),
         cell_kernels.group_cells(xy, ring.astype(np.int64), len(members), ring_cell),

@@ -56,9 +56,10 @@ def _same_ring_nearest(
     xy = np.ascontiguousarray(xy, np.float64)
     at_xy = np.ascontiguousarray(at_xy, np.float64)
     rings = int(max(ring.max(initial=0), at_ring.max(initial=0))) + 1
-    cells = cell_kernels.group_cells(xy, ring.astype(np.int64), rings, NEIGHBOUR_REACH_PX)
+    side = cell_kernels.group_cell_side(xy, rings, NEIGHBOUR_REACH_PX)
+    cells = cell_kernels.group_cells(xy, ring.astype(np.int64), rings, side)
     dist, near = np.empty((len(at_xy), NEIGHBOUR_COUNT)), np.empty((len(at_xy), NEIGHBOUR_COUNT), np.int64)
-    where, groups = (NEIGHBOUR_REACH_PX, NEIGHBOUR_REACH_PX), at_ring.astype(np.int64)
+    where, groups = (side, NEIGHBOUR_REACH_PX), at_ring.astype(np.int64)
     list(
         pool().map(
             lambda span: cell_kernels.k_nearest_in_group(xy, cells, where, at_xy, groups, dist, near, *span),

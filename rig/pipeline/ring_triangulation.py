@@ -199,9 +199,10 @@ def _nearest_candidates(xy: np.ndarray, ring: np.ndarray, candidates: np.ndarray
     spots = np.ascontiguousarray(xy[candidates])
     ring = ring.astype(np.int64)
     groups = int(ring.max(initial=0)) + 1
-    own_cells = cell_kernels.group_cells(spots, ring[candidates], groups, _OWN_RING_CELL_PX)
+    side = cell_kernels.group_cell_side(spots, groups, _OWN_RING_CELL_PX)
+    own_cells = cell_kernels.group_cells(spots, ring[candidates], groups, side)
     dist, closest = np.empty((len(xy), 1)), np.empty((len(xy), 1), np.int64)
-    where = (_OWN_RING_CELL_PX, _SHARED_NEIGHBOURHOOD_PX)
+    where = (side, _SHARED_NEIGHBOURHOOD_PX)
     list(
         pool().map(
             lambda span: cell_kernels.k_nearest_in_group(spots, own_cells, where, xy, ring, dist, closest, *span),
