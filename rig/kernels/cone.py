@@ -52,8 +52,8 @@ def cone_roots(
             x0, x1 = a0 + root_k * b0, a1 + root_k * b1
             theta[i, k] = math.atan2(x1 / x2, x0 / x2)
             ds_dradius[i, k] = radius[i] * x2 * x2 / (qa * root_k + qb)
-            du = beta[i, 0] * (alpha[i, 2] + root_k * beta[i, 2]) - (alpha[i, 0] + root_k * beta[i, 0]) * beta[i, 2]
-            dv = beta[i, 1] * (alpha[i, 2] + root_k * beta[i, 2]) - (alpha[i, 1] + root_k * beta[i, 1]) * beta[i, 2]
+            du = beta[i, 0] * x2 - (alpha[i, 0] + root_k * beta[i, 0]) * b2  # x2, b2: alpha's and beta's third
+            dv = beta[i, 1] * x2 - (alpha[i, 1] + root_k * beta[i, 1]) * b2
             cos_beta[i, k] = abs(x0 * du + x1 * dv) / (math.hypot(x0, x1) * math.hypot(du, dv))
             for j in range(3):
                 points[i, k, j] = origins[i, j] + root_k * directions[i, j]

@@ -23,11 +23,11 @@ def _wrap(angle: float) -> float:
 
 
 @njit(nogil=True, cache=True, inline="always")
-def _half_plane(terms: np.ndarray, i: int, sin: float, cos: float) -> float:
+def _half_plane(terms: np.ndarray, i: int, theta: float) -> float:
     """rig.geometry.ray_half_plane for ray i (its centred affine image `terms[i]`: a0, a1, a2, b0,
-    b1, b2) and the angle of sine `sin` and cosine `cos`; NaN where the ray meets only the other
-    half, or behind either device."""
+    b1, b2) and one angle; NaN where the ray meets only the other half, or behind either device."""
     a0, a1, a2, b0, b1, b2 = terms[i, 0], terms[i, 1], terms[i, 2], terms[i, 3], terms[i, 4], terms[i, 5]
+    sin, cos = math.sin(theta), math.cos(theta)
     below = b0 * sin - b1 * cos
     if below == 0:
         return np.nan
@@ -108,7 +108,7 @@ def solve_angles(
         second_score, second_s, second_theta = np.inf, np.nan, 0.0
         for branch in range(int(lo), int(hi) + 1):
             theta = (phase[i] + two_pi * branch) / m
-            s = _half_plane(terms, i, math.sin(theta), math.cos(theta))
+            s = _half_plane(terms, i, theta)
             if not np.isfinite(s):
                 continue
             score = ((_radius(terms, i, s) - radius[i]) / sigmas[0]) ** 2 + (_wrap(theta - coarse[i]) / sc) ** 2

@@ -24,7 +24,7 @@ import numpy as np
 from rig.geometry import CameraModel, ConeHits, affine_image, ray_half_plane
 from rig.lazy import lazy_module
 from rig.patterns import RingSamples
-from rig.pipeline.ring_neighbours import neighbour_angles
+from rig.pipeline.ring_neighbours import neighbour_angles, wrap_angle
 from rig.workers import batches, pool
 
 ring_kernels = lazy_module("rig.kernels.rings")  # numba compiles on first use: not for --help
@@ -110,11 +110,7 @@ class _Rays:
             return rho, np.arctan2(y, x), (x * dx + y * dy) / rho, (x * dy - y * dx) / (rho * rho)
         rho, angle = self.polar(s)
         (rho_p, angle_p), (rho_m, angle_m) = self.polar(s + _STEP_MM), self.polar(s - _STEP_MM)
-        return rho, angle, (rho_p - rho_m) / (2 * _STEP_MM), _wrap(angle_p - angle_m) / (2 * _STEP_MM)
-
-
-def _wrap(angle: np.ndarray) -> np.ndarray:
-    return np.mod(angle + np.pi, 2 * np.pi) - np.pi
+        return rho, angle, (rho_p - rho_m) / (2 * _STEP_MM), wrap_angle(angle_p - angle_m) / (2 * _STEP_MM)
 
 
 def solve_ring_angles(
@@ -207,7 +203,7 @@ def _solve_chunk(
     s = ray_half_plane(rays.projector, rays.origins, rays.directions, theta, rays.center)
     s[branch > hi[:, None]] = np.nan
     rho, _ = rays.polar(np.nan_to_num(s, nan=1.0))
-    coarse_misfit = (_wrap(theta - coarse[:, None]) / coarse_sigma[:, None]) ** 2
+    coarse_misfit = (wrap_angle(theta - coarse[:, None]) / coarse_sigma[:, None]) ** 2
     score = ((rho - radius[:, None]) / radius_sigma) ** 2 + coarse_misfit
     score[~np.isfinite(s)] = np.inf
     # the two best branches, refined, then compared on their full misfit
@@ -217,7 +213,7 @@ def _solve_chunk(
     rows = np.arange(len(radius))[:, None]
     best_s, best_theta = s[rows, order], theta[rows, order]
     refined, sigma, chi2 = _refine(rays, best_s, best_theta, radius, radius_sigma, tangential_sigma)
-    chi2 = chi2 + (_wrap(best_theta - coarse[:, None]) / coarse_sigma[:, None]) ** 2
+    chi2 = chi2 + (wrap_angle(best_theta - coarse[:, None]) / coarse_sigma[:, None]) ** 2
     chi2[~np.isfinite(refined)] = np.inf
     if width == 1:
         chi2[:, 1] = np.inf
@@ -241,7 +237,7 @@ def _refine(
     information = np.ones_like(s)
     for iteration in range(_ITERATIONS + 1):
         rho, angle, d_rho, d_angle = rays.slopes(s)
-        r1, r2 = (rho - R) / radius_sigma, R * _wrap(angle - theta) / tangential_sigma
+        r1, r2 = (rho - R) / radius_sigma, R * wrap_angle(angle - theta) / tangential_sigma
         j1, j2 = d_rho / radius_sigma, R * d_angle / tangential_sigma
         information = j1 * j1 + j2 * j2
         if iteration < _ITERATIONS:  # the last pass only measures the misfit and the information
@@ -344,7 +340,7 @@ def _resolve_from_neighbours(
     predicted, scatter = neighbour_angles(xy[placed], ring[placed], angle, xy[wanted], ring[wanted])
     period = 2 * np.pi / samples.fine_periods[idx[wanted]]
     trusted = np.isfinite(predicted) & (scatter <= NEIGHBOUR_SCATTER_PERIODS * period)
-    trusted &= np.abs(_wrap(predicted - samples.theta[idx[wanted]])) <= 3 * COARSE_SIGMA_RAD
+    trusted &= np.abs(wrap_angle(predicted - samples.theta[idx[wanted]])) <= 3 * COARSE_SIGMA_RAD
     wanted, predicted, period = wanted[trusted], predicted[trusted], period[trusted]
     if len(wanted) == 0:
         return 0

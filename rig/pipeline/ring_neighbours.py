@@ -17,7 +17,8 @@ NEIGHBOUR_REACH_PX = 12.0
 _SLOPE_RIDGE = 1e-3  # holds a plane's unfixed slope near zero (radians per pixel, squared pixels)
 
 
-def _wrap(angle: np.ndarray) -> np.ndarray:
+def wrap_angle(angle: np.ndarray) -> np.ndarray:
+    """Angles wrapped into [-pi, pi)."""
     return np.mod(angle + np.pi, 2 * np.pi) - np.pi
 
 
@@ -35,7 +36,7 @@ def neighbour_angles(
     offset = np.where(found[..., None], xy[near] - at_xy[:, None, :], 0.0)  # (n, k, 2)
     # angles relative to the first neighbour's, so the fit never meets the wrap at +-pi
     base = angle[near[:, 0]]
-    value = np.where(found, _wrap(angle[near] - base[:, None]), 0.0)
+    value = np.where(found, wrap_angle(angle[near] - base[:, None]), 0.0)
     design = np.concatenate([found[..., None].astype(np.float64), offset], axis=2)
     normal = np.einsum("nki,nkj->nij", design, design) + np.diag([0.0, _SLOPE_RIDGE, _SLOPE_RIDGE])
     rhs = np.einsum("nki,nk->ni", design, value)
@@ -44,7 +45,7 @@ def neighbour_angles(
     coef[enough] = np.linalg.solve(normal[enough], rhs[enough][..., None])[..., 0]
     fitted = np.einsum("nki,ni->nk", design, np.nan_to_num(coef))
     scatter = np.sqrt(np.sum(np.where(found, (fitted - value) ** 2, 0.0), axis=1) / np.maximum(found.sum(axis=1), 1))
-    return np.where(enough, _wrap(base + coef[:, 0]), np.nan), np.where(enough, scatter, np.nan)
+    return np.where(enough, wrap_angle(base + coef[:, 0]), np.nan), np.where(enough, scatter, np.nan)
 
 
 def _same_ring_nearest(
