@@ -1,16 +1,17 @@
-"""The compiled loops (numba), on their own floor: they import numpy and numba only, and every
-layer that needs one loads it lazily (rig.lazy), so that a command that does not run one does not
-compile it. `dense`: Gray decoding, contrast, plane and ray-to-ray triangulation, kept points and
-normals, triangulation angles; `phase`: phase shifting's wrap and unwrap, cued_phase's texture and
-status counts; `radial`: the radial codec's levels and coordinates; `rings`: ring samples read by
-radius and fine angle, judged across and along rings, and the rings' bands; `normals`: the ring
-samples' normals and the bend tests; `triangles`: the ring triangles' tests and their
-rasterising; `ring_surface`: per-face terms, each pixel's point on its face and its band
-agreement; `fill`: the ring surface's neighbourhoods, one-surface test and height-field fits;
-`colour`: the colour between the rings; `vectors`: three-vectors as rows, read in place; `cells`:
-image points in a grid of cells (all together or by ring) and the nearest-neighbour searches over
-it; `regions`: evaluation's surface regions; `cone`: camera rays against their rings' cones;
-`lens`: lens distortion inverted. Each is compiled on first use and cached beside it (__pycache__)."""
+"""The compiled loops (numba), on their own floor: they import numpy and numba only, and every layer
+that needs one loads it lazily (rig.lazy), so that a command that does not run one does not compile
+it. `dense`: Gray decoding, contrast, plane and ray-to-ray triangulation, kept points and normals,
+triangulation angles; `phase`: phase shifting's wrap and unwrap, cued_phase's texture and status
+counts; `radial`: the radial codec's levels and coordinates; `rings`: ring samples read by radius
+and fine angle, judged across and along rings, and the rings' bands; `normals`: the ring samples'
+normals and the bend tests; `triangles`: the ring triangles' tests and their rasterising;
+`delaunay`: the ring samples' Delaunay triangles, inserted one at a time; `ring_surface`: per-face
+terms, each pixel's point on its face and its band agreement; `fill`: the ring surface's
+neighbourhoods, one-surface test and height-field fits; `colour`: the colour between the rings;
+`vectors`: three-vectors as rows, read in place; `cells`: image points in a grid of cells (all
+together or by ring) and the nearest-neighbour searches over it; `regions`: evaluation's surface
+regions; `cone`: camera rays against their rings' cones; `lens`: lens distortion inverted. Each is
+compiled on first use and cached beside it (__pycache__)."""
 
 import numpy as np
 

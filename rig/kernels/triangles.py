@@ -153,37 +153,3 @@ def hilbert_distances(xy: np.ndarray, bits: int) -> np.ndarray:
                 x, y = y, x
             side //= 2
     return distance
-
-
-@njit(**KERNEL)
-def find_keys(keys: np.ndarray, wanted: np.ndarray) -> np.ndarray:
-    """The position in `keys` (N,) of each of `wanted` (any shape, flat here), -1 where absent (the
-    first position of a key that appears more than once): an open-addressing hash table."""
-    size = 1
-    while size < 2 * len(keys):
-        size *= 2
-    slots = np.full(size, -1, np.int64)
-    mask = size - 1
-    for i in range(len(keys)):
-        h = _mix(keys[i]) & mask
-        while slots[h] >= 0 and keys[slots[h]] != keys[i]:
-            h = (h + 1) & mask
-        if slots[h] < 0:
-            slots[h] = i
-    found = np.empty(wanted.size, np.int64)
-    flat = wanted.ravel()
-    for j in range(flat.size):
-        h = _mix(flat[j]) & mask
-        while slots[h] >= 0 and keys[slots[h]] != flat[j]:
-            h = (h + 1) & mask
-        found[j] = slots[h]
-    return found
-
-
-@njit(nogil=True, cache=True, inline="always")
-def _mix(key: np.int64) -> np.int64:
-    """A 64-bit finaliser (splitmix64's) spreading a key's bits over the table's slots."""
-    k = np.uint64(key)
-    k = (k ^ (k >> np.uint64(30))) * np.uint64(0xBF58476D1CE4E5B9)
-    k = (k ^ (k >> np.uint64(27))) * np.uint64(0x94D049BB133111EB)
-    return np.int64(k ^ (k >> np.uint64(31)))

@@ -134,7 +134,7 @@ def ring_triangles(
 ) -> RingTriangles:
     """The kept triangles of the samples' image Delaunay triangulation `tri` (see the module docstring)."""
     directions = np.asarray(camera.rays(xy)[1])
-    # the samples' neighbours along their rings need no triangles: found while OpenCV triangulates
+    # the samples' neighbours along their rings need no triangles: found beside the triangulation
     neighbours = pool().submit(ring_pairs, points, xy, ring, settings.normal_smoothing_px)
     tri = delaunay(xy) if tri is None else tri
     tested = _tested(points, xy, ring, camera, projector, directions, tri, settings.max_gap_px)

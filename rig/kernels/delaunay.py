@@ -1,0 +1,190 @@
+"""Delaunay triangles of image points (rig.pipeline.triangulation), compiled by numba: points inserted
+one at a time into a triangle enclosing them all, each found by walking from the last (Lawson's
+incremental algorithm; in the order of a space-filling curve, each walk is a step or two).
+
+A point splits the triangle it falls in into three (or, on an edge, the two beside it into four),
+and each edge opposite it that fails the empty-circle test is flipped, which exposes two more to
+test. Triangles are kept as half-edges: half-edge h of triangle h // 3 runs from corner h to the
+next corner, and `twins[h]` is the same edge run the other way in the neighbouring triangle (-1 on
+the enclosing triangle). Triangles touching the enclosing triangle's corners are left out at the
+end, so a few long thin ones along the points' convex hull are missing.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+from rig.kernels import KERNEL
+
+# A point needs few flips (about 3 on average) and a walk of a few steps; an insertion needing this
+# many has met a degenerate input it cannot settle, and the whole says so instead of looping.
+_MAX_STEPS = 1 << 16
+_STACK = 1 << 12  # edges waiting for the empty-circle test: one more than a point's flips at most
+
+
+@njit(**KERNEL)
+def insert_all(xy: np.ndarray, names: np.ndarray, corners: np.ndarray) -> int:
+    """Delaunay triangles of points `xy` (N + 3, 2; the last three a counter-clockwise triangle
+    around the others), inserted in the order of the rows, into the first rows of `corners` (at
+    least (2N + 1, 3)): counter-clockwise, those touching the enclosing three left out, each point
+    by its name in `names` (N,); returns their count. A point equal to a corner of the triangle it
+    falls in is left out, so the first of coinciding points is the one kept. -1 where a walk or a
+    point's flips go beyond any real input's need."""
+    size = len(xy) - 3
+    tri = corners.ravel()
+    twins = np.full(len(tri), -1, np.int64)
+    stack = np.empty(_STACK, np.int64)
+    count = _add(tri, twins, 0, (size, size + 1, size + 2), (-1, -1, -1))
+    last = 0
+    for p in range(size):
+        t, on_edge = _locate(xy, tri, twins, p, last)
+        if t < 0:
+            return -1
+        if xy[p, 0] == xy[tri[3 * t], 0] and xy[p, 1] == xy[tri[3 * t], 1]:
+            continue
+        if (xy[p, 0] == xy[tri[3 * t + 1], 0] and xy[p, 1] == xy[tri[3 * t + 1], 1]) or (
+            xy[p, 0] == xy[tri[3 * t + 2], 0] and xy[p, 1] == xy[tri[3 * t + 2], 1]
+        ):
+            continue
+        if on_edge >= 0 and twins[on_edge] >= 0:
+            count = _split_edge(tri, twins, count, on_edge, p, stack)
+            pending = 4
+        else:
+            count = _split_triangle(tri, twins, count, t, p, stack)
+            pending = 3
+        if _legalise(xy, tri, twins, stack, pending) < 0:
+            return -1
+        last = t
+    kept = 0
+    for t in range(count):  # in place: row `kept` is never ahead of row t
+        a, b, c = corners[t, 0], corners[t, 1], corners[t, 2]
+        if a < size and b < size and c < size:
+            corners[kept, 0], corners[kept, 1], corners[kept, 2] = names[a], names[b], names[c]
+            kept += 1
+    return kept
+
+
+@njit(**KERNEL)
+def _locate(xy: np.ndarray, tri: np.ndarray, twins: np.ndarray, p: int, start: int) -> tuple[int, int]:
+    """The triangle point p lies in, walked to from triangle `start` across each edge p lies
+    strictly beyond, and the half-edge p lies on (-1 for none); (-1, -1) after _MAX_STEPS."""
+    t = start
+    for _ in range(_MAX_STEPS):
+        moved = False
+        on_edge = -1
+        for j in range(3):
+            h = 3 * t + j
+            side = _side(xy, tri[h], tri[3 * t + (j + 1) % 3], p)
+            if side < 0.0 and twins[h] >= 0:
+                t = twins[h] // 3
+                moved = True
+                break
+            if side == 0.0:
+                on_edge = h
+        if not moved:
+            return t, on_edge
+    return -1, -1
+
+
+@njit(**KERNEL)
+def _split_triangle(tri: np.ndarray, twins: np.ndarray, count: int, t: int, p: int, stack: np.ndarray) -> int:
+    """Triangle t (a, b, c) becomes (a, b, p), and (b, c, p), (c, a, p) are added; their outer
+    edges go on `stack` for the empty-circle test."""
+    h = 3 * t
+    a, b, c = tri[h], tri[h + 1], tri[h + 2]
+    outer_bc, outer_ca = twins[h + 1], twins[h + 2]
+    u, v = 3 * count, 3 * count + 3
+    tri[h + 2] = p
+    count = _add(tri, twins, count, (b, c, p), (outer_bc, -1, h + 1))
+    count = _add(tri, twins, count, (c, a, p), (outer_ca, h + 2, u + 1))
+    stack[0], stack[1], stack[2] = h, u, v
+    return count
+
+
+@njit(**KERNEL)
+def _split_edge(tri: np.ndarray, twins: np.ndarray, count: int, h: int, p: int, stack: np.ndarray) -> int:
+    """Point p on half-edge h (a -> b, in (a, b, c)) and its twin (b -> a, in (b, a, d)): the two
+    become (a, p, c), (b, p, d) in place and (p, b, c), (p, a, d) are added; their outer edges go on
+    `stack`."""
+    g = twins[h]
+    t, u = h - h % 3, g - g % 3
+    h_next, h_prev, g_next, g_prev = t + (h + 1) % 3, t + (h + 2) % 3, u + (g + 1) % 3, u + (g + 2) % 3
+    a, b, c, d = tri[h], tri[h_next], tri[h_prev], tri[g_prev]
+    outer_bc, outer_ad = twins[h_next], twins[g_next]
+    # (a, b, c) -> (a, p, c): h runs a->p, h_next p->c, h_prev c->a as before
+    tri[h_next] = p
+    # (b, a, d) -> (b, p, d): g runs b->p, g_next p->d, g_prev d->b as before
+    tri[g_next] = p
+    first = 3 * count
+    count = _add(tri, twins, count, (p, b, c), (g, outer_bc, h_next))  # p->b twins b->p (g)
+    count = _add(tri, twins, count, (p, a, d), (h, outer_ad, g_next))  # p->a twins a->p (h)
+    stack[0], stack[1], stack[2], stack[3] = h_prev, g_prev, first + 1, first + 4
+    return count
+
+
+@njit(**KERNEL)
+def _side(xy: np.ndarray, a: int, b: int, p: int) -> float:
+    """Positive where p lies left of a -> b, negative right, zero on its line."""
+    return (xy[b, 0] - xy[a, 0]) * (xy[p, 1] - xy[a, 1]) - (xy[b, 1] - xy[a, 1]) * (xy[p, 0] - xy[a, 0])
+
+
+@njit(**KERNEL)
+def _add(tri: np.ndarray, twins: np.ndarray, count: int, corners: tuple, across: tuple) -> int:
+    """Append triangle `corners` (a, b, c), its half-edges a->b, b->c, c->a twinned with `across`."""
+    t = 3 * count
+    for j in range(3):
+        tri[t + j] = corners[j]
+        _twin(twins, t + j, across[j])
+    return count + 1
+
+
+@njit(**KERNEL)
+def _twin(twins: np.ndarray, a: int, b: int) -> None:
+    twins[a] = b
+    if b >= 0:
+        twins[b] = a
+
+
+@njit(**KERNEL)
+def _legalise(xy: np.ndarray, tri: np.ndarray, twins: np.ndarray, stack: np.ndarray, pending: int) -> int:
+    """Flip the first `pending` half-edges of `stack` (each opposite the new point in its triangle),
+    and those each flip exposes, while the point across lies inside the circle of the triangle on
+    this side; returns the flips, -1 where the stack overflows."""
+    top, flips = pending, 0
+    while top > 0:
+        top -= 1
+        a = stack[top]
+        b = twins[a]
+        if b < 0:
+            continue
+        a0, b0 = a - a % 3, b - b % 3
+        a_next, a_prev, b_next, b_prev = a0 + (a + 1) % 3, a0 + (a + 2) % 3, b0 + (b + 1) % 3, b0 + (b + 2) % 3
+        p0, pr, pl, p1 = tri[a_prev], tri[a], tri[a_next], tri[b_prev]
+        if not _in_circle(xy, p0, pr, pl, p1):
+            continue
+        # the quad p0 pr p1 pl: triangles (p0 pr pl), (pl pr p1) become (p1 pl p0), (p0 pr p1)
+        tri[a], tri[b] = p1, p0
+        outer_b, outer_a = twins[b_prev], twins[a_prev]
+        _twin(twins, a, outer_b)
+        _twin(twins, b, outer_a)
+        _twin(twins, a_prev, b_prev)
+        flips += 1
+        if top + 2 > len(stack):
+            return -1
+        stack[top], stack[top + 1] = a, b_next  # the quad's far edges, now opposite p0
+        top += 2
+    return flips
+
+
+@njit(**KERNEL)
+def _in_circle(xy: np.ndarray, a: int, b: int, c: int, d: int) -> bool:
+    """Whether d lies strictly inside the circle through the counter-clockwise a, b, c."""
+    ax, ay = xy[a, 0] - xy[d, 0], xy[a, 1] - xy[d, 1]
+    bx, by = xy[b, 0] - xy[d, 0], xy[b, 1] - xy[d, 1]
+    cx, cy = xy[c, 0] - xy[d, 0], xy[c, 1] - xy[d, 1]
+    return (
+        (ax * ax + ay * ay) * (bx * cy - cx * by)
+        + (bx * bx + by * by) * (cx * ay - ax * cy)
+        + (cx * cx + cy * cy) * (ax * by - bx * ay)
+    ) > 0.0
