@@ -24,6 +24,7 @@ MIN_REGION_SHARE = 0.01  # regions smaller than this share of the area are not j
 SUPPORT_SHARE = 0.2  # a plane holding this share of the view's pixels is what the object stands on
 SUPPORT_SPACINGS = 3.0  # a pixel within this many pixel spacings of that plane lies on it
 _SUPPORT_SAMPLE, _SUPPORT_TRIALS = 4000, 256
+_BLOCK_ROWS = 1 << 16  # points taken at a time for their distance to the plane
 
 
 def pixel_areas(grid: np.ndarray, valid: np.ndarray, max_jump_mm: float) -> np.ndarray:
@@ -100,10 +101,22 @@ def support_plane(grid: np.ndarray, valid: np.ndarray) -> np.ndarray:
         return on
     centre = inliers.mean(axis=0)
     normal = np.linalg.svd(inliers - centre, full_matrices=False)[2][2]
-    distance = np.nan_to_num(np.abs(points[flat] @ normal - centre @ normal), nan=np.inf)
+    distance = _plane_distances(points, flat, normal, float(centre @ normal))
     if (distance <= tight).sum() >= SUPPORT_SHARE * len(flat):
         on.ravel()[flat] = distance <= tolerance
     return on
+
+
+def _plane_distances(points: np.ndarray, rows: np.ndarray, normal: np.ndarray, offset: float) -> np.ndarray:
+    """|points[rows] . normal - offset| (inf for a NaN point), a block of rows at a time: over a
+    whole view at once its float64 temporaries were several times the scan's frames."""
+    distance = np.empty(len(rows))
+    for start in range(0, len(rows), _BLOCK_ROWS):
+        part = distance[start : start + _BLOCK_ROWS]
+        np.matmul(points[rows[start : start + _BLOCK_ROWS]], normal, out=part)
+        np.abs(np.subtract(part, offset, out=part), out=part)
+    distance[np.isnan(distance)] = np.inf
+    return distance
 
 
 def joined_labels(right: np.ndarray, down: np.ndarray, valid: np.ndarray) -> np.ndarray:

@@ -34,6 +34,7 @@ _CELL_PX = 8.0  # the neighbour search's cells: a few samples each, about a ring
 # cache miss); 16 px searched fastest of 8 to 24 on the default bench
 _RING_CELL_PX = 16.0
 _MAX_RING_CELLS = 1_000_000  # rings x cells of their own grids (8 MB of run starts)
+_PIXELS_AT_ONCE = 1 << 14  # pixels filled together: their neighbourhoods take 8 MB (the default bench's 69 000, 35)
 
 
 @dataclass(frozen=True)
@@ -71,40 +72,57 @@ def fill_points(
     found = np.full((len(pixel), 3), np.nan)
     if len(points) < settings.min_samples or len(pixel) == 0:
         return found
-    dist, index = _neighbourhoods(xy, ring, _positions(pixel, camera.width), annulus, settings)
-    use = _one_surface(
-        points, _footprints(points, normals, camera, settings), xy, ring, (dist, index), annulus, settings
-    )
-    rows = np.flatnonzero(use.sum(axis=1) >= settings.min_samples)
-    if len(rows) == 0:
-        return found
-    origins, directions = camera.pixel_rays
-    at = pixel[rows]
-    rays = (np.asarray(origins[at]), np.asarray(directions[at]))
-    met, misfit_mm = _fit_and_meet(points, normals, index[rows], use[rows], rays, settings)
-    smooth = misfit_mm <= settings.max_misfit_px * camera.mm_per_px(np.nan_to_num(met))
-    found[rows[smooth]] = met[smooth]
+    grid = _search_grid(xy, ring, int(annulus.max(initial=0)) + 1)
+    footprint = _footprints(points, normals, camera, settings)
+    for start in range(0, len(pixel), _PIXELS_AT_ONCE):  # a block's neighbourhoods, not the whole fill's
+        part = slice(start, start + _PIXELS_AT_ONCE)
+        dist, index = _neighbourhoods(xy, ring, _positions(pixel[part], camera.width), annulus[part], settings, grid)
+        use = _one_surface(points, footprint, xy, ring, (dist, index), annulus[part], settings)
+        rows = np.flatnonzero(use.sum(axis=1) >= settings.min_samples)
+        if len(rows) == 0:
+            continue
+        origins, directions = camera.pixel_rays
+        at = pixel[part][rows]
+        rays = (np.asarray(origins[at]), np.asarray(directions[at]))
+        met, misfit_mm = _fit_and_meet(points, normals, index[rows], use[rows], rays, settings)
+        smooth = misfit_mm <= settings.max_misfit_px * camera.mm_per_px(np.nan_to_num(met))
+        found[start + rows[smooth]] = met[smooth]
     return found
 
 
+SearchGrid = tuple[np.ndarray, np.ndarray, tuple[object, object], float]
+
+
+def _search_grid(xy: np.ndarray, ring: np.ndarray, rings: int) -> SearchGrid:
+    """The samples as the neighbour search takes them: positions (float64), each ring's count (of
+    `rings` at least), their grid of cells all together and ring by ring, and the ring cells' side."""
+    xy = np.ascontiguousarray(xy, np.float64)
+    members = np.bincount(ring, minlength=rings).astype(np.int64)
+    ring_cell = cell_kernels.group_cell_side(xy, len(members), _RING_CELL_PX, _MAX_RING_CELLS)  # wider for many rings
+    cells = (
+        cell_kernels.sample_cells(xy, _CELL_PX),
+        cell_kernels.group_cells(xy, ring.astype(np.int64), len(members), ring_cell),
+    )
+    return xy, members, cells, ring_cell
+
+
 def _neighbourhoods(
-    xy: np.ndarray, ring: np.ndarray, at: np.ndarray, annulus: np.ndarray, settings: FillSettings
+    xy: np.ndarray,
+    ring: np.ndarray,
+    at: np.ndarray,
+    annulus: np.ndarray,
+    settings: FillSettings,
+    grid: SearchGrid | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """(N, 2k) distances (inf beyond the reach, for a sample listed already, or everywhere for a
     pixel its two rings do not both reach) and sample indices (0 there) of each pixel's `k` nearest
     samples of any ring, then of its annulus' rings (k / 2 each): the first tell whether another
     surface is in reach, the others join the fit, an equal share from each ring however much closer
     one of them runs (at a limb, or where one ring ends, the nearest of all would be of one ring
-    only). A grid of cells and a compiled search
+    only). A grid of cells (`grid`: _search_grid's, where made already) and a compiled search
     (rig.kernels.fill.fill_neighbourhoods), a span of pixels per thread."""
     k, reach = settings.neighbours, float(settings.reach_px)
-    xy = np.ascontiguousarray(xy, np.float64)
-    members = np.bincount(ring, minlength=int(annulus.max(initial=0)) + 1).astype(np.int64)
-    ring_cell = cell_kernels.group_cell_side(xy, len(members), _RING_CELL_PX, _MAX_RING_CELLS)  # wider for many rings
-    cells = (
-        cell_kernels.sample_cells(xy, _CELL_PX),
-        cell_kernels.group_cells(xy, ring.astype(np.int64), len(members), ring_cell),
-    )
+    xy, members, cells, ring_cell = grid or _search_grid(xy, ring, int(annulus.max(initial=0)) + 1)
     arrays = (xy, members, cells, np.ascontiguousarray(at), annulus.astype(np.int64))
     dist, index = np.empty((len(at), 2 * k)), np.empty((len(at), 2 * k), np.int64)
 

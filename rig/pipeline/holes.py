@@ -28,12 +28,11 @@ def surface_holes(surface: RingSurface, bands: RingBands, lit: np.ndarray, camer
     promised = lit & (bands.annulus >= 0) & (bands.annulus <= int(found.max()))
     missing = (promised & ~surface.valid).astype(np.uint8)
     _, _, stats, centres = cv2.connectedComponentsWithStats(missing, connectivity=8)
-    depth = camera.to_device(np.nan_to_num(surface.grid.reshape(-1, 3)))[:, 2].reshape(surface.valid.shape)
     holes = []
     for label in np.flatnonzero(stats[1:, cv2.CC_STAT_AREA] >= MIN_HOLE_PX) + 1:
         x, y, w, h = (int(v) for v in stats[label, :4])
         window = (slice(max(0, y - _RIM_PX), y + h + _RIM_PX), slice(max(0, x - _RIM_PX), x + w + _RIM_PX))
-        around = depth[window][surface.valid[window]]
+        around = camera.to_device(surface.grid[window][surface.valid[window]])[:, 2]  # the rim's depths alone
         if len(around) == 0:
             continue
         footprint = (float(np.median(around)) if camera.projection != "orthographic" else 1.0) / camera.K[0, 0]
