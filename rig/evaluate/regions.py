@@ -129,12 +129,13 @@ def joined_labels(right: np.ndarray, down: np.ndarray, valid: np.ndarray) -> np.
     return region_kernels.joined_labels(right, down, np.ascontiguousarray(valid, np.bool_))
 
 
-def weighted_quantile(values: np.ndarray, weights: np.ndarray, q: float) -> float:
-    """The value below which a share `q` of the total weight lies (the lower value at a tie)."""
-    order = np.argsort(values, kind="stable")
+def weighted_quantile(values: np.ndarray, weights: np.ndarray, q: float, order: np.ndarray | None = None) -> float:
+    """The value below which a share `q` of the total weight lies (the lower value at a tie);
+    `order`: the values' stable ascending order, where known."""
+    order = np.argsort(values, kind="stable") if order is None else order
     cumulative = np.cumsum(weights[order])
     at = int(np.searchsorted(cumulative, q * cumulative[-1], side="left"))
-    return float(values[order][min(at, len(values) - 1)])
+    return float(values[order[min(at, len(values) - 1)]])
 
 
 @dataclass(frozen=True)
@@ -155,15 +156,22 @@ def region_errors(
     """The whole surface's area-weighted error, and each region's that holds at least `min_share`
     of the area, largest first."""
     total = float(areas.sum())
-    whole = _error(distances, areas, total, q)
+    order = np.argsort(distances, kind="stable")  # once: a region's own order is this one's, restricted to it
+    whole = _error(distances, areas, total, q, order)
     per_label = np.bincount(labels, weights=areas)  # a scan's many specks are never visited one by one
     large = np.flatnonzero(per_label >= min_share * total)
-    regions = [_error(distances[labels == label], areas[labels == label], total, q) for label in large]
+    ranked = labels[order]
+    regions = []
+    for label in large:
+        members = labels == label
+        position = np.cumsum(members) - 1  # each member's place among the region's own
+        own_order = position[order[ranked == label]]
+        regions.append(_error(distances[members], areas[members], total, q, own_order))
     return whole, sorted(regions, key=lambda r: -r.area_mm2)
 
 
-def _error(distances: np.ndarray, areas: np.ndarray, total: float, q: float) -> RegionError:
+def _error(distances: np.ndarray, areas: np.ndarray, total: float, q: float, order: np.ndarray) -> RegionError:
     area = float(areas.sum())
     rms = float(np.sqrt(np.sum(areas * distances.astype(np.float64) ** 2) / area)) if area > 0 else 0.0
-    return RegionError(area, area / total if total > 0 else 0.0, weighted_quantile(distances, areas, q), rms,
+    return RegionError(area, area / total if total > 0 else 0.0, weighted_quantile(distances, areas, q, order), rms,
                        float(distances.max()))  # fmt: skip

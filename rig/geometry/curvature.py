@@ -18,11 +18,17 @@ the viewer, a sphere seen from outside), negative in a hollow.
 from __future__ import annotations
 
 import dataclasses
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
 from scipy.ndimage import gaussian_filter1d
 from scipy.spatial import cKDTree
+
+from rig.lazy import lazy_module
+from rig.workers import batches, pool
+
+curvature_kernels = lazy_module("rig.kernels.curvature")  # numba compiles on first use
 
 # Neighbours at most per fit (of the voxel-averaged cloud): a disc of `radius_mm` holds about 50.
 _MAX_NEIGHBOURS = 96
@@ -112,45 +118,49 @@ def principal_curvatures(
         raise ValueError(f"curvature needs at least {min_neighbours} points, got {len(points)}")
     grid = voxel_average(points, radius_mm / 4.0)
     centres = grid if spacing_mm is None else voxel_average(grid, spacing_mm)
-    query = cKDTree(grid).query(centres, k=min(_MAX_NEIGHBOURS, len(grid)), distance_upper_bound=radius_mm)
-    distance, index = query
+    distance, index = cKDTree(grid).query(centres, k=min(_MAX_NEIGHBOURS, len(grid)), distance_upper_bound=radius_mm)
     inside = np.isfinite(distance)
     index = np.where(inside, index, 0)
-    local = grid[index] - centres[:, None, :]
-    local[~inside] = 0.0
     count = inside.sum(axis=1)
-    normal, e1, e2, flatness = _local_frames(local, count, centres, np.asarray(viewpoint, float))
-    x = np.einsum("mkj,mj->mk", local, e1)
-    y = np.einsum("mkj,mj->mk", local, e2)
-    z = np.einsum("mkj,mj->mk", local, normal)
-    design = np.stack([x * x, x * y, y * y, x, y, np.ones_like(x)], axis=2) * inside[..., None]
-    gram = np.einsum("mki,mkj->mij", design, design) + 1e-9 * np.eye(6)
-    coef = np.linalg.solve(gram, np.einsum("mki,mk->mi", design, z * inside)[..., None])[..., 0]
-    residual = np.einsum("mki,mi->mk", design, coef) - z * inside
-    rms = np.sqrt((residual**2).sum(axis=1) / np.maximum(count - 6, 1))
+    neighbours = (grid, np.ascontiguousarray(centres), np.ascontiguousarray(index, np.int64), inside)
+    normal, e1, e2, flatness = _local_frames(neighbours, np.asarray(viewpoint, float))
+    frames = np.ascontiguousarray(np.stack([e1, e2, normal], axis=1))
+    size = len(centres)
+    gram, right, along = np.empty((size, 6, 6)), np.empty((size, 6)), np.empty((size, 2))
+    _each_centre(curvature_kernels.quadric_sums, (*neighbours, frames, gram, right, along), size)
+    gram += 1e-9 * np.eye(6)
+    coef = np.linalg.solve(gram, right[..., None])[..., 0]
+    squares = np.empty(size)
+    _each_centre(curvature_kernels.quadric_misfits, (*neighbours, frames, coef, squares), size)
+    rms = np.sqrt(squares / np.maximum(count - 6, 1))
     k1, k2, d1, d2 = _weingarten(coef, e1, e2, normal)
     conditioned = np.linalg.cond(gram[:, :5, :5]) < 1e10
     # At the border of what was scanned the neighbours sit on one side: the fit extrapolates.
-    offset = np.hypot(x.sum(axis=1), y.sum(axis=1)) / np.maximum(count, 1)
+    offset = np.hypot(along[:, 0], along[:, 1]) / np.maximum(count, 1)
     valid = (count >= min_neighbours) & conditioned & np.isfinite(k1) & (offset < _MAX_OFFSET * radius_mm)
     valid &= flatness >= _MIN_SPREAD  # neighbours along one curve (a single ring) do not make a surface
     return SurfaceCurvature(centres, normal, k1, k2, d1, d2, rms, count, valid, radius_mm)
 
 
+def _each_centre(kernel: Callable[..., None], arrays: tuple[np.ndarray, ...], size: int) -> None:
+    """A compiled pass (rig.kernels.curvature) over the centres, a span of them per thread."""
+    list(pool().map(lambda span: kernel(*arrays, *span), batches(size)))
+
+
 def _local_frames(
-    local: np.ndarray, count: np.ndarray, centres: np.ndarray, viewpoint: np.ndarray
+    neighbours: tuple[np.ndarray, ...], viewpoint: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Normal (the neighbours' least-variance direction, toward the viewpoint), two tangents, and
-    how evenly the neighbours spread across the tangent plane (second / first variance)."""
-    mean = local.sum(axis=1) / np.maximum(count, 1)[:, None]
-    spread = local - mean[:, None, :]
-    spread[np.all(local == 0.0, axis=2)] = 0.0
-    cov = np.einsum("mki,mkj->mij", spread, spread)
+    how evenly the neighbours spread across the tangent plane (second / first variance);
+    neighbours: the grid, the centres, each one's neighbours in the grid and which are in reach."""
+    size = len(neighbours[1])
+    mean, cov = np.empty((size, 3)), np.empty((size, 3, 3))
+    _each_centre(curvature_kernels.neighbour_spread, (*neighbours, mean, cov), size)
     values, vectors = np.linalg.eigh(cov)
     spread_ratio = values[:, 1] / np.maximum(values[:, 2], 1e-300)
     normal = vectors[:, :, 0]
     e1 = vectors[:, :, 2]
-    flip = np.einsum("ij,ij->i", normal, viewpoint - centres) < 0
+    flip = np.einsum("ij,ij->i", normal, viewpoint - neighbours[1]) < 0
     normal[flip] *= -1
     e2 = np.cross(normal, e1)
     return normal, e1, e2, spread_ratio

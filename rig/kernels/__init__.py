@@ -10,8 +10,9 @@ terms, each pixel's point on its face and its band agreement; `fill`: the ring s
 neighbourhoods, one-surface test and height-field fits; `colour`: the colour between the rings;
 `vectors`: three-vectors as rows, read in place; `cells`: image points in a grid of cells (all
 together or by ring) and the nearest-neighbour searches over it; `regions`: evaluation's surface
-regions; `cone`: camera rays against their rings' cones; `lens`: lens distortion inverted. Each is
-compiled on first use and cached beside it (__pycache__)."""
+regions; `cone`: camera rays against their rings' cones; `lens`: lens distortion inverted;
+`curvature`: the surface curvature's per-point sums. Each is compiled on first use and cached beside
+it (__pycache__)."""
 
 import numpy as np
 
