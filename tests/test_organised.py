@@ -126,8 +126,27 @@ def test_a_ray_that_runs_in_its_plane_is_no_point_and_no_error() -> None:
     ray, depth = np.empty(shape, np.float32), np.empty(shape, np.float32)
     decoded = np.empty(shape, bool)
     dense.plane_triangulate(
-        image, np.ones(shape, bool), image, zero, c, zero, np.float32(0.0), np.float32(0.0), image,
+        image, np.ones(shape, bool), (np.float32(1.0), np.float32(0.0)), c, zero, np.float32(0.0), np.float32(0.0),
+        image,
         ray, depth, decoded, 0, shape[0],
     )  # fmt: skip
     assert decoded.tolist() == [[False, True, False], [True, False, True]]
     assert np.isnan(ray[c == 0]).all() and np.allclose(ray[c != 0], 1.0 / c[c != 0])
+
+
+def test_plane_terms_hold_a_and_b_as_numbers_and_refuse_rays_from_several_points() -> None:
+    """The fast path's a and b are the same at every pixel of a camera whose rays all leave its
+    centre: two numbers, not two images; terms from rays that leave from more than one point are
+    refused rather than read at their first pixel."""
+    from rig.geometry import CameraModel
+    from rig.pipeline.organised import PlaneTerms
+
+    camera = CameraModel(40, 30, np.array([[50.0, 0, 19.5], [0, 50.0, 14.5], [0, 0, 1]]), np.eye(3), np.zeros(3))
+    size = camera.width * camera.height
+    varying = np.linspace(1.0, 2.0, size)
+    terms = (np.ones(size), np.full(size, 0.1), np.full(size, 3.0), np.full(size, 0.5), 7.0, 2.0)
+    planes = PlaneTerms(camera, "u", terms, 0.01, -0.5)
+    assert np.ndim(planes.a) == 0 and np.ndim(planes.b) == 0
+    assert planes.a == np.float32(7.0 - 3.0 + (2.0 - 0.5) * -0.5) and planes.b == np.float32((2.0 - 0.5) * 0.01)
+    with pytest.raises(ValueError, match="more than one point"):
+        PlaneTerms(camera, "u", (*terms[:2], varying, *terms[3:]), 0.01, -0.5)

@@ -188,3 +188,27 @@ def test_a_bench_built_again_reuses_the_geometry_and_a_moved_camera_or_scene_doe
     np.testing.assert_allclose(
         dimmer.ground_truth(0, 0).white_irradiance[lit] - 0.02, 0.5 * (first.white_irradiance[lit] - 0.02), rtol=1e-5
     )
+
+
+def test_a_printed_plane_paints_its_own_pixels_alone_each_with_its_footprints_mean() -> None:
+    """paint_planar_textures over part of a view: a pixel of the plane takes the mean of the print
+    over its footprint (for a print linear in position, the print at the pixel's centre), at the
+    plane's edge too; a pixel of another object or of nothing keeps its albedo."""
+    from drivers.sim.texture import PlanarTexture, paint_planar_textures
+
+    height, width = 40, 60
+    rows, cols = np.mgrid[0:height, 0:width].astype(np.float64)
+    points = np.stack([cols * 0.5, rows * 0.5, np.zeros_like(cols)], axis=-1).reshape(-1, 3)  # 0.5 mm a pixel
+    faces = np.full((height, width), -1)
+    faces[5:30, 10:45] = 0  # the plane: object 0's face
+    faces[30:35, 10:45] = 1  # another object below it
+    ramp = np.tile(np.linspace(0.2, 0.8, 200, dtype=np.float32), (120, 1))  # linear along the print's x
+    texture = PlanarTexture(ramp, 0.25, np.zeros(3), np.eye(3))
+    albedo = np.full((height, width, 3), 0.5, np.float32)
+    paint_planar_textures(albedo, points, faces.ravel(), [texture, None], np.array([0, 1]))
+    plane = faces == 0
+    assert (albedo[~plane] == 0.5).all()
+    col_in_print = cols[plane] * 0.5 / 0.25 - 0.5  # the pixel centre's print column
+    expected = np.interp(col_in_print, np.arange(200), ramp[0])
+    assert np.abs(albedo[plane][:, 0] - expected).max() < 1e-5
+    assert np.array_equal(albedo[plane][:, 0], albedo[plane][:, 2])

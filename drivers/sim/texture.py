@@ -138,22 +138,27 @@ def paint_planar_textures(
     for index, tex in enumerate(textures):
         if tex is None:
             continue
-        mine = (faces >= 0) & (face_object[np.maximum(faces, 0)] == index)
-        if not mine.any():
+        mine = ((faces >= 0) & (face_object[np.maximum(faces, 0)] == index)).reshape(shape)
+        rows, cols = np.flatnonzero(mine.any(axis=1)), np.flatnonzero(mine.any(axis=0))
+        if len(rows) == 0:
             continue
-        local = (points - tex.origin) @ tex.axes[:, :2] / tex.mm_per_px - 0.5  # texture pixel coords
-        local[~mine] = np.nan
-        grid = local.reshape(*shape, 2).astype(np.float32)
+        # The plane's bounding box and a pixel around it: each pixel's samples need its own derivative
+        # alone, and the derivative its neighbours; the rest of the view is not painted.
+        box = (slice(max(rows[0] - 1, 0), rows[-1] + 2), slice(max(cols[0] - 1, 0), cols[-1] + 2))
+        inside = mine[box]
+        local = (points.reshape(*shape, 3)[box] - tex.origin) @ tex.axes[:, :2] / tex.mm_per_px - 0.5
+        local[~inside] = np.nan  # texture pixel coordinates, on this plane only
+        grid = local.astype(np.float32)
         d_row, d_col = np.gradient(grid, axis=(0, 1))
         for axis_grad in (d_row, d_col):  # at the edge of the plane, extend the derivative
             bad = ~np.isfinite(axis_grad)
             axis_grad[bad] = 0.0
         grid[~np.isfinite(grid)] = -1.0  # pixels of other objects: sampled, then not used
-        total = np.zeros(shape, dtype=np.float32)
+        total = np.zeros(inside.shape, dtype=np.float32)
         offsets = (np.arange(4, dtype=np.float32) + 0.5) / 4 - 0.5
         for dy in offsets:
             for dx in offsets:
                 sample = grid + dx * d_col + dy * d_row
                 total += cv2.remap(tex.image, sample, None, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
         value = total / 16.0
-        albedo[mine.reshape(shape)] = value[mine.reshape(shape), None]
+        albedo[box][inside] = value[inside, None]

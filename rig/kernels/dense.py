@@ -104,8 +104,7 @@ def gray_accept(
 def plane_triangulate(
     coded: Image,
     valid: Image,
-    a: Image,
-    b: Image,
+    constants: tuple[np.float32, np.float32],
     c: Image,
     d: Image,
     scale: np.float32,
@@ -118,18 +117,19 @@ def plane_triangulate(
     bottom: int,
 ) -> None:
     """Camera rays against the planes of coded projector columns (or rows): the ray parameter
-    s = (a + b x) / (c + d x) (the point is s * direction, relative to the camera centre) and
-    its depth along the camera axis, NaN where not decoded or the ray runs along the plane or behind.
-    Every pixel takes the same steps, whatever it reads (numpy's float division: a ray in the plane
-    gives inf, not an exception), so the loop runs in vector lanes: 2.5 times as fast as with a
-    branch per pixel on a 5 MP image."""
+    s = (a + b x) / (c + d x) (the point is s * direction, relative to the camera centre; a and b,
+    `constants`, the same at every pixel) and its depth along the camera axis, NaN where not decoded
+    or the ray runs along the plane or behind. Every pixel takes the same steps, whatever it reads
+    (numpy's float division: a ray in the plane gives inf, not an exception), so the loop runs in
+    vector lanes: 2.5 times as fast as with a branch per pixel on a 5 MP image."""
     nan, tiny, one, zero = np.float32(np.nan), np.float32(1e-3), np.float32(1), np.float32(0)
+    a, b = constants
     for y in range(top, bottom):
         for x in range(coded.shape[1]):
             u = coded[y, x]
             denominator = c[y, x] + d[y, x] * u
             normalised = u * scale + shift
-            s = (a[y, x] + b[y, x] * u) / denominator
+            s = (a + b * u) / denominator
             ok = valid[y, x] and abs(denominator) >= tiny * np.sqrt(one + normalised * normalised) and s > zero
             s = s if ok else nan
             decoded[y, x] = ok

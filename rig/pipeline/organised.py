@@ -101,20 +101,25 @@ class PixelTerms(abc.ABC):
 
 class PlaneTerms(PixelTerms):
     """A pair whose camera ray meets the plane of a projector column (or row) x: the ray parameter
-    is s = (a + b x) / (c + d x), all float32 (H, W)."""
+    is s = (a + b x) / (c + d x), c and d float32 (H, W); a and b are the same at every pixel (the
+    camera's rays all leave its centre), so they are two numbers, not two images to read."""
 
     def __init__(
         self, camera: CameraModel, axis: str, terms: tuple[np.ndarray, ...], scale: float, shift: float
     ) -> None:
         """`terms`: PairTriangulator's plane terms (nd_a, nd_b, no_a, no_b, c0, c1) of a camera whose
-        rays all leave its centre; x normalised = scale * coded + shift."""
+        rays all leave its centre (no_a and no_b the same at every pixel); x normalised = scale *
+        coded + shift."""
         super().__init__(camera)
         self.axis = axis
         nd_a, nd_b, no_a, no_b, c0, c1 = terms
+        no_a, no_b = np.atleast_1d(no_a), np.atleast_1d(no_b)
+        if np.ptp(no_a) != 0 or np.ptp(no_b) != 0:
+            raise ValueError("plane terms of a camera whose rays leave from more than one point")
         shape = (camera.height, camera.width)
         # s = (c0 - no_a + (c1 - no_b) x) / (nd_a + nd_b x), with x = scale * coded + shift
-        self.a = np.broadcast_to(c0 - no_a + (c1 - no_b) * shift, shape[0] * shape[1]).astype(np.float32).reshape(shape)
-        self.b = np.broadcast_to((c1 - no_b) * scale, shape[0] * shape[1]).astype(np.float32).reshape(shape)
+        self.a = np.float32(c0 - no_a[0] + (c1 - no_b[0]) * shift)
+        self.b = np.float32((c1 - no_b[0]) * scale)
         self.c = (nd_a + nd_b * shift).astype(np.float32).reshape(shape)
         self.d = (nd_b * scale).astype(np.float32).reshape(shape)
         self.scale, self.shift = np.float32(scale), np.float32(shift)
@@ -123,7 +128,7 @@ class PlaneTerms(PixelTerms):
         coded = corr.u if self.axis == "u" else corr.v
         assert coded is not None
         kernels.plane_triangulate(
-            coded, corr.valid, self.a, self.b, self.c, self.d, self.scale, self.shift,
+            coded, corr.valid, (self.a, self.b), self.c, self.d, self.scale, self.shift,
             self.along_axis, ray, depth, decoded, rows.start, rows.stop,
         )  # fmt: skip
 
