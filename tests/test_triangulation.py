@@ -86,6 +86,55 @@ def test_each_circle_is_empty_and_the_hull_is_covered(shape: str) -> None:
     assert uses.max() == 2  # an edge between two triangles at most
 
 
+@pytest.mark.parametrize("shape", ["circle", "parabola"])
+def test_points_on_one_circle_or_a_flat_curve_need_no_fallback(shape: str, monkeypatch: pytest.MonkeyPatch) -> None:
+    """Points exactly on one circle (every four of them too: rounding would flip edges back and
+    forth) and points along a nearly straight curve (long thin triangles, long walks) are the
+    insertion's own to triangulate, not Qhull's."""
+    import rig.pipeline.triangulation as triangulation
+
+    def refuse(xy: np.ndarray) -> np.ndarray:
+        raise AssertionError("fell back to Qhull")
+
+    monkeypatch.setattr(triangulation, "_qhull", refuse)
+    if shape == "circle":
+        angle = np.sort(RNG.uniform(0, 2 * np.pi, 3000))
+        xy = 1500.0 * np.column_stack([np.cos(angle), np.sin(angle)])
+    else:
+        x = np.sort(RNG.uniform(0, 4000, 20000))
+        xy = np.column_stack([x, 1e-4 * (x - 2000) ** 2])
+    triangles = delaunay(xy)
+    assert (_areas(xy, triangles) > 0).all()
+    assert abs(_areas(xy, triangles).sum() / ConvexHull(xy).volume - 1) < 0.01
+    if shape == "circle":
+        assert len(triangles) >= len(xy) - 2 - 10  # a fan of the polygon, but a few along the hull
+
+
+def test_where_the_insertion_gives_up_qhull_answers(monkeypatch: pytest.MonkeyPatch) -> None:
+    import rig.pipeline.triangulation as triangulation
+
+    xy = RNG.uniform(0, 300, size=(400, 2))
+    expected = _as_set(delaunay(xy))
+
+    class GivesUp:
+        @staticmethod
+        def insert_all(*arrays: np.ndarray) -> int:
+            return -1
+
+    monkeypatch.setattr(triangulation, "delaunay_kernels", GivesUp)
+    assert expected <= _as_set(delaunay(xy))
+
+
+def test_a_coordinate_that_is_not_finite_is_refused_and_minus_zero_is_zero() -> None:
+    xy = RNG.uniform(0, 100, size=(50, 2))
+    xy[7, 1] = np.nan
+    with pytest.raises(ValueError, match="not finite"):
+        delaunay(xy)
+    xy[7, 1] = 5.0
+    xy[3], xy[20] = (0.0, 12.5), (-0.0, 12.5)  # equal points, other bits
+    assert 20 not in delaunay(xy)  # the first of them is kept
+
+
 def test_degenerate_inputs_give_no_triangles() -> None:
     assert delaunay(np.zeros((0, 2))).shape == (0, 3)
     assert delaunay(np.array([[0.0, 0.0], [1.0, 1.0]])).shape == (0, 3)

@@ -30,7 +30,8 @@ def true_ring_crossings(
     decoder, crossings are taken between vertical neighbours where the ring runs more across columns,
     between horizontal ones elsewhere, so one crossing stands for 1 / max(|cos|, |sin|) of length.
     A band of rows at a time (_STRIP_ROWS, with a row either side for the gradient and the vertical
-    pairs): over the whole image at once, the float64 temporaries came to 10x the scan's frames."""
+    pairs), in the order of the bands: over the whole image at once, the float64 temporaries came
+    to 10x the scan's frames."""
     height = truth.hit.shape[0]
     found: tuple[list[np.ndarray], list[np.ndarray], list[np.ndarray]] = ([], [], [])
     for top in range(0, height, _STRIP_ROWS):

@@ -1,6 +1,7 @@
 """Delaunay triangles of image points (rig.pipeline.triangulation), compiled by numba: points inserted
 one at a time into a triangle enclosing them all, each found by walking from the last (Lawson's
-incremental algorithm; in the order of a space-filling curve, each walk is a step or two).
+incremental algorithm; in rounds along a space-filling curve, rig.pipeline.triangulation, each walk
+is a few steps).
 
 A point splits the triangle it falls in into three (or, on an edge, the two beside it into four),
 and each edge opposite it that fails the empty-circle test is flipped, which exposes two more to
@@ -17,10 +18,11 @@ from numba import njit
 
 from rig.kernels import KERNEL
 
-# A point needs few flips (about 3 on average) and a walk of a few steps; an insertion needing this
-# many has met a degenerate input it cannot settle, and the whole says so instead of looping.
-_MAX_STEPS = 1 << 16
-_STACK = 1 << 12  # edges waiting for the empty-circle test: one more than a point's flips at most
+# A point lying this close to a circle (relative to the test's own rounding bound, Shewchuk's
+# ~2e-15 of its terms' magnitude) counts as on it, and its edge is not flipped: with four points on
+# one circle either diagonal is Delaunay, and flipping on rounding noise made points all on one
+# circle flip about every edge at every arrival.
+_ON_CIRCLE = 1e-12
 
 
 @njit(**KERNEL)
@@ -29,23 +31,20 @@ def insert_all(xy: np.ndarray, names: np.ndarray, corners: np.ndarray) -> int:
     around the others), inserted in the order of the rows, into the first rows of `corners` (at
     least (2N + 1, 3)): counter-clockwise, those touching the enclosing three left out, each point
     by its name in `names` (N,); returns their count. A point equal to a corner of the triangle it
-    falls in is left out, so the first of coinciding points is the one kept. -1 where a walk or a
-    point's flips go beyond any real input's need."""
+    falls in is left out, so the first of coinciding points is the one kept. -1 where a walk visits
+    more triangles than there are (it went round in a circle: rounding left the triangles short of
+    Delaunay)."""
     size = len(xy) - 3
-    tri = corners.ravel()
+    tri = corners.reshape(-1)  # a view, or an error: never a copy the caller would not see
     twins = np.full(len(tri), -1, np.int64)
-    stack = np.empty(_STACK, np.int64)
+    stack = np.empty(len(tri) + 4, np.int64)  # a point's four edges, and two more for each flip at most
     count = _add(tri, twins, 0, (size, size + 1, size + 2), (-1, -1, -1))
     last = 0
     for p in range(size):
-        t, on_edge = _locate(xy, tri, twins, p, last)
+        t, on_edge = _locate(xy, tri, twins, p, last, count)
         if t < 0:
             return -1
-        if xy[p, 0] == xy[tri[3 * t], 0] and xy[p, 1] == xy[tri[3 * t], 1]:
-            continue
-        if (xy[p, 0] == xy[tri[3 * t + 1], 0] and xy[p, 1] == xy[tri[3 * t + 1], 1]) or (
-            xy[p, 0] == xy[tri[3 * t + 2], 0] and xy[p, 1] == xy[tri[3 * t + 2], 1]
-        ):
+        if _same(xy, p, tri[3 * t]) or _same(xy, p, tri[3 * t + 1]) or _same(xy, p, tri[3 * t + 2]):
             continue
         if on_edge >= 0 and twins[on_edge] >= 0:
             count = _split_edge(tri, twins, count, on_edge, p, stack)
@@ -53,8 +52,7 @@ def insert_all(xy: np.ndarray, names: np.ndarray, corners: np.ndarray) -> int:
         else:
             count = _split_triangle(tri, twins, count, t, p, stack)
             pending = 3
-        if _legalise(xy, tri, twins, stack, pending) < 0:
-            return -1
+        _legalise(xy, tri, twins, stack, pending)
         last = t
     kept = 0
     for t in range(count):  # in place: row `kept` is never ahead of row t
@@ -66,11 +64,12 @@ def insert_all(xy: np.ndarray, names: np.ndarray, corners: np.ndarray) -> int:
 
 
 @njit(**KERNEL)
-def _locate(xy: np.ndarray, tri: np.ndarray, twins: np.ndarray, p: int, start: int) -> tuple[int, int]:
+def _locate(xy: np.ndarray, tri: np.ndarray, twins: np.ndarray, p: int, start: int, count: int) -> tuple[int, int]:
     """The triangle point p lies in, walked to from triangle `start` across each edge p lies
-    strictly beyond, and the half-edge p lies on (-1 for none); (-1, -1) after _MAX_STEPS."""
+    strictly beyond, and the half-edge p lies on (-1 for none). In a Delaunay triangulation such a
+    walk never enters a triangle twice; (-1, -1) after more steps than the `count` triangles."""
     t = start
-    for _ in range(_MAX_STEPS):
+    for _ in range(count + 1):
         moved = False
         on_edge = -1
         for j in range(3):
@@ -140,7 +139,13 @@ def _add(tri: np.ndarray, twins: np.ndarray, count: int, corners: tuple, across:
 
 
 @njit(**KERNEL)
+def _same(xy: np.ndarray, p: int, q: int) -> bool:
+    return xy[p, 0] == xy[q, 0] and xy[p, 1] == xy[q, 1]
+
+
+@njit(**KERNEL)
 def _twin(twins: np.ndarray, a: int, b: int) -> None:
+    """Half-edges a and b run along one edge the two ways (b -1: a lies on the enclosing triangle)."""
     twins[a] = b
     if b >= 0:
         twins[b] = a
@@ -150,7 +155,8 @@ def _twin(twins: np.ndarray, a: int, b: int) -> None:
 def _legalise(xy: np.ndarray, tri: np.ndarray, twins: np.ndarray, stack: np.ndarray, pending: int) -> int:
     """Flip the first `pending` half-edges of `stack` (each opposite the new point in its triangle),
     and those each flip exposes, while the point across lies inside the circle of the triangle on
-    this side; returns the flips, -1 where the stack overflows."""
+    this side; returns the flips. Each flip takes one edge off the stack and puts two on, and adds
+    an edge at the new point, so the stack never holds more than the half-edges plus four."""
     top, flips = pending, 0
     while top > 0:
         top -= 1
@@ -170,8 +176,6 @@ def _legalise(xy: np.ndarray, tri: np.ndarray, twins: np.ndarray, stack: np.ndar
         _twin(twins, b, outer_a)
         _twin(twins, a_prev, b_prev)
         flips += 1
-        if top + 2 > len(stack):
-            return -1
         stack[top], stack[top + 1] = a, b_next  # the quad's far edges, now opposite p0
         top += 2
     return flips
@@ -179,12 +183,11 @@ def _legalise(xy: np.ndarray, tri: np.ndarray, twins: np.ndarray, stack: np.ndar
 
 @njit(**KERNEL)
 def _in_circle(xy: np.ndarray, a: int, b: int, c: int, d: int) -> bool:
-    """Whether d lies strictly inside the circle through the counter-clockwise a, b, c."""
+    """Whether d lies inside the circle through the counter-clockwise a, b, c by more than rounding."""
     ax, ay = xy[a, 0] - xy[d, 0], xy[a, 1] - xy[d, 1]
     bx, by = xy[b, 0] - xy[d, 0], xy[b, 1] - xy[d, 1]
     cx, cy = xy[c, 0] - xy[d, 0], xy[c, 1] - xy[d, 1]
-    return (
-        (ax * ax + ay * ay) * (bx * cy - cx * by)
-        + (bx * bx + by * by) * (cx * ay - ax * cy)
-        + (cx * cx + cy * cy) * (ax * by - bx * ay)
-    ) > 0.0
+    a2, b2, c2 = ax * ax + ay * ay, bx * bx + by * by, cx * cx + cy * cy
+    ab, bc, ca = ax * by - bx * ay, bx * cy - cx * by, cx * ay - ax * cy
+    bound = a2 * (abs(bx * cy) + abs(cx * by)) + b2 * (abs(cx * ay) + abs(ax * cy)) + c2 * (abs(ax * by) + abs(bx * ay))
+    return a2 * bc + b2 * ca + c2 * ab > _ON_CIRCLE * bound

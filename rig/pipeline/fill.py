@@ -34,7 +34,7 @@ _CELL_PX = 8.0  # the neighbour search's cells: a few samples each, about a ring
 # cache miss); 16 px searched fastest of 8 to 24 on the default bench
 _RING_CELL_PX = 16.0
 _MAX_RING_CELLS = 1_000_000  # rings x cells of their own grids (8 MB of run starts)
-_PIXELS_AT_ONCE = 1 << 14  # pixels filled together: their neighbourhoods take 8 MB (the default bench's 69 000, 35)
+_PIXELS_AT_ONCE = 1 << 14  # pixels filled together: their neighbourhoods take 8 MB, not 35 for all at once
 
 
 @dataclass(frozen=True)
@@ -74,6 +74,7 @@ def fill_points(
         return found
     grid = _search_grid(xy, ring, int(annulus.max(initial=0)) + 1)
     footprint = _footprints(points, normals, camera, settings)
+    origins, directions = camera.pixel_rays
     for start in range(0, len(pixel), _PIXELS_AT_ONCE):  # a block's neighbourhoods, not the whole fill's
         part = slice(start, start + _PIXELS_AT_ONCE)
         dist, index = _neighbourhoods(xy, ring, _positions(pixel[part], camera.width), annulus[part], settings, grid)
@@ -81,7 +82,6 @@ def fill_points(
         rows = np.flatnonzero(use.sum(axis=1) >= settings.min_samples)
         if len(rows) == 0:
             continue
-        origins, directions = camera.pixel_rays
         at = pixel[part][rows]
         rays = (np.asarray(origins[at]), np.asarray(directions[at]))
         met, misfit_mm = _fit_and_meet(points, normals, index[rows], use[rows], rays, settings)

@@ -114,7 +114,7 @@ class PlaneTerms(PixelTerms):
         self.axis = axis
         nd_a, nd_b, no_a, no_b, c0, c1 = terms
         no_a, no_b = np.atleast_1d(no_a), np.atleast_1d(no_b)
-        if np.ptp(no_a) != 0 or np.ptp(no_b) != 0:
+        if not (np.allclose(no_a, no_a[0], rtol=1e-12, atol=0) and np.allclose(no_b, no_b[0], rtol=1e-12, atol=0)):
             raise ValueError("plane terms of a camera whose rays leave from more than one point")
         shape = (camera.height, camera.width)
         # s = (c0 - no_a + (c1 - no_b) x) / (nd_a + nd_b x), with x = scale * coded + shift

@@ -4,10 +4,11 @@
 The order matters more than anything else in the insertion. Ring samples lie a pixel apart along
 their rings and ten or more across, so a point inserted among its neighbours in plain curve order
 (which OpenCV's Subdiv2D used to get) first joins long thin triangles that its neighbours' arrival
-flips again: 9.5 flips a point on the default bench's 37 000 samples. In random order a point
-changes at most six edges on average whatever the points (backward analysis), but every walk to it
-is long. Rounds of doubling size, each along a Hilbert curve (Amenta, Choi and Rote's BRIO), keep
-both: 11 ms against 18-25 for the curve alone and 64-86 for Subdiv2D (throwaway timings, one thread).
+flips again: 9.5 flips a point on the default bench's 37 000 samples. In random order the edges a
+point's arrival makes number under six on average whatever the points (backward analysis): three
+by its split, under three by flips; but every walk to it is long. Rounds of doubling size, each
+along a Hilbert curve (Amenta, Choi and Rote's BRIO), keep both: 11 ms against 18-25 for the curve
+alone and 64-86 for Subdiv2D (throwaway timings, one thread).
 """
 
 from __future__ import annotations
@@ -28,9 +29,12 @@ _ENCLOSING = 100.0  # the enclosing triangle's size in spans of the points: few 
 def delaunay(xy: np.ndarray) -> np.ndarray:
     """Delaunay triangles (F, 3) of image points (N, 2), counter-clockwise in the image's x-y axes,
     but a few long thin ones along the convex hull; points that coincide are triangulated once, as
-    the first of them, and none for points all on one line. Inserted one at a time
-    (rig.kernels.delaunay) in `insertion_order`; where that meets a degenerate input it cannot
-    settle, Qhull."""
+    the first of them, and none for points exactly on one line. Inserted one at a time
+    (rig.kernels.delaunay) in `insertion_order`; where rounding leaves the triangles short of
+    Delaunay and a walk goes round in a circle, Qhull (no ring scan has needed it). ValueError for
+    a coordinate that is not finite."""
+    if not np.isfinite(xy).all():
+        raise ValueError("Delaunay triangles of points with a coordinate that is not finite")
     if len(xy) < 3:
         return np.zeros((0, 3), np.int64)
     order = insertion_order(xy)
@@ -49,16 +53,16 @@ def insertion_order(xy: np.ndarray, bits: int = _HILBERT_BITS) -> np.ndarray:
     one before a quarter, and so on. A point's round comes from a hash of its coordinates, not a
     random draw: the order is the same on every run, and coinciding points share a round and keep
     their own order (the first of them is inserted, the rest are found equal to it)."""
-    xy = np.ascontiguousarray(xy, np.float64)
+    xy = np.ascontiguousarray(xy, np.float64) + 0.0  # -0.0 as 0.0: equal points, equal bits
     last = max(int(np.log2(max(len(xy), 1) / _FIRST_ROUND)), 0)
-    rounds_before = np.minimum(_leading_halvings(xy), last)  # 0 for half the points, 1 for a quarter, ...
+    rounds_before = np.minimum(_trailing_zero_bits(xy), last)  # 0 for half the points, 1 for a quarter, ...
     curve = triangle_kernels.hilbert_distances(xy, bits)
     return np.argsort((last - rounds_before) << (2 * bits) | curve, kind="stable")
 
 
-def _leading_halvings(xy: np.ndarray) -> np.ndarray:
-    """Per point, a geometric count (0 with probability 1/2, 1 with 1/4, ...) from its coordinates'
-    bits mixed by splitmix64's finaliser: the trailing zero bits of the mix."""
+def _trailing_zero_bits(xy: np.ndarray) -> np.ndarray:
+    """Per point, the trailing zero bits of its coordinates' bits mixed by splitmix64's finaliser:
+    a geometric count (0 with probability 1/2, 1 with 1/4, ...) that equal points share."""
     bits = xy.view(np.uint64)
     key = bits[:, 0] * np.uint64(0x9E3779B97F4A7C15) ^ bits[:, 1]
     for shift, factor in ((30, 0xBF58476D1CE4E5B9), (27, 0x94D049BB133111EB)):
