@@ -117,6 +117,8 @@ def test_where_the_insertion_gives_up_qhull_answers(monkeypatch: pytest.MonkeyPa
     expected = _as_set(delaunay(xy))
 
     class GivesUp:
+        hilbert_distances = staticmethod(triangulation.delaunay_kernels.hilbert_distances)
+
         @staticmethod
         def insert_all(*arrays: np.ndarray) -> int:
             return -1

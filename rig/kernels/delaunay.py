@@ -107,8 +107,7 @@ def _split_edge(tri: np.ndarray, twins: np.ndarray, count: int, h: int, p: int, 
     become (a, p, c), (b, p, d) in place and (p, b, c), (p, a, d) are added; their outer edges go on
     `stack`."""
     g = twins[h]
-    t, u = h - h % 3, g - g % 3
-    h_next, h_prev, g_next, g_prev = t + (h + 1) % 3, t + (h + 2) % 3, u + (g + 1) % 3, u + (g + 2) % 3
+    (h_next, h_prev), (g_next, g_prev) = _turns(h), _turns(g)
     a, b, c, d = tri[h], tri[h_next], tri[h_prev], tri[g_prev]
     outer_bc, outer_ad = twins[h_next], twins[g_next]
     # (a, b, c) -> (a, p, c): h runs a->p, h_next p->c, h_prev c->a as before
@@ -138,6 +137,13 @@ def _add(tri: np.ndarray, twins: np.ndarray, count: int, corners: tuple, across:
     return count + 1
 
 
+@njit(nogil=True, cache=True, inline="always")
+def _turns(h: int) -> tuple[int, int]:
+    """The next and the previous half-edge of half-edge h's triangle."""
+    first = h - h % 3
+    return first + (h + 1) % 3, first + (h + 2) % 3
+
+
 @njit(**KERNEL)
 def _same(xy: np.ndarray, p: int, q: int) -> bool:
     return xy[p, 0] == xy[q, 0] and xy[p, 1] == xy[q, 1]
@@ -164,8 +170,7 @@ def _legalise(xy: np.ndarray, tri: np.ndarray, twins: np.ndarray, stack: np.ndar
         b = twins[a]
         if b < 0:
             continue
-        a0, b0 = a - a % 3, b - b % 3
-        a_next, a_prev, b_next, b_prev = a0 + (a + 1) % 3, a0 + (a + 2) % 3, b0 + (b + 1) % 3, b0 + (b + 2) % 3
+        (a_next, a_prev), (b_next, b_prev) = _turns(a), _turns(b)
         p0, pr, pl, p1 = tri[a_prev], tri[a], tri[a_next], tri[b_prev]
         if not _in_circle(xy, p0, pr, pl, p1):
             continue
@@ -191,3 +196,25 @@ def _in_circle(xy: np.ndarray, a: int, b: int, c: int, d: int) -> bool:
     ab, bc, ca = ax * by - bx * ay, bx * cy - cx * by, cx * ay - ax * cy
     bound = a2 * (abs(bx * cy) + abs(cx * by)) + b2 * (abs(cx * ay) + abs(ax * cy)) + c2 * (abs(ax * by) + abs(bx * ay))
     return a2 * bc + b2 * ca + c2 * ab > _ON_CIRCLE * bound
+
+
+@njit(**KERNEL)
+def hilbert_distances(xy: np.ndarray, bits: int) -> np.ndarray:
+    """Each point's distance along a Hilbert curve over a grid of 2^bits x 2^bits cells spanning the
+    points' bounding box (its longer side): consecutive points along it are close in the image."""
+    x0, y0 = xy[:, 0].min(), xy[:, 1].min()
+    span = max(max(xy[:, 0].max() - x0, xy[:, 1].max() - y0), 1e-9)
+    cells = (1 << bits) - 1
+    distance = np.zeros(len(xy), np.int64)
+    for i in range(len(xy)):
+        x, y = int((xy[i, 0] - x0) * (cells / span)), int((xy[i, 1] - y0) * (cells / span))
+        side = 1 << (bits - 1)
+        while side > 0:  # the curve's quadrant at each scale, then the quadrant's turn for the next
+            right, upper = (x & side) > 0, (y & side) > 0
+            distance[i] += side * side * ((3 * right) ^ upper)
+            if not upper:
+                if right:
+                    x, y = side - 1 - x, side - 1 - y
+                x, y = y, x
+            side //= 2
+    return distance

@@ -131,25 +131,3 @@ def _edge(xa: float, ya: float, xb: float, yb: float) -> tuple[float, float]:
         return xb, 0.0
     slope = (xb - xa) / dy
     return xa - ya * slope, slope
-
-
-@njit(**KERNEL)
-def hilbert_distances(xy: np.ndarray, bits: int) -> np.ndarray:
-    """Each point's distance along a Hilbert curve over a grid of 2^bits x 2^bits cells spanning the
-    points' bounding box (its longer side): consecutive points along it are close in the image."""
-    x0, y0 = xy[:, 0].min(), xy[:, 1].min()
-    span = max(max(xy[:, 0].max() - x0, xy[:, 1].max() - y0), 1e-9)
-    cells = (1 << bits) - 1
-    distance = np.zeros(len(xy), np.int64)
-    for i in range(len(xy)):
-        x, y = int((xy[i, 0] - x0) * (cells / span)), int((xy[i, 1] - y0) * (cells / span))
-        side = 1 << (bits - 1)
-        while side > 0:  # the curve's quadrant at each scale, then the quadrant's turn for the next
-            right, upper = (x & side) > 0, (y & side) > 0
-            distance[i] += side * side * ((3 * right) ^ upper)
-            if not upper:
-                if right:
-                    x, y = side - 1 - x, side - 1 - y
-                x, y = y, x
-            side //= 2
-    return distance

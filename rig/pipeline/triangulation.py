@@ -19,7 +19,6 @@ from scipy.spatial import Delaunay, QhullError
 from rig.lazy import lazy_module
 
 delaunay_kernels = lazy_module("rig.kernels.delaunay")  # numba compiles on first use
-triangle_kernels = lazy_module("rig.kernels.triangles")
 
 _HILBERT_BITS = 10  # a 1024 x 1024 grid over the points' bounding box: a few samples per cell
 _FIRST_ROUND = 64  # points in the smallest round of the insertion order, about
@@ -49,14 +48,14 @@ def delaunay(xy: np.ndarray) -> np.ndarray:
 
 def insertion_order(xy: np.ndarray, bits: int = _HILBERT_BITS) -> np.ndarray:
     """The points (N, 2) in rounds of doubling size, each along a Hilbert curve over their bounding
-    box (rig.kernels.triangles.hilbert_distances): the last round holds about half the points, the
+    box (rig.kernels.delaunay.hilbert_distances): the last round holds about half the points, the
     one before a quarter, and so on. A point's round comes from a hash of its coordinates, not a
     random draw: the order is the same on every run, and coinciding points share a round and keep
     their own order (the first of them is inserted, the rest are found equal to it)."""
     xy = np.ascontiguousarray(xy, np.float64) + 0.0  # -0.0 as 0.0: equal points, equal bits
     last = max(int(np.log2(max(len(xy), 1) / _FIRST_ROUND)), 0)
     rounds_before = np.minimum(_trailing_zero_bits(xy), last)  # 0 for half the points, 1 for a quarter, ...
-    curve = triangle_kernels.hilbert_distances(xy, bits)
+    curve = delaunay_kernels.hilbert_distances(xy, bits)
     return np.argsort((last - rounds_before) << (2 * bits) | curve, kind="stable")
 
 
