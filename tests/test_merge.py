@@ -255,3 +255,14 @@ def test_eval_prints_the_merged_cloud_beside_each_pair(capsys: pytest.CaptureFix
     assert "overlap cue, camera-left: precision" in out
     assert re.search(r"merge: \d+ -> \d+ points \(\d+ redundant, \d+ thinned\)", out)
     assert "{" not in out  # tables and lines, not Python dictionaries
+
+
+@pytest.mark.parametrize("scale_mm", [0.3, 80.0, 1e7])  # the last: cells too many to pack, the rows' own unique
+def test_the_visible_surface_keeps_the_first_point_of_each_cell(scale_mm: float) -> None:
+    from rig.evaluate.merged import _first_in_each_cell
+
+    points = np.random.default_rng(7).normal(size=(20_000, 3)) * scale_mm
+    points[::5] = points[1::5]  # points sharing a cell: the first of them is kept
+    _, expected = np.unique(np.floor(points / 1.0).astype(np.int64), axis=0, return_index=True)
+    assert np.array_equal(_first_in_each_cell(points, 1.0), expected)
+    assert len(_first_in_each_cell(points[:0], 1.0)) == 0

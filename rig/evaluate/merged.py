@@ -31,9 +31,28 @@ def visible_surface(rig: Rig, spacing_mm: float = SURFACE_SPACING_MM) -> np.ndar
         assert truth is not None
         found.append(truth.points.reshape(-1, 3)[lit])
     points = np.concatenate(found)
+    return points[_first_in_each_cell(points, spacing_mm)]
+
+
+def _first_in_each_cell(points: np.ndarray, spacing_mm: float) -> np.ndarray:
+    """Index of the first point in each occupied cube of side `spacing_mm`, cells in (x, y, z)
+    order, as np.unique of the cells' rows with return_index gives them, but each cell's indices
+    packed with the point's own into one integer and sorted: np.unique of rows sorts them as
+    records, some forty times slower on a camera's million points."""
     cells = np.floor(points / spacing_mm).astype(np.int64)
-    _, first = np.unique(cells, axis=0, return_index=True)
-    return points[first]
+    count = len(cells)
+    if count == 0:
+        return np.zeros(0, np.int64)
+    cells -= cells.min(axis=0)
+    span = cells.max(axis=0) + 1
+    if float(np.prod(span.astype(np.float64))) * count >= 2.0**62:  # a scene of kilometres at a micrometre
+        return np.unique(cells, axis=0, return_index=True)[1]
+    packed = ((cells[:, 0] * span[1] + cells[:, 1]) * span[2] + cells[:, 2]) * count + np.arange(count)
+    packed.sort()
+    cell = packed // count
+    first = np.ones(count, bool)
+    first[1:] = cell[1:] != cell[:-1]
+    return packed[first] % count
 
 
 def coverage(samples: np.ndarray, points: np.ndarray, within_mm: float = COMPLETE_WITHIN_MM) -> float:
