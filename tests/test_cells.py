@@ -7,6 +7,7 @@ import pytest
 from scipy.spatial import cKDTree
 
 from rig.kernels.cells import (
+    cell_ordered,
     group_cell_side,
     group_cells,
     k_nearest,
@@ -25,7 +26,8 @@ def test_k_nearest_finds_the_k_d_trees_neighbours(cell: float) -> None:
     points[:300] = RNG.normal([150.0, 100.0], 3.0, size=(300, 2))  # a crowd, and sparse elsewhere
     queries = np.column_stack([RNG.uniform(-50, 350, 500), RNG.uniform(-50, 250, 500)])  # some outside
     index = np.empty((len(queries), 12), np.int64)
-    k_nearest(points, sample_cells(points, cell), cell, queries, index, 0, len(queries))
+    cells = sample_cells(points, cell)
+    k_nearest(cell_ordered(points, cells), cells, cell, queries, index, 0, len(queries))
     _, expected = cKDTree(points).query(queries, 12)
     np.testing.assert_array_equal(index, expected)
 

@@ -131,16 +131,48 @@ def pairs_within(xy: np.ndarray, cells: Cells, cell: float, radius: float) -> np
     return pairs
 
 
+def cell_ordered(xy: np.ndarray, cells: Cells) -> np.ndarray:
+    """The points `xy` (M, 2) in their cells' order (cells[0]), for k_nearest: a cell's points
+    side by side in memory."""
+    return np.ascontiguousarray(xy[cells[0]], np.float64)
+
+
 @njit(**KERNEL)
 def k_nearest(
-    xy: np.ndarray, cells: Cells, cell: float, at: np.ndarray, index: np.ndarray, start: int, stop: int
+    ordered: np.ndarray, cells: Cells, cell: float, at: np.ndarray, index: np.ndarray, start: int, stop: int
 ) -> None:
-    """For query points at[start:stop]: the indices of the k nearest points `xy` (index's width; at
-    most len(xy)), nearest first, into `index`; `cells`: sample_cells of `xy` with side `cell`."""
-    k = min(index.shape[1], len(xy))
-    dist = np.empty(k)
+    """For query points at[start:stop]: the indices of the k nearest points (index's width; at most
+    their number), nearest first, into `index`; `cells`: sample_cells of the points with side
+    `cell`, `ordered`: the points in the cells' order (cell_ordered). Squared distances, each
+    cell's points read side by side: a third faster than nearest_within's reads through the
+    order, with the same neighbours in the same order."""
+    order, starts, x0, y0, nx, ny = cells
+    k = min(index.shape[1], len(ordered))
+    row_d, row_j = np.empty(k), np.empty(k, np.int64)
     for q in range(start, stop):
-        nearest_within(xy, cells, (cell, 0, np.inf), (at[q, 0], at[q, 1]), dist, index[q, :k])
+        px, py = at[q, 0], at[q, 1]
+        cx = min(max(int((px - x0) // cell), 0), nx - 1)
+        cy = min(max(int((py - y0) // cell), 0), ny - 1)
+        found = 0
+        for step in range(max(nx, ny) + 1 if k > 0 else 0):
+            for gy in range(max(cy - step, 0), min(cy + step, ny - 1) + 1):
+                edge = gy == cy - step or gy == cy + step
+                for gx in range(max(cx - step, 0), min(cx + step, nx - 1) + 1):
+                    if not edge and cx - step < gx < cx + step:
+                        continue
+                    c = gy * nx + gx
+                    for j in range(starts[c], starts[c + 1]):
+                        d = (ordered[j, 0] - px) ** 2 + (ordered[j, 1] - py) ** 2
+                        if found < k or d < row_d[k - 1]:
+                            found = _insert(row_d, row_j, found, d, j)
+            inner = min(
+                px - (x0 + (cx - step) * cell), x0 + (cx + step + 1) * cell - px,
+                py - (y0 + (cy - step) * cell), y0 + (cy + step + 1) * cell - py,
+            )  # fmt: skip
+            if found == k and inner >= 0 and row_d[k - 1] <= inner * inner:  # (a query off the grid: inner < 0)
+                break
+        for m in range(k):
+            index[q, m] = order[row_j[m]]
 
 
 @njit(**KERNEL)

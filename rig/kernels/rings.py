@@ -191,6 +191,7 @@ def across_agrees(
     depth: np.ndarray,
     ring: np.ndarray,
     index: np.ndarray,
+    row: np.ndarray,
     alive: np.ndarray,
     judged: np.ndarray,
     limits: tuple[float, int, int],
@@ -200,7 +201,7 @@ def across_agrees(
 ) -> None:
     """rig.pipeline.ring_triangulation.across_ring_support for points judged[start:stop]: out[i]
     False where point p = judged[i]'s nearest `neighbours` candidates of other rings still `alive`
-    (index[p] of a ring other than its own, nearest first)
+    (index[row[p]] of a ring other than its own, nearest first)
     span two rings or more, are `min_count` or more and neither one plane over them (scatter at
     most half the limit) nor a plane over either side of their largest depth gap predicts it
     within `max_jump` (limits: max_jump, neighbours, min_count)."""
@@ -210,9 +211,9 @@ def across_agrees(
     every, below, above = np.ones(neighbours, np.bool_), np.empty(neighbours, np.bool_), np.empty(neighbours, np.bool_)
     for i in range(start, stop):
         p = judged[i]
-        count = 0
+        count, r = 0, row[p]
         for j in range(index.shape[1]):
-            q = index[p, j]
+            q = index[r, j]
             if ring[q] != ring[p] and alive[q] and count < neighbours:
                 near[count, 0], near[count, 1] = xy[q, 0] - xy[p, 0], xy[q, 1] - xy[p, 1]
                 near[count, 2], near_ring[count] = depth[q], ring[q]

@@ -169,13 +169,13 @@ def across_ring_support(
     # Candidates: every 4th sample, so a point's own ring (a sample a pixel) does not crowd out the
     # other rings among its nearest, and the fits span a wider patch.
     candidates = np.arange(0, len(kept), 4)
-    index = _nearest_candidates(xy, ring, candidates, min(len(candidates), 2 * neighbours))
+    index, row = _nearest_candidates(xy, ring, candidates, min(len(candidates), 2 * neighbours))
     alive = np.ones(len(kept), bool)
     points = (np.ascontiguousarray(xy), np.ascontiguousarray(depth), ring.astype(np.int64))
     limits = (ACROSS_RINGS_FACTOR * max_jump_mm, neighbours, min_count)
     for _ in range(passes):
         judged = np.flatnonzero(alive)
-        agrees = _agrees(points, (index, alive, judged), limits)
+        agrees = _agrees(points, (index, row, alive, judged), limits)
         alive[judged[~agrees]] = False
     out[kept[~alive]] = False
     return out
@@ -188,13 +188,16 @@ _SHARED_NEIGHBOURHOOD_PX = 3.0
 _OWN_RING_CELL_PX = 16.0
 
 
-def _nearest_candidates(xy: np.ndarray, ring: np.ndarray, candidates: np.ndarray, k: int) -> np.ndarray:
-    """(N, k) the `k` candidates nearest each sample, nearest first. A sample within
-    _SHARED_NEIGHBOURHOOD_PX of a candidate of its own ring takes that candidate's (its fits span
-    ~50 px): the k nearest are searched for the candidates, and for the samples without one near.
-    A grid of cells 1.5 times the candidates' mean spacing wide (the fastest of 0.7 to 4 on the
-    default bench), searched in compiled code (rig.kernels.cells.k_nearest), a span of samples per
-    thread; a sample's own ring's candidate in each ring's own grid of cells."""
+def _nearest_candidates(
+    xy: np.ndarray, ring: np.ndarray, candidates: np.ndarray, k: int
+) -> tuple[np.ndarray, np.ndarray]:
+    """The `k` candidates nearest each sample, nearest first: (R, k) rows of them and each sample's
+    row (N,). A sample within _SHARED_NEIGHBOURHOOD_PX of a candidate of its own ring takes that
+    candidate's row (its fits span ~50 px): the k nearest are searched for the candidates, and for
+    the samples without one near. A grid of cells 1.5 times the candidates' mean spacing wide (the
+    fastest of 0.7 to 4 on the default bench), searched in compiled code
+    (rig.kernels.cells.k_nearest), a span of samples per thread; a sample's own ring's candidate in
+    each ring's own grid of cells."""
     xy = np.ascontiguousarray(xy, np.float64)
     spots = np.ascontiguousarray(xy[candidates])
     ring = ring.astype(np.int64)
@@ -215,16 +218,16 @@ def _nearest_candidates(xy: np.ndarray, ring: np.ndarray, candidates: np.ndarray
     cell = max(1.5 * np.sqrt(np.prod(np.ptp(spots, axis=0) + 1.0) / len(spots)), 1.0)  # ~2 candidates a cell
     cells = cell_kernels.sample_cells(spots, cell)
     searched = np.flatnonzero(~shared)
-    index = np.empty((len(xy), k), np.int64)
-    index[searched] = candidates[_k_nearest(spots, cells, cell, np.ascontiguousarray(xy[searched]), k)]
-    index[shared] = index[closest[shared]]
-    return index
+    row = np.empty(len(xy), np.int64)
+    row[searched] = np.arange(len(searched))
+    row[shared] = row[closest[shared]]  # a candidate, searched
+    return candidates[_k_nearest(spots, cells, cell, np.ascontiguousarray(xy[searched]), k)], row
 
 
 def _k_nearest(spots: np.ndarray, cells: tuple[object, ...], cell: float, at: np.ndarray, k: int) -> np.ndarray:
     """(N, k) indices of the `k` of `spots` nearest each of `at` (rig.kernels.cells.k_nearest)."""
-    index = np.empty((len(at), k), np.int64)
-    list(pool().map(lambda span: cell_kernels.k_nearest(spots, cells, cell, at, index, *span), batches(len(at))))
+    index, ordered = np.empty((len(at), k), np.int64), cell_kernels.cell_ordered(spots, cells)
+    list(pool().map(lambda span: cell_kernels.k_nearest(ordered, cells, cell, at, index, *span), batches(len(at))))
     return index
 
 
@@ -232,7 +235,8 @@ def _agrees(
     points: tuple[np.ndarray, ...], neighbourhoods: tuple[np.ndarray, ...], limits: tuple[float, int, int]
 ) -> np.ndarray:
     """rig.kernels.rings.across_agrees over the pool: each judged point's verdict
-    (`neighbourhoods`: every point's candidates, which points are alive, and the points judged)."""
+    (`neighbourhoods`: rows of candidates, every point's row, which points are alive, and the
+    points judged)."""
     judged = neighbourhoods[-1]
     agrees = np.empty(len(judged), bool)
     spans = batches(len(judged))
