@@ -166,9 +166,7 @@ def across_ring_support(
     xy = rings.camera_xy[kept]
     depth = (rings.points[kept] - camera.center) @ camera.axis
     ring = rings.ring[kept]
-    # Candidates: every 4th sample, so a point's own ring (a sample a pixel) does not crowd out the
-    # other rings among its nearest, and the fits span a wider patch.
-    candidates = np.arange(0, len(kept), 4)
+    candidates = _every_fourth_along_rings(xy, ring)
     index, row = _nearest_candidates(xy, ring, candidates, min(len(candidates), 2 * neighbours))
     alive = np.ones(len(kept), bool)
     points = (np.ascontiguousarray(xy), np.ascontiguousarray(depth), ring.astype(np.int64))
@@ -179,6 +177,20 @@ def across_ring_support(
         alive[judged[~agrees]] = False
     out[kept[~alive]] = False
     return out
+
+
+def _every_fourth_along_rings(xy: np.ndarray, ring: np.ndarray) -> np.ndarray:
+    """Every 4th sample along each ring (about a pixel apart), in ascending order: the across-ring
+    test's candidates, so that a point's own ring does not crowd out the other rings among its
+    nearest and the fits span a wider patch. Along a ring is by angle about the centroid of its
+    samples in the image; every sample then lies within ~2 px of a candidate of its ring and shares
+    that candidate's neighbourhood (the samples' own order runs across the image, leaving a fifth of
+    them with no candidate of their ring within reach, each a search of its own)."""
+    count = np.maximum(np.bincount(ring), 1)
+    centre_x = np.bincount(ring, xy[:, 0]) / count
+    centre_y = np.bincount(ring, xy[:, 1]) / count
+    along = np.arctan2(xy[:, 1] - centre_y[ring], xy[:, 0] - centre_x[ring])
+    return np.sort(np.lexsort((along, ring))[::4])
 
 
 # A sample within this of a candidate of its ring (pixels) takes the candidate's nearest candidates.
