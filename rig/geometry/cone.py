@@ -15,6 +15,7 @@ import numpy as np
 
 from rig.geometry.camera import CameraModel
 from rig.lazy import lazy_module
+from rig.workers import batches, pool
 
 _cone = lazy_module("rig.kernels.cone")
 
@@ -28,6 +29,7 @@ class ConeHits:
     theta: np.ndarray  # projector polar angle of each root about the ring centre
     ds_dradius: np.ndarray  # change of s per pixel of ring radius (conditioning)
     cos_beta: np.ndarray  # |cos| of the angle between the ring's radial direction and the epipolar line
+    terms: np.ndarray  # (M, 6) each ray's image about the ring centre: x(s) - centre x2(s) = a + s b
 
 
 def affine_image(projector: CameraModel, origins: np.ndarray, directions: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -50,17 +52,18 @@ def ray_cone(
     x(s) = alpha + s beta about the centre, the quadratic qa s^2 + 2 qb s + qc = 0 of the conic,
     its roots in front of camera and projector (one where it is nearly linear), and at each the
     projector angle, ds / dradius and the epipolar line's |cos| to the radial direction
-    (rig.kernels.cone, a sample at a time)."""
+    (rig.kernels.cone, a range of samples per thread)."""
     alpha, beta = affine_image(projector, origins, directions)
     count = len(radius)
     s, theta, ds_dradius, cos_beta = (np.empty((count, 2)) for _ in range(4))
-    points = np.empty((count, 2, 3))
-    _cone.cone_roots(
+    points, terms = np.empty((count, 2, 3)), np.empty((count, 6))
+    arrays = (
         np.ascontiguousarray(alpha), np.ascontiguousarray(beta), np.asarray(radius, np.float64),
-        float(center[0]), float(center[1]), np.ascontiguousarray(origins, np.float64),
-        np.ascontiguousarray(directions, np.float64), s, points, theta, ds_dradius, cos_beta,
+        (float(center[0]), float(center[1])), np.ascontiguousarray(origins, np.float64),
+        np.ascontiguousarray(directions, np.float64), (s, points, theta, ds_dradius, cos_beta, terms),
     )  # fmt: skip
-    return ConeHits(s=s, points=points, theta=theta, ds_dradius=ds_dradius, cos_beta=cos_beta)
+    list(pool().map(lambda span: _cone.cone_roots(*arrays, *span), batches(count)))
+    return ConeHits(s=s, points=points, theta=theta, ds_dradius=ds_dradius, cos_beta=cos_beta, terms=terms)
 
 
 def refine_on_distorted_ring(

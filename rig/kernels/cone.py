@@ -1,6 +1,7 @@
 """A camera ray against its ring's cone, one sample at a time (rig.geometry.cone.ray_cone): the
 roots of the quadratic in the ray parameter and what triangulation reads at each, the same float64
-steps as the array formulas they replace, in one pass instead of some sixty over every sample."""
+steps as the array formulas they replace, in one pass instead of some sixty over every sample; a
+range of samples per call, so rig.workers runs ranges on its threads."""
 
 import math
 
@@ -15,24 +16,26 @@ def cone_roots(
     alpha: np.ndarray,
     beta: np.ndarray,
     radius: np.ndarray,
-    u0: float,
-    v0: float,
+    centre: tuple[float, float],
     origins: np.ndarray,
     directions: np.ndarray,
-    s: np.ndarray,
-    points: np.ndarray,
-    theta: np.ndarray,
-    ds_dradius: np.ndarray,
-    cos_beta: np.ndarray,
+    out: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray],
+    start: int,
+    stop: int,
 ) -> None:
-    """Per sample i, the projector image point alpha[i] + s beta[i] (homogeneous) on the ring of
-    `radius`[i] about (u0, v0): both roots s[i, k] (NaN where none lies in front of the camera and
-    the projector; a near-linear quadratic has one), their world points, projector polar angles,
-    ds / dradius, and |cos| of the angle between the ring's radial direction and the epipolar line."""
+    """Per sample i in [start, stop), the projector image point alpha[i] + s beta[i] (homogeneous)
+    on the ring of `radius`[i] about `centre`: both roots s[i, k] (NaN where none lies in front of
+    the camera and the projector; a near-linear quadratic has one), their world points, projector
+    polar angles, ds / dradius, and |cos| of the angle between the ring's radial direction and the
+    epipolar line; and the ray's image about the centre, terms[i] = (a0, a1, a2, b0, b1, b2).
+    out = (s, points, theta, ds_dradius, cos_beta, terms)."""
+    s, points, theta, ds_dradius, cos_beta, terms = out
+    u0, v0 = centre
     nan = np.nan
-    for i in range(len(radius)):
+    for i in range(start, stop):
         a0, a1, a2 = alpha[i, 0] - u0 * alpha[i, 2], alpha[i, 1] - v0 * alpha[i, 2], alpha[i, 2]
         b0, b1, b2 = beta[i, 0] - u0 * beta[i, 2], beta[i, 1] - v0 * beta[i, 2], beta[i, 2]
+        terms[i, 0], terms[i, 1], terms[i, 2], terms[i, 3], terms[i, 4], terms[i, 5] = a0, a1, a2, b0, b1, b2
         r2 = radius[i] * radius[i]
         qa = b0 * b0 + b1 * b1 - r2 * b2 * b2
         qb = a0 * b0 + a1 * b1 - r2 * a2 * b2

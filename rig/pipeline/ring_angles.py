@@ -28,6 +28,7 @@ from rig.pipeline.ring_neighbours import neighbour_angles, wrap_angle
 from rig.workers import batches, pool
 
 ring_kernels = lazy_module("rig.kernels.rings")  # numba compiles on first use: not for --help
+point_kernels = lazy_module("rig.kernels.ring_points")
 
 # A sample is rejected when its best reading misfits the decoded radius
 # and angles by more than this chi-square (a mixed pixel on a depth edge, read between two surfaces),
@@ -126,17 +127,21 @@ def solve_ring_angles(
     tangential_sigma_px: float,
     chunk: int = 4096,
     coarse_sigma: float | np.ndarray = COARSE_SIGMA_RAD,
+    terms: np.ndarray | None = None,
 ) -> AngleSolution:
     """Best point along each ray (M, 3) on its ring (`radius`, pixels) agreeing with the decoded
     angles: `coarse_theta` (radians, absolute, with error `coarse_sigma`, one or per ray) and
-    `fine_phase` (wrapped, of `fine_periods` periods per revolution)."""
+    `fine_phase` (wrapped, of `fine_periods` periods per revolution). `terms`: the rays' images
+    about the centre where known (ConeHits.terms), for a projector without distortion."""
     n = len(radius)
     sigma = np.broadcast_to(np.asarray(coarse_sigma, dtype=np.float64), (n,))
     if not projector.has_distortion:
-        return _solved_compiled(
-            projector, origins, directions, (radius, coarse_theta, fine_phase, fine_periods, sigma), center,
-            (radius_sigma_px, tangential_sigma_px),
-        )  # fmt: skip
+        if terms is None:
+            affine = _Rays(projector, origins, directions, center).affine
+            assert affine is not None
+            terms = np.column_stack(affine)
+        per_sample = (radius, coarse_theta, fine_phase, fine_periods, sigma)
+        return _solved_compiled(terms, per_sample, (radius_sigma_px, tangential_sigma_px))
     out = [np.full(n, np.nan), np.full(n, np.nan), np.full(n, np.inf), np.full(n, np.inf)]
     for start in range(0, n, chunk):
         part = slice(start, min(n, start + chunk))
@@ -157,18 +162,12 @@ def solve_ring_angles(
 
 
 def _solved_compiled(
-    projector: CameraModel,
-    origins: np.ndarray,
-    directions: np.ndarray,
-    per_sample: tuple[np.ndarray, ...],
-    center: tuple[float, float],
-    sigmas: tuple[float, float],
+    terms: np.ndarray, per_sample: tuple[np.ndarray, ...], sigmas: tuple[float, float]
 ) -> AngleSolution:
-    """solve_ring_angles for a projector without distortion, a sample at a time in compiled code
-    (rig.kernels.rings.solve_angles): the same branches, scores and refinement as _solve_chunk."""
-    rays = _Rays(projector, origins, directions, center)
-    assert rays.affine is not None
-    terms = np.ascontiguousarray(np.column_stack(rays.affine), dtype=np.float64)
+    """solve_ring_angles for a projector without distortion (`terms`: the rays' images about the
+    centre), a sample at a time in compiled code (rig.kernels.rings.solve_angles): the same
+    branches, scores and refinement as _solve_chunk."""
+    terms = np.ascontiguousarray(terms, dtype=np.float64)
     radius, coarse, phase, periods, sigma = (np.ascontiguousarray(a, dtype=np.float64) for a in per_sample)
     out = np.empty((len(radius), 4))
     constants = (BRANCH_WINDOW_RAD, (float(sigmas[0]), float(sigmas[1])), _ITERATIONS)
@@ -285,30 +284,29 @@ def place_by_fine_angle(
             samples.radius_sigma_px,
             samples.tangential_sigma_px,
             coarse_sigma=sigma,
+            terms=None if projector.has_distortion else hits.terms[which],
         )
 
     solution = solve(idx, samples.theta[idx])
     resolved = _resolve_from_neighbours(projector, origins, directions, samples, idx, solution, solve)
-    solvable = np.isfinite(solution.s)
-    misfit = solvable & (solution.chi2 > MAX_ANGLE_CHI2)
-    ambiguous = solvable & ~misfit & (solution.margin < MIN_BRANCH_MARGIN)
-    solved = solvable & ~misfit & ~ambiguous
-    placed.found[idx] = solved
-    placed.points[idx] = origins[idx] + solution.s[:, None] * directions[idx]
-    placed.sigma[idx] = solution.sigma_s
     # The cone root the solution did not take is the rejected root; where the roots lie within a few
     # sigma of each other (the ring along the epipolar line) there is no root to reject.
-    distance = np.abs(roots[idx] - solution.s[:, None])
-    nearer = np.argmin(np.where(np.isfinite(distance), distance, np.inf), axis=1)
-    apart = np.abs(roots[idx, 0] - roots[idx, 1]) > 6 * solution.sigma_s
-    rejected = origins[idx] + np.take_along_axis(roots[idx], 1 - nearer[:, None], axis=1) * directions[idx]
-    placed.other[idx] = np.where(apart[:, None], rejected, np.nan)
-    placed.cos_beta[idx] = np.nan_to_num(hits.cos_beta[idx, nearer], nan=0.0)
+    arrays = (
+        idx,
+        (solution.s, solution.sigma_s, solution.chi2, solution.margin),
+        (roots, hits.cos_beta),
+        (origins, np.ascontiguousarray(directions, np.float64)),
+        (MAX_ANGLE_CHI2, MIN_BRANCH_MARGIN),
+        (placed.found, placed.points, placed.other, placed.sigma, placed.cos_beta),
+    )
+    counted = list(pool().map(lambda span: point_kernels.placed_by_angle(*arrays, *span), batches(len(idx))))
+    misfit, ambiguous = sum(c[0] for c in counted), sum(c[1] for c in counted)
+    fine = placed.found[idx] & (placed.cos_beta[idx] < samples.min_cos_beta)
     return {
-        "rejected_angle_misfit": int(misfit.sum()),
-        "rejected_angle_ambiguous": int(ambiguous.sum()),
+        "rejected_angle_misfit": misfit,
+        "rejected_angle_ambiguous": ambiguous,
         "resolved_by_neighbours": resolved,
-        "fixed_by_angle": int((solved & (placed.cos_beta[idx] < samples.min_cos_beta)).sum()),
+        "fixed_by_angle": int(fine.sum()),
     }
 
 

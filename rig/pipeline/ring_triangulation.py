@@ -19,6 +19,7 @@ from rig.pipeline.triangulation import delaunay
 from rig.workers import batches, pool
 
 ring_kernels = lazy_module("rig.kernels.rings")  # numba compiles on first use: not for --help
+point_kernels = lazy_module("rig.kernels.ring_points")
 cell_kernels = lazy_module("rig.kernels.cells")
 normal_kernels = lazy_module("rig.kernels.normals")
 
@@ -70,21 +71,21 @@ def triangulate_rings(
             [refine_on_distorted_ring(projector, origins, directions, s[:, k], *ring) for k in range(2)]
         )
     # Choose the root whose projector angle matches the decoded angular code.
-    angle_error = np.abs(np.angle(np.exp(1j * (hits.theta - samples.theta[:, None]))))
-    angle_error[~np.isfinite(s)] = np.inf
-    choice = np.argmin(angle_error, axis=1)
-    rows = np.arange(len(choice))
-    found = angle_error[rows, choice] <= MAX_ANGLE_ERROR_RAD
-    s_chosen = s[rows, choice]
-    s_other = s[rows, 1 - choice]
-    points = origins + s_chosen[:, None] * directions
-    other = origins + s_other[:, None] * directions
+    count = len(samples)
+    found, sigma, cos_beta = np.empty(count, bool), np.empty(count), np.empty(count)
+    points, other = np.empty((count, 3)), np.empty((count, 3))
+    arrays = (
+        (s, hits.theta, hits.ds_dradius, hits.cos_beta),
+        np.asarray(samples.theta, np.float64),
+        (origins, np.ascontiguousarray(directions, np.float64)),
+        (float(samples.radius_sigma_px), MAX_ANGLE_ERROR_RAD),
+        (found, points, other, sigma, cos_beta),
+    )
+    list(pool().map(lambda span: point_kernels.chosen_roots(*arrays, *span), batches(count)))
     if samples.model != "cone":  # the dissertation's closed forms; the cone still gives conditioning
         points = _closed_form(samples.model, camera, projector, samples)
         other = np.full_like(points, np.nan)
         found &= np.isfinite(points).all(axis=1)
-    sigma = np.abs(hits.ds_dradius[rows, choice]) * samples.radius_sigma_px
-    cos_beta = np.nan_to_num(hits.cos_beta[rows, choice], nan=0.0)
     near_centre = samples.radius_px < samples.min_radius_px
     ill_conditioned = cos_beta < samples.min_cos_beta
     counts: dict[str, int] = {"ring_samples": len(samples)}
