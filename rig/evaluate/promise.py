@@ -33,22 +33,31 @@ def between_rings(
     docstring), of the regions (`region` labels, -1 none) that hold at least MIN_REGION_SHARE of the
     `seen` area; `rho`, `theta` each pixel's projector polar coordinates about the rings' centre."""
     radii = np.asarray(radii, dtype=np.float64)
-    labels = np.where(seen & np.isfinite(rho) & np.isfinite(theta), region, -1)
+    labels = np.where(seen & np.isfinite(rho) & np.isfinite(theta), region, -1).astype(np.int32)
     counted = labels >= 0
     if not counted.any() or len(radii) == 0:
         return np.zeros(seen.shape, dtype=bool)
     per_label = np.bincount(labels[counted], weights=area[counted])
     judged = np.zeros(len(per_label), dtype=bool)
     judged[per_label >= MIN_REGION_SHARE * per_label.sum()] = True
-    labels = np.where(counted & judged[np.maximum(labels, 0)], labels, -1)
-    band = np.searchsorted(radii, np.nan_to_num(rho, nan=-1.0), side="right")  # radii[band-1] <= rho < radii[band]
-    pieces = _pieces(np.where(labels >= 0, _cell(labels, band, theta, radii), -1))
+    labels[counted & ~judged[np.maximum(labels, 0)]] = -1
+    band, key = np.empty(seen.shape, np.int32), np.empty(seen.shape, np.int64)
+    for rows in _strips(seen.shape[0]):  # a band of rows at a time: no image-sized temporaries
+        # radii[band-1] <= rho < radii[band]
+        band[rows] = np.searchsorted(radii, np.nan_to_num(rho[rows], nan=-1.0), side="right")
+        key[rows] = np.where(labels[rows] >= 0, _cell(labels[rows], band[rows], theta[rows], radii), -1)
+    pieces = _pieces(key)
+    del key
     inner, outer = _bounded(band, labels, pieces, len(radii))
     piece = pieces[labels >= 0]
     ok = outer[piece] & (inner[piece] | (band[labels >= 0] == 0))  # the disc needs its ring only
     target = np.zeros(seen.shape, dtype=bool)
     target[labels >= 0] = ok
     return target
+
+
+def _strips(height: int, rows: int = 64) -> list[slice]:
+    return [slice(top, min(height, top + rows)) for top in range(0, height, rows)]
 
 
 def _cell(labels: np.ndarray, band: np.ndarray, theta: np.ndarray, radii: np.ndarray) -> np.ndarray:

@@ -27,7 +27,7 @@ def true_areas(truth: PixelTruth) -> tuple[np.ndarray, np.ndarray]:
     """(H, W) area (mm^2) of true surface each pixel sees (0 where none) and its region (-1 none)."""
     # float32: a bench's points to a micrometre, and half the memory of the neighbours' steps
     areas, labels = footprints(truth.points.astype(np.float32), truth.hit, STEP_MM)
-    area, region = np.zeros(truth.hit.shape), np.full(truth.hit.shape, -1)
+    area, region = np.zeros(truth.hit.shape), np.full(truth.hit.shape, -1, np.int32)  # int32: regions are few
     area[truth.hit], region[truth.hit] = areas, labels
     return area, region
 
@@ -78,14 +78,30 @@ def _missed(
     if promised <= 0:
         return {}
     disc = missed & (rho < radii[0])
-    rows, cols = np.gradient(np.nan_to_num(rho))
-    band = np.clip(np.searchsorted(radii, np.nan_to_num(rho, nan=-1.0), side="right"), 1, max(1, len(radii) - 1))
+    crowded = np.zeros(missed.shape, bool)
+    y, x = np.nonzero(missed & ~disc)  # the rings' spacing and rho's slope at these pixels alone
+    filled = np.nan_to_num(rho)
+    slope = np.hypot(_gradient(filled, y, x, 0), _gradient(filled, y, x, 1))
+    band = np.clip(np.searchsorted(radii, np.nan_to_num(rho[y, x], nan=-1.0), side="right"), 1, max(1, len(radii) - 1))
     spacing = radii[np.minimum(band, len(radii) - 1)] - radii[band - 1]
-    crowded = missed & ~disc & (spacing < CROWDED_PX * np.hypot(rows, cols))
+    crowded[y[spacing < CROWDED_PX * slope], x[spacing < CROWDED_PX * slope]] = True
     return {
         name: round(float(area[mask].sum()) / promised, 4)
         for name, mask in (("inner_disc", disc), ("crowded", crowded), ("elsewhere", missed & ~disc & ~crowded))
     }
+
+
+def _gradient(image: np.ndarray, y: np.ndarray, x: np.ndarray, axis: int) -> np.ndarray:
+    """np.gradient(image)[axis] at the pixels (y, x) alone: central differences, one-sided at the
+    image's edges."""
+    at = [y, x]
+    size = image.shape[axis]
+    ahead, behind = at.copy(), at.copy()
+    ahead[axis] = np.minimum(at[axis] + 1, size - 1)
+    behind[axis] = np.maximum(at[axis] - 1, 0)
+    step = (ahead[axis] - behind[axis]).astype(np.float64)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return (image[ahead[0], ahead[1]] - image[behind[0], behind[1]]) / step
 
 
 def object_error(
