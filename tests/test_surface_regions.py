@@ -220,3 +220,17 @@ def test_surface_over_no_true_surface_is_judged_as_a_region_of_its_own() -> None
     metrics = area_metrics(valid, dist, (true_area, true_region))
     assert metrics["surface_worst_region_p95_mm"] == 50.0
     assert metrics["surface_area_p95_mm"] == 50.0  # a fifth of the area: the whole view's p95 sees it
+
+
+def test_rhos_slope_at_the_missed_pixels_is_np_gradients() -> None:
+    """wholeness measures the rings' crowding at the missed pixels alone: the same central
+    differences, one-sided at the image's edges, as np.gradient over the whole image."""
+    from rig.evaluate.wholeness import _gradient
+
+    rng = np.random.default_rng(3)
+    image = rng.normal(size=(37, 53)) * 100
+    rows, cols = np.gradient(image)
+    y, x = np.nonzero(rng.random(image.shape) < 0.4)
+    y, x = np.concatenate([y, [0, 36, 0, 36]]), np.concatenate([x, [0, 52, 52, 0]])  # the four corners
+    assert np.array_equal(_gradient(image, y, x, 0), rows[y, x])
+    assert np.array_equal(_gradient(image, y, x, 1), cols[y, x])
