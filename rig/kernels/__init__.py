@@ -3,7 +3,9 @@ that needs one loads it lazily (rig.lazy), so that a command that does not run o
 it. `dense`: Gray decoding, contrast, plane and ray-to-ray triangulation, kept points and normals,
 triangulation angles; `phase`: phase shifting's wrap and unwrap, cued_phase's texture and status
 counts; `radial`: the radial codec's levels and coordinates; `rings`: ring samples read by radius
-and fine angle, judged across and along rings, and the rings' bands; `normals`: the ring samples'
+and fine angle, judged along rings, and the rings' bands; `ring_points`: the cone root each ring
+sample's angle picks, and the samples the fine angle places; `across`: the across-ring test, its
+planes fitted once for the samples sharing a neighbourhood; `normals`: the ring samples'
 normals and the bend tests; `triangles`: the ring triangles' tests and their rasterising;
 `delaunay`: the ring samples' Delaunay triangles, inserted one at a time, and the Hilbert curve of
 their order; `ring_surface`: per-face terms, each pixel's point on its face and its band agreement;

@@ -20,6 +20,7 @@ from rig.workers import batches, pool
 
 ring_kernels = lazy_module("rig.kernels.rings")  # numba compiles on first use: not for --help
 point_kernels = lazy_module("rig.kernels.ring_points")
+across_kernels = lazy_module("rig.kernels.across")
 cell_kernels = lazy_module("rig.kernels.cells")
 normal_kernels = lazy_module("rig.kernels.normals")
 
@@ -158,8 +159,8 @@ def across_ring_support(
     Points whose neighbours come from one other ring only (a curve: a plane through it
     extrapolates) are left alone. It runs `passes` times over the same neighbourhoods, each without
     the points the passes before rejected: once the worst are gone, the fits see clearly. Each
-    point is judged in compiled code (rig.kernels.rings.across_agrees): a neighbourhood's fits in
-    registers, not (points, neighbours) arrays."""
+    point is judged in compiled code (rig.kernels.across): a neighbourhood's planes are fitted once
+    for the samples that share it, in registers, not (points, neighbours) arrays."""
     kept = np.flatnonzero(rings.kept)
     out = rings.kept.copy()
     if len(kept) <= neighbours:
@@ -168,13 +169,13 @@ def across_ring_support(
     depth = (rings.points[kept] - camera.center) @ camera.axis
     ring = rings.ring[kept]
     candidates = _every_fourth_along_rings(xy, ring)
-    index, row = _nearest_candidates(xy, ring, candidates, min(len(candidates), 2 * neighbours))
+    index, row, anchors = _nearest_candidates(xy, ring, candidates, min(len(candidates), 2 * neighbours))
     alive = np.ones(len(kept), bool)
-    points = (np.ascontiguousarray(xy), np.ascontiguousarray(depth), ring.astype(np.int64))
+    points = (np.ascontiguousarray(xy, np.float64), np.ascontiguousarray(depth, np.float64), ring.astype(np.int64))
     limits = (ACROSS_RINGS_FACTOR * max_jump_mm, neighbours, min_count)
     for _ in range(passes):
         judged = np.flatnonzero(alive)
-        agrees = _agrees(points, (index, row, alive, judged), limits)
+        agrees = _agrees(points, (index, row, anchors, alive), judged, limits)
         alive[judged[~agrees]] = False
     out[kept[~alive]] = False
     return out
@@ -203,14 +204,14 @@ _OWN_RING_CELL_PX = 16.0
 
 def _nearest_candidates(
     xy: np.ndarray, ring: np.ndarray, candidates: np.ndarray, k: int
-) -> tuple[np.ndarray, np.ndarray]:
-    """The `k` candidates nearest each sample, nearest first: (R, k) rows of them and each sample's
-    row (N,). A sample within _SHARED_NEIGHBOURHOOD_PX of a candidate of its own ring takes that
-    candidate's row (its fits span ~50 px): the k nearest are searched for the candidates, and for
-    the samples without one near. A grid of cells 1.5 times the candidates' mean spacing wide (the
-    fastest of 0.7 to 4 on the default bench), searched in compiled code
-    (rig.kernels.cells.k_nearest), a span of samples per thread; a sample's own ring's candidate in
-    each ring's own grid of cells."""
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The `k` candidates nearest each sample, nearest first: (R, k) rows of them, each sample's
+    row (N,) and each row's own sample's xy (R, 2). A sample within _SHARED_NEIGHBOURHOOD_PX of a
+    candidate of its own ring takes that candidate's row (its fits span ~50 px): the k nearest are
+    searched for the candidates, and for the samples without one near. A grid of cells 1.5 times
+    the candidates' mean spacing wide (the fastest of 0.7 to 4 on the default bench), searched in
+    compiled code (rig.kernels.cells.k_nearest), a span of samples per thread; a sample's own
+    ring's candidate in each ring's own grid of cells."""
     xy = np.ascontiguousarray(xy, np.float64)
     spots = np.ascontiguousarray(xy[candidates])
     ring = ring.astype(np.int64)
@@ -234,7 +235,8 @@ def _nearest_candidates(
     row = np.empty(len(xy), np.int64)
     row[searched] = np.arange(len(searched))
     row[shared] = row[closest[shared]]  # a candidate, searched
-    return candidates[_k_nearest(spots, cells, cell, np.ascontiguousarray(xy[searched]), k)], row
+    anchors = np.ascontiguousarray(xy[searched])
+    return candidates[_k_nearest(spots, cells, cell, anchors, k)], row, anchors
 
 
 def _k_nearest(spots: np.ndarray, cells: tuple[object, ...], cell: float, at: np.ndarray, k: int) -> np.ndarray:
@@ -245,15 +247,20 @@ def _k_nearest(spots: np.ndarray, cells: tuple[object, ...], cell: float, at: np
 
 
 def _agrees(
-    points: tuple[np.ndarray, ...], neighbourhoods: tuple[np.ndarray, ...], limits: tuple[float, int, int]
+    points: tuple[np.ndarray, ...],
+    neighbourhoods: tuple[np.ndarray, ...],
+    judged: np.ndarray,
+    limits: tuple[float, int, int],
 ) -> np.ndarray:
-    """rig.kernels.rings.across_agrees over the pool: each judged point's verdict
-    (`neighbourhoods`: rows of candidates, every point's row, which points are alive, and the
-    points judged)."""
-    judged = neighbourhoods[-1]
+    """rig.kernels.across.across_agrees over the pool: each judged point's verdict, the points taken
+    neighbourhood by neighbourhood (`neighbourhoods`: rows of candidates, every point's row, each
+    row's own sample's xy, which points are alive)."""
+    by_row = np.argsort(neighbourhoods[1][judged], kind="stable")
+    ordered, verdicts = judged[by_row], np.empty(len(judged), bool)
+    arrays = (points, neighbourhoods, ordered, limits, verdicts)
+    list(pool().map(lambda span: across_kernels.across_agrees(*arrays, *span), batches(len(judged))))
     agrees = np.empty(len(judged), bool)
-    spans = batches(len(judged))
-    list(pool().map(lambda span: ring_kernels.across_agrees(*points, *neighbourhoods, limits, agrees, *span), spans))
+    agrees[by_row] = verdicts
     return agrees
 
 
