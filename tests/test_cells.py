@@ -7,7 +7,6 @@ import pytest
 from scipy.spatial import cKDTree
 
 from rig.kernels.cells import (
-    cell_ordered,
     group_cell_side,
     group_cells,
     k_nearest,
@@ -26,8 +25,7 @@ def test_k_nearest_finds_the_k_d_trees_neighbours(cell: float) -> None:
     points[:300] = RNG.normal([150.0, 100.0], 3.0, size=(300, 2))  # a crowd, and sparse elsewhere
     queries = np.column_stack([RNG.uniform(-50, 350, 500), RNG.uniform(-50, 250, 500)])  # some outside
     index = np.empty((len(queries), 12), np.int64)
-    cells = sample_cells(points, cell)
-    k_nearest(cell_ordered(points, cells), cells, cell, queries, index, 0, len(queries))
+    k_nearest(sample_cells(points, cell), cell, queries, index, 0, len(queries))
     _, expected = cKDTree(points).query(queries, 12)
     np.testing.assert_array_equal(index, expected)
 
@@ -48,7 +46,7 @@ def test_nearest_within_searches_one_group_within_the_reach() -> None:
     for query in RNG.uniform([0, 0], [300, 200], size=(200, 2)):
         for g in (0, 3):
             row_d, row_i = np.empty(6), np.empty(6, np.int64)
-            found = nearest_within(points, cells, (16.0, g, 25.0), (query[0], query[1]), row_d, row_i)
+            found = nearest_within(cells, (16.0, g, 25.0), (query[0], query[1]), row_d, row_i)
             distance = np.linalg.norm(points - query, axis=1)
             mine = np.flatnonzero((group == g) & (distance < 25.0))
             expected = mine[np.argsort(distance[mine], kind="stable")][:6]
@@ -67,7 +65,7 @@ def test_k_nearest_in_group_searches_each_querys_own_group_even_outside_the_grid
     queries = np.column_stack([RNG.uniform(-20, 320, 300), RNG.uniform(-20, 220, 300)])
     query_group = RNG.integers(0, 5, len(queries))
     dist, index = np.empty((300, 5)), np.empty((300, 5), np.int64)
-    k_nearest_in_group(points, cells, (side, 9.0), queries, query_group, dist, index, 0, len(queries))
+    k_nearest_in_group(cells, (side, 9.0), queries, query_group, dist, index, 0, len(queries))
     for q, (query, g) in enumerate(zip(queries, query_group, strict=True)):
         distance = np.linalg.norm(points - query, axis=1)
         mine = np.flatnonzero((group == g) & (distance < 9.0))

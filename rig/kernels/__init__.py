@@ -20,3 +20,11 @@ import numpy as np
 
 KERNEL = {"nogil": True, "cache": True}  # every loop: released GIL (rig.workers runs bands of rows), cached
 Image = np.ndarray  # (H, W), or (3, H, W) for points, directions and normals
+
+
+def bounds(points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Per-column least and greatest values of `points` (N, D), N > 0, a column at a time: numpy's
+    min over axis 0 of a narrow array steps through it a row at a time, ten times slower (4.6 against
+    0.36 ms for 107,000 image points)."""
+    columns = range(points.shape[1])
+    return np.array([points[:, k].min() for k in columns]), np.array([points[:, k].max() for k in columns])

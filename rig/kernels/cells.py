@@ -8,24 +8,29 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from rig.kernels import KERNEL
+from rig.kernels import KERNEL, bounds
 
 # order (the points' indices cell by cell), starts (where each cell's run starts, cells + 1),
-# the grid's corner x0, y0 and its size in cells nx, ny
-Cells = tuple[np.ndarray, np.ndarray, float, float, int, int]
+# the grid's corner x0, y0, its size in cells nx, ny, and the points (M, 2) in the cells' order (a
+# cell's points side by side in memory, for the searches)
+Cells = tuple[np.ndarray, np.ndarray, float, float, int, int, np.ndarray]
 
 
 @njit(**KERNEL)
 def sample_cells(xy: np.ndarray, cell: float) -> Cells:
     """The samples `xy` (M, 2) sorted into square cells of side `cell`: their indices cell by cell,
-    where each cell's run starts ((cells + 1,)), the grid's corner and its size in cells."""
+    where each cell's run starts ((cells + 1,)), the grid's corner, its size in cells and the
+    samples in the cells' order."""
     return group_cells(xy, np.zeros(len(xy), np.int64), 1, cell)
 
 
 def group_cell_side(xy: np.ndarray, groups: int, smallest: float, max_cells: int = 1_000_000) -> float:
     """The side of group_cells' cells for points `xy` in `groups` groups: `smallest`, or wider where
     groups x cells would pass `max_cells` (8 bytes of run starts each, and as many again to fill)."""
-    area = float(np.prod(np.ptp(xy, axis=0) + 1.0)) if len(xy) else 1.0
+    if not len(xy):
+        return float(smallest)
+    lo, hi = bounds(xy)
+    area = float(np.prod(hi - lo + 1.0))
     return max(float(smallest), float(np.sqrt(groups * area / max_cells)))
 
 
@@ -46,23 +51,26 @@ def group_cells(xy: np.ndarray, group: np.ndarray, groups: int, cell: float) -> 
     for i in range(len(xy)):
         order[filled[home[i]]] = i
         filled[home[i]] += 1
-    return order, starts, x0, y0, nx, ny
+    ordered = np.empty((len(xy), 2))
+    for j in range(len(xy)):
+        ordered[j, 0], ordered[j, 1] = xy[order[j], 0], xy[order[j], 1]
+    return order, starts, x0, y0, nx, ny, ordered
 
 
 @njit(nogil=True, cache=True)
 def nearest_within(
-    xy: np.ndarray,
     cells: Cells,
     where: tuple[float, int, float],
     at: tuple[float, float],
     row_d: np.ndarray,
     row_i: np.ndarray,
 ) -> int:
-    """The len(row_d) samples of one group nearest the point `at` and nearer than a reach, nearest
+    """The len(row_d) points of one group nearest the point `at` and nearer than a reach, nearest
     first, into (row_d distances, row_i indices); how many there are. where: (cell side, group (0
     for sample_cells), reach, inf for none). Searched ring of cells by ring of cells about the point
-    until no cell left can hold a nearer one."""
-    order, starts, x0, y0, nx, ny = cells
+    until no cell left can hold a nearer one; squared distances, each cell's points read side by
+    side (a third faster than through the order)."""
+    order, starts, x0, y0, nx, ny, ordered = cells
     cell, group, reach = where
     base, size, found = group * nx * ny, len(row_d), 0
     px, py = at
@@ -71,6 +79,7 @@ def nearest_within(
     steps = max(nx, ny) + 1
     if np.isfinite(reach):
         steps = min(steps, int(reach // cell) + 2)
+    reach_2 = reach * reach
     for step in range(steps if size > 0 else 0):
         for gy in range(max(cy - step, 0), min(cy + step, ny - 1) + 1):
             edge = gy == cy - step or gy == cy + step
@@ -79,17 +88,18 @@ def nearest_within(
                     continue
                 c = base + gy * nx + gx
                 for j in range(starts[c], starts[c + 1]):
-                    s = order[j]
-                    d = np.sqrt((xy[s, 0] - px) ** 2 + (xy[s, 1] - py) ** 2)
-                    if d < reach and (found < size or d < row_d[size - 1]):
-                        found = _insert(row_d, row_i, found, d, s)
-        # every sample nearer than the searched block's nearest outside edge has been seen
+                    d = (ordered[j, 0] - px) ** 2 + (ordered[j, 1] - py) ** 2
+                    if d < reach_2 and (found < size or d < row_d[size - 1]):
+                        found = _insert(row_d, row_i, found, d, j)
+        # every point nearer than the searched block's nearest outside edge has been seen
         inner = min(
             px - (x0 + (cx - step) * cell), x0 + (cx + step + 1) * cell - px,
             py - (y0 + (cy - step) * cell), y0 + (cy + step + 1) * cell - py,
         )  # fmt: skip
-        if inner >= reach or (found == size and row_d[size - 1] <= inner):
+        if inner >= reach or (found == size and inner >= 0 and row_d[size - 1] <= inner * inner):
             break
+    for m in range(found):
+        row_d[m], row_i[m] = np.sqrt(row_d[m]), order[row_i[m]]
     return found
 
 
@@ -108,7 +118,7 @@ def _insert(row_d: np.ndarray, row_i: np.ndarray, found: int, d: float, sample: 
 def pairs_within(xy: np.ndarray, cells: Cells, cell: float, radius: float) -> np.ndarray:
     """(P, 2) every pair i < j of points `xy` at most `radius` apart, grouped by i; `cells`: sample_cells
     of `xy` with side `cell` >= radius (a pair lies in neighbouring cells)."""
-    order, starts, x0, y0, nx, ny = cells
+    order, starts, x0, y0, nx, ny, _ = cells
     count = np.zeros(len(xy) + 1, np.int64)
     for sweep in range(2):  # count each point's partners, then write them where the counts say
         pairs = np.empty((count[-1] if sweep else 0, 2), np.int64)
@@ -131,53 +141,19 @@ def pairs_within(xy: np.ndarray, cells: Cells, cell: float, radius: float) -> np
     return pairs
 
 
-def cell_ordered(xy: np.ndarray, cells: Cells) -> np.ndarray:
-    """The points `xy` (M, 2) in their cells' order (cells[0]), for k_nearest: a cell's points
-    side by side in memory."""
-    return np.ascontiguousarray(xy[cells[0]], np.float64)
-
-
 @njit(**KERNEL)
-def k_nearest(
-    ordered: np.ndarray, cells: Cells, cell: float, at: np.ndarray, index: np.ndarray, start: int, stop: int
-) -> None:
+def k_nearest(cells: Cells, cell: float, at: np.ndarray, index: np.ndarray, start: int, stop: int) -> None:
     """For query points at[start:stop]: the indices of the k nearest points (index's width; at most
     their number), nearest first, into `index`; `cells`: sample_cells of the points with side
-    `cell`, `ordered`: the points in the cells' order (cell_ordered). Squared distances, each
-    cell's points read side by side: a third faster than nearest_within's reads through the
-    order, with the same neighbours in the same order."""
-    order, starts, x0, y0, nx, ny = cells
-    k = min(index.shape[1], len(ordered))
-    row_d, row_j = np.empty(k), np.empty(k, np.int64)
+    `cell`."""
+    k = min(index.shape[1], len(cells[0]))
+    dist = np.empty(k)
     for q in range(start, stop):
-        px, py = at[q, 0], at[q, 1]
-        cx = min(max(int((px - x0) // cell), 0), nx - 1)
-        cy = min(max(int((py - y0) // cell), 0), ny - 1)
-        found = 0
-        for step in range(max(nx, ny) + 1 if k > 0 else 0):
-            for gy in range(max(cy - step, 0), min(cy + step, ny - 1) + 1):
-                edge = gy == cy - step or gy == cy + step
-                for gx in range(max(cx - step, 0), min(cx + step, nx - 1) + 1):
-                    if not edge and cx - step < gx < cx + step:
-                        continue
-                    c = gy * nx + gx
-                    for j in range(starts[c], starts[c + 1]):
-                        d = (ordered[j, 0] - px) ** 2 + (ordered[j, 1] - py) ** 2
-                        if found < k or d < row_d[k - 1]:
-                            found = _insert(row_d, row_j, found, d, j)
-            inner = min(
-                px - (x0 + (cx - step) * cell), x0 + (cx + step + 1) * cell - px,
-                py - (y0 + (cy - step) * cell), y0 + (cy + step + 1) * cell - py,
-            )  # fmt: skip
-            if found == k and inner >= 0 and row_d[k - 1] <= inner * inner:  # (a query off the grid: inner < 0)
-                break
-        for m in range(k):
-            index[q, m] = order[row_j[m]]
+        nearest_within(cells, (cell, 0, np.inf), (at[q, 0], at[q, 1]), dist, index[q, :k])
 
 
 @njit(**KERNEL)
 def k_nearest_in_group(
-    xy: np.ndarray,
     cells: Cells,
     where: tuple[float, float],
     at: np.ndarray,
@@ -187,10 +163,10 @@ def k_nearest_in_group(
     start: int,
     stop: int,
 ) -> None:
-    """For query points at[start:stop] of groups at_group: the nearest points `xy` of the same group
+    """For query points at[start:stop] of groups at_group: the nearest points of the same group
     nearer than a reach, nearest first, into (dist, index) rows (the rest inf and -1); `cells`:
-    group_cells of `xy`, where: (its cell side, the reach)."""
+    group_cells of the points, where: (its cell side, the reach)."""
     cell, reach = where
     for q in range(start, stop):
         dist[q, :], index[q, :] = np.inf, -1
-        nearest_within(xy, cells, (cell, at_group[q], reach), (at[q, 0], at[q, 1]), dist[q], index[q])
+        nearest_within(cells, (cell, at_group[q], reach), (at[q, 0], at[q, 1]), dist[q], index[q])

@@ -222,7 +222,6 @@ def one_surface(
 
 @njit(**KERNEL)
 def fill_neighbourhoods(
-    xy: np.ndarray,
     members: np.ndarray,
     cells: tuple[Cells, Cells],
     at: np.ndarray,
@@ -251,23 +250,21 @@ def fill_neighbourhoods(
             continue
         if second >= 0 and members[second] == 0:
             continue
-        near = min(k, len(xy))
+        near = min(k, len(cells[0][0]))
         n_first = min(near if second < 0 else near // 2, members[first])
         n_second = 0 if second < 0 else min(near // 2, members[second])
         point = (at[i, 0], at[i, 1])
         tail = near + n_first
         end = tail  # ring 0 alone: its list ends there
-        found = nearest_within(xy, cells[1], (ring_cell, first, reach), point, dist[i, near:tail], index[i, near:tail])
+        found = nearest_within(cells[1], (ring_cell, first, reach), point, dist[i, near:tail], index[i, near:tail])
         if found > 0 and second >= 0:
             end = tail + n_second
-            found = nearest_within(
-                xy, cells[1], (ring_cell, second, reach), point, dist[i, tail:end], index[i, tail:end]
-            )
+            found = nearest_within(cells[1], (ring_cell, second, reach), point, dist[i, tail:end], index[i, tail:end])
         if found == 0:
             dist[i, :] = np.inf
             index[i, :] = 0
             continue
-        found = nearest_within(xy, cells[0], (cell, 0, reach), point, dist[i, :near], index[i, :near])
+        found = nearest_within(cells[0], (cell, 0, reach), point, dist[i, :near], index[i, :near])
         for j in range(near, end):  # listed already among the nearest of any ring
             for m in range(found):
                 if index[i, m] == index[i, j] and np.isfinite(dist[i, j]):

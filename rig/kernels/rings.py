@@ -163,7 +163,7 @@ def along_support(
     reach, max_jump; cells: rig.kernels.cells.sample_cells of side `reach`) whose depth is within
     `max_jump`: how many (`support`), the sum of their offsets in the image (`offset` (N, 2)) and of
     their distances (`reach_sum`)."""
-    order, starts, x0, y0, nx, ny = cells
+    order, starts, x0, y0, nx, ny, _ = cells
     reach, max_jump = limits
     for i in range(start, stop):
         cx, cy = int((xy[i, 0] - x0) / reach), int((xy[i, 1] - y0) / reach)

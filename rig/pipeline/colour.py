@@ -23,6 +23,7 @@ from typing import Literal
 import numpy as np
 from scipy.spatial import cKDTree
 
+from rig.kernels import bounds
 from rig.lazy import lazy_module
 from rig.pipeline.surface import RingSurface
 from rig.workers import batches, pool
@@ -105,7 +106,8 @@ def _along_rings(surface: RingSurface, neighbours: int) -> np.ndarray:
     vertices, faces, ring = surface.vertices, surface.faces, surface.ring
     used = np.flatnonzero(np.bincount(faces.ravel(), minlength=len(vertices)) > 0)
     # rings far apart in a fourth coordinate: a sample's nearest in this tree are on its own ring
-    spread = 10.0 * float(np.ptp(vertices, axis=0).max() + 1.0)
+    lo, hi = bounds(vertices)
+    spread = 10.0 * float((hi - lo).max() + 1.0)
     tree = cKDTree(np.column_stack([vertices[used], ring[used] * spread]), balanced_tree=False)
     k = min(neighbours + 2, len(used))
     _, index = tree.query(tree.data, k=k, distance_upper_bound=spread / 2, workers=-1)

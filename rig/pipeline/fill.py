@@ -21,8 +21,10 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.ndimage import maximum_filter
 
 from rig.geometry import CameraModel
+from rig.kernels import bounds
 from rig.lazy import lazy_module
 from rig.workers import batches, pool
 
@@ -75,19 +77,43 @@ def fill_points(
     grid = _search_grid(xy, ring, int(annulus.max(initial=0)) + 1)
     footprint = _footprints(points, normals, camera, settings)
     origins, directions = camera.pixel_rays
-    for start in range(0, len(pixel), _PIXELS_AT_ONCE):  # a block's neighbourhoods, not the whole fill's
-        part = slice(start, start + _PIXELS_AT_ONCE)
+    reached = np.flatnonzero(_rings_reach(xy, ring, _positions(pixel, camera.width), annulus, settings.reach_px))
+    for start in range(0, len(reached), _PIXELS_AT_ONCE):  # a block's neighbourhoods, not the whole fill's
+        part = reached[start : start + _PIXELS_AT_ONCE]
         dist, index = _neighbourhoods(xy, ring, _positions(pixel[part], camera.width), annulus[part], settings, grid)
         use = _one_surface(points, footprint, xy, ring, (dist, index), annulus[part], settings)
         rows = np.flatnonzero(use.sum(axis=1) >= settings.min_samples)
         if len(rows) == 0:
             continue
-        at = pixel[part][rows]
+        at = pixel[part[rows]]
         rays = (np.asarray(origins[at]), np.asarray(directions[at]))
         met, misfit_mm = _fit_and_meet(points, normals, index[rows], use[rows], rays, settings)
         smooth = misfit_mm <= settings.max_misfit_px * camera.mm_per_px(np.nan_to_num(met))
-        found[start + rows[smooth]] = met[smooth]
+        found[part[rows[smooth]]] = met[smooth]
     return found
+
+
+def _rings_reach(xy: np.ndarray, ring: np.ndarray, at: np.ndarray, annulus: np.ndarray, reach: float) -> np.ndarray:
+    """(N,) whether both rings of each pixel's annulus (ring 0 alone inside it) may have a sample
+    within `reach` of it (at: the pixels' positions): its cell of a coarse grid lies within a box
+    of cells of one of each ring's samples. The test errs only toward yes: a pixel it turns away
+    has no neighbourhood (rig.kernels.fill.fill_neighbourhoods finds none), and the search for
+    it, a look at every empty cell within the reach, is saved (most candidates lie beyond a
+    surface's last ring)."""
+    rings = int(max(ring.max(initial=-1), annulus.max(initial=0))) + 1
+    (xy_lo, xy_hi), (at_lo, at_hi) = bounds(xy), bounds(at)
+    corner, far = np.minimum(xy_lo, at_lo), np.maximum(xy_hi, at_hi)
+    cell = cell_kernels.group_cell_side(np.array([corner, far]), rings, _RING_CELL_PX, _MAX_RING_CELLS)
+    home = ((xy - corner) // cell).astype(np.int64)
+    spot = ((at - corner) // cell).astype(np.int64)
+    shape = (rings, *((far - corner) // cell).astype(np.int64)[::-1] + 1)
+    occupied = np.zeros(shape, bool)
+    occupied[ring, home[:, 1], home[:, 0]] = True
+    within = int(np.ceil(reach / cell))  # a pixel within reach of a sample lies this many cells from it at most
+    near = maximum_filter(occupied, size=(1, 2 * within + 1, 2 * within + 1), mode="constant", cval=False)
+    first, second = np.where(annulus == 0, 0, annulus - 1), np.where(annulus == 0, -1, annulus)
+    reached = (annulus >= 0) & near[np.maximum(first, 0), spot[:, 1], spot[:, 0]]
+    return reached & ((second < 0) | near[np.maximum(second, 0), spot[:, 1], spot[:, 0]])
 
 
 SearchGrid = tuple[np.ndarray, np.ndarray, tuple[object, object], float]
@@ -122,8 +148,8 @@ def _neighbourhoods(
     only). A grid of cells (`grid`: _search_grid's, where made already) and a compiled search
     (rig.kernels.fill.fill_neighbourhoods), a span of pixels per thread."""
     k, reach = settings.neighbours, float(settings.reach_px)
-    xy, members, cells, ring_cell = grid or _search_grid(xy, ring, int(annulus.max(initial=0)) + 1)
-    arrays = (xy, members, cells, np.ascontiguousarray(at), annulus.astype(np.int64))
+    _, members, cells, ring_cell = grid or _search_grid(xy, ring, int(annulus.max(initial=0)) + 1)
+    arrays = (members, cells, np.ascontiguousarray(at), annulus.astype(np.int64))
     dist, index = np.empty((len(at), 2 * k)), np.empty((len(at), 2 * k), np.int64)
 
     def search(span: tuple[int, int]) -> None:

@@ -22,6 +22,7 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from rig.geometry import CameraModel
+from rig.kernels import bounds
 from rig.lazy import lazy_module
 from rig.pipeline.pointset import PointSet
 from rig.workers import batches, point_blocks, pool
@@ -178,7 +179,7 @@ def compare_across_pairs(
 
 def thin(points: np.ndarray, score: np.ndarray, voxel: float) -> np.ndarray:
     """Mask keeping the best-scoring point of every voxel of edge `voxel`."""
-    cells = np.floor((points - points.min(axis=0)) / voxel).astype(np.int64)
+    cells = np.floor((points - bounds(points)[0]) / voxel).astype(np.int64)
     order = np.lexsort((-score, cells[:, 2], cells[:, 1], cells[:, 0]))  # best first within a cell
     ordered = cells[order]
     first = np.ones(len(order), bool)

@@ -63,7 +63,7 @@ def _same_ring_nearest(
     where, groups = (side, NEIGHBOUR_REACH_PX), at_ring.astype(np.int64)
     list(
         pool().map(
-            lambda span: cell_kernels.k_nearest_in_group(xy, cells, where, at_xy, groups, dist, near, *span),
+            lambda span: cell_kernels.k_nearest_in_group(cells, where, at_xy, groups, dist, near, *span),
             batches(len(at_xy)),
         )
     )

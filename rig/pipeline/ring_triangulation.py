@@ -9,6 +9,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from rig.geometry import CameraModel, parallel_projection, radius_ratio, ray_cone, refine_on_distorted_ring
+from rig.kernels import bounds
 from rig.lazy import lazy_module
 from rig.patterns import Correspondence, RingSamples
 from rig.pipeline.dense import texture_rgb
@@ -222,27 +223,28 @@ def _nearest_candidates(
     where = (side, _SHARED_NEIGHBOURHOOD_PX)
     list(
         pool().map(
-            lambda span: cell_kernels.k_nearest_in_group(spots, own_cells, where, xy, ring, dist, closest, *span),
+            lambda span: cell_kernels.k_nearest_in_group(own_cells, where, xy, ring, dist, closest, *span),
             batches(len(xy)),
         )
     )
     shared = np.isfinite(dist[:, 0])  # a candidate of its ring nearer than the reach
     shared[candidates] = False  # a candidate is searched for itself
     closest = candidates[np.maximum(closest[:, 0], 0)]
-    cell = max(1.5 * np.sqrt(np.prod(np.ptp(spots, axis=0) + 1.0) / len(spots)), 1.0)  # ~2 candidates a cell
+    lo, hi = bounds(spots)
+    cell = max(1.5 * np.sqrt(np.prod(hi - lo + 1.0) / len(spots)), 1.0)  # ~2 candidates a cell
     cells = cell_kernels.sample_cells(spots, cell)
     searched = np.flatnonzero(~shared)
     row = np.empty(len(xy), np.int64)
     row[searched] = np.arange(len(searched))
     row[shared] = row[closest[shared]]  # a candidate, searched
     anchors = np.ascontiguousarray(xy[searched])
-    return candidates[_k_nearest(spots, cells, cell, anchors, k)], row, anchors
+    return candidates[_k_nearest(cells, cell, anchors, k)], row, anchors
 
 
-def _k_nearest(spots: np.ndarray, cells: tuple[object, ...], cell: float, at: np.ndarray, k: int) -> np.ndarray:
-    """(N, k) indices of the `k` of `spots` nearest each of `at` (rig.kernels.cells.k_nearest)."""
-    index, ordered = np.empty((len(at), k), np.int64), cell_kernels.cell_ordered(spots, cells)
-    list(pool().map(lambda span: cell_kernels.k_nearest(ordered, cells, cell, at, index, *span), batches(len(at))))
+def _k_nearest(cells: tuple[object, ...], cell: float, at: np.ndarray, k: int) -> np.ndarray:
+    """(N, k) indices of the `k` points of `cells` nearest each of `at` (rig.kernels.cells.k_nearest)."""
+    index = np.empty((len(at), k), np.int64)
+    list(pool().map(lambda span: cell_kernels.k_nearest(cells, cell, at, index, *span), batches(len(at))))
     return index
 
 

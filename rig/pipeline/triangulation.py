@@ -16,6 +16,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial import Delaunay, QhullError
 
+from rig.kernels import bounds
 from rig.lazy import lazy_module
 
 delaunay_kernels = lazy_module("rig.kernels.delaunay")  # numba compiles on first use
@@ -37,7 +38,7 @@ def delaunay(xy: np.ndarray) -> np.ndarray:
     if len(xy) < 3:
         return np.zeros((0, 3), np.int64)
     order = insertion_order(xy)
-    lo, hi = xy.min(axis=0), xy.max(axis=0)
+    lo, hi = bounds(xy)
     middle, span = (lo + hi) / 2, _ENCLOSING * (float((hi - lo).max()) + 1.0)
     enclosing = middle + span * np.array([[-2.0, -1.0], [2.0, -1.0], [0.0, 2.0]])  # counter-clockwise
     ordered = np.ascontiguousarray(np.vstack([xy[order], enclosing]), np.float64)  # neighbours in memory too
