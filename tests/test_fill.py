@@ -57,3 +57,25 @@ def test_a_pixel_inside_the_innermost_ring_lists_each_sample_once() -> None:
     )
     listed = index[0][np.isfinite(dist[0])]
     assert sorted(listed) == [0, 1, 2]  # the three in reach, once each (the fourth is beyond 48 px)
+
+
+def test_the_reach_test_turns_away_only_pixels_with_a_ring_out_of_reach() -> None:
+    """fill._rings_reach may let a pixel through that no sample reaches, never turn one away that
+    both its rings reach (ring 0 alone inside it): the fill would find that pixel's neighbourhood."""
+    from rig.pipeline.fill import _rings_reach
+
+    rng = np.random.default_rng(5)
+    xy = rng.uniform([0, 0], [640, 480], (3000, 2))
+    ring = rng.integers(0, 6, len(xy))
+    ring[(xy[:, 0] > 300) & (ring == 2)] = 3  # ring 2 only on the left half: far pixels of its annuli are out of reach
+    at = rng.integers([0, 0], [640, 480], (5000, 2)).astype(np.float64)
+    annulus = rng.integers(-1, 7, len(at))
+    reached = _rings_reach(xy, ring, at, annulus, 48.0)
+    for (x, y), a, through in zip(at, annulus, reached, strict=True):
+        wanted = [0] if a == 0 else [a - 1, a]
+        near = np.hypot(xy[:, 0] - x, xy[:, 1] - y) < 48.0
+        both = a >= 0 and all((near & (ring == r)).any() for r in wanted)
+        assert through or not both
+        if a < 0 or a >= 6 or (x > 300 + 48 + 48 and 2 in wanted):  # rings 6 and 7 have no samples
+            assert not through
+    assert 0.1 < reached.mean() < 0.9
