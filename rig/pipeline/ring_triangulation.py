@@ -9,7 +9,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from rig.geometry import CameraModel, parallel_projection, radius_ratio, ray_cone, refine_on_distorted_ring
-from rig.kernels import bounds
+from rig.kernels import bounds, kept_rows
 from rig.lazy import lazy_module
 from rig.patterns import Correspondence, RingSamples
 from rig.pipeline.dense import texture_rgb
@@ -109,7 +109,7 @@ def triangulate_rings(
         }
     )
     columns = (points, other, origins, directions, samples.camera_xy, samples.ring, sigma, cos_beta, kept)
-    result = RingPoints(*(column[found] for column in columns), contrast=samples.contrast[found])
+    result = RingPoints(*kept_rows(found, *columns), contrast=samples.contrast[found])
     return result, counts
 
 

@@ -25,6 +25,7 @@ import numpy as np
 from scipy.interpolate import CloughTocher2DInterpolator
 
 from rig.geometry import CameraModel
+from rig.kernels import kept_rows
 from rig.lazy import lazy_module
 from rig.pipeline.disc_fill import disc_points
 from rig.pipeline.fill import FillSettings, fill_candidates, fill_points
@@ -144,15 +145,15 @@ def ring_triangles(
     for name, code in (*verdicts.items(), ("one_ring", triangle_kernels.ONE_RING)):
         counts[f"dropped_{name}"] = int((verdict == code).sum())
     keep = verdict == triangle_kernels.KEPT
-    tri, face, weight, slant, foreshortened = tri[keep], face[keep], weight[keep], slant[keep], foreshortened[keep]
+    tri, face, weight, slant, foreshortened = kept_rows(keep, tri, face, weight, slant, foreshortened)
     edge_on = slant < np.cos(np.radians(settings.max_slant_deg))
     steep = ~edge_on & (foreshortened < settings.min_foreshortening)
     edge_on |= steep
-    held = (tri[steep], face[steep], weight[steep])  # a flank or a bridge: told apart once the rest is known
-    tri, face, weight = tri[~edge_on], face[~edge_on], weight[~edge_on]
+    held = kept_rows(steep, tri, face, weight)  # a flank or a bridge: told apart once the rest is known
+    tri, face, weight = kept_rows(~edge_on, tri, face, weight)
     normals = vertex_normals(tri, face, weight, directions)
     bent = normal_kernels.bent_from_corners(normals, tri, face, np.cos(np.radians(settings.max_bend_deg)))
-    tri, face, weight = tri[~bent], face[~bent], weight[~bent]
+    tri, face, weight = kept_rows(~bent, tri, face, weight)
     pairs = neighbours.result(timeout=_PAIRS_TIMEOUT_S)
     # corners' normals as the interpolant takes them (smoothed along the rings), without the
     # triangles dropped so far: a triangle that bridges a step stands out once its neighbours that
@@ -163,7 +164,7 @@ def ring_triangles(
         again = _off_its_corners(normals, tri, face, settings.max_bend_excess_deg)
         if not again.any():
             break
-        tri, face, weight, dropped = tri[~again], face[~again], weight[~again], dropped + int(again.sum())
+        (tri, face, weight), dropped = kept_rows(~again, tri, face, weight), dropped + int(again.sum())
         normals = _normals(tri, face, weight, directions, pairs)
     flank = grown_flanks((tri, face, weight), held, directions, settings.max_flank_turn_deg)
     if flank.any():
