@@ -69,7 +69,7 @@ def nearest_within(
     first, into (row_d distances, row_i indices); how many there are. where: (cell side, group (0
     for sample_cells), reach, inf for none). Searched ring of cells by ring of cells about the point
     until no cell left can hold a nearer one; squared distances, each cell's points read side by
-    side (a third faster than through the order)."""
+    side (a quarter less time than reading them through the order)."""
     order, starts, x0, y0, nx, ny, ordered = cells
     cell, group, reach = where
     base, size, found = group * nx * ny, len(row_d), 0
