@@ -274,8 +274,8 @@ def place_by_fine_angle(
     def solve(which: np.ndarray, coarse: np.ndarray, sigma: float | np.ndarray = COARSE_SIGMA_RAD) -> AngleSolution:
         return solve_ring_angles(
             projector,
-            origins[which],
-            directions[which],
+            np.take(origins, which, axis=0),  # np.take: a fancy index of a 2-D array is slower
+            np.take(directions, which, axis=0),
             samples.radius_px[which],
             coarse,
             samples.fine_phase[which],
@@ -284,7 +284,7 @@ def place_by_fine_angle(
             samples.radius_sigma_px,
             samples.tangential_sigma_px,
             coarse_sigma=sigma,
-            terms=None if projector.has_distortion else hits.terms[which],
+            terms=None if projector.has_distortion else np.take(hits.terms, which, axis=0),
         )
 
     solution = solve(idx, samples.theta[idx])
@@ -330,10 +330,11 @@ def _resolve_from_neighbours(
     placed, ambiguous = solvable & clear, solvable & ~clear
     if not ambiguous.any() or not placed.any():
         return 0
-    points = origins[idx[placed]] + solution.s[placed, None] * directions[idx[placed]]
+    at = idx[placed]
+    points = np.take(origins, at, axis=0) + solution.s[placed, None] * np.take(directions, at, axis=0)
     uv, _ = projector.project(points)
     angle = np.arctan2(uv[:, 1] - samples.center_px[1], uv[:, 0] - samples.center_px[0])
-    xy, ring = samples.camera_xy[idx], samples.ring[idx]
+    xy, ring = np.take(samples.camera_xy, idx, axis=0), samples.ring[idx]
     wanted = np.flatnonzero(ambiguous)
     predicted, scatter = neighbour_angles(xy[placed], ring[placed], angle, xy[wanted], ring[wanted])
     period = 2 * np.pi / samples.fine_periods[idx[wanted]]

@@ -310,9 +310,8 @@ def ring_pointset(
     frame at the nearest pixel, `pixel` that nearest pixel: PairResult.grid and the depth maps
     place each point there, with no (H, W, 3) grid held for a few ten thousand points)."""
     keep = np.flatnonzero(rings.kept)
-    points = rings.points[keep]
-    xy = rings.camera_xy[keep]
-    normals = sample_normals(points, xy, rings.directions[keep], _MAX_TRIANGLE_EDGE_PX, tri)
+    points, xy, directions = kept_rows(rings.kept, rings.points, rings.camera_xy, rings.directions)
+    normals = sample_normals(points, xy, directions, _MAX_TRIANGLE_EDGE_PX, tri)
     col = np.clip(np.rint(xy[:, 0]).astype(np.int64), 0, camera.width - 1)
     row = np.clip(np.rint(xy[:, 1]).astype(np.int64), 0, camera.height - 1)
     pixel = row * camera.width + col
@@ -320,7 +319,7 @@ def ring_pointset(
     cloud = PointSet(
         points=points,
         normals=normals.astype(np.float32),
-        colors=rgb[pixel],
+        colors=np.take(rgb, pixel, axis=0),
         quality=rings.cos_beta[keep].astype(np.float32),
         source=np.full(len(keep), source, np.uint8),
         pixel=pixel,

@@ -8,6 +8,7 @@ import time
 import numpy as np
 
 from rig.errors import DecodeError, ScanError
+from rig.kernels import kept_rows
 from rig.opened_rig import Rig
 from rig.patterns import Codec, CodecParams, Correspondence, FrameStream, codec_class, decode_streamed
 from rig.pipeline.capture import CUE, capture
@@ -78,7 +79,7 @@ def reconstruct_pair(
             valid = keep
     t_mid = time.perf_counter()
     # the kept samples' triangulation serves their normals and the surface between the rings
-    tri = None if rings is None else delaunay(rings.camera_xy[rings.kept])
+    tri = None if rings is None else delaunay(kept_rows(rings.kept, rings.camera_xy)[0])
     if rings is not None:
         points, grid = ring_pointset(rings, model, corr, source, tri), None
     elif fast is not None:
@@ -108,12 +109,12 @@ def ring_surface(
     """The surface between the kept ring samples (`tri`: their Delaunay triangles, where known), with
     holes where the projector left the camera dark."""
     config = rig.config.scan.surface
-    keep = rings.kept
+    points, xy, ring = kept_rows(rings.kept, rings.points, rings.camera_xy, rings.ring)
     lit = ring_lit(rig, corr)
     surface = interpolate_surface(
-        rings.points[keep],
-        rings.camera_xy[keep],
-        rings.ring[keep],
+        points,
+        xy,
+        ring,
         rig.camera_models[camera],
         rig.projector_models[projector],
         lit,
@@ -124,7 +125,7 @@ def ring_surface(
     )
     if config.colour == "white":
         return surface
-    colours = sample_colours(corr.texture, rings.camera_xy[keep], corr.full_scale)
+    colours = sample_colours(corr.texture, xy, corr.full_scale)
     return dataclasses.replace(
         surface,
         colour=interpolate_colour(surface, colours, config.colour, config.colour_neighbours, config.mesh_stride_px),
