@@ -95,6 +95,62 @@ def test_ray_cone_against_analytic_cones() -> None:
             np.testing.assert_allclose(np.hypot(ruv[:, 0] - center[0], ruv[:, 1] - center[1]), radius[ok], atol=1e-6)
 
 
+def test_the_root_the_decoded_angle_picks_is_the_true_point_and_its_terms_are_the_cones() -> None:
+    """rig.kernels.ring_points.chosen_roots over ray_cone's roots: with the true angle, the chosen
+    root is the point and the other root is the rejected one; a decoded angle off both roots by
+    more than MAX_ANGLE_ERROR_RAD finds none. ConeHits.terms is each ray's image about the centre."""
+    from rig.geometry.cone import affine_image
+    from rig.kernels.ring_points import chosen_roots
+    from rig.pipeline.ring_triangulation import MAX_ANGLE_ERROR_RAD
+
+    camera = make_device(320, 256, 450.0, (-100.0, 0.0, 600.0), (0.0, 0.0, 30.0))
+    projector = make_device(256, 192, 375.0, (100.0, 0.0, 620.0), (0.0, 0.0, 30.0))
+    points = np.random.default_rng(6).uniform([-60, -60, 0], [60, 60, 80], (2000, 3))
+    origins, directions = camera.rays(camera.project(points)[0])
+    origins, directions = (
+        np.ascontiguousarray(np.broadcast_to(origins, directions.shape)),
+        np.ascontiguousarray(directions),
+    )
+    center = (120.0, 90.0)
+    puv, _ = projector.project(points)
+    radius = np.hypot(puv[:, 0] - center[0], puv[:, 1] - center[1])
+    theta = np.arctan2(puv[:, 1] - center[1], puv[:, 0] - center[0])
+    theta[::7] += np.pi  # half a turn off: at most the other root's angle
+    hits = ray_cone(projector, origins, directions, radius, center)
+    alpha, beta = affine_image(projector, origins, directions)
+    np.testing.assert_allclose(hits.terms[:, 2], alpha[:, 2])
+    np.testing.assert_allclose(hits.terms[:, 5], beta[:, 2])
+    np.testing.assert_allclose(hits.terms[:, 0], alpha[:, 0] - center[0] * alpha[:, 2])
+    count = len(points)
+    found, sigma, cos_beta = np.empty(count, bool), np.empty(count), np.empty(count)
+    chosen, other = np.empty((count, 3)), np.empty((count, 3))
+    roots = (hits.s, hits.theta, hits.ds_dradius, hits.cos_beta)
+    chosen_roots(
+        roots,
+        theta,
+        (origins, directions),
+        (0.05, MAX_ANGLE_ERROR_RAD),
+        (found, chosen, other, sigma, cos_beta),
+        0,
+        count,
+    )
+    error = np.abs(np.angle(np.exp(1j * (hits.theta - theta[:, None]))))
+    error[~np.isfinite(hits.s)] = np.inf
+    expected = error.min(axis=1) <= MAX_ANGLE_ERROR_RAD
+    np.testing.assert_array_equal(found, expected)
+    assert found.mean() > 0.8 and found[::7].mean() < 0.5
+    far = np.linalg.norm(chosen[::7] - points[::7], axis=1) > 1.0  # half a turn off: never the true point
+    assert far[found[::7]].all()
+    true = np.ones(count, bool)
+    true[::7] = False
+    np.testing.assert_allclose(chosen[true & found], points[true & found], atol=1e-6)
+    k = np.argmin(error, axis=1)
+    rows = np.arange(count)
+    np.testing.assert_array_equal(sigma, np.abs(hits.ds_dradius[rows, k]) * 0.05)
+    np.testing.assert_array_equal(cos_beta, np.nan_to_num(hits.cos_beta[rows, k], nan=0.0))
+    np.testing.assert_array_equal(other, hits.points[rows, 1 - k])
+
+
 def test_radial_decodes_radius_and_angle_noise_free() -> None:
     codec = codec_class("radial")(SIZE, RadialParams())
     corr = codec.decode(unclipped(codec.patterns()), UNCLIPPED_FULL_SCALE)
