@@ -10,7 +10,7 @@ from scipy.spatial import cKDTree
 
 from rig.evaluate.distances import root_mean_square
 from rig.evaluate.pairs import COMPLETE_WITHIN_MM, evaluate_on_bench, point_errors
-from rig.kernels import bounds
+from rig.kernels import cell_keys
 from rig.opened_rig import Rig
 from rig.pipeline import PointSet, ScanResult, precision_recall, sampling_distance
 
@@ -44,12 +44,10 @@ def _first_in_each_cell(points: np.ndarray, spacing_mm: float) -> np.ndarray:
     count = len(cells)
     if count == 0:
         return np.zeros(0, np.int64)
-    lo, hi = bounds(cells)
-    cells -= lo
-    span = hi - lo + 1
-    if float(np.prod(span.astype(np.float64))) * count >= 2.0**62:  # a scene of kilometres at a micrometre
+    key, keys = cell_keys(cells)
+    if keys * count >= 2.0**62:  # a scene of kilometres at a micrometre
         return np.unique(cells, axis=0, return_index=True)[1]
-    packed = ((cells[:, 0] * span[1] + cells[:, 1]) * span[2] + cells[:, 2]) * count + np.arange(count)
+    packed = key * count + np.arange(count)
     packed.sort()
     cell = packed // count
     first = np.ones(count, bool)

@@ -16,6 +16,7 @@ import numpy as np
 from scipy.ndimage import maximum_filter, minimum_filter
 
 from rig.evaluate.regions import MIN_REGION_SHARE, joined_labels
+from rig.workers import point_blocks
 
 SECTOR_ARC_PX = 8.0  # projector pixels of arc, at its outer ring, of each sector of an annulus
 CLEAR_PX = 2  # a ring is seen where it crosses surface this many camera pixels clear of its edge
@@ -42,7 +43,7 @@ def between_rings(
     judged[per_label >= MIN_REGION_SHARE * per_label.sum()] = True
     labels[counted & ~judged[np.maximum(labels, 0)]] = -1
     band, key = np.empty(seen.shape, np.int32), np.empty(seen.shape, np.int64)
-    for rows in _strips(seen.shape[0]):  # a band of rows at a time: no image-sized temporaries
+    for rows in point_blocks(seen.shape[0], 64):  # a band of rows at a time: no image-sized temporaries
         # radii[band-1] <= rho < radii[band]
         band[rows] = np.searchsorted(radii, np.nan_to_num(rho[rows], nan=-1.0), side="right")
         key[rows] = np.where(labels[rows] >= 0, _cell(labels[rows], band[rows], theta[rows], radii), -1)
@@ -54,10 +55,6 @@ def between_rings(
     target = np.zeros(seen.shape, dtype=bool)
     target[labels >= 0] = ok
     return target
-
-
-def _strips(height: int, rows: int = 64) -> list[slice]:
-    return [slice(top, min(height, top + rows)) for top in range(0, height, rows)]
 
 
 def _cell(labels: np.ndarray, band: np.ndarray, theta: np.ndarray, radii: np.ndarray) -> np.ndarray:

@@ -84,7 +84,8 @@ def _missed(
     slope = np.hypot(_gradient(filled, y, x, 0), _gradient(filled, y, x, 1))
     band = np.clip(np.searchsorted(radii, np.nan_to_num(rho[y, x], nan=-1.0), side="right"), 1, max(1, len(radii) - 1))
     spacing = radii[np.minimum(band, len(radii) - 1)] - radii[band - 1]
-    crowded[y[spacing < CROWDED_PX * slope], x[spacing < CROWDED_PX * slope]] = True
+    close = spacing < CROWDED_PX * slope
+    crowded[y[close], x[close]] = True
     return {
         name: round(float(area[mask].sum()) / promised, 4)
         for name, mask in (("inner_disc", disc), ("crowded", crowded), ("elsewhere", missed & ~disc & ~crowded))

@@ -25,7 +25,7 @@ import numpy as np
 from scipy.ndimage import gaussian_filter1d
 from scipy.spatial import cKDTree
 
-from rig.kernels import bounds
+from rig.kernels import cell_keys
 from rig.lazy import lazy_module
 from rig.workers import batches, pool
 
@@ -93,11 +93,7 @@ def voxel_average(points: np.ndarray, voxel_mm: float) -> np.ndarray:
     """The mean of the points in each occupied voxel of side `voxel_mm`. The grid is turned
     obliquely to the world axes: a plane lying on a voxel face (the bench plane z = 0 on an
     axis-aligned grid) would have its noise split between two layers of voxels, biasing both."""
-    keys = np.floor(points @ _GRID_TURN / voxel_mm).astype(np.int64)
-    lo, hi = bounds(keys)
-    keys -= lo
-    span = hi - lo + 1
-    flat = (keys[:, 0] * span[1] + keys[:, 1]) * span[2] + keys[:, 2]  # one integer per voxel
+    flat, _ = cell_keys(np.floor(points @ _GRID_TURN / voxel_mm).astype(np.int64))  # one integer per voxel
     _, inverse, counts = np.unique(flat, return_inverse=True, return_counts=True)
     sums = np.column_stack([np.bincount(inverse, points[:, j], len(counts)) for j in range(3)])
     return sums / counts[:, None]

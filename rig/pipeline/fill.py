@@ -77,10 +77,11 @@ def fill_points(
     grid = _search_grid(xy, ring, int(annulus.max(initial=0)) + 1)
     footprint = _footprints(points, normals, camera, settings)
     origins, directions = camera.pixel_rays
-    reached = np.flatnonzero(_rings_reach(xy, ring, _positions(pixel, camera.width), annulus, settings.reach_px))
+    positions = _positions(pixel, camera.width)
+    reached = np.flatnonzero(_rings_reach(xy, ring, positions, annulus, settings.reach_px))
     for start in range(0, len(reached), _PIXELS_AT_ONCE):  # a block's neighbourhoods, not the whole fill's
         part = reached[start : start + _PIXELS_AT_ONCE]
-        dist, index = _neighbourhoods(xy, ring, _positions(pixel[part], camera.width), annulus[part], settings, grid)
+        dist, index = _neighbourhoods(xy, ring, positions[part], annulus[part], settings, grid)
         use = _one_surface(points, footprint, xy, ring, (dist, index), annulus[part], settings)
         rows = np.flatnonzero(use.sum(axis=1) >= settings.min_samples)
         if len(rows) == 0:

@@ -309,8 +309,8 @@ def ring_pointset(
     """The PointSet of the kept ring points (normals from their triangulation, colour of the lit
     frame at the nearest pixel, `pixel` that nearest pixel: PairResult.grid and the depth maps
     place each point there, with no (H, W, 3) grid held for a few ten thousand points)."""
-    keep = np.flatnonzero(rings.kept)
-    points, xy, directions = kept_rows(rings.kept, rings.points, rings.camera_xy, rings.directions)
+    columns = (rings.points, rings.camera_xy, rings.directions, rings.cos_beta)
+    points, xy, directions, cos_beta = kept_rows(rings.kept, *columns)
     normals = sample_normals(points, xy, directions, _MAX_TRIANGLE_EDGE_PX, tri)
     col = np.clip(np.rint(xy[:, 0]).astype(np.int64), 0, camera.width - 1)
     row = np.clip(np.rint(xy[:, 1]).astype(np.int64), 0, camera.height - 1)
@@ -320,8 +320,8 @@ def ring_pointset(
         points=points,
         normals=normals.astype(np.float32),
         colors=np.take(rgb, pixel, axis=0),
-        quality=rings.cos_beta[keep].astype(np.float32),
-        source=np.full(len(keep), source, np.uint8),
+        quality=cos_beta.astype(np.float32),
+        source=np.full(len(points), source, np.uint8),
         pixel=pixel,
     )
     return cloud
