@@ -14,6 +14,7 @@ import numpy as np
 import pytest
 
 from tests.conftest import small_config_data
+from tests.loopback import daemon_http
 from tests.test_daemon import KEY, Daemon, _config
 
 CHROMIUM = shutil.which("chromium") or shutil.which("chromium-browser")
@@ -128,9 +129,8 @@ def test_aim_frames_change_and_an_exposure_change_reaches_the_simulated_camera(
     console.page.fill("input[name=exposure_us]", "3500")
     console.page.click("text=Set")
     console.until("() => document.querySelector('canvas.frame').dataset.exposure === '3500'")
-    import httpx
 
-    cameras = httpx.get(f"{daemon.url}/v1/cameras").json()
+    cameras = daemon_http.get(f"{daemon.url}/v1/cameras").json()
     assert cameras[0]["exposure_us"] == 3500  # the daemon's camera, not the page's idea of it
     assert "frames/s" in console.page.locator(".figures").inner_text()
     console.page.click("text=Dark")
@@ -284,17 +284,16 @@ def test_a_folder_of_captures_is_uploaded_and_calibrated_from_the_page(
 
 
 def test_the_rings_page_draws_an_adaptive_scans_plan(console: Console, daemon: Daemon) -> None:
-    import httpx
 
     from tests.test_daemon import AUTH
 
     # the small rig's 320 x 256 camera holds 0.6 mm on every region, not the default 0.2
-    job = httpx.post(f"{daemon.url}/v1/scans", json={"adaptive": True, "tolerance_mm": 0.6}, headers=AUTH).json()
+    job = daemon_http.post(f"{daemon.url}/v1/scans", json={"adaptive": True, "tolerance_mm": 0.6}, headers=AUTH).json()
     deadline = time.monotonic() + 180
-    while httpx.get(f"{daemon.url}/v1/scans/{job['id']}").json()["state"] in ("queued", "running"):
+    while daemon_http.get(f"{daemon.url}/v1/scans/{job['id']}").json()["state"] in ("queued", "running"):
         assert time.monotonic() < deadline
         time.sleep(0.2)
-    manifest = httpx.get(f"{daemon.url}/v1/scans/{job['id']}/files/manifest.json").json()
+    manifest = daemon_http.get(f"{daemon.url}/v1/scans/{job['id']}/files/manifest.json").json()
     rings = len(manifest["adaptive"]["plan"]["radii_px"])
     console.go(f"rings/{job['id']}")
     console.until(f"() => document.querySelectorAll('svg.plan circle').length >= {rings}")  # drawn whole

@@ -7,12 +7,12 @@ from __future__ import annotations
 import time
 from collections.abc import Iterator
 
-import httpx
 import numpy as np
 import pytest
 
 from tests.conftest import small_config_data
 from tests.firefox import FIREFOX, Firefox, Tab
+from tests.loopback import daemon_http
 from tests.test_console_browser import FROM_THE_TOP, PAGES, REACHABLE
 from tests.test_daemon import KEY, Daemon, _config
 
@@ -121,7 +121,7 @@ def test_aim_frames_change_and_an_exposure_reaches_the_camera(tab: Tab, daemon: 
     tab.fill("input[name=exposure_us]", "4200")
     tab.press("Enter")
     tab.until("document.querySelector('canvas.frame').dataset.exposure === '4200'")
-    assert httpx.get(f"{daemon.url}/v1/cameras").json()[0]["exposure_us"] == 4200
+    assert daemon_http.get(f"{daemon.url}/v1/cameras").json()[0]["exposure_us"] == 4200
     tab.click("text=Dark")
     tab.until("document.querySelector('.state').textContent === 'off'")
     assert tab.errors == []

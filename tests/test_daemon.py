@@ -27,6 +27,7 @@ from rig.cli import main
 from rig.service.job_service import DB_NAME
 from rig.service.jobs import JobStore
 from tests.conftest import default_config_data, ply_xyz, small_config_data, wait_done, write_config
+from tests.loopback import daemon_http
 from tests.ports import free_port
 
 REPO = Path(__file__).resolve().parents[1]
@@ -76,7 +77,7 @@ class Daemon:
                     return False
                 raise AssertionError(f"the daemon exited: {self.log.read_text()}")
             try:
-                if httpx.get(f"{self.url}/v1/health", timeout=1).status_code == 200:
+                if daemon_http.get(f"{self.url}/v1/health", timeout=1).status_code == 200:
                     return True
             except httpx.TransportError:
                 time.sleep(0.1)
@@ -107,25 +108,25 @@ def daemon(small: Path, tmp_path: Path) -> Iterator[Daemon]:
 
 
 def test_a_scan_over_http_gives_the_clis_cloud(daemon: Daemon, small: Path, tmp_path: Path) -> None:
-    created = httpx.post(f"{daemon.url}/v1/scans", json={"codec": "phase"}, headers=AUTH)
+    created = daemon_http.post(f"{daemon.url}/v1/scans", json={"codec": "phase"}, headers=AUTH)
     assert created.status_code == 202
     job_id = created.json()["id"]
     states = []
-    with httpx.stream("GET", f"{daemon.url}/v1/scans/{job_id}/events", timeout=60) as events:
+    with daemon_http.stream("GET", f"{daemon.url}/v1/scans/{job_id}/events", timeout=60) as events:
         for line in events.iter_lines():
             if line.startswith("data: ") and '"state"' in line:
                 states.append(json.loads(line[6:])["state"])
     assert states[-1] == "done" and "running" in states
-    served = httpx.get(f"{daemon.url}/v1/scans/{job_id}/files/cloud.ply")
+    served = daemon_http.get(f"{daemon.url}/v1/scans/{job_id}/files/cloud.ply")
     assert served.status_code == 200
 
     assert main(["scan", "--config", str(small), "--codec", "phase", "--out", str(tmp_path / "cli")]) == 0
     by_cli = (tmp_path / "cli" / "cloud.ply").read_bytes()
     assert np.array_equal(ply_xyz(served.content), ply_xyz(by_cli))
 
-    assert httpx.post(f"{daemon.url}/v1/scans", json={}, headers={"X-API-Key": "wrong" * 8}).status_code == 403
-    assert httpx.post(f"{daemon.url}/v1/scans", json={}).status_code == 401
-    assert httpx.get(f"{daemon.url}/v1/scans?limit=1&api_key={KEY}").status_code == 200  # a key in the query
+    assert daemon_http.post(f"{daemon.url}/v1/scans", json={}, headers={"X-API-Key": "wrong" * 8}).status_code == 403
+    assert daemon_http.post(f"{daemon.url}/v1/scans", json={}).status_code == 401
+    assert daemon_http.get(f"{daemon.url}/v1/scans?limit=1&api_key={KEY}").status_code == 200  # a key in the query
     log = daemon.log.read_text()
     assert "GET /v1/scans?limit=REDACTED&api_key=REDACTED" in log  # the access line, values never written
     assert f"scan {job_id}: running -> done" in log  # one journal line per state change, with the id
@@ -167,19 +168,19 @@ def test_bounded_load_every_request_answered(daemon: Daemon) -> None:
     with httpx.Client(base_url=daemon.url) as http:
         assert all(wait_done(http, job_id)["state"] == "done" for job_id in accepted)
     listed: list[str] = []
-    page = httpx.get(f"{daemon.url}/v1/scans", params={"limit": 100}).json()
+    page = daemon_http.get(f"{daemon.url}/v1/scans", params={"limit": 100}).json()
     while True:
         listed += [j["id"] for j in page["items"]]
         if len(listed) >= page["total"]:
             break
-        page = httpx.get(f"{daemon.url}/v1/scans", params={"limit": 100, "offset": len(listed)}).json()
+        page = daemon_http.get(f"{daemon.url}/v1/scans", params={"limit": 100, "offset": len(listed)}).json()
     assert sorted(listed) == sorted(accepted) and len(set(listed)) == len(listed)
 
 
 def _running(url: str, job_id: str) -> None:
     deadline = time.monotonic() + 60
     while time.monotonic() < deadline:
-        job = httpx.get(f"{url}/v1/scans/{job_id}").json()
+        job = daemon_http.get(f"{url}/v1/scans/{job_id}").json()
         if job["state"] == "running" and job["fraction"] > 0.05:
             return
         time.sleep(0.02)
@@ -190,7 +191,7 @@ def test_sigkill_mid_scan_then_restart(tmp_path: Path) -> None:
     config = _config(tmp_path, default_config_data())  # a full-size scan: seconds of capture
     first = Daemon(config, tmp_path / "first.log")
     try:
-        job_id = httpx.post(f"{first.url}/v1/scans", json={}, headers=AUTH).json()["id"]
+        job_id = daemon_http.post(f"{first.url}/v1/scans", json={}, headers=AUTH).json()["id"]
         _running(first.url, job_id)
         first.process.send_signal(signal.SIGKILL)
         first.process.wait(10)
@@ -202,14 +203,14 @@ def test_sigkill_mid_scan_then_restart(tmp_path: Path) -> None:
     second = Daemon(config, tmp_path / "second.log")
     try:
         assert JobStore(tmp_path / "data" / DB_NAME).integrity_ok()
-        job = httpx.get(f"{second.url}/v1/scans/{job_id}").json()
+        job = daemon_http.get(f"{second.url}/v1/scans/{job_id}").json()
         assert job["state"] == "interrupted" and "not re-run" in job["error"]
         assert not list(scans.glob("*.partial"))
-        assert [j["id"] for j in httpx.get(f"{second.url}/v1/scans").json()["items"]] == [job_id]
-        nxt = httpx.post(f"{second.url}/v1/scans", json={"codec": "gray"}, headers=AUTH).json()["id"]
+        assert [j["id"] for j in daemon_http.get(f"{second.url}/v1/scans").json()["items"]] == [job_id]
+        nxt = daemon_http.post(f"{second.url}/v1/scans", json={"codec": "gray"}, headers=AUTH).json()["id"]
         with httpx.Client(base_url=second.url) as http:
             assert wait_done(http, nxt)["state"] == "done"
-        assert job["state"] == httpx.get(f"{second.url}/v1/scans/{job_id}").json()["state"]  # not re-run
+        assert job["state"] == daemon_http.get(f"{second.url}/v1/scans/{job_id}").json()["state"]  # not re-run
     finally:
         second.stop()
 
@@ -218,7 +219,7 @@ def test_sigterm_mid_scan_exits_within_10_s_dark(tmp_path: Path) -> None:
     config = _config(tmp_path, default_config_data())
     d = Daemon(config, tmp_path / "daemon.log")
     try:
-        job_id = httpx.post(f"{d.url}/v1/scans", json={}, headers=AUTH).json()["id"]
+        job_id = daemon_http.post(f"{d.url}/v1/scans", json={}, headers=AUTH).json()["id"]
         _running(d.url, job_id)
         start = time.monotonic()
         d.process.send_signal(signal.SIGTERM)
@@ -283,8 +284,8 @@ def test_without_a_key_one_is_generated_and_mutations_still_need_it(small: Path,
         path = tmp_path / "data" / "api-key"
         key = path.read_text().strip()
         assert path.stat().st_mode & 0o777 == 0o600 and len(key) == 64
-        assert httpx.post(f"{d.url}/v1/scans", json={}).status_code == 401
-        assert httpx.post(f"{d.url}/v1/scans", json={}, headers={"X-API-Key": key}).status_code == 202
+        assert daemon_http.post(f"{d.url}/v1/scans", json={}).status_code == 401
+        assert daemon_http.post(f"{d.url}/v1/scans", json={}, headers={"X-API-Key": key}).status_code == 202
         assert key not in d.log.read_text() and str(path) in d.log.read_text()
     finally:
         d.stop()
@@ -306,7 +307,7 @@ def test_the_watchdog_stops_while_a_driver_is_stuck(tmp_path: Path) -> None:
         assert sock.recv(4096).startswith(b"READY=1")
         assert sock.recv(4096) == b"WATCHDOG=1"
         start = time.monotonic()  # before the job exists: its heartbeat is no older than this
-        httpx.post(f"{d.url}/v1/scans", json={}, headers=AUTH)
+        daemon_http.post(f"{d.url}/v1/scans", json={}, headers=AUTH)
         while (message := sock.recv(4096)) != b"STATUS=job worker unhealthy":
             assert message == b"WATCHDOG=1"
         unhealthy_after = time.monotonic() - start

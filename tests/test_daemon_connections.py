@@ -12,10 +12,10 @@ import time
 from collections.abc import Iterator
 from pathlib import Path
 
-import httpx
 import pytest
 
 from tests.conftest import small_config_data
+from tests.loopback import daemon_http
 from tests.ports import free_port
 from tests.test_daemon import AUTH, KEY, REPO, Daemon, _config, status_code
 
@@ -31,7 +31,7 @@ def busy(tmp_path: Path) -> Iterator[tuple[Daemon, str]]:
     data["scan"] = {"capture_timeout_s": 30.0}
     config = _config(tmp_path, data, header_timeout_s=1.0, body_stall_s=1.0)
     daemon = Daemon(config, tmp_path / "daemon.log")
-    job_id = httpx.post(f"{daemon.url}/v1/scans", json={}, headers=AUTH).json()["id"]
+    job_id = daemon_http.post(f"{daemon.url}/v1/scans", json={}, headers=AUTH).json()["id"]
     yield daemon, job_id
     daemon.stop()
 
@@ -49,7 +49,7 @@ def test_idle_connections_and_a_burst_of_event_streams_leave_health_answerable(b
         sock.sendall(request)  # all at once: the cap must hold for a burst
     codes = [status_code(sock) for sock in streams]
     assert codes.count(200) == STREAMS_CAP and codes.count(503) == len(streams) - STREAMS_CAP
-    health = httpx.get(f"{daemon.url}/v1/health", timeout=5)
+    health = daemon_http.get(f"{daemon.url}/v1/health", timeout=5)
     assert health.status_code == 200
     for sock in streams[:10]:
         sock.close()  # their slots come back

@@ -17,6 +17,7 @@ import pytest
 
 from rig.service.jobs import DB_NAME, JobStore, JobType
 from tests.conftest import default_config_data, small_config_data, wait_done
+from tests.loopback import daemon_http
 from tests.test_daemon import AUTH, KEY, Daemon, _config, status_code
 
 LARGE = 256 * 1024 * 1024  # far more than the kernel's socket buffers hold
@@ -68,7 +69,7 @@ def test_slow_readers_get_a_few_slots_and_are_cut(capped: tuple[Daemon, str]) ->
         codes.append(status_code(readers[-1]))
     assert codes.count(200) == 4 and codes.count(429) == 56
     for _ in range(5):  # every slot of connections was offered meanwhile: health still answers
-        assert httpx.get(f"{daemon.url}/v1/health", timeout=10).status_code == 200
+        assert daemon_http.get(f"{daemon.url}/v1/health", timeout=10).status_code == 200
     deadline = time.monotonic() + 120  # each is judged every send_timeout_s once its buffers are full
     while daemon.log.read_text().count("cutting a connection that took") < 4 and time.monotonic() < deadline:
         time.sleep(0.2)
@@ -86,9 +87,12 @@ def test_past_the_connection_cap_slow_readers_go_before_an_authenticated_downloa
     try:
         mine = _slow_reader(daemon, job_id, key=KEY)  # the oldest: an age-only rule would close it first
         assert status_code(mine) == 200
-        attackers = [_slow_reader(daemon, job_id) for _ in range(30)]
+        attackers = []
+        for _ in range(30):  # each one's response begun before the next comes: busy, not idle, at the cap
+            attackers.append(_slow_reader(daemon, job_id))
+            status_code(attackers[-1])
         for _ in range(5):
-            assert httpx.get(f"{daemon.url}/v1/health", timeout=10).status_code == 200
+            assert daemon_http.get(f"{daemon.url}/v1/health", timeout=10).status_code == 200
         mine.settimeout(5)
         assert len(mine.recv(65536)) > 0  # still being served
         log = daemon.log.read_text()

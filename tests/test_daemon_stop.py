@@ -17,7 +17,6 @@ import time
 from pathlib import Path
 from typing import Any
 
-import httpx
 import numpy as np
 import pytest
 
@@ -30,6 +29,7 @@ from rig.service import tasks
 from rig.service.job_service import DB_NAME, JobService
 from rig.service.jobs import JobState, JobStore, JobType
 from tests.conftest import default_config_data, small_config_data, write_config
+from tests.loopback import daemon_http
 from tests.ports import free_port
 from tests.test_daemon import AUTH, KEY, REPO, Daemon, _config
 
@@ -47,7 +47,7 @@ def _stalled_data() -> dict[str, Any]:
 def _reach(url: str, job_id: str, stages: tuple[str, ...]) -> None:
     deadline = time.monotonic() + 120
     while time.monotonic() < deadline:
-        job = httpx.get(f"{url}/v1/scans/{job_id}").json()
+        job = daemon_http.get(f"{url}/v1/scans/{job_id}").json()
         assert job["state"] in ("queued", "running"), job
         if job["state"] == "running" and job["stage"] in stages and job["fraction"] > 0:
             return
@@ -79,7 +79,7 @@ def test_sigterm_cuts_a_stalled_cameras_wait(tmp_path: Path) -> None:
     config = _config(tmp_path, _stalled_data(), shutdown_timeout_s=SHUTDOWN_S)
     daemon = Daemon(config, tmp_path / "daemon.log")
     try:
-        job_id = httpx.post(f"{daemon.url}/v1/scans", json={}, headers=AUTH).json()["id"]
+        job_id = daemon_http.post(f"{daemon.url}/v1/scans", json={}, headers=AUTH).json()["id"]
         _reach(daemon.url, job_id, ("capture",))
         time.sleep(1.0)  # past its second frame: the worker waits in the camera's driver
         code, elapsed, log = _sigterm(daemon)
@@ -94,7 +94,7 @@ def test_sigterm_during_a_scan_ends_dark_and_interrupted(tmp_path: Path, stages:
     config = _config(tmp_path, default_config_data(), shutdown_timeout_s=SHUTDOWN_S)  # seconds of capture
     daemon = Daemon(config, tmp_path / "daemon.log")
     try:
-        job_id = httpx.post(f"{daemon.url}/v1/scans", json={}, headers=AUTH).json()["id"]
+        job_id = daemon_http.post(f"{daemon.url}/v1/scans", json={}, headers=AUTH).json()["id"]
         _reach(daemon.url, job_id, stages)
         code, elapsed, log = _sigterm(daemon)
     finally:

@@ -14,7 +14,6 @@ from pathlib import Path
 from typing import Any
 
 import cv2
-import httpx
 import numpy as np
 import pytest
 from fastapi.testclient import TestClient
@@ -28,6 +27,7 @@ from rig.errors import ConfigError
 from rig.pipeline.live import LiveFrame, run_live
 from rig.service.job_service import JobService
 from tests.conftest import small_config_data, wait_done, write_config
+from tests.loopback import daemon_http
 from tests.test_daemon import KEY, Daemon
 
 AUTH = {"X-API-Key": KEY}
@@ -199,7 +199,7 @@ def _depth_sequences(chunk: bytes) -> list[int]:
 
 
 def _status(url: str) -> dict[str, Any]:
-    return httpx.get(f"{url}/v1/live/status", timeout=5).json()
+    return daemon_http.get(f"{url}/v1/live/status", timeout=5).json()
 
 
 def _rate(url: str, seconds: float) -> float:
@@ -211,7 +211,7 @@ def _rate(url: str, seconds: float) -> float:
 
 def _sequences_beyond_buffers(url: str) -> int:
     """How many full-size depth events overflow every buffer a stalled client's stream passes."""
-    png = httpx.get(f"{url}/v1/live/depth.png", timeout=5).content
+    png = daemon_http.get(f"{url}/v1/live/depth.png", timeout=5).content
     event_bytes = len(png) * 4 // 3  # the event carries the PNG in base64
     wmem = Path("/proc/sys/net/ipv4/tcp_wmem")  # Linux's most a send buffer grows to; else its default
     kernel_bytes = int(wmem.read_text().split()[2]) if wmem.exists() else 4 << 20
@@ -227,7 +227,7 @@ def test_a_slow_client_drops_frames_and_never_slows_the_rig(tmp_path: Path) -> N
     daemon = Daemon(config, tmp_path / "daemon.log")
     stack = contextlib.ExitStack()  # the slow client's socket, closed however the test ends
     try:
-        assert httpx.post(f"{daemon.url}/v1/live", json={}, headers=AUTH, timeout=5).status_code == 202
+        assert daemon_http.post(f"{daemon.url}/v1/live", json={}, headers=AUTH, timeout=5).status_code == 202
         deadline = time.monotonic() + 60
         while _status(daemon.url)["sequences"] < 3:
             assert time.monotonic() < deadline, "live mode did not start"
@@ -266,7 +266,10 @@ def test_a_slow_client_drops_frames_and_never_slows_the_rig(tmp_path: Path) -> N
         assert len(sequences) >= 2
         assert max(b - a for a, b in itertools.pairwise(sequences)) > 1  # dropped
         assert newest - sequences[-1] <= 0.5 * newest  # not replaying a backlog
-        assert httpx.delete(f"{daemon.url}/v1/live", headers=AUTH, timeout=5).json()["reason"] == "stopped by request"
+        assert (
+            daemon_http.delete(f"{daemon.url}/v1/live", headers=AUTH, timeout=5).json()["reason"]
+            == "stopped by request"
+        )
     finally:
         stack.close()
         daemon.stop()
