@@ -15,6 +15,7 @@ from drivers.sim import scene as sc
 from drivers.sim.bench import SimBench
 from drivers.sim.camera import SimCamera
 from drivers.sim.projector import SimProjector
+from drivers.sim.sensor import NoiseTable, expose
 from tests.conftest import make_device
 
 CAMERA = make_device(320, 256, 450.0, (-100.0, 0.0, 600.0), (0.0, 0.0, 30.0))
@@ -99,6 +100,31 @@ def test_noise_matches_the_sensor_model() -> None:
     measured = (a - b)[lit]
     ratio = np.std(measured) / np.sqrt(np.mean(predicted**2))
     assert 0.95 < ratio < 1.05
+
+
+@pytest.mark.parametrize(
+    ("bit_depth", "gamma", "colour", "gain"), [(8, 1.0, False, 0.8), (12, 2.2, False, 1.5), (16, 1.0, True, 1.5)]
+)
+def test_the_compiled_sensor_gives_the_counts_of_its_formula(
+    bit_depth: int, gamma: float, colour: bool, gain: float
+) -> None:
+    settings = CameraSettings(exposure_us=8000.0, gain=gain, bit_depth=bit_depth, color=colour)
+    options = SimCameraOptions(full_well_e=5000.0, read_noise_e=15.0, blur_px=0.0, gamma=gamma)
+    shape = (64, 80, 3) if colour else (64, 80)
+    radiance = np.random.default_rng(2).uniform(0.0, 1.6, shape).astype(np.float32)  # dark to past the well
+    counts = expose(radiance.copy(), 8000.0, gain, settings, options, NoiseTable(np.random.default_rng(5)))
+    # the sensor model step by step, in float32 as numpy evaluates it
+    shot = NoiseTable(np.random.default_rng(5)).frame(shape)
+    electrons = radiance * np.float32(8000.0 / options.full_scale_exposure_us * 5000.0)
+    electrons = electrons + np.sqrt(electrons + np.float32(15.0**2)) * shot
+    signal = np.clip(np.minimum(electrons, np.float32(5000.0)) * np.float32(gain / 5000.0), 0.0, 1.0)
+    if gamma != 1.0:
+        signal = np.power(signal, np.float32(1.0 / gamma))
+    expected = np.rint(signal * np.float32(settings.full_scale)).astype(counts.dtype)
+    assert counts.dtype == (np.uint8 if bit_depth == 8 else np.uint16) and counts.shape == shape
+    assert np.array_equal(counts, expected)
+    brightest = round(min(gain, 1.0) ** (1.0 / gamma) * settings.full_scale)  # the full well's, or full scale
+    assert counts.min() == 0 and counts.max() == brightest
 
 
 def test_devices_timestamps_sequences_and_pattern_checks() -> None:

@@ -158,7 +158,7 @@ class SimBench:
         params = self.projector_options[projector]
         lut = (np.arange(256, dtype=np.float64) / 255.0) ** params.gamma
         lut = params.black_level + (1.0 - params.black_level) * lut
-        emitted = lut.astype(np.float32)[pattern]
+        emitted = cv2.LUT(pattern, lut.astype(np.float32))  # numpy's lut[pattern] took 2.4 ms a frame
         if params.blur_px > 0:
             emitted = cv2.GaussianBlur(emitted, (0, 0), params.blur_px, borderType=cv2.BORDER_REPLICATE)
         return emitted

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import cv2
 import numpy as np
+from numba import njit
 
 from drivers.options import CameraSettings, SimCameraOptions
 
@@ -45,18 +46,46 @@ def expose(
     surface at the reference distance; overwritten) over `exposure_us` at `gain`."""
     if params.blur_px > 0:
         radiance = cv2.GaussianBlur(radiance, (0, 0), params.blur_px, borderType=cv2.BORDER_REPLICATE)
-    # each step in place where it can be: a render holds two float images, not seven
-    electrons = np.multiply(
-        radiance, np.float32(exposure_us / params.full_scale_exposure_us * params.full_well_e), out=radiance
+    radiance = np.ascontiguousarray(radiance)
+    terms = (
+        np.float32(exposure_us / params.full_scale_exposure_us * params.full_well_e),  # electrons per unit
+        np.float32(params.read_noise_e**2),
+        np.float32(params.full_well_e),
+        np.float32(gain / params.full_well_e),  # signal per electron
     )
-    sigma = np.add(electrons, np.float32(params.read_noise_e**2))
-    np.sqrt(sigma, out=sigma)
-    electrons += np.multiply(sigma, noise.frame(electrons.shape), out=sigma)
-    del sigma
-    np.minimum(electrons, np.float32(params.full_well_e), out=electrons)  # the well is full
-    signal = np.multiply(electrons, np.float32(gain / params.full_well_e), out=electrons)
-    np.clip(signal, 0.0, 1.0, out=signal)
-    if params.gamma != 1.0:
-        np.power(signal, np.float32(1.0 / params.gamma), out=signal)
-    signal *= np.float32(sensor.full_scale)
-    return np.rint(signal, out=signal).astype(np.uint8 if sensor.bit_depth <= 8 else np.uint16)
+    flat, shot = radiance.reshape(-1), noise.frame(radiance.shape).reshape(-1)
+    counts = np.empty(radiance.shape, np.uint8 if sensor.bit_depth <= 8 else np.uint16)
+    if params.gamma == 1.0:  # one pass, the float image never written back
+        _counts(flat, shot, terms, np.float32(sensor.full_scale), counts.reshape(-1))
+        return counts
+    _signal_in_place(flat, shot, terms)
+    np.power(radiance, np.float32(1.0 / params.gamma), out=radiance)
+    radiance *= np.float32(sensor.full_scale)
+    return np.rint(radiance, out=counts, casting="unsafe")
+
+
+@njit(nogil=True, cache=True, inline="always")
+def _signal(radiance: np.float32, shot: np.float32, terms: tuple[np.float32, ...]) -> np.float32:
+    """A pixel's signal in [0, 1]: electrons with shot and read noise (`shot` standard normal),
+    clipped at the full well, times the gain; float32 throughout, in numpy's order of operations."""
+    per_unit, read_variance, full_well, per_electron = terms
+    electrons = radiance * per_unit
+    electrons = electrons + np.sqrt(electrons + read_variance) * shot
+    signal = min(electrons, full_well) * per_electron  # the well is full
+    return min(max(signal, np.float32(0)), np.float32(1))
+
+
+@njit(nogil=True, cache=True)
+def _counts(
+    radiance: np.ndarray, shot: np.ndarray, terms: tuple[np.float32, ...], full_scale: np.float32, out: np.ndarray
+) -> None:
+    """The counts of a linear sensor (gamma 1) from flat radiance: one pass, every step in registers
+    (seven numpy passes over a 1280x1024 image took 7 ms, most of a render)."""
+    for i in range(radiance.size):
+        out[i] = np.rint(_signal(radiance[i], shot[i], terms) * full_scale)
+
+
+@njit(nogil=True, cache=True)
+def _signal_in_place(radiance: np.ndarray, shot: np.ndarray, terms: tuple[np.float32, ...]) -> None:
+    for i in range(radiance.size):
+        radiance[i] = _signal(radiance[i], shot[i], terms)
