@@ -43,7 +43,7 @@ def expose(
     noise: NoiseTable,
 ) -> np.ndarray:
     """The counts (uint8 or uint16) a sensor reads from `radiance` (float32, relative to a white
-    surface at the reference distance; overwritten) over `exposure_us` at `gain`."""
+    surface at the reference distance; it may be overwritten) over `exposure_us` at `gain`."""
     if params.blur_px > 0:
         radiance = cv2.GaussianBlur(radiance, (0, 0), params.blur_px, borderType=cv2.BORDER_REPLICATE)
     radiance = np.ascontiguousarray(radiance)
@@ -80,7 +80,7 @@ def _counts(
     radiance: np.ndarray, shot: np.ndarray, terms: tuple[np.float32, ...], full_scale: np.float32, out: np.ndarray
 ) -> None:
     """The counts of a linear sensor (gamma 1) from flat radiance: one pass, every step in registers
-    (seven numpy passes over a 1280x1024 image took 7 ms, most of a render)."""
+    (seven numpy passes over a 1280x1024 image took 7 ms, a third of a render)."""
     for i in range(radiance.size):
         out[i] = np.rint(_signal(radiance[i], shot[i], terms) * full_scale)
 
