@@ -20,9 +20,10 @@ from rig.cli import main
 from rig.config import config_from_dict, load_config
 from rig.errors import ConfigError
 from rig.evaluate.colour import albedo_errors, colour_metrics, delta_e2000
-from rig.pipeline.colour import COLOUR_METHODS, interpolate_colour, sample_colours
+from rig.pipeline.colour import COLOUR_METHODS, _along_rings, interpolate_colour, sample_colours
 from rig.pipeline.dense import texture_rgb
 from rig.pipeline.scan import run_scan
+from rig.pipeline.surface import RingSurface
 
 GRADIENT = {"kind": "gradient", "period_mm": 120.0}
 
@@ -103,6 +104,43 @@ def test_interpolated_colour_of_a_uniform_colour_is_that_colour_everywhere(gradi
         assert np.allclose(colour[covered], [0.2, 0.5, 0.7], atol=1e-5)
     with pytest.raises(ValueError, match="unknown colour interpolant 'bicubic'"):
         interpolate_colour(pair.surface, samples, "bicubic")  # type: ignore[arg-type]
+
+
+def nearest_on_each_ring(vertices: np.ndarray, faces: np.ndarray, ring: np.ndarray, count: int) -> list[set[int]]:
+    """Each sample's `count` nearest samples of its own ring among those in a face, by brute force
+    (none for a sample in no face)."""
+    used = np.zeros(len(vertices), bool)
+    used[faces.ravel()] = True
+    found: list[set[int]] = []
+    for n in range(len(vertices)):
+        mates = np.flatnonzero(used & (ring == ring[n])) if used[n] else np.array([], int)
+        distance = np.linalg.norm(vertices[mates] - vertices[n], axis=1)
+        found.append(set(mates[np.argsort(distance, kind="stable")[:count]].tolist()))
+    return found
+
+
+def test_each_samples_neighbours_along_its_ring_are_its_nearest_there(gradient_scan) -> None:  # type: ignore[no-untyped-def]
+    """The candidates a face's pixels take colour from: on the scan's own rings, and on random rings
+    folded back on themselves (a sweep along one axis meets the fold's far side first)."""
+    _, pair = gradient_scan
+    rng = np.random.default_rng(5)
+    angle = rng.uniform(0, 4 * np.pi, 400)
+    folded = np.column_stack([np.cos(angle) * (1 + angle), np.sin(2 * angle), angle % 0.3])
+    cases = [pair.surface, (folded, rng.integers(0, 400, (300, 3)), rng.integers(0, 5, 400))]
+    for case in cases:
+        surface = case if isinstance(case, RingSurface) else _with_samples(pair.surface, *case)
+        along = _along_rings(surface, 8)
+        subset = np.arange(0, len(surface.vertices), max(1, len(surface.vertices) // 1500))
+        truth = nearest_on_each_ring(surface.vertices, surface.faces, surface.ring, along.shape[1])
+        for n in subset:
+            listed = set(along[n][along[n] < len(surface.vertices)].tolist())
+            assert listed == truth[n], n
+            distance = np.linalg.norm(surface.vertices[along[n][: len(listed)]] - surface.vertices[n], axis=1)
+            assert (np.diff(distance) >= 0).all()  # nearest first
+
+
+def _with_samples(surface: RingSurface, vertices: np.ndarray, faces: np.ndarray, ring: np.ndarray) -> RingSurface:
+    return dataclasses.replace(surface, vertices=vertices, faces=faces, ring=ring)
 
 
 def test_colour_does_not_cross_a_depth_edge() -> None:

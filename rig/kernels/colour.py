@@ -1,8 +1,10 @@
 """The colour between the rings (rig.pipeline.colour), compiled by numba: each face's reach, corners
 and share of area in one loop, and each pixel's weighted mean of its face's candidate samples in
 another, instead of (pixels x candidates) numpy temporaries and a sparse product (130 ms for the
-default bench's ring scan, against about 20 here). Distances are float32 about the samples'
-centre, as rig.pipeline.colour prepares them; sums are float64."""
+default bench's ring scan, against about 20 here); and each sample's nearest on its own ring, the
+pixels' candidates, by a sweep along the ring's widest axis (a 4-D k-d tree took twice as long).
+Distances are float32 about the samples' centre, as rig.pipeline.colour prepares them; sums are
+float64."""
 
 from __future__ import annotations
 
@@ -45,36 +47,42 @@ def mix_colours(
     colours: np.ndarray,
     candidates: tuple[np.ndarray, np.ndarray],
     reach2: np.ndarray,
-    at: np.ndarray,
-    owner: np.ndarray,
+    pixels: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray],
     settings: tuple[bool, int, float],
     out: np.ndarray,
     start: int,
     stop: int,
 ) -> None:
-    """Colours `out[start:stop]` (P, 3) of pixels at `at` (P, 3 float32, about the samples' centre)
-    in faces `owner`, from each face's candidates within its squared reach `reach2` (F,): settings
-    (nearest, L, softening squared): the mean of the L nearest within reach, or the mean weighted by
-    `area` / (d^2 + softening). candidates: (along (M, k), each sample's nearest on its ring, index M
-    for none, far beyond any reach; corners (F, 2), face_terms'): a face's are its lower corner's
-    along, then its upper's. samples: (3, M + 1) float32 positions as rows; area (M + 1,); colours
-    (M + 1, 3)."""
+    """Colours out[pixel[p]] (out: flat H*W x 3) of pixels p in [start, stop) of pixels = (grid,
+    pixel, owner, centre): each at grid[pixel[p]] (flat H*W x 3, taken about the samples' `centre`
+    in float32), in face owner[p] (-1: none, left as it is), from each face's candidates within its
+    squared reach `reach2` (F,): settings (nearest, L, softening squared): the mean of the L nearest
+    within reach, or the mean weighted by `area` / (d^2 + softening). candidates: (along (M, k),
+    each sample's nearest on its ring, index M for none, far beyond any reach; corners (F, 2),
+    face_terms'): a face's are its lower corner's along, then its upper's. samples: (3, M + 1)
+    float32 positions as rows; area (M + 1,); colours (M + 1, 3)."""
     nearest, count, softening = settings
     along, corners = candidates
+    grid, pixel, owner, centre = pixels
     k = along.shape[1]
     width = 2 * k
     d2 = np.empty(width, np.float32)
     order, which = np.empty(width, np.int64), np.empty(width, np.int64)
     for p in range(start, stop):
         face = owner[p]
+        if face < 0:  # not in a face: rig.pipeline.colour gives it its nearest sample's
+            continue
         reach = reach2[face]
         for j in range(width):  # the lower corner's along-ring neighbours, then the upper's
             which[j] = along[corners[face, 0], j] if j < k else along[corners[face, 1], j - k]
+        at = pixel[p]
+        x, y = np.float32(grid[at, 0] - centre[0]), np.float32(grid[at, 1] - centre[1])
+        z = np.float32(grid[at, 2] - centre[2])
         for j in range(width):
             s = which[j]
-            dx = samples[0, s] - at[p, 0]
-            dy = samples[1, s] - at[p, 1]
-            dz = samples[2, s] - at[p, 2]
+            dx = samples[0, s] - x
+            dy = samples[1, s] - y
+            dz = samples[2, s] - z
             d2[j] = dx * dx + dy * dy + dz * dz
         total, r, g, b = 0.0, 0.0, 0.0, 0.0
         if nearest:
@@ -92,7 +100,7 @@ def mix_colours(
                 total += w
                 r, g, b = r + w * colours[s, 0], g + w * colours[s, 1], b + w * colours[s, 2]
         total = max(total, _NO_WEIGHT)
-        out[p, 0], out[p, 1], out[p, 2] = r / total, g / total, b / total
+        out[at, 0], out[at, 1], out[at, 2] = r / total, g / total, b / total
 
 
 @njit(nogil=True, cache=True)
@@ -112,3 +120,56 @@ def _nearest_within(d2: np.ndarray, reach: float, count: int, order: np.ndarray)
         order[slot] = j
         taken = min(taken + 1, count)
     return taken
+
+
+@njit(**KERNEL)
+def nearest_on_ring(
+    points: np.ndarray,
+    order: np.ndarray,
+    key: np.ndarray,
+    ring_span: np.ndarray,
+    named: tuple[np.ndarray, int],
+    out: np.ndarray,
+    start: int,
+    stop: int,
+) -> None:
+    """Each sample's `k` nearest samples of its own ring, itself among them (k = out.shape[1]),
+    nearest first (ties by index): exactly, by a sweep along one axis. `order` (N,): sample indices
+    grouped by ring and, within a ring, sorted by `key` (N,: that ring's coordinate along its widest
+    axis, in `order`'s order); ring_span (N, 2): the [first, last) positions in `order` of the ring
+    at each position. named (names (N,), none): a sample n is written as names[n], and `none` past
+    a ring's last; out[names[order[p]]] is filled for positions p in [start, stop). A sample further
+    along the axis than the k-th nearest found so far is further in space too, so the sweep stops
+    there: a few dozen samples are looked at, not the ring's thousands."""
+    names, none = named
+    k = out.shape[1]
+    best_d2, best = np.empty(k), np.empty(k, np.int64)
+    for p in range(start, stop):
+        me, first, last = order[p], ring_span[p, 0], ring_span[p, 1]
+        found = 0
+        left, right = p, p + 1
+        while left >= first or right < last:
+            gap_left = key[p] - key[left] if left >= first else np.inf
+            gap_right = key[right] - key[p] if right < last else np.inf
+            take_left = gap_left <= gap_right
+            gap = gap_left if take_left else gap_right
+            if found == k and gap * gap > best_d2[k - 1]:
+                break
+            j = order[left] if take_left else order[right]
+            if take_left:
+                left -= 1
+            else:
+                right += 1
+            d2 = 0.0
+            for c in range(3):
+                d2 += (points[j, c] - points[me, c]) ** 2
+            if found == k and (d2 > best_d2[k - 1] or (d2 == best_d2[k - 1] and j > best[k - 1])):
+                continue
+            slot = min(found, k - 1)
+            while slot > 0 and (best_d2[slot - 1] > d2 or (best_d2[slot - 1] == d2 and best[slot - 1] > j)):
+                best_d2[slot], best[slot] = best_d2[slot - 1], best[slot - 1]
+                slot -= 1
+            best_d2[slot], best[slot] = d2, j
+            found = min(found + 1, k)
+        for m in range(k):
+            out[names[me], m] = names[best[m]] if m < found else none

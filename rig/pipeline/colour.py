@@ -23,7 +23,6 @@ from typing import Literal
 import numpy as np
 from scipy.spatial import cKDTree
 
-from rig.kernels import bounds
 from rig.lazy import lazy_module
 from rig.pipeline.surface import RingSurface
 from rig.workers import batches, pool
@@ -76,42 +75,53 @@ def interpolate_colour(
     owner = surface.triangle.ravel()[pixel]
     points = surface.grid.reshape(-1, 3)
     beyond_faces = owner < 0  # filled beyond the triangles (rig.pipeline.fill): the nearest sample's colour
-    if beyond_faces.any():
-        nearest = cKDTree(surface.vertices).query(points[pixel[beyond_faces]], workers=-1)[1]
-        out[pixel[beyond_faces]] = colours[nearest]
-        pixel, owner = pixel[~beyond_faces], owner[~beyond_faces]
+    if beyond_faces.any():  # mix_colours passes over them
+        filled = pixel[beyond_faces]
+        out[filled] = colours[cKDTree(surface.vertices).query(points[filled], workers=-1)[1]]
     # float32 about the samples' centre: a few hundred mm to 1e-4 mm, ample for weights. One row per
     # coordinate; index M (no sample) lies beyond any reach.
     centre = surface.vertices.mean(axis=0)
     samples = np.hstack([(surface.vertices - centre).T, np.full((3, 1), 1e18)]).astype(np.float32)
     padded_area = np.append(area, 0.0).astype(np.float32)
     padded_colours = np.vstack([colours, np.zeros((1, 3), np.float32)]).astype(np.float32)
-    at = (points[pixel] - centre).astype(np.float32)
-    mixed = np.empty((len(pixel), 3), np.float32)
-    arrays = (samples, padded_area, padded_colours, (along, corners), reach2, at, owner)
+    at = (np.ascontiguousarray(points, np.float64), pixel, owner, centre)
+    arrays = (samples, padded_area, padded_colours, (along, corners), reach2, at)
     settings = (method == "nearest", min(neighbours, 2 * along.shape[1]), _SOFTENING_MM**2)
 
     def colour_part(span: tuple[int, int]) -> None:
-        colour_kernels.mix_colours(*arrays, settings, mixed, *span)
+        colour_kernels.mix_colours(*arrays, settings, out, *span)
 
     list(pool().map(colour_part, batches(len(pixel))))
-    out[pixel] = mixed
     return out.reshape(height, width, 3)
 
 
 def _along_rings(surface: RingSurface, neighbours: int) -> np.ndarray:
-    """(M, L + 2) per sample, the L + 2 samples of its ring nearest it (M where none): a face's
-    candidates are those of a corner on each of its two rings (two more than L: pixels across the
-    face have other nearest ones)."""
+    """(M, L + 2) per sample, the L + 2 samples of its ring nearest it in space (M where none): a
+    face's candidates are those of a corner on each of its two rings (two more than L: pixels across
+    the face have other nearest ones). Only samples of a face count. An exact search that sweeps each
+    ring along its widest axis (rig.kernels.colour.nearest_on_ring), a span of samples per thread."""
     vertices, faces, ring = surface.vertices, surface.faces, surface.ring
     used = np.flatnonzero(np.bincount(faces.ravel(), minlength=len(vertices)) > 0)
-    # rings far apart in a fourth coordinate: a sample's nearest in this tree are on its own ring
-    lo, hi = bounds(vertices)
-    spread = 10.0 * float((hi - lo).max() + 1.0)
-    tree = cKDTree(np.column_stack([vertices[used], ring[used] * spread]), balanced_tree=False)
-    k = min(neighbours + 2, len(used))
-    _, index = tree.query(tree.data, k=k, distance_upper_bound=spread / 2, workers=-1)
-    index = np.asarray(index).reshape(len(used), k)
-    along = np.full((len(vertices), k), len(vertices))
-    along[used] = np.where(index < len(used), used[np.minimum(index, len(used) - 1)], len(vertices))
+    along = np.full((len(vertices), min(neighbours + 2, len(used))), len(vertices), np.int64)
+    if len(used) == 0:
+        return along
+    points, used_ring = np.ascontiguousarray(vertices[used], np.float64), ring[used]
+    by_ring = np.argsort(used_ring, kind="stable")
+    sorted_ring = used_ring[by_ring]
+    first = np.flatnonzero(np.r_[True, sorted_ring[1:] != sorted_ring[:-1]])
+    extent = [np.maximum.reduceat(points[by_ring, c], first) - np.minimum.reduceat(points[by_ring, c], first)
+              for c in range(3)]  # fmt: skip
+    group = np.cumsum(np.r_[False, sorted_ring[1:] != sorted_ring[:-1]])
+    axis = np.argmax(np.column_stack(extent), axis=1)[group]
+    key = points[by_ring, axis]
+    within = np.lexsort((key, group))
+    order, key = by_ring[within], key[within]
+    last = np.append(first[1:], len(used))
+    ring_span = np.column_stack([first[group], last[group]]).astype(np.int64)
+    named = (used.astype(np.int64), len(vertices))
+
+    def search(span: tuple[int, int]) -> None:
+        colour_kernels.nearest_on_ring(points, order, key, ring_span, named, along, *span)
+
+    list(pool().map(search, batches(len(used))))
     return along
