@@ -22,13 +22,17 @@ class Mesh:
 
     @staticmethod
     def concatenate(meshes: list[Mesh]) -> Mesh:
-        """One mesh of several (at least one), faces renumbered."""
+        """One mesh of several (at least one), faces renumbered (one mesh: itself, not a copy)."""
+        if len(meshes) == 1:
+            return meshes[0]
         offsets = np.cumsum([0, *(len(m.vertices) for m in meshes)])[:-1]
-        faces = [m.faces + offset for m, offset in zip(meshes, offsets, strict=True)]
+        faces = [
+            m.faces.astype(np.int32, copy=False) + np.int32(offset) for m, offset in zip(meshes, offsets, strict=True)
+        ]
         return Mesh(
             np.concatenate([m.vertices for m in meshes]),
             np.concatenate([m.colors for m in meshes]),
-            np.concatenate(faces).astype(np.int32),
+            np.concatenate(faces),
             np.concatenate([m.pixel for m in meshes]),
         )
 
@@ -39,8 +43,8 @@ def grid_mesh(grid: np.ndarray, colors: np.ndarray, camera: CameraModel, stride:
     sub = grid[::stride, ::stride]
     rows, cols = sub.shape[:2]
     valid = np.isfinite(sub).all(axis=2)
-    index = np.full((rows, cols), -1, dtype=np.int64)
-    index[valid] = np.arange(int(valid.sum()))
+    index = np.full((rows, cols), -1, dtype=np.int32)  # a grid's vertices are far fewer than 2**31
+    index[valid] = np.arange(int(valid.sum()), dtype=np.int32)
     a, b = index[:-1, :-1], index[:-1, 1:]
     c, d = index[1:, 1:], index[1:, :-1]
     cell = (a >= 0) & (b >= 0) & (c >= 0) & (d >= 0)
@@ -48,11 +52,12 @@ def grid_mesh(grid: np.ndarray, colors: np.ndarray, camera: CameraModel, stride:
     footprint = stride * camera.mm_per_px(vertices)
     quads = np.column_stack([a[cell], b[cell], c[cell], d[cell]])
     longest = np.zeros(len(quads))
-    for k in range(4):
-        edge = np.linalg.norm(vertices[quads[:, k]] - vertices[quads[:, (k + 1) % 4]], axis=1)
-        longest = np.maximum(longest, edge / footprint[quads[:, k]])
+    for k in range(4):  # a coordinate at a time: (quads, 3) temporaries were a mesh's peak of memory
+        here, there = quads[:, k], quads[:, (k + 1) % 4]
+        squared = sum((vertices[there, c] - vertices[here, c]) ** 2 for c in range(3))
+        longest = np.maximum(longest, np.sqrt(squared) / footprint[here])
     quads = quads[longest <= _MAX_STRETCH]
-    faces = np.vstack([quads[:, [0, 2, 1]], quads[:, [0, 3, 2]]]).astype(np.int32)  # facing the camera
+    faces = np.vstack([quads[:, [0, 2, 1]], quads[:, [0, 3, 2]]])  # int32, facing the camera
     row, col = np.nonzero(valid)
     pixel = (row * stride) * camera.width + col * stride
     return Mesh(vertices, colors[::stride, ::stride][valid], faces, pixel)

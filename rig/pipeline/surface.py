@@ -241,13 +241,53 @@ def interpolate_surface(
         if not kept.all():
             triangles = triangles.subset(kept)
     tri, normals = triangles.tri, triangles.normals
-    corners = crease_normals(tri, normals, triangles.face, triangles.weight) if method == "quadratic" else None
+    grid, ok, agree = _points_in_faces(
+        points, xy, triangles, camera, projector, (pixel, owner), method, bands, settings
+    )
+    if bands is not None:
+        ok &= _in_bands(owner, agree, ok, len(tri), settings.max_band_disagreement, counts)
+    grid[pixel[~ok]] = np.nan  # the rest of the grid is NaN already but where the fill writes its points
+    # the pixels as images now: the fill's peak of memory holds no per-pixel lists of the faces'
+    valid, triangle = np.zeros(grid.shape[0], dtype=bool), np.full(grid.shape[0], -1, dtype=np.int32)
+    owner[~ok] = -1  # in place: copies of the covered pixels' lists were the surface's peak of memory
+    valid[pixel], triangle[pixel], pixels = ok, owner, int(ok.sum())
+    del pixel, owner, ok, agree
+    if bands is not None and settings.fill:
+        filled = _filled(points, normals, xy, ring, tri, camera, projector, valid, lit, bands, grid, settings)
+        valid[filled] = True
+        counts["filled_px"], pixels = len(filled), pixels + len(filled)
+    counts["pixels"] = pixels
+    shape = (camera.height, camera.width)
+    return RingSurface(
+        points, normals, tri, grid.reshape(*shape, 3), valid.reshape(shape), counts, ring, triangle.reshape(shape),
+        flank=triangles.flank,
+    )  # fmt: skip
+
+
+def _points_in_faces(
+    points: np.ndarray,
+    xy: np.ndarray,
+    triangles: RingTriangles,
+    camera: CameraModel,
+    projector: CameraModel,
+    pixels: tuple[np.ndarray, np.ndarray],
+    method: Interpolant,
+    bands: RingBands | None,
+    settings: SurfaceSettings,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The flat camera grid (H*W, 3) with each pixel's point on its face (pixels: flat pixels and
+    their faces, rasterize's) by `method`, NaN elsewhere; per pixel whether a point was found, and
+    (with `bands`) whether it lies in the band its pixel read. Batches of pixels on the pool."""
+    pixel, owner = pixels
+    tri = triangles.tri
+    corners = (
+        crease_normals(tri, triangles.normals, triangles.face, triangles.weight) if method == "quadratic" else None
+    )
     common_origin = camera.center if camera.projection != "orthographic" else None
     terms = FaceTerms.of(points, xy, tri, corners, common_origin)
-    size = camera.height * camera.width
-    grid = np.full((size, 3), np.nan)
-    ok = np.ones(len(pixel), dtype=bool)  # a point was found ...
-    agree = np.ones(len(pixel), dtype=bool)  # ... and lies in the band its pixel read
+    grid = np.full((camera.height * camera.width, 3), np.nan)
+    ok = np.ones(len(pixel), dtype=bool)
+    agree = np.ones(len(pixel), dtype=bool)
 
     def solve(span: tuple[int, int]) -> None:  # each batch writes its own pixels
         part = pixel[span[0] : span[1]]
@@ -264,16 +304,7 @@ def interpolate_surface(
 
     # cubic: one interpolant over the whole image, not one per batch
     list(pool().map(solve, [(0, len(pixel))] if method == "cubic" else batches(len(pixel))))
-    if bands is not None:
-        ok &= _in_bands(owner, agree, ok, len(tri), settings.max_band_disagreement, counts)
-    grid[pixel[~ok]] = np.nan  # the rest of the grid is NaN already but where the fill writes its points
-    covered, owner = pixel[ok], owner[ok]
-    if bands is not None and settings.fill:
-        filled = _filled(points, normals, xy, ring, tri, camera, projector, covered, lit, bands, grid, settings)
-        covered, owner = np.concatenate([covered, filled]), np.concatenate([owner, np.full(len(filled), -1)])
-        counts["filled_px"] = len(filled)
-    counts["pixels"] = len(covered)
-    return _surface(points, normals, tri, ring, counts, camera, grid, covered, owner, triangles.flank)
+    return grid, ok, agree
 
 
 def _in_bands(
@@ -296,16 +327,14 @@ def _filled(
     tri: np.ndarray,
     camera: CameraModel,
     projector: CameraModel,
-    covered: np.ndarray,
+    mask: np.ndarray,
     lit: np.ndarray | None,
     bands: RingBands,
     grid: np.ndarray,
     settings: SurfaceSettings,
 ) -> np.ndarray:
-    """The pixels beyond the triangles (rig.pipeline.fill) given a point in their own band; their
-    points are written into `grid` (flat)."""
-    mask = np.zeros(camera.height * camera.width, dtype=bool)
-    mask[covered] = True
+    """The pixels beyond the triangles (`mask`: flat, the pixels they cover) given a point in their
+    own band (rig.pipeline.fill); their points are written into `grid` (flat)."""
     candidate = fill_candidates(mask, bands.annulus, lit)
     in_triangle = np.flatnonzero(np.bincount(tri.ravel(), minlength=len(points)) > 0)
     annulus = bands.annulus.ravel()[candidate].astype(np.int64)
@@ -319,31 +348,6 @@ def _filled(
     keep[keep] = band_agreement(found[keep], candidate[keep], projector, bands, settings)
     grid[candidate[keep]] = found[keep]
     return candidate[keep]
-
-
-def _surface(
-    points: np.ndarray,
-    normals: np.ndarray,
-    tri: np.ndarray,
-    ring: np.ndarray,
-    counts: dict[str, int],
-    camera: CameraModel,
-    grid: np.ndarray,
-    covered: np.ndarray,
-    owner: np.ndarray,
-    flank: np.ndarray,
-) -> RingSurface:
-    """The RingSurface whose points are the rows `covered` of `grid` (flat, H*W x 3; NaN in the
-    others), each in face `owner`; `flank` marks the faces kept as a flank."""
-    shape = (camera.height, camera.width)
-    valid = np.zeros(grid.shape[0], dtype=bool)
-    valid[covered] = True
-    triangle = np.full(grid.shape[0], -1, dtype=np.int32)
-    triangle[covered] = owner
-    return RingSurface(
-        points, normals, tri, grid.reshape(*shape, 3), valid.reshape(shape), counts, ring, triangle.reshape(shape),
-        flank=flank,
-    )  # fmt: skip
 
 
 def _without_shadowed(
