@@ -29,7 +29,7 @@ from rig.store.ply import ply_bytes, read_cloud_ply
 
 def test_rasterize_covers_exactly_the_pixel_centres_inside() -> None:
     xy = np.array([[2.3, 1.7], [17.9, 4.2], [6.1, 13.6]])
-    pixel, owner = rasterize(xy, np.array([[0, 1, 2]]), 20, 16)
+    pixel, owner, kept = rasterize(xy, np.array([[0, 1, 2]]), 20, 16)
     cols, rows = np.meshgrid(np.arange(20), np.arange(16))
     p = np.column_stack([cols.ravel(), rows.ravel()]).astype(float)
     a, b, c = xy
@@ -40,7 +40,20 @@ def test_rasterize_covers_exactly_the_pixel_centres_inside() -> None:
     s = np.stack([side(a, b), side(b, c), side(c, a)])
     inside = (s >= 0).all(axis=0) | (s <= 0).all(axis=0)
     assert set(pixel.tolist()) == set(np.flatnonzero(inside).tolist())
-    assert (owner == 0).all()
+    assert (owner == 0).all() and kept.tolist() == [True]
+
+
+def test_rasterize_drops_a_triangle_over_a_shadow_and_renumbers_the_rest() -> None:
+    xy = np.array([[0.5, 0.5], [15.5, 0.5], [0.5, 11.5], [15.5, 11.5]])
+    tri = np.array([[0, 1, 2], [1, 3, 2]])  # a rectangle's two halves
+    pixel, owner, _ = rasterize(xy, tri, 16, 12)
+    lit = np.ones((12, 16), bool)
+    lit.ravel()[pixel[owner == 0][:3]] = False  # three dark pixels in the first half: about 4 % of it
+    shadowed = rasterize(xy, tri, 16, 12, lit, max_unlit=0.02)
+    assert shadowed[2].tolist() == [False, True]
+    assert np.array_equal(shadowed[0], pixel[owner == 1]) and (shadowed[1] == 0).all()  # now face 0
+    tolerated = rasterize(xy, tri, 16, 12, lit, max_unlit=0.05)
+    assert tolerated[2].all() and np.array_equal(tolerated[0], pixel) and np.array_equal(tolerated[1], owner)
 
 
 @pytest.fixture(scope="module")

@@ -1,10 +1,10 @@
 """The ring surface's pixels (rig.pipeline.surface, rig.pipeline.raster), compiled by numba: each
 covered camera pixel's point on its triangle's interpolant, and whether the projector lights that
-point inside the ring band its pixel read. As numpy passes over a million pixels they took about
-100 ms on two threads for the default bench, 60 as these loops (one per pixel for each, a span of
-pixels per call for rig.workers' pool, writing straight into the camera grid), in the
-floating-point order of the numpy they replace (but the band's polar angle: float32's polynomial
-atan2, within 1e-7 rad)."""
+point inside the ring band its pixel read (and the faces whose pixels mostly are not). As numpy
+passes over a million pixels they took about 100 ms on two threads for the default bench, 60 as
+these loops (one per pixel for each, a span of pixels per call for rig.workers' pool, writing
+straight into the camera grid), in the floating-point order of the numpy they replace (but the
+band's polar angle: float32's polynomial atan2, within 1e-7 rad)."""
 
 from __future__ import annotations
 
@@ -207,3 +207,24 @@ def _distorted(x: float, y: float, dist: np.ndarray) -> tuple[float, float]:
     r2 = x * x + y * y
     radial = 1 + r2 * (k1 + r2 * (k2 + r2 * k3))
     return x * radial + 2 * p1 * x * y + p2 * (r2 + 2 * x * x), y * radial + p1 * (r2 + 2 * y * y) + 2 * p2 * x * y
+
+
+@njit(**KERNEL)
+def in_bands(owner: np.ndarray, agree: np.ndarray, ok: np.ndarray, faces: int, max_disagreement: float) -> int:
+    """Which pixels keep their point (rig.pipeline.surface.interpolate_surface): `agree` (per pixel,
+    in the band it read) cleared in place for every pixel of a face with more than `max_disagreement`
+    of its pixels off their bands (the face bridges an edge its corners miss), and `ok` (a point was
+    found) &= it. Returns how many found pixels it turned away."""
+    area, off = np.zeros(faces, np.int64), np.zeros(faces, np.int64)
+    for p in range(len(owner)):
+        area[owner[p]] += 1
+        if not agree[p]:
+            off[owner[p]] += 1
+    dropped = 0
+    for p in range(len(owner)):
+        f = owner[p]
+        agree[p] = agree[p] and not off[f] > max_disagreement * area[f]
+        if ok[p] and not agree[p]:
+            dropped += 1
+        ok[p] = ok[p] and agree[p]
+    return dropped

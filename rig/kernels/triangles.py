@@ -81,7 +81,7 @@ def _face_normal(points: np.ndarray, directions: np.ndarray, a: int, b: int, c: 
 
 @njit(**KERNEL)
 def rasterize(xy: np.ndarray, tri: np.ndarray, image: np.ndarray) -> None:
-    """rig.pipeline.raster.rasterize into `image` (H, W int64, -1 where no triangle): each
+    """rig.pipeline.raster.rasterize into `image` (H, W int32, -1 where no triangle): each
     triangle's rows (corners sorted by y, ties in their order), each row's span between the long
     edge and the short edge above or below the middle corner; a later triangle wins a shared pixel."""
     height, width = image.shape
@@ -131,3 +131,40 @@ def _edge(xa: float, ya: float, xb: float, yb: float) -> tuple[float, float]:
         return xb, 0.0
     slope = (xb - xa) / dy
     return xa - ya * slope, slope
+
+
+@njit(**KERNEL)
+def listed_pixels(
+    image: np.ndarray, lit: np.ndarray, faces: int, max_unlit: float
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The flat pixels of a rasterised `image` (H, W, the face at each pixel, -1 none) in row-major
+    order, and their faces renumbered among the kept ones; and which of the `faces` were kept: those
+    with at most `max_unlit` of their pixels dark (`lit` (H, W) False; an empty `lit`: all are kept).
+    Two passes over the image: the faces' pixels and dark ones counted, then the kept listed."""
+    flat = image.reshape(image.size)
+    area, dark = np.zeros(faces, np.int64), np.zeros(faces, np.int64)
+    check = lit.size > 0
+    lit_flat = lit.reshape(lit.size)
+    for p in range(flat.size):
+        f = flat[p]
+        if f >= 0:
+            area[f] += 1
+            if check and not lit_flat[p]:
+                dark[f] += 1
+    kept = np.empty(faces, np.bool_)
+    renumber = np.empty(faces, np.int64)
+    count, total = 0, 0
+    for f in range(faces):
+        kept[f] = not dark[f] > max_unlit * max(area[f], 1)
+        renumber[f] = count
+        if kept[f]:
+            count += 1
+            total += area[f]
+    pixel, owner = np.empty(total, np.int64), np.empty(total, np.int64)
+    n = 0
+    for p in range(flat.size):
+        f = flat[p]
+        if f >= 0 and kept[f]:
+            pixel[n], owner[n] = p, renumber[f]
+            n += 1
+    return pixel, owner, kept

@@ -13,14 +13,18 @@ triangle_kernels = lazy_module("rig.kernels.triangles")  # numba compiles on fir
 surface_kernels = lazy_module("rig.kernels.ring_surface")
 
 
-def rasterize(xy: np.ndarray, tri: np.ndarray, width: int, height: int) -> tuple[np.ndarray, np.ndarray]:
-    """Camera pixels (flat indices) whose centres lie in the image triangles, and the triangle of
-    each (a pixel on a shared edge goes to the later one). Scanline, one compiled loop over the
-    triangles (rig.kernels.triangles.rasterize)."""
-    image = np.full((height, width), -1, dtype=np.int64)
+def rasterize(
+    xy: np.ndarray, tri: np.ndarray, width: int, height: int, lit: np.ndarray | None = None, max_unlit: float = 1.0
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Camera pixels (flat indices, in order) whose centres lie in the image triangles, and the
+    triangle of each (a pixel on a shared edge goes to the later one); with `lit` (H, W), a triangle
+    over more than `max_unlit` of its pixels dark spans a shadow and is dropped. Returns the pixels,
+    their triangles renumbered among those kept, and which were kept. Scanline, one compiled loop over
+    the triangles, then two over the image (rig.kernels.triangles.rasterize, listed_pixels)."""
+    image = np.full((height, width), -1, dtype=np.int32)  # a face per pixel: far fewer than 2**31
     triangle_kernels.rasterize(np.ascontiguousarray(xy, np.float64), np.ascontiguousarray(tri, np.int64), image)
-    pixel = np.flatnonzero(image >= 0)
-    return pixel, image.ravel()[pixel]
+    checked = np.zeros((0, 0), np.bool_) if lit is None else np.ascontiguousarray(lit, np.bool_)
+    return triangle_kernels.listed_pixels(image, checked, len(tri), float(max_unlit))
 
 
 @dataclass(frozen=True, eq=False)

@@ -235,17 +235,19 @@ def interpolate_surface(
     settings = settings or SurfaceSettings()  # `tri`: the samples' Delaunay triangles, if known
     triangles = ring_triangles(points, xy, ring, camera, projector, settings, tri)
     counts = triangles.counts
-    pixel, owner = rasterize(xy, triangles.tri, camera.width, camera.height)
-    if lit is not None:
-        kept, pixel, owner = _without_shadowed(triangles.tri, pixel, owner, lit, settings.max_unlit, counts)
+    pixel, owner, kept = rasterize(xy, triangles.tri, camera.width, camera.height, lit, settings.max_unlit)
+    if lit is not None:  # triangles over a shadow dropped
+        counts["dropped_shadow"] = int(len(kept) - kept.sum())
+        counts["faces"] -= counts["dropped_shadow"]
         if not kept.all():
             triangles = triangles.subset(kept)
     tri, normals = triangles.tri, triangles.normals
     grid, ok, agree = _points_in_faces(
         points, xy, triangles, camera, projector, (pixel, owner), method, bands, settings
     )
-    if bands is not None:
-        ok &= _in_bands(owner, agree, ok, len(tri), settings.max_band_disagreement, counts)
+    if bands is not None:  # pixels off their bands, and every pixel of a face with many (it bridges an edge)
+        limit = float(settings.max_band_disagreement)
+        counts["dropped_band_px"] = surface_kernels.in_bands(owner, agree, ok, len(tri), limit)
     grid[pixel[~ok]] = np.nan  # the rest of the grid is NaN already but where the fill writes its points
     # the pixels as images now: the fill's peak of memory holds no per-pixel lists of the faces'
     valid, triangle = np.zeros(grid.shape[0], dtype=bool), np.full(grid.shape[0], -1, dtype=np.int32)
@@ -307,18 +309,6 @@ def _points_in_faces(
     return grid, ok, agree
 
 
-def _in_bands(
-    owner: np.ndarray, agree: np.ndarray, ok: np.ndarray, faces: int, max_disagreement: float, counts: dict[str, int]
-) -> np.ndarray:
-    """Which pixels keep their point: in their own band, in a face whose pixels mostly are (more off
-    their bands than `max_disagreement` of its pixels: the face bridges an edge its corners miss)."""
-    area = np.bincount(owner, minlength=faces)
-    bridging = np.bincount(owner, ~agree, minlength=faces) > max_disagreement * area
-    agree = agree & ~bridging[owner]
-    counts["dropped_band_px"] = int((ok & ~agree).sum())
-    return agree
-
-
 def _filled(
     points: np.ndarray,
     normals: np.ndarray,
@@ -348,20 +338,6 @@ def _filled(
     keep[keep] = band_agreement(found[keep], candidate[keep], projector, bands, settings)
     grid[candidate[keep]] = found[keep]
     return candidate[keep]
-
-
-def _without_shadowed(
-    tri: np.ndarray, pixel: np.ndarray, owner: np.ndarray, lit: np.ndarray, max_unlit: float, counts: dict[str, int]
-) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Which triangles have at most `max_unlit` of their pixels dark, and their pixels (renumbered)."""
-    area = np.bincount(owner, minlength=len(tri))
-    dark = np.bincount(owner, ~lit.ravel()[pixel], minlength=len(tri))
-    shadowed = dark > max_unlit * np.maximum(area, 1)
-    counts["dropped_shadow"] = int(shadowed.sum())
-    counts["faces"] -= counts["dropped_shadow"]
-    keep = ~shadowed[owner]
-    renumber = np.cumsum(~shadowed) - 1
-    return ~shadowed, pixel[keep], renumber[owner[keep]]
 
 
 def band_agreement(
