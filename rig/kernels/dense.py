@@ -137,7 +137,7 @@ def plane_triangulate(
             ray[y, x] = s
 
 
-@njit(**KERNEL)
+@njit(**KERNEL, error_model="numpy")
 def ray_ray_triangulate(
     u: Image,
     v: Image,
@@ -155,32 +155,31 @@ def ray_ray_triangulate(
     """Both projector coordinates decoded: the point of each unit camera ray closest to the
     projector ray to_ray @ (u, v, 1) (PairTriangulator._ray_ray_fast, in float64 per pixel), as
     plane_triangulate writes it; NaN where the rays are parallel or meet behind either device.
-    `offset`: the camera centre minus the projector centre."""
+    `offset`: the camera centre minus the projector centre. Every pixel takes the same steps, as in
+    plane_triangulate (a pixel not decoded, or parallel rays, divides into NaN or inf and is
+    dropped after), so the loop runs in vector lanes: a third of the time of a branch per pixel."""
     nan = np.float32(np.nan)
+    t00, t01, t02 = to_ray[0, 0], to_ray[0, 1], to_ray[0, 2]
+    t10, t11, t12 = to_ray[1, 0], to_ray[1, 1], to_ray[1, 2]
+    t20, t21, t22 = to_ray[2, 0], to_ray[2, 1], to_ray[2, 2]
+    o0, o1, o2 = offset[0], offset[1], offset[2]
     for y in range(top, bottom):
         for x in range(u.shape[1]):
-            ok = valid[y, x]
-            s = nan
-            if ok:
-                cu, cv = np.float64(u[y, x]), np.float64(v[y, x])
-                p0 = to_ray[0, 0] * cu + to_ray[0, 1] * cv + to_ray[0, 2]
-                p1 = to_ray[1, 0] * cu + to_ray[1, 1] * cv + to_ray[1, 2]
-                p2 = to_ray[2, 0] * cu + to_ray[2, 1] * cv + to_ray[2, 2]
-                c0 = np.float64(directions[0, y, x])
-                c1 = np.float64(directions[1, y, x])
-                c2 = np.float64(directions[2, y, x])
-                b = c0 * p0 + c1 * p1 + c2 * p2
-                c = p0 * p0 + p1 * p1 + p2 * p2
-                e = p0 * offset[0] + p1 * offset[1] + p2 * offset[2]
-                f = c0 * offset[0] + c1 * offset[1] + c2 * offset[2]
-                denominator = c - b * b
-                ok = denominator >= 1e-6 * c
-                if ok:  # divided only then: parallel rays would raise
-                    along_camera = (b * e - c * f) / denominator
-                    ok = along_camera > 0 and (e - b * f) / denominator > 0
-                    s = np.float32(along_camera)
-                if not ok:
-                    s = nan
+            cu, cv = np.float64(u[y, x]), np.float64(v[y, x])
+            p0 = t00 * cu + t01 * cv + t02
+            p1 = t10 * cu + t11 * cv + t12
+            p2 = t20 * cu + t21 * cv + t22
+            c0 = np.float64(directions[0, y, x])
+            c1 = np.float64(directions[1, y, x])
+            c2 = np.float64(directions[2, y, x])
+            b = c0 * p0 + c1 * p1 + c2 * p2
+            c = p0 * p0 + p1 * p1 + p2 * p2
+            e = p0 * o0 + p1 * o1 + p2 * o2
+            f = c0 * o0 + c1 * o1 + c2 * o2
+            denominator = c - b * b
+            along_camera = (b * e - c * f) / denominator
+            ok = valid[y, x] and denominator >= 1e-6 * c and along_camera > 0 and (e - b * f) / denominator > 0
+            s = np.float32(along_camera) if ok else nan
             decoded[y, x] = ok
             depth[y, x] = s * along_axis[y, x]
             ray[y, x] = s
