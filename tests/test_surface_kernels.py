@@ -142,3 +142,24 @@ def test_triangle_tests_give_numpys_normals_weights_and_foreshortening(kind: str
     expected = np.where(span > 1, RING_SKIPPED, np.where(span == 0, ONE_RING, np.where(gap, GAP, KEPT)))
     assert len(set(expected.tolist())) == 4  # every verdict is exercised
     np.testing.assert_array_equal(verdict, expected)
+
+
+def test_a_face_mostly_off_its_bands_loses_all_its_pixels() -> None:
+    """in_bands against its rule in numpy: a pixel keeps its point if found, in its own band, and in
+    a face with no more than the allowed share of its pixels off their bands."""
+    from rig.kernels.ring_surface import in_bands
+
+    faces, pixels = 200, 20_000
+    owner = RNG.integers(0, faces, pixels)
+    off_share = RNG.uniform(0, 0.6, faces)  # each face's own share of pixels off their bands
+    agree = RNG.random(pixels) >= off_share[owner]
+    ok = RNG.random(pixels) > 0.1
+    area = np.bincount(owner, minlength=faces)
+    bridging = np.bincount(owner, ~agree, minlength=faces) > 0.25 * area
+    expected_agree = agree & ~bridging[owner]
+    expected_dropped = int((ok & ~expected_agree).sum())
+    expected_ok = ok & expected_agree
+    assert 0 < bridging.sum() < faces  # some faces bridge, some do not
+    dropped = in_bands(owner, agree, ok, faces, 0.25)
+    assert dropped == expected_dropped
+    assert np.array_equal(agree, expected_agree) and np.array_equal(ok, expected_ok)
