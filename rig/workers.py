@@ -31,7 +31,7 @@ _M_ARENA_MAX = -8
 # Arrays under _MMAP_FROM_BYTES come from the heap, and it keeps up to _KEEP_FREED_BYTES of freed
 # memory for the next arrays; larger arrays are mapped and unmapped (see tune_malloc).
 # Builds of glibc that refuse a threshold keep their default.
-_MMAP_FROM_BYTES = 6 << 20  # 6 MB
+_MMAP_FROM_BYTES = 64 << 20  # 64 MB: a 12 MP camera's float32 image (49 MB) comes from the heap
 _KEEP_FREED_BYTES = 1 << 30
 
 _lock = threading.Lock()
@@ -54,15 +54,19 @@ def tune_malloc() -> None:
 
     - One arena for every thread: glibc gives each new thread its own, and memory freed in one is
       not reused by another (a ring scan's peak RSS rose from 680 to 790 MB with this pool).
-    - Arrays under 6 MB (frames, patterns, float32 images of a 1280x1024 camera) come from the heap,
-      and freed ones stay there for the next ones (up to _KEEP_FREED_BYTES), without page faults.
-      Larger arrays (a cloud's fields) are mapped and given back when freed: kept in the heap too,
-      their holes went to smaller arrays and a scan's peak rose above what it held. A second gray
-      scan on an open rig (bench/speed.py's peak_memory) raised the peak 118 to 123 MB with every
-      array in the heap, 86 to 90 with this threshold. At 4 MB, which maps the float32 images too,
-      83 to 84, but decoding and the fast path fault their images in: gray decode 9.4 -> 10.4 ms
-      (4.3 -> 4.8 times the memory floor), last frame to cloud 10.2 -> 15.4 ms, radial decode
-      229 -> 283 ms.
+    - Arrays under 64 MB (frames and the float32 images of cameras up to 12 MP, a 1280x1024
+      camera's float64 images and grids of points) come from the heap, and freed ones stay there for
+      the next ones (up to _KEEP_FREED_BYTES), without page faults. Larger arrays (a 12 MP camera's
+      float64 images) are mapped and given back when freed: kept in the heap too, their holes went
+      to smaller arrays and a scan's peak rose above what it held (a second gray scan on an open
+      rig, bench/speed.py's peak_memory, raised the peak 118 to 123 MB with every array in the
+      heap, 86 to 90 with a 6 MB threshold). At 4 MB, which maps the float32 images of a 1280x1024
+      camera too, decoding and the fast path fault their images in: gray decode 9.4 -> 10.4 ms,
+      last frame to cloud 10.2 -> 15.4 ms, radial decode 229 -> 283 ms. From 6 MB to 64 (session
+      14, alternating runs): bench/throughput.py's 12 MP cued_phase, one camera, CPU per cloud
+      0.23-0.25 -> 0.17 s, two cameras 0.48-0.50 -> 0.35-0.36 s and 11 -> 3 sequences dropped; the
+      ring scan's surface 447-467 -> 415-420 ms from the last frame (32 MB); a second scan's peak
+      the same for gray (91-93 MB), 193-202 -> 199-207 MB for rings.
       release_free_memory() returns what a job left in the heap."""
     libc = _glibc()
     if libc is None:
