@@ -29,9 +29,11 @@ _M_TRIM_THRESHOLD = -1
 _M_MMAP_THRESHOLD = -3
 _M_ARENA_MAX = -8
 # Arrays under _MMAP_FROM_BYTES come from the heap, and it keeps up to _KEEP_FREED_BYTES of freed
-# memory for the next arrays; larger arrays are mapped and unmapped (see tune_malloc).
+# memory for the next arrays; larger arrays are mapped and unmapped (see tune_malloc). A rig of
+# larger cameras raises the threshold to its float32 image, up to _MMAP_AT_MOST (heap_images).
 # Builds of glibc that refuse a threshold keep their default.
-_MMAP_FROM_BYTES = 64 << 20  # 64 MB: a 12 MP camera's float32 image (49 MB) comes from the heap
+_MMAP_FROM_BYTES = 6 << 20  # 6 MB
+_MMAP_AT_MOST = 64 << 20  # a 12 MP camera's float32 image is 49 MB
 _KEEP_FREED_BYTES = 1 << 30
 
 _lock = threading.Lock()
@@ -54,19 +56,16 @@ def tune_malloc() -> None:
 
     - One arena for every thread: glibc gives each new thread its own, and memory freed in one is
       not reused by another (a ring scan's peak RSS rose from 680 to 790 MB with this pool).
-    - Arrays under 64 MB (frames and the float32 images of cameras up to 12 MP, a 1280x1024
-      camera's float64 images and grids of points) come from the heap, and freed ones stay there for
-      the next ones (up to _KEEP_FREED_BYTES), without page faults. Larger arrays (a 12 MP camera's
-      float64 images) are mapped and given back when freed: kept in the heap too, their holes went
-      to smaller arrays and a scan's peak rose above what it held (a second gray scan on an open
-      rig, bench/speed.py's peak_memory, raised the peak 118 to 123 MB with every array in the
-      heap, 86 to 90 with a 6 MB threshold). At 4 MB, which maps the float32 images of a 1280x1024
-      camera too, decoding and the fast path fault their images in: gray decode 9.4 -> 10.4 ms,
-      last frame to cloud 10.2 -> 15.4 ms, radial decode 229 -> 283 ms. From 6 MB to 64 (session
-      14, alternating runs): bench/throughput.py's 12 MP cued_phase, one camera, CPU per cloud
-      0.23-0.25 -> 0.17 s, two cameras 0.48-0.50 -> 0.35-0.36 s and 11 -> 3 sequences dropped; the
-      ring scan's surface 447-467 -> 415-420 ms from the last frame (32 MB); a second scan's peak
-      the same for gray (91-93 MB), 193-202 -> 199-207 MB for rings.
+    - Arrays under 6 MB (frames, patterns, float32 images of a 1280x1024 camera) come from the heap,
+      and freed ones stay there for the next ones (up to _KEEP_FREED_BYTES), without page faults.
+      Larger arrays (a cloud's fields) are mapped and given back when freed: kept in the heap too,
+      their holes went to smaller arrays and a scan's peak rose above what it held. A second gray
+      scan on an open rig (bench/speed.py's peak_memory) raised the peak 118 to 123 MB with every
+      array in the heap, 86 to 90 with this threshold. At 4 MB, which maps the float32 images too,
+      83 to 84, but decoding and the fast path fault their images in: gray decode 9.4 -> 10.4 ms
+      (4.3 -> 4.8 times the memory floor), last frame to cloud 10.2 -> 15.4 ms, radial decode
+      229 -> 283 ms. A rig of larger cameras raises the threshold to their float32 images
+      (heap_images, decision 0040).
       release_free_memory() returns what a job left in the heap."""
     libc = _glibc()
     if libc is None:
@@ -74,6 +73,16 @@ def tune_malloc() -> None:
     libc.mallopt(_M_ARENA_MAX, 1)
     libc.mallopt(_M_MMAP_THRESHOLD, _MMAP_FROM_BYTES)
     libc.mallopt(_M_TRIM_THRESHOLD, _KEEP_FREED_BYTES)
+
+
+def heap_images(pixels: int) -> None:
+    """Arrays as large as a float32 image of `pixels` (the rig's largest camera) come from the heap,
+    and stay there when freed, so that a sensor beyond 1280x1024 does not fault every image of every
+    sequence in again; at least tune_malloc's 6 MB, at most _MMAP_AT_MOST (decision 0040). Set as a
+    rig opens (rig.assembly.open_rig), for the process: the last rig opened decides."""
+    libc = _glibc()
+    if libc is not None:
+        libc.mallopt(_M_MMAP_THRESHOLD, min(max(_MMAP_FROM_BYTES, 4 * pixels + (1 << 20)), _MMAP_AT_MOST))
 
 
 def release_free_memory() -> None:

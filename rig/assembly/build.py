@@ -18,6 +18,7 @@ from rig.config import DeviceKind, DriverEntry, Geometry, RigConfig, driver, nam
 from rig.errors import ConfigError
 from rig.geometry import CameraModel, look_at_rotation
 from rig.opened_rig import Rig
+from rig.workers import heap_images
 
 
 def factory_of(entry: DriverEntry) -> Callable[..., Any]:
@@ -123,6 +124,7 @@ def open_rig(config: RigConfig, with_devices: bool = True) -> Rig:
     simulated bench's ground truth), for reprocessing stored frames. ConfigError, before anything
     is allocated, for a rig whose scan would need more memory than the machine has available."""
     check_memory(config)
+    heap_images(max((c.resolution[0] * c.resolution[1] for c in config.cameras), default=0))
     projector_models = [geometry_model(p.geometry, p.resolution) for p in config.projectors]
     camera_models = [geometry_model(c.geometry, c.resolution) for c in config.cameras]
     world = world_of(config, camera_models, projector_models)  # the true geometry, whatever reconstruction uses
