@@ -43,12 +43,15 @@ def pytest_configure(config: pytest.Config) -> None:
         cv2.setNumThreads(1)
 
 
-def pytest_xdist_auto_num_workers(config: pytest.Config) -> int:
+def pytest_xdist_auto_num_workers(config: pytest.Config) -> int | None:
     """`-n auto` (pyproject's addopts): a worker per core and one more. Each test process runs its
     pixel work on one thread (pytest_configure), and many tests spend part of their time waiting on
     the CLI and daemon processes they start, on sockets and on a browser: with a worker per core, two
     cores were 174 % busy over the suite and a clean clone's run took 507 s; with one more, 189 % and
-    429 s (idle, 2 cores, the same commit)."""
+    429 s (idle, 2 cores, the same commit). xdist's own answer (None) where its environment variable
+    PYTEST_XDIST_AUTO_NUM_WORKERS sets the count, or for `-n logical`."""
+    if os.environ.get("PYTEST_XDIST_AUTO_NUM_WORKERS") or config.getoption("numprocesses", None) == "logical":
+        return None
     cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
     return cores + 1
 

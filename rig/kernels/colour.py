@@ -3,8 +3,8 @@ and share of area in one loop, and each pixel's weighted mean of its face's cand
 another, instead of (pixels x candidates) numpy temporaries and a sparse product (130 ms for the
 default bench's ring scan, against about 20 here); and each sample's nearest on its own ring, the
 pixels' candidates, by a sweep along the ring's widest axis (a 4-D k-d tree took twice as long).
-Distances are float32 about the samples' centre, as rig.pipeline.colour prepares them; sums are
-float64."""
+The pixels' distances are float32 about the samples' centre, as rig.pipeline.colour prepares them,
+and their sums float64; the samples' distances to each other are float64."""
 
 from __future__ import annotations
 
