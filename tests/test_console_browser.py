@@ -129,7 +129,6 @@ def test_aim_frames_change_and_an_exposure_change_reaches_the_simulated_camera(
     console.page.fill("input[name=exposure_us]", "3500")
     console.page.click("text=Set")
     console.until("() => document.querySelector('canvas.frame').dataset.exposure === '3500'")
-
     cameras = daemon_http.get(f"{daemon.url}/v1/cameras").json()
     assert cameras[0]["exposure_us"] == 3500  # the daemon's camera, not the page's idea of it
     assert "frames/s" in console.page.locator(".figures").inner_text()
@@ -284,7 +283,6 @@ def test_a_folder_of_captures_is_uploaded_and_calibrated_from_the_page(
 
 
 def test_the_rings_page_draws_an_adaptive_scans_plan(console: Console, daemon: Daemon) -> None:
-
     from tests.test_daemon import AUTH
 
     # the small rig's 320 x 256 camera holds 0.6 mm on every region, not the default 0.2

@@ -87,5 +87,7 @@ def _counts(
 
 @njit(nogil=True, cache=True)
 def _signal_in_place(radiance: np.ndarray, shot: np.ndarray, terms: tuple[np.float32, ...]) -> None:
+    """Each pixel's signal (_signal) written over its flat radiance: a non-linear sensor's, before
+    its gamma."""
     for i in range(radiance.size):
         radiance[i] = _signal(radiance[i], shot[i], terms)

@@ -108,10 +108,10 @@ def _along_rings(surface: RingSurface, neighbours: int) -> np.ndarray:
     points, used_ring = np.ascontiguousarray(vertices[used], np.float64), ring[used]
     by_ring = np.argsort(used_ring, kind="stable")
     sorted_ring = used_ring[by_ring]
-    first = np.flatnonzero(np.r_[True, sorted_ring[1:] != sorted_ring[:-1]])
+    starts = np.r_[True, sorted_ring[1:] != sorted_ring[:-1]]  # where each ring's run begins
+    first, group = np.flatnonzero(starts), np.cumsum(starts) - 1
     extent = [np.maximum.reduceat(points[by_ring, c], first) - np.minimum.reduceat(points[by_ring, c], first)
               for c in range(3)]  # fmt: skip
-    group = np.cumsum(np.r_[False, sorted_ring[1:] != sorted_ring[:-1]])
     axis = np.argmax(np.column_stack(extent), axis=1)[group]
     key = points[by_ring, axis]
     within = np.lexsort((key, group))
