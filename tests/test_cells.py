@@ -7,8 +7,10 @@ import pytest
 from scipy.spatial import cKDTree
 
 from rig.kernels.cells import (
+    every_nth_by_group,
     group_cell_side,
     group_cells,
+    group_order,
     k_nearest,
     k_nearest_in_group,
     nearest_within,
@@ -81,3 +83,21 @@ def test_many_groups_widen_the_cells_so_the_grid_stays_bounded() -> None:
     wide = group_cell_side(points, 1024, 12.0)
     cells = np.prod((np.ptp(points, axis=0) / wide).astype(int) + 1)  # as group_cells sizes its grid
     assert wide > 12.0 and 1024 * cells <= 1.05e6
+
+
+def test_group_order_is_numpys_stable_order() -> None:
+    group = RNG.integers(0, 40, 5000)
+    group[:100] = 7  # a long run of one group: its members keep their order
+    order, starts = group_order(group, 45)  # groups beyond the largest value are empty runs
+    np.testing.assert_array_equal(order, np.argsort(group, kind="stable"))
+    np.testing.assert_array_equal(starts, np.concatenate([[0], np.cumsum(np.bincount(group, minlength=45))]))
+
+
+@pytest.mark.parametrize("step", [1, 4, 7])
+def test_every_nth_by_group_takes_lexsorts_places(step: int) -> None:
+    group = RNG.integers(0, 30, 4000)
+    key = np.round(RNG.uniform(-np.pi, np.pi, 4000), 1)  # rounded: many ties, broken by index
+    key[:50] = -0.0  # equal to 0.0 in order, as numpy takes it
+    key[50:100] = 0.0
+    expected = np.sort(np.lexsort((key, group))[::step])
+    np.testing.assert_array_equal(every_nth_by_group(group, key, 30, step), expected)

@@ -41,16 +41,9 @@ def group_cells(xy: np.ndarray, group: np.ndarray, groups: int, cell: float) -> 
     x0, y0 = xy[:, 0].min(), xy[:, 1].min()
     nx, ny = int((xy[:, 0].max() - x0) / cell) + 1, int((xy[:, 1].max() - y0) / cell) + 1
     home = np.empty(len(xy), np.int64)
-    starts = np.zeros(groups * nx * ny + 1, np.int64)
     for i in range(len(xy)):
         home[i] = group[i] * nx * ny + int((xy[i, 1] - y0) / cell) * nx + int((xy[i, 0] - x0) / cell)
-        starts[home[i] + 1] += 1
-    starts = np.cumsum(starts)
-    filled = starts[:-1].copy()
-    order = np.empty(len(xy), np.int64)
-    for i in range(len(xy)):
-        order[filled[home[i]]] = i
-        filled[home[i]] += 1
+    order, starts = group_order(home, groups * nx * ny)
     ordered = np.empty((len(xy), 2))
     for j in range(len(xy)):
         ordered[j, 0], ordered[j, 1] = xy[order[j], 0], xy[order[j], 1]
@@ -170,3 +163,34 @@ def k_nearest_in_group(
     for q in range(start, stop):
         dist[q, :], index[q, :] = np.inf, -1
         nearest_within(cells, (cell, at_group[q], reach), (at[q, 0], at[q, 1]), dist[q], index[q])
+
+
+@njit(**KERNEL)
+def group_order(group: np.ndarray, groups: int) -> tuple[np.ndarray, np.ndarray]:
+    """The indices of `group` (N,) (values in [0, groups)) by group, each group's in ascending order
+    (np.argsort(group, kind="stable"), by counting), and where each group's run starts (groups + 1,)."""
+    starts = np.zeros(groups + 1, np.int64)
+    for i in range(len(group)):
+        starts[group[i] + 1] += 1
+    starts = np.cumsum(starts)
+    filled = starts[:-1].copy()
+    order = np.empty(len(group), np.int64)
+    for i in range(len(group)):
+        order[filled[group[i]]] = i
+        filled[group[i]] += 1
+    return order, starts
+
+
+@njit(**KERNEL)
+def every_nth_by_group(group: np.ndarray, key: np.ndarray, groups: int, step: int) -> np.ndarray:
+    """The points at every `step`-th place (the first, the step + 1-th, ...) of their order by group
+    and then by `key` within a group, ties by index (np.lexsort((key, group))), in ascending order."""
+    order, starts = group_order(group, groups)
+    chosen = np.zeros(len(group), np.bool_)
+    for g in range(groups):
+        members = order[starts[g] : starts[g + 1]]
+        within = np.argsort(key[members], kind="mergesort")  # stable: ties keep the index order
+        for m in range(len(members)):
+            if (starts[g] + m) % step == 0:
+                chosen[members[within[m]]] = True
+    return np.flatnonzero(chosen)

@@ -193,7 +193,7 @@ def _every_fourth_along_rings(xy: np.ndarray, ring: np.ndarray) -> np.ndarray:
     centre_x = np.bincount(ring, xy[:, 0]) / count
     centre_y = np.bincount(ring, xy[:, 1]) / count
     along = np.arctan2(xy[:, 1] - centre_y[ring], xy[:, 0] - centre_x[ring])
-    return np.sort(np.lexsort((along, ring))[::4])
+    return cell_kernels.every_nth_by_group(ring.astype(np.int64), along, len(count), 4)
 
 
 # A sample within this of a candidate of its ring (pixels) takes the candidate's nearest candidates.
@@ -257,7 +257,7 @@ def _agrees(
     """rig.kernels.across.across_agrees over the pool: each judged point's verdict, the points taken
     neighbourhood by neighbourhood (`neighbourhoods`: rows of candidates, every point's row, each
     row's own sample's xy, which points are alive)."""
-    by_row = np.argsort(neighbourhoods[1][judged], kind="stable")
+    by_row = cell_kernels.group_order(neighbourhoods[1][judged], len(neighbourhoods[2]))[0]  # stable, by counting
     ordered, verdicts = judged[by_row], np.empty(len(judged), bool)
     arrays = (points, neighbourhoods, ordered, limits, verdicts)
     list(pool().map(lambda span: across_kernels.across_agrees(*arrays, *span), batches(len(judged))))
