@@ -330,13 +330,16 @@ def _resolve_from_neighbours(
     placed, ambiguous = solvable & clear, solvable & ~clear
     if not ambiguous.any() or not placed.any():
         return 0
-    at = idx[placed]
-    points = np.take(origins, at, axis=0) + solution.s[placed, None] * np.take(directions, at, axis=0)
-    uv, _ = projector.project(points)
-    angle = np.arctan2(uv[:, 1] - samples.center_px[1], uv[:, 0] - samples.center_px[0])
+    at, s_placed = idx[placed], solution.s[placed]
+
+    def angle_of(which: np.ndarray) -> np.ndarray:  # the placed samples' projector angles
+        points = np.take(origins, at[which], axis=0) + s_placed[which, None] * np.take(directions, at[which], axis=0)
+        uv, _ = projector.project(points)
+        return np.arctan2(uv[:, 1] - samples.center_px[1], uv[:, 0] - samples.center_px[0])
+
     xy, ring = np.take(samples.camera_xy, idx, axis=0), samples.ring[idx]
     wanted = np.flatnonzero(ambiguous)
-    predicted, scatter = neighbour_angles(xy[placed], ring[placed], angle, xy[wanted], ring[wanted])
+    predicted, scatter = neighbour_angles(xy[placed], ring[placed], angle_of, xy[wanted], ring[wanted])
     period = 2 * np.pi / samples.fine_periods[idx[wanted]]
     trusted = np.isfinite(predicted) & (scatter <= NEIGHBOUR_SCATTER_PERIODS * period)
     trusted &= np.abs(wrap_angle(predicted - samples.theta[idx[wanted]])) <= 3 * COARSE_SIGMA_RAD

@@ -4,6 +4,8 @@ samples of its own ring, searched in each ring's own grid of cells."""
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import numpy as np
 
 from rig.lazy import lazy_module
@@ -23,16 +25,24 @@ def wrap_angle(angle: np.ndarray) -> np.ndarray:
 
 
 def neighbour_angles(
-    xy: np.ndarray, ring: np.ndarray, angle: np.ndarray, at_xy: np.ndarray, at_ring: np.ndarray
+    xy: np.ndarray,
+    ring: np.ndarray,
+    angle_of: Callable[[np.ndarray], np.ndarray],
+    at_xy: np.ndarray,
+    at_ring: np.ndarray,
 ) -> tuple[np.ndarray, np.ndarray]:
-    """The projector angle at image points `at_xy` of rings `at_ring`, from the angles `angle` of
-    samples (`xy`, `ring`) of the same ring within NEIGHBOUR_REACH_PX: a plane over the image fitted
-    to the nearest NEIGHBOUR_COUNT (at least 3; the slope across a straight run of ring, which its
-    samples cannot fix, held near zero). Returns the prediction and the fit's rms (NaN where too few
-    neighbours)."""
+    """The projector angle at image points `at_xy` of rings `at_ring`, from the angles of samples
+    (`xy`, `ring`) of the same ring within NEIGHBOUR_REACH_PX: a plane over the image fitted to the
+    nearest NEIGHBOUR_COUNT (at least 3; the slope across a straight run of ring, which its samples
+    cannot fix, held near zero). `angle_of(indices)`: the angles of those samples, asked only of
+    the neighbours found (the few that ambiguous samples have, not every sample). Returns the
+    prediction and the fit's rms (NaN where too few neighbours)."""
     dist, near = _same_ring_nearest(xy, ring, at_xy, at_ring)
     found = np.isfinite(dist)
     near = np.where(found, near, 0)
+    angle = np.zeros(len(xy))
+    asked = np.unique(near)
+    angle[asked] = angle_of(asked)
     offset = np.where(found[..., None], xy[near] - at_xy[:, None, :], 0.0)  # (n, k, 2)
     # angles relative to the first neighbour's, so the fit never meets the wrap at +-pi
     base = angle[near[:, 0]]
