@@ -1,4 +1,5 @@
-"""The neighbour searches over a grid of cells (rig.kernels.cells) give what a k-d tree gives."""
+"""The neighbour searches over a grid of cells (rig.kernels.cells) give what a k-d tree gives; its
+sorts by counting give numpy's stable orders."""
 
 from __future__ import annotations
 
@@ -15,6 +16,7 @@ from rig.kernels.cells import (
     k_nearest_in_group,
     nearest_within,
     pairs_within,
+    radix_order,
     sample_cells,
 )
 
@@ -101,3 +103,10 @@ def test_every_nth_by_group_takes_lexsorts_places(step: int) -> None:
     key[50:100] = 0.0
     expected = np.sort(np.lexsort((key, group))[::step])
     np.testing.assert_array_equal(every_nth_by_group(group, key, 30, step), expected)
+
+
+@pytest.mark.parametrize("key_bits", [1, 12, 23, 40])
+def test_radix_order_is_numpys_stable_order(key_bits: int) -> None:
+    keys = RNG.integers(0, 2**key_bits, 6000)
+    keys[:200] = keys[200]  # ties keep their order
+    np.testing.assert_array_equal(radix_order(keys, key_bits), np.argsort(keys, kind="stable"))

@@ -194,3 +194,14 @@ def every_nth_by_group(group: np.ndarray, key: np.ndarray, groups: int, step: in
             if (starts[g] + m) % step == 0:
                 chosen[members[within[m]]] = True
     return np.flatnonzero(chosen)
+
+
+@njit(**KERNEL)
+def radix_order(keys: np.ndarray, key_bits: int) -> np.ndarray:
+    """The stable ascending order of non-negative integer `keys` below 2^key_bits
+    (np.argsort(keys, kind="stable")): group_order by 12 bits at a time, the lowest first."""
+    order = np.arange(len(keys))
+    for shift in range(0, max(key_bits, 1), 12):
+        digits = (keys[order] >> shift) & 4095
+        order = order[group_order(digits, 4096)[0]]
+    return order

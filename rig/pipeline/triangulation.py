@@ -20,6 +20,7 @@ from rig.kernels import bounds
 from rig.lazy import lazy_module
 
 delaunay_kernels = lazy_module("rig.kernels.delaunay")  # numba compiles on first use
+cell_kernels = lazy_module("rig.kernels.cells")
 
 _HILBERT_BITS = 10  # a 1024 x 1024 grid over the points' bounding box: a few samples per cell
 _FIRST_ROUND = 64  # points in the smallest round of the insertion order, about
@@ -57,7 +58,8 @@ def insertion_order(xy: np.ndarray, bits: int = _HILBERT_BITS) -> np.ndarray:
     last = max(int(np.log2(max(len(xy), 1) / _FIRST_ROUND)), 0)
     rounds_before = np.minimum(_trailing_zero_bits(xy), last)  # 0 for half the points, 1 for a quarter, ...
     curve = delaunay_kernels.hilbert_distances(xy, bits)
-    return np.argsort((last - rounds_before) << (2 * bits) | curve, kind="stable")
+    keys = (last - rounds_before) << (2 * bits) | curve
+    return cell_kernels.radix_order(keys, 2 * bits + max(last, 1).bit_length())  # np.argsort's stable order
 
 
 def _trailing_zero_bits(xy: np.ndarray) -> np.ndarray:
