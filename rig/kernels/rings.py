@@ -96,7 +96,7 @@ def solve_angles(
 ) -> None:
     """rig.pipeline.ring_angles._solve_chunk for samples[start:stop]: the branches of the fine code
     within min(`window`, 6 coarse sigma) of the coarse angle scored on radius and coarse angle, the
-    best two refined and compared on their full misfit. out[i] = (s, sigma_s, chi2, margin)."""
+    best two refined and compared on their full misfit. out[:, i] = (s, sigma_s, chi2, margin)."""
     two_pi = 2 * math.pi
     for i in range(start, stop):
         m, sc = np.float64(periods[i]), coarse_sigma[i]
@@ -121,10 +121,10 @@ def solve_angles(
         s0, sigma0, chi0 = _refined(terms, i, (best_score, best_s, best_theta), angles, sigmas, iterations)
         s1, sigma1, chi1 = _refined(terms, i, (second_score, second_s, second_theta), angles, sigmas, iterations)
         if chi0 <= chi1:
-            out[i, 0], out[i, 1], out[i, 2], margin = s0, sigma0, chi0, chi1 - chi0
+            out[0, i], out[1, i], out[2, i], margin = s0, sigma0, chi0, chi1 - chi0
         else:
-            out[i, 0], out[i, 1], out[i, 2], margin = s1, sigma1, chi1, chi0 - chi1
-        out[i, 3] = margin if np.isfinite(margin) or margin > 0 else np.inf
+            out[0, i], out[1, i], out[2, i], margin = s1, sigma1, chi1, chi0 - chi1
+        out[3, i] = margin if np.isfinite(margin) or margin > 0 else np.inf
 
 
 @njit(nogil=True, cache=True, inline="always")
@@ -161,8 +161,8 @@ def along_support(
 ) -> None:
     """For points [start:stop], the samples of their own ring within `reach` pixels (limits:
     reach, max_jump; cells: rig.kernels.cells.sample_cells of side `reach`) whose depth is within
-    `max_jump`: how many (`support`), the sum of their offsets in the image (`offset` (N, 2)) and of
-    their distances (`reach_sum`)."""
+    `max_jump`: how many (`support`), the length of the sum of their offsets in the image (`offset`)
+    and the sum of their distances (`reach_sum`)."""
     order, starts, x0, y0, nx, ny, _ = cells
     reach, max_jump = limits
     for i in range(start, stop):
@@ -182,7 +182,7 @@ def along_support(
                         sx += dx
                         sy += dy
                         total += d
-        support[i], offset[i, 0], offset[i, 1], reach_sum[i] = count, sx, sy, total
+        support[i], offset[i], reach_sum[i] = count, math.sqrt(sx * sx + sy * sy), total
 
 
 @njit(**KERNEL)

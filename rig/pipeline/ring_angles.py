@@ -169,7 +169,7 @@ def _solved_compiled(
     branches, scores and refinement as _solve_chunk."""
     terms = np.ascontiguousarray(terms, dtype=np.float64)
     radius, coarse, phase, periods, sigma = (np.ascontiguousarray(a, dtype=np.float64) for a in per_sample)
-    out = np.empty((len(radius), 4))
+    out = np.empty((4, len(radius)))  # a row per field: each one contiguous
     constants = (BRANCH_WINDOW_RAD, (float(sigmas[0]), float(sigmas[1])), _ITERATIONS)
     list(
         pool().map(
@@ -179,7 +179,7 @@ def _solved_compiled(
             batches(len(radius)),
         )
     )
-    return AngleSolution(*(np.ascontiguousarray(out[:, k]) for k in range(4)))
+    return AngleSolution(*out)
 
 
 def _solve_chunk(
