@@ -247,6 +247,7 @@ class RingsCodec(CircularCodec):
         (its sums at each crossing's two pixels)."""
         p, crossings = self.params, found.crossings
         assert crossings.ring is not None
+        xy = crossings.xy  # computed on each ask
         phase, periods = None, None
         if fine is not None:
             fs, fc = crossings.interpolate(*fine.at_ends())
@@ -254,7 +255,7 @@ class RingsCodec(CircularCodec):
             phase[(2.0 / p.tangential_steps) * np.hypot(fs, fc) < p.min_edge_contrast] = np.nan  # unreadable
             periods = self.fine_periods[crossings.ring] if self.fine_periods is not None else None
         samples = RingSamples(
-            camera_xy=crossings.xy,
+            camera_xy=xy,
             ring=crossings.ring,
             radius_px=self.radii[crossings.ring],
             theta=found.theta,
@@ -271,12 +272,12 @@ class RingsCodec(CircularCodec):
             shown_within_px=self._shown_within(),
         )
         valid = np.zeros(lit.shape, dtype=bool)
-        nearest = np.rint(crossings.xy).astype(np.int64)
+        nearest = np.rint(xy).astype(np.int64)
         valid[nearest[:, 1], nearest[:, 0]] = True
         counts = {
-            "lit": int(lit.sum()),
+            "lit": int(np.count_nonzero(lit)),  # a tenth of sum's time
             "ring_samples": len(samples),
-            "rings_seen": len(np.unique(crossings.ring)),
+            "rings_seen": int(np.count_nonzero(np.bincount(crossings.ring))),  # not a sort, as np.unique
             **found.counts,
         }
         if phase is not None:
