@@ -25,12 +25,20 @@ def corner_sums(tri: np.ndarray, vectors: np.ndarray, sums: np.ndarray) -> None:
 
 @njit(**KERNEL)
 def area_faces(
-    points: np.ndarray, xy: np.ndarray, directions: np.ndarray, tri: np.ndarray, max_edge_px: float
-) -> tuple[np.ndarray, np.ndarray]:
-    """rig.pipeline.ring_triangulation.sample_normals' triangles: each one's area-weighted normal
-    toward the camera (F, 3), and whether its longest edge in the image (`xy`) is within `max_edge_px`."""
-    face, short = np.empty((len(tri), 3)), np.empty(len(tri), np.bool_)
-    for f in range(len(tri)):
+    points: np.ndarray,
+    xy: np.ndarray,
+    directions: np.ndarray,
+    tri: np.ndarray,
+    max_edge_px: float,
+    face: np.ndarray,
+    short: np.ndarray,
+    start: int,
+    stop: int,
+) -> None:
+    """rig.pipeline.ring_triangulation.sample_normals' triangles [start:stop]: each one's area-weighted
+    normal toward the camera into `face` (F, 3), and whether its longest edge in the image (`xy`) is
+    within `max_edge_px` into `short` (F,)."""
+    for f in range(start, stop):
         longest = 0.0
         for k in range(3):
             a, b = tri[f, k], tri[f, (k + 2) % 3]
@@ -40,7 +48,6 @@ def area_faces(
         nx, ny, nz = corner_cross(points, p0, tri[f, 1], tri[f, 2])
         flip = -1.0 if nx * directions[p0, 0] + ny * directions[p0, 1] + nz * directions[p0, 2] > 0 else 1.0
         face[f, 0], face[f, 1], face[f, 2] = flip * nx, flip * ny, flip * nz
-    return face, short
 
 
 @njit(**KERNEL)

@@ -283,9 +283,15 @@ def sample_normals(
     positions (which links neighbouring rings); triangles with an image edge longer than
     `max_edge_px` are dropped. Oriented toward the camera; samples in no triangle face the camera."""
     tri = np.ascontiguousarray(delaunay(camera_xy) if tri is None else tri, np.int64)
-    arrays = (np.ascontiguousarray(a, np.float64) for a in (points, camera_xy, directions))
-    face, short = normal_kernels.area_faces(*arrays, tri, float(max_edge_px))
-    tri, face = tri[short], face[short]
+    arrays = tuple(np.ascontiguousarray(a, np.float64) for a in (points, camera_xy, directions))
+    face, short = np.empty((len(tri), 3)), np.empty(len(tri), np.bool_)
+    list(
+        pool().map(
+            lambda span: normal_kernels.area_faces(*arrays, tri, float(max_edge_px), face, short, *span),
+            batches(len(tri)),
+        )
+    )
+    tri, face = kept_rows(short, tri, face)
     return accumulate_normals(tri, face, directions)
 
 
