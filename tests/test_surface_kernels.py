@@ -163,3 +163,19 @@ def test_a_face_mostly_off_its_bands_loses_all_its_pixels() -> None:
     dropped = in_bands(owner, agree, ok, faces, 0.25)
     assert dropped == expected_dropped
     assert np.array_equal(agree, expected_agree) and np.array_equal(ok, expected_ok)
+
+
+def test_rasterised_strips_make_the_image_one_pass_makes() -> None:
+    """Threads rasterise strips of rows, each taking every triangle in order: the later triangle
+    still wins a shared pixel, so the image is the one a single pass over all rows draws."""
+    from rig.kernels.triangles import rasterize
+
+    xy = RNG.uniform(-10.0, 90.0, size=(60, 2))  # some corners off the 80 x 64 image
+    tri = RNG.integers(0, 60, size=(200, 3))  # overlapping triangles: shared pixels to contend for
+    whole = np.empty((64, 80), np.int32)
+    rasterize(xy, tri, whole, (0, 64))
+    assert (whole >= 0).sum() > 1000 and len(np.unique(whole)) > 20  # many triangles, many pixels
+    strips = np.full((64, 80), 7, np.int32)  # each strip clears its own rows
+    for top, bottom in ((0, 5), (5, 6), (6, 40), (40, 64)):
+        rasterize(xy, tri, strips, (top, bottom))
+    np.testing.assert_array_equal(strips, whole)

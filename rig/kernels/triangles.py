@@ -80,11 +80,15 @@ def _face_normal(points: np.ndarray, directions: np.ndarray, a: int, b: int, c: 
 
 
 @njit(**KERNEL)
-def rasterize(xy: np.ndarray, tri: np.ndarray, image: np.ndarray) -> None:
-    """rig.pipeline.raster.rasterize into `image` (H, W int32, -1 where no triangle): each
-    triangle's rows (corners sorted by y, ties in their order), each row's span between the long
-    edge and the short edge above or below the middle corner; a later triangle wins a shared pixel."""
+def rasterize(xy: np.ndarray, tri: np.ndarray, image: np.ndarray, strip: tuple[int, int]) -> None:
+    """rig.pipeline.raster.rasterize into rows [top, bottom) (`strip`) of `image` (H, W int32, -1
+    where no triangle): each triangle's rows (corners sorted by y, ties in their order), each row's
+    span between the long edge and the short edge above or below the middle corner; a later triangle
+    wins a shared pixel. Every strip takes the triangles in the same order: strips on several threads
+    give the image one thread gives."""
     height, width = image.shape
+    strip_top, strip_bottom = strip
+    image[strip_top:strip_bottom] = -1
     ys = np.empty(3)
     for f in range(len(tri)):
         order = _by_y(xy, tri[f], ys)
@@ -98,7 +102,7 @@ def rasterize(xy: np.ndarray, tri: np.ndarray, image: np.ndarray) -> None:
         long_at, long_slope = _edge(x0, y0, x2, y2)
         upper_at, upper_slope = _edge(x0, y0, x1, y1)
         lower_at, lower_slope = _edge(x1, y1, x2, y2)
-        for row in range(int(top), int(bottom) + 1):
+        for row in range(max(int(top), strip_top), min(int(bottom) + 1, strip_bottom)):
             x_long = long_at + row * long_slope
             x_short = lower_at + row * lower_slope if row > y1 else upper_at + row * upper_slope
             first = int(min(max(np.ceil(min(x_long, x_short)), 0), width))
@@ -134,37 +138,36 @@ def _edge(xa: float, ya: float, xb: float, yb: float) -> tuple[float, float]:
 
 
 @njit(**KERNEL)
-def listed_pixels(
-    image: np.ndarray, lit: np.ndarray, faces: int, max_unlit: float
-) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The flat pixels of a rasterised `image` (H, W, the face at each pixel, -1 none) in row-major
-    order, and their faces renumbered among the kept ones; and which of the `faces` were kept: those
-    with at most `max_unlit` of their pixels dark (`lit` (H, W) False; an empty `lit`: all are kept).
-    Two passes over the image: the faces' pixels and dark ones counted, then the kept listed."""
-    flat = image.reshape(image.size)
-    area, dark = np.zeros(faces, np.int64), np.zeros(faces, np.int64)
+def face_areas(image: np.ndarray, lit: np.ndarray, area: np.ndarray, dark: np.ndarray, strip: tuple[int, int]) -> None:
+    """Each face's pixels in rows [top, bottom) (`strip`) of a rasterised `image` (H, W, the face at
+    each pixel, -1 none) added to `area` (faces,), and its dark ones (`lit` (H, W) False; an empty
+    `lit`: none) to `dark`."""
     check = lit.size > 0
-    lit_flat = lit.reshape(lit.size)
-    for p in range(flat.size):
-        f = flat[p]
-        if f >= 0:
-            area[f] += 1
-            if check and not lit_flat[p]:
-                dark[f] += 1
-    kept = np.empty(faces, np.bool_)
-    renumber = np.empty(faces, np.int64)
-    count, total = 0, 0
-    for f in range(faces):
-        kept[f] = not dark[f] > max_unlit * max(area[f], 1)
-        renumber[f] = count
-        if kept[f]:
-            count += 1
-            total += area[f]
-    pixel, owner = np.empty(total, np.int64), np.empty(total, np.int64)
-    n = 0
-    for p in range(flat.size):
-        f = flat[p]
-        if f >= 0 and kept[f]:
-            pixel[n], owner[n] = p, renumber[f]
-            n += 1
-    return pixel, owner, kept
+    for row in range(strip[0], strip[1]):
+        for column in range(image.shape[1]):
+            f = image[row, column]
+            if f >= 0:
+                area[f] += 1
+                if check and not lit[row, column]:
+                    dark[f] += 1
+
+
+@njit(**KERNEL)
+def kept_pixels(
+    image: np.ndarray,
+    kept: np.ndarray,
+    renumber: np.ndarray,
+    listed: tuple[np.ndarray, np.ndarray],
+    start: int,
+    strip: tuple[int, int],
+) -> None:
+    """The flat pixels of rows [top, bottom) (`strip`) of a rasterised `image` whose faces are `kept`,
+    in row-major order, and their faces `renumber`ed, into `listed` (pixels, faces) from `start` on."""
+    pixel, owner = listed
+    width, n = image.shape[1], start
+    for row in range(strip[0], strip[1]):
+        for column in range(width):
+            f = image[row, column]
+            if f >= 0 and kept[f]:
+                pixel[n], owner[n] = row * width + column, renumber[f]
+                n += 1

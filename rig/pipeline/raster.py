@@ -8,6 +8,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from rig.lazy import lazy_module
+from rig.workers import batches, in_row_strips, pool
 
 triangle_kernels = lazy_module("rig.kernels.triangles")  # numba compiles on first use
 surface_kernels = lazy_module("rig.kernels.ring_surface")
@@ -19,12 +20,34 @@ def rasterize(
     """Camera pixels (flat indices, in order) whose centres lie in the image triangles, and the
     triangle of each (a pixel on a shared edge goes to the later one); with `lit` (H, W), a triangle
     over more than `max_unlit` of its pixels dark spans a shadow and is dropped. Returns the pixels,
-    their triangles renumbered among those kept, and which were kept. Scanline, one compiled loop over
-    the triangles, then two over the image (rig.kernels.triangles.rasterize, listed_pixels)."""
-    image = np.full((height, width), -1, dtype=np.int32)  # a face per pixel: far fewer than 2**31
-    triangle_kernels.rasterize(np.ascontiguousarray(xy, np.float64), np.ascontiguousarray(tri, np.int64), image)
+    their triangles renumbered among those kept, and which were kept. Scanline, a compiled loop over
+    the triangles for each strip of rows on the pool, then two over the strips
+    (rig.kernels.triangles.rasterize, face_areas, kept_pixels)."""
+    image = np.empty((height, width), dtype=np.int32)  # a face per pixel: far fewer than 2**31
+    xy, tri = np.ascontiguousarray(xy, np.float64), np.ascontiguousarray(tri, np.int64)
+    in_row_strips(height, lambda rows: triangle_kernels.rasterize(xy, tri, image, (rows.start, rows.stop)))
     checked = np.zeros((0, 0), np.bool_) if lit is None else np.ascontiguousarray(lit, np.bool_)
-    return triangle_kernels.listed_pixels(image, checked, len(tri), float(max_unlit))
+    return _listed(image, checked, len(tri), max_unlit)
+
+
+def _listed(image: np.ndarray, lit: np.ndarray, faces: int, max_unlit: float) -> tuple[np.ndarray, ...]:
+    """rasterize's pixels, their faces renumbered and which faces were kept, from the rasterised
+    `image`: two passes over strips of rows on the pool, the faces' pixels and dark ones counted,
+    then the kept ones listed, each strip from where the strips above it end."""
+    strips = batches(image.shape[0])
+    area, dark = np.zeros((len(strips), faces), np.int64), np.zeros((len(strips), faces), np.int64)
+    list(pool().map(lambda k: triangle_kernels.face_areas(image, lit, area[k], dark[k], strips[k]), range(len(strips))))
+    kept = ~(dark.sum(axis=0) > max_unlit * np.maximum(area.sum(axis=0), 1))
+    renumber = np.cumsum(kept) - kept  # the kept faces before each
+    starts = np.concatenate([[0], np.cumsum(area[:, kept].sum(axis=1))])
+    listed = (np.empty(starts[-1], np.int64), np.empty(starts[-1], np.int64))
+    list(
+        pool().map(
+            lambda k: triangle_kernels.kept_pixels(image, kept, renumber, listed, int(starts[k]), strips[k]),
+            range(len(strips)),
+        )
+    )
+    return listed[0], listed[1], kept
 
 
 @dataclass(frozen=True, eq=False)
