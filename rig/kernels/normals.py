@@ -82,13 +82,20 @@ def pair_smoothed(normals: np.ndarray, pairs: np.ndarray, known: np.ndarray) -> 
 
 
 @njit(**KERNEL)
-def off_corners(normals: np.ndarray, tri: np.ndarray, face: np.ndarray, max_excess_deg: float) -> np.ndarray:
-    """(F,) rig.pipeline.surface._off_its_corners: whether a face's unit normal `face` (F, 3) lies
-    further from one of its corners' `normals` (M, 3; corners `tri` (F, 3)) than the corners lie
-    from each other, by more than `max_excess_deg`. The largest angle is the arccosine of the
-    least cosine: two arccosines a face, not six."""
-    off = np.empty(len(face), np.bool_)
-    for f in range(len(face)):
+def off_corners(
+    normals: np.ndarray,
+    tri: np.ndarray,
+    face: np.ndarray,
+    max_excess_deg: float,
+    off: np.ndarray,
+    start: int,
+    stop: int,
+) -> None:
+    """rig.pipeline.surface._off_its_corners for faces [start:stop], into `off` (F,): whether a face's
+    unit normal `face` (F, 3) lies further from one of its corners' `normals` (M, 3; corners `tri`
+    (F, 3)) than the corners lie from each other, by more than `max_excess_deg`. The largest angle
+    is the arccosine of the least cosine: two arccosines a face, not six."""
+    for f in range(start, stop):
         to_face, apart = np.inf, np.inf
         for k in range(3):
             a, b = tri[f, k], tri[f, (k + 1) % 3]
@@ -97,7 +104,6 @@ def off_corners(normals: np.ndarray, tri: np.ndarray, face: np.ndarray, max_exce
         bend = np.degrees(np.arccos(min(max(to_face, -1.0), 1.0)))
         spread = np.degrees(np.arccos(min(max(apart, -1.0), 1.0)))
         off[f] = bend - spread > max_excess_deg
-    return off
 
 
 @njit(**KERNEL)
@@ -111,3 +117,17 @@ def bent_from_corners(normals: np.ndarray, tri: np.ndarray, face: np.ndarray, le
             a = tri[f, k]
             bent[f] = bent[f] or row_dot(normals, a, face, f) < least_cosine
     return bent
+
+
+@njit(**KERNEL)
+def pair_lengths(points: np.ndarray, xy: np.ndarray, pairs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """How far apart each pair (P, 2) of samples lies in space (`points` (M, 3), mm) and in the image
+    (`xy` (M, 2), px): one pass, each length's squares summed in numpy's norm's order."""
+    apart_mm, apart_px = np.empty(len(pairs)), np.empty(len(pairs))
+    for n in range(len(pairs)):
+        a, b = pairs[n, 0], pairs[n, 1]
+        dx, dy, dz = points[a, 0] - points[b, 0], points[a, 1] - points[b, 1], points[a, 2] - points[b, 2]
+        apart_mm[n] = np.sqrt(dx * dx + dy * dy + dz * dz)
+        u, v = xy[a, 0] - xy[b, 0], xy[a, 1] - xy[b, 1]
+        apart_px[n] = np.sqrt(u * u + v * v)
+    return apart_mm, apart_px

@@ -29,8 +29,10 @@ def triangle_tests(
     weight: np.ndarray,
     slant: np.ndarray,
     foreshortened: np.ndarray,
+    start: int,
+    stop: int,
 ) -> None:
-    """Per triangle `tri` (F, 3) of the samples (ring index, image positions in the camera and the
+    """Per triangle [start:stop] of `tri` (F, 3) of the samples (ring index, image positions in the camera and the
     projector, points, camera rays, depths (M, 2) in the camera and the projector, 1 for an
     orthographic device): its `verdict` (KEPT: joins one ring to the next with no edge along a
     ring longer than the gap; else why not) and, whatever it, its unit normal toward the camera
@@ -41,7 +43,7 @@ def triangle_tests(
     (rig.pipeline.flanks). lengths: (max gap px, camera focal px, projector focal px)."""
     max_gap, camera_focal, projector_focal = lengths
     edge_mm = np.empty(3)
-    for f in range(len(tri)):
+    for f in range(start, stop):
         a, b, c = tri[f, 0], tri[f, 1], tri[f, 2]
         low, high = min(ring[a], ring[b], ring[c]), max(ring[a], ring[b], ring[c])
         gap = False

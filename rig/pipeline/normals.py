@@ -42,8 +42,7 @@ def ring_pairs(points: np.ndarray, xy: np.ndarray, ring: np.ndarray, radius_px: 
     xy = np.ascontiguousarray(xy, np.float64)
     pairs = cell_kernels.pairs_within(xy, cell_kernels.sample_cells(xy, radius_px), radius_px, radius_px)
     a, b = pairs[:, 0], pairs[:, 1]
-    apart_mm = np.linalg.norm(points[a] - points[b], axis=1)
-    apart_px = np.linalg.norm(xy[a] - xy[b], axis=1)
+    apart_mm, apart_px = normal_kernels.pair_lengths(np.ascontiguousarray(points, np.float64), xy, pairs)
     footprint = np.median(apart_mm / np.maximum(apart_px, 1e-6))  # mm per pixel where the surface faces the camera
     return pairs[(ring[a] == ring[b]) & (apart_mm <= radius_px * footprint)]
 

@@ -189,7 +189,7 @@ def _tested(
 ) -> tuple[np.ndarray, ...]:
     """Every triangle's verdict on its rings, unit normal toward the camera, weight (1 / its longest
     edge: rig.pipeline.normals.vertex_normals), slant to the camera and foreshortening to both
-    devices (rig.pipeline.flanks): one compiled pass over the triangles
+    devices (rig.pipeline.flanks): a compiled pass over spans of the triangles on the pool
     (rig.kernels.triangles.triangle_tests), from the samples' depths and projector pixels."""
     depths = np.ones((len(points), 2))
     for k, device in enumerate((camera, projector)):
@@ -198,11 +198,12 @@ def _tested(
     focal = (float(camera.K[0, 0]), float(projector.K[0, 0]))
     count = len(tri)
     out = (np.empty(count, np.int8), np.empty((count, 3)), np.empty(count), np.empty(count), np.empty(count))
-    triangle_kernels.triangle_tests(
+    arrays = (
         np.ascontiguousarray(tri, np.int64), ring.astype(np.int64), np.ascontiguousarray(xy, np.float64),
         projector.project(points)[0], np.ascontiguousarray(points, np.float64), directions, depths,
-        (float(max_gap_px), *focal), *out,
+        (float(max_gap_px), *focal),
     )  # fmt: skip
+    list(pool().map(lambda span: triangle_kernels.triangle_tests(*arrays, *out, *span), batches(count)))
     return out
 
 
@@ -210,8 +211,11 @@ def _off_its_corners(normals: np.ndarray, tri: np.ndarray, face: np.ndarray, max
     """Triangles `tri` tilted away from a corner's normal (`normals`) by `max_excess_deg` more than
     the corners' normals differ among themselves: the corners agree on a surface the triangle does not
     lie on, as when it joins the rings of two treads of a step. On a smooth surface a triangle's
-    normal lies among its corners' normals. A compiled pass (rig.kernels.normals.off_corners)."""
-    return normal_kernels.off_corners(normals, np.ascontiguousarray(tri, np.int64), face, max_excess_deg)
+    normal lies among its corners' normals. A compiled pass on the pool (rig.kernels.normals.off_corners)."""
+    tri, off = np.ascontiguousarray(tri, np.int64), np.empty(len(face), np.bool_)
+    arrays = (normals, tri, face, max_excess_deg, off)
+    list(pool().map(lambda span: normal_kernels.off_corners(*arrays, *span), batches(len(face))))
+    return off
 
 
 def interpolate_surface(
