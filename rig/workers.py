@@ -12,6 +12,8 @@ import threading
 from collections.abc import Callable, Iterator
 from concurrent.futures import ThreadPoolExecutor
 
+import numpy as np
+
 
 def _threads() -> int:
     """Up to 4, one per core; $SLRIG_THREADS sets it (a machine shared with other work, the test
@@ -131,3 +133,15 @@ def in_row_strips(rows: int, work: Callable[[slice], object], per_thread: int = 
     futures = [pool().submit(work, slice(a, b)) for a, b in spans]
     for future in futures:
         future.result()
+
+
+def full(shape: tuple[int, ...], value: float, dtype: type | np.dtype) -> np.ndarray:
+    """np.full, its rows filled on the pool (a large array's pages are faulted in on every core).
+    Not for work already on the pool."""
+    out = np.empty(shape, dtype)
+
+    def fill(rows: slice) -> None:
+        out[rows] = value
+
+    in_row_strips(shape[0], fill)
+    return out

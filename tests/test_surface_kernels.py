@@ -145,24 +145,35 @@ def test_triangle_tests_give_numpys_normals_weights_and_foreshortening(kind: str
 
 
 def test_a_face_mostly_off_its_bands_loses_all_its_pixels() -> None:
-    """in_bands against its rule in numpy: a pixel keeps its point if found, in its own band, and in
-    a face with no more than the allowed share of its pixels off their bands."""
-    from rig.kernels.ring_surface import in_bands
+    """settled_pixels against its rule in numpy: a pixel keeps its point if found, in its own band,
+    and in a face with no more than the allowed share of its pixels off their bands; a kept pixel is
+    valid with its face, the others' points NaN, and every other pixel of the grid left alone."""
+    from rig.pipeline.raster import settled_pixels
 
-    faces, pixels = 200, 20_000
+    faces, pixels, image = 200, 20_000, 30_000
     owner = RNG.integers(0, faces, pixels)
+    pixel = np.sort(RNG.choice(image, pixels, replace=False))  # listed in row-major order
     off_share = RNG.uniform(0, 0.6, faces)  # each face's own share of pixels off their bands
     agree = RNG.random(pixels) >= off_share[owner]
     ok = RNG.random(pixels) > 0.1
+    grid = RNG.normal(size=(image, 3))
+    before = grid.copy()
     area = np.bincount(owner, minlength=faces)
     bridging = np.bincount(owner, ~agree, minlength=faces) > 0.25 * area
     expected_agree = agree & ~bridging[owner]
     expected_dropped = int((ok & ~expected_agree).sum())
     expected_ok = ok & expected_agree
     assert 0 < bridging.sum() < faces  # some faces bridge, some do not
-    dropped = in_bands(owner, agree, ok, faces, 0.25)
+    valid, triangle, dropped = settled_pixels((pixel, owner), (ok, agree), faces, 0.25, grid)
     assert dropped == expected_dropped
     assert np.array_equal(agree, expected_agree) and np.array_equal(ok, expected_ok)
+    expected_triangle = np.full(image, -1)
+    expected_triangle[pixel[expected_ok]] = owner[expected_ok]
+    np.testing.assert_array_equal(triangle, expected_triangle)
+    np.testing.assert_array_equal(valid, expected_triangle >= 0)
+    cleared = np.zeros(image, bool)
+    cleared[pixel[~expected_ok]] = True
+    assert np.isnan(grid[cleared]).all() and np.array_equal(grid[~cleared], before[~cleared])
 
 
 def test_rasterised_strips_make_the_image_one_pass_makes() -> None:

@@ -210,21 +210,49 @@ def _distorted(x: float, y: float, dist: np.ndarray) -> tuple[float, float]:
 
 
 @njit(**KERNEL)
-def in_bands(owner: np.ndarray, agree: np.ndarray, ok: np.ndarray, faces: int, max_disagreement: float) -> int:
-    """Which pixels keep their point (rig.pipeline.surface.interpolate_surface): `agree` (per pixel,
-    in the band it read) cleared in place for every pixel of a face with more than `max_disagreement`
-    of its pixels off their bands (the face bridges an edge its corners miss), and `ok` (a point was
-    found) &= it. Returns how many found pixels it turned away."""
-    area, off = np.zeros(faces, np.int64), np.zeros(faces, np.int64)
-    for p in range(len(owner)):
+def band_counts(
+    owner: np.ndarray, agree: np.ndarray, counts: tuple[np.ndarray, np.ndarray], start: int, stop: int
+) -> None:
+    """Each face's pixels among [start:stop] (`owner`: each pixel's face) added to counts[0] (faces,),
+    and those off the bands they read (`agree` False) to counts[1]."""
+    area, off = counts
+    for p in range(start, stop):
         area[owner[p]] += 1
         if not agree[p]:
             off[owner[p]] += 1
-    dropped = 0
-    for p in range(len(owner)):
-        f = owner[p]
-        agree[p] = agree[p] and not off[f] > max_disagreement * area[f]
-        if ok[p] and not agree[p]:
-            dropped += 1
-        ok[p] = ok[p] and agree[p]
+
+
+@njit(**KERNEL)
+def settle(
+    listed: tuple[np.ndarray, np.ndarray],
+    found: tuple[np.ndarray, np.ndarray],
+    counts: tuple[np.ndarray, np.ndarray],
+    max_disagreement: float,
+    images: tuple[np.ndarray, np.ndarray, np.ndarray],
+    start: int,
+    stop: int,
+) -> int:
+    """Which of the listed pixels [start:stop] (listed: flat pixels and their faces) keep their point
+    (rig.pipeline.surface.interpolate_surface). found: (ok, agree): whether a point was found and
+    lies in the band its pixel read. With band_counts' `counts` (empty: no band test), `agree` is
+    cleared in place for every pixel of a face with more than `max_disagreement` of its pixels off
+    their bands (the face bridges an edge its corners miss), and `ok` &= it. Then into images (flat
+    grid (H*W, 3), valid, triangle): a kept pixel is valid with its face, the others' points NaN.
+    Returns how many found pixels the band test turned away."""
+    pixel, owner = listed
+    ok, agree = found
+    area, off = counts
+    grid, valid, triangle = images
+    tested, dropped = len(area) > 0, 0
+    for n in range(start, stop):
+        f, p = owner[n], pixel[n]
+        if tested:
+            agree[n] = agree[n] and not off[f] > max_disagreement * area[f]
+            if ok[n] and not agree[n]:
+                dropped += 1
+            ok[n] = ok[n] and agree[n]
+        if ok[n]:
+            valid[p], triangle[p] = True, f
+        else:
+            grid[p, 0] = grid[p, 1] = grid[p, 2] = np.nan
     return dropped

@@ -25,7 +25,7 @@ from scipy.spatial import cKDTree
 
 from rig.lazy import lazy_module
 from rig.pipeline.surface import RingSurface
-from rig.workers import batches, pool
+from rig.workers import batches, full, pool
 
 colour_kernels = lazy_module("rig.kernels.colour")  # numba compiles on first use
 
@@ -60,7 +60,7 @@ def interpolate_colour(
     if method not in COLOUR_METHODS:
         raise ValueError(f"unknown colour interpolant {method!r}; known: {', '.join(COLOUR_METHODS)}")
     height, width = surface.valid.shape
-    out = np.full((height * width, 3), np.nan, dtype=np.float32)
+    out = full((height * width, 3), np.nan, np.float32)
     if len(surface.faces) == 0:
         return out.reshape(height, width, 3)
     faces, count = np.ascontiguousarray(surface.faces, np.int64), len(surface.vertices)

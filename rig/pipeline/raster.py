@@ -8,7 +8,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from rig.lazy import lazy_module
-from rig.workers import batches, in_row_strips, pool
+from rig.workers import batches, full, in_row_strips, pool
 
 triangle_kernels = lazy_module("rig.kernels.triangles")  # numba compiles on first use
 surface_kernels = lazy_module("rig.kernels.ring_surface")
@@ -109,3 +109,29 @@ def points_on_faces(
     origins = np.asarray(rays[0]) if faces.origin is None else np.asarray(faces.origin, np.float64).reshape(1, 3)
     terms = (faces.plane, faces.plane_offset, faces.longest, faces.barycentric)
     surface_kernels.points_on_faces(terms, corners, (origins, rays[1]), pixel, owner, width, out, 0, len(pixel))
+
+
+def settled_pixels(
+    listed: tuple[np.ndarray, np.ndarray],
+    found: tuple[np.ndarray, np.ndarray],
+    faces: int,
+    limit: float,
+    grid: np.ndarray,
+) -> tuple[np.ndarray, np.ndarray, int]:
+    """Which listed pixels (flat pixels, their faces) keep their point (found: a point, in its band),
+    by rig.kernels.ring_surface.settle a span of pixels per thread (`faces` > 0: the band test, the
+    faces' counts first, span by span, summed): the flat valid and triangle images, the grid's
+    other points NaN, and how many found points the band test turned away."""
+    spans = batches(len(listed[0]))
+    counts = np.zeros((2, len(spans), faces), np.int64)
+    if faces:
+        list(
+            pool().map(
+                lambda k: surface_kernels.band_counts(listed[1], found[1], (counts[0, k], counts[1, k]), *spans[k]),
+                range(len(spans)),
+            )
+        )
+    totals = (counts[0].sum(axis=0), counts[1].sum(axis=0))
+    images = (grid, np.zeros(grid.shape[0], bool), full((grid.shape[0],), -1, np.int32))
+    dropped = pool().map(lambda span: surface_kernels.settle(listed, found, totals, float(limit), images, *span), spans)
+    return images[1], images[2], sum(dropped)

@@ -36,9 +36,9 @@ from rig.pipeline.normals import (
     smoothed_normals,
     vertex_normals,
 )
-from rig.pipeline.raster import FaceTerms, points_on_faces, rasterize
+from rig.pipeline.raster import FaceTerms, points_on_faces, rasterize, settled_pixels
 from rig.pipeline.triangulation import delaunay
-from rig.workers import batches, pool
+from rig.workers import batches, full, pool
 
 normal_kernels = lazy_module("rig.kernels.normals")  # numba compiles on first use
 triangle_kernels = lazy_module("rig.kernels.triangles")
@@ -249,14 +249,13 @@ def interpolate_surface(
     grid, ok, agree = _points_in_faces(
         points, xy, triangles, camera, projector, (pixel, owner), method, bands, settings
     )
-    if bands is not None:  # pixels off their bands, and every pixel of a face with many (it bridges an edge)
-        limit = float(settings.max_band_disagreement)
-        counts["dropped_band_px"] = surface_kernels.in_bands(owner, agree, ok, len(tri), limit)
-    grid[pixel[~ok]] = np.nan  # the rest of the grid is NaN already but where the fill writes its points
-    # the pixels as images now: the fill's peak of memory holds no per-pixel lists of the faces'
-    valid, triangle = np.zeros(grid.shape[0], dtype=bool), np.full(grid.shape[0], -1, dtype=np.int32)
-    owner[~ok] = -1  # in place: copies of the covered pixels' lists were the surface's peak of memory
-    valid[pixel], triangle[pixel], pixels = ok, owner, int(ok.sum())
+    # pixels off their bands, and every pixel of a face with many (it bridges an edge); the pixels
+    # as images then: the fill's peak of memory holds no per-pixel lists of the faces'
+    tested = len(tri) if bands is not None else 0
+    valid, triangle, dropped = settled_pixels((pixel, owner), (ok, agree), tested, settings.max_band_disagreement, grid)
+    if bands is not None:
+        counts["dropped_band_px"] = dropped
+    pixels = int(np.count_nonzero(ok))
     del pixel, owner, ok, agree
     if bands is not None and settings.fill:
         filled = _filled(points, normals, xy, ring, tri, camera, projector, valid, lit, bands, grid, settings)
@@ -291,7 +290,7 @@ def _points_in_faces(
     )
     common_origin = camera.center if camera.projection != "orthographic" else None
     terms = FaceTerms.of(points, xy, tri, corners, common_origin)
-    grid = np.full((camera.height * camera.width, 3), np.nan)
+    grid = full((camera.height * camera.width, 3), np.nan, np.float64)
     ok = np.ones(len(pixel), dtype=bool)
     agree = np.ones(len(pixel), dtype=bool)
 
