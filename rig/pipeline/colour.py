@@ -33,6 +33,7 @@ ColourMethod = Literal["nearest", "idw", "area"]
 COLOUR_METHODS: tuple[str, ...] = ("nearest", "idw", "area")
 
 _SOFTENING_MM = 0.05  # keeps a pixel on a sample from taking an infinite weight
+_NEAREST_TIMEOUT_S = 300.0  # a bound on waiting for the pool, far beyond the ~20 ms the lookup takes
 
 
 def sample_colours(texture: np.ndarray, xy: np.ndarray, full_scale: int) -> np.ndarray:
@@ -63,21 +64,25 @@ def interpolate_colour(
     out = full((height * width, 3), np.nan, np.float32)
     if len(surface.faces) == 0:
         return out.reshape(height, width, 3)
+    on_grid = np.zeros_like(surface.valid)
+    on_grid[::stride, ::stride] = True
+    pixel = np.flatnonzero((surface.valid & on_grid).ravel())
+    owner = surface.triangle.ravel()[pixel]
+    points = surface.grid.reshape(-1, 3)
+    # filled beyond the triangles (rig.pipeline.fill): the nearest sample's colour, looked up on the
+    # pool beside the mix of the rest (mix_colours passes over them); its tree takes a core 9 ms
+    filled = pixel[owner < 0]
+
+    def nearest_samples() -> np.ndarray:
+        return cKDTree(surface.vertices).query(points[filled], workers=-1)[1]
+
+    nearest = pool().submit(nearest_samples) if len(filled) else None
     faces, count = np.ascontiguousarray(surface.faces, np.int64), len(surface.vertices)
     reach2, corners, area = np.empty(len(faces), np.float32), np.empty((len(faces), 2), np.int64), np.zeros(count)
     vertices = np.ascontiguousarray(surface.vertices, np.float64)
     colour_kernels.face_terms(vertices, faces, surface.ring.astype(np.int64), reach2, corners, area)
     area = area if method == "area" else np.ones(count)
     along = _along_rings(surface, neighbours)
-    on_grid = np.zeros_like(surface.valid)
-    on_grid[::stride, ::stride] = True
-    pixel = np.flatnonzero((surface.valid & on_grid).ravel())
-    owner = surface.triangle.ravel()[pixel]
-    points = surface.grid.reshape(-1, 3)
-    beyond_faces = owner < 0  # filled beyond the triangles (rig.pipeline.fill): the nearest sample's colour
-    if beyond_faces.any():  # mix_colours passes over them
-        filled = pixel[beyond_faces]
-        out[filled] = colours[cKDTree(surface.vertices).query(points[filled], workers=-1)[1]]
     # float32 about the samples' centre: a few hundred mm to 1e-4 mm, ample for weights. One row per
     # coordinate; index M (no sample) lies beyond any reach.
     centre = surface.vertices.mean(axis=0)
@@ -92,6 +97,8 @@ def interpolate_colour(
         colour_kernels.mix_colours(*arrays, settings, out, *span)
 
     list(pool().map(colour_part, batches(len(pixel))))
+    if nearest is not None:
+        out[filled] = colours[nearest.result(timeout=_NEAREST_TIMEOUT_S)]
     return out.reshape(height, width, 3)
 
 
