@@ -12,9 +12,10 @@ samples' Delaunay triangles, inserted one at a time, and the Hilbert curve of th
 ring surface's neighbourhoods, one-surface test and height-field fits; `colour`: the colour between
 the rings and each sample's nearest on its ring; `vectors`: three-vectors as rows, read in place;
 `cells`: image points in a grid of cells (all together or by ring), the nearest-neighbour
-searches over it and sorts by counting; `mesh`: an organised grid's mesh faces; `regions`: evaluation's surface regions; `cone`: camera rays against their rings'
-cones; `lens`: lens distortion inverted; `curvature`: the surface curvature's per-point sums. Each
-is compiled on first use and cached beside it (__pycache__)."""
+searches over it and sorts by counting; `mesh`: an organised grid's mesh faces; `regions`:
+evaluation's surface regions; `cone`: camera rays against their rings' cones; `lens`: lens
+distortion inverted; `curvature`: the surface curvature's per-point sums. Each is compiled on first
+use and cached beside it (__pycache__)."""
 
 import numpy as np
 

@@ -74,24 +74,39 @@ def fill_points(
     found = np.full((len(pixel), 3), np.nan)
     if len(points) < settings.min_samples or len(pixel) == 0:
         return found
+    samples = (points, normals, xy, ring, _footprints(points, normals, camera, settings))
     grid = _search_grid(xy, ring, int(annulus.max(initial=0)) + 1)
-    footprint = _footprints(points, normals, camera, settings)
-    origins, directions = camera.pixel_rays
     positions = _positions(pixel, camera.width)
     reached = np.flatnonzero(_rings_reach(xy, ring, positions, annulus, settings.reach_px))
     for start in range(0, len(reached), _PIXELS_AT_ONCE):  # a block's neighbourhoods, not the whole fill's
         part = reached[start : start + _PIXELS_AT_ONCE]
-        dist, index = _neighbourhoods(xy, ring, positions[part], annulus[part], settings, grid)
-        use = _one_surface(points, footprint, xy, ring, (dist, index), annulus[part], settings)
-        rows = np.flatnonzero(use.sum(axis=1) >= settings.min_samples)
-        if len(rows) == 0:
-            continue
-        at = pixel[part[rows]]
-        rays = (np.asarray(origins[at]), np.asarray(directions[at]))
-        met, misfit_mm = _fit_and_meet(points, normals, index[rows], use[rows], rays, settings)
-        smooth = misfit_mm <= settings.max_misfit_px * camera.mm_per_px(np.nan_to_num(met))
-        found[part[rows[smooth]]] = met[smooth]
+        rows, met = _filled_block(samples, camera, (pixel[part], positions[part], annulus[part]), settings, grid)
+        found[part[rows]] = met
     return found
+
+
+def _filled_block(
+    samples: tuple[np.ndarray, ...],
+    camera: CameraModel,
+    pixels: tuple[np.ndarray, np.ndarray, np.ndarray],
+    settings: FillSettings,
+    grid: SearchGrid,
+) -> tuple[np.ndarray, np.ndarray]:
+    """fill_points for a block of pixels (flat pixels, their positions and annuli), from the samples
+    (points, normals, xy, ring, footprints): which of them were filled, and their points. Its
+    neighbourhoods are freed on return, before the next block's are made."""
+    points, normals, xy, ring, footprint = samples
+    pixel, positions, annulus = pixels
+    dist, index = _neighbourhoods(xy, ring, positions, annulus, settings, grid)
+    use = _one_surface(points, footprint, xy, ring, (dist, index), annulus, settings)
+    rows = np.flatnonzero(use.sum(axis=1) >= settings.min_samples)
+    if len(rows) == 0:
+        return rows, np.empty((0, 3))
+    origins, directions = camera.pixel_rays
+    rays = (np.asarray(origins[pixel[rows]]), np.asarray(directions[pixel[rows]]))
+    met, misfit_mm = _fit_and_meet(points, normals, index[rows], use[rows], rays, settings)
+    smooth = misfit_mm <= settings.max_misfit_px * camera.mm_per_px(np.nan_to_num(met))
+    return rows[smooth], met[smooth]
 
 
 def _rings_reach(xy: np.ndarray, ring: np.ndarray, at: np.ndarray, annulus: np.ndarray, reach: float) -> np.ndarray:
