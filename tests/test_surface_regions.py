@@ -83,6 +83,28 @@ def test_the_weighted_quantile_counts_weight_not_samples() -> None:
     assert weighted_quantile(many, np.ones(1001), 0.95) == np.sort(many)[int(np.ceil(0.95 * 1001)) - 1]
 
 
+def test_each_regions_quantile_is_the_quantile_of_its_own_pixels() -> None:
+    """region_errors takes each region's quantile from the whole surface's order, restricted to it:
+    the same as the weighted quantile of the region's own distances and areas, ties included."""
+    rng = np.random.default_rng(5)
+    distances = np.round(rng.exponential(0.1, 20_000), 3).astype(np.float32)  # rounded: many ties
+    areas = rng.uniform(0.1, 2.0, 20_000)
+    labels = rng.choice(4, 20_000, p=[0.6, 0.3, 0.095, 0.005]).astype(np.int32)
+
+    def quantile(values: np.ndarray, weights: np.ndarray) -> float:  # the rule, in numpy
+        order = np.argsort(values, kind="stable")
+        cumulative = np.cumsum(weights[order])
+        return float(values[order][min(np.searchsorted(cumulative, 0.9 * cumulative[-1]), len(values) - 1)])
+
+    whole, regions = region_errors(distances, areas, labels, q=0.9)
+    assert whole.quantile_mm == weighted_quantile(distances, areas, 0.9) == quantile(distances, areas)
+    assert len(regions) == 3  # the smallest label holds under MIN_REGION_SHARE of the area
+    for label, region in zip((0, 1, 2), regions, strict=True):  # largest first
+        own = labels == label
+        assert region.quantile_mm == quantile(distances[own], areas[own])
+        assert np.isclose(region.area_mm2, areas[own].sum())
+
+
 def test_a_failing_object_is_not_hidden_by_a_large_flat_background() -> None:
     background = _plane_grid(40, 40, 0.5)
     valid = np.ones((40, 40), bool)

@@ -133,9 +133,7 @@ def weighted_quantile(values: np.ndarray, weights: np.ndarray, q: float, order: 
     """The value below which a share `q` of the total weight lies (the lower value at a tie);
     `order`: the values' stable ascending order, where known."""
     order = np.argsort(values, kind="stable") if order is None else order
-    cumulative = np.cumsum(weights[order])
-    at = int(np.searchsorted(cumulative, q * cumulative[-1], side="left"))
-    return float(values[order[min(at, len(values) - 1)]])
+    return region_kernels.ordered_quantile(values, weights, order, np.zeros(0, np.int64), 0, q)
 
 
 @dataclass(frozen=True)
@@ -157,21 +155,19 @@ def region_errors(
     of the area, largest first."""
     total = float(areas.sum())
     order = np.argsort(distances, kind="stable")  # once: a region's own order is this one's, restricted to it
-    whole = _error(distances, areas, total, q, order)
+    every = np.zeros(0, np.int64)
+    whole = _error(distances, areas, total, region_kernels.ordered_quantile(distances, areas, order, every, 0, q))
     per_label = np.bincount(labels, weights=areas)  # a scan's many specks are never visited one by one
     large = np.flatnonzero(per_label >= min_share * total)
-    ranked = labels[order]
     regions = []
     for label in large:
         members = labels == label
-        position = np.cumsum(members) - 1  # each member's place among the region's own
-        own_order = position[order[ranked == label]]
-        regions.append(_error(distances[members], areas[members], total, q, own_order))
+        quantile = region_kernels.ordered_quantile(distances, areas, order, labels, int(label), q)
+        regions.append(_error(distances[members], areas[members], total, quantile))
     return whole, sorted(regions, key=lambda r: -r.area_mm2)
 
 
-def _error(distances: np.ndarray, areas: np.ndarray, total: float, q: float, order: np.ndarray) -> RegionError:
+def _error(distances: np.ndarray, areas: np.ndarray, total: float, quantile: float) -> RegionError:
     area = float(areas.sum())
     rms = float(np.sqrt(np.sum(areas * distances.astype(np.float64) ** 2) / area)) if area > 0 else 0.0
-    return RegionError(area, area / total if total > 0 else 0.0, weighted_quantile(distances, areas, q, order), rms,
-                       float(distances.max()))  # fmt: skip
+    return RegionError(area, area / total if total > 0 else 0.0, quantile, rms, float(distances.max()))

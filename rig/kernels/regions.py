@@ -133,3 +133,27 @@ def _union(parent: np.ndarray, a: int, b: int) -> None:
     ra, rb = _find(parent, a), _find(parent, b)
     if ra != rb:
         parent[max(ra, rb)] = min(ra, rb)
+
+
+@njit(**KERNEL)
+def ordered_quantile(
+    values: np.ndarray, weights: np.ndarray, order: np.ndarray, labels: np.ndarray, label: int, q: float
+) -> float:
+    """rig.evaluate.regions.weighted_quantile of the points whose `labels` are `label` (every point
+    for an empty `labels`), taken in `order` (the values' stable ascending order): their weights
+    summed in that order (as np.cumsum sums them), the first value at which the sum reaches `q`
+    of their total. Two passes over `order`, no arrays of the region's own."""
+    every = len(labels) == 0
+    total, last = 0.0, -1
+    for i in order:
+        if every or labels[i] == label:
+            total += weights[i]
+            last = i
+    threshold = q * total
+    running = 0.0
+    for i in order:
+        if every or labels[i] == label:
+            running += weights[i]
+            if running >= threshold:
+                return float(values[i])
+    return float(values[last])
