@@ -40,6 +40,7 @@ _KEEP_FREED_BYTES = 1 << 30
 
 _lock = threading.Lock()
 _executor: ThreadPoolExecutor | None = None
+_beside: ThreadPoolExecutor | None = None
 
 
 def pool() -> ThreadPoolExecutor:
@@ -49,6 +50,17 @@ def pool() -> ThreadPoolExecutor:
         if _executor is None:
             _executor = ThreadPoolExecutor(max_workers=THREADS, thread_name_prefix="slrig-pixels")
         return _executor
+
+
+def beside() -> ThreadPoolExecutor:
+    """A thread for a stage that runs beside the caller's and puts its own work on the pool (made on
+    first use): a pool thread must never wait on the pool, which with one thread would wait on itself.
+    The pool takes both stages' batches in turn, so each fills the cores the other leaves idle."""
+    global _beside
+    with _lock:
+        if _beside is None:
+            _beside = ThreadPoolExecutor(max_workers=1, thread_name_prefix="slrig-beside")
+        return _beside
 
 
 def tune_malloc() -> None:

@@ -11,7 +11,8 @@ from conftest import face_normals, face_weights, make_device
 from rig.geometry import CameraModel
 from rig.kernels.triangles import GAP, KEPT, ONE_RING, RING_SKIPPED
 from rig.pipeline.raster import FaceTerms, points_on_faces
-from rig.pipeline.surface import RingBands, SurfaceSettings, _tested, band_agreement
+from rig.pipeline.ring_faces import _tested
+from rig.pipeline.surface import RingBands, SurfaceSettings, band_agreement
 
 RNG = np.random.default_rng(7)
 

@@ -91,7 +91,7 @@ def off_corners(
     start: int,
     stop: int,
 ) -> None:
-    """rig.pipeline.surface._off_its_corners for faces [start:stop], into `off` (F,): whether a face's
+    """rig.pipeline.ring_faces._off_its_corners for faces [start:stop], into `off` (F,): whether a face's
     unit normal `face` (F, 3) lies further from one of its corners' `normals` (M, 3; corners `tri`
     (F, 3)) than the corners lie from each other, by more than `max_excess_deg`. The largest angle
     is the arccosine of the least cosine: two arccosines a face, not six."""

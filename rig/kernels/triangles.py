@@ -1,4 +1,4 @@
-"""The ring surface's triangles (rig.pipeline.surface, rig.pipeline.raster), compiled by numba: the
+"""The ring surface's triangles (rig.pipeline.ring_faces, rig.pipeline.raster), compiled by numba: the
 tests every image triangle of the ring samples meets, and the camera pixels each kept one covers.
 As numpy passes over (triangles, 3) arrays these took a dozen passes each; here one loop per
 triangle computes what they did, in the same floating-point order."""

@@ -18,6 +18,7 @@ are on the pixel's own surface), on each ring the L + 2 samples nearest the tria
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from typing import Literal
 
 import numpy as np
@@ -25,7 +26,7 @@ from scipy.spatial import cKDTree
 
 from rig.lazy import lazy_module
 from rig.pipeline.surface import RingSurface
-from rig.workers import batches, full, pool
+from rig.workers import batches, beside, full, pool
 
 colour_kernels = lazy_module("rig.kernels.colour")  # numba compiles on first use
 
@@ -33,7 +34,7 @@ ColourMethod = Literal["nearest", "idw", "area"]
 COLOUR_METHODS: tuple[str, ...] = ("nearest", "idw", "area")
 
 _SOFTENING_MM = 0.05  # keeps a pixel on a sample from taking an infinite weight
-_NEAREST_TIMEOUT_S = 300.0  # a bound on waiting for the pool, far beyond the ~20 ms the lookup takes
+_COLOUR_TIMEOUT_S = 300.0  # a bound on waiting for the colour and its tree, far beyond the ~50 ms they take
 
 
 def sample_colours(texture: np.ndarray, xy: np.ndarray, full_scale: int) -> np.ndarray:
@@ -58,25 +59,47 @@ def interpolate_colour(
     """Colour (H, W, 3 float32) of the covered pixels of `surface` on every `stride`-th row and
     column (the mesh's vertices; NaN elsewhere), from its samples' `colours` (M, 3) by `method`
     (see the module docstring)."""
+    return colour_beside_fill(surface, colours, method, neighbours, stride)(surface)
+
+
+def colour_beside_fill(
+    surface: RingSurface, colours: np.ndarray, method: ColourMethod = "area", neighbours: int = 8, stride: int = 1
+) -> Callable[[RingSurface], np.ndarray]:
+    """interpolate_colour begun on a surface whose fill is yet to come (rig.pipeline.surface
+    .fill_surface, which adds pixels beyond the triangles): its covered pixels are mixed on a thread
+    beside the caller's (rig.workers.beside) while the caller fills. The function returned, given
+    the filled surface, waits for them and gives each pixel filled beyond the triangles its nearest
+    sample's colour."""
     if method not in COLOUR_METHODS:
         raise ValueError(f"unknown colour interpolant {method!r}; known: {', '.join(COLOUR_METHODS)}")
     height, width = surface.valid.shape
-    out = full((height * width, 3), np.nan, np.float32)
-    if len(surface.faces) == 0:
-        return out.reshape(height, width, 3)
     on_grid = np.zeros_like(surface.valid)
     on_grid[::stride, ::stride] = True
-    pixel = np.flatnonzero((surface.valid & on_grid).ravel())
-    owner = surface.triangle.ravel()[pixel]
-    points = surface.grid.reshape(-1, 3)
-    # filled beyond the triangles (rig.pipeline.fill): the nearest sample's colour, looked up on the
-    # pool beside the mix of the rest (mix_colours passes over them); its tree takes a core 9 ms
-    filled = pixel[owner < 0]
+    pixel = np.flatnonzero((surface.valid & on_grid).ravel())  # now: the fill adds to valid
+    mixing = beside().submit(_mixed, surface, colours, method, neighbours, pixel)
 
-    def nearest_samples() -> np.ndarray:
-        return cKDTree(surface.vertices).query(points[filled], workers=-1)[1]
+    def finish(filled: RingSurface) -> np.ndarray:
+        out, tree = mixing.result(timeout=_COLOUR_TIMEOUT_S)
+        at = np.flatnonzero((filled.valid & on_grid).ravel())
+        at = at[filled.triangle.ravel()[at] < 0]  # filled beyond the triangles: the nearest sample's colour
+        if tree is not None and len(at):
+            out[at] = colours[tree.query(filled.grid.reshape(-1, 3)[at], workers=-1)[1]]
+        return out.reshape(height, width, 3)
 
-    nearest = pool().submit(nearest_samples) if len(filled) else None
+    return finish
+
+
+def _mixed(
+    surface: RingSurface, colours: np.ndarray, method: str, neighbours: int, pixel: np.ndarray
+) -> tuple[np.ndarray, cKDTree | None]:
+    """The flat colour image (H*W, 3 float32) of the covered pixels `pixel` of the triangles
+    (rig.kernels.colour.mix_colours passes over any filled beyond them), and the samples' k-d tree
+    for those (None for no triangles: they stay NaN), built on the pool beside the mix."""
+    height, width = surface.valid.shape
+    out = full((height * width, 3), np.nan, np.float32)
+    if len(surface.faces) == 0:
+        return out, None
+    tree = pool().submit(cKDTree, surface.vertices)
     faces, count = np.ascontiguousarray(surface.faces, np.int64), len(surface.vertices)
     reach2, corners, area = np.empty(len(faces), np.float32), np.empty((len(faces), 2), np.int64), np.zeros(count)
     vertices = np.ascontiguousarray(surface.vertices, np.float64)
@@ -89,7 +112,8 @@ def interpolate_colour(
     samples = np.hstack([(surface.vertices - centre).T, np.full((3, 1), 1e18)]).astype(np.float32)
     padded_area = np.append(area, 0.0).astype(np.float32)
     padded_colours = np.vstack([colours, np.zeros((1, 3), np.float32)]).astype(np.float32)
-    at = (np.ascontiguousarray(points, np.float64), pixel, owner, centre)
+    owner = surface.triangle.ravel()[pixel]
+    at = (surface.grid.reshape(-1, 3), pixel, owner, centre)  # rows of pixels the fill leaves alone
     arrays = (samples, padded_area, padded_colours, (along, corners), reach2, at)
     settings = (method == "nearest", min(neighbours, 2 * along.shape[1]), _SOFTENING_MM**2)
 
@@ -97,9 +121,7 @@ def interpolate_colour(
         colour_kernels.mix_colours(*arrays, settings, out, *span)
 
     list(pool().map(colour_part, batches(len(pixel))))
-    if nearest is not None:
-        out[filled] = colours[nearest.result(timeout=_NEAREST_TIMEOUT_S)]
-    return out.reshape(height, width, 3)
+    return out, tree.result(timeout=_COLOUR_TIMEOUT_S)
 
 
 def _along_rings(surface: RingSurface, neighbours: int) -> np.ndarray:

@@ -12,7 +12,7 @@ from rig.kernels import kept_rows
 from rig.opened_rig import Rig
 from rig.patterns import Codec, CodecParams, Correspondence, FrameStream, codec_class, decode_streamed
 from rig.pipeline.capture import CUE, capture
-from rig.pipeline.colour import interpolate_colour, sample_colours
+from rig.pipeline.colour import colour_beside_fill, sample_colours
 from rig.pipeline.dense import PairTriangulator, pair_pointset, reject_isolated, texture_rgb
 from rig.pipeline.merge import expected_error_mm, local_noise_mm, merge, triangulation_angles
 from rig.pipeline.mesh import Mesh, grid_mesh
@@ -29,7 +29,7 @@ from rig.pipeline.ring_triangulation import (
     ring_pointset,
     triangulate_rings,
 )
-from rig.pipeline.surface import RingBands, RingSurface, SurfaceSettings, interpolate_surface
+from rig.pipeline.surface import RingBands, RingSurface, SurfaceSettings, faces_surface, fill_surface
 from rig.pipeline.triangulation import delaunay
 from rig.progress import ProgressCallback, ProgressTracker
 
@@ -110,26 +110,16 @@ def ring_surface(
     holes where the projector left the camera dark."""
     config = rig.config.scan.surface
     points, xy, ring = kept_rows(rings.kept, rings.points, rings.camera_xy, rings.ring)
-    lit = ring_lit(rig, corr)
-    surface = interpolate_surface(
-        points,
-        xy,
-        ring,
-        rig.camera_models[camera],
-        rig.projector_models[projector],
-        lit,
-        config.interpolant,
-        SurfaceSettings(max_gap_px=config.max_gap_px),
-        ring_bands(corr),
-        tri,
-    )
+    lit, bands, settings = ring_lit(rig, corr), ring_bands(corr), SurfaceSettings(max_gap_px=config.max_gap_px)
+    devices = (rig.camera_models[camera], rig.projector_models[projector])
+    surface = faces_surface(points, xy, ring, *devices, lit, config.interpolant, settings, bands, tri)
     if config.colour == "white":
-        return surface
+        return fill_surface(surface, xy, *devices, lit, bands, settings)
     colours = sample_colours(corr.texture, xy, corr.full_scale)
-    return dataclasses.replace(
-        surface,
-        colour=interpolate_colour(surface, colours, config.colour, config.colour_neighbours, config.mesh_stride_px),
-    )
+    # the triangles' pixels are coloured beside the fill, which leaves them alone
+    coloured = colour_beside_fill(surface, colours, config.colour, config.colour_neighbours, config.mesh_stride_px)
+    surface = fill_surface(surface, xy, *devices, lit, bands, settings)
+    return dataclasses.replace(surface, colour=coloured(surface))
 
 
 def ring_lit(rig: Rig, corr: Correspondence) -> np.ndarray:

@@ -18,54 +18,26 @@ depth edge). Each camera pixel inside a kept triangle gets a point on its ray:
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, replace
 from typing import Literal
 
 import numpy as np
 from scipy.interpolate import CloughTocher2DInterpolator
 
 from rig.geometry import CameraModel
-from rig.kernels import kept_rows
 from rig.lazy import lazy_module
 from rig.pipeline.disc_fill import disc_points
-from rig.pipeline.fill import FillSettings, fill_candidates, fill_points
-from rig.pipeline.flanks import grown_flanks
-from rig.pipeline.normals import (
-    crease_normals,
-    ring_pairs,
-    smoothed_normals,
-    vertex_normals,
-)
+from rig.pipeline.fill import fill_candidates, fill_points
+from rig.pipeline.normals import crease_normals
 from rig.pipeline.raster import FaceTerms, points_on_faces, rasterize, settled_pixels
-from rig.pipeline.triangulation import delaunay
+from rig.pipeline.ring_faces import RingTriangles, ring_triangles
+from rig.pipeline.surface_settings import SurfaceSettings
 from rig.workers import batches, full, pool
 
-normal_kernels = lazy_module("rig.kernels.normals")  # numba compiles on first use
-triangle_kernels = lazy_module("rig.kernels.triangles")
-surface_kernels = lazy_module("rig.kernels.ring_surface")
+surface_kernels = lazy_module("rig.kernels.ring_surface")  # numba compiles on first use
 
 Interpolant = Literal["linear", "quadratic", "cubic"]
 INTERPOLANTS: tuple[str, ...] = ("linear", "quadratic", "cubic")
-
-_BRIDGE_ROUNDS = 4  # rounds of dropping triangles bent off their corners (ring_triangles)
-_PAIRS_TIMEOUT_S = 300.0  # a bound on waiting for the pool, far beyond the ~30 ms it takes
-
-
-@dataclass(frozen=True)
-class SurfaceSettings:
-    max_gap_px: float = 6.0  # two samples of one ring further apart than this are not neighbours
-    max_slant_deg: float = 84.0  # triangles seen more edge-on than this span a depth edge
-    max_bend_deg: float = 50.0  # ... as do triangles this far from one of their corners' normals
-    max_bend_excess_deg: float = 20.0  # ... and those bent this much more from their corners than they differ
-    min_foreshortening: float = 0.15  # ... and edges steep to both devices (rig.pipeline.flanks) ...
-    max_flank_turn_deg: float = 10.0  # ... unless they continue the surface beside them (rig.pipeline.flanks)
-    max_unlit: float = 0.02  # triangles over more of their pixels dark than this span a shadow
-    band_margin_px: float = 2.0  # a point may project this far outside the annulus its pixel read ...
-    band_angle_rad: float = 0.15  # ... and this far from the polar angle it read (3x the code's p99.9)
-    normal_smoothing_px: float = 4.0  # samples' normals averaged over their ring this far either way
-    max_band_disagreement: float = 0.25  # a triangle with more of its pixels off their bands bridges an edge
-    fill: bool = True  # fill the inner disc and holes the rings enclose (rig.pipeline.fill)
-    fill_settings: FillSettings = field(default_factory=FillSettings)
 
 
 @dataclass(frozen=True, eq=False)
@@ -95,129 +67,6 @@ class RingSurface:
     flank: np.ndarray | None = None  # (F,) bool: faces steep to both devices, kept as a flank (rig.pipeline.flanks)
 
 
-@dataclass(frozen=True, eq=False)
-class RingTriangles:
-    """The kept triangles of a pair's ring samples (ring_triangles)."""
-
-    tri: np.ndarray  # (F, 3) sample indices
-    face: np.ndarray  # (F, 3) unit normals, toward the camera
-    weight: np.ndarray  # (F,) 1 / longest edge (rig.pipeline.normals.vertex_normals)
-    normals: np.ndarray  # (M, 3) the samples' unit normals, toward the camera
-    counts: dict[str, int]  # how many triangles each test dropped
-    directions: np.ndarray  # (M, 3) the samples' camera rays
-    pairs: np.ndarray  # (P, 2) samples of one ring whose normals are averaged (ring_pairs)
-    flank: np.ndarray  # (F,) bool: steep to both devices, kept as a flank (rig.pipeline.flanks)
-
-    def subset(self, keep: np.ndarray) -> RingTriangles:
-        """These triangles but only those `keep` marks, the samples' normals from them alone (a
-        dropped triangle bridged a step: its tilt is no part of either side's normal)."""
-        tri, face, weight = self.tri[keep], self.face[keep], self.weight[keep]
-        return RingTriangles(tri, face, weight, _normals(tri, face, weight, self.directions, self.pairs), self.counts,
-                             self.directions, self.pairs, self.flank[keep])  # fmt: skip
-
-
-def _normals(
-    tri: np.ndarray, face: np.ndarray, weight: np.ndarray, directions: np.ndarray, pairs: np.ndarray
-) -> np.ndarray:
-    normals = vertex_normals(tri, face, weight, directions)
-    in_triangle = np.bincount(tri.ravel(), minlength=len(directions)) > 0  # the others' normals are a guess
-    return smoothed_normals(normals, pairs, in_triangle)
-
-
-def ring_triangles(
-    points: np.ndarray,
-    xy: np.ndarray,
-    ring: np.ndarray,
-    camera: CameraModel,
-    projector: CameraModel,
-    settings: SurfaceSettings,
-    tri: np.ndarray | None = None,
-) -> RingTriangles:
-    """The kept triangles of the samples' image Delaunay triangulation `tri` (see the module docstring)."""
-    directions = np.asarray(camera.rays(xy)[1])
-    # the samples' neighbours along their rings need no triangles: found beside the triangulation
-    neighbours = pool().submit(ring_pairs, points, xy, ring, settings.normal_smoothing_px)
-    tri = delaunay(xy) if tri is None else tri
-    tested = _tested(points, xy, ring, camera, projector, directions, tri, settings.max_gap_px)
-    verdict, face, weight, slant, foreshortened = tested
-    counts = {"triangles": len(tri)}
-    verdicts = {"ring_skipped": triangle_kernels.RING_SKIPPED, "gap": triangle_kernels.GAP}
-    for name, code in (*verdicts.items(), ("one_ring", triangle_kernels.ONE_RING)):
-        counts[f"dropped_{name}"] = int((verdict == code).sum())
-    keep = verdict == triangle_kernels.KEPT
-    tri, face, weight, slant, foreshortened = kept_rows(keep, tri, face, weight, slant, foreshortened)
-    edge_on = slant < np.cos(np.radians(settings.max_slant_deg))
-    steep = ~edge_on & (foreshortened < settings.min_foreshortening)
-    edge_on |= steep
-    held = kept_rows(steep, tri, face, weight)  # a flank or a bridge: told apart once the rest is known
-    tri, face, weight = kept_rows(~edge_on, tri, face, weight)
-    normals = vertex_normals(tri, face, weight, directions)
-    bent = normal_kernels.bent_from_corners(normals, tri, face, np.cos(np.radians(settings.max_bend_deg)))
-    tri, face, weight = kept_rows(~bent, tri, face, weight)
-    pairs = neighbours.result(timeout=_PAIRS_TIMEOUT_S)
-    # corners' normals as the interpolant takes them (smoothed along the rings), without the
-    # triangles dropped so far: a triangle that bridges a step stands out once its neighbours that
-    # bridge it too are gone, so a few rounds
-    dropped = int(edge_on.sum() + bent.sum())
-    normals = _normals(tri, face, weight, directions, pairs)
-    for _ in range(_BRIDGE_ROUNDS):
-        again = _off_its_corners(normals, tri, face, settings.max_bend_excess_deg)
-        if not again.any():
-            break
-        (tri, face, weight), dropped = kept_rows(~again, tri, face, weight), dropped + int(again.sum())
-        normals = _normals(tri, face, weight, directions, pairs)
-    flank = grown_flanks((tri, face, weight), held, directions, settings.max_flank_turn_deg)
-    if flank.any():
-        tri, face, weight = (np.concatenate([k, h[flank]]) for k, h in zip((tri, face, weight), held, strict=True))
-        normals = _normals(tri, face, weight, directions, pairs)
-    counts["kept_flank"] = int(flank.sum())
-    counts["dropped_depth_edge"] = dropped - counts["kept_flank"]
-    steep = np.concatenate([np.zeros(len(tri) - counts["kept_flank"], dtype=bool), np.ones(counts["kept_flank"], bool)])
-    counts["faces"] = len(tri)
-    return RingTriangles(tri, face, weight, normals, counts, directions, pairs, steep)
-
-
-def _tested(
-    points: np.ndarray,
-    xy: np.ndarray,
-    ring: np.ndarray,
-    camera: CameraModel,
-    projector: CameraModel,
-    directions: np.ndarray,
-    tri: np.ndarray,
-    max_gap_px: float,
-) -> tuple[np.ndarray, ...]:
-    """Every triangle's verdict on its rings, unit normal toward the camera, weight (1 / its longest
-    edge: rig.pipeline.normals.vertex_normals), slant to the camera and foreshortening to both
-    devices (rig.pipeline.flanks): a compiled pass over spans of the triangles on the pool
-    (rig.kernels.triangles.triangle_tests), from the samples' depths and projector pixels."""
-    depths = np.ones((len(points), 2))
-    for k, device in enumerate((camera, projector)):
-        if device.projection != "orthographic":
-            depths[:, k] = device.to_device(points)[:, 2]
-    focal = (float(camera.K[0, 0]), float(projector.K[0, 0]))
-    count = len(tri)
-    out = (np.empty(count, np.int8), np.empty((count, 3)), np.empty(count), np.empty(count), np.empty(count))
-    arrays = (
-        np.ascontiguousarray(tri, np.int64), ring.astype(np.int64), np.ascontiguousarray(xy, np.float64),
-        projector.project(points)[0], np.ascontiguousarray(points, np.float64), directions, depths,
-        (float(max_gap_px), *focal),
-    )  # fmt: skip
-    list(pool().map(lambda span: triangle_kernels.triangle_tests(*arrays, *out, *span), batches(count)))
-    return out
-
-
-def _off_its_corners(normals: np.ndarray, tri: np.ndarray, face: np.ndarray, max_excess_deg: float) -> np.ndarray:
-    """Triangles `tri` tilted away from a corner's normal (`normals`) by `max_excess_deg` more than
-    the corners' normals differ among themselves: the corners agree on a surface the triangle does not
-    lie on, as when it joins the rings of two treads of a step. On a smooth surface a triangle's
-    normal lies among its corners' normals. A compiled pass on the pool (rig.kernels.normals.off_corners)."""
-    tri, off = np.ascontiguousarray(tri, np.int64), np.empty(len(face), np.bool_)
-    arrays = (normals, tri, face, max_excess_deg, off)
-    list(pool().map(lambda span: normal_kernels.off_corners(*arrays, *span), batches(len(face))))
-    return off
-
-
 def interpolate_surface(
     points: np.ndarray,
     xy: np.ndarray,
@@ -234,6 +83,25 @@ def interpolate_surface(
     index) by `method` (module docstring). `lit` (H, W): the pixels the projector lights (a triangle
     over dark ones spans a shadow). With `bands`, a pixel whose point the projector would light outside
     the annulus or angle that pixel read is a hole: its triangle bridges an edge its corners miss."""
+    settings = settings or SurfaceSettings()
+    surface = faces_surface(points, xy, ring, camera, projector, lit, method, settings, bands, tri)
+    return fill_surface(surface, xy, camera, projector, lit, bands, settings)
+
+
+def faces_surface(
+    points: np.ndarray,
+    xy: np.ndarray,
+    ring: np.ndarray,
+    camera: CameraModel,
+    projector: CameraModel,
+    lit: np.ndarray | None = None,
+    method: Interpolant = "quadratic",
+    settings: SurfaceSettings | None = None,
+    bands: RingBands | None = None,
+    tri: np.ndarray | None = None,
+) -> RingSurface:
+    """interpolate_surface's surface on the triangles alone, before the pixels beyond them are
+    filled (fill_surface)."""
     if method not in INTERPOLANTS:
         raise ValueError(f"unknown interpolant {method!r}; known: {', '.join(INTERPOLANTS)}")
     settings = settings or SurfaceSettings()  # `tri`: the samples' Delaunay triangles, if known
@@ -257,16 +125,35 @@ def interpolate_surface(
         counts["dropped_band_px"] = dropped
     pixels = int(np.count_nonzero(ok))
     del pixel, owner, ok, agree
-    if bands is not None and settings.fill:
-        filled = _filled(points, normals, xy, ring, tri, camera, projector, valid, lit, bands, grid, settings)
-        valid[filled] = True
-        counts["filled_px"], pixels = len(filled), pixels + len(filled)
     counts["pixels"] = pixels
     shape = (camera.height, camera.width)
     return RingSurface(
         points, normals, tri, grid.reshape(*shape, 3), valid.reshape(shape), counts, ring, triangle.reshape(shape),
         flank=triangles.flank,
     )  # fmt: skip
+
+
+def fill_surface(
+    surface: RingSurface,
+    xy: np.ndarray,
+    camera: CameraModel,
+    projector: CameraModel,
+    lit: np.ndarray | None,
+    bands: RingBands | None,
+    settings: SurfaceSettings,
+) -> RingSurface:
+    """faces_surface's `surface` (its samples' image positions `xy`) with the pixels beyond its
+    triangles filled where a point in their own band is found (rig.pipeline.fill): its grid and valid
+    image in place, its counts anew."""
+    if bands is None or not settings.fill:
+        return surface
+    valid, grid = surface.valid.reshape(-1), surface.grid.reshape(-1, 3)  # views: written in place
+    found = (surface.vertices, surface.normals, xy, surface.ring, surface.faces)
+    filled = _filled(*found, camera, projector, valid, lit, bands, grid, settings)
+    valid[filled] = True
+    counts = {k: v for k, v in surface.counts.items() if k != "pixels"}  # in their order, pixels last
+    counts["filled_px"], counts["pixels"] = len(filled), surface.counts["pixels"] + len(filled)
+    return replace(surface, counts=counts)
 
 
 def _points_in_faces(
