@@ -36,6 +36,8 @@ from rig.workers import batches, full, pool
 
 surface_kernels = lazy_module("rig.kernels.ring_surface")  # numba compiles on first use
 
+_DISC_TIMEOUT_S = 300.0  # a bound on waiting for the pool, far beyond the ~15 ms the inner disc takes
+
 Interpolant = Literal["linear", "quadratic", "cubic"]
 INTERPOLANTS: tuple[str, ...] = ("linear", "quadratic", "cubic")
 
@@ -218,12 +220,16 @@ def _filled(
     candidate = fill_candidates(mask, bands.annulus, lit)
     in_triangle = np.flatnonzero(np.bincount(tri.ravel(), minlength=len(points)) > 0)
     annulus = bands.annulus.ravel()[candidate].astype(np.int64)
-    found = disc_points(grid, mask, candidate, annulus, camera)  # an inner disc the rings close around
-    rest = ~np.isfinite(found).all(axis=1)
-    found[rest] = fill_points(
-        points[in_triangle], normals[in_triangle], xy[in_triangle], ring[in_triangle], camera, candidate[rest],
-        annulus[rest], settings.fill_settings,
+    # an inner disc the rings close around, on the pool (one thread's work) beside the fill of every
+    # candidate; a pixel's fill does not depend on which others are filled with it
+    disc = pool().submit(disc_points, grid, mask, candidate, annulus, camera)
+    found = fill_points(
+        points[in_triangle], normals[in_triangle], xy[in_triangle], ring[in_triangle], camera, candidate, annulus,
+        settings.fill_settings,
     )  # fmt: skip
+    in_disc = disc.result(timeout=_DISC_TIMEOUT_S)
+    inside = np.isfinite(in_disc).all(axis=1)  # the disc's points before the fill's
+    found[inside] = in_disc[inside]
     keep = np.isfinite(found).all(axis=1)
     keep[keep] = band_agreement(found[keep], candidate[keep], projector, bands, settings)
     grid[candidate[keep]] = found[keep]
