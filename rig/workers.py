@@ -147,7 +147,7 @@ def in_row_strips(rows: int, work: Callable[[slice], object], per_thread: int = 
         future.result()
 
 
-def full(shape: tuple[int, ...], value: float, dtype: type | np.dtype) -> np.ndarray:
+def full_on_pool(shape: tuple[int, ...], value: float, dtype: type | np.dtype) -> np.ndarray:
     """np.full, its rows filled on the pool (a large array's pages are faulted in on every core).
     Not for work already on the pool."""
     out = np.empty(shape, dtype)

@@ -18,10 +18,12 @@ from rig.cli import main
 from rig.config import config_from_dict, load_config
 from rig.errors import StoreError
 from rig.evaluate.distances import surface_distances
+from rig.pipeline.colour import colour_beside_fill, interpolate_colour, sample_colours
+from rig.pipeline.fill import fill_candidates, fill_points
 from rig.pipeline.normals import crease_normals
 from rig.pipeline.raster import rasterize
-from rig.pipeline.scan import ring_bands, run_scan
-from rig.pipeline.surface import SurfaceSettings, band_agreement, interpolate_surface
+from rig.pipeline.scan import ring_bands, ring_lit, run_scan
+from rig.pipeline.surface import SurfaceSettings, band_agreement, faces_surface, fill_surface, interpolate_surface
 from rig.plan.ring_plan import RingPlan
 from rig.service.adaptive import plan_check
 from rig.store.ply import ply_bytes, read_cloud_ply
@@ -90,6 +92,37 @@ def test_quadratic_beats_linear_and_both_leave_shadows_empty(ring_scan) -> None:
         assert (surface.valid & target).sum() > 0.9 * target.sum()
     assert rms["quadratic"] < 0.8 * rms["linear"]
     assert rms["quadratic"] < 0.06  # 0.046 measured; 0.050 before normals were averaged along rings
+
+
+def test_colouring_beside_the_fill_colours_the_filled_surface(ring_scan) -> None:  # type: ignore[no-untyped-def]
+    """A ring scan colours the triangles' pixels while it fills the pixels beyond them: the same
+    colours as the filled surface's own, and the same surface as in one step. Each pixel's fill is
+    its own: filling a subset of the candidates gives those pixels the points filling all gives."""
+    rig, result = ring_scan
+    pair = result.pairs[0]
+    corr, keep = pair.correspondence, pair.rings.kept
+    points, xy, ring = pair.rings.points[keep], pair.rings.camera_xy[keep], pair.rings.ring[keep]
+    devices = (rig.camera_models[0], rig.projector_models[0])
+    lit, bands, settings = ring_lit(rig, corr), ring_bands(corr), SurfaceSettings()
+    assert bands is not None
+    surface = faces_surface(points, xy, ring, *devices, lit, "quadratic", settings, bands)
+    candidate = fill_candidates(surface.valid, bands.annulus, lit)
+    colours = sample_colours(corr.texture, xy, corr.full_scale)
+    coloured = colour_beside_fill(surface, colours, "area", stride=2)
+    filled = fill_surface(surface, xy, *devices, lit, bands, settings)
+    assert filled.counts["filled_px"] > 1000  # pixels the fill added while the colour was mixed
+    np.testing.assert_array_equal(coloured(filled), interpolate_colour(filled, colours, "area", stride=2))
+    whole = interpolate_surface(points, xy, ring, *devices, lit, "quadratic", settings, bands)
+    np.testing.assert_array_equal(filled.grid, whole.grid)
+    assert filled.counts == whole.counts and list(filled.counts) == list(whole.counts)
+    used = np.flatnonzero(np.bincount(surface.faces.ravel(), minlength=len(points)) > 0)
+    samples = (points[used], surface.normals[used], xy[used], ring[used], devices[0])
+    annulus = bands.annulus.ravel()[candidate].astype(np.int64)
+    every = fill_points(*samples, candidate, annulus, settings.fill_settings)
+    some = np.arange(len(candidate))[1000::3]
+    assert np.isfinite(every[some]).all(axis=1).sum() > 1000
+    alone = fill_points(*samples, candidate[some], annulus[some], settings.fill_settings)
+    np.testing.assert_array_equal(every[some], alone)
 
 
 def test_a_point_off_its_pixels_annulus_or_angle_is_refused(ring_scan) -> None:  # type: ignore[no-untyped-def]

@@ -177,6 +177,23 @@ def test_a_face_mostly_off_its_bands_loses_all_its_pixels() -> None:
     assert np.isnan(grid[cleared]).all() and np.array_equal(grid[~cleared], before[~cleared])
 
 
+def test_without_bands_every_found_pixel_keeps_its_point() -> None:
+    """settled_pixels with no band test (faces = 0, a rig without ring bands): found pixels are
+    kept whatever `agree` says, and none is counted as turned away; no pixels make empty images."""
+    from rig.pipeline.raster import settled_pixels
+
+    pixel, owner = np.array([3, 5, 8], np.int32), np.array([0, 1, 1], np.int32)
+    ok, agree = np.array([True, False, True]), np.array([False, False, True])
+    grid = np.ones((10, 3))
+    valid, triangle, dropped = settled_pixels((pixel, owner), (ok, agree), 0, 0.25, grid)
+    assert dropped == 0 and ok.tolist() == [True, False, True] and agree.tolist() == [False, False, True]
+    assert np.flatnonzero(valid).tolist() == [3, 8] and triangle[[3, 5, 8]].tolist() == [0, -1, 1]
+    assert np.isnan(grid[5]).all() and np.isfinite(np.delete(grid, 5, axis=0)).all()
+    nothing = (np.zeros(0, np.int32), np.zeros(0, np.int32))
+    valid, triangle, dropped = settled_pixels(nothing, (np.zeros(0, bool),) * 2, 4, 0.25, np.ones((6, 3)))
+    assert dropped == 0 and not valid.any() and (triangle == -1).all()
+
+
 def test_rasterised_strips_make_the_image_one_pass_makes() -> None:
     """Threads rasterise strips of rows, each taking every triangle in order: the later triangle
     still wins a shared pixel, so the image is the one a single pass over all rows draws."""

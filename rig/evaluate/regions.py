@@ -130,9 +130,10 @@ def joined_labels(right: np.ndarray, down: np.ndarray, valid: np.ndarray) -> np.
 
 
 def weighted_quantile(values: np.ndarray, weights: np.ndarray, q: float, order: np.ndarray | None = None) -> float:
-    """The value below which a share `q` of the total weight lies (the lower value at a tie);
-    `order`: the values' stable ascending order, where known."""
+    """The value below which a share `q` of the total weight lies (the lower value at a tie), the
+    weights summed in float64; `order`: the values' stable ascending order, where known."""
     order = np.argsort(values, kind="stable") if order is None else order
+    weights = np.asarray(weights, np.float64)
     return region_kernels.ordered_quantile(values, weights, order, np.zeros(0, np.int64), 0, q)
 
 
@@ -153,7 +154,7 @@ def region_errors(
 ) -> tuple[RegionError, list[RegionError]]:
     """The whole surface's area-weighted error, and each region's that holds at least `min_share`
     of the area, largest first."""
-    total = float(areas.sum())
+    total, areas = float(areas.sum()), np.asarray(areas, np.float64)  # summed in float64
     order = np.argsort(distances, kind="stable")  # once: a region's own order is this one's, restricted to it
     every = np.zeros(0, np.int64)
     whole = _error(distances, areas, total, region_kernels.ordered_quantile(distances, areas, order, every, 0, q))

@@ -1,5 +1,5 @@
 """The ring samples' normals (rig.pipeline.normals) and the ring triangles' bend tests
-(rig.pipeline.surface), compiled by numba: sums over faces and pairs in one loop each, in numpy's
+(rig.pipeline.ring_faces), compiled by numba: sums over faces and pairs in one loop each, in numpy's
 bincount order (every face's corner 0, then 1, then 2), so the sums are numpy's to the last bit.
 As numpy passes they took a fifth of the ring surface's triangles (scratch profile, default bench).
 """

@@ -140,15 +140,18 @@ def ordered_quantile(
     values: np.ndarray, weights: np.ndarray, order: np.ndarray, labels: np.ndarray, label: int, q: float
 ) -> float:
     """rig.evaluate.regions.weighted_quantile of the points whose `labels` are `label` (every point
-    for an empty `labels`), taken in `order` (the values' stable ascending order): their weights
-    summed in that order (as np.cumsum sums them), the first value at which the sum reaches `q`
-    of their total. Two passes over `order`, no arrays of the region's own."""
+    for an empty `labels`), taken in `order` (the values' stable ascending order): their float64
+    weights summed in that order (as np.cumsum sums them), the first value at which the sum reaches
+    `q` of their total. Two passes over `order`, no arrays of the region's own. ValueError for no
+    points."""
     every = len(labels) == 0
     total, last = 0.0, -1
     for i in order:
         if every or labels[i] == label:
             total += weights[i]
             last = i
+    if last < 0:
+        raise ValueError("a quantile of no points")
     threshold = q * total
     running = 0.0
     for i in order:

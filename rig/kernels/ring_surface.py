@@ -233,11 +233,12 @@ def settle(
     stop: int,
 ) -> int:
     """Which of the listed pixels [start:stop] (listed: flat pixels and their faces) keep their point
-    (rig.pipeline.surface.interpolate_surface). found: (ok, agree): whether a point was found and
-    lies in the band its pixel read. With band_counts' `counts` (empty: no band test), `agree` is
-    cleared in place for every pixel of a face with more than `max_disagreement` of its pixels off
-    their bands (the face bridges an edge its corners miss), and `ok` &= it. Then into images (flat
-    grid (H*W, 3), valid, triangle): a kept pixel is valid with its face, the others' points NaN.
+    (rig.pipeline.raster.settled_pixels, for rig.pipeline.surface.faces_surface). found: (ok,
+    agree): whether a point was found and lies in the band its pixel read. With band_counts'
+    `counts` (empty: no band test), `agree` is cleared in place for every pixel of a face with more
+    than `max_disagreement` of its pixels off their bands (the face bridges an edge its corners
+    miss), and `ok` &= it. Then into images (flat grid (H*W, 3), valid, triangle): a kept pixel is
+    valid with its face, the others' points NaN.
     Returns how many found pixels the band test turned away."""
     pixel, owner = listed
     ok, agree = found

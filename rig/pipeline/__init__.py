@@ -17,7 +17,7 @@ _LAZY = {
     "RingBands": "surface",
     "RingSurface": "surface",
     "ScanResult": "results",
-    "SurfaceSettings": "surface",
+    "SurfaceSettings": "surface_settings",
     "interpolate_surface": "surface",
     "live_codecs": "live",
     "moved_pair": "realign",

@@ -26,7 +26,7 @@ from scipy.spatial import cKDTree
 
 from rig.lazy import lazy_module
 from rig.pipeline.surface import RingSurface
-from rig.workers import batches, beside, full, pool
+from rig.workers import batches, beside, full_on_pool, pool
 
 colour_kernels = lazy_module("rig.kernels.colour")  # numba compiles on first use
 
@@ -90,13 +90,13 @@ def colour_beside_fill(
 
 
 def _mixed(
-    surface: RingSurface, colours: np.ndarray, method: str, neighbours: int, pixel: np.ndarray
+    surface: RingSurface, colours: np.ndarray, method: ColourMethod, neighbours: int, pixel: np.ndarray
 ) -> tuple[np.ndarray, cKDTree | None]:
     """The flat colour image (H*W, 3 float32) of the covered pixels `pixel` of the triangles
     (rig.kernels.colour.mix_colours passes over any filled beyond them), and the samples' k-d tree
     for those (None for no triangles: they stay NaN), built on the pool beside the mix."""
     height, width = surface.valid.shape
-    out = full((height * width, 3), np.nan, np.float32)
+    out = full_on_pool((height * width, 3), np.nan, np.float32)
     if len(surface.faces) == 0:
         return out, None
     tree = pool().submit(cKDTree, surface.vertices)
@@ -113,7 +113,7 @@ def _mixed(
     padded_area = np.append(area, 0.0).astype(np.float32)
     padded_colours = np.vstack([colours, np.zeros((1, 3), np.float32)]).astype(np.float32)
     owner = surface.triangle.ravel()[pixel]
-    at = (surface.grid.reshape(-1, 3), pixel, owner, centre)  # rows of pixels the fill leaves alone
+    at = (surface.grid.reshape(-1, 3), pixel, owner, centre)  # the points of pixels the fill leaves alone
     arrays = (samples, padded_area, padded_colours, (along, corners), reach2, at)
     settings = (method == "nearest", min(neighbours, 2 * along.shape[1]), _SOFTENING_MM**2)
 

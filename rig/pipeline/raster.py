@@ -8,7 +8,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from rig.lazy import lazy_module
-from rig.workers import batches, full, in_row_strips, pool
+from rig.workers import batches, full_on_pool, in_row_strips, pool
 
 triangle_kernels = lazy_module("rig.kernels.triangles")  # numba compiles on first use
 surface_kernels = lazy_module("rig.kernels.ring_surface")
@@ -132,6 +132,6 @@ def settled_pixels(
             )
         )
     totals = (counts[0].sum(axis=0), counts[1].sum(axis=0))
-    images = (grid, np.zeros(grid.shape[0], bool), full((grid.shape[0],), -1, np.int32))
+    images = (grid, np.zeros(grid.shape[0], bool), full_on_pool((grid.shape[0],), -1, np.int32))
     dropped = pool().map(lambda span: surface_kernels.settle(listed, found, totals, float(limit), images, *span), spans)
     return images[1], images[2], sum(dropped)

@@ -126,7 +126,7 @@ def along_ring_support(
     depth = (rings.points[kept] - camera.center) @ camera.axis
     xy = np.ascontiguousarray(rings.camera_xy[kept], np.float64)
     cells = cell_kernels.sample_cells(xy, float(reach_px))
-    support, offset_sum, reach_sum = np.empty(len(kept), np.int64), np.empty(len(kept)), np.empty(len(kept))
+    support, offset_length, reach_sum = np.empty(len(kept), np.int64), np.empty(len(kept)), np.empty(len(kept))
     arrays = (
         xy,
         rings.ring[kept].astype(np.int64),
@@ -134,11 +134,11 @@ def along_ring_support(
         cells,
         (float(reach_px), float(max_jump_mm)),
     )
-    outputs = (support, offset_sum, reach_sum)
+    outputs = (support, offset_length, reach_sum)
     list(pool().map(lambda span: ring_kernels.along_support(*arrays, *outputs, *span), batches(len(kept))))
     # An end of a ring stretch (at a shadow, an occlusion or a depth edge) has its neighbours on one
     # side only: its pixels straddle the boundary and may see the far surface.
-    one_sided = offset_sum > _ONE_SIDED * np.maximum(reach_sum, 1e-9)  # offset_sum: its length
+    one_sided = offset_length > _ONE_SIDED * np.maximum(reach_sum, 1e-9)
     out = np.zeros(len(rings.kept), bool)
     out[kept[(support >= min_support) & ~one_sided]] = True
     return out

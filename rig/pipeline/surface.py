@@ -32,7 +32,7 @@ from rig.pipeline.normals import crease_normals
 from rig.pipeline.raster import FaceTerms, points_on_faces, rasterize, settled_pixels
 from rig.pipeline.ring_faces import RingTriangles, ring_triangles
 from rig.pipeline.surface_settings import SurfaceSettings
-from rig.workers import batches, full, pool
+from rig.workers import batches, full_on_pool, pool
 
 surface_kernels = lazy_module("rig.kernels.ring_surface")  # numba compiles on first use
 
@@ -179,7 +179,7 @@ def _points_in_faces(
     )
     common_origin = camera.center if camera.projection != "orthographic" else None
     terms = FaceTerms.of(points, xy, tri, corners, common_origin)
-    grid = full((camera.height * camera.width, 3), np.nan, np.float64)
+    grid = full_on_pool((camera.height * camera.width, 3), np.nan, np.float64)
     ok = np.ones(len(pixel), dtype=bool)
     agree = np.ones(len(pixel), dtype=bool)
 
