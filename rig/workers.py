@@ -38,6 +38,10 @@ _MMAP_FROM_BYTES = 6 << 20  # 6 MB
 _MMAP_AT_MOST = 64 << 20  # a 12 MP camera's float32 image is 49 MB
 _KEEP_FREED_BYTES = 1 << 30
 
+# A bound on waiting for work handed to the pool or to beside(): far beyond what any of it takes
+# (tens of milliseconds), so that a stuck thread fails the job instead of hanging it.
+POOL_WAIT_S = 300.0
+
 _lock = threading.Lock()
 _executor: ThreadPoolExecutor | None = None
 _beside: ThreadPoolExecutor | None = None

@@ -156,8 +156,7 @@ def region_errors(
     of the area, largest first."""
     total, areas = float(areas.sum()), np.asarray(areas, np.float64)  # summed in float64
     order = np.argsort(distances, kind="stable")  # once: a region's own order is this one's, restricted to it
-    every = np.zeros(0, np.int64)
-    whole = _error(distances, areas, total, region_kernels.ordered_quantile(distances, areas, order, every, 0, q))
+    whole = _error(distances, areas, total, weighted_quantile(distances, areas, q, order))
     per_label = np.bincount(labels, weights=areas)  # a scan's many specks are never visited one by one
     large = np.flatnonzero(per_label >= min_share * total)
     regions = []

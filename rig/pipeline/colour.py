@@ -26,7 +26,7 @@ from scipy.spatial import cKDTree
 
 from rig.lazy import lazy_module
 from rig.pipeline.surface import RingSurface
-from rig.workers import batches, beside, full_on_pool, pool
+from rig.workers import POOL_WAIT_S, batches, beside, full_on_pool, pool
 
 colour_kernels = lazy_module("rig.kernels.colour")  # numba compiles on first use
 
@@ -34,7 +34,6 @@ ColourMethod = Literal["nearest", "idw", "area"]
 COLOUR_METHODS: tuple[str, ...] = ("nearest", "idw", "area")
 
 _SOFTENING_MM = 0.05  # keeps a pixel on a sample from taking an infinite weight
-_COLOUR_TIMEOUT_S = 300.0  # a bound on waiting for the colour and its tree, far beyond the ~50 ms they take
 
 
 def sample_colours(texture: np.ndarray, xy: np.ndarray, full_scale: int) -> np.ndarray:
@@ -79,7 +78,7 @@ def colour_beside_fill(
     mixing = beside().submit(_mixed, surface, colours, method, neighbours, pixel)
 
     def finish(filled: RingSurface) -> np.ndarray:
-        out, tree = mixing.result(timeout=_COLOUR_TIMEOUT_S)
+        out, tree = mixing.result(timeout=POOL_WAIT_S)
         at = np.flatnonzero((filled.valid & on_grid).ravel())
         at = at[filled.triangle.ravel()[at] < 0]  # filled beyond the triangles: the nearest sample's colour
         if tree is not None and len(at):
@@ -121,7 +120,7 @@ def _mixed(
         colour_kernels.mix_colours(*arrays, settings, out, *span)
 
     list(pool().map(colour_part, batches(len(pixel))))
-    return out, tree.result(timeout=_COLOUR_TIMEOUT_S)
+    return out, tree.result(timeout=POOL_WAIT_S)
 
 
 def _along_rings(surface: RingSurface, neighbours: int) -> np.ndarray:

@@ -15,13 +15,12 @@ from rig.pipeline.flanks import grown_flanks
 from rig.pipeline.normals import ring_pairs, smoothed_normals, vertex_normals
 from rig.pipeline.surface_settings import SurfaceSettings
 from rig.pipeline.triangulation import delaunay
-from rig.workers import batches, pool
+from rig.workers import POOL_WAIT_S, batches, pool
 
 normal_kernels = lazy_module("rig.kernels.normals")  # numba compiles on first use
 triangle_kernels = lazy_module("rig.kernels.triangles")
 
 _BRIDGE_ROUNDS = 4  # rounds of dropping triangles bent off their corners (ring_triangles)
-_PAIRS_TIMEOUT_S = 300.0  # a bound on waiting for the pool, far beyond the ~30 ms it takes
 
 
 @dataclass(frozen=True, eq=False)
@@ -83,7 +82,7 @@ def ring_triangles(
     normals = vertex_normals(tri, face, weight, directions)
     bent = normal_kernels.bent_from_corners(normals, tri, face, np.cos(np.radians(settings.max_bend_deg)))
     tri, face, weight = kept_rows(~bent, tri, face, weight)
-    pairs = neighbours.result(timeout=_PAIRS_TIMEOUT_S)
+    pairs = neighbours.result(timeout=POOL_WAIT_S)
     # corners' normals as the interpolant takes them (smoothed along the rings), without the
     # triangles dropped so far: a triangle that bridges a step stands out once its neighbours that
     # bridge it too are gone, so a few rounds

@@ -32,11 +32,9 @@ from rig.pipeline.normals import crease_normals
 from rig.pipeline.raster import FaceTerms, points_on_faces, rasterize, settled_pixels
 from rig.pipeline.ring_faces import RingTriangles, ring_triangles
 from rig.pipeline.surface_settings import SurfaceSettings
-from rig.workers import batches, full_on_pool, pool
+from rig.workers import POOL_WAIT_S, batches, full_on_pool, pool
 
 surface_kernels = lazy_module("rig.kernels.ring_surface")  # numba compiles on first use
-
-_DISC_TIMEOUT_S = 300.0  # a bound on waiting for the pool, far beyond the ~15 ms the inner disc takes
 
 Interpolant = Literal["linear", "quadratic", "cubic"]
 INTERPOLANTS: tuple[str, ...] = ("linear", "quadratic", "cubic")
@@ -227,7 +225,7 @@ def _filled(
         points[in_triangle], normals[in_triangle], xy[in_triangle], ring[in_triangle], camera, candidate, annulus,
         settings.fill_settings,
     )  # fmt: skip
-    in_disc = disc.result(timeout=_DISC_TIMEOUT_S)
+    in_disc = disc.result(timeout=POOL_WAIT_S)
     inside = np.isfinite(in_disc).all(axis=1)  # the disc's points before the fill's
     found[inside] = in_disc[inside]
     keep = np.isfinite(found).all(axis=1)
