@@ -49,7 +49,7 @@ from rig.opened_rig import Rig
 from rig.patterns import Codec
 from rig.patterns.stream import FrameStream
 from rig.pipeline.capture import capture
-from rig.pipeline.live import CapturedSequence, finish_sequence, live_codecs, prepare_triangulation
+from rig.pipeline.live import CapturedSequence, finish_sequence, live_codecs, prepare_triangulation, warm_up
 from rig.pipeline.sustained import SequenceWorker
 from rig.progress import ProgressTracker
 from rig.workers import release_free_memory
@@ -163,6 +163,7 @@ def measure_case(name: str, seconds: float) -> dict[str, Any]:
         warm.worker.close(60.0)
         pipeline = Sustained(rig, codecs[0], cameras)
         fixed_mb = held_from_now()
+        warm_up(rig, codecs)  # as live mode starts: its heap, not the compiler's (done above)
         items: queue.Queue[Item | None] = queue.Queue()
         counts = {"sequences": 0, "dropped_by_camera": 0}
         feeder = threading.Thread(target=feed, args=(frames, rate_hz, seconds, items, counts), daemon=True)

@@ -22,9 +22,10 @@ from rig.api.app import create_app
 from rig.api.security import ApiSettings
 from rig.assembly import open_rig
 from rig.cli import main
-from rig.config import RigConfig, load_config
+from rig.config import RigConfig, config_from_dict, load_config
 from rig.errors import ConfigError
-from rig.pipeline.live import LiveFrame, run_live
+from rig.patterns import codec_names
+from rig.pipeline.live import LiveFrame, dark_frames, live_codecs, run_live, warm_up
 from rig.service.job_service import JobService
 from tests.conftest import small_config_data, wait_done, write_config
 from tests.loopback import daemon_http
@@ -59,6 +60,24 @@ def test_live_depth_images_follow_the_surface(small_config: RigConfig) -> None:
         error = np.abs(depth[found] - true_depth[found])
         assert np.median(error) < 0.15 and np.percentile(error, 99) < 1.0  # mm (measured 0.08 and 0.66)
         assert 0 < frame.latency_ms < frame.sequence_ms
+
+
+@pytest.mark.parametrize("codec", codec_names())
+@pytest.mark.parametrize("sensor", [{}, {"bit_depth": 12}, {"color": True}], ids=["8-bit", "12-bit", "colour"])
+def test_the_warm_up_runs_dark_frames_like_the_cameras_through_every_codec_and_drives_no_device(
+    codec: str, sensor: dict[str, Any]
+) -> None:
+    data = small_config_data()
+    data["scan"]["live"] = {"codec": codec}
+    data["cameras"][0].update(sensor)
+    with open_rig(config_from_dict(data, "warm-up")) as rig:
+        codecs = live_codecs(rig)
+        warm_up(rig, codecs)  # raises on frames a stream or the triangulation cannot take
+        assert [p.shown for p in rig.projectors] == [0]  # type: ignore[attr-defined]
+        frame = rig.cameras[0].capture(timeout_s=5.0)  # the cameras' first frame is still their first
+        assert frame.sequence == 1
+        dark = dark_frames(rig)[0]  # and the warm-up's frames are like theirs
+        assert (dark.shape, dark.dtype) == (frame.image.shape, frame.image.dtype) and not dark.any()
 
 
 def test_live_hdr_reads_a_dark_and_white_object_that_one_exposure_cannot(tmp_path: Path) -> None:

@@ -129,6 +129,7 @@ def run_live(
     however it ends."""
     codecs = live_codecs(rig, scan)
     prepare_triangulation(rig, codecs)
+    warm_up(rig, codecs)
     exposures = live_exposures(rig, (scan or rig.config.scan).live.hdr)
     stats = stats if stats is not None else LiveStats()
     if stats.sequences == 0:
@@ -254,6 +255,35 @@ def prepare_triangulation(rig: Rig, codecs: list[Codec]) -> None:
         for c in range(len(rig.cameras)):
             if codec.coded_axes() and is_reconstructed(rig, (p, c)):
                 fast_terms(triangulator(rig, p, c), codec.coded_axes())
+
+
+def warm_up(rig: Rig, codecs: list[Codec]) -> None:
+    """One sequence of dark frames through every pair's decode and triangulation, its result
+    dropped: the heap then holds what a sequence's arrays need before the cameras run. Started
+    cold (an idle daemon hands its free memory back after each job), the first sequences of two
+    5 MP cameras took three to four times as long as the rest while their arrays were faulted in,
+    and one was dropped (decision 0042)."""
+    cameras, dark = rig.config.cameras, dark_frames(rig)
+    pairs = [(p, c) for p in range(len(codecs)) for c in range(len(cameras)) if is_reconstructed(rig, (p, c))]
+    streams = {(p, c): codecs[p].stream(cameras[c].full_scale) for p, c in pairs}
+    for (p, c), stream in streams.items():
+        for _ in range(codecs[p].frame_count):
+            stream.add(dark[c])
+    now = time.perf_counter()
+    try:
+        finish_sequence(rig, CapturedSequence(0, {pair: [stream] for pair, stream in streams.items()}, now, now))
+    except ScanError as exc:  # dark frames may not decode; what they allocated on the way is in the heap
+        log.debug("live mode warm-up: %s", exc)
+
+
+def dark_frames(rig: Rig) -> list[np.ndarray]:
+    """Per camera, a dark frame of the shape and type it delivers (BGR for a colour sensor, 16 bits
+    a sample beyond 8)."""
+    shapes = [(c.resolution[1], c.resolution[0], *((3,) if c.color else ())) for c in rig.config.cameras]
+    return [
+        np.zeros(shape, np.uint8 if c.bit_depth == 8 else np.uint16)
+        for shape, c in zip(shapes, rig.config.cameras, strict=True)
+    ]
 
 
 def pair_depth(rig: Rig, projector: int, camera: int, corr: Correspondence) -> tuple[np.ndarray, int]:
