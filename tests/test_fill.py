@@ -68,10 +68,10 @@ def test_the_reach_test_turns_away_only_pixels_with_a_ring_out_of_reach() -> Non
     xy = rng.uniform([0, 0], [640, 480], (3000, 2))
     ring = rng.integers(0, 6, len(xy))
     ring[(xy[:, 0] > 300) & (ring == 2)] = 3  # ring 2 only on the left half: far pixels of its annuli are out of reach
-    at = rng.integers([0, 0], [640, 480], (5000, 2)).astype(np.float64)
-    annulus = rng.integers(-1, 7, len(at))
-    reached = _rings_reach(xy, ring, at, annulus, 48.0)
-    for (x, y), a, through in zip(at, annulus, reached, strict=True):
+    pixel = rng.integers(0, 640 * 480, 5000)  # flat, in a 640 x 480 image
+    annulus = rng.integers(-1, 7, len(pixel))
+    reached = _rings_reach(xy, ring, pixel, (480, 640), annulus, 48.0)
+    for x, y, a, through in zip(pixel % 640, pixel // 640, annulus, reached, strict=True):
         wanted = [0] if a == 0 else [a - 1, a]
         near = np.hypot(xy[:, 0] - x, xy[:, 1] - y) < 48.0
         both = a >= 0 and all((near & (ring == r)).any() for r in wanted)

@@ -12,6 +12,7 @@ import numpy as np
 from numba import njit
 
 from rig.kernels import KERNEL
+from rig.kernels.cells import group_order
 from rig.kernels.vectors import corner_cross, row_distance
 
 _NO_WEIGHT = 1e-30  # a pixel no candidate reaches divides by this: its colour is 0
@@ -123,29 +124,70 @@ def _nearest_within(d2: np.ndarray, reach: float, count: int, order: np.ndarray)
 
 
 @njit(**KERNEL)
+def ring_sweeps(
+    points: np.ndarray, ring: np.ndarray, rings: int
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Each ring's samples (points (N, 3), ring (N,) in [0, rings)) in the order of their
+    coordinate along the ring's widest axis and along its second widest (sweep 0 and 1), for
+    nearest_on_ring: order (2, N) sample indices grouped by ring and, within one, by that
+    coordinate (ties by index), key (2, N) the coordinates in that order, place (2, N) each
+    sample's position in order, and where each ring's run starts (rings + 1,)."""
+    by_ring, starts = group_order(ring, rings)
+    order, key, place = np.empty((2, len(ring)), np.int64), np.empty((2, len(ring))), np.empty((2, len(ring)), np.int64)
+    extent = np.empty(3)
+    for g in range(rings):
+        members = by_ring[starts[g] : starts[g + 1]]
+        if len(members) == 0:
+            continue
+        for c in range(3):
+            low = high = points[members[0], c]
+            for m in members:
+                low, high = min(low, points[m, c]), max(high, points[m, c])
+            extent[c] = high - low
+        axes = np.argsort(-extent, kind="mergesort")  # widest first; of equals, the first axis
+        for sweep in range(2):
+            values = np.empty(len(members))
+            for m in range(len(members)):
+                values[m] = points[members[m], axes[sweep]]
+            within = np.argsort(values, kind="mergesort")  # stable: ties keep the index order
+            for m in range(len(members)):
+                at = starts[g] + m
+                order[sweep, at], key[sweep, at] = members[within[m]], values[within[m]]
+                place[sweep, members[within[m]]] = at
+    return order, key, place, starts
+
+
+@njit(**KERNEL)
 def nearest_on_ring(
     points: np.ndarray,
-    order: np.ndarray,
-    key: np.ndarray,
-    ring_span: np.ndarray,
+    ring: np.ndarray,
+    sweeps: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray],
     named: tuple[np.ndarray, int],
     out: np.ndarray,
     start: int,
     stop: int,
 ) -> None:
     """Each sample's `k` nearest samples of its own ring, itself among them (k = out.shape[1]),
-    nearest first (ties by index): exactly, by a sweep along one axis. `order` (N,): sample indices
-    grouped by ring and, within a ring, sorted by `key` (N,: that ring's coordinate along its widest
-    axis, in `order`'s order); ring_span (N, 2): the [first, last) positions in `order` of the ring
-    at each position. named (names (N,), none): a sample n is written as names[n], and `none` past
-    a ring's last; out[names[order[p]]] is filled for positions p in [start, stop). A sample further
-    along the axis than the k-th nearest found so far is further in space too, so the sweep stops
-    there: a few dozen samples are looked at, not the ring's thousands."""
+    nearest first (ties by index): exactly, by a sweep along one axis, for samples [start, stop) of
+    `points` (N, 3) on rings `ring` (N,). sweeps: ring_sweeps' order, key, place and ring starts.
+    named (names (N,), none): a sample n is written as names[n], and `none` past a ring's last;
+    out[names[n]] is filled. A sample further along the axis than the k-th nearest found so far is
+    further in space too, so the sweep stops there: a few dozen samples are looked at, not the
+    ring's thousands. Of the ring's two widest axes, each sample sweeps the one its k neighbours
+    either side spread furthest along (at a ring's extreme along one axis, the samples bunch there,
+    and both sides of the ring meet)."""
     names, none = named
+    orders, keys, places, starts = sweeps
     k = out.shape[1]
     best_d2, best = np.empty(k), np.empty(k, np.int64)
-    for p in range(start, stop):
-        me, first, last = order[p], ring_span[p, 0], ring_span[p, 1]
+    for me in range(start, stop):
+        first, last = starts[ring[me]], starts[ring[me] + 1]
+        spread_0, spread_1 = (
+            _spread(keys[0], places[0, me], k, first, last),
+            _spread(keys[1], places[1, me], k, first, last),
+        )
+        sweep = 0 if spread_0 >= spread_1 else 1
+        order, key, p = orders[sweep], keys[sweep], places[sweep, me]
         found = 0
         left, right = p, p + 1
         while left >= first or right < last:
@@ -173,3 +215,9 @@ def nearest_on_ring(
             found = min(found + 1, k)
         for m in range(k):
             out[names[me], m] = names[best[m]] if m < found else none
+
+
+@njit(nogil=True, cache=True, inline="always")
+def _spread(key: np.ndarray, at: int, k: int, first: int, last: int) -> float:
+    """How far the k samples either side of position `at` (within [first, last)) spread along `key`."""
+    return key[min(at + k, last - 1)] - key[max(at - k, first)]

@@ -272,3 +272,18 @@ def fill_neighbourhoods(
         for j in range(dist.shape[1]):
             if not np.isfinite(dist[i, j]):
                 index[i, j] = 0
+
+
+@njit(**KERNEL)
+def reached(
+    pixel: np.ndarray, annulus: np.ndarray, grid: tuple[int, float, float, float], near: np.ndarray, out: np.ndarray
+) -> None:
+    """rig.pipeline.fill._rings_reach's look for each flat pixel `pixel` (N,) of annulus `annulus`
+    (N,): out (N,) whether `near` (rings, cells down, cells across: a sample of that ring
+    within a box of cells) holds at its cell for ring a - 1 and ring a (ring 0 alone for a = 0).
+    grid: (the image's width, the cells' corner x and y, their side)."""
+    width, x0, y0, cell = grid
+    for i in range(len(pixel)):
+        a = annulus[i]
+        cx, cy = int((pixel[i] % width - x0) // cell), int((pixel[i] // width - y0) // cell)
+        out[i] = a >= 0 and near[max(a - 1, 0), cy, cx] and (a == 0 or near[a, cy, cx])

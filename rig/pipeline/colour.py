@@ -127,29 +127,19 @@ def _along_rings(surface: RingSurface, neighbours: int) -> np.ndarray:
     """(M, L + 2) per sample, the L + 2 samples of its ring nearest it in space (M where none): a
     face's candidates are those of a corner on each of its two rings (two more than L: pixels across
     the face have other nearest ones). Only samples of a face count. An exact search that sweeps each
-    ring along its widest axis (rig.kernels.colour.nearest_on_ring), a span of samples per thread."""
+    ring along one of its two widest axes (rig.kernels.colour.ring_sweeps, nearest_on_ring), a span
+    of samples per thread."""
     vertices, faces, ring = surface.vertices, surface.faces, surface.ring
     used = np.flatnonzero(np.bincount(faces.ravel(), minlength=len(vertices)) > 0)
     along = np.full((len(vertices), min(neighbours + 2, len(used))), len(vertices), np.int64)
     if len(used) == 0:
         return along
-    points, used_ring = np.ascontiguousarray(vertices[used], np.float64), ring[used]
-    by_ring = np.argsort(used_ring, kind="stable")
-    sorted_ring = used_ring[by_ring]
-    starts = np.r_[True, sorted_ring[1:] != sorted_ring[:-1]]  # where each ring's run begins
-    first, group = np.flatnonzero(starts), np.cumsum(starts) - 1
-    extent = [np.maximum.reduceat(points[by_ring, c], first) - np.minimum.reduceat(points[by_ring, c], first)
-              for c in range(3)]  # fmt: skip
-    axis = np.argmax(np.column_stack(extent), axis=1)[group]
-    key = points[by_ring, axis]
-    within = np.lexsort((key, group))
-    order, key = by_ring[within], key[within]
-    last = np.append(first[1:], len(used))
-    ring_span = np.column_stack([first[group], last[group]]).astype(np.int64)
+    points, used_ring = np.ascontiguousarray(vertices[used], np.float64), ring[used].astype(np.int64)
+    sweeps = colour_kernels.ring_sweeps(points, used_ring, int(used_ring.max()) + 1)
     named = (used.astype(np.int64), len(vertices))
 
     def search(span: tuple[int, int]) -> None:
-        colour_kernels.nearest_on_ring(points, order, key, ring_span, named, along, *span)
+        colour_kernels.nearest_on_ring(points, used_ring, sweeps, named, along, *span)
 
     list(pool().map(search, batches(len(used))))
     return along

@@ -76,11 +76,12 @@ def fill_points(
         return found
     samples = (points, normals, xy, ring, _footprints(points, normals, camera, settings))
     grid = _search_grid(xy, ring, int(annulus.max(initial=0)) + 1)
-    positions = _positions(pixel, camera.width)
-    reached = np.flatnonzero(_rings_reach(xy, ring, positions, annulus, settings.reach_px))
+    shape = (camera.height, camera.width)
+    reached = np.flatnonzero(_rings_reach(xy, ring, pixel, shape, annulus, settings.reach_px))
+    positions = _positions(pixel[reached], camera.width)
     for start in range(0, len(reached), _PIXELS_AT_ONCE):  # a block's neighbourhoods, not the whole fill's
-        part = reached[start : start + _PIXELS_AT_ONCE]
-        rows, met = _filled_block(samples, camera, (pixel[part], positions[part], annulus[part]), settings, grid)
+        part, at = reached[start : start + _PIXELS_AT_ONCE], positions[start : start + _PIXELS_AT_ONCE]
+        rows, met = _filled_block(samples, camera, (pixel[part], at, annulus[part]), settings, grid)
         found[part[rows]] = met
     return found
 
@@ -109,27 +110,27 @@ def _filled_block(
     return rows[smooth], met[smooth]
 
 
-def _rings_reach(xy: np.ndarray, ring: np.ndarray, at: np.ndarray, annulus: np.ndarray, reach: float) -> np.ndarray:
-    """(N,) whether both rings of each pixel's annulus (ring 0 alone inside it) may have a sample
-    within `reach` of it (at: the pixels' positions): its cell of a coarse grid lies within a box
-    of cells of one of each ring's samples. The test errs only toward yes: a pixel it turns away
-    has no neighbourhood (rig.kernels.fill.fill_neighbourhoods finds none), and the search for
-    it, a look at every empty cell within the reach, is saved (most candidates lie beyond a
-    surface's last ring)."""
+def _rings_reach(
+    xy: np.ndarray, ring: np.ndarray, pixel: np.ndarray, shape: tuple[int, int], annulus: np.ndarray, reach: float
+) -> np.ndarray:
+    """(N,) whether both rings of each flat pixel's annulus (ring 0 alone inside it; an image of
+    `shape`) may have a sample within `reach` of it: its cell of a coarse grid over the image lies
+    within a box of cells of one of each ring's samples. The test errs only toward yes: a pixel it
+    turns away has no neighbourhood (rig.kernels.fill.fill_neighbourhoods finds none), and the
+    search for it, a look at every empty cell within the reach, is saved (most candidates lie beyond
+    a surface's last ring). Each pixel's look is compiled (rig.kernels.fill.reached)."""
     rings = int(max(ring.max(initial=-1), annulus.max(initial=0))) + 1
-    (xy_lo, xy_hi), (at_lo, at_hi) = bounds(xy), bounds(at)
-    corner, far = np.minimum(xy_lo, at_lo), np.maximum(xy_hi, at_hi)
+    xy_lo, xy_hi = bounds(xy)
+    corner, far = np.minimum(xy_lo, 0.0), np.maximum(xy_hi, np.array(shape[::-1]) - 1.0)
     cell = cell_kernels.group_cell_side(np.array([corner, far]), rings, _RING_CELL_PX, _MAX_RING_CELLS)
     home = ((xy - corner) // cell).astype(np.int64)
-    spot = ((at - corner) // cell).astype(np.int64)
-    shape = (rings, *((far - corner) // cell).astype(np.int64)[::-1] + 1)
-    occupied = np.zeros(shape, bool)
+    occupied = np.zeros((rings, *((far - corner) // cell).astype(np.int64)[::-1] + 1), bool)
     occupied[ring, home[:, 1], home[:, 0]] = True
     within = int(np.ceil(reach / cell))  # a pixel within reach of a sample lies this many cells from it at most
     near = maximum_filter(occupied, size=(1, 2 * within + 1, 2 * within + 1), mode="constant", cval=False)
-    first, second = np.where(annulus == 0, 0, annulus - 1), np.where(annulus == 0, -1, annulus)
-    reached = (annulus >= 0) & near[np.maximum(first, 0), spot[:, 1], spot[:, 0]]
-    return reached & ((second < 0) | near[np.maximum(second, 0), spot[:, 1], spot[:, 0]])
+    reached = np.empty(len(pixel), bool)
+    fill_kernels.reached(pixel, annulus, (shape[1], float(corner[0]), float(corner[1]), cell), near, reached)
+    return reached
 
 
 SearchGrid = tuple[np.ndarray, np.ndarray, tuple[object, object], float]
