@@ -60,9 +60,11 @@ def ring_triangles(
     projector: CameraModel,
     settings: SurfaceSettings,
     tri: np.ndarray | None = None,
+    directions: np.ndarray | None = None,
 ) -> RingTriangles:
-    """The kept triangles of the samples' image Delaunay triangulation `tri` (see the module docstring)."""
-    directions = np.asarray(camera.rays(xy)[1])
+    """The kept triangles of the samples' image Delaunay triangulation `tri` (see the module
+    docstring); `directions`: the samples' camera rays, where known (the triangulation's)."""
+    directions = np.asarray(camera.rays(xy)[1]) if directions is None else directions
     # the samples' neighbours along their rings need no triangles: found beside the triangulation
     neighbours = pool().submit(ring_pairs, points, xy, ring, settings.normal_smoothing_px)
     tri = delaunay(xy) if tri is None else tri

@@ -109,10 +109,10 @@ def ring_surface(
     """The surface between the kept ring samples (`tri`: their Delaunay triangles, where known), with
     holes where the projector left the camera dark."""
     config = rig.config.scan.surface
-    points, xy, ring = kept_rows(rings.kept, rings.points, rings.camera_xy, rings.ring)
+    points, xy, ring, directions = kept_rows(rings.kept, rings.points, rings.camera_xy, rings.ring, rings.directions)
     lit, bands, settings = ring_lit(rig, corr), ring_bands(corr), SurfaceSettings(max_gap_px=config.max_gap_px)
     devices = (rig.camera_models[camera], rig.projector_models[projector])
-    surface = faces_surface(points, xy, ring, *devices, lit, config.interpolant, settings, bands, tri)
+    surface = faces_surface(points, xy, ring, *devices, lit, config.interpolant, settings, bands, tri, directions)
     if config.colour == "white":
         return fill_surface(surface, xy, *devices, lit, bands, settings)
     colours = sample_colours(corr.texture, xy, corr.full_scale)

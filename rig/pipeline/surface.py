@@ -99,13 +99,15 @@ def faces_surface(
     settings: SurfaceSettings | None = None,
     bands: RingBands | None = None,
     tri: np.ndarray | None = None,
+    directions: np.ndarray | None = None,
 ) -> RingSurface:
     """interpolate_surface's surface on the triangles alone, before the pixels beyond them are
-    filled (fill_surface)."""
+    filled (fill_surface). `tri`, `directions`: the samples' Delaunay triangles and camera rays,
+    where known."""
     if method not in INTERPOLANTS:
         raise ValueError(f"unknown interpolant {method!r}; known: {', '.join(INTERPOLANTS)}")
-    settings = settings or SurfaceSettings()  # `tri`: the samples' Delaunay triangles, if known
-    triangles = ring_triangles(points, xy, ring, camera, projector, settings, tri)
+    settings = settings or SurfaceSettings()
+    triangles = ring_triangles(points, xy, ring, camera, projector, settings, tri, directions)
     counts = triangles.counts
     pixel, owner, kept = rasterize(xy, triangles.tri, camera.width, camera.height, lit, settings.max_unlit)
     if lit is not None:  # triangles over a shadow dropped
