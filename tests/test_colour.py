@@ -129,7 +129,7 @@ def test_each_samples_neighbours_along_its_ring_are_its_nearest_there(gradient_s
     cases = [pair.surface, (folded, rng.integers(0, 400, (300, 3)), rng.integers(0, 5, 400))]
     for case in cases:
         surface = case if isinstance(case, RingSurface) else _with_samples(pair.surface, *case)
-        along = _along_rings(surface, 8)
+        along = _along_rings(surface.vertices, surface.faces, surface.ring, 8)
         subset = np.arange(0, len(surface.vertices), max(1, len(surface.vertices) // 1500))
         truth = nearest_on_each_ring(surface.vertices, surface.faces, surface.ring, along.shape[1])
         for n in subset:

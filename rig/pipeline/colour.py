@@ -19,6 +19,8 @@ are on the pixel's own surface), on each ring the L + 2 samples nearest the tria
 from __future__ import annotations
 
 from collections.abc import Callable
+from concurrent.futures import Future
+from dataclasses import dataclass
 from typing import Literal
 
 import numpy as np
@@ -61,21 +63,76 @@ def interpolate_colour(
     return colour_beside_fill(surface, colours, method, neighbours, stride)(surface)
 
 
+@dataclass(frozen=True, eq=False)
+class ColourTerms:
+    """What the colour of a surface's pixels takes from its samples and faces alone (colour_terms):
+    made before the surface's points are known."""
+
+    out: np.ndarray  # (H*W, 3) float32, NaN: the colour image, to be written
+    tree: Future[cKDTree] | None  # the samples' k-d tree, being built on the pool (None: no faces)
+    mix: tuple[tuple[np.ndarray, ...], tuple[bool, int, float]]  # mix_colours' samples and settings
+    centre: np.ndarray  # (3,) the samples' centre, which mix_colours' positions are taken about
+
+
+def colour_terms(
+    surface: tuple[np.ndarray, np.ndarray, np.ndarray],
+    colours: np.ndarray,
+    method: ColourMethod,
+    neighbours: int,
+    shape: tuple[int, int],
+) -> ColourTerms:
+    """The colour's terms (ColourTerms) of a surface's samples, faces and rings (`surface`: (M, 3),
+    (F, 3), (M,)) and the samples' `colours`, for a camera image of `shape`: each face's reach and
+    corners, each sample's share of area and its nearest along its ring."""
+    if method not in COLOUR_METHODS:
+        raise ValueError(f"unknown colour interpolant {method!r}; known: {', '.join(COLOUR_METHODS)}")
+    vertices, faces, ring = surface
+    out = full_on_pool((shape[0] * shape[1], 3), np.nan, np.float32)
+    centre = vertices.mean(axis=0) if len(vertices) else np.zeros(3)
+    if len(faces) == 0:
+        return ColourTerms(out, None, ((), (False, 0, 0.0)), centre)
+    tree = pool().submit(cKDTree, vertices)
+    faces, count = np.ascontiguousarray(faces, np.int64), len(vertices)
+    reach2, corners, area = np.empty(len(faces), np.float32), np.empty((len(faces), 2), np.int64), np.zeros(count)
+    colour_kernels.face_terms(
+        np.ascontiguousarray(vertices, np.float64), faces, ring.astype(np.int64), reach2, corners, area
+    )
+    area = area if method == "area" else np.ones(count)
+    along = _along_rings(vertices, faces, ring, neighbours)
+    # float32 about the samples' centre: a few hundred mm to 1e-4 mm, ample for weights. One row per
+    # coordinate; index M (no sample) lies beyond any reach.
+    samples = np.hstack([(vertices - centre).T, np.full((3, 1), 1e18)]).astype(np.float32)
+    padded_area = np.append(area, 0.0).astype(np.float32)
+    padded_colours = np.vstack([colours, np.zeros((1, 3), np.float32)]).astype(np.float32)
+    arrays = (samples, padded_area, padded_colours, (along, corners), reach2)
+    return ColourTerms(
+        out, tree, (arrays, (method == "nearest", min(neighbours, 2 * along.shape[1]), _SOFTENING_MM**2)), centre
+    )
+
+
 def colour_beside_fill(
-    surface: RingSurface, colours: np.ndarray, method: ColourMethod = "area", neighbours: int = 8, stride: int = 1
+    surface: RingSurface,
+    colours: np.ndarray,
+    method: ColourMethod = "area",
+    neighbours: int = 8,
+    stride: int = 1,
+    terms: Future[ColourTerms] | None = None,
 ) -> Callable[[RingSurface], np.ndarray]:
     """interpolate_colour begun on a surface whose fill is yet to come (rig.pipeline.surface
     .fill_surface, which adds pixels beyond the triangles): its covered pixels are mixed on a thread
-    beside the caller's (rig.workers.beside) while the caller fills. The function returned, given
-    the filled surface, waits for them and gives each pixel filled beyond the triangles its nearest
-    sample's colour."""
+    beside the caller's (rig.workers.beside) while the caller fills, from `terms` where they were
+    begun there before (colour_terms: the thread runs its work in order). The function returned,
+    given the filled surface, waits for them and gives each pixel filled beyond the triangles its
+    nearest sample's colour."""
     if method not in COLOUR_METHODS:
         raise ValueError(f"unknown colour interpolant {method!r}; known: {', '.join(COLOUR_METHODS)}")
     height, width = surface.valid.shape
     on_grid = np.zeros_like(surface.valid)
     on_grid[::stride, ::stride] = True
     pixel = np.flatnonzero((surface.valid & on_grid).ravel())  # now: the fill adds to valid
-    mixing = beside().submit(_mixed, surface, colours, method, neighbours, pixel)
+    found = (surface.vertices, surface.faces, surface.ring)
+    terms = terms or beside().submit(colour_terms, found, colours, method, neighbours, (height, width))
+    mixing = beside().submit(lambda: _mixed(surface, pixel, terms.result(timeout=POOL_WAIT_S)))
 
     def finish(filled: RingSurface) -> np.ndarray:
         out, tree = mixing.result(timeout=POOL_WAIT_S)
@@ -88,48 +145,29 @@ def colour_beside_fill(
     return finish
 
 
-def _mixed(
-    surface: RingSurface, colours: np.ndarray, method: ColourMethod, neighbours: int, pixel: np.ndarray
-) -> tuple[np.ndarray, cKDTree | None]:
+def _mixed(surface: RingSurface, pixel: np.ndarray, terms: ColourTerms) -> tuple[np.ndarray, cKDTree | None]:
     """The flat colour image (H*W, 3 float32) of the covered pixels `pixel` of the triangles
     (rig.kernels.colour.mix_colours passes over any filled beyond them), and the samples' k-d tree
-    for those (None for no triangles: they stay NaN), built on the pool beside the mix."""
-    height, width = surface.valid.shape
-    out = full_on_pool((height * width, 3), np.nan, np.float32)
-    if len(surface.faces) == 0:
-        return out, None
-    tree = pool().submit(cKDTree, surface.vertices)
-    faces, count = np.ascontiguousarray(surface.faces, np.int64), len(surface.vertices)
-    reach2, corners, area = np.empty(len(faces), np.float32), np.empty((len(faces), 2), np.int64), np.zeros(count)
-    vertices = np.ascontiguousarray(surface.vertices, np.float64)
-    colour_kernels.face_terms(vertices, faces, surface.ring.astype(np.int64), reach2, corners, area)
-    area = area if method == "area" else np.ones(count)
-    along = _along_rings(surface, neighbours)
-    # float32 about the samples' centre: a few hundred mm to 1e-4 mm, ample for weights. One row per
-    # coordinate; index M (no sample) lies beyond any reach.
-    centre = surface.vertices.mean(axis=0)
-    samples = np.hstack([(surface.vertices - centre).T, np.full((3, 1), 1e18)]).astype(np.float32)
-    padded_area = np.append(area, 0.0).astype(np.float32)
-    padded_colours = np.vstack([colours, np.zeros((1, 3), np.float32)]).astype(np.float32)
+    for those (None for no triangles: they stay NaN)."""
+    if terms.tree is None:
+        return terms.out, None
     owner = surface.triangle.ravel()[pixel]
-    at = (surface.grid.reshape(-1, 3), pixel, owner, centre)  # the points of pixels the fill leaves alone
-    arrays = (samples, padded_area, padded_colours, (along, corners), reach2, at)
-    settings = (method == "nearest", min(neighbours, 2 * along.shape[1]), _SOFTENING_MM**2)
+    at = (surface.grid.reshape(-1, 3), pixel, owner, terms.centre)  # the points of pixels the fill leaves alone
+    arrays, settings = terms.mix
 
     def colour_part(span: tuple[int, int]) -> None:
-        colour_kernels.mix_colours(*arrays, settings, out, *span)
+        colour_kernels.mix_colours(*arrays, at, settings, terms.out, *span)
 
     list(pool().map(colour_part, batches(len(pixel))))
-    return out, tree.result(timeout=POOL_WAIT_S)
+    return terms.out, terms.tree.result(timeout=POOL_WAIT_S)
 
 
-def _along_rings(surface: RingSurface, neighbours: int) -> np.ndarray:
+def _along_rings(vertices: np.ndarray, faces: np.ndarray, ring: np.ndarray, neighbours: int) -> np.ndarray:
     """(M, L + 2) per sample, the L + 2 samples of its ring nearest it in space (M where none): a
     face's candidates are those of a corner on each of its two rings (two more than L: pixels across
     the face have other nearest ones). Only samples of a face count. An exact search that sweeps each
     ring along one of its two widest axes (rig.kernels.colour.ring_sweeps, nearest_on_ring), a span
     of samples per thread."""
-    vertices, faces, ring = surface.vertices, surface.faces, surface.ring
     used = np.flatnonzero(np.bincount(faces.ravel(), minlength=len(vertices)) > 0)
     along = np.full((len(vertices), min(neighbours + 2, len(used))), len(vertices), np.int64)
     if len(used) == 0:

@@ -39,7 +39,7 @@ def _listed(image: np.ndarray, lit: np.ndarray, faces: int, max_unlit: float) ->
     list(pool().map(lambda k: triangle_kernels.face_areas(image, lit, area[k], dark[k], strips[k]), range(len(strips))))
     kept = ~(dark.sum(axis=0) > max_unlit * np.maximum(area.sum(axis=0), 1))
     renumber = np.cumsum(kept) - kept  # the kept faces before each
-    starts = np.concatenate([[0], np.cumsum(area[:, kept].sum(axis=1))])
+    starts = np.concatenate([[0], np.cumsum(area @ kept)])  # each strip's pixels of kept faces
     listed = (np.empty(starts[-1], np.int32), np.empty(starts[-1], np.int32))  # int32: half the memory
     list(
         pool().map(

@@ -12,7 +12,7 @@ from rig.kernels import kept_rows
 from rig.opened_rig import Rig
 from rig.patterns import Codec, CodecParams, Correspondence, FrameStream, codec_class, decode_streamed
 from rig.pipeline.capture import CUE, capture
-from rig.pipeline.colour import colour_beside_fill, sample_colours
+from rig.pipeline.colour import colour_beside_fill, colour_terms, sample_colours
 from rig.pipeline.dense import PairTriangulator, pair_pointset, reject_isolated, texture_rgb
 from rig.pipeline.merge import expected_error_mm, local_noise_mm, merge, triangulation_angles
 from rig.pipeline.mesh import Mesh, grid_mesh
@@ -29,9 +29,10 @@ from rig.pipeline.ring_triangulation import (
     ring_pointset,
     triangulate_rings,
 )
-from rig.pipeline.surface import RingBands, RingSurface, SurfaceSettings, faces_surface, fill_surface
+from rig.pipeline.surface import RingBands, RingSurface, SurfaceSettings, fill_surface, surface_faces, surface_on_faces
 from rig.pipeline.triangulation import delaunay
 from rig.progress import ProgressCallback, ProgressTracker
+from rig.workers import beside
 
 
 def make_codec(rig: Rig, projector: int, name: str | None = None, params: CodecParams | None = None) -> Codec:
@@ -112,12 +113,19 @@ def ring_surface(
     points, xy, ring, directions = kept_rows(rings.kept, rings.points, rings.camera_xy, rings.ring, rings.directions)
     lit, bands, settings = ring_lit(rig, corr), ring_bands(corr), SurfaceSettings(max_gap_px=config.max_gap_px)
     devices = (rig.camera_models[camera], rig.projector_models[projector])
-    surface = faces_surface(points, xy, ring, *devices, lit, config.interpolant, settings, bands, tri, directions)
-    if config.colour == "white":
+    faces = surface_faces(points, xy, ring, *devices, lit, settings, tri, directions)
+    terms = None
+    if config.colour != "white":  # the colour's terms from the faces, beside the faces' points
+        colours = sample_colours(corr.texture, xy, corr.full_scale)
+        found, shape = (points, faces.triangles.tri, ring), (devices[0].height, devices[0].width)
+        terms = beside().submit(colour_terms, found, colours, config.colour, config.colour_neighbours, shape)
+    surface = surface_on_faces(points, xy, ring, faces, *devices, config.interpolant, settings, bands)
+    del faces  # its pixel lists: the fill's peak of memory holds none
+    if terms is None:
         return fill_surface(surface, xy, *devices, lit, bands, settings)
-    colours = sample_colours(corr.texture, xy, corr.full_scale)
     # the triangles' pixels are coloured beside the fill, which leaves them alone
-    coloured = colour_beside_fill(surface, colours, config.colour, config.colour_neighbours, config.mesh_stride_px)
+    stride = config.mesh_stride_px
+    coloured = colour_beside_fill(surface, colours, config.colour, config.colour_neighbours, stride, terms)
     surface = fill_surface(surface, xy, *devices, lit, bands, settings)
     return dataclasses.replace(surface, colour=coloured(surface))
 

@@ -104,9 +104,33 @@ def faces_surface(
     """interpolate_surface's surface on the triangles alone, before the pixels beyond them are
     filled (fill_surface). `tri`, `directions`: the samples' Delaunay triangles and camera rays,
     where known."""
-    if method not in INTERPOLANTS:
-        raise ValueError(f"unknown interpolant {method!r}; known: {', '.join(INTERPOLANTS)}")
     settings = settings or SurfaceSettings()
+    faces = surface_faces(points, xy, ring, camera, projector, lit, settings, tri, directions)
+    return surface_on_faces(points, xy, ring, faces, camera, projector, method, settings, bands)
+
+
+@dataclass(frozen=True, eq=False)
+class SurfaceFaces:
+    """The kept triangles of a pair's ring samples and the camera pixels they cover (surface_faces)."""
+
+    triangles: RingTriangles
+    pixels: tuple[np.ndarray, np.ndarray]  # flat pixels and their faces (rig.pipeline.raster.rasterize)
+    counts: dict[str, int]
+
+
+def surface_faces(
+    points: np.ndarray,
+    xy: np.ndarray,
+    ring: np.ndarray,
+    camera: CameraModel,
+    projector: CameraModel,
+    lit: np.ndarray | None,
+    settings: SurfaceSettings,
+    tri: np.ndarray | None = None,
+    directions: np.ndarray | None = None,
+) -> SurfaceFaces:
+    """faces_surface's triangles, those over a shadow dropped, and their pixels: all that is known
+    of the surface before its points."""
     triangles = ring_triangles(points, xy, ring, camera, projector, settings, tri, directions)
     counts = triangles.counts
     pixel, owner, kept = rasterize(xy, triangles.tri, camera.width, camera.height, lit, settings.max_unlit)
@@ -115,19 +139,34 @@ def faces_surface(
         counts["faces"] -= counts["dropped_shadow"]
         if not kept.all():
             triangles = triangles.subset(kept)
+    return SurfaceFaces(triangles, (pixel, owner), counts)
+
+
+def surface_on_faces(
+    points: np.ndarray,
+    xy: np.ndarray,
+    ring: np.ndarray,
+    faces: SurfaceFaces,
+    camera: CameraModel,
+    projector: CameraModel,
+    method: Interpolant,
+    settings: SurfaceSettings,
+    bands: RingBands | None,
+) -> RingSurface:
+    """faces_surface from its faces (surface_faces): each covered pixel's point."""
+    if method not in INTERPOLANTS:
+        raise ValueError(f"unknown interpolant {method!r}; known: {', '.join(INTERPOLANTS)}")
+    triangles, counts = faces.triangles, faces.counts
     tri, normals = triangles.tri, triangles.normals
-    grid, ok, agree = _points_in_faces(
-        points, xy, triangles, camera, projector, (pixel, owner), method, bands, settings
-    )
+    grid, ok, agree = _points_in_faces(points, xy, triangles, camera, projector, faces.pixels, method, bands, settings)
     # pixels off their bands, and every pixel of a face with many (it bridges an edge); the pixels
     # as images then: the fill's peak of memory holds no per-pixel lists of the faces'
     tested = len(tri) if bands is not None else 0
-    valid, triangle, dropped = settled_pixels((pixel, owner), (ok, agree), tested, settings.max_band_disagreement, grid)
+    valid, triangle, dropped = settled_pixels(faces.pixels, (ok, agree), tested, settings.max_band_disagreement, grid)
     if bands is not None:
         counts["dropped_band_px"] = dropped
-    pixels = int(np.count_nonzero(ok))
-    del pixel, owner, ok, agree
-    counts["pixels"] = pixels
+    counts["pixels"] = int(np.count_nonzero(ok))
+    del ok, agree
     shape = (camera.height, camera.width)
     return RingSurface(
         points, normals, tri, grid.reshape(*shape, 3), valid.reshape(shape), counts, ring, triangle.reshape(shape),
