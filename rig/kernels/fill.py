@@ -4,7 +4,9 @@ Each pixel's quadratic height field is a 6x6 weighted least-squares problem over
 sample rows. As numpy passes over (pixels, rows, 6) arrays it took 0.5 s for the default bench's
 ring scan (line profile, scratch); one loop per pixel keeps each problem in registers. Like
 rig.kernels.dense, the loop releases the GIL and takes a span of pixels [start, stop) for rig.workers'
-pool, and is compiled on first use and cached beside this file.
+pool, and is compiled on first use and cached beside this file. The fit's helpers are inlined
+into it (numba's inline="always"): called, with the arrays they write as arguments, they took a
+third of its time (43 against 29 ms on one thread for the default bench's 22,000 fits).
 """
 
 from __future__ import annotations
@@ -77,7 +79,7 @@ def fit_height_fields(
             origin[n, c] = o[c]
 
 
-@njit(nogil=True, cache=True)
+@njit(nogil=True, cache=True, inline="always")
 def _axes(up: np.ndarray, axes: np.ndarray) -> None:
     """Rows e1, e2, up of `axes`: a right-handed frame about the unit normal `up`."""
     rx, ry, rz = (1.0, 0.0, 0.0) if abs(up[0]) < 0.9 else (0.0, 1.0, 0.0)
@@ -89,7 +91,7 @@ def _axes(up: np.ndarray, axes: np.ndarray) -> None:
     axes[2, 0], axes[2, 1], axes[2, 2] = up[0], up[1], up[2]
 
 
-@njit(nogil=True, cache=True)
+@njit(nogil=True, cache=True, inline="always")
 def _fit(
     local: np.ndarray,
     slope: np.ndarray,
@@ -123,12 +125,12 @@ def _fit(
     _solve(normal, right, coef)
 
 
-@njit(**KERNEL)
+@njit(nogil=True, cache=True, inline="always")
 def _height(c: np.ndarray, x: float, y: float) -> float:
     return c[0] + c[1] * x + c[2] * y + c[3] * x * x + c[4] * x * y + c[5] * y * y
 
 
-@njit(**KERNEL)
+@njit(nogil=True, cache=True, inline="always")
 def _accumulate(normal: np.ndarray, right: np.ndarray, row: np.ndarray, target: float) -> None:
     """Add a row of the least-squares system to its normal equations: their upper triangle only
     (the lower is the same products, mirrored once all rows are in)."""
@@ -139,7 +141,7 @@ def _accumulate(normal: np.ndarray, right: np.ndarray, row: np.ndarray, target: 
                 normal[a, b] += row[a] * row[b]
 
 
-@njit(**KERNEL)
+@njit(nogil=True, cache=True, inline="always")
 def _solve(matrix: np.ndarray, right: np.ndarray, out: np.ndarray) -> None:
     """Gaussian elimination with partial pivoting into `out` (both arguments are overwritten); NaN
     if singular."""
