@@ -69,7 +69,7 @@ def crease_normals(tri: np.ndarray, normals: np.ndarray, face: np.ndarray, weigh
     """(F, 3, 3) each face corner's normal: the sample's own, or, where that is more than CREASE_DEG
     from the face's unit normal `face`, the `weight`ed mean of the unit normals of the faces around
     the sample that are within SIDE_DEG of this face (a crease splits a sample's normal in two)."""
-    corner = normals[tri].copy()
+    corner = np.take(normals, tri, axis=0)  # 0.65 ms for 68,000 faces; an index and a copy took 5.5
     limit = np.cos(np.radians(CREASE_DEG))
     split_face, split_k = np.nonzero(np.einsum("fkj,fj->fk", corner, face) < limit)
     if len(split_face) == 0:

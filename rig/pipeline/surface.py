@@ -25,6 +25,7 @@ import numpy as np
 from scipy.interpolate import CloughTocher2DInterpolator
 
 from rig.geometry import CameraModel
+from rig.kernels import kept_rows
 from rig.lazy import lazy_module
 from rig.pipeline.disc_fill import disc_points
 from rig.pipeline.fill import fill_candidates, fill_points
@@ -257,22 +258,22 @@ def _filled(
     """The pixels beyond the triangles (`mask`: flat, the pixels they cover) given a point in their
     own band (rig.pipeline.fill); their points are written into `grid` (flat)."""
     candidate = fill_candidates(mask, bands.annulus, lit)
-    in_triangle = np.flatnonzero(np.bincount(tri.ravel(), minlength=len(points)) > 0)
+    in_triangle = np.bincount(tri.ravel(), minlength=len(points)) > 0
     annulus = bands.annulus.ravel()[candidate].astype(np.int64)
     # an inner disc the rings close around, on the pool (one thread's work) beside the fill of every
     # candidate; a pixel's fill does not depend on which others are filled with it
     disc = pool().submit(disc_points, grid, mask, candidate, annulus, camera)
-    found = fill_points(
-        points[in_triangle], normals[in_triangle], xy[in_triangle], ring[in_triangle], camera, candidate, annulus,
-        settings.fill_settings,
-    )  # fmt: skip
+    samples = kept_rows(in_triangle, points, normals, xy, ring)
+    found = fill_points(*samples, camera, candidate, annulus, settings.fill_settings)
     in_disc = disc.result(timeout=POOL_WAIT_S)
     inside = np.isfinite(in_disc).all(axis=1)  # the disc's points before the fill's
     found[inside] = in_disc[inside]
     keep = np.isfinite(found).all(axis=1)
-    keep[keep] = band_agreement(found[keep], candidate[keep], projector, bands, settings)
-    grid[candidate[keep]] = found[keep]
-    return candidate[keep]
+    found, filled = kept_rows(keep, found, candidate)
+    agree = band_agreement(found, filled, projector, bands, settings)
+    found, filled = kept_rows(agree, found, filled)
+    grid[filled] = found
+    return filled
 
 
 def band_agreement(
