@@ -104,7 +104,9 @@ def _filled_block(
     if len(rows) == 0:
         return rows, np.empty((0, 3))
     origins, directions = camera.pixel_rays
-    rays = (np.take(origins, pixel[rows], axis=0), np.take(directions, pixel[rows], axis=0))
+    # by index: np.take would first copy whole a broadcast (a pinhole's origins, an orthographic
+    # camera's directions)
+    rays = (np.asarray(origins[pixel[rows]]), np.asarray(directions[pixel[rows]]))
     chosen = (np.take(index, rows, axis=0), np.take(use, rows, axis=0))
     met, misfit_mm = _fit_and_meet(points, normals, *chosen, rays, settings)
     smooth = misfit_mm <= settings.max_misfit_px * camera.mm_per_px(np.nan_to_num(met))
