@@ -4,7 +4,8 @@
 fed again and again by a thread as hardware-triggered cameras at the case's rate would deliver it
 (every camera's frame k at once). The pipeline is live mode's own (rig.pipeline.live,
 rig.pipeline.sustained): each frame decoded as it arrives, each finished sequence triangulated on a
-worker thread while the next is decoded. Two places drop whole sequences, never frames: the
+worker thread while the next is decoded; before the clock, one sequence of dark frames warms the
+heap, as live mode's start does (decision 0042). Two places drop whole sequences, never frames: the
 camera, when its buffer already holds a whole sequence the decoder has not read, and the worker,
 when a newer sequence replaces one still waiting.
 
@@ -12,7 +13,8 @@ Prints one JSON object {"cases": [...]}: per case clouds per second against the 
 sequences per second, sequences dropped, latency from a sequence's last frame to its depth images
 (p50, p99), CPU seconds per cloud, the bytes of a frame and of a sequence (every camera), what the
 process holds before the run (the rig, the simulator, the frames it feeds) and the peak of the
-sustained run above that, also against the frames of two sequences (each case in a fresh process).
+sustained run above that (the warm-up's heap with it), also against the frames of two sequences
+(each case in a fresh process).
 
     python bench/throughput.py [--docs] [--seconds 10]
     python bench/throughput.py --case 6-1280x1024-8bit-1 [--seconds 10]   # one case, its JSON alone

@@ -60,8 +60,9 @@ def test_rasterize_drops_a_triangle_over_a_shadow_and_renumbers_the_rest() -> No
 
 @pytest.fixture(scope="module")
 def ring_scan():  # type: ignore[no-untyped-def]
-    config = load_config()
-    with open_rig(config) as rig:
+    data = load_config().model_dump(mode="json")
+    data["scan"]["surface"]["colour"] = "area"  # coloured between the rings, as a scan does it
+    with open_rig(config_from_dict(data, "rings, coloured")) as rig:
         result = run_scan(rig, "rings")
         yield rig, result
 
@@ -96,7 +97,8 @@ def test_quadratic_beats_linear_and_both_leave_shadows_empty(ring_scan) -> None:
 
 def test_colouring_beside_the_fill_colours_the_filled_surface(ring_scan) -> None:  # type: ignore[no-untyped-def]
     """A ring scan colours the triangles' pixels while it fills the pixels beyond them: the same
-    colours as the filled surface's own, and the same surface as in one step. Each pixel's fill is
+    colours as the filled surface's own (also where the scan began the colour's terms beside the
+    triangles' points), and the same surface as in one step. Each pixel's fill is
     its own: filling a subset of the candidates gives those pixels the points filling all gives."""
     rig, result = ring_scan
     pair = result.pairs[0]
@@ -112,6 +114,10 @@ def test_colouring_beside_the_fill_colours_the_filled_surface(ring_scan) -> None
     filled = fill_surface(surface, xy, *devices, lit, bands, settings)
     assert filled.counts["filled_px"] > 1000  # pixels the fill added while the colour was mixed
     np.testing.assert_array_equal(coloured(filled), interpolate_colour(filled, colours, "area", stride=2))
+    scanned, wanted = pair.surface, rig.config.scan.surface  # the scan began its colour's terms beside its points
+    assert scanned.colour is not None and np.isfinite(scanned.colour).any()
+    alone = interpolate_colour(scanned, colours, "area", wanted.colour_neighbours, wanted.mesh_stride_px)
+    np.testing.assert_array_equal(scanned.colour, alone)
     whole = interpolate_surface(points, xy, ring, *devices, lit, "quadratic", settings, bands)
     np.testing.assert_array_equal(filled.grid, whole.grid)
     assert filled.counts == whole.counts and list(filled.counts) == list(whole.counts)

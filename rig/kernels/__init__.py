@@ -9,7 +9,7 @@ planes fitted once for the samples sharing a neighbourhood; `normals`: the ring 
 the bend tests; `triangles`: the ring triangles' tests and their rasterising; `delaunay`: the ring
 samples' Delaunay triangles, inserted one at a time, and the Hilbert curve of their order;
 `ring_surface`: per-face terms, each pixel's point on its face and its band agreement; `fill`: the
-ring surface's neighbourhoods, one-surface test and height-field fits; `colour`: the colour between
+ring surface's reach test, neighbourhoods, one-surface test and height-field fits; `colour`: the colour between
 the rings and each sample's nearest on its ring; `vectors`: three-vectors as rows, read in place;
 `cells`: image points in a grid of cells (all together or by ring), the nearest-neighbour
 searches over it and sorts by counting; `mesh`: an organised grid's mesh faces; `regions`:

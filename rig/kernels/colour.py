@@ -2,7 +2,8 @@
 and share of area in one loop, and each pixel's weighted mean of its face's candidate samples in
 another, instead of (pixels x candidates) numpy temporaries and a sparse product (130 ms for the
 default bench's ring scan, against about 20 here); and each sample's nearest on its own ring, the
-pixels' candidates, by a sweep along the ring's widest axis (a 4-D k-d tree took twice as long).
+pixels' candidates, by a sweep along one of the ring's two widest axes, whichever each sample's
+neighbours spread furthest along (a 4-D k-d tree took twice as long).
 The pixels' distances are float32 about the samples' centre, as rig.pipeline.colour prepares them,
 and their sums float64; the samples' distances to each other are float64."""
 

@@ -233,7 +233,7 @@ def settle(
     stop: int,
 ) -> int:
     """Which of the listed pixels [start:stop] (listed: flat pixels and their faces) keep their point
-    (rig.pipeline.raster.settled_pixels, for rig.pipeline.surface.faces_surface). found: (ok,
+    (rig.pipeline.raster.settled_pixels, for rig.pipeline.surface.surface_on_faces). found: (ok,
     agree): whether a point was found and lies in the band its pixel read. With band_counts'
     `counts` (empty: no band test), `agree` is cleared in place for every pixel of a face with more
     than `max_disagreement` of its pixels off their bands (the face bridges an edge its corners

@@ -65,32 +65,34 @@ def interpolate_colour(
 
 @dataclass(frozen=True, eq=False)
 class ColourTerms:
-    """What the colour of a surface's pixels takes from its samples and faces alone (colour_terms):
-    made before the surface's points are known."""
+    """What the colour of a surface's pixels takes from its samples and faces alone (colour_terms),
+    made before the surface's points are known: rig.kernels.colour.mix_colours' per-sample and
+    per-face arrays (samples (3, M + 1) float32 about `centre`, area (M + 1,), colours (M + 1, 3):
+    each padded with a sample that lies beyond any reach; candidates (along, corners); reach2)."""
 
-    out: np.ndarray  # (H*W, 3) float32, NaN: the colour image, to be written
     tree: Future[cKDTree] | None  # the samples' k-d tree, being built on the pool (None: no faces)
-    mix: tuple[tuple[np.ndarray, ...], tuple[bool, int, float]]  # mix_colours' samples and settings
-    centre: np.ndarray  # (3,) the samples' centre, which mix_colours' positions are taken about
+    samples: np.ndarray
+    area: np.ndarray
+    colours: np.ndarray
+    candidates: tuple[np.ndarray, np.ndarray]
+    reach2: np.ndarray
+    centre: np.ndarray  # (3,) the samples' centre, which the pixels' positions are taken about
+    settings: tuple[bool, int, float]  # mix_colours': (nearest, L, softening squared)
 
 
 def colour_terms(
-    surface: tuple[np.ndarray, np.ndarray, np.ndarray],
-    colours: np.ndarray,
-    method: ColourMethod,
-    neighbours: int,
-    shape: tuple[int, int],
+    samples: tuple[np.ndarray, np.ndarray, np.ndarray], colours: np.ndarray, method: ColourMethod, neighbours: int
 ) -> ColourTerms:
-    """The colour's terms (ColourTerms) of a surface's samples, faces and rings (`surface`: (M, 3),
-    (F, 3), (M,)) and the samples' `colours`, for a camera image of `shape`: each face's reach and
-    corners, each sample's share of area and its nearest along its ring."""
+    """The colour's terms (ColourTerms) of a surface's samples (`samples`: their points (M, 3), the
+    faces (F, 3) and their rings (M,)) and their `colours`: each face's reach and corners, each
+    sample's share of area and its nearest along its ring."""
     if method not in COLOUR_METHODS:
         raise ValueError(f"unknown colour interpolant {method!r}; known: {', '.join(COLOUR_METHODS)}")
-    vertices, faces, ring = surface
-    out = full_on_pool((shape[0] * shape[1], 3), np.nan, np.float32)
+    vertices, faces, ring = samples
     centre = vertices.mean(axis=0) if len(vertices) else np.zeros(3)
     if len(faces) == 0:
-        return ColourTerms(out, None, ((), (False, 0, 0.0)), centre)
+        none = np.empty(0, np.float32)
+        return ColourTerms(None, none, none, none, (np.empty((0, 0), np.int64),) * 2, none, centre, (False, 0, 0.0))
     tree = pool().submit(cKDTree, vertices)
     faces, count = np.ascontiguousarray(faces, np.int64), len(vertices)
     reach2, corners, area = np.empty(len(faces), np.float32), np.empty((len(faces), 2), np.int64), np.zeros(count)
@@ -101,12 +103,15 @@ def colour_terms(
     along = _along_rings(vertices, faces, ring, neighbours)
     # float32 about the samples' centre: a few hundred mm to 1e-4 mm, ample for weights. One row per
     # coordinate; index M (no sample) lies beyond any reach.
-    samples = np.hstack([(vertices - centre).T, np.full((3, 1), 1e18)]).astype(np.float32)
-    padded_area = np.append(area, 0.0).astype(np.float32)
-    padded_colours = np.vstack([colours, np.zeros((1, 3), np.float32)]).astype(np.float32)
-    arrays = (samples, padded_area, padded_colours, (along, corners), reach2)
     return ColourTerms(
-        out, tree, (arrays, (method == "nearest", min(neighbours, 2 * along.shape[1]), _SOFTENING_MM**2)), centre
+        tree,
+        np.hstack([(vertices - centre).T, np.full((3, 1), 1e18)]).astype(np.float32),
+        np.append(area, 0.0).astype(np.float32),
+        np.vstack([colours, np.zeros((1, 3), np.float32)]).astype(np.float32),
+        (along, corners),
+        reach2,
+        centre,
+        (method == "nearest", min(neighbours, 2 * along.shape[1]), _SOFTENING_MM**2),
     )
 
 
@@ -116,23 +121,24 @@ def colour_beside_fill(
     method: ColourMethod = "area",
     neighbours: int = 8,
     stride: int = 1,
-    terms: Future[ColourTerms] | None = None,
+    begun: Future[ColourTerms] | None = None,
 ) -> Callable[[RingSurface], np.ndarray]:
     """interpolate_colour begun on a surface whose fill is yet to come (rig.pipeline.surface
     .fill_surface, which adds pixels beyond the triangles): its covered pixels are mixed on a thread
-    beside the caller's (rig.workers.beside) while the caller fills, from `terms` where they were
-    begun there before (colour_terms: the thread runs its work in order). The function returned,
-    given the filled surface, waits for them and gives each pixel filled beyond the triangles its
-    nearest sample's colour."""
+    beside the caller's (rig.workers.beside) while the caller fills. The function returned, given
+    the filled surface, waits for them and gives each pixel filled beyond the triangles its nearest
+    sample's colour. `begun`: colour_terms of this surface's samples, faces, `colours`, `method`
+    and `neighbours`, submitted to rig.workers.beside() before this call (the thread runs its work
+    in order, so they are made when the mix starts); the terms are made here otherwise."""
     if method not in COLOUR_METHODS:
         raise ValueError(f"unknown colour interpolant {method!r}; known: {', '.join(COLOUR_METHODS)}")
     height, width = surface.valid.shape
     on_grid = np.zeros_like(surface.valid)
     on_grid[::stride, ::stride] = True
     pixel = np.flatnonzero((surface.valid & on_grid).ravel())  # now: the fill adds to valid
-    found = (surface.vertices, surface.faces, surface.ring)
-    terms = terms or beside().submit(colour_terms, found, colours, method, neighbours, (height, width))
-    mixing = beside().submit(lambda: _mixed(surface, pixel, terms.result(timeout=POOL_WAIT_S)))
+    samples = (surface.vertices, surface.faces, surface.ring)
+    begun = begun or beside().submit(colour_terms, samples, colours, method, neighbours)
+    mixing = beside().submit(_mixed, surface, pixel, begun)  # the terms go with the mix, before the fill ends
 
     def finish(filled: RingSurface) -> np.ndarray:
         out, tree = mixing.result(timeout=POOL_WAIT_S)
@@ -145,21 +151,24 @@ def colour_beside_fill(
     return finish
 
 
-def _mixed(surface: RingSurface, pixel: np.ndarray, terms: ColourTerms) -> tuple[np.ndarray, cKDTree | None]:
+def _mixed(surface: RingSurface, pixel: np.ndarray, begun: Future[ColourTerms]) -> tuple[np.ndarray, cKDTree | None]:
     """The flat colour image (H*W, 3 float32) of the covered pixels `pixel` of the triangles
-    (rig.kernels.colour.mix_colours passes over any filled beyond them), and the samples' k-d tree
-    for those (None for no triangles: they stay NaN)."""
+    (rig.kernels.colour.mix_colours passes over any filled beyond them), NaN elsewhere, and the
+    samples' k-d tree for those (None for no triangles: they stay NaN)."""
+    terms = begun.result(timeout=POOL_WAIT_S)  # done: made on this thread before
+    height, width = surface.valid.shape
+    out = full_on_pool((height * width, 3), np.nan, np.float32)
     if terms.tree is None:
-        return terms.out, None
+        return out, None
     owner = surface.triangle.ravel()[pixel]
     at = (surface.grid.reshape(-1, 3), pixel, owner, terms.centre)  # the points of pixels the fill leaves alone
-    arrays, settings = terms.mix
+    arrays = (terms.samples, terms.area, terms.colours, terms.candidates, terms.reach2)
 
     def colour_part(span: tuple[int, int]) -> None:
-        colour_kernels.mix_colours(*arrays, at, settings, terms.out, *span)
+        colour_kernels.mix_colours(*arrays, at, terms.settings, out, *span)
 
     list(pool().map(colour_part, batches(len(pixel))))
-    return terms.out, terms.tree.result(timeout=POOL_WAIT_S)
+    return out, terms.tree.result(timeout=POOL_WAIT_S)
 
 
 def _along_rings(vertices: np.ndarray, faces: np.ndarray, ring: np.ndarray, neighbours: int) -> np.ndarray:

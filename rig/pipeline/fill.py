@@ -104,8 +104,7 @@ def _filled_block(
     if len(rows) == 0:
         return rows, np.empty((0, 3))
     origins, directions = camera.pixel_rays
-    # by index: np.take would first copy whole a broadcast (a pinhole's origins, an orthographic
-    # camera's directions)
+    # by index: np.take would first copy a pinhole's origins, a broadcast, whole
     rays = (np.asarray(origins[pixel[rows]]), np.asarray(directions[pixel[rows]]))
     chosen = (np.take(index, rows, axis=0), np.take(use, rows, axis=0))
     met, misfit_mm = _fit_and_meet(points, normals, *chosen, rays, settings)

@@ -257,23 +257,27 @@ def prepare_triangulation(rig: Rig, codecs: list[Codec]) -> None:
                 fast_terms(triangulator(rig, p, c), codec.coded_axes())
 
 
-def warm_up(rig: Rig, codecs: list[Codec]) -> None:
-    """One sequence of dark frames through every pair's decode and triangulation, its result
+def warm_up(rig: Rig, codecs: list[Codec]) -> int:
+    """One sequence of dark frames through every pair's decode and triangulation, its results
     dropped: the heap then holds what a sequence's arrays need before the cameras run. Started
     cold (an idle daemon hands its free memory back after each job), the first sequences of two
     5 MP cameras took three to four times as long as the rest while their arrays were faulted in,
-    and one was dropped (decision 0042)."""
+    and one was dropped (decision 0042). How many pairs went all the way (a pair whose dark frames
+    do not decode is logged and passed over: what it allocated on the way is in the heap too)."""
     cameras, dark = rig.config.cameras, dark_frames(rig)
     pairs = [(p, c) for p in range(len(codecs)) for c in range(len(cameras)) if is_reconstructed(rig, (p, c))]
     streams = {(p, c): codecs[p].stream(cameras[c].full_scale) for p, c in pairs}
-    for (p, c), stream in streams.items():
+    for (p, c), stream in streams.items():  # every pair's frames in, as a sequence's are
         for _ in range(codecs[p].frame_count):
             stream.add(dark[c])
-    now = time.perf_counter()
-    try:
-        finish_sequence(rig, CapturedSequence(0, {pair: [stream] for pair, stream in streams.items()}, now, now))
-    except ScanError as exc:  # dark frames may not decode; what they allocated on the way is in the heap
-        log.debug("live mode warm-up: %s", exc)
+    warmed = 0
+    for (p, c), stream in streams.items():
+        try:
+            pair_depth(rig, p, c, stream.finish())
+            warmed += 1
+        except (DecodeError, ScanError) as exc:
+            log.info("live mode warm-up: projector %d, camera %s: %s", p, cameras[c].name, exc)
+    return warmed
 
 
 def dark_frames(rig: Rig) -> list[np.ndarray]:

@@ -29,7 +29,15 @@ from rig.pipeline.ring_triangulation import (
     ring_pointset,
     triangulate_rings,
 )
-from rig.pipeline.surface import RingBands, RingSurface, SurfaceSettings, fill_surface, surface_faces, surface_on_faces
+from rig.pipeline.surface import (
+    RingBands,
+    RingSurface,
+    SurfaceSettings,
+    check_interpolant,
+    covered_faces,
+    fill_surface,
+    surface_on_faces,
+)
 from rig.pipeline.triangulation import delaunay
 from rig.progress import ProgressCallback, ProgressTracker
 from rig.workers import beside
@@ -113,19 +121,21 @@ def ring_surface(
     points, xy, ring, directions = kept_rows(rings.kept, rings.points, rings.camera_xy, rings.ring, rings.directions)
     lit, bands, settings = ring_lit(rig, corr), ring_bands(corr), SurfaceSettings(max_gap_px=config.max_gap_px)
     devices = (rig.camera_models[camera], rig.projector_models[projector])
-    faces = surface_faces(points, xy, ring, *devices, lit, settings, tri, directions)
-    terms = None
+    check_interpolant(config.interpolant)
+    faces = covered_faces(points, xy, ring, *devices, lit, settings, tri, directions)
+    begun = None
     if config.colour != "white":  # the colour's terms from the faces, beside the faces' points
         colours = sample_colours(corr.texture, xy, corr.full_scale)
-        found, shape = (points, faces.triangles.tri, ring), (devices[0].height, devices[0].width)
-        terms = beside().submit(colour_terms, found, colours, config.colour, config.colour_neighbours, shape)
+        samples = (points, faces.triangles.tri, ring)
+        begun = beside().submit(colour_terms, samples, colours, config.colour, config.colour_neighbours)
     surface = surface_on_faces(points, xy, ring, faces, *devices, config.interpolant, settings, bands)
     del faces  # its pixel lists: the fill's peak of memory holds none
-    if terms is None:
+    if begun is None:
         return fill_surface(surface, xy, *devices, lit, bands, settings)
     # the triangles' pixels are coloured beside the fill, which leaves them alone
     stride = config.mesh_stride_px
-    coloured = colour_beside_fill(surface, colours, config.colour, config.colour_neighbours, stride, terms)
+    coloured = colour_beside_fill(surface, colours, config.colour, config.colour_neighbours, stride, begun)
+    del begun  # the terms: the mix frees them, before the fill ends
     surface = fill_surface(surface, xy, *devices, lit, bands, settings)
     return dataclasses.replace(surface, colour=coloured(surface))
 

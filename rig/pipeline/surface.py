@@ -105,21 +105,30 @@ def faces_surface(
     """interpolate_surface's surface on the triangles alone, before the pixels beyond them are
     filled (fill_surface). `tri`, `directions`: the samples' Delaunay triangles and camera rays,
     where known."""
+    check_interpolant(method)
     settings = settings or SurfaceSettings()
-    faces = surface_faces(points, xy, ring, camera, projector, lit, settings, tri, directions)
+    faces = covered_faces(points, xy, ring, camera, projector, lit, settings, tri, directions)
     return surface_on_faces(points, xy, ring, faces, camera, projector, method, settings, bands)
 
 
+def check_interpolant(method: str) -> None:
+    """ValueError naming `method` unless it is one of INTERPOLANTS."""
+    if method not in INTERPOLANTS:
+        raise ValueError(f"unknown interpolant {method!r}; known: {', '.join(INTERPOLANTS)}")
+
+
 @dataclass(frozen=True, eq=False)
-class SurfaceFaces:
-    """The kept triangles of a pair's ring samples and the camera pixels they cover (surface_faces)."""
+class CoveredFaces:
+    """The kept triangles of a pair's ring samples and the camera pixels they cover (covered_faces).
+    Its pixel lists take 8 bytes a covered pixel: dropped once the points are found
+    (surface_on_faces), the fill's peak of memory holds none."""
 
     triangles: RingTriangles
     pixels: tuple[np.ndarray, np.ndarray]  # flat pixels and their faces (rig.pipeline.raster.rasterize)
     counts: dict[str, int]
 
 
-def surface_faces(
+def covered_faces(
     points: np.ndarray,
     xy: np.ndarray,
     ring: np.ndarray,
@@ -129,7 +138,7 @@ def surface_faces(
     settings: SurfaceSettings,
     tri: np.ndarray | None = None,
     directions: np.ndarray | None = None,
-) -> SurfaceFaces:
+) -> CoveredFaces:
     """faces_surface's triangles, those over a shadow dropped, and their pixels: all that is known
     of the surface before its points."""
     triangles = ring_triangles(points, xy, ring, camera, projector, settings, tri, directions)
@@ -140,28 +149,27 @@ def surface_faces(
         counts["faces"] -= counts["dropped_shadow"]
         if not kept.all():
             triangles = triangles.subset(kept)
-    return SurfaceFaces(triangles, (pixel, owner), counts)
+    return CoveredFaces(triangles, (pixel, owner), counts)
 
 
 def surface_on_faces(
     points: np.ndarray,
     xy: np.ndarray,
     ring: np.ndarray,
-    faces: SurfaceFaces,
+    faces: CoveredFaces,
     camera: CameraModel,
     projector: CameraModel,
     method: Interpolant,
     settings: SurfaceSettings,
     bands: RingBands | None,
 ) -> RingSurface:
-    """faces_surface from its faces (surface_faces): each covered pixel's point."""
-    if method not in INTERPOLANTS:
-        raise ValueError(f"unknown interpolant {method!r}; known: {', '.join(INTERPOLANTS)}")
+    """faces_surface from its faces (covered_faces): each covered pixel's point."""
+    check_interpolant(method)
     triangles, counts = faces.triangles, faces.counts
     tri, normals = triangles.tri, triangles.normals
     grid, ok, agree = _points_in_faces(points, xy, triangles, camera, projector, faces.pixels, method, bands, settings)
     # pixels off their bands, and every pixel of a face with many (it bridges an edge); the pixels
-    # as images then: the fill's peak of memory holds no per-pixel lists of the faces'
+    # as images then (CoveredFaces)
     tested = len(tri) if bands is not None else 0
     valid, triangle, dropped = settled_pixels(faces.pixels, (ok, agree), tested, settings.max_band_disagreement, grid)
     if bands is not None:
