@@ -62,8 +62,11 @@ def test_live_depth_images_follow_the_surface(small_config: RigConfig) -> None:
         assert 0 < frame.latency_ms < frame.sequence_ms
 
 
-@pytest.mark.parametrize("codec", codec_names())
-@pytest.mark.parametrize("sensor", [{}, {"bit_depth": 12}, {"color": True}], ids=["8-bit", "12-bit", "colour"])
+@pytest.mark.parametrize(
+    ("codec", "sensor"),
+    [*((codec, {}) for codec in codec_names()), ("phase", {"bit_depth": 12}), ("phase", {"color": True})],
+    ids=[*codec_names(), "phase-12-bit", "phase-colour"],
+)  # every codec; the sensor's kind (the dark frames' shape and type) with one
 def test_the_warm_up_runs_dark_frames_like_the_cameras_through_every_codec_and_drives_no_device(
     codec: str, sensor: dict[str, Any]
 ) -> None:
