@@ -63,6 +63,12 @@ def interpolate_colour(
     return colour_beside_fill(surface, colours, method, neighbours, stride)(surface)
 
 
+def check_colour_method(method: str) -> None:
+    """ValueError naming `method` unless it is one of COLOUR_METHODS."""
+    if method not in COLOUR_METHODS:
+        raise ValueError(f"unknown colour interpolant {method!r}; known: {', '.join(COLOUR_METHODS)}")
+
+
 @dataclass(frozen=True, eq=False)
 class ColourTerms:
     """What the colour of a surface's pixels takes from its samples and faces alone (colour_terms),
@@ -70,7 +76,7 @@ class ColourTerms:
     per-face arrays (samples (3, M + 1) float32 about `centre`, area (M + 1,), colours (M + 1, 3):
     each padded with a sample that lies beyond any reach; candidates (along, corners); reach2)."""
 
-    tree: Future[cKDTree] | None  # the samples' k-d tree, being built on the pool (None: no faces)
+    tree: Future[cKDTree]  # the samples' k-d tree, being built on the pool
     samples: np.ndarray
     area: np.ndarray
     colours: np.ndarray
@@ -82,17 +88,15 @@ class ColourTerms:
 
 def colour_terms(
     samples: tuple[np.ndarray, np.ndarray, np.ndarray], colours: np.ndarray, method: ColourMethod, neighbours: int
-) -> ColourTerms:
+) -> ColourTerms | None:
     """The colour's terms (ColourTerms) of a surface's samples (`samples`: their points (M, 3), the
     faces (F, 3) and their rings (M,)) and their `colours`: each face's reach and corners, each
-    sample's share of area and its nearest along its ring."""
-    if method not in COLOUR_METHODS:
-        raise ValueError(f"unknown colour interpolant {method!r}; known: {', '.join(COLOUR_METHODS)}")
+    sample's share of area and its nearest along its ring; None without faces (nothing to mix)."""
+    check_colour_method(method)
     vertices, faces, ring = samples
-    centre = vertices.mean(axis=0) if len(vertices) else np.zeros(3)
     if len(faces) == 0:
-        none = np.empty(0, np.float32)
-        return ColourTerms(None, none, none, none, (np.empty((0, 0), np.int64),) * 2, none, centre, (False, 0, 0.0))
+        return None
+    centre = vertices.mean(axis=0)
     tree = pool().submit(cKDTree, vertices)
     faces, count = np.ascontiguousarray(faces, np.int64), len(vertices)
     reach2, corners, area = np.empty(len(faces), np.float32), np.empty((len(faces), 2), np.int64), np.zeros(count)
@@ -121,7 +125,7 @@ def colour_beside_fill(
     method: ColourMethod = "area",
     neighbours: int = 8,
     stride: int = 1,
-    begun: Future[ColourTerms] | None = None,
+    begun: Future[ColourTerms | None] | None = None,
 ) -> Callable[[RingSurface], np.ndarray]:
     """interpolate_colour begun on a surface whose fill is yet to come (rig.pipeline.surface
     .fill_surface, which adds pixels beyond the triangles): its covered pixels are mixed on a thread
@@ -130,8 +134,7 @@ def colour_beside_fill(
     sample's colour. `begun`: colour_terms of this surface's samples, faces, `colours`, `method`
     and `neighbours`, submitted to rig.workers.beside() before this call (the thread runs its work
     in order, so they are made when the mix starts); the terms are made here otherwise."""
-    if method not in COLOUR_METHODS:
-        raise ValueError(f"unknown colour interpolant {method!r}; known: {', '.join(COLOUR_METHODS)}")
+    check_colour_method(method)
     height, width = surface.valid.shape
     on_grid = np.zeros_like(surface.valid)
     on_grid[::stride, ::stride] = True
@@ -151,14 +154,16 @@ def colour_beside_fill(
     return finish
 
 
-def _mixed(surface: RingSurface, pixel: np.ndarray, begun: Future[ColourTerms]) -> tuple[np.ndarray, cKDTree | None]:
+def _mixed(
+    surface: RingSurface, pixel: np.ndarray, begun: Future[ColourTerms | None]
+) -> tuple[np.ndarray, cKDTree | None]:
     """The flat colour image (H*W, 3 float32) of the covered pixels `pixel` of the triangles
     (rig.kernels.colour.mix_colours passes over any filled beyond them), NaN elsewhere, and the
     samples' k-d tree for those (None for no triangles: they stay NaN)."""
     terms = begun.result(timeout=POOL_WAIT_S)  # done: made on this thread before
     height, width = surface.valid.shape
     out = full_on_pool((height * width, 3), np.nan, np.float32)
-    if terms.tree is None:
+    if terms is None:
         return out, None
     owner = surface.triangle.ravel()[pixel]
     at = (surface.grid.reshape(-1, 3), pixel, owner, terms.centre)  # the points of pixels the fill leaves alone

@@ -33,7 +33,6 @@ from rig.pipeline.surface import (
     RingBands,
     RingSurface,
     SurfaceSettings,
-    check_interpolant,
     covered_faces,
     fill_surface,
     surface_on_faces,
@@ -121,7 +120,6 @@ def ring_surface(
     points, xy, ring, directions = kept_rows(rings.kept, rings.points, rings.camera_xy, rings.ring, rings.directions)
     lit, bands, settings = ring_lit(rig, corr), ring_bands(corr), SurfaceSettings(max_gap_px=config.max_gap_px)
     devices = (rig.camera_models[camera], rig.projector_models[projector])
-    check_interpolant(config.interpolant)
     faces = covered_faces(points, xy, ring, *devices, lit, settings, tri, directions)
     begun = None
     if config.colour != "white":  # the colour's terms from the faces, beside the faces' points
