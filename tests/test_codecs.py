@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import tracemalloc
+
 import cv2
 import numpy as np
 import pytest
@@ -158,3 +160,19 @@ def test_line_codecs_make_each_pattern_only_when_it_is_asked_for(name: str, monk
     assert len(made) == codec.frame_count - 2 == len(rest) + 1
     assert white.min() == 255 and black.max() == 0  # the lit and dark frames are not the response's
     assert np.array_equal(first, lut[stretch(codec._coded_lines()[0][0], "u")])
+
+
+@pytest.mark.parametrize("name", ["rings", "radial"])
+def test_circular_codecs_make_each_pattern_only_when_it_is_asked_for(name: str) -> None:
+    """The circular codecs' patterns are images of the projector's polar coordinates; made one by one
+    as a streaming capture shows them, only those coordinates are held between them, not the
+    sequence and its float temporaries (all at once, 75 MB of a ring scan's peak)."""
+    codec = codec_class(name)((640, 480))
+    tracemalloc.start()
+    try:
+        shown = sum(1 for _ in codec.iter_patterns())  # each dropped as the next is made, as a capture does
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+    assert shown == codec.frame_count
+    assert peak < 40 * 640 * 480  # five float64 images: the radius, the angle, the zones and a pattern's making

@@ -34,5 +34,5 @@ class CircularCodec(Codec):
     def polar(self) -> tuple[np.ndarray, np.ndarray]:
         """rho and theta of every projector pixel (H, W)."""
         cu, cv = self.center
-        v, u = np.mgrid[0 : self.height, 0 : self.width]
+        v, u = np.ogrid[0 : self.height, 0 : self.width]  # a column and a row: no image-sized index grids
         return np.hypot(u - cu, v - cv), np.arctan2(v - cv, u - cu)

@@ -3,15 +3,24 @@
 from __future__ import annotations
 
 import math
+from collections.abc import Iterator
 
 import numpy as np
 
 from rig.patterns.correspondence import NormalizedFrames, fraction
+from rig.workers import point_blocks
+
+PATTERN_ROWS = 64  # rows of a pattern made at once: float temporaries of a band, not of the image
 
 
-def fringe_images(phase: np.ndarray, steps: int) -> list[np.ndarray]:
-    """0.5 + 0.5 cos(phase - 2 pi n / steps) for n < steps, as uint8 images."""
-    return [np.rint((0.5 + 0.5 * np.cos(phase - 2 * np.pi * n / steps)) * 255).astype(np.uint8) for n in range(steps)]
+def fringe_images(phase: np.ndarray, steps: int) -> Iterator[np.ndarray]:
+    """0.5 + 0.5 cos(phase - 2 pi n / steps) for n < steps, as uint8 images, one at a time as they
+    are asked for (each made a band of rows at a time)."""
+    for n in range(steps):
+        image = np.empty(phase.shape, np.uint8)
+        for rows in point_blocks(len(phase), PATTERN_ROWS):
+            image[rows] = np.rint((0.5 + 0.5 * np.cos(phase[rows] - 2 * np.pi * n / steps)) * 255)
+        yield image
 
 
 def phase_sums(frames: NormalizedFrames, first: int, steps: int) -> tuple[np.ndarray, np.ndarray]:

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import math
-from collections.abc import Iterable
+from collections.abc import Iterable, Iterator
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -19,8 +19,21 @@ def bit_count(values: int) -> int:
 
 def gray_planes(index: np.ndarray, bits: int) -> list[np.ndarray]:
     """Bit planes of gray(index), most significant first, as bool arrays of index's shape."""
-    gray = index ^ (index >> 1)
-    return [((gray >> b) & 1).astype(bool) for b in range(bits - 1, -1, -1)]
+    return list(_gray_planes(index, bits))
+
+
+def _gray_planes(index: np.ndarray, bits: int) -> Iterator[np.ndarray]:
+    gray = index >> 1
+    gray ^= index  # in place: one index-sized temporary, not two
+    for b in range(bits - 1, -1, -1):
+        yield ((gray >> b) & 1).astype(bool)
+
+
+def gray_images(index: np.ndarray, bits: int) -> Iterator[np.ndarray]:
+    """planes_with_inverses(gray_planes(index, bits)) one image at a time, each plane made as its
+    turn comes."""
+    for plane in _gray_planes(index, bits):
+        yield from planes_with_inverses([plane])
 
 
 def planes_with_inverses(planes: list[np.ndarray]) -> list[np.ndarray]:

@@ -17,6 +17,7 @@ and those pixels are masked.
 from __future__ import annotations
 
 import math
+from collections.abc import Iterator
 
 import numpy as np
 from pydantic import Field, field_validator
@@ -26,7 +27,7 @@ from rig.patterns.base import CodecParams, PixelCoord, even_period
 from rig.patterns.circular import CircularCodec
 from rig.patterns.correspondence import Correspondence, NormalizedFrames, least_counts
 from rig.patterns.fringes import RunningSums, fringe_images, summed
-from rig.patterns.graycode import bit_count, decode_gray, gray_planes, planes_with_inverses
+from rig.patterns.graycode import bit_count, decode_gray, gray_images
 from rig.patterns.phase import step_weights
 from rig.patterns.registry import register
 from rig.patterns.stream import DenseBase, FrameStream, GrayBits
@@ -101,14 +102,24 @@ class RadialCodec(CircularCodec):
         return self.params.steps + 2 * self._gray_bits() + sum(steps for _, steps in self._angular_levels())
 
     def _coded_patterns(self) -> list[np.ndarray]:
+        return list(self._coded_iter())
+
+    def _coded_iter(self) -> Iterator[np.ndarray]:
+        """The coded patterns one at a time, each made as its turn comes (rings' _coded_iter)."""
         p = self.params
         rho, theta = self.polar()
-
-        out = fringe_images(2 * np.pi * rho / p.period_px, p.steps)
-        out += planes_with_inverses(gray_planes(np.floor(rho / (p.period_px // 2)).astype(np.int64), self._gray_bits()))
+        phase = 2 * np.pi * rho
+        phase /= p.period_px  # in place, as every image-sized step here: a temporary fewer
+        yield from fringe_images(phase, p.steps)
+        del phase
+        half_periods = rho / (p.period_px // 2)
+        del rho
+        index = np.floor(half_periods, out=half_periods).astype(np.int64)
+        del half_periods
+        yield from gray_images(index, self._gray_bits())
+        del index
         for periods, steps in self._angular_levels():
-            out += fringe_images(periods * theta, steps)
-        return out
+            yield from fringe_images(periods * theta, steps)
 
     def _decode(
         self, frames: NormalizedFrames, white: np.ndarray, black: np.ndarray, lit: np.ndarray, texture: np.ndarray

@@ -24,6 +24,7 @@ camera pixels that read the same ring index: its position is the linear zero cro
 from __future__ import annotations
 
 import functools
+from collections.abc import Iterator
 from typing import Annotated, Literal
 
 import numpy as np
@@ -34,12 +35,12 @@ from rig.patterns.base import CodecParams, PixelCoord
 from rig.patterns.circular import CircularCodec
 from rig.patterns.correspondence import Correspondence, NormalizedFrames, RingSamples
 from rig.patterns.crossings import Crossings, LocatedRings
-from rig.patterns.fringes import PointSums, fringe_images, phase_sums
-from rig.patterns.graycode import bit_count, decode_gray, gray_planes, planes_with_inverses
+from rig.patterns.fringes import PATTERN_ROWS, PointSums, fringe_images, phase_sums
+from rig.patterns.graycode import bit_count, decode_gray, gray_images
 from rig.patterns.registry import register
 from rig.patterns.rings_stream import RingsStream
 from rig.patterns.stream import FrameStream
-from rig.workers import in_row_strips
+from rig.workers import in_row_strips, point_blocks
 
 ring_kernels = lazy_module("rig.kernels.rings")  # numba compiles on first use: not for --help
 
@@ -174,23 +175,41 @@ class RingsCodec(CircularCodec):
         return 2 + 2 * self._zone_bits() + self.params.angle_steps + self._fine_steps()
 
     def _coded_patterns(self) -> list[np.ndarray]:
+        return list(self._coded_iter())
+
+    def _coded_iter(self) -> Iterator[np.ndarray]:
+        """The coded patterns one at a time, each made as its turn comes: between them the polar angle
+        and the ring zones are held, not the sequence (all twenty at once and their float
+        temporaries were 75 MB of a scan's peak on the default bench)."""
         rho, theta = self.polar()
-        radii = self.radii
-        nearest = np.clip(np.searchsorted(radii, rho), 1, len(radii) - 1) if len(radii) > 1 else np.zeros_like(rho, int)
-        if len(radii) > 1:
-            nearest = np.where(np.abs(rho - radii[nearest - 1]) < np.abs(rho - radii[nearest]), nearest - 1, nearest)
-        signed = rho - radii[nearest]  # > 0 outside the nearest ring
-        outside_lit = (nearest % 2) == 0  # outside ring k is annulus k + 1: lit when k + 1 is odd
-        ramp = np.where(outside_lit, signed, -signed) / EDGE_RAMP_PX
-        coverage = np.clip(0.5 + ramp, 0.0, 1.0)
-        edge = np.rint(coverage * 255).astype(np.uint8)
-        out = [edge, 255 - edge]
         zone = self._zone(rho)
-        out += planes_with_inverses(gray_planes(zone, self._zone_bits()))
-        out += fringe_images(theta, self.params.angle_steps)
+        edge = self._edge(rho)
+        del rho
+        yield edge
+        yield 255 - edge
+        del edge
+        yield from gray_images(zone, self._zone_bits())
+        yield from fringe_images(theta, self.params.angle_steps)
         if self.fine_periods is not None:
-            out += fringe_images(self.fine_periods[zone] * theta, self.params.tangential_steps)
-        return out
+            yield from fringe_images(self.fine_periods[zone] * theta, self.params.tangential_steps)
+
+    def _edge(self, rho: np.ndarray) -> np.ndarray:
+        """The edge pattern E (uint8) at projector radii `rho`: each pixel lit by the share of it on
+        the lit side of its nearest ring (its signed distance over EDGE_RAMP_PX), a band of rows at
+        a time."""
+        radii, edge = self.radii, np.empty(rho.shape, np.uint8)
+        for rows in point_blocks(len(rho), PATTERN_ROWS):
+            part = rho[rows]
+            if len(radii) > 1:
+                above = np.clip(np.searchsorted(radii, part), 1, len(radii) - 1)
+                nearest = np.where(np.abs(part - radii[above - 1]) < np.abs(part - radii[above]), above - 1, above)
+            else:
+                nearest = np.zeros_like(part, int)
+            signed = part - radii[nearest]  # > 0 outside the nearest ring
+            outside_lit = (nearest % 2) == 0  # outside ring k is annulus k + 1: lit when k + 1 is odd
+            ramp = np.where(outside_lit, signed, -signed) / EDGE_RAMP_PX
+            edge[rows] = np.rint(np.clip(0.5 + ramp, 0.0, 1.0) * 255)
+        return edge
 
     def _decode(
         self, frames: NormalizedFrames, white: np.ndarray, black: np.ndarray, lit: np.ndarray, texture: np.ndarray
