@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from rig.evaluate.promise import between_rings
+from rig.evaluate.promise import between_rings, polar_rows
 from rig.evaluate.regions import (
     footprints,
     pixel_areas,
@@ -15,6 +15,7 @@ from rig.evaluate.regions import (
     surface_regions,
     weighted_quantile,
 )
+from rig.evaluate.wholeness import true_areas
 
 
 def _plane_grid(height: int, width: int, spacing_mm: float, slope: float = 0.0, z0: float = 0.0) -> np.ndarray:
@@ -124,19 +125,23 @@ def test_a_failing_object_is_not_hidden_by_a_large_flat_background() -> None:
     assert regions[0].quantile_mm == 0.0 and np.isclose(regions[1].rms_mm, np.sqrt(0.5 * 0.25))
 
 
+CENTRE = (60.0, 60.0)
+
+
 def _rings_view(size: int = 120) -> tuple[np.ndarray, ...]:
-    """A flat view with the rings' centre in the middle of the image and projector radius = camera
-    distance from it; rings every 10 px out to 50. Returns columns, radii, angles and the rings."""
+    """A flat view with the rings' centre (CENTRE) in the middle of the image and projector
+    coordinates = camera ones; rings every 10 px out to 50. Returns columns, radii, projector
+    coordinates and the rings."""
     v, u = np.mgrid[0:size, 0:size].astype(float)
     c = size / 2
-    return u, np.hypot(u - c, v - c), np.arctan2(v - c, u - c), np.arange(10.0, 51.0, 10.0)
+    return u, np.hypot(u - c, v - c), np.stack([u, v], axis=-1), np.arange(10.0, 51.0, 10.0)
 
 
 def test_a_surface_is_promised_between_two_rings_it_shows_not_beyond_the_last_one() -> None:
-    u, rho, theta, radii = _rings_view()
+    u, rho, uv, radii = _rings_view()
     seen = u <= 85  # a shadow over the columns right of 85
     region, area = np.zeros((120, 120), int), np.ones((120, 120))
-    target = between_rings(rho, theta, region, area, seen, radii)
+    target = between_rings(polar_rows(uv, CENTRE), region, area, seen, radii)
     assert target[(u < 55) & (rho < 48)].all()  # the disc and every band the camera sees both rings of
     assert not target[rho > 50].any()  # beyond the outermost ring
     assert target[60, 75] and target[36, 60]  # rings 10 and 20, and 20 and 30 (upwards), both seen
@@ -146,7 +151,7 @@ def test_a_surface_is_promised_between_two_rings_it_shows_not_beyond_the_last_on
     # A second surface beside (another region, from column 86) does not lend its rings: the strip
     # of the first beyond ring 20 is one-sided again, while the second's band 30-40 is promised.
     region[:, 86:] = 1
-    split = between_rings(rho, theta, region, area, np.ones_like(seen), radii)
+    split = between_rings(polar_rows(uv, CENTRE), region, area, np.ones_like(seen), radii)
     assert not split[60, 84] and not split[60, 88] and split[60, 95]
 
 
@@ -154,16 +159,16 @@ def test_a_ring_seen_beyond_a_shadow_line_does_not_bound_the_strip_before_it() -
     # One surface, a shadow line two pixels wide across the band between rings 30 and 40 on the
     # right, open at its ends: the band's surface joins around it, but along each projector ray the
     # strip before the line reaches ring 30 only.
-    u, rho, theta, radii = _rings_view()
+    u, _, uv, radii = _rings_view()
     seen = np.ones((120, 120), bool)
     seen[50:71, 95:97] = False
-    target = between_rings(rho, theta, np.zeros((120, 120), int), np.ones((120, 120)), seen, radii)
+    target = between_rings(polar_rows(uv, CENTRE), np.zeros((120, 120), int), np.ones((120, 120)), seen, radii)
     assert not target[60, 93] and not target[60, 98]  # between ring 30 (column 90) and the line; it and 40
     assert target[40, 93] and target[60, 27]  # above the line's end; the same band on the left
     # A ring the camera sees only at the brink of a shadow is not seen: a shadow from column 101 on
     # leaves ring 40 (column 100) one pixel clear, and the band 30-40 there is not promised.
     seen = u <= 100
-    target = between_rings(rho, theta, np.zeros((120, 120), int), np.ones((120, 120)), seen, radii)
+    target = between_rings(polar_rows(uv, CENTRE), np.zeros((120, 120), int), np.ones((120, 120)), seen, radii)
     assert not target[60, 95] and target[60, 25]
 
 
@@ -256,3 +261,25 @@ def test_rhos_slope_at_the_missed_pixels_is_np_gradients() -> None:
     y, x = np.concatenate([y, [0, 36, 0, 36]]), np.concatenate([x, [0, 52, 52, 0]])  # the four corners
     assert np.array_equal(_gradient(image, y, x, 0), rows[y, x])
     assert np.array_equal(_gradient(image, y, x, 1), cols[y, x])
+
+
+def test_a_truths_areas_are_made_once_and_shared_read_only() -> None:
+    """Every scan of a standing scene is measured by the same true areas: made once for a truth,
+    kept while it is, and read-only, so that no measurement can change the next one's."""
+    hit = np.ones((20, 30), bool)
+    truth = _Truth(_plane_grid(20, 30, 0.5), hit)
+    area, region = true_areas(truth)  # type: ignore[arg-type]
+    assert np.allclose(area, 0.25) and (region == 0).all()
+    again = true_areas(truth)  # type: ignore[arg-type]
+    assert again[0] is area and again[1] is region
+    with pytest.raises(ValueError, match="read-only"):
+        area[0, 0] = 1.0
+    moved = _Truth(_plane_grid(20, 30, 1.0), hit)  # another scene: its own areas
+    assert np.allclose(true_areas(moved)[0], 1.0)  # type: ignore[arg-type]
+
+
+class _Truth:
+    """The parts of a bench's pixel truth the areas are made from."""
+
+    def __init__(self, points: np.ndarray, hit: np.ndarray) -> None:
+        self.points, self.hit = points, hit

@@ -36,18 +36,23 @@ def colour_metrics(pair: PairResult, truth: PixelTruth, stride: int = 2) -> dict
     irradiance = truth.white_irradiance
     if mask.any():
         mask &= irradiance >= _MIN_RELATIVE_IRRADIANCE * np.median(irradiance[truth.hit & truth.lit])
-    white = texture_rgb(pair.correspondence).astype(np.float32) / 255.0
-    estimates = [("white_colour", white)] + ([("colour", surface.colour)] if surface.colour is not None else [])
+    white = texture_rgb(pair.correspondence)  # 8-bit: its pixels are scaled as they are read
+    estimates = [("white_colour", white, 255.0)]
+    estimates += [("colour", surface.colour, None)] if surface.colour is not None else []
     metrics: dict[str, float | int | None] = {"colour_pixels": int(mask.sum())}
-    for name, estimate in estimates:
-        metrics.update({f"{name}_{k}": v for k, v in albedo_errors(estimate, truth, mask).items()})
+    for name, estimate, full_scale in estimates:
+        metrics.update({f"{name}_{k}": v for k, v in albedo_errors(estimate, truth, mask, full_scale).items()})
     return metrics
 
 
-def albedo_errors(estimate: np.ndarray, truth: PixelTruth, mask: np.ndarray) -> dict[str, float | None]:
-    """PSNR, RGB rms and mean dE2000 of an RGB estimate (H, W, 3, any exposure) against the true
-    albedo on `mask`, after removing the true shading and fitting one gain (module docstring).
-    In batches of pixels: CIEDE2000's dozens of temporaries over a megapixel would be gigabytes."""
+def albedo_errors(
+    estimate: np.ndarray, truth: PixelTruth, mask: np.ndarray, full_scale: float | None = None
+) -> dict[str, float | None]:
+    """PSNR, RGB rms and mean dE2000 of an RGB estimate (H, W, 3, any exposure; levels over
+    `full_scale` in float32 where given, as a frame's are read) against the true albedo on `mask`,
+    after removing the true shading and fitting one gain (module docstring). In batches of pixels:
+    CIEDE2000's dozens of temporaries over a megapixel would be gigabytes, and a float image of
+    the whole estimate would be four times an 8-bit frame's bytes."""
     pixels = np.flatnonzero(mask.ravel())
     if len(pixels) == 0:
         return {"psnr_db": None, "rgb_rms": None, "delta_e2000": None}
@@ -56,7 +61,8 @@ def albedo_errors(estimate: np.ndarray, truth: PixelTruth, mask: np.ndarray) -> 
 
     def batch(k: int) -> tuple[np.ndarray, np.ndarray]:
         part = pixels[k : k + _BATCH]
-        found = flat_estimate[part].astype(np.float64) / flat_light[part][:, None]
+        read = flat_estimate[part] if full_scale is None else flat_estimate[part].astype(np.float32) / full_scale
+        found = read.astype(np.float64) / flat_light[part][:, None]
         return found, flat_albedo[part].astype(np.float64)
 
     starts = range(0, len(pixels), _BATCH)

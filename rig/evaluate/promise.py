@@ -12,6 +12,8 @@ nothing on its far side bounds it, and the surface there could only be extrapola
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import numpy as np
 from scipy.ndimage import maximum_filter, minimum_filter
 
@@ -20,21 +22,36 @@ from rig.workers import point_blocks
 
 SECTOR_ARC_PX = 8.0  # projector pixels of arc, at its outer ring, of each sector of an annulus
 CLEAR_PX = 2  # a ring is seen where it crosses surface this many camera pixels clear of its edge
+_ROWS = 64  # image rows worked out at once
+
+
+# A band of rows' projector polar coordinates (rho, theta) about the rings' centre, NaN where none
+PolarRows = Callable[[slice], tuple[np.ndarray, np.ndarray]]
 
 
 def between_rings(
-    rho: np.ndarray,
-    theta: np.ndarray,
+    polar: PolarRows,
     region: np.ndarray,
     area: np.ndarray,
     seen: np.ndarray,
     radii: np.ndarray,
 ) -> np.ndarray:
     """(H, W) the pixels a ring set (`radii`, increasing) promises a surface at (see the module
-    docstring), of the regions (`region` labels, -1 none) that hold at least MIN_REGION_SHARE of the
-    `seen` area; `rho`, `theta` each pixel's projector polar coordinates about the rings' centre."""
+    docstring), of the regions (`region` labels, -1 none) that hold at least MIN_REGION_SHARE of
+    the `seen` area; `polar` each pixel's projector polar coordinates about the rings' centre, a
+    band of rows at a time (polar_rows, image_rows). Each pixel's annulus and sector are kept as
+    small integers: its polar coordinates and its cell's key (int64) were five image-sized arrays
+    held together."""
     radii = np.asarray(radii, dtype=np.float64)
-    labels = np.where(seen & np.isfinite(rho) & np.isfinite(theta), region, -1).astype(np.int32)
+    labels, band, sector = (np.empty(seen.shape, np.int32) for _ in range(3))
+    for rows in point_blocks(seen.shape[0], _ROWS):
+        rho, theta = polar(rows)
+        labels[rows] = np.where(seen[rows] & np.isfinite(rho) & np.isfinite(theta), region[rows], -1)
+        band[rows] = np.searchsorted(
+            radii, np.nan_to_num(rho, nan=-1.0), side="right"
+        )  # radii[band-1] <= rho < radii[band]
+        if len(radii):
+            sector[rows] = _sector(band[rows], theta, radii)
     counted = labels >= 0
     if not counted.any() or len(radii) == 0:
         return np.zeros(seen.shape, dtype=bool)
@@ -42,13 +59,7 @@ def between_rings(
     judged = np.zeros(len(per_label), dtype=bool)
     judged[per_label >= MIN_REGION_SHARE * per_label.sum()] = True
     labels[counted & ~judged[np.maximum(labels, 0)]] = -1
-    band, key = np.empty(seen.shape, np.int32), np.empty(seen.shape, np.int64)
-    for rows in point_blocks(seen.shape[0], 64):  # a band of rows at a time: no image-sized temporaries
-        # radii[band-1] <= rho < radii[band]
-        band[rows] = np.searchsorted(radii, np.nan_to_num(rho[rows], nan=-1.0), side="right")
-        key[rows] = np.where(labels[rows] >= 0, _cell(labels[rows], band[rows], theta[rows], radii), -1)
-    pieces = _pieces(key)
-    del key
+    pieces = _pieces(labels, band, sector, radii)
     inner, outer = _bounded(band, labels, pieces, len(radii))
     piece = pieces[labels >= 0]
     ok = outer[piece] & (inner[piece] | (band[labels >= 0] == 0))  # the disc needs its ring only
@@ -57,22 +68,53 @@ def between_rings(
     return target
 
 
-def _cell(labels: np.ndarray, band: np.ndarray, theta: np.ndarray, radii: np.ndarray) -> np.ndarray:
-    """A key per pixel for its (region, annulus, sector): each annulus is cut into sectors of
+def polar_rows(uv: np.ndarray, center: tuple[float, float]) -> PolarRows:
+    """The polar coordinates about `center` of projector coordinates `uv` (H, W, 2), made as a band
+    of rows is asked for."""
+
+    def band(rows: slice) -> tuple[np.ndarray, np.ndarray]:
+        u, v = uv[rows, :, 0], uv[rows, :, 1]
+        return np.hypot(u - center[0], v - center[1]), np.arctan2(v - center[1], u - center[0])
+
+    return band
+
+
+def image_rows(rho: np.ndarray, theta: np.ndarray) -> PolarRows:
+    """Polar coordinates held as images (H, W), a band of rows at a time."""
+    return lambda rows: (rho[rows], theta[rows])
+
+
+def _sector(band: np.ndarray, theta: np.ndarray, radii: np.ndarray) -> np.ndarray:
+    """Each pixel's sector of its annulus (`band`): each annulus is cut into sectors of
     SECTOR_ARC_PX of arc at its outer ring (the band beyond the last ring into one)."""
     outer = radii[np.minimum(band, len(radii) - 1)]
     sectors = np.maximum(8, np.ceil(2 * np.pi * outer / SECTOR_ARC_PX)).astype(np.int64)
     sector = np.floor((np.nan_to_num(theta) + np.pi) / (2 * np.pi) * sectors).astype(np.int64) % sectors
     sector[band >= len(radii)] = 0
-    most = int(np.ceil(2 * np.pi * radii[-1] / SECTOR_ARC_PX)) + 8
-    return (labels.astype(np.int64) * (len(radii) + 1) + band) * most + sector
+    return sector
 
 
-def _pieces(key: np.ndarray) -> np.ndarray:
-    """(H, W) a label per connected piece (4-neighbours) of pixels sharing one `key` (>= 0)."""
-    right = (key[:, :-1] >= 0) & (key[:, :-1] == key[:, 1:])
-    down = (key[:-1] >= 0) & (key[:-1] == key[1:])
-    return joined_labels(right, down, np.ones(key.shape, bool)).reshape(key.shape)
+def _pieces(labels: np.ndarray, band: np.ndarray, sector: np.ndarray, radii: np.ndarray) -> np.ndarray:
+    """(H, W) a label per connected piece (4-neighbours) of the pixels of one region (`labels` >= 0),
+    annulus and sector; their joins a band of rows at a time, from each cell's key (int64)."""
+    height = labels.shape[0]
+    right = np.empty((height, max(labels.shape[1] - 1, 0)), bool)
+    down = np.empty((max(height - 1, 0), labels.shape[1]), bool)
+    for rows in point_blocks(height, _ROWS):
+        below = slice(rows.start, min(rows.stop + 1, height))  # and the next band's first row
+        key = _key(labels[below], band[below], sector[below], radii)
+        ahead = key[: rows.stop - rows.start]
+        right[rows] = (ahead[:, :-1] >= 0) & (ahead[:, :-1] == ahead[:, 1:])
+        down[rows.start : below.stop - 1] = (key[:-1] >= 0) & (key[:-1] == key[1:])
+    return joined_labels(right, down, np.ones(labels.shape, bool)).reshape(labels.shape)
+
+
+def _key(labels: np.ndarray, band: np.ndarray, sector: np.ndarray, radii: np.ndarray) -> np.ndarray:
+    """A key per pixel for its (region, annulus, sector), -1 for a pixel of no region."""
+    most = int(np.ceil(2 * np.pi * radii[-1] / SECTOR_ARC_PX)) + 8  # sectors of any annulus, at most
+    key = (labels.astype(np.int64) * (len(radii) + 1) + band) * most + sector
+    key[labels < 0] = -1
+    return key
 
 
 def _bounded(band: np.ndarray, labels: np.ndarray, pieces: np.ndarray, rings: int) -> tuple[np.ndarray, np.ndarray]:

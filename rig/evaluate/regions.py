@@ -169,5 +169,8 @@ def region_errors(
 
 def _error(distances: np.ndarray, areas: np.ndarray, total: float, quantile: float) -> RegionError:
     area = float(areas.sum())
-    rms = float(np.sqrt(np.sum(areas * distances.astype(np.float64) ** 2) / area)) if area > 0 else 0.0
+    weighted = distances.astype(np.float64)
+    np.square(weighted, out=weighted)
+    weighted *= areas  # in place: one temporary of the points' length, not three
+    rms = float(np.sqrt(np.sum(weighted) / area)) if area > 0 else 0.0
     return RegionError(area, area / total if total > 0 else 0.0, quantile, rms, float(distances.max()))

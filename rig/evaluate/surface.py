@@ -58,9 +58,9 @@ def area_metrics(valid: np.ndarray, dist: np.ndarray, true: tuple[np.ndarray, np
     # Surface where the truth sees nothing (spanning empty space) is judged too, as a region of its
     # own, each pixel weighing what a pixel typically sees.
     nowhere = region < 0
-    if nowhere.any():
-        area = np.where(nowhere, float(np.median(area[~nowhere])) if (~nowhere).any() else 1.0, area)
-        region = np.where(nowhere, region.max(initial=-1) + 1, region)
+    if nowhere.any():  # in place: area and region are the valid pixels' copies
+        area[nowhere] = float(np.median(area[~nowhere])) if (~nowhere).any() else 1.0
+        region[nowhere] = region.max(initial=-1) + 1
     whole, regions = region_errors(dist, area, region, AREA_QUANTILE)
     return {
         "surface_area_p95_mm": whole.quantile_mm,

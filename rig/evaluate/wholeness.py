@@ -11,20 +11,43 @@ promise spans, and the share of it the surface covers.
 
 from __future__ import annotations
 
+import weakref
 from typing import Any
 
 import numpy as np
 
-from rig.evaluate.promise import between_rings
+from rig.evaluate.promise import between_rings, polar_rows
 from rig.evaluate.regions import STEP_MM, footprints, weighted_quantile
 from rig.opened_rig import PixelTruth
+from rig.workers import point_blocks
 
 OBJECT_ABOVE_MM = 1.0  # the bench plane is z = 0 in the world: the object is what stands above it
 CROWDED_PX = 12.0  # rings closer in the image are read poorly (8 to 12 px apart: a face's surface 1/3 covered)
 
 
+# Each truth's areas, kept as long as the truth is: a bench keeps a pair's truth while its scene
+# stands, and every scan of it is measured by the same areas (their making, 60 MB of temporaries
+# on the default bench, was the peak of a scan's evaluation).
+_AREAS: weakref.WeakKeyDictionary[PixelTruth, tuple[np.ndarray, np.ndarray]] = weakref.WeakKeyDictionary()
+
+
 def true_areas(truth: PixelTruth) -> tuple[np.ndarray, np.ndarray]:
-    """(H, W) area (mm^2) of true surface each pixel sees (0 where none) and its region (-1 none)."""
+    """(H, W) area (mm^2) of true surface each pixel sees (0 where none) and its region (-1 none),
+    read-only: made once for each truth (kept as long as the truth is)."""
+    try:
+        return _AREAS[truth]
+    except KeyError:
+        pass
+    except TypeError:  # a truth that cannot be referred to weakly: made each time
+        return _true_areas(truth)
+    areas = _true_areas(truth)
+    for image in areas:
+        image.flags.writeable = False  # shared by every scan measured against this truth
+    _AREAS[truth] = areas
+    return areas
+
+
+def _true_areas(truth: PixelTruth) -> tuple[np.ndarray, np.ndarray]:
     # float32: a bench's points to a micrometre, and half the memory of the neighbours' steps
     areas, labels = footprints(truth.points.astype(np.float32), truth.hit, STEP_MM)
     area, region = np.zeros(truth.hit.shape), np.full(truth.hit.shape, -1, np.int32)  # int32: regions are few
@@ -45,10 +68,12 @@ def wholeness(
     innermost ring, where neighbouring rings lie closer than CROWDED_PX camera pixels, elsewhere;
     shares of the promised area). `areas`: true_areas(truth), when already known."""
     area, region = true_areas(truth) if areas is None else areas
-    u, v = truth.projector_uv[..., 0], truth.projector_uv[..., 1]
-    rho = np.hypot(u - center[0], v - center[1])
     lit = truth.hit & truth.lit
-    target = between_rings(rho, np.arctan2(v - center[1], u - center[0]), region, area, lit, radii)
+    polar = polar_rows(truth.projector_uv, center)
+    target = between_rings(polar, region, area, lit, radii)
+    rho = np.empty(lit.shape)  # a band of rows at a time: no image-sized temporaries
+    for rows in point_blocks(len(rho), 64):
+        rho[rows] = polar(rows)[0]
     on_object = truth.points[..., 2] > OBJECT_ABOVE_MM
     disc = lit & (rho < radii[0])
 
@@ -80,8 +105,7 @@ def _missed(
     disc = missed & (rho < radii[0])
     crowded = np.zeros(missed.shape, bool)
     y, x = np.nonzero(missed & ~disc)  # the rings' spacing and rho's slope at these pixels alone
-    filled = np.nan_to_num(rho)
-    slope = np.hypot(_gradient(filled, y, x, 0), _gradient(filled, y, x, 1))
+    slope = np.hypot(_gradient(rho, y, x, 0), _gradient(rho, y, x, 1))
     band = np.clip(np.searchsorted(radii, np.nan_to_num(rho[y, x], nan=-1.0), side="right"), 1, max(1, len(radii) - 1))
     spacing = radii[np.minimum(band, len(radii) - 1)] - radii[band - 1]
     close = spacing < CROWDED_PX * slope
@@ -93,8 +117,8 @@ def _missed(
 
 
 def _gradient(image: np.ndarray, y: np.ndarray, x: np.ndarray, axis: int) -> np.ndarray:
-    """np.gradient(image)[axis] at the pixels (y, x) alone: central differences, one-sided at the
-    image's edges."""
+    """np.gradient(np.nan_to_num(image))[axis] at the pixels (y, x) alone: central differences,
+    one-sided at the image's edges."""
     at = [y, x]
     size = image.shape[axis]
     ahead, behind = at.copy(), at.copy()
@@ -102,7 +126,7 @@ def _gradient(image: np.ndarray, y: np.ndarray, x: np.ndarray, axis: int) -> np.
     behind[axis] = np.maximum(at[axis] - 1, 0)
     step = (ahead[axis] - behind[axis]).astype(np.float64)
     with np.errstate(invalid="ignore", divide="ignore"):
-        return (image[ahead[0], ahead[1]] - image[behind[0], behind[1]]) / step
+        return (np.nan_to_num(image[ahead[0], ahead[1]]) - np.nan_to_num(image[behind[0], behind[1]])) / step
 
 
 def object_error(

@@ -107,7 +107,7 @@ def joined_labels(right: np.ndarray, down: np.ndarray, valid: np.ndarray) -> np.
             if y + 1 < height and down[y, x]:
                 _union(parent, node[y, x], node[y + 1, x])
     label = np.full(count, -1, np.int32)
-    out = np.empty(count, np.int64)
+    out = np.empty(count, np.int32)  # labels are fewer than pixels
     regions = 0
     for n in range(count):
         root = _find(parent, n)

@@ -21,7 +21,7 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
-from rig.evaluate import MIN_REGION_SHARE, STEP_MM, between_rings, footprints, region_errors
+from rig.evaluate import MIN_REGION_SHARE, STEP_MM, between_rings, footprints, image_rows, region_errors
 from rig.geometry import CameraModel
 from rig.pipeline import Interpolant, RingBands, SurfaceSettings, interpolate_surface
 from rig.progress import ProgressTracker
@@ -200,7 +200,8 @@ def rehearse(
         dist.append(d)
         area.append(pilot.area_mm2[measured])
         label.append(pilot.region[measured] * len(pilots) + view)  # each view's regions its own
-        within = between_rings(pilot.rho, pilot.theta, pilot.region, pilot.area_mm2, pilot.valid, radii) & judged
+        polar = image_rows(pilot.rho, pilot.theta)
+        within = between_rings(polar, pilot.region, pilot.area_mm2, pilot.valid, radii) & judged
         promised.append((pilot.region[within] * len(pilots) + view, pilot.area_mm2[within], covered[within]))
     d, a = np.concatenate(dist), np.concatenate(area)
     if len(d) == 0 or a.sum() <= 0:
