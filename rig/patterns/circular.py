@@ -31,8 +31,19 @@ class CircularCodec(Codec):
         """Distance from the centre to the farthest image corner, pixels."""
         return farthest_corner_px(self.width, self.height, self.center)
 
-    def polar(self) -> tuple[np.ndarray, np.ndarray]:
-        """rho and theta of every projector pixel (H, W)."""
+    def radius(self) -> np.ndarray:
+        """rho of every projector pixel (H, W): its distance from the centre."""
+        u, v = self._offsets()
+        return np.hypot(u, v)
+
+    def angle(self) -> np.ndarray:
+        """theta of every projector pixel (H, W): its polar angle about the centre."""
+        u, v = self._offsets()
+        return np.arctan2(v, u)
+
+    def _offsets(self) -> tuple[np.ndarray, np.ndarray]:
+        """A row of the columns' and a column of the rows' offsets from the centre: broadcast, not
+        image-sized index grids."""
         cu, cv = self.center
-        v, u = np.ogrid[0 : self.height, 0 : self.width]  # a column and a row: no image-sized index grids
-        return np.hypot(u - cu, v - cv), np.arctan2(v - cv, u - cu)
+        v, u = np.ogrid[0 : self.height, 0 : self.width]
+        return u - cu, v - cv

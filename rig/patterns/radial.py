@@ -107,7 +107,7 @@ class RadialCodec(CircularCodec):
     def _coded_iter(self) -> Iterator[np.ndarray]:
         """The coded patterns one at a time, each made as its turn comes (rings' _coded_iter)."""
         p = self.params
-        rho, theta = self.polar()
+        rho = self.radius()
         phase = 2 * np.pi * rho
         phase /= p.period_px  # in place, as every image-sized step here: a temporary fewer
         yield from fringe_images(phase, p.steps)
@@ -118,6 +118,7 @@ class RadialCodec(CircularCodec):
         del half_periods
         yield from gray_images(index, self._gray_bits())
         del index
+        theta = self.angle()
         for periods, steps in self._angular_levels():
             yield from fringe_images(periods * theta, steps)
 

@@ -181,25 +181,26 @@ class RingsCodec(CircularCodec):
         """The coded patterns one at a time, each made as its turn comes: between them the polar angle
         and the ring zones are held, not the sequence (all twenty at once and their float
         temporaries were 75 MB of a scan's peak on the default bench)."""
-        rho, theta = self.polar()
-        zone = self._zone(rho)
-        edge = self._edge(rho)
+        rho = self.radius()
+        edge, zone = self._edge_and_zones(rho)
         del rho
         yield edge
         yield 255 - edge
         del edge
         yield from gray_images(zone, self._zone_bits())
+        theta = self.angle()
         yield from fringe_images(theta, self.params.angle_steps)
         if self.fine_periods is not None:
             yield from fringe_images(self.fine_periods[zone] * theta, self.params.tangential_steps)
 
-    def _edge(self, rho: np.ndarray) -> np.ndarray:
-        """The edge pattern E (uint8) at projector radii `rho`: each pixel lit by the share of it on
-        the lit side of its nearest ring (its signed distance over EDGE_RAMP_PX), a band of rows at
-        a time."""
-        radii, edge = self.radii, np.empty(rho.shape, np.uint8)
+    def _edge_and_zones(self, rho: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """At projector radii `rho`: the edge pattern E (uint8), each pixel lit by the share of it on
+        the lit side of its nearest ring (its signed distance over EDGE_RAMP_PX), and each pixel's
+        ring zone (int32), a band of rows at a time."""
+        radii, edge, zone = self.radii, np.empty(rho.shape, np.uint8), np.empty(rho.shape, np.int32)
         for rows in point_blocks(len(rho), PATTERN_ROWS):
             part = rho[rows]
+            zone[rows] = self._zone(part)
             if len(radii) > 1:
                 above = np.clip(np.searchsorted(radii, part), 1, len(radii) - 1)
                 nearest = np.where(np.abs(part - radii[above - 1]) < np.abs(part - radii[above]), above - 1, above)
@@ -209,7 +210,7 @@ class RingsCodec(CircularCodec):
             outside_lit = (nearest % 2) == 0  # outside ring k is annulus k + 1: lit when k + 1 is odd
             ramp = np.where(outside_lit, signed, -signed) / EDGE_RAMP_PX
             edge[rows] = np.rint(np.clip(0.5 + ramp, 0.0, 1.0) * 255)
-        return edge
+        return edge, zone
 
     def _decode(
         self, frames: NormalizedFrames, white: np.ndarray, black: np.ndarray, lit: np.ndarray, texture: np.ndarray
