@@ -297,7 +297,8 @@ class CuedPhaseStream(FrameStream):
             raise DecodeError(f"{self.codec.name}: the stream finished before its last frame")
         coordinate, status = self._result
         peak, modulation = self._peak, self._wrapped[1]
-        corr = self.codec.accounted(coordinate, status, self.saturation.mask, modulation, peak, self.full_scale)
+        saturated = self.saturation.mask if self.saturation.clipped else None  # no mask made where none clipped
+        corr = self.codec.accounted(coordinate, status, saturated, modulation, peak, self.full_scale)
         if self.spill is not None:  # the white and dark frames it takes, as the batch decoder's (Codec.references)
             for index, reference in enumerate(self.codec.references([], corr)):
                 self.spill.add(index, reference)

@@ -15,6 +15,8 @@ import numpy as np
 
 from rig.patterns.correspondence import Correspondence, RingSamples
 
+_SATURATED = "rejected_saturated"  # the count of pixels (or ring samples) saturation drops
+
 
 class SaturationMask:
     """The pixels at full scale in any frame added so far (any channel of a colour frame), kept as
@@ -26,13 +28,14 @@ class SaturationMask:
         self.full_scale = full_scale
         self._peak: np.ndarray | None = None
         self._mask: np.ndarray | None = None
+        self._clipped: bool | None = None
 
     def add(self, frame: np.ndarray) -> None:
         if self._peak is None:
             self._peak = frame.copy()
         else:
             np.maximum(self._peak, frame, out=self._peak)
-        self._mask = None
+        self._mask, self._clipped = None, None
 
     @property
     def mask(self) -> np.ndarray | None:
@@ -42,10 +45,19 @@ class SaturationMask:
             self._mask = clipped.any(axis=2) if clipped.ndim == 3 else clipped
         return self._mask
 
+    @property
+    def clipped(self) -> bool:
+        """Whether any pixel reached full scale in a frame so far: the brightest value alone, read
+        in one pass, where the mask is an image made and read (a 12 MP frame's: 3 ms)."""
+        if self._clipped is None:
+            self._clipped = self._peak is not None and bool(self._peak.max() >= self.full_scale)
+        return self._clipped
+
     def honoured(self, corr: Correspondence) -> Correspondence:
         """`corr` without the saturated pixels (see the module docstring)."""
-        mask = self.mask
-        return corr if mask is None else without_saturated(corr, mask)
+        if self._peak is None:
+            return corr
+        return without_saturated(corr, self.mask) if self.clipped else _none_dropped(corr, _SATURATED)
 
 
 def saturated_in(frames: list[np.ndarray], full_scale: int) -> np.ndarray | None:
@@ -59,7 +71,7 @@ def saturated_in(frames: list[np.ndarray], full_scale: int) -> np.ndarray | None
 def without_saturated(corr: Correspondence, saturated: np.ndarray) -> Correspondence:
     """`corr` without the pixels of `saturated` (without_pixels, counted as `rejected_saturated`),
     which it also records in `extra["saturated"]` for HDR's merge."""
-    corr = without_pixels(corr, saturated, "rejected_saturated")
+    corr = without_pixels(corr, saturated, _SATURATED)
     if not saturated.any():
         return corr
     extra = {**corr.extra, "saturated": saturated | corr.extra.get("saturated", False)}
@@ -70,11 +82,10 @@ def without_pixels(corr: Correspondence, unread: np.ndarray, counter: str) -> Co
     """`corr` with every pixel of `unread` (H, W) invalid, its coordinates NaN, and the ring
     samples between two pixels of which either is unread dropped; `counts[counter]` the pixels (or
     samples) so dropped. Applying it twice drops nothing more (and counts the first)."""
-    counts = dict(corr.counts)
-    dropped = corr.valid & unread
-    counts[counter] = counts.get(counter, 0) + int(dropped.sum())
     if not unread.any():
-        return dataclasses.replace(corr, counts=counts)
+        return _none_dropped(corr, counter)
+    counts = dict(corr.counts)
+    counts[counter] = counts.get(counter, 0) + int(np.count_nonzero(corr.valid & unread))
     u = None if corr.u is None else np.where(unread, np.nan, corr.u).astype(corr.u.dtype, copy=False)
     v = None if corr.v is None else np.where(unread, np.nan, corr.v).astype(corr.v.dtype, copy=False)
     samples = corr.samples
@@ -85,6 +96,11 @@ def without_pixels(corr: Correspondence, unread: np.ndarray, counter: str) -> Co
         if "ring_samples" in counts:
             counts["ring_samples"] = len(samples)
     return dataclasses.replace(corr, valid=corr.valid & ~unread, u=u, v=v, samples=samples, counts=counts)
+
+
+def _none_dropped(corr: Correspondence, counter: str) -> Correspondence:
+    """without_pixels with no pixel to drop: `counts[counter]` as it was, or 0."""
+    return dataclasses.replace(corr, counts={**corr.counts, counter: corr.counts.get(counter, 0)})
 
 
 def _touches(samples: RingSamples, unread: np.ndarray) -> np.ndarray:
