@@ -18,6 +18,7 @@ from rig.cli import main
 from rig.config import config_from_dict, load_config
 from rig.errors import StoreError
 from rig.evaluate.distances import surface_distances
+from rig.pipeline import scan
 from rig.pipeline.colour import colour_beside_fill, interpolate_colour, sample_colours
 from rig.pipeline.fill import fill_candidates, fill_points
 from rig.pipeline.normals import crease_normals
@@ -363,3 +364,28 @@ def test_one_plan_for_a_kind_of_object_from_several_pilots(
     assert main(["scan", "--config", str(smaller), "--plan", str(plan_file), "--out", str(tmp_path / "c")]) == 0
     check = json.loads((tmp_path / "c" / "manifest.json").read_text())["adaptive"]["check"]
     assert check["same_object_as_pilot"] and check["pilot_agreement_mm"] <= 1.0
+
+
+@pytest.mark.parametrize("dropped", [0, 25])
+def test_the_triangles_begun_beside_the_support_across_rings_are_those_of_the_samples_kept(
+    ring_scan, monkeypatch: pytest.MonkeyPatch, dropped: int
+) -> None:  # type: ignore[no-untyped-def]
+    """A ring pair's triangles are begun before the support across the rings ends; where that
+    support drops samples (none on the bench: forced here, spread over the image), they are made
+    again for the samples it keeps: the surface is the one made from those samples alone."""
+    rig, result = ring_scan
+    corr = result.pairs[0].correspondence
+    supported = scan.across_ring_support
+
+    def across(rings, model, limit):  # type: ignore[no-untyped-def]
+        keep = supported(rings, model, limit)
+        keep[np.flatnonzero(rings.kept & keep)[::1000][:dropped]] = False
+        return keep
+
+    monkeypatch.setattr(scan, "across_ring_support", across)
+    pair = scan.reconstruct_pair(rig, 0, 0, corr, source=0)
+    assert pair.counts["rejected_depth_jump"] == result.pairs[0].counts["rejected_depth_jump"] + dropped
+    fresh = scan.ring_surface(rig, 0, 0, pair.rings, corr)  # its own triangles, of the samples kept
+    assert pair.surface is not None and len(fresh.faces) > 10000
+    np.testing.assert_array_equal(pair.surface.faces, fresh.faces)
+    np.testing.assert_array_equal(pair.surface.grid, fresh.grid)
