@@ -40,7 +40,7 @@ from rig.pipeline.surface import (
 )
 from rig.pipeline.triangulation import delaunay
 from rig.progress import ProgressCallback, ProgressTracker
-from rig.workers import POOL_WAIT_S, beside
+from rig.workers import POOL_WAIT_S, beside, pool
 
 
 def make_codec(rig: Rig, projector: int, name: str | None = None, params: CodecParams | None = None) -> Codec:
@@ -117,9 +117,10 @@ def _supported_rings(
     if limit is None:
         return rings, None
     supported, tri = along_ring_support(rings, model, limit), None
-    # the triangles of the samples kept so far, begun beside the support across the rings, which
-    # seldom drops one more (none on any simulated bench): where it does, they are made again
-    speculative = beside().submit(delaunay, kept_rows(supported, rings.camera_xy)[0])
+    # the triangles of the samples kept so far, begun on the pool beside the support across the
+    # rings (plain work: decision 0041), which seldom drops one more (none on any simulated bench):
+    # where it does, they are made again
+    speculative = pool().submit(delaunay, kept_rows(supported, rings.camera_xy)[0])
     across = across_ring_support(dataclasses.replace(rings, kept=supported), model, limit)
     if across[supported].all():
         tri = speculative.result(timeout=POOL_WAIT_S)
