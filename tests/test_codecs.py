@@ -175,4 +175,4 @@ def test_circular_codecs_make_each_pattern_only_when_it_is_asked_for(name: str) 
     finally:
         tracemalloc.stop()
     assert shown == codec.frame_count
-    assert peak < 32 * 640 * 480  # four float64 images: the angle, the zones and a pattern's making
+    assert peak < 32 * 640 * 480  # four float64 images' bytes: the angle, the int32 zones and a pattern's making

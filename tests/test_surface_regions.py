@@ -5,8 +5,9 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from scipy import ndimage
 
-from rig.evaluate.promise import between_rings, polar_rows
+from rig.evaluate.promise import _pieces, between_rings, polar_rows
 from rig.evaluate.regions import (
     footprints,
     pixel_areas,
@@ -283,3 +284,25 @@ class _Truth:
 
     def __init__(self, points: np.ndarray, hit: np.ndarray) -> None:
         self.points, self.hit = points, hit
+
+
+@pytest.mark.parametrize(("height", "width"), [(1, 7), (63, 1), (64, 5), (65, 7), (130, 9)])
+def test_the_promises_pieces_joined_a_band_of_rows_at_a_time_are_the_connected_ones(height: int, width: int) -> None:
+    """The pieces (pixels of one region, annulus and sector, joined through 4-neighbours) are the
+    connected components of each such cell, across the bands of rows they are joined in; a pixel of
+    no region is a piece of its own."""
+    rng = np.random.default_rng(height * 100 + width)
+    labels = rng.integers(-1, 2, (height, width)).astype(np.int32)
+    band, sector = (rng.integers(0, 2, (height, width)).astype(np.int32) for _ in range(2))
+    labels[:, 0], band[:, 0], sector[:, 0] = 1, 0, 0  # one piece down every row, across every band's edge
+    pieces = _pieces(labels, band, sector, np.array([10.0, 20.0]))
+    cell = (labels * 3 + band) * 2 + sector
+    expected = np.full((height, width), -1)
+    for value in np.unique(cell[labels >= 0]):
+        found, _ = ndimage.label(cell == value)
+        expected[found > 0] = found[found > 0] + expected.max() + 1
+    seen = labels >= 0
+    pairs = np.unique(np.stack([pieces[seen], expected[seen]]), axis=1)
+    assert pairs.shape[1] == len(np.unique(pieces[seen])) == len(np.unique(expected[seen]))  # one to one
+    assert len(np.unique(pieces)) == len(np.unique(pieces[seen])) + int((~seen).sum())
+    assert len(np.unique(pieces[:, 0])) == 1

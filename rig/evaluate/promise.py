@@ -22,7 +22,7 @@ from rig.workers import point_blocks
 
 SECTOR_ARC_PX = 8.0  # projector pixels of arc, at its outer ring, of each sector of an annulus
 CLEAR_PX = 2  # a ring is seen where it crosses surface this many camera pixels clear of its edge
-_ROWS = 64  # image rows worked out at once
+BAND_ROWS = 64  # image rows worked out at once
 
 
 # A band of rows' projector polar coordinates (rho, theta) about the rings' centre, NaN where none
@@ -44,7 +44,7 @@ def between_rings(
     held together."""
     radii = np.asarray(radii, dtype=np.float64)
     labels, band, sector = (np.empty(seen.shape, np.int32) for _ in range(3))
-    for rows in point_blocks(seen.shape[0], _ROWS):
+    for rows in point_blocks(seen.shape[0], BAND_ROWS):
         rho, theta = polar(rows)
         labels[rows] = np.where(seen[rows] & np.isfinite(rho) & np.isfinite(theta), region[rows], -1)
         band[rows] = np.searchsorted(
@@ -79,6 +79,14 @@ def polar_rows(uv: np.ndarray, center: tuple[float, float]) -> PolarRows:
     return band
 
 
+def projector_radius(uv: np.ndarray, center: tuple[float, float]) -> np.ndarray:
+    """(H, W) rho of polar_rows, alone, made a band of rows at a time (no image-sized temporaries)."""
+    rho = np.empty(uv.shape[:2])
+    for rows in point_blocks(len(rho), BAND_ROWS):
+        rho[rows] = np.hypot(uv[rows, :, 0] - center[0], uv[rows, :, 1] - center[1])
+    return rho
+
+
 def image_rows(rho: np.ndarray, theta: np.ndarray) -> PolarRows:
     """Polar coordinates held as images (H, W), a band of rows at a time."""
     return lambda rows: (rho[rows], theta[rows])
@@ -100,7 +108,7 @@ def _pieces(labels: np.ndarray, band: np.ndarray, sector: np.ndarray, radii: np.
     height = labels.shape[0]
     right = np.empty((height, max(labels.shape[1] - 1, 0)), bool)
     down = np.empty((max(height - 1, 0), labels.shape[1]), bool)
-    for rows in point_blocks(height, _ROWS):
+    for rows in point_blocks(height, BAND_ROWS):
         below = slice(rows.start, min(rows.stop + 1, height))  # and the next band's first row
         key = _key(labels[below], band[below], sector[below], radii)
         ahead = key[: rows.stop - rows.start]

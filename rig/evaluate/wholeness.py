@@ -16,10 +16,9 @@ from typing import Any
 
 import numpy as np
 
-from rig.evaluate.promise import between_rings, polar_rows
+from rig.evaluate.promise import between_rings, polar_rows, projector_radius
 from rig.evaluate.regions import STEP_MM, footprints, weighted_quantile
 from rig.opened_rig import PixelTruth
-from rig.workers import point_blocks
 
 OBJECT_ABOVE_MM = 1.0  # the bench plane is z = 0 in the world: the object is what stands above it
 CROWDED_PX = 12.0  # rings closer in the image are read poorly (8 to 12 px apart: a face's surface 1/3 covered)
@@ -69,11 +68,8 @@ def wholeness(
     shares of the promised area). `areas`: true_areas(truth), when already known."""
     area, region = true_areas(truth) if areas is None else areas
     lit = truth.hit & truth.lit
-    polar = polar_rows(truth.projector_uv, center)
-    target = between_rings(polar, region, area, lit, radii)
-    rho = np.empty(lit.shape)  # a band of rows at a time: no image-sized temporaries
-    for rows in point_blocks(len(rho), 64):
-        rho[rows] = polar(rows)[0]
+    target = between_rings(polar_rows(truth.projector_uv, center), region, area, lit, radii)
+    rho = projector_radius(truth.projector_uv, center)
     on_object = truth.points[..., 2] > OBJECT_ABOVE_MM
     disc = lit & (rho < radii[0])
 

@@ -90,9 +90,10 @@ class Codec(abc.ABC):
         return list(self.iter_patterns())
 
     def iter_patterns(self) -> Iterator[np.ndarray]:
-        """The pattern images of `patterns` one at a time, each made when it is asked for where the
-        codec can (line codecs, from 1-D profiles): a capture that shows them one by one then holds
-        the one it shows, not the sequence (17 MB of Gray code on the default bench)."""
+        """The pattern images of `patterns` one at a time, each made when it is asked for (line
+        codecs from 1-D profiles, circular ones from polar images held between them: their
+        `_coded_iter`): a capture that shows them one by one then holds the one it shows, not the
+        sequence (17 MB of Gray code on the default bench, 75 MB with its temporaries for rings)."""
         white = np.full((self.height, self.width), 255, dtype=np.uint8)
         yield white if self.intensity_mask is None else self._sent(white)  # full white is full light
         yield np.zeros_like(white)

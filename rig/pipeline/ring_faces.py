@@ -65,7 +65,7 @@ def ring_triangles(
     """The kept triangles of the samples' image Delaunay triangulation `tri` (see the module
     docstring); `directions`: the samples' camera rays, where known (the triangulation's)."""
     directions = np.asarray(camera.rays(xy)[1]) if directions is None else directions
-    # the samples' neighbours along their rings need no triangles: found beside the triangulation
+    # the samples' neighbours along their rings need no triangles: found beside the triangle tests
     neighbours = pool().submit(ring_pairs, points, xy, ring, settings.normal_smoothing_px)
     tri = delaunay(xy) if tri is None else tri
     tested = _tested(points, xy, ring, camera, projector, directions, tri, settings.max_gap_px)

@@ -125,7 +125,7 @@ def _supported_rings(
     if across[supported].all():
         tri = speculative.result(timeout=POOL_WAIT_S)
     else:
-        speculative.cancel()  # if it has not begun
+        speculative.cancel()  # if it has not begun; begun, it ends unread (and so would an error of its own)
     supported &= across
     counts["rejected_depth_jump"] = int((rings.kept & ~supported).sum())
     counts["ring_points"] = int(supported.sum())
