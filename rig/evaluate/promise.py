@@ -47,9 +47,8 @@ def between_rings(
     for rows in point_blocks(seen.shape[0], BAND_ROWS):
         rho, theta = polar(rows)
         labels[rows] = np.where(seen[rows] & np.isfinite(rho) & np.isfinite(theta), region[rows], -1)
-        band[rows] = np.searchsorted(
-            radii, np.nan_to_num(rho, nan=-1.0), side="right"
-        )  # radii[band-1] <= rho < radii[band]
+        # radii[band-1] <= rho < radii[band]
+        band[rows] = np.searchsorted(radii, np.nan_to_num(rho, nan=-1.0), side="right")
         if len(radii):
             sector[rows] = _sector(band[rows], theta, radii)
     counted = labels >= 0
@@ -73,8 +72,8 @@ def polar_rows(uv: np.ndarray, center: tuple[float, float]) -> PolarRows:
     of rows is asked for."""
 
     def band(rows: slice) -> tuple[np.ndarray, np.ndarray]:
-        u, v = uv[rows, :, 0], uv[rows, :, 1]
-        return np.hypot(u - center[0], v - center[1]), np.arctan2(v - center[1], u - center[0])
+        u, v = uv[rows, :, 0] - center[0], uv[rows, :, 1] - center[1]
+        return np.hypot(u, v), np.arctan2(v, u)
 
     return band
 
@@ -83,7 +82,7 @@ def projector_radius(uv: np.ndarray, center: tuple[float, float]) -> np.ndarray:
     """(H, W) rho of polar_rows, alone, made a band of rows at a time (no image-sized temporaries)."""
     rho = np.empty(uv.shape[:2])
     for rows in point_blocks(len(rho), BAND_ROWS):
-        rho[rows] = np.hypot(uv[rows, :, 0] - center[0], uv[rows, :, 1] - center[1])
+        rho[rows] = np.hypot(uv[rows, :, 0] - center[0], uv[rows, :, 1] - center[1])  # polar_rows' rho
     return rho
 
 

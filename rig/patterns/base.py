@@ -59,7 +59,7 @@ class Codec(abc.ABC):
     Frame order is the pattern order; a codec starts with a fully lit and a dark frame, which give
     the texture and the lit mask (one that shows none, rig.patterns.cued_phase, overrides
     `iter_patterns`, `frame_count`, `_decoded` and `references`). Subclasses implement
-    `_coded_patterns` and `_decode`.
+    `_coded_iter` and `_decode`.
     """
 
     name: ClassVar[str]
@@ -102,10 +102,6 @@ class Codec(abc.ABC):
 
     def _sent(self, pattern: np.ndarray) -> np.ndarray:
         return sent_levels(pattern, self.intensity_mask, self.output_lut)
-
-    def _coded_iter(self) -> Iterator[np.ndarray]:
-        """The coded patterns one at a time (by default made together by `_coded_patterns`)."""
-        yield from self._coded_patterns()
 
     @property
     def frame_count(self) -> int:
@@ -161,7 +157,9 @@ class Codec(abc.ABC):
         return frames[0], frames[1]
 
     @abc.abstractmethod
-    def _coded_patterns(self) -> list[np.ndarray]: ...
+    def _coded_iter(self) -> Iterator[np.ndarray]:
+        """The coded patterns (after the white and dark frames) one at a time, each made as its turn
+        comes."""
 
     @abc.abstractmethod
     def _coded_frame_count(self) -> int: ...

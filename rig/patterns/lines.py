@@ -51,9 +51,6 @@ class LineCodec(Codec):
     def _coded_lines(self) -> list[tuple[np.ndarray, str]]:
         """Each coded pattern as its 1-D profile (uint8) and the axis it runs along."""
 
-    def _coded_patterns(self) -> list[np.ndarray]:
-        return list(self._coded_iter())
-
     def _coded_iter(self) -> Iterator[np.ndarray]:
         for line, axis in self._coded_lines():  # a profile is a few hundred bytes, its image 0.8 MB
             yield self.stretch(line, axis)

@@ -101,9 +101,6 @@ class RadialCodec(CircularCodec):
     def _coded_frame_count(self) -> int:
         return self.params.steps + 2 * self._gray_bits() + sum(steps for _, steps in self._angular_levels())
 
-    def _coded_patterns(self) -> list[np.ndarray]:
-        return list(self._coded_iter())
-
     def _coded_iter(self) -> Iterator[np.ndarray]:
         """The coded patterns one at a time, each made as its turn comes (rings' _coded_iter)."""
         p = self.params

@@ -174,9 +174,6 @@ class RingsCodec(CircularCodec):
     def _coded_frame_count(self) -> int:
         return 2 + 2 * self._zone_bits() + self.params.angle_steps + self._fine_steps()
 
-    def _coded_patterns(self) -> list[np.ndarray]:
-        return list(self._coded_iter())
-
     def _coded_iter(self) -> Iterator[np.ndarray]:
         """The coded patterns one at a time, each made as its turn comes: between them the polar angle
         and the ring zones are held, not the sequence (all twenty at once and their float
