@@ -6,10 +6,13 @@ from __future__ import annotations
 import numpy as np
 import pytest
 from scipy import ndimage
+from scipy.sparse import coo_matrix
+from scipy.sparse.csgraph import connected_components
 
 from rig.evaluate.promise import _pieces, between_rings, polar_rows
 from rig.evaluate.regions import (
     footprints,
+    joined_labels,
     pixel_areas,
     region_errors,
     support_plane,
@@ -105,6 +108,14 @@ def test_each_regions_quantile_is_the_quantile_of_its_own_pixels() -> None:
         own = labels == label
         assert region.quantile_mm == quantile(distances[own], areas[own])
         assert np.isclose(region.area_mm2, areas[own].sum())
+        # its sums from one pass over every point, with no copy of its own
+        assert np.isclose(
+            region.rms_mm, np.sqrt(np.sum(areas[own] * distances[own].astype(float) ** 2) / areas[own].sum())
+        )
+        assert region.max_mm == distances[own].max() and np.isclose(region.share, areas[own].sum() / areas.sum())
+    assert whole.max_mm == distances.max() and np.isclose(
+        whole.rms_mm, np.sqrt(np.sum(areas * distances.astype(float) ** 2) / areas.sum())
+    )
 
 
 def test_a_failing_object_is_not_hidden_by_a_large_flat_background() -> None:
@@ -284,6 +295,24 @@ class _Truth:
 
     def __init__(self, points: np.ndarray, hit: np.ndarray) -> None:
         self.points, self.hit = points, hit
+
+
+@pytest.mark.parametrize(("height", "width"), [(1, 1), (1, 9), (7, 1), (40, 33)])
+def test_joined_labels_are_the_connected_components_of_the_valid_pixels_numbered_by_first_pixel(
+    height: int, width: int
+) -> None:
+    rng = np.random.default_rng(height * 100 + width)
+    valid = rng.random((height, width)) < 0.7
+    right, down = rng.random((height, width - 1)) < 0.6, rng.random((height - 1, width)) < 0.6
+    labels = joined_labels(right, down, valid)
+    node = np.full((height, width), -1)
+    node[valid] = np.arange(int(valid.sum()))
+    a = np.concatenate([node[:, :-1][right & valid[:, :-1] & valid[:, 1:]], node[:-1][down & valid[:-1] & valid[1:]]])
+    b = np.concatenate([node[:, 1:][right & valid[:, :-1] & valid[:, 1:]], node[1:][down & valid[:-1] & valid[1:]]])
+    graph = coo_matrix((np.ones(len(a)), (a, b)), shape=(len(labels), len(labels)))
+    count, expected = connected_components(graph, directed=False)
+    assert labels.max(initial=-1) + 1 == count
+    assert np.array_equal(labels, expected)  # both number regions by their first pixel
 
 
 @pytest.mark.parametrize(("height", "width"), [(1, 7), (63, 1), (64, 5), (65, 7), (130, 9)])

@@ -17,7 +17,7 @@ from collections.abc import Callable
 import numpy as np
 from scipy.ndimage import maximum_filter, minimum_filter
 
-from rig.evaluate.regions import MIN_REGION_SHARE, joined_labels
+from rig.evaluate.regions import MIN_REGION_SHARE, joined_labels, region_kernels
 from rig.workers import point_blocks
 
 SECTOR_ARC_PX = 8.0  # projector pixels of arc, at its outer ring, of each sector of an annulus
@@ -40,10 +40,12 @@ def between_rings(
     docstring), of the regions (`region` labels, -1 none) that hold at least MIN_REGION_SHARE of
     the `seen` area; `polar` each pixel's projector polar coordinates about the rings' centre, a
     band of rows at a time (polar_rows, image_rows). Each pixel's annulus and sector are kept as
-    small integers: its polar coordinates and its cell's key (int64) were five image-sized arrays
-    held together."""
+    int16 (int32 past 2**15 sectors): its polar coordinates and its cell's key (int64) were five image-sized arrays held
+    together."""
     radii = np.asarray(radii, dtype=np.float64)
-    labels, band, sector = (np.empty(seen.shape, np.int32) for _ in range(3))
+    labels = np.empty(seen.shape, np.int32)
+    small = len(radii) == 0 or _most_sectors(radii) < 2**15  # far beyond any projector's rings
+    band, sector = (np.empty(seen.shape, np.int16 if small else np.int32) for _ in range(2))
     for rows in point_blocks(seen.shape[0], BAND_ROWS):
         rho, theta = polar(rows)
         labels[rows] = np.where(seen[rows] & np.isfinite(rho) & np.isfinite(theta), region[rows], -1)
@@ -54,11 +56,12 @@ def between_rings(
     counted = labels >= 0
     if not counted.any() or len(radii) == 0:
         return np.zeros(seen.shape, dtype=bool)
-    per_label = np.bincount(labels[counted], weights=area[counted])
+    per_label = region_kernels.label_totals(labels.ravel(), area.ravel(), int(labels.max()) + 1)
     judged = np.zeros(len(per_label), dtype=bool)
     judged[per_label >= MIN_REGION_SHARE * per_label.sum()] = True
     labels[counted & ~judged[np.maximum(labels, 0)]] = -1
     pieces = _pieces(labels, band, sector, radii)
+    del sector  # not needed for the pieces' bounds
     inner, outer = _bounded(band, labels, pieces, len(radii))
     piece = pieces[labels >= 0]
     ok = outer[piece] & (inner[piece] | (band[labels >= 0] == 0))  # the disc needs its ring only
@@ -118,10 +121,14 @@ def _pieces(labels: np.ndarray, band: np.ndarray, sector: np.ndarray, radii: np.
 
 def _key(labels: np.ndarray, band: np.ndarray, sector: np.ndarray, radii: np.ndarray) -> np.ndarray:
     """A key per pixel for its (region, annulus, sector), -1 for a pixel of no region."""
-    most = int(np.ceil(2 * np.pi * radii[-1] / SECTOR_ARC_PX)) + 8  # sectors of any annulus, at most
-    key = (labels.astype(np.int64) * (len(radii) + 1) + band) * most + sector
+    key = (labels.astype(np.int64) * (len(radii) + 1) + band) * _most_sectors(radii) + sector
     key[labels < 0] = -1
     return key
+
+
+def _most_sectors(radii: np.ndarray) -> int:
+    """The sectors of any annulus, at most (_sector)."""
+    return int(np.ceil(2 * np.pi * radii[-1] / SECTOR_ARC_PX)) + 8
 
 
 def _bounded(band: np.ndarray, labels: np.ndarray, pieces: np.ndarray, rings: int) -> tuple[np.ndarray, np.ndarray]:

@@ -121,8 +121,8 @@ def _plane_distances(points: np.ndarray, rows: np.ndarray, normal: np.ndarray, o
 
 def joined_labels(right: np.ndarray, down: np.ndarray, valid: np.ndarray) -> np.ndarray:
     """A label per valid pixel (row-major) of the graph joining each pixel to its right neighbour
-    where `right` (H, W-1) and to the one below where `down` (H-1, W); regions are numbered in the
-    order of their first pixel."""
+    where `right` (H, W-1) and to the one below where `down` (H-1, W) (a join to a pixel not valid
+    joins nothing); regions are numbered in the order of their first pixel."""
     height, width = valid.shape
     if right.shape != (height, max(width - 1, 0)) or down.shape != (max(height - 1, 0), width):
         raise ValueError(f"joins {right.shape}, {down.shape} do not fit pixels {valid.shape}")
@@ -153,24 +153,25 @@ def region_errors(
     distances: np.ndarray, areas: np.ndarray, labels: np.ndarray, q: float, min_share: float = MIN_REGION_SHARE
 ) -> tuple[RegionError, list[RegionError]]:
     """The whole surface's area-weighted error, and each region's that holds at least `min_share`
-    of the area, largest first."""
+    of the area, largest first. A region's points are never copied out: its sums come from one
+    compiled pass over them all, its quantile from the whole's order restricted to it."""
     total, areas = float(areas.sum()), np.asarray(areas, np.float64)  # summed in float64
     order = np.argsort(distances, kind="stable")  # once: a region's own order is this one's, restricted to it
-    whole = _error(distances, areas, total, weighted_quantile(distances, areas, q, order))
-    per_label = np.bincount(labels, weights=areas)  # a scan's many specks are never visited one by one
+    # a scan's many specks are never visited one by one
+    per_label = region_kernels.label_totals(labels, areas, int(labels.max(initial=-1)) + 1)
     large = np.flatnonzero(per_label >= min_share * total)
-    regions = []
-    for label in large:
-        members = labels == label
-        quantile = region_kernels.ordered_quantile(distances, areas, order, labels, int(label), q)
-        regions.append(_error(distances[members], areas[members], total, quantile))
+    slot = np.full(len(per_label), -1, np.int64)
+    slot[large] = np.arange(1, len(large) + 1)
+    sums = region_kernels.region_sums(distances, areas, labels, slot, len(large) + 1)
+    whole = _error(sums, 0, total, weighted_quantile(distances, areas, q, order))
+    regions = [
+        _error(sums, k + 1, total, region_kernels.ordered_quantile(distances, areas, order, labels, int(label), q))
+        for k, label in enumerate(large)
+    ]
     return whole, sorted(regions, key=lambda r: -r.area_mm2)
 
 
-def _error(distances: np.ndarray, areas: np.ndarray, total: float, quantile: float) -> RegionError:
-    area = float(areas.sum())
-    weighted = distances.astype(np.float64)
-    np.square(weighted, out=weighted)
-    weighted *= areas  # in place: one temporary of the points' length, not three
-    rms = float(np.sqrt(np.sum(weighted) / area)) if area > 0 else 0.0
-    return RegionError(area, area / total if total > 0 else 0.0, quantile, rms, float(distances.max()))
+def _error(sums: tuple[np.ndarray, np.ndarray, np.ndarray], k: int, total: float, quantile: float) -> RegionError:
+    area, square, most = (float(column[k]) for column in sums)
+    rms = float(np.sqrt(square / area)) if area > 0 else 0.0
+    return RegionError(area, area / total if total > 0 else 0.0, quantile, rms, most)

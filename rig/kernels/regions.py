@@ -86,36 +86,49 @@ def _step(grid: np.ndarray, y: int, x: int, dy: int, dx: int, back: bool, ahead:
 def joined_labels(right: np.ndarray, down: np.ndarray, valid: np.ndarray) -> np.ndarray:
     """A label per valid pixel (row-major) of the graph joining pixels through `right` and `down`,
     numbered in the order of each region's first pixel (as SciPy's connected components number
-    them)."""
+    them). Each pixel's node is numbered as its row and the next are reached: two rows of node
+    numbers, not an image of them."""
     height, width = valid.shape
-    node = np.full((height, width), -1, np.int32)  # int32: half the memory of int64
     count = 0
     for y in range(height):
         for x in range(width):
-            if valid[y, x]:
-                node[y, x] = count
-                count += 1
-    parent = np.empty(count, np.int32)
+            count += valid[y, x]
+    parent = np.empty(count, np.int32)  # int32: half the memory of int64
     for n in range(count):
         parent[n] = n
+    node, below = np.empty(width, np.int32), np.empty(width, np.int32)
+    numbered = _number_row(valid, 0, 0, node) if height else 0
     for y in range(height):
+        if y + 1 < height:
+            numbered = _number_row(valid, y + 1, numbered, below)
         for x in range(width):
             if not valid[y, x]:
                 continue
-            if x + 1 < width and right[y, x]:
-                _union(parent, node[y, x], node[y, x + 1])
-            if y + 1 < height and down[y, x]:
-                _union(parent, node[y, x], node[y + 1, x])
-    label = np.full(count, -1, np.int32)
-    out = np.empty(count, np.int32)  # labels are fewer than pixels
+            if x + 1 < width and right[y, x] and valid[y, x + 1]:  # a join to a pixel not valid is none
+                _union(parent, node[x], node[x + 1])
+            if y + 1 < height and down[y, x] and valid[y + 1, x]:
+                _union(parent, node[x], below[x])
+        node, below = below, node
+    # Each root is its region's first node (_union) and every parent comes before its child, so the
+    # parents turn into labels in place, in one pass: a child takes its parent's, labelled already.
     regions = 0
     for n in range(count):
-        root = _find(parent, n)
-        if label[root] < 0:
-            label[root] = regions
+        if parent[n] == n:
+            parent[n] = regions
             regions += 1
-        out[n] = label[root]
-    return out
+        else:
+            parent[n] = parent[parent[n]]
+    return parent
+
+
+@njit(**KERNEL)
+def _number_row(valid: np.ndarray, y: int, first: int, node: np.ndarray) -> int:
+    """Row y's valid pixels' nodes, numbered on from `first`, into `node`; the next free number."""
+    for x in range(valid.shape[1]):
+        if valid[y, x]:
+            node[x] = first
+            first += 1
+    return first
 
 
 @njit(**KERNEL)
@@ -160,3 +173,34 @@ def ordered_quantile(
             if running >= threshold:
                 return float(values[i])
     return float(values[last])
+
+
+@njit(**KERNEL)
+def region_sums(
+    values: np.ndarray, weights: np.ndarray, labels: np.ndarray, slot: np.ndarray, slots: int
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Per slot, the float64 sum of the weights, of weight x value^2, and the largest value: slot 0
+    every point, slot slot[labels[i]] (1 or more) those of a judged label (-1: a label not judged).
+    One pass, no copies of a region's points (rig.evaluate.regions.region_errors)."""
+    area, square, most = np.zeros(slots), np.zeros(slots), np.full(slots, -np.inf)
+    for i in range(len(values)):
+        value, weight = float(values[i]), float(weights[i])
+        s = slot[labels[i]]
+        for k in (0, s):
+            if k >= 0:
+                area[k] += weight
+                square[k] += weight * value * value
+                most[k] = max(most[k], value)
+    return area, square, most
+
+
+@njit(**KERNEL)
+def label_totals(labels: np.ndarray, weights: np.ndarray, count: int) -> np.ndarray:
+    """np.bincount(labels, weights) over the labels >= 0 (a label < 0: no region; both flat),
+    `count` long, summed in the same order: with no copies of the labels (bincount takes them as
+    int64) or of the counted points' own."""
+    total = np.zeros(count)
+    for i in range(len(labels)):
+        if labels[i] >= 0:
+            total[labels[i]] += weights[i]
+    return total

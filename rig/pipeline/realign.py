@@ -39,7 +39,7 @@ def moved_pair(pair: PairResult, rotation: np.ndarray, shift: np.ndarray) -> Pai
             surface,
             vertices=move(surface.vertices),
             normals=surface.normals @ rotation.T,
-            grid=move(surface.grid),
+            grid=move(surface.grid).astype(surface.grid.dtype),
         )
     stored = None if pair.stored_grid is None else move(pair.stored_grid)
     return dataclasses.replace(pair, stored_grid=stored, rings=rings, points=points, surface=surface)

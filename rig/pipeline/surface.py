@@ -59,7 +59,7 @@ class RingSurface:
     vertices: np.ndarray  # (M, 3) the ring samples
     normals: np.ndarray  # (M, 3) unit, toward the camera
     faces: np.ndarray  # (F, 3) kept triangles of the samples
-    grid: np.ndarray  # (H, W, 3) a point per covered pixel, NaN elsewhere
+    grid: np.ndarray  # (H, W, 3) float32, a point per covered pixel, NaN elsewhere (as the cloud holds them)
     valid: np.ndarray  # (H, W)
     counts: dict[str, int]
     ring: np.ndarray  # (M,) each sample's ring
@@ -217,7 +217,7 @@ def _points_in_faces(
     bands: RingBands | None,
     settings: SurfaceSettings,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The flat camera grid (H*W, 3) with each pixel's point on its face (pixels: flat pixels and
+    """The flat camera grid (H*W, 3) float32 with each pixel's point on its face (pixels: flat pixels and
     their faces, rasterize's) by `method`, NaN elsewhere; per pixel whether a point was found, and
     (with `bands`) whether it lies in the band its pixel read. Batches of pixels on the pool."""
     pixel, owner = pixels
@@ -227,7 +227,7 @@ def _points_in_faces(
     )
     common_origin = camera.center if camera.projection != "orthographic" else None
     terms = FaceTerms.of(points, xy, tri, corners, common_origin)
-    grid = full_on_pool((camera.height * camera.width, 3), np.nan, np.float64)
+    grid = full_on_pool((camera.height * camera.width, 3), np.nan, np.float32)
     ok = np.ones(len(pixel), dtype=bool)
     agree = np.ones(len(pixel), dtype=bool)
 
@@ -304,7 +304,8 @@ def band_agreement(
     read = (bands.annulus.ravel(), bands.angle.ravel(), np.asarray(bands.radii_px, np.float64), *centre)
     margins = (float(settings.band_margin_px), float(settings.band_angle_rad))
     rows = np.arange(len(pixel)) if rows is None else rows
-    points = (np.ascontiguousarray(found, np.float64), rows)
+    # float32 grids as they are: a float64 copy would be of the whole grid, for every batch
+    points = (found if found.dtype == np.float32 else np.ascontiguousarray(found, np.float64), rows)
     surface_kernels.band_agreement(points, pixel, device, kind, read, margins, agree, 0, len(pixel))
     return agree
 
