@@ -9,7 +9,7 @@ from scipy import ndimage
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 
-from rig.evaluate.promise import _pieces, between_rings, polar_rows
+from rig.evaluate.promise import PixelRadius, _pieces, between_rings, polar_rows
 from rig.evaluate.regions import (
     footprints,
     joined_labels,
@@ -267,12 +267,15 @@ def test_rhos_slope_at_the_missed_pixels_is_np_gradients() -> None:
     from rig.evaluate.wholeness import _gradient
 
     rng = np.random.default_rng(3)
-    image = rng.normal(size=(37, 53)) * 100
-    rows, cols = np.gradient(image)
+    image = rng.normal(size=(130, 53)) * 100  # rows past a band (BAND_ROWS)
     y, x = np.nonzero(rng.random(image.shape) < 0.4)
-    y, x = np.concatenate([y, [0, 36, 0, 36]]), np.concatenate([x, [0, 52, 52, 0]])  # the four corners
-    assert np.array_equal(_gradient(image, y, x, 0), rows[y, x])
-    assert np.array_equal(_gradient(image, y, x, 1), cols[y, x])
+    y, x = np.concatenate([y, [0, 129, 0, 129]]), np.concatenate([x, [0, 52, 52, 0]])  # the four corners
+    made = PixelRadius(np.stack([image, np.zeros_like(image)], axis=-1), (0.0, 0.0))  # rho = |image|
+    image = np.abs(image)
+    rows, cols = np.gradient(image)
+    assert np.array_equal(_gradient(made, y, x, 0), rows[y, x])
+    assert np.array_equal(_gradient(made, y, x, 1), cols[y, x])
+    assert np.array_equal(made.within(50.0), image < 50.0)
 
 
 def test_a_truths_areas_are_made_once_and_shared_read_only() -> None:

@@ -311,11 +311,12 @@ class SimBench:
                 if emitted is None:
                     total += np.multiply(gain, np.float32(weight * black), out=scratch)
                     continue
-                sampled = cv2.remap(
+                sampled = cv2.remap(  # into the scratch image: no image-sized array per frame
                     emitted,
                     light.map_x,
                     light.map_y,
                     cv2.INTER_LINEAR,
+                    dst=scratch,
                     borderMode=cv2.BORDER_CONSTANT,
                     borderValue=0,
                 )

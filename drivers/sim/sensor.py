@@ -45,7 +45,8 @@ def expose(
     """The counts (uint8 or uint16) a sensor reads from `radiance` (float32, relative to a white
     surface at the reference distance; it may be overwritten) over `exposure_us` at `gain`."""
     if params.blur_px > 0:
-        radiance = cv2.GaussianBlur(radiance, (0, 0), params.blur_px, borderType=cv2.BORDER_REPLICATE)
+        # in place (the same values as into a new image): no image-sized array per frame
+        radiance = cv2.GaussianBlur(radiance, (0, 0), params.blur_px, dst=radiance, borderType=cv2.BORDER_REPLICATE)
     radiance = np.ascontiguousarray(radiance)
     terms = (
         np.float32(exposure_us / params.full_scale_exposure_us * params.full_well_e),  # electrons per unit

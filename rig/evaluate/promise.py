@@ -81,12 +81,27 @@ def polar_rows(uv: np.ndarray, center: tuple[float, float]) -> PolarRows:
     return band
 
 
-def projector_radius(uv: np.ndarray, center: tuple[float, float]) -> np.ndarray:
-    """(H, W) rho of polar_rows, alone, made a band of rows at a time (no image-sized temporaries)."""
-    rho = np.empty(uv.shape[:2])
-    for rows in point_blocks(len(rho), BAND_ROWS):
-        rho[rows] = np.hypot(uv[rows, :, 0] - center[0], uv[rows, :, 1] - center[1])  # polar_rows' rho
-    return rho
+def projector_radius(uv: np.ndarray, center: tuple[float, float]) -> PixelRadius:
+    """rho of polar_rows, alone, made only at the pixels asked for: `radius(y, x)`, and `within(r)`
+    (H, W) whether it is under r, a band of rows at a time (no image of it: 10 MB at 1280x1024)."""
+    return PixelRadius(uv, center)
+
+
+class PixelRadius:
+    """projector_radius's rho at chosen pixels, as polar_rows makes it."""
+
+    def __init__(self, uv: np.ndarray, center: tuple[float, float]) -> None:
+        self.uv, self.center, self.shape = uv, center, uv.shape[:2]
+
+    def __call__(self, y: np.ndarray, x: np.ndarray) -> np.ndarray:
+        return np.hypot(self.uv[y, x, 0] - self.center[0], self.uv[y, x, 1] - self.center[1])  # polar_rows' rho
+
+    def within(self, radius: float) -> np.ndarray:
+        inside = np.empty(self.shape, bool)
+        for rows in point_blocks(len(inside), BAND_ROWS):
+            u, v = self.uv[rows, :, 0] - self.center[0], self.uv[rows, :, 1] - self.center[1]
+            inside[rows] = np.hypot(u, v) < radius
+        return inside
 
 
 def image_rows(rho: np.ndarray, theta: np.ndarray) -> PolarRows:

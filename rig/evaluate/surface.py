@@ -26,8 +26,8 @@ def surface_metrics(pair: PairResult, truth: PixelTruth) -> dict[str, Any]:
     valid = pair.surface.valid
     dist = surface_distances(pair.surface.grid, valid, truth)
     target = truth.hit & truth.lit
-    close = np.zeros(valid.size, dtype=bool)
-    close[np.flatnonzero(valid.ravel())[dist <= COMPLETE_WITHIN_MM]] = True
+    close = np.zeros(valid.shape, dtype=bool)
+    close[valid] = dist <= COMPLETE_WITHIN_MM  # dist is row-major over the valid pixels
     empty = len(dist) == 0
     areas = None if empty else true_areas(truth)
     by_area = {} if areas is None else area_metrics(valid, dist, areas)
@@ -44,7 +44,7 @@ def surface_metrics(pair: PairResult, truth: PixelTruth) -> dict[str, Any]:
         "surface_p95_mm": None if empty else float(np.percentile(dist, 95)),
         "surface_max_mm": None if empty else float(np.max(dist)),
         "surface_over_1mm_fraction": float((dist > 1.0).sum() / max(1, len(dist))),
-        "surface_completeness": float((close.reshape(valid.shape) & target).sum() / max(1, target.sum())),
+        "surface_completeness": float((close & target).sum() / max(1, target.sum())),
     }
 
 

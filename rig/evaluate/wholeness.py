@@ -16,7 +16,7 @@ from typing import Any
 
 import numpy as np
 
-from rig.evaluate.promise import between_rings, polar_rows, projector_radius
+from rig.evaluate.promise import PixelRadius, between_rings, polar_rows, projector_radius
 from rig.evaluate.regions import STEP_MM, footprints, weighted_quantile
 from rig.opened_rig import PixelTruth
 
@@ -71,7 +71,8 @@ def wholeness(
     target = between_rings(polar_rows(truth.projector_uv, center), region, area, lit, radii)
     rho = projector_radius(truth.projector_uv, center)
     on_object = truth.points[..., 2] > OBJECT_ABOVE_MM
-    disc = lit & (rho < radii[0])
+    inner = rho.within(radii[0])
+    disc = lit & inner
 
     def share(mask: np.ndarray, of: np.ndarray | None = None) -> float | None:
         whole = float(area[mask].sum())
@@ -85,24 +86,24 @@ def wholeness(
         "surface_object_promised": share(lit & on_object, target),
         "surface_object_lit_coverage": share(lit & on_object),
         "surface_object_missed": _missed(
-            target & on_object & ~valid, area, rho, radii, float(area[target & on_object].sum())
+            target & on_object & ~valid, inner, area, rho, radii, float(area[target & on_object].sum())
         ),
     }
 
 
 def _missed(
-    missed: np.ndarray, area: np.ndarray, rho: np.ndarray, radii: np.ndarray, promised: float
+    missed: np.ndarray, inner: np.ndarray, area: np.ndarray, rho: PixelRadius, radii: np.ndarray, promised: float
 ) -> dict[str, float]:
-    """Where the promised area went uncovered, as shares of it: the disc inside the innermost ring,
-    where the rings crowd closer than CROWDED_PX camera pixels (a flank turning away: the codec cannot
-    read them), and elsewhere."""
+    """Where the promised area went uncovered, as shares of it: the disc inside the innermost ring
+    (`inner`), where the rings crowd closer than CROWDED_PX camera pixels (a flank turning away: the
+    codec cannot read them), and elsewhere."""
     if promised <= 0:
         return {}
-    disc = missed & (rho < radii[0])
+    disc = missed & inner
     crowded = np.zeros(missed.shape, bool)
     y, x = np.nonzero(missed & ~disc)  # the rings' spacing and rho's slope at these pixels alone
     slope = np.hypot(_gradient(rho, y, x, 0), _gradient(rho, y, x, 1))
-    band = np.clip(np.searchsorted(radii, np.nan_to_num(rho[y, x], nan=-1.0), side="right"), 1, max(1, len(radii) - 1))
+    band = np.clip(np.searchsorted(radii, np.nan_to_num(rho(y, x), nan=-1.0), side="right"), 1, max(1, len(radii) - 1))
     spacing = radii[np.minimum(band, len(radii) - 1)] - radii[band - 1]
     close = spacing < CROWDED_PX * slope
     crowded[y[close], x[close]] = True
@@ -112,9 +113,9 @@ def _missed(
     }
 
 
-def _gradient(image: np.ndarray, y: np.ndarray, x: np.ndarray, axis: int) -> np.ndarray:
-    """np.gradient(np.nan_to_num(image))[axis] at the pixels (y, x) alone: central differences,
-    one-sided at the image's edges."""
+def _gradient(image: PixelRadius, y: np.ndarray, x: np.ndarray, axis: int) -> np.ndarray:
+    """np.gradient(np.nan_to_num(image))[axis] at the pixels (y, x) alone, of an image made at the
+    pixels asked for (`image(y, x)`, its `shape`): central differences, one-sided at its edges."""
     at = [y, x]
     size = image.shape[axis]
     ahead, behind = at.copy(), at.copy()
@@ -122,7 +123,7 @@ def _gradient(image: np.ndarray, y: np.ndarray, x: np.ndarray, axis: int) -> np.
     behind[axis] = np.maximum(at[axis] - 1, 0)
     step = (ahead[axis] - behind[axis]).astype(np.float64)
     with np.errstate(invalid="ignore", divide="ignore"):
-        return (np.nan_to_num(image[ahead[0], ahead[1]]) - np.nan_to_num(image[behind[0], behind[1]])) / step
+        return (np.nan_to_num(image(ahead[0], ahead[1])) - np.nan_to_num(image(behind[0], behind[1]))) / step
 
 
 def object_error(
@@ -133,8 +134,9 @@ def object_error(
     the rms; `dist` per valid pixel, row-major."""
     if area is None:
         area = true_areas(truth)[0]
-    on = (truth.points[..., 2] > OBJECT_ABOVE_MM)[grid_valid]
-    weights = area[grid_valid][on]
+    on_object = truth.points[..., 2] > OBJECT_ABOVE_MM
+    on = on_object[grid_valid]
+    weights = area[grid_valid & on_object]  # as area[grid_valid][on], without the valid pixels' copy
     if not on.any() or weights.sum() <= 0:
         return {"surface_object_p95_mm": None, "surface_object_rms_mm": None}
     d = dist[on].astype(np.float64)

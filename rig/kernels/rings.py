@@ -209,3 +209,56 @@ def ring_bands(
             annulus[y, x] = a if zone_ok[y, x] and abs(e) >= least else -1
             modulation = scale * np.float32(math.hypot(s[y, x], c[y, x]))  # as float32 hypot rounds it
             angle[y, x] = atan2(s[y, x], c[y, x]) if lit[y, x] and modulation >= least else np.nan
+
+
+@njit(**KERNEL)
+def edge_crossings(
+    edge: np.ndarray, min_step: np.float32
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, int]:
+    """rig.patterns.crossings.Crossings.candidates in two passes over the edge image (a count, then
+    the crossings), with no image-sized temporaries: the rows and columns of each crossing's pixel
+    a (int64), its t (float64) and step (float32), vertical neighbours first, each in row-major
+    order, and how many are vertical; float32 arithmetic in numpy's order, so numpy's values."""
+    total, vertical = 0, 0
+    for axis in range(2):
+        for y in range(edge.shape[0] - (axis == 0)):
+            for x in range(edge.shape[1] - (axis == 1)):
+                total += _crosses(edge, y, x, axis, min_step)
+        if axis == 0:
+            vertical = total
+    rows, cols = np.empty(total, np.int64), np.empty(total, np.int64)
+    t, step = np.empty(total), np.empty(total, np.float32)
+    n = 0
+    for axis in range(2):
+        for y in range(edge.shape[0] - (axis == 0)):
+            for x in range(edge.shape[1] - (axis == 1)):
+                if _crosses(edge, y, x, axis, min_step):
+                    d1 = edge[y, x]
+                    rows[n], cols[n], step[n] = y, x, d1 - edge[y + (axis == 0), x + (axis == 1)]
+                    t[n] = d1 / step[n]
+                    n += 1
+    return rows, cols, t, step, vertical
+
+
+@njit(nogil=True, cache=True, inline="always")
+def _crosses(edge: np.ndarray, y: int, x: int, axis: int, min_step: np.float32) -> bool:
+    """Whether the edge changes sign (0 counting as positive) from (y, x) to its neighbour along
+    `axis` by a step of at least `min_step`, and the edge there runs across that axis more than
+    along it (np.gradient's slopes, compared only where the first two hold)."""
+    d1, d2 = edge[y, x], edge[y + (axis == 0), x + (axis == 1)]
+    if (d1 >= 0) == (d2 >= 0) or abs(d1 - d2) < min_step:
+        return False
+    steep = abs(_slope(edge, y, x, 0)) >= abs(_slope(edge, y, x, 1))
+    return steep if axis == 0 else not steep
+
+
+@njit(nogil=True, cache=True, inline="always")
+def _slope(edge: np.ndarray, y: int, x: int, axis: int) -> np.float32:
+    """np.gradient(edge)[axis] at (y, x): a central difference, one-sided at the image's edge."""
+    size, at = edge.shape[axis], y if axis == 0 else x
+    dy, dx = (1, 0) if axis == 0 else (0, 1)
+    if at == 0:
+        return edge[y + dy, x + dx] - edge[y, x]
+    if at == size - 1:
+        return edge[y, x] - edge[y - dy, x - dx]
+    return (edge[y + dy, x + dx] - edge[y - dy, x - dx]) / np.float32(2.0)

@@ -10,6 +10,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from rig.lazy import lazy_module
+
+ring_kernels = lazy_module("rig.kernels.rings")  # numba compiles on first use
+
 
 @dataclass(frozen=True, eq=False)
 class Crossings:
@@ -24,30 +28,19 @@ class Crossings:
 
     @classmethod
     def candidates(cls, edge: np.ndarray, min_contrast: float) -> Crossings:
-        """Every sign change of `edge` stepping by at least `min_contrast`, in row-major order of a,
-        vertical neighbours first; each from the pair of neighbours across the edge."""
-        gy, gx = np.gradient(edge)
-        steep = np.abs(gy) >= np.abs(gx)  # the edge crosses columns more than rows
-        parts = []
-        for axis in (0, 1):  # crossings between vertical, then horizontal neighbours
-            a = (slice(None, -1), slice(None)) if axis == 0 else (slice(None), slice(None, -1))
-            b = (slice(1, None), slice(None)) if axis == 0 else (slice(None), slice(1, None))
-            d1, d2 = edge[a], edge[b]
-            step = d1 - d2
-            # A sign change, counting 0 as positive: a pixel exactly on the ring (common in 8-bit
-            # captures) still yields its crossing, and each crossing is found once.
-            found = ((d1 >= 0) != (d2 >= 0)) & (np.abs(step) >= min_contrast)
-            # Search across the edge, not along it: each point once, from the better-conditioned pair.
-            found &= steep[a] if axis == 0 else ~steep[a]
-            rows, cols = np.nonzero(found)
-            t = d1[rows, cols] / step[rows, cols]
-            parts.append(((rows, cols), (rows + (axis == 0), cols + (axis == 1)), t, step[rows, cols]))
-        return cls(
-            (np.concatenate([p[0][0] for p in parts]), np.concatenate([p[0][1] for p in parts])),
-            (np.concatenate([p[1][0] for p in parts]), np.concatenate([p[1][1] for p in parts])),
-            np.concatenate([p[2] for p in parts]).astype(np.float64),
-            np.concatenate([p[3] for p in parts]),
-        )
+        """Every sign change of `edge` (float32) stepping by at least `min_contrast`, in row-major
+        order of a, vertical neighbours first; each from the pair of neighbours across the edge
+        (where the edge's slope across it is the steeper), a sign change counting 0 as positive: a
+        pixel exactly on the ring (common in 8-bit captures) still yields its crossing, and each
+        crossing is found once. One compiled pass to count them and one to list them
+        (rig.kernels.rings.edge_crossings): numpy's passes held some 25 MB of images at 1280x1024."""
+        if min(edge.shape) < 2:
+            raise ValueError(f"an edge image of {edge.shape} pixels has no neighbours to cross between")
+        image = np.ascontiguousarray(edge, np.float32)
+        rows, cols, t, step, vertical = ring_kernels.edge_crossings(image, np.float32(min_contrast))
+        down = np.zeros(len(rows), np.int64)
+        down[:vertical] = 1  # b: the pixel below a, then the one to its right
+        return cls((rows, cols), (rows + down, cols + (1 - down)), t, step)
 
     def within_zones(self, zone: np.ndarray, zone_ok: np.ndarray) -> Crossings:
         """The crossings whose two pixels read the same ring index, both readable (`zone_ok`)."""
