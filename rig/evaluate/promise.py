@@ -53,13 +53,14 @@ def between_rings(
         band[rows] = np.searchsorted(radii, np.nan_to_num(rho, nan=-1.0), side="right")
         if len(radii):
             sector[rows] = _sector(band[rows], theta, radii)
-    counted = labels >= 0
-    if not counted.any() or len(radii) == 0:
+    if labels.max(initial=-1) < 0 or len(radii) == 0:
         return np.zeros(seen.shape, dtype=bool)
     per_label = region_kernels.label_totals(labels.ravel(), area.ravel(), int(labels.max()) + 1)
     judged = np.zeros(len(per_label), dtype=bool)
     judged[per_label >= MIN_REGION_SHARE * per_label.sum()] = True
-    labels[counted & ~judged[np.maximum(labels, 0)]] = -1
+    for rows in point_blocks(len(labels), BAND_ROWS):  # the regions not judged: no region
+        part = labels[rows]
+        part[(part >= 0) & ~judged[np.maximum(part, 0)]] = -1
     pieces = _pieces(labels, band, sector, radii)
     del sector  # not needed for the pieces' bounds
     inner, outer = _bounded(band, labels, pieces, len(radii))

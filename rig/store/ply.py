@@ -61,20 +61,33 @@ _FACE = np.dtype([("count", "u1"), ("vertex_indices", "<i4", (3,))])
 
 
 def mesh_ply_bytes(mesh: Mesh, comment: str = "slrig") -> bytes:
-    """Binary PLY of a triangle mesh: vertices x y z with red green blue, faces as lists of three
-    vertex indices (`property list uchar int vertex_indices`, what Open3D and MeshLab read)."""
-    vertex = np.empty(len(mesh.vertices), dtype=_MESH_VERTEX)
-    for i, axis in enumerate("xyz"):
-        vertex[axis] = mesh.vertices[:, i]
-    for i, channel in enumerate(("red", "green", "blue")):
-        vertex[channel] = mesh.colors[:, i]
-    face = np.empty(len(mesh.faces), dtype=_FACE)
-    face["count"] = 3
-    face["vertex_indices"] = mesh.faces
-    lines = ["ply", "format binary_little_endian 1.0", f"comment {comment}", f"element vertex {len(vertex)}"]
+    return b"".join(mesh_ply_chunks(mesh, comment))
+
+
+def mesh_ply_chunks(mesh: Mesh, comment: str = "slrig") -> Iterator[bytes]:
+    """Binary PLY of a triangle mesh in pieces, as ply_chunks writes a cloud (a block at a time, no
+    second copy of it: whole, its records and their bytes were some 30 MB of a ring scan's peak):
+    vertices x y z with red green blue, faces as lists of three vertex indices (`property list uchar
+    int vertex_indices`, what Open3D and MeshLab read)."""
+    vertices, faces = len(mesh.vertices), len(mesh.faces)
+    lines = ["ply", "format binary_little_endian 1.0", f"comment {comment}", f"element vertex {vertices}"]
     lines += [f"property float {a}" for a in "xyz"] + [f"property uchar {c}" for c in ("red", "green", "blue")]
-    lines += [f"element face {len(face)}", "property list uchar int vertex_indices", "end_header"]
-    return ("\n".join(lines) + "\n").encode("ascii") + vertex.tobytes() + face.tobytes()
+    lines += [f"element face {faces}", "property list uchar int vertex_indices", "end_header"]
+    yield ("\n".join(lines) + "\n").encode("ascii")
+    vertex = np.empty(min(vertices, BLOCK_POINTS), dtype=_MESH_VERTEX)
+    for part in point_blocks(vertices):
+        out = vertex[: part.stop - part.start]
+        for i, axis in enumerate("xyz"):
+            out[axis] = mesh.vertices[part, i]
+        for i, channel in enumerate(("red", "green", "blue")):
+            out[channel] = mesh.colors[part, i]
+        yield out.tobytes()
+    face = np.empty(min(faces, BLOCK_POINTS), dtype=_FACE)
+    face["count"] = 3
+    for part in point_blocks(faces):
+        out = face[: part.stop - part.start]
+        out["vertex_indices"] = mesh.faces[part]
+        yield out.tobytes()
 
 
 def read_cloud_ply(data: bytes, source: str = "cloud.ply") -> PointSet:

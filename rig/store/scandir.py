@@ -29,7 +29,7 @@ from rig.store.atomic import fsync_dir, publish_folder, write_atomic
 from rig.store.images import depth_image_png, grid_depth, mask_png, point_depth, preview_png, rgb_png
 from rig.store.mask_files import FOLDER as MASKS
 from rig.store.mask_files import write_mask_skews
-from rig.store.ply import mesh_ply_bytes, ply_chunks
+from rig.store.ply import mesh_ply_chunks, ply_chunks
 
 DESCRIPTION_NAME = "patterns.yaml"  # beside kept frames: what they show, for `slrig reconstruct`
 
@@ -249,7 +249,7 @@ def write_scan(
 def _write_surface(the_rig: Rig, result: ScanResult, partial: Path, scan_id: str) -> dict[str, Any]:
     """mesh.ply and, per camera, the depth map of the surface interpolated between the rings."""
     assert result.mesh is not None
-    write_atomic(partial / "mesh.ply", mesh_ply_bytes(result.mesh, comment=f"slrig surface {scan_id}"))
+    write_atomic(partial / "mesh.ply", mesh_ply_chunks(result.mesh, comment=f"slrig surface {scan_id}"))
     out: dict[str, Any] = {"mesh": "mesh.ply", "depth": {}}
     for c, camera in enumerate(the_rig.config.cameras):
         name = f"surface_depth_{camera.name}.png"
