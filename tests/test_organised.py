@@ -150,3 +150,37 @@ def test_plane_terms_hold_a_and_b_as_numbers_and_refuse_rays_from_several_points
     assert planes.a == np.float32(7.0 - 3.0 + (2.0 - 0.5) * -0.5) and planes.b == np.float32((2.0 - 0.5) * 0.01)
     with pytest.raises(ValueError, match="more than one point"):
         PlaneTerms(camera, "u", (*terms[:2], varying, *terms[3:]), 0.01, -0.5)
+
+
+@pytest.mark.parametrize(("codec", "jump"), [("phase", 2.0), ("gray", 0.5), ("phase", None)])
+def test_the_depth_image_in_one_pass_is_the_three_passes_depth_to_the_bit(codec: str, jump: float | None) -> None:
+    """Live mode's depth image of a pair of coded planes, triangulated, tested for isolated points
+    and blanked in one pass per band of rows (rig.kernels.depth): the same depths and count as the
+    three passes, on strips of any height down to one row."""
+    from rig.pipeline.organised import PixelTerms, PlaneTerms, fast_terms
+
+    config = config_from_dict(_small(codec, max_depth_jump_mm=jump), "organised-depth")
+    with open_rig(config) as rig:
+        codec_ = make_codec(rig, 0)
+        corr = codec_.decode(capture(rig, [codec_], ProgressTracker(None))[(0, 0)], 255)
+        terms = fast_terms(triangulator(rig, 0, 0), "u")
+    assert isinstance(terms, PlaneTerms)
+    expected, count = PixelTerms.depth(terms, corr, jump)  # the three passes
+    assert count > 1000 and np.isnan(expected).any()
+    found, found_count = terms.depth(corr, jump)
+    assert found_count == count and np.array_equal(found, expected, equal_nan=True)
+    from rig.kernels import depth as depth_kernels
+
+    one_row_at_a_time = np.empty_like(expected)
+    limits = (jump is not None, np.float32(jump or 0.0), 3)
+    plane = (terms.a, terms.b, terms.scale, terms.shift)
+    assert (
+        sum(
+            depth_kernels.plane_depth(
+                corr.u, corr.valid, plane, terms.c, terms.d, terms.along_axis, limits, one_row_at_a_time, y, y + 1
+            )
+            for y in range(len(expected))
+        )
+        == count
+    )
+    assert np.array_equal(one_row_at_a_time, expected, equal_nan=True)

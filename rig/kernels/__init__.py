@@ -1,21 +1,22 @@
 """The compiled loops (numba), on their own floor: they import numpy and numba only, and every layer
 that needs one loads it lazily (rig.lazy), so that a command that does not run one does not compile
 it. `dense`: Gray decoding, contrast, plane and ray-to-ray triangulation, kept points and normals,
-triangulation angles; `phase`: phase shifting's wrap and unwrap, cued_phase's texture and status
-counts; `radial`: the radial codec's levels and coordinates; `rings`: ring samples read by radius
-and fine angle, judged along rings, the rings' bands and the edge pattern's crossings;
-`ring_points`: the cone root each ring sample's angle picks, and the samples the fine angle places;
-`across`: the across-ring test, its planes fitted once for the samples sharing a neighbourhood;
-`normals`: the ring samples' normals and the bend tests; `triangles`: the ring triangles' tests and
-their rasterising; `delaunay`: the ring samples' Delaunay triangles, inserted one at a time, and the
-Hilbert curve of their order; `ring_surface`: per-face terms, each pixel's point on its face and its
-band agreement; `fill`: the ring surface's reach test, neighbourhoods, one-surface test and
-height-field fits; `colour`: the colour between the rings and each sample's nearest on its ring; `vectors`:
-three-vectors as rows, read in place; `cells`: image points in a grid of cells (all together or by
-ring), the nearest-neighbour searches over it and sorts by counting; `mesh`: an organised grid's
-mesh faces; `regions`: evaluation's surface regions, their sums and labels' totals; `cone`: camera
-rays against their rings' cones; `lens`: lens distortion inverted; `curvature`: the surface
-curvature's per-point sums. Each is compiled on first use and cached beside it (__pycache__)."""
+triangulation angles; `depth`: live mode's depth image of coded planes in one pass per band;
+`phase`: phase shifting's wrap and unwrap, cued_phase's texture and status counts; `radial`: the
+radial codec's levels and coordinates; `rings`: ring samples read by radius and fine angle, judged
+along rings, the rings' bands and the edge pattern's crossings; `ring_points`: the cone root each
+ring sample's angle picks, and the samples the fine angle places; `across`: the across-ring test,
+its planes fitted once for the samples sharing a neighbourhood; `normals`: the ring samples' normals
+and the bend tests; `triangles`: the ring triangles' tests and their rasterising; `delaunay`: the
+ring samples' Delaunay triangles, inserted one at a time, and the Hilbert curve of their order;
+`ring_surface`: per-face terms, each pixel's point on its face and its band agreement; `fill`: the
+ring surface's reach test, neighbourhoods, one-surface test and height-field fits; `colour`: the
+colour between the rings and each sample's nearest on its ring; `vectors`: three-vectors as rows,
+read in place; `cells`: image points in a grid of cells (all together or by ring), the
+nearest-neighbour searches over it and sorts by counting; `mesh`: an organised grid's mesh faces;
+`regions`: evaluation's surface regions, their sums and labels' totals; `cone`: camera rays against
+their rings' cones; `lens`: lens distortion inverted; `curvature`: the surface curvature's per-point
+sums. Each is compiled on first use and cached beside it (__pycache__)."""
 
 import numpy as np
 

@@ -26,6 +26,7 @@ from rig.pipeline.pointset import PointSet
 from rig.workers import in_row_strips
 
 kernels = lazy_module("rig.kernels.dense")  # numba compiles on first use: not for --help
+depth_kernels = lazy_module("rig.kernels.depth")
 
 _MIN_SUPPORT = 3  # as reject_isolated: neighbours within the depth-jump limit a point needs
 _NORMAL_STEP = 2  # as grid_normals: neighbours this many pixels away span the tangent plane
@@ -98,6 +99,16 @@ class PixelTerms(abc.ABC):
         """Rows `rows` of each pixel's distance along its ray, its depth and whether it has a point
         (rig.kernels.dense writes them in place)."""
 
+    def depth(self, corr: Correspondence, max_jump_mm: float | None) -> tuple[np.ndarray, int]:
+        """organised_depth: triangulated, isolated points dropped, the depth blanked where none is
+        kept, a pass each."""
+        _, depth, keep, _ = _triangulated(self, corr, max_jump_mm)
+        kept: list[int] = []
+        in_row_strips(
+            depth.shape[0], lambda rows: kept.append(kernels.blank_unkept(depth, keep, rows.start, rows.stop))
+        )
+        return depth, sum(kept)
+
 
 class PlaneTerms(PixelTerms):
     """A pair whose camera ray meets the plane of a projector column (or row) x: the ray parameter
@@ -125,12 +136,32 @@ class PlaneTerms(PixelTerms):
         self.scale, self.shift = np.float32(scale), np.float32(shift)
 
     def triangulate(self, corr: Correspondence, ray: Images, depth: Images, decoded: Images, rows: slice) -> None:
-        coded = corr.u if self.axis == "u" else corr.v
-        assert coded is not None
         kernels.plane_triangulate(
-            coded, corr.valid, (self.a, self.b), self.c, self.d, self.scale, self.shift,
+            self._coded(corr), corr.valid, (self.a, self.b), self.c, self.d, self.scale, self.shift,
             self.along_axis, ray, depth, decoded, rows.start, rows.stop,
         )  # fmt: skip
+
+    def depth(self, corr: Correspondence, max_jump_mm: float | None) -> tuple[np.ndarray, int]:
+        """organised_depth in one pass per band of rows, no ray image or masks (rig.kernels.depth):
+        the same depths."""
+        coded, shape = self._coded(corr), corr.valid.shape
+        depth, kept = np.empty(shape, np.float32), []
+        terms = (self.a, self.b, self.scale, self.shift)
+        jump = (max_jump_mm is not None, np.float32(max_jump_mm or 0.0), _MIN_SUPPORT)
+        in_row_strips(
+            shape[0],
+            lambda rows: kept.append(
+                depth_kernels.plane_depth(
+                    coded, corr.valid, terms, self.c, self.d, self.along_axis, jump, depth, rows.start, rows.stop
+                )
+            ),
+        )
+        return depth, sum(kept)
+
+    def _coded(self, corr: Correspondence) -> np.ndarray:
+        coded = corr.u if self.axis == "u" else corr.v
+        assert coded is not None
+        return coded
 
 
 class RayRayTerms(PixelTerms):
@@ -197,10 +228,7 @@ def organised_cloud(
 def organised_depth(terms: PixelTerms, corr: Correspondence, max_jump_mm: float | None) -> tuple[np.ndarray, int]:
     """The depth image alone (H, W) float32 in mm, NaN where organised_cloud keeps no point: what
     live mode shows, without the normals and colours a cloud carries; and the points it has."""
-    _, depth, keep, _ = _triangulated(terms, corr, max_jump_mm)
-    kept: list[int] = []
-    in_row_strips(depth.shape[0], lambda rows: kept.append(kernels.blank_unkept(depth, keep, rows.start, rows.stop)))
-    return depth, sum(kept)
+    return terms.depth(corr, max_jump_mm)
 
 
 def _triangulated(
