@@ -238,3 +238,25 @@ def test_a_printed_plane_paints_its_own_pixels_alone_each_with_its_footprints_me
     expected = np.interp(col_in_print, np.arange(200), ramp[0])
     assert np.abs(albedo[plane][:, 0] - expected).max() < 1e-5
     assert np.array_equal(albedo[plane][:, 0], albedo[plane][:, 2])
+
+
+@pytest.mark.parametrize("shape", [(7, 5), (480, 640)])
+def test_opencvs_blur_in_place_and_remap_into_a_buffer_are_its_new_images(shape: tuple[int, int]) -> None:
+    """The simulator blurs a frame's radiance in place and remaps the light into a scratch image
+    (drivers.sim.sensor, drivers.sim.bench): OpenCV must give the values it gives into new images."""
+    import cv2
+
+    rng = np.random.default_rng(shape[0])
+    radiance = rng.random(shape, dtype=np.float32)
+    fresh = cv2.GaussianBlur(radiance, (0, 0), 1.5, borderType=cv2.BORDER_REPLICATE)
+    cv2.GaussianBlur(radiance, (0, 0), 1.5, dst=radiance, borderType=cv2.BORDER_REPLICATE)
+    assert np.array_equal(radiance, fresh) and not np.array_equal(fresh, rng.random(shape, dtype=np.float32))
+    light = rng.random((shape[0] + 3, shape[1] + 5), dtype=np.float32)
+    map_x = rng.uniform(-2, shape[1] + 6, shape).astype(np.float32)
+    map_y = rng.uniform(-2, shape[0] + 4, shape).astype(np.float32)
+    into = np.empty(shape, np.float32)
+    sampled = cv2.remap(light, map_x, map_y, cv2.INTER_LINEAR, dst=into, borderMode=cv2.BORDER_CONSTANT, borderValue=0)
+    assert sampled is into
+    assert np.array_equal(
+        into, cv2.remap(light, map_x, map_y, cv2.INTER_LINEAR, borderMode=cv2.BORDER_CONSTANT, borderValue=0)
+    )

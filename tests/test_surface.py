@@ -18,7 +18,7 @@ from rig.cli import main
 from rig.config import config_from_dict, load_config
 from rig.errors import StoreError
 from rig.evaluate.distances import surface_distances
-from rig.pipeline import Mesh, scan
+from rig.pipeline import scan
 from rig.pipeline.colour import colour_beside_fill, interpolate_colour, sample_colours
 from rig.pipeline.fill import fill_candidates, fill_points
 from rig.pipeline.normals import crease_normals
@@ -27,8 +27,7 @@ from rig.pipeline.scan import ring_bands, ring_lit, run_scan
 from rig.pipeline.surface import SurfaceSettings, band_agreement, faces_surface, fill_surface, interpolate_surface
 from rig.plan.ring_plan import RingPlan
 from rig.service.adaptive import plan_check
-from rig.store.ply import mesh_ply_chunks, ply_bytes, read_cloud_ply, read_mesh_ply
-from rig.workers import BLOCK_POINTS
+from rig.store.ply import ply_bytes, read_cloud_ply
 
 
 def test_rasterize_covers_exactly_the_pixel_centres_inside() -> None:
@@ -230,22 +229,6 @@ def test_the_cloud_reads_back_and_a_foreign_ply_is_refused(ring_scan, tmp_path: 
     assert np.allclose(again.points, cloud.points, atol=1e-3) and (again.source == cloud.source).all()
     with pytest.raises(StoreError, match="not a cloud slrig wrote"):
         read_cloud_ply(b"ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nend_header\n1\n")
-
-
-def test_a_mesh_written_a_block_at_a_time_reads_back_whole() -> None:
-    """mesh.ply is written in blocks (mesh_ply_chunks): vertices and faces across several blocks
-    read back as they were."""
-    rng = np.random.default_rng(2)
-    count = BLOCK_POINTS + 7  # and its faces twice as many: both cross a block's end
-    mesh = Mesh(
-        rng.normal(size=(count, 3)).astype(np.float32),
-        rng.integers(0, 256, (count, 3), dtype=np.uint8),
-        rng.integers(0, count, (2 * count, 3)).astype(np.int32),
-        np.arange(count),
-    )
-    vertices, colours, faces = read_mesh_ply(b"".join(mesh_ply_chunks(mesh)))
-    assert np.array_equal(vertices, mesh.vertices) and np.array_equal(colours, mesh.colors)
-    assert np.array_equal(faces, mesh.faces)
 
 
 def test_an_adaptive_scan_records_its_plan_and_a_plan_file_skips_the_pilot(

@@ -9,12 +9,13 @@ from scipy import ndimage
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 
-from rig.evaluate.promise import PixelRadius, _pieces, between_rings, polar_rows
+from rig.evaluate.promise import ProjectorRadius, _pieces, between_rings, polar_rows
 from rig.evaluate.regions import (
     footprints,
     joined_labels,
     pixel_areas,
     region_errors,
+    region_kernels,
     support_plane,
     surface_regions,
     weighted_quantile,
@@ -149,6 +150,25 @@ def _rings_view(size: int = 120) -> tuple[np.ndarray, ...]:
     return u, np.hypot(u - c, v - c), np.stack([u, v], axis=-1), np.arange(10.0, 51.0, 10.0)
 
 
+def test_a_promise_past_2_to_the_15_sectors_is_the_same_in_int32() -> None:
+    """An outer ring so large (50,000 px: some 39,000 sectors) that the annulus and sector images
+    take int32: the promise is the one without it (nothing sees that ring)."""
+    u, _, uv, radii = _rings_view()
+    region, area, seen = np.zeros((120, 120), int), np.ones((120, 120)), u <= 85
+    small = between_rings(polar_rows(uv, CENTRE), region, area, seen, radii)
+    large = between_rings(polar_rows(uv, CENTRE), region, area, seen, np.append(radii, 50_000.0))
+    assert small.any() and np.array_equal(large, small)
+
+
+def test_label_totals_are_bincounts_to_the_bit() -> None:
+    rng = np.random.default_rng(4)
+    labels = rng.integers(-1, 40, 50_000).astype(np.int32)  # -1: no region, left out
+    weights = rng.uniform(0.1, 3.0, 50_000).astype(np.float32)
+    counted = labels >= 0
+    expected = np.bincount(labels[counted], weights=weights[counted], minlength=40)
+    assert np.array_equal(region_kernels.label_totals(labels, weights, 40), expected)
+
+
 def test_a_surface_is_promised_between_two_rings_it_shows_not_beyond_the_last_one() -> None:
     u, rho, uv, radii = _rings_view()
     seen = u <= 85  # a shadow over the columns right of 85
@@ -270,7 +290,7 @@ def test_rhos_slope_at_the_missed_pixels_is_np_gradients() -> None:
     image = rng.normal(size=(130, 53)) * 100  # rows past a band (BAND_ROWS)
     y, x = np.nonzero(rng.random(image.shape) < 0.4)
     y, x = np.concatenate([y, [0, 129, 0, 129]]), np.concatenate([x, [0, 52, 52, 0]])  # the four corners
-    made = PixelRadius(np.stack([image, np.zeros_like(image)], axis=-1), (0.0, 0.0))  # rho = |image|
+    made = ProjectorRadius(np.stack([image, np.zeros_like(image)], axis=-1), (0.0, 0.0))  # rho = |image|
     image = np.abs(image)
     rows, cols = np.gradient(image)
     assert np.array_equal(_gradient(made, y, x, 0), rows[y, x])

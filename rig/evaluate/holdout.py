@@ -48,7 +48,7 @@ def held_out_error(rig: Rig, pair: PairResult) -> float | None:
         SurfaceSettings(max_gap_px=config.max_gap_px),
         ring_bands(corr),
     )
-    area, region = footprints(pair.surface.grid.astype(np.float32), pair.surface.valid, STEP_MM)
+    area, region = footprints(pair.surface.grid.astype(np.float32, copy=False), pair.surface.valid, STEP_MM)
     label = np.full(pair.surface.valid.size, -1)
     label[np.flatnonzero(pair.surface.valid.ravel())] = region
     per_region = np.bincount(region, weights=area)

@@ -40,12 +40,12 @@ def between_rings(
     docstring), of the regions (`region` labels, -1 none) that hold at least MIN_REGION_SHARE of
     the `seen` area; `polar` each pixel's projector polar coordinates about the rings' centre, a
     band of rows at a time (polar_rows, image_rows). Each pixel's annulus and sector are kept as
-    int16 (int32 past 2**15 sectors): its polar coordinates and its cell's key (int64) were five image-sized arrays held
-    together."""
+    int16 (int32 past 2**15 sectors): its polar coordinates and its cell's key (int64) were five
+    image-sized arrays held together."""
     radii = np.asarray(radii, dtype=np.float64)
     labels = np.empty(seen.shape, np.int32)
-    small = len(radii) == 0 or _most_sectors(radii) < 2**15  # far beyond any projector's rings
-    band, sector = (np.empty(seen.shape, np.int16 if small else np.int32) for _ in range(2))
+    fits_int16 = len(radii) == 0 or max(len(radii), _most_sectors(radii)) < 2**15  # any projector's rings do
+    band, sector = (np.empty(seen.shape, np.int16 if fits_int16 else np.int32) for _ in range(2))
     for rows in point_blocks(seen.shape[0], BAND_ROWS):
         rho, theta = polar(rows)
         labels[rows] = np.where(seen[rows] & np.isfinite(rho) & np.isfinite(theta), region[rows], -1)
@@ -53,9 +53,10 @@ def between_rings(
         band[rows] = np.searchsorted(radii, np.nan_to_num(rho, nan=-1.0), side="right")
         if len(radii):
             sector[rows] = _sector(band[rows], theta, radii)
-    if labels.max(initial=-1) < 0 or len(radii) == 0:
+    most = int(labels.max(initial=-1))
+    if most < 0 or len(radii) == 0:
         return np.zeros(seen.shape, dtype=bool)
-    per_label = region_kernels.label_totals(labels.ravel(), area.ravel(), int(labels.max()) + 1)
+    per_label = region_kernels.label_totals(labels.ravel(), area.ravel(), most + 1)
     judged = np.zeros(len(per_label), dtype=bool)
     judged[per_label >= MIN_REGION_SHARE * per_label.sum()] = True
     for rows in point_blocks(len(labels), BAND_ROWS):  # the regions not judged: no region
@@ -76,33 +77,33 @@ def polar_rows(uv: np.ndarray, center: tuple[float, float]) -> PolarRows:
     of rows is asked for."""
 
     def band(rows: slice) -> tuple[np.ndarray, np.ndarray]:
-        u, v = uv[rows, :, 0] - center[0], uv[rows, :, 1] - center[1]
+        u, v = _offsets(uv[rows], center)
         return np.hypot(u, v), np.arctan2(v, u)
 
     return band
 
 
-def projector_radius(uv: np.ndarray, center: tuple[float, float]) -> PixelRadius:
-    """rho of polar_rows, alone, made only at the pixels asked for: `radius(y, x)`, and `within(r)`
-    (H, W) whether it is under r, a band of rows at a time (no image of it: 10 MB at 1280x1024)."""
-    return PixelRadius(uv, center)
-
-
-class PixelRadius:
-    """projector_radius's rho at chosen pixels, as polar_rows makes it."""
+class ProjectorRadius:
+    """polar_rows' rho (float64), made only where asked for: no image of it (10 MB at 1280x1024)."""
 
     def __init__(self, uv: np.ndarray, center: tuple[float, float]) -> None:
         self.uv, self.center, self.shape = uv, center, uv.shape[:2]
 
     def __call__(self, y: np.ndarray, x: np.ndarray) -> np.ndarray:
-        return np.hypot(self.uv[y, x, 0] - self.center[0], self.uv[y, x, 1] - self.center[1])  # polar_rows' rho
+        """rho at the pixels (y, x)."""
+        return np.hypot(*_offsets(self.uv[y, x], self.center)).astype(np.float64, copy=False)
 
     def within(self, radius: float) -> np.ndarray:
+        """(H, W) whether rho is under `radius`, a band of rows at a time."""
         inside = np.empty(self.shape, bool)
         for rows in point_blocks(len(inside), BAND_ROWS):
-            u, v = self.uv[rows, :, 0] - self.center[0], self.uv[rows, :, 1] - self.center[1]
-            inside[rows] = np.hypot(u, v) < radius
+            inside[rows] = np.hypot(*_offsets(self.uv[rows], self.center)).astype(np.float64, copy=False) < radius
         return inside
+
+
+def _offsets(uv: np.ndarray, center: tuple[float, float]) -> tuple[np.ndarray, np.ndarray]:
+    """Projector coordinates (..., 2) less `center`: u and v."""
+    return uv[..., 0] - center[0], uv[..., 1] - center[1]
 
 
 def image_rows(rho: np.ndarray, theta: np.ndarray) -> PolarRows:

@@ -172,6 +172,6 @@ def region_errors(
 
 
 def _error(sums: tuple[np.ndarray, np.ndarray, np.ndarray], k: int, total: float, quantile: float) -> RegionError:
-    area, square, most = (float(column[k]) for column in sums)
+    area, square, largest = (float(column[k]) for column in sums)
     rms = float(np.sqrt(square / area)) if area > 0 else 0.0
-    return RegionError(area, area / total if total > 0 else 0.0, quantile, rms, most)
+    return RegionError(area, area / total if total > 0 else 0.0, quantile, rms, largest)

@@ -16,7 +16,7 @@ from typing import Any
 
 import numpy as np
 
-from rig.evaluate.promise import PixelRadius, between_rings, polar_rows, projector_radius
+from rig.evaluate.promise import ProjectorRadius, between_rings, polar_rows
 from rig.evaluate.regions import STEP_MM, footprints, weighted_quantile
 from rig.opened_rig import PixelTruth
 
@@ -69,9 +69,9 @@ def wholeness(
     area, region = true_areas(truth) if areas is None else areas
     lit = truth.hit & truth.lit
     target = between_rings(polar_rows(truth.projector_uv, center), region, area, lit, radii)
-    rho = projector_radius(truth.projector_uv, center)
+    radius = ProjectorRadius(truth.projector_uv, center)
     on_object = truth.points[..., 2] > OBJECT_ABOVE_MM
-    inner = rho.within(radii[0])
+    inner = radius.within(radii[0])
     disc = lit & inner
 
     def share(mask: np.ndarray, of: np.ndarray | None = None) -> float | None:
@@ -86,13 +86,13 @@ def wholeness(
         "surface_object_promised": share(lit & on_object, target),
         "surface_object_lit_coverage": share(lit & on_object),
         "surface_object_missed": _missed(
-            target & on_object & ~valid, inner, area, rho, radii, float(area[target & on_object].sum())
+            target & on_object & ~valid, inner, area, radius, radii, float(area[target & on_object].sum())
         ),
     }
 
 
 def _missed(
-    missed: np.ndarray, inner: np.ndarray, area: np.ndarray, rho: PixelRadius, radii: np.ndarray, promised: float
+    missed: np.ndarray, inner: np.ndarray, area: np.ndarray, rho: ProjectorRadius, radii: np.ndarray, promised: float
 ) -> dict[str, float]:
     """Where the promised area went uncovered, as shares of it: the disc inside the innermost ring
     (`inner`), where the rings crowd closer than CROWDED_PX camera pixels (a flank turning away: the
@@ -113,7 +113,7 @@ def _missed(
     }
 
 
-def _gradient(image: PixelRadius, y: np.ndarray, x: np.ndarray, axis: int) -> np.ndarray:
+def _gradient(image: ProjectorRadius, y: np.ndarray, x: np.ndarray, axis: int) -> np.ndarray:
     """np.gradient(np.nan_to_num(image))[axis] at the pixels (y, x) alone, of an image made at the
     pixels asked for (`image(y, x)`, its `shape`): central differences, one-sided at its edges."""
     at = [y, x]

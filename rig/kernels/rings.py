@@ -246,7 +246,7 @@ def _crosses(edge: np.ndarray, y: int, x: int, axis: int, min_step: np.float32) 
     `axis` by a step of at least `min_step`, and the edge there runs across that axis more than
     along it (np.gradient's slopes, compared only where the first two hold)."""
     d1, d2 = edge[y, x], edge[y + (axis == 0), x + (axis == 1)]
-    if (d1 >= 0) == (d2 >= 0) or abs(d1 - d2) < min_step:
+    if (d1 >= 0) == (d2 >= 0) or not abs(d1 - d2) >= min_step:  # `not >=`: a NaN step is none
         return False
     steep = abs(_slope(edge, y, x, 0)) >= abs(_slope(edge, y, x, 1))
     return steep if axis == 0 else not steep

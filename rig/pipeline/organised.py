@@ -5,7 +5,8 @@ the PointSet and the stored scan are built from it afterwards.
 
 It computes what rig.pipeline.dense computes (PairTriangulator.triangulate, reject_isolated,
 grid_normals, texture_rgb), in float32 and relative to the camera centre, each step one pass of a
-compiled loop (rig.kernels.dense) per band of rows: points agree within float32 rounding of the stored
+compiled loop (rig.kernels.dense) per band of rows, and live mode's depth image of coded planes all
+its steps in one (rig.kernels.depth): points agree within float32 rounding of the stored
 coordinates. It covers a pinhole camera and a pinhole projector without distortion coding one axis
 (without skew across it: a ray meets a plane) or both (radial, Gray code both ways: a ray meets a
 ray); other pairs take the general path.
@@ -147,12 +148,12 @@ class PlaneTerms(PixelTerms):
         coded, shape = self._coded(corr), corr.valid.shape
         depth, kept = np.empty(shape, np.float32), []
         terms = (self.a, self.b, self.scale, self.shift)
-        jump = (max_jump_mm is not None, np.float32(max_jump_mm or 0.0), _MIN_SUPPORT)
+        isolation = (max_jump_mm is not None, np.float32(max_jump_mm or 0.0), _MIN_SUPPORT)
         in_row_strips(
             shape[0],
             lambda rows: kept.append(
                 depth_kernels.plane_depth(
-                    coded, corr.valid, terms, self.c, self.d, self.along_axis, jump, depth, rows.start, rows.stop
+                    coded, corr.valid, terms, self.c, self.d, self.along_axis, isolation, depth, rows.start, rows.stop
                 )
             ),
         )

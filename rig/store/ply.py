@@ -4,7 +4,7 @@ CloudCompare read (they keep the extra properties as scalar fields)."""
 
 from __future__ import annotations
 
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 
 import numpy as np
 
@@ -42,9 +42,8 @@ def ply_chunks(cloud: PointSet, comment: str = "slrig") -> Iterator[bytes]:
     lines += [f"property {'float' if _VERTEX[name].kind == 'f' else 'uchar'} {name}" for name in _VERTEX.names]
     lines.append("end_header")
     yield ("\n".join(lines) + "\n").encode("ascii")
-    vertex = np.empty(min(n, BLOCK_POINTS), dtype=_VERTEX)
-    for part in point_blocks(n):
-        out = vertex[: part.stop - part.start]
+
+    def vertices(out: np.ndarray, part: slice) -> None:
         for i, axis in enumerate("xyz"):
             out[axis] = cloud.points[part, i]
             out["n" + axis] = cloud.normals[part, i]
@@ -53,6 +52,17 @@ def ply_chunks(cloud: PointSet, comment: str = "slrig") -> Iterator[bytes]:
         out["quality"] = cloud.quality[part]
         out["source"] = cloud.source[part]
         out["angle"] = cloud.angle[part]
+
+    yield from _record_blocks(_VERTEX, n, vertices)
+
+
+def _record_blocks(dtype: np.dtype, count: int, fill: Callable[[np.ndarray, slice], None]) -> Iterator[bytes]:
+    """The bytes of `count` records of `dtype`, a block at a time: `fill(out, part)` writes the
+    records of items `part` into `out`, one block's buffer used again for every block."""
+    records = np.empty(min(count, BLOCK_POINTS), dtype=dtype)
+    for part in point_blocks(count):
+        out = records[: part.stop - part.start]
+        fill(out, part)
         yield out.tobytes()
 
 
@@ -61,6 +71,7 @@ _FACE = np.dtype([("count", "u1"), ("vertex_indices", "<i4", (3,))])
 
 
 def mesh_ply_bytes(mesh: Mesh, comment: str = "slrig") -> bytes:
+    """mesh_ply_chunks joined: the whole file's bytes."""
     return b"".join(mesh_ply_chunks(mesh, comment))
 
 
@@ -74,20 +85,19 @@ def mesh_ply_chunks(mesh: Mesh, comment: str = "slrig") -> Iterator[bytes]:
     lines += [f"property float {a}" for a in "xyz"] + [f"property uchar {c}" for c in ("red", "green", "blue")]
     lines += [f"element face {faces}", "property list uchar int vertex_indices", "end_header"]
     yield ("\n".join(lines) + "\n").encode("ascii")
-    vertex = np.empty(min(vertices, BLOCK_POINTS), dtype=_MESH_VERTEX)
-    for part in point_blocks(vertices):
-        out = vertex[: part.stop - part.start]
+
+    def vertex(out: np.ndarray, part: slice) -> None:
         for i, axis in enumerate("xyz"):
             out[axis] = mesh.vertices[part, i]
         for i, channel in enumerate(("red", "green", "blue")):
             out[channel] = mesh.colors[part, i]
-        yield out.tobytes()
-    face = np.empty(min(faces, BLOCK_POINTS), dtype=_FACE)
-    face["count"] = 3
-    for part in point_blocks(faces):
-        out = face[: part.stop - part.start]
+
+    def face(out: np.ndarray, part: slice) -> None:
+        out["count"] = 3
         out["vertex_indices"] = mesh.faces[part]
-        yield out.tobytes()
+
+    yield from _record_blocks(_MESH_VERTEX, vertices, vertex)
+    yield from _record_blocks(_FACE, faces, face)
 
 
 def read_cloud_ply(data: bytes, source: str = "cloud.ply") -> PointSet:
