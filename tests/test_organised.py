@@ -173,14 +173,7 @@ def test_the_depth_image_in_one_pass_is_the_three_passes_depth_to_the_bit(codec:
 
     one_row_at_a_time = np.empty_like(expected)
     limits = (jump is not None, np.float32(jump or 0.0), 3)
-    plane = (terms.a, terms.b, terms.scale, terms.shift)
-    assert (
-        sum(
-            depth_kernels.plane_depth(
-                corr.u, corr.valid, plane, terms.c, terms.d, terms.along_axis, limits, one_row_at_a_time, y, y + 1
-            )
-            for y in range(len(expected))
-        )
-        == count
-    )
+    plane = (corr.u, corr.valid, (terms.a, terms.b, terms.scale, terms.shift), terms.c, terms.d, terms.along_axis)
+    rows = range(len(expected))
+    assert sum(depth_kernels.plane_depth(plane, limits, one_row_at_a_time, y, y + 1) for y in rows) == count
     assert np.array_equal(one_row_at_a_time, expected, equal_nan=True)

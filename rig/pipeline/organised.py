@@ -147,15 +147,11 @@ class PlaneTerms(PixelTerms):
         the same depths."""
         coded, shape = self._coded(corr), corr.valid.shape
         depth, kept = np.empty(shape, np.float32), []
-        terms = (self.a, self.b, self.scale, self.shift)
+        plane = (coded, corr.valid, (self.a, self.b, self.scale, self.shift), self.c, self.d, self.along_axis)
         isolation = (max_jump_mm is not None, np.float32(max_jump_mm or 0.0), _MIN_SUPPORT)
         in_row_strips(
             shape[0],
-            lambda rows: kept.append(
-                depth_kernels.plane_depth(
-                    coded, corr.valid, terms, self.c, self.d, self.along_axis, isolation, depth, rows.start, rows.stop
-                )
-            ),
+            lambda rows: kept.append(depth_kernels.plane_depth(plane, isolation, depth, rows.start, rows.stop)),
         )
         return depth, sum(kept)
 
