@@ -21,6 +21,7 @@
 
     python bench/speed.py            # JSON
     python bench/speed.py --docs   # also rewrite the speed table in the manual (docs/)
+    python bench/speed.py --memory rings [--map-from-kb 256]   # one codec's memory columns alone
 """
 
 from __future__ import annotations
@@ -31,7 +32,6 @@ import json
 import os
 import platform
 import statistics
-import subprocess
 import sys
 import tempfile
 import time
@@ -40,11 +40,11 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-import yaml
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 from _readme import as_measured, markdown_table, replace_block
+from _scan_memory import peak_memory
 
 from rig.assembly import open_rig
 from rig.config import RigConfig, config_from_dict, load_config
@@ -59,39 +59,6 @@ from rig.recognition.gallery import Gallery
 from rig.recognition.identify import identify
 
 RATE_HZ = 120.0  # a DLP LightCrafter 4500 showing 8-bit patterns
-
-# A scan's memory: peak RSS of a whole `slrig scan` (VmHWM, not ru_maxrss: Linux keeps ru_maxrss
-# across fork and exec, so a child of this large process reported the parent's size, 1.3 GB against
-# 0.9 measured alone); then, on one open rig as the daemon holds it, a scan after a first one, its
-# peak (VmHWM reset by writing 5 to clear_refs) less what the process held before it (the fixed
-# overhead: imports, numba's loops, the simulator, its ray casts and ground truth, the pair's terms).
-_PEAK_SNIPPET = """
-import json, sys
-from rig.cli import main
-from rig.workers import release_free_memory
-def status_mb(key):
-    return next(int(line.split()[1]) for line in open("/proc/self/status") if line.startswith(key + ":")) / 1024
-config_file = sys.argv[3:]  # the rig to scan, where not the default
-rig_options = ["--config", *config_file] if config_file else []
-code = main(["scan", "--codec", sys.argv[1], "--out", sys.argv[2] + "-first", "--json", *rig_options])
-whole = status_mb("VmHWM")
-from pathlib import Path
-from rig.assembly import open_rig
-from rig.config import load_config
-from rig.service.tasks import scan_to_directory
-with open_rig(load_config(*config_file).with_codec(sys.argv[1])) as rig:
-    scan_to_directory(rig, Path(sys.argv[2] + "-warm"), "warm")
-    release_free_memory()
-    fixed = status_mb("VmRSS")
-    try:  # the peak starts again from what the process holds now
-        with open("/proc/self/clear_refs", "w") as f:
-            f.write("5")
-    except OSError:  # a kernel that will not reset it: no figure per scan
-        fixed = None
-    scan_to_directory(rig, Path(sys.argv[2]), "measured")
-    second = status_mb("VmHWM")
-print(json.dumps({"exit": code, "peak_rss_mb": whole, "fixed_mb": fixed, "second_peak_mb": second}))
-"""
 
 
 def frame_time() -> dict[str, float]:
@@ -271,30 +238,6 @@ def live(seconds: float = 5.0) -> dict[str, object]:
     return {"codec": codec.name, "steps": getattr(codec.params, "steps", None), **stats.as_dict()}
 
 
-def peak_memory(codec_name: str, config: RigConfig | None = None) -> dict[str, float | None]:
-    with tempfile.TemporaryDirectory() as tmp:
-        rig_file = []
-        if config is not None:  # another rig than the default: as a file, for a fresh process
-            rig_file = [os.path.join(tmp, "rig.yaml")]
-            Path(rig_file[0]).write_text(yaml.safe_dump(config.model_dump(mode="json")))
-        out = subprocess.run(
-            [sys.executable, "-c", _PEAK_SNIPPET, codec_name, os.path.join(tmp, "scan"), *rig_file],
-            capture_output=True,
-            text=True,
-            check=True,
-            timeout=600,
-        )
-    measured = json.loads(out.stdout.strip().splitlines()[-1])
-    if measured["exit"]:
-        raise RuntimeError(f"slrig scan --codec {codec_name} failed: {out.stderr[-2000:]}")
-    peak, fixed = measured["peak_rss_mb"], measured["fixed_mb"]
-    return {
-        "scan_peak_rss_mb": round(peak, 1),
-        "fixed_overhead_mb": None if fixed is None else round(fixed, 1),
-        "per_scan_mb": None if fixed is None else round(measured["second_peak_mb"] - fixed, 1),
-    }
-
-
 def codec_row(name: str, bandwidth_gb_s: float) -> dict[str, float | None]:
     config, label = as_measured(load_config(), name)
     linear = config if label != name else None  # the rig a codec needing linear light is measured on
@@ -314,7 +257,15 @@ def main() -> None:
     parser.add_argument(
         "--docs", "--readme", dest="readme", action="store_true", help="rewrite the speed table in the manual (docs/)"
     )
+    parser.add_argument("--memory", metavar="CODEC", help="only the memory columns of this codec's row")
+    parser.add_argument("--map-from-kb", type=int, help="with --memory: arrays from this size mapped, not heaped")
     args = parser.parse_args()
+    if args.memory:
+        config, label = as_measured(load_config(), args.memory)
+        mapped = None if args.map_from_kb is None else args.map_from_kb << 10
+        memory = peak_memory(args.memory, config if label != args.memory else None, mapped)
+        print(json.dumps({"codec": args.memory, "map_from_kb": args.map_from_kb, **memory}))
+        return
     result = {
         "benchmark": "speed",
         "cpus": os.cpu_count(),
