@@ -92,7 +92,7 @@ def wholeness(
 
 
 def _missed(
-    missed: np.ndarray, inner: np.ndarray, area: np.ndarray, rho: ProjectorRadius, radii: np.ndarray, promised: float
+    missed: np.ndarray, inner: np.ndarray, area: np.ndarray, radius: ProjectorRadius, radii: np.ndarray, promised: float
 ) -> dict[str, float]:
     """Where the promised area went uncovered, as shares of it: the disc inside the innermost ring
     (`inner`), where the rings crowd closer than CROWDED_PX camera pixels (a flank turning away: the
@@ -101,9 +101,10 @@ def _missed(
         return {}
     disc = missed & inner
     crowded = np.zeros(missed.shape, bool)
-    y, x = np.nonzero(missed & ~disc)  # the rings' spacing and rho's slope at these pixels alone
-    slope = np.hypot(_gradient(rho, y, x, 0), _gradient(rho, y, x, 1))
-    band = np.clip(np.searchsorted(radii, np.nan_to_num(rho(y, x), nan=-1.0), side="right"), 1, max(1, len(radii) - 1))
+    y, x = np.nonzero(missed & ~disc)  # the rings' spacing and the radius's slope at these pixels alone
+    slope = np.hypot(_gradient(radius, y, x, 0), _gradient(radius, y, x, 1))
+    at = np.nan_to_num(radius(y, x), nan=-1.0)
+    band = np.clip(np.searchsorted(radii, at, side="right"), 1, max(1, len(radii) - 1))
     spacing = radii[np.minimum(band, len(radii) - 1)] - radii[band - 1]
     close = spacing < CROWDED_PX * slope
     crowded[y[close], x[close]] = True

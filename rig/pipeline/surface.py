@@ -304,8 +304,9 @@ def band_agreement(
     read = (bands.annulus.ravel(), bands.angle.ravel(), np.asarray(bands.radii_px, np.float64), *centre)
     margins = (float(settings.band_margin_px), float(settings.band_angle_rad))
     rows = np.arange(len(pixel)) if rows is None else rows
-    # float32 grids as they are: a float64 copy would be of the whole grid, for every batch
-    points = (found if found.dtype == np.float32 else np.ascontiguousarray(found, np.float64), rows)
+    # the points in their own float type (the grid's float32): a float64 copy of a grid would be of
+    # the whole grid, for every batch
+    points = (np.ascontiguousarray(found), rows)
     surface_kernels.band_agreement(points, pixel, device, kind, read, margins, agree, 0, len(pixel))
     return agree
 
