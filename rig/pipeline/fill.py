@@ -13,10 +13,9 @@ it), and the pixel's ray meets it. The pixels of one annulus in a block 2 pixels
 neighbourhood and fit, about the block's centre (FillSettings.block_px; decision 0046): a fit spans
 tens of pixels, and fitting once a block halves the fill's time. The point is kept only if it lies
 in the pixel's own annulus and near the polar angle it read (rig.pipeline.surface.band_agreement).
-Where samples of two surfaces
-both reach a pixel (the gap at a depth step, between the last ring on one side and the first on the
-other) nothing says on which side of the step the pixel lies: it stays a hole, and is reported as
-one.
+Where samples of two surfaces both reach a pixel (the gap at a depth step, between the last ring on
+one side and the first on the other) nothing says on which side of the step the pixel lies: it
+stays a hole, and is reported as one.
 """
 
 from __future__ import annotations
