@@ -96,27 +96,22 @@ def solve_angles(
 ) -> None:
     """rig.pipeline.ring_angles._solve_chunk for samples[start:stop]: the branches of the fine code
     within min(`window`, 6 coarse sigma) of the coarse angle scored on radius and coarse angle, the
-    best two refined and compared on their full misfit. out[:, i] = (s, sigma_s, chi2, margin)."""
+    best two refined and compared on their full misfit. out[:, i] = (s, sigma_s, chi2, margin).
+    The scores only choose the two (a dozen branches a sample on the default bench): each branch's
+    sine and cosine are the last one's turned by a period, and the radius a square root, not
+    hypot; the two chosen are met again exactly (_half_plane) before they are refined, so a choice
+    differs only between scores equal to ~1e-15 (55 -> 39 ms on one thread, default bench)."""
     two_pi = 2 * math.pi
     for i in range(start, stop):
         m, sc = np.float64(periods[i]), coarse_sigma[i]
         reach = min(window, 6.0 * sc)
         lo = math.ceil((m * (coarse[i] - reach) - phase[i]) / two_pi)
         hi = math.floor((m * (coarse[i] + reach) - phase[i]) / two_pi)
-        # (score, s, theta) of the best branch and of the second
-        best_score, best_s, best_theta = np.inf, np.nan, 0.0
-        second_score, second_s, second_theta = np.inf, np.nan, 0.0
-        for branch in range(int(lo), int(hi) + 1):
-            theta = (phase[i] + two_pi * branch) / m
-            s = _half_plane(terms, i, theta)
-            if not np.isfinite(s):
-                continue
-            score = ((_radius(terms, i, s) - radius[i]) / sigmas[0]) ** 2 + (_wrap(theta - coarse[i]) / sc) ** 2
-            if score < best_score:
-                second_score, second_s, second_theta = best_score, best_s, best_theta
-                best_score, best_s, best_theta = score, s, theta
-            elif score < second_score:
-                second_score, second_s, second_theta = score, s, theta
+        best = _best_two(terms, i, (lo, hi), (phase[i], m, coarse[i], sc), radius[i], sigmas[0])
+        best_score, best_theta, second_score, second_theta = best
+        best_s, second_s = _half_plane(terms, i, best_theta), _half_plane(terms, i, second_theta)
+        best_score = best_score if np.isfinite(best_s) else np.inf
+        second_score = second_score if np.isfinite(second_s) else np.inf
         angles = (radius[i], coarse[i], sc)
         s0, sigma0, chi0 = _refined(terms, i, (best_score, best_s, best_theta), angles, sigmas, iterations)
         s1, sigma1, chi1 = _refined(terms, i, (second_score, second_s, second_theta), angles, sigmas, iterations)
@@ -125,6 +120,41 @@ def solve_angles(
         else:
             out[0, i], out[1, i], out[2, i], margin = s1, sigma1, chi1, chi0 - chi1
         out[3, i] = margin if np.isfinite(margin) or margin > 0 else np.inf
+
+
+@njit(nogil=True, cache=True, inline="always")
+def _best_two(
+    terms: np.ndarray,
+    i: int,
+    branches: tuple[int, int],
+    code: tuple[float, float, float, float],
+    radius: float,
+    radius_sigma: float,
+) -> tuple[float, float, float, float]:
+    """(score, theta) of the best branch in [lo, hi] of ray i and of the second (inf, 0 where
+    missing); code: (fine phase, periods, coarse angle, its sigma). A branch whose ray meets only
+    the other half, or behind either device, is missing (as _half_plane says)."""
+    lo, hi = branches
+    phase, m, coarse, sc = code
+    a0, a1, a2, b0, b1, b2 = terms[i, 0], terms[i, 1], terms[i, 2], terms[i, 3], terms[i, 4], terms[i, 5]
+    best_score, best_theta, second_score, second_theta = np.inf, 0.0, np.inf, 0.0
+    first = (phase + 2 * math.pi * lo) / m
+    sin, cos = math.sin(first), math.cos(first)
+    turn_sin, turn_cos = math.sin(2 * math.pi / m), math.cos(2 * math.pi / m)
+    for branch in range(lo, hi + 1):
+        theta = (phase + 2 * math.pi * branch) / m
+        s = -(a0 * sin - a1 * cos) / (b0 * sin - b1 * cos)
+        w = a2 + s * b2
+        if s > 0 and w > 0 and (a0 + s * b0) * cos + (a1 + s * b1) * sin > 0 and np.isfinite(s):
+            x, y = (a0 + s * b0) / w, (a1 + s * b1) / w
+            score = ((math.sqrt(x * x + y * y) - radius) / radius_sigma) ** 2 + (_wrap(theta - coarse) / sc) ** 2
+            if score < best_score:
+                second_score, second_theta = best_score, best_theta
+                best_score, best_theta = score, theta
+            elif score < second_score:
+                second_score, second_theta = score, theta
+        sin, cos = sin * turn_cos + cos * turn_sin, cos * turn_cos - sin * turn_sin
+    return best_score, best_theta, second_score, second_theta
 
 
 @njit(nogil=True, cache=True, inline="always")
