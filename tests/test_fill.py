@@ -6,6 +6,7 @@ from __future__ import annotations
 import itertools
 
 import numpy as np
+import pytest
 
 from rig.geometry import CameraModel
 from rig.pipeline.fill import FillSettings, _blocks, _footprints, _one_surface, fill_points
@@ -135,3 +136,5 @@ def test_blocks_group_pixels_by_block_and_annulus_about_the_block_s_own_centre()
     np.testing.assert_array_equal(block_annulus, [3, 4, 3, 3, 3, 5])
     order, starts, centres, _ = _blocks(pixel, annulus, 10, 1)  # a block of one pixel is that pixel
     np.testing.assert_array_equal(centres, np.column_stack([pixel % 10, pixel // 10])[order[starts[:-1]]])
+    with pytest.raises(ValueError, match="block_px"):
+        FillSettings(block_px=0)

@@ -52,6 +52,10 @@ class FillSettings:
     max_misfit_px: float = 2.0  # samples straying from their fit by more (rms, in footprints) span two surfaces
     block_px: int = 2  # pixels of one annulus in a block this wide share a neighbourhood and a fit
 
+    def __post_init__(self) -> None:
+        if self.block_px < 1:
+            raise ValueError(f"FillSettings.block_px: a block is at least 1 pixel wide, got {self.block_px}")
+
 
 def fill_candidates(covered: np.ndarray, annulus: np.ndarray, lit: np.ndarray | None) -> np.ndarray:
     """Flat pixels that read an annulus, are lit and are not covered by a triangle."""
