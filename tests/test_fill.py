@@ -1,15 +1,12 @@
 """Which ring samples a filled pixel's fit may use (rig.pipeline.fill): one surface, however steeply
-it turns from the camera, never two across a step; and a block of pixels sharing one fit."""
+it turns from the camera, never two across a step."""
 
 from __future__ import annotations
 
-import itertools
-
 import numpy as np
-import pytest
 
 from rig.geometry import CameraModel
-from rig.pipeline.fill import FillSettings, _blocks, _footprints, _one_surface, fill_points
+from rig.pipeline.fill import FillSettings, _footprints, _one_surface
 
 CAMERA = CameraModel(200, 200, np.array([[500.0, 0, 99.5], [0, 500.0, 99.5], [0, 0, 1]]), np.eye(3), np.zeros(3))
 
@@ -82,59 +79,3 @@ def test_the_reach_test_turns_away_only_pixels_with_a_ring_out_of_reach() -> Non
         if a < 0 or a >= 6 or (x > 300 + 48 + 48 and 2 in wanted):  # rings 6 and 7 have no samples
             assert not through
     assert 0.1 < reached.mean() < 0.9
-
-
-def _sphere_rings(radii_px: tuple[float, ...]) -> tuple[np.ndarray, ...]:
-    """Samples of rings (circles about the image centre) on a sphere 150 mm across at 600 mm: points,
-    normals toward the camera, image positions, ring indices; and the sphere (centre, radius)."""
-    angle = np.linspace(0.0, 2 * np.pi, 720, endpoint=False)
-    xy = np.concatenate([99.5 + r * np.column_stack([np.cos(angle), np.sin(angle)]) for r in radii_px])
-    ring = np.repeat(np.arange(len(radii_px)), len(angle))
-    centre, radius = np.array([0.0, 0.0, 600.0]), 150.0
-    points = _on_sphere(xy, centre, radius)
-    return points, (points - centre) / radius, xy, ring, centre, radius
-
-
-def _on_sphere(xy: np.ndarray, centre: np.ndarray, radius: float) -> np.ndarray:
-    """Where the camera rays of image positions `xy` first meet the sphere."""
-    rays = np.column_stack([(xy - 99.5) / 500.0, np.ones(len(xy))])
-    rays /= np.linalg.norm(rays, axis=1, keepdims=True)
-    along = rays @ centre
-    return rays * (along - np.sqrt(along**2 - centre @ centre + radius**2))[:, None]
-
-
-def test_pixels_of_a_block_share_its_fit_and_each_meets_it_on_its_own_ray() -> None:
-    """fill_points fits a block of pixels (FillSettings.block_px) once, at the block's centre: every
-    pixel still gets the point on its own ray, as near the surface as a fit of its own gives it, and
-    a pixel's point does not depend on which other pixels of its block are filled."""
-    points, normals, xy, ring, centre, radius = _sphere_rings((20.0, 40.0, 60.0))
-    x, y = np.meshgrid(np.arange(200), np.arange(200))
-    between = np.flatnonzero((np.hypot(x - 99.5, y - 99.5).ravel() > 22) & (np.hypot(x - 99.5, y - 99.5).ravel() < 58))
-    annulus = np.where(np.hypot(x - 99.5, y - 99.5).ravel()[between] < 40, 1, 2)
-    samples = (points, normals, xy, ring, CAMERA)
-    alone = fill_points(*samples, between, annulus, FillSettings(block_px=1))
-    shared = fill_points(*samples, between, annulus, FillSettings(block_px=2))
-    filled = np.isfinite(shared).all(axis=1)
-    assert filled.mean() > 0.99 and np.array_equal(filled, np.isfinite(alone).all(axis=1))
-    pixel_xy = np.column_stack([between % 200, between // 200]).astype(np.float64)
-    truth = _on_sphere(pixel_xy, centre, radius)
-    off_alone, off_shared = (np.linalg.norm(found[filled] - truth[filled], axis=1) for found in (alone, shared))
-    assert off_shared.max() < 0.02 and np.percentile(off_shared, 95) <= 1.5 * np.percentile(off_alone, 95)
-    rays = truth / np.linalg.norm(truth, axis=1, keepdims=True)
-    assert np.abs(np.cross(shared[filled], rays[filled])).max() < 1e-9 * 600  # on the pixel's own ray
-    some = np.arange(len(between))[::3]
-    np.testing.assert_array_equal(fill_points(*samples, between[some], annulus[some], FillSettings()), shared[some])
-
-
-def test_blocks_group_pixels_by_block_and_annulus_about_the_block_s_own_centre() -> None:
-    pixel = np.array([0, 1, 10, 11, 12, 21, 22, 22])  # an image 10 wide
-    annulus = np.array([3, 3, 3, 4, 3, 3, 3, 5])
-    order, starts, centres, block_annulus = _blocks(pixel, annulus, 10, 2)
-    groups = [sorted(pixel[order[a:b]].tolist()) for a, b in itertools.pairwise(starts)]
-    assert groups == [[0, 1, 10], [11], [12], [21], [22], [22]]
-    np.testing.assert_array_equal(centres, [[0.5, 0.5], [0.5, 0.5], [2.5, 0.5], [0.5, 2.5], [2.5, 2.5], [2.5, 2.5]])
-    np.testing.assert_array_equal(block_annulus, [3, 4, 3, 3, 3, 5])
-    order, starts, centres, _ = _blocks(pixel, annulus, 10, 1)  # a block of one pixel is that pixel
-    np.testing.assert_array_equal(centres, np.column_stack([pixel % 10, pixel // 10])[order[starts[:-1]]])
-    with pytest.raises(ValueError, match="block_px"):
-        FillSettings(block_px=0)

@@ -9,13 +9,11 @@ allows for their distance in the image lie on two surfaces; the slope allowed gr
 sample turns from the camera, so that a limb turning away stays one surface). A quadratic height
 field is fitted to their positions and normals (each sample gives a height and two slopes; a small
 ridge on the bends leaves a tangent plane where a single straight ring cannot show a bend across
-it), and the pixel's ray meets it. The pixels of one annulus in a block 2 pixels wide share one
-neighbourhood and fit, about the block's centre (FillSettings.block_px; decision 0046): a fit spans
-tens of pixels, and fitting once a block halves the fill's time. The point is kept only if it lies
-in the pixel's own annulus and near the polar angle it read (rig.pipeline.surface.band_agreement).
-Where samples of two surfaces both reach a pixel (the gap at a depth step, between the last ring on
-one side and the first on the other) nothing says on which side of the step the pixel lies: it
-stays a hole, and is reported as one.
+it), and the pixel's ray meets it. The point is kept only if it lies in the pixel's own annulus and
+near the polar angle it read (rig.pipeline.surface.band_agreement). Where samples of two surfaces
+both reach a pixel (the gap at a depth step, between the last ring on one side and the first on the
+other) nothing says on which side of the step the pixel lies: it stays a hole, and is reported as
+one.
 """
 
 from __future__ import annotations
@@ -38,7 +36,7 @@ _CELL_PX = 8.0  # the neighbour search's cells: a few samples each, about a ring
 # cache miss); 16 px searched fastest of 8 to 24 on the default bench
 _RING_CELL_PX = 16.0
 _MAX_RING_CELLS = 1_000_000  # rings x cells of their own grids (8 MB of run starts)
-_BLOCKS_AT_ONCE = 1 << 14  # blocks filled together: their neighbourhoods take 8 MB, not 35 for all at once
+_PIXELS_AT_ONCE = 1 << 14  # pixels filled together: their neighbourhoods take 8 MB, not 35 for all at once
 
 
 @dataclass(frozen=True)
@@ -50,11 +48,6 @@ class FillSettings:
     min_facing: float = 0.25  # ... footprints stretched by 1 / cos(slant) of the nearest sample, to this at most
     bend_ridge: float = 0.05  # ridge on the bends, relative to the fit's own scale
     max_misfit_px: float = 2.0  # samples straying from their fit by more (rms, in footprints) span two surfaces
-    block_px: int = 2  # pixels of one annulus in a block this wide share a neighbourhood and a fit
-
-    def __post_init__(self) -> None:
-        if self.block_px < 1:
-            raise ValueError(f"FillSettings.block_px: a block is at least 1 pixel wide, got {self.block_px}")
 
 
 def fill_candidates(covered: np.ndarray, annulus: np.ndarray, lit: np.ndarray | None) -> np.ndarray:
@@ -77,9 +70,7 @@ def fill_points(
 ) -> np.ndarray:
     """A point (N, 3) for each flat camera pixel `pixel` that reads `annulus` (N,), NaN where no
     neighbourhood on one surface of its two rings reaches it; from samples (points, unit normals
-    toward the camera, sub-pixel image positions, ring indices) of triangles already kept. The
-    pixels of one annulus in a block settings.block_px wide share the neighbourhood and the fit of
-    their centre; each meets the fit on its own ray."""
+    toward the camera, sub-pixel image positions, ring indices) of triangles already kept."""
     found = np.full((len(pixel), 3), np.nan)
     if len(points) < settings.min_samples or len(pixel) == 0:
         return found
@@ -87,63 +78,36 @@ def fill_points(
     grid = _search_grid(xy, ring, int(annulus.max(initial=0)) + 1)
     shape = (camera.height, camera.width)
     reached = np.flatnonzero(_rings_reach(xy, ring, pixel, shape, annulus, settings.reach_px))
-    order, starts, centres, block_annulus = _blocks(pixel[reached], annulus[reached], camera.width, settings.block_px)
-    for first in range(0, len(centres), _BLOCKS_AT_ONCE):  # a chunk's neighbourhoods, not the whole fill's
-        last = min(first + _BLOCKS_AT_ONCE, len(centres))
-        part = reached[order[starts[first] : starts[last]]]
-        owner = np.repeat(np.arange(last - first), np.diff(starts[first : last + 1]))
-        blocks = (centres[first:last], block_annulus[first:last])
-        rows, met = _filled_blocks(samples, camera, (pixel[part], owner), blocks, settings, grid)
+    positions = _positions(pixel[reached], camera.width)
+    for start in range(0, len(reached), _PIXELS_AT_ONCE):  # a block's neighbourhoods, not the whole fill's
+        part, at = reached[start : start + _PIXELS_AT_ONCE], positions[start : start + _PIXELS_AT_ONCE]
+        rows, met = _filled_block(samples, camera, (pixel[part], at, annulus[part]), settings, grid)
         found[part[rows]] = met
     return found
 
 
-def _blocks(
-    pixel: np.ndarray, annulus: np.ndarray, width: int, side: int
-) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """The flat pixels `pixel` (of an image `width` wide) grouped by square block `side` pixels wide
-    and annulus: the pixels' order block by block, where each block's run starts (blocks + 1,), its
-    centre (x, y) and its annulus. The centre is the block's own, whichever of its pixels are
-    asked for: a pixel's fill does not depend on which others are filled with it."""
-    x, y = pixel % width, pixel // width
-    rings = int(annulus.max(initial=0)) + 1
-    key = ((y // side) * (width // side + 1) + x // side) * rings + annulus
-    order = np.argsort(key, kind="stable")
-    ordered = key[order]
-    first = np.flatnonzero(np.concatenate([[True], ordered[1:] != ordered[:-1]])) if len(key) else np.zeros(0, int)
-    corner = np.column_stack([x[order[first]] // side, y[order[first]] // side]) * side
-    return order, np.append(first, len(key)), corner + (side - 1) / 2.0, annulus[order[first]]
-
-
-def _filled_blocks(
+def _filled_block(
     samples: tuple[np.ndarray, ...],
     camera: CameraModel,
-    pixels: tuple[np.ndarray, np.ndarray],
-    blocks: tuple[np.ndarray, np.ndarray],
+    pixels: tuple[np.ndarray, np.ndarray, np.ndarray],
     settings: FillSettings,
     grid: SearchGrid,
 ) -> tuple[np.ndarray, np.ndarray]:
-    """fill_points for a chunk of blocks (their centres and annuli) and their pixels (flat pixels,
-    each one's block), from the samples (points, normals, xy, ring, footprints): which pixels were
-    filled, and their points. Its neighbourhoods are freed on return, before the next chunk's are
-    made."""
+    """fill_points for a block of pixels (flat pixels, their positions and annuli), from the samples
+    (points, normals, xy, ring, footprints): which of them were filled, and their points. Its
+    neighbourhoods are freed on return, before the next block's are made."""
     points, normals, xy, ring, footprint = samples
-    pixel, owner = pixels
-    centres, annulus = blocks
-    dist, index = _neighbourhoods(xy, ring, centres, annulus, settings, grid)
+    pixel, positions, annulus = pixels
+    dist, index = _neighbourhoods(xy, ring, positions, annulus, settings, grid)
     use = _one_surface(points, footprint, xy, ring, (dist, index), annulus, settings)
-    fitted = use.sum(axis=1) >= settings.min_samples
-    rows = np.flatnonzero(fitted[owner])
+    rows = np.flatnonzero(use.sum(axis=1) >= settings.min_samples)
     if len(rows) == 0:
         return rows, np.empty((0, 3))
-    chosen = np.flatnonzero(fitted)
-    fit = _fits(points, normals, np.take(index, chosen, axis=0), np.take(use, chosen, axis=0), settings)
-    which = (np.cumsum(fitted) - 1)[owner[rows]]  # each filled pixel's fit
     origins, directions = camera.pixel_rays
     # by index: np.take would first copy a pinhole's origins, a broadcast, whole
     rays = (np.asarray(origins[pixel[rows]]), np.asarray(directions[pixel[rows]]))
-    coef, frame, origin, misfit_mm = (np.take(term, which, axis=0) for term in fit)
-    met = _meet(coef, frame, origin, rays)
+    chosen = (np.take(index, rows, axis=0), np.take(use, rows, axis=0))
+    met, misfit_mm = _fit_and_meet(points, normals, *chosen, rays, settings)
     smooth = misfit_mm <= settings.max_misfit_px * camera.mm_per_px(np.nan_to_num(met))
     return rows[smooth], met[smooth]
 
@@ -257,14 +221,19 @@ def _one_surface(
     return use
 
 
-def _fits(
-    points: np.ndarray, normals: np.ndarray, index: np.ndarray, use: np.ndarray, settings: FillSettings
-) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """Per neighbourhood (`index`, `use`: rows of samples), the weighted quadratic height field of
-    its used samples (positions and slopes, in a frame along their mean normal: rig.kernels.fill):
-    its coefficients, frame and origin (as _meet takes them), and the rms of the samples' heights
-    off it (mm). Samples of two levels joined by a step fit a ramp between them, which their own
-    slopes contradict: the heights stray by millimetres."""
+def _fit_and_meet(
+    points: np.ndarray,
+    normals: np.ndarray,
+    index: np.ndarray,
+    use: np.ndarray,
+    rays: tuple[np.ndarray, np.ndarray],
+    settings: FillSettings,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Per pixel, the weighted quadratic height field of its used samples (positions and slopes, in a
+    frame along their mean normal: rig.kernels.fill) met by its ray (origins, unit directions), NaN
+    where it misses; and the rms of the samples' heights off the fit (mm). Samples of two levels
+    joined by a step fit a ramp between them, which their own slopes contradict: the heights stray
+    by millimetres."""
     count = len(index)
     coef, frame = np.empty((count, 6)), np.empty((count, 3, 3))
     origin, misfit = np.empty((count, 3)), np.empty(count)
@@ -275,7 +244,7 @@ def _fits(
         fill_kernels.fit_height_fields(*arrays, index, use, settings.bend_ridge, coef, frame, origin, misfit, *span)
 
     list(pool().map(fit, batches(count)))
-    return coef, frame, origin, misfit
+    return _meet(coef, frame, origin, rays), misfit
 
 
 def _meet(coef: np.ndarray, frame: np.ndarray, origin: np.ndarray, rays: tuple[np.ndarray, np.ndarray]) -> np.ndarray:
