@@ -26,8 +26,13 @@ def _wrap(angle: float) -> float:
 def _half_plane(terms: np.ndarray, i: int, theta: float) -> float:
     """rig.geometry.ray_half_plane for ray i (its centred affine image `terms[i]`: a0, a1, a2, b0,
     b1, b2) and one angle; NaN where the ray meets only the other half, or behind either device."""
+    return _met(terms, i, math.sin(theta), math.cos(theta))
+
+
+@njit(nogil=True, cache=True, inline="always")
+def _met(terms: np.ndarray, i: int, sin: float, cos: float) -> float:
+    """_half_plane at the angle whose sine and cosine are given."""
     a0, a1, a2, b0, b1, b2 = terms[i, 0], terms[i, 1], terms[i, 2], terms[i, 3], terms[i, 4], terms[i, 5]
-    sin, cos = math.sin(theta), math.cos(theta)
     below = b0 * sin - b1 * cos
     if below == 0:
         return np.nan
@@ -40,9 +45,11 @@ def _half_plane(terms: np.ndarray, i: int, theta: float) -> float:
 
 @njit(nogil=True, cache=True, inline="always")
 def _radius(terms: np.ndarray, i: int, s: float) -> float:
-    """Projector radius about the centre of ray i's point at s."""
+    """Projector radius about the centre of ray i's point at s (a square root: hypot's care for
+    overflow costs a branch's scoring a fifth of its time, and radii are far from overflowing)."""
     w = terms[i, 2] + s * terms[i, 5]
-    return math.hypot((terms[i, 0] + s * terms[i, 3]) / w, (terms[i, 1] + s * terms[i, 4]) / w)
+    x, y = (terms[i, 0] + s * terms[i, 3]) / w, (terms[i, 1] + s * terms[i, 4]) / w
+    return math.sqrt(x * x + y * y)
 
 
 @njit(nogil=True, cache=True, inline="always")
@@ -97,21 +104,19 @@ def solve_angles(
     """rig.pipeline.ring_angles._solve_chunk for samples[start:stop]: the branches of the fine code
     within min(`window`, 6 coarse sigma) of the coarse angle scored on radius and coarse angle, the
     best two refined and compared on their full misfit. out[:, i] = (s, sigma_s, chi2, margin).
-    The scores only choose the two (a dozen branches a sample on the default bench): each branch's
-    sine and cosine are the last one's turned by a period, and the radius a square root, not
-    hypot; the two chosen are met again exactly (_half_plane) before they are refined, so a choice
-    differs only between scores equal to ~1e-15 (55 -> 39 ms on one thread, default bench)."""
+    The scores only choose the two (_best_two, decision 0046); the two chosen are met again exactly
+    (_half_plane) before they are refined."""
     two_pi = 2 * math.pi
     for i in range(start, stop):
         m, sc = np.float64(periods[i]), coarse_sigma[i]
         reach = min(window, 6.0 * sc)
         lo = math.ceil((m * (coarse[i] - reach) - phase[i]) / two_pi)
         hi = math.floor((m * (coarse[i] + reach) - phase[i]) / two_pi)
-        best = _best_two(terms, i, (lo, hi), (phase[i], m, coarse[i], sc), radius[i], sigmas[0])
-        best_score, best_theta, second_score, second_theta = best
-        best_s, second_s = _half_plane(terms, i, best_theta), _half_plane(terms, i, second_theta)
-        best_score = best_score if np.isfinite(best_s) else np.inf
-        second_score = second_score if np.isfinite(second_s) else np.inf
+        decoded = (phase[i], m, coarse[i], sc)
+        chosen = _best_two(terms, i, (lo, hi), decoded, radius[i], sigmas[0])
+        best_score, best_theta, second_score, second_theta = chosen
+        best_s = _half_plane(terms, i, best_theta) if np.isfinite(best_score) else np.nan
+        second_s = _half_plane(terms, i, second_theta) if np.isfinite(second_score) else np.nan
         angles = (radius[i], coarse[i], sc)
         s0, sigma0, chi0 = _refined(terms, i, (best_score, best_s, best_theta), angles, sigmas, iterations)
         s1, sigma1, chi1 = _refined(terms, i, (second_score, second_s, second_theta), angles, sigmas, iterations)
@@ -127,27 +132,30 @@ def _best_two(
     terms: np.ndarray,
     i: int,
     branches: tuple[int, int],
-    code: tuple[float, float, float, float],
+    decoded: tuple[float, float, float, float],
     radius: float,
     radius_sigma: float,
 ) -> tuple[float, float, float, float]:
-    """(score, theta) of the best branch in [lo, hi] of ray i and of the second (inf, 0 where
-    missing); code: (fine phase, periods, coarse angle, its sigma). A branch whose ray meets only
-    the other half, or behind either device, is missing (as _half_plane says)."""
+    """(score, theta) of the best of ray i's fine-code branches `branches` (lo, hi: both counted)
+    and of the second (inf, 0 where there is none); decoded: the sample's fine phase, periods,
+    coarse angle and that angle's sigma. A branch the ray does not meet is missing (_met). Each
+    branch's sine and cosine are the last one's turned by a period rather than made anew (a
+    sample has a dozen branches on the default bench, and sine and cosine were a third of their
+    time): to 1e-15 of the exact ones, enough to choose by; the caller meets the two chosen again
+    exactly."""
     lo, hi = branches
-    phase, m, coarse, sc = code
-    a0, a1, a2, b0, b1, b2 = terms[i, 0], terms[i, 1], terms[i, 2], terms[i, 3], terms[i, 4], terms[i, 5]
+    phase, periods, coarse, coarse_sigma = decoded
     best_score, best_theta, second_score, second_theta = np.inf, 0.0, np.inf, 0.0
-    first = (phase + 2 * math.pi * lo) / m
+    two_pi = 2 * math.pi
+    first = (phase + two_pi * lo) / periods
     sin, cos = math.sin(first), math.cos(first)
-    turn_sin, turn_cos = math.sin(2 * math.pi / m), math.cos(2 * math.pi / m)
+    turn_sin, turn_cos = math.sin(two_pi / periods), math.cos(two_pi / periods)
     for branch in range(lo, hi + 1):
-        theta = (phase + 2 * math.pi * branch) / m
-        s = -(a0 * sin - a1 * cos) / (b0 * sin - b1 * cos)
-        w = a2 + s * b2
-        if s > 0 and w > 0 and (a0 + s * b0) * cos + (a1 + s * b1) * sin > 0 and np.isfinite(s):
-            x, y = (a0 + s * b0) / w, (a1 + s * b1) / w
-            score = ((math.sqrt(x * x + y * y) - radius) / radius_sigma) ** 2 + (_wrap(theta - coarse) / sc) ** 2
+        theta = (phase + two_pi * branch) / periods
+        s = _met(terms, i, sin, cos)
+        if np.isfinite(s):
+            off_ring = (_radius(terms, i, s) - radius) / radius_sigma
+            score = off_ring**2 + (_wrap(theta - coarse) / coarse_sigma) ** 2
             if score < best_score:
                 second_score, second_theta = best_score, best_theta
                 best_score, best_theta = score, theta
