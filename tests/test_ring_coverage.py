@@ -239,15 +239,16 @@ def test_where_the_coarse_angle_leaves_the_period_ambiguous_the_rings_neighbours
 
 
 def test_the_compiled_solver_leaves_a_sample_no_branch_meets_unplaced() -> None:
-    """A sample whose window holds no branch of its fine code, and a ray that meets no half-plane
-    at all (its image is the rings' centre, b0 = b1 = 0: the intersection divides by zero): each
-    gets no point (NaN), an infinite misfit and margin, and neither raises."""
+    """A sample whose window holds no branch of its fine code, and a ray whose direction images to
+    the rings' centre (b0 = b1 = 0: it lies in the half-plane of angle 0 and meets no other, and
+    the intersection divides by zero): each gets no point (NaN), an infinite misfit and margin, and
+    neither raises."""
     from rig.kernels.rings import solve_angles
     from rig.pipeline.ring_angles import _ITERATIONS, BRANCH_WINDOW_RAD
 
     terms = np.array([[1.0, -1.0, 1.0, 0.0, 1.0, 0.0], [1.0, 0.0, 1.0, 0.0, 0.0, 1.0]])
     # sample 0: 4 periods, phase pi, coarse 0: its branches lie pi / 4 from the coarse angle, outside
-    # the 0.3 rad window; sample 1: a dozen branches, none of which its ray meets
+    # the 0.3 rad window; sample 1: six branches (0.29 to 0.79 rad), none of which its ray meets
     radius, coarse = np.array([1.0, 50.0]), np.array([0.0, 0.5])
     phase, periods, sigma = np.array([np.pi, 0.0]), np.array([4.0, 64.0]), np.full(2, 0.05)
     out = np.zeros((4, 2))

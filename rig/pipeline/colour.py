@@ -97,7 +97,7 @@ def colour_terms(
     if len(faces) == 0:
         return None
     centre = vertices.mean(axis=0)
-    # unbalanced: built in a third less time; its queries are a fifth slower, and only the filled pixels ask
+    # unbalanced: built in a third less time; its queries a quarter slower, and only the filled pixels ask
     tree = pool().submit(cKDTree, vertices, balanced_tree=False)
     faces, count = np.ascontiguousarray(faces, np.int64), len(vertices)
     reach2, corners, area = np.empty(len(faces), np.float32), np.empty((len(faces), 2), np.int64), np.zeros(count)
