@@ -54,6 +54,36 @@ def _true_areas(truth: PixelTruth) -> tuple[np.ndarray, np.ndarray]:
     return area, region
 
 
+# Each truth's promise, for the last few ring sets it was asked for: every scan of a standing scene
+# by the same rings is promised the same pixels, and their making (image-sized labels, bands,
+# sectors and pieces) was the peak of a ring scan's evaluation, some 20 MB above what the scan holds.
+_PROMISES: weakref.WeakKeyDictionary[PixelTruth, dict[bytes, np.ndarray]] = weakref.WeakKeyDictionary()
+_PROMISES_KEPT = 4  # ring sets per truth: an adaptive scan's plans come and go
+
+
+def promised(
+    truth: PixelTruth, radii: np.ndarray, center: tuple[float, float], areas: tuple[np.ndarray, np.ndarray]
+) -> np.ndarray:
+    """(H, W) read-only: the pixels the rings `radii` about `center` promise a surface at on the lit
+    true surface (rig.evaluate.promise.between_rings; `areas`: true_areas(truth)), made once for
+    each truth and ring set (kept as long as the truth is, for the last _PROMISES_KEPT ring sets)."""
+    radii = np.asarray(radii, np.float64)
+    key = radii.tobytes() + np.asarray(center, np.float64).tobytes()
+    try:
+        kept = _PROMISES.setdefault(truth, {})
+    except TypeError:  # a truth that cannot be referred to weakly: made each time
+        kept = {}
+    if key in kept:
+        return kept[key]
+    area, region = areas
+    target = between_rings(polar_rows(truth.projector_uv, center), region, area, truth.hit & truth.lit, radii)
+    target.flags.writeable = False  # shared by every scan of this truth by these rings
+    while len(kept) >= _PROMISES_KEPT:
+        del kept[next(iter(kept))]  # the oldest ring set
+    kept[key] = target
+    return target
+
+
 def wholeness(
     valid: np.ndarray,
     truth: PixelTruth,
@@ -66,9 +96,9 @@ def wholeness(
     covered; and where the object's promised area went uncovered (surface_object_missed: inside the
     innermost ring, where neighbouring rings lie closer than CROWDED_PX camera pixels, elsewhere;
     shares of the promised area). `areas`: true_areas(truth), when already known."""
-    area, region = true_areas(truth) if areas is None else areas
-    lit = truth.hit & truth.lit
-    target = between_rings(polar_rows(truth.projector_uv, center), region, area, lit, radii)
+    areas = true_areas(truth) if areas is None else areas
+    area, lit = areas[0], truth.hit & truth.lit
+    target = promised(truth, radii, center, areas)
     radius = ProjectorRadius(truth.projector_uv, center)
     on_object = truth.points[..., 2] > OBJECT_ABOVE_MM
     inner = radius.within(radii[0])

@@ -227,6 +227,7 @@ def _points_in_faces(
     )
     common_origin = camera.center if camera.projection != "orthographic" else None
     terms = FaceTerms.of(points, xy, tri, corners, common_origin)
+    del corners  # in the terms now: 5 MB fewer at the surface's peak, the grid's filling
     grid = full_on_pool((camera.height * camera.width, 3), np.nan, np.float32)
     ok = np.ones(len(pixel), dtype=bool)
     agree = np.ones(len(pixel), dtype=bool)
