@@ -25,6 +25,7 @@ from rig.cli import main
 from rig.config import RigConfig, config_from_dict, load_config
 from rig.errors import ConfigError
 from rig.patterns import codec_names
+from rig.patterns.stream import FrameStream
 from rig.pipeline.live import LiveFrame, dark_frames, live_codecs, run_live, warm_up
 from rig.service.job_service import JobService
 from tests.conftest import small_config_data, wait_done, write_config
@@ -81,6 +82,31 @@ def test_the_warm_up_runs_dark_frames_like_the_cameras_through_every_codec_and_d
         assert frame.sequence == 1
         dark = dark_frames(rig)[0]  # and the warm-up's frames are like theirs
         assert (dark.shape, dark.dtype) == (frame.image.shape, frame.image.dtype) and not dark.any()
+
+
+def test_the_warm_up_holds_two_sequences_in_flight_before_it_finishes_either(monkeypatch: pytest.MonkeyPatch) -> None:
+    # Live mode decodes one sequence while it triangulates the one before, so the warm-up grows the
+    # heap by two sequences' arrays held at once (decision 0047), not by one sequence twice.
+    events: list[tuple[str, int]] = []
+    with open_rig(config_from_dict(small_config_data(), "warm-up")) as rig:
+        codecs = live_codecs(rig)
+        make = codecs[0].stream
+
+        def stream(full_scale: int) -> FrameStream:
+            made = make(full_scale)
+            add, finish = made.add, made.finish
+            monkeypatch.setattr(made, "add", lambda frame: (events.append(("add", id(made))), add(frame))[1])
+            monkeypatch.setattr(made, "finish", lambda: (events.append(("finish", id(made))), finish())[1])
+            return made
+
+        monkeypatch.setattr(codecs[0], "stream", stream)
+        assert warm_up(rig, codecs) == 1
+    streams = list(dict.fromkeys(stream for _, stream in events))
+    assert len(streams) == 2
+    first_finish = events.index(("finish", streams[0]))
+    assert all(("add", s) in events[:first_finish] for s in streams)  # both sequences' frames in first
+    assert [e for e in events if e[0] == "add"].count(("add", streams[1])) == codecs[0].frame_count
+    assert [e for e in events if e[0] == "finish"] == [("finish", s) for s in streams]
 
 
 def test_live_hdr_reads_a_dark_and_white_object_that_one_exposure_cannot(tmp_path: Path) -> None:

@@ -38,6 +38,7 @@ FINISH_TIMEOUT_S = 60.0  # the last sequence's triangulation, once live mode sto
 log = logging.getLogger(__name__)
 LATENCIES_KEPT = 256  # the summary's latency figures are over the last this many sequences
 RATE_OVER = 32  # clouds per second: over the last this many sequences
+WARM_UP_SEQUENCES = 2  # one decoded while the one before is triangulated
 
 
 @dataclass(frozen=True, eq=False)
@@ -258,26 +259,34 @@ def prepare_triangulation(rig: Rig, codecs: list[Codec]) -> None:
 
 
 def warm_up(rig: Rig, codecs: list[Codec]) -> int:
-    """One sequence of dark frames through every pair's decode and triangulation, its results
-    dropped: the heap then holds what a sequence's arrays need before the cameras run. Started
+    """Two sequences of dark frames through every pair's decode and triangulation, their results
+    dropped: the heap then holds what the sequences in flight need before the cameras run. Started
     cold (an idle daemon hands its free memory back after each job), the first sequences of two
     5 MP cameras took three to four times as long as the rest while their arrays were faulted in,
-    and one was dropped (decision 0042). How many pairs went all the way (a pair whose dark frames
-    do not decode is logged and passed over: what it allocated on the way is in the heap too)."""
+    and one was dropped (decision 0042). One sequence warmed was not enough: while one sequence is
+    triangulated the next is decoded, so two sequences' arrays are live at once, and the heap grew
+    another ~150 MB in the first half second, enough to drop a sequence on most runs (decision 0047).
+    How many pairs went all the way (a pair whose dark frames do not decode is logged and passed
+    over: what it allocated on the way is in the heap too)."""
     cameras, dark = rig.config.cameras, dark_frames(rig)
     pairs = [(p, c) for p in range(len(codecs)) for c in range(len(cameras)) if is_reconstructed(rig, (p, c))]
-    streams = {(p, c): codecs[p].stream(cameras[c].full_scale) for p, c in pairs}
-    for (p, c), stream in streams.items():  # every pair's frames in, as a sequence's are
-        for _ in range(codecs[p].frame_count):
-            stream.add(dark[c])
-    warmed = 0
-    for (p, c), stream in streams.items():
-        try:
-            pair_depth(rig, p, c, stream.finish())
-            warmed += 1
-        except (DecodeError, ScanError) as exc:
-            log.info("live mode warm-up: projector %d, camera %s: %s", p, cameras[c].name, exc)
-    return warmed
+    in_flight = []
+    for _ in range(WARM_UP_SEQUENCES):  # every pair's frames in, as a sequence's are, both held
+        streams = {(p, c): codecs[p].stream(cameras[c].full_scale) for p, c in pairs}
+        for (p, c), stream in streams.items():
+            for _ in range(codecs[p].frame_count):
+                stream.add(dark[c])
+        in_flight.append(streams)
+    warmed = {pair: True for pair in pairs}
+    for streams in in_flight:
+        for (p, c), stream in streams.items():
+            try:
+                pair_depth(rig, p, c, stream.finish())
+            except (DecodeError, ScanError) as exc:
+                if warmed[(p, c)]:  # said once, not once a sequence
+                    log.info("live mode warm-up: projector %d, camera %s: %s", p, cameras[c].name, exc)
+                warmed[(p, c)] = False
+    return sum(warmed.values())
 
 
 def dark_frames(rig: Rig) -> list[np.ndarray]:
