@@ -59,6 +59,43 @@ def test_a_pixel_inside_the_innermost_ring_lists_each_sample_once() -> None:
     assert sorted(listed) == [0, 1, 2]  # the three in reach, once each (the fourth is beyond 48 px)
 
 
+def test_each_pixels_neighbourhood_is_the_nearest_of_any_ring_then_of_each_of_its_rings() -> None:
+    """_neighbourhoods against its definition, found by brute force: the k nearest samples of any
+    ring within reach, then each ring's k / 2 nearest (k for ring 0 alone) not among those, and no
+    neighbourhood where one of the pixel's rings has no sample in reach. Its search skips a ring
+    whose nearest are all among the nearest of any ring: the lists must not change for it."""
+    from rig.pipeline.fill import _neighbourhoods
+
+    rng = np.random.default_rng(11)
+    xy = rng.uniform([0, 0], [400, 300], (1500, 2))
+    ring = np.minimum((np.hypot(xy[:, 0] - 200, xy[:, 1] - 150) // 30).astype(np.int64), 5)
+    ring[(xy[:, 0] > 250) & (ring == 3)] = 4  # ring 3 only on the left: pixels on the right it does not reach
+    at = rng.uniform([0, 0], [400, 300], (600, 2))
+    annulus = np.minimum((np.hypot(at[:, 0] - 200, at[:, 1] - 150) // 30).astype(np.int64), 6)
+    annulus[:100] = rng.integers(0, 7, 100)  # and some whose rings lie elsewhere
+    settings = FillSettings(neighbours=8)
+    k, reach = settings.neighbours, float(settings.reach_px)
+    dist, index = _neighbourhoods(xy, ring, at, annulus, settings)
+    reached_some, skipped_some = 0, 0
+    for row in range(len(at)):
+        d = np.hypot(*(xy - at[row]).T)
+        order = np.argsort(d)
+        nearest = [j for j in order[:k] if d[j] < reach]
+        wanted = [0] if annulus[row] == 0 else [annulus[row] - 1, annulus[row]]
+        share = k if annulus[row] == 0 else k // 2
+        per_ring = [[j for j in order if ring[j] == r and d[j] < reach][:share] for r in wanted]
+        listed = sorted(index[row][np.isfinite(dist[row])])
+        if any(len(found) == 0 for found in per_ring):
+            assert listed == [], row
+            continue
+        reached_some += 1
+        skipped_some += any(set(found) <= set(nearest) for found in per_ring)
+        expected = sorted(set(nearest) | {j for found in per_ring for j in found})
+        assert listed == expected, row
+        assert np.allclose(np.sort(dist[row][np.isfinite(dist[row])]), np.sort(d[expected]))
+    assert reached_some > 200 and skipped_some > 50  # both kinds of pixel were met
+
+
 def test_the_reach_test_turns_away_only_pixels_with_a_ring_out_of_reach() -> None:
     """fill._rings_reach may let a pixel through that no sample reaches, never turn one away that
     both its rings reach (ring 0 alone inside it): the fill would find that pixel's neighbourhood."""

@@ -228,6 +228,7 @@ def one_surface(
 def fill_neighbourhoods(
     members: np.ndarray,
     cells: tuple[Cells, Cells],
+    ring_of: np.ndarray,
     at: np.ndarray,
     annulus: np.ndarray,
     sizes: tuple[int, float, float, float],
@@ -241,9 +242,10 @@ def fill_neighbourhoods(
     nearest of each of its two rings (k of ring 0 alone; at most `members[r]`) not among those.
     dist inf (index 0) for an empty slot, and everywhere for a pixel whose rings do not both reach
     it (or do not exist). cells: rig.kernels.cells.sample_cells of the samples and group_cells of
-    them by ring; sizes: (k, reach, the cells' side, the ring cells' side). A pixel's rings are
-    searched first, each in its own cells: most candidates lie beyond a surface's last ring, and a
-    search for a ring that is nowhere near costs a look at a few empty cells."""
+    them by ring; ring_of: each sample's ring; sizes: (k, reach, the cells' side, the ring cells'
+    side). A ring is searched in its own cells only where the nearest of any ring hold fewer of it
+    than its share: where they hold as many, its nearest are all among them (save a tie in distance
+    at the last of them) and would only be struck off the list again."""
     k, reach, cell, ring_cell = sizes
     for i in range(start, stop):
         dist[i, :] = np.inf
@@ -258,17 +260,23 @@ def fill_neighbourhoods(
         n_first = min(near if second < 0 else near // 2, members[first])
         n_second = 0 if second < 0 else min(near // 2, members[second])
         point = (at[i, 0], at[i, 1])
-        tail = near + n_first
-        end = tail  # ring 0 alone: its list ends there
-        found = nearest_within(cells[1], (ring_cell, first, reach), point, dist[i, near:tail], index[i, near:tail])
-        if found > 0 and second >= 0:
-            end = tail + n_second
-            found = nearest_within(cells[1], (ring_cell, second, reach), point, dist[i, tail:end], index[i, tail:end])
-        if found == 0:
+        found = nearest_within(cells[0], (cell, 0, reach), point, dist[i, :near], index[i, :near])
+        held_first = held_second = 0
+        for m in range(found):
+            held_first += ring_of[index[i, m]] == first
+            held_second += ring_of[index[i, m]] == second
+        tail, end = near + n_first, near + n_first + n_second
+        where_first, where_second = (ring_cell, first, reach), (ring_cell, second, reach)
+        if (
+            held_first < n_first
+            and nearest_within(cells[1], where_first, point, dist[i, near:tail], index[i, near:tail]) == 0
+        ) or (
+            held_second < n_second
+            and nearest_within(cells[1], where_second, point, dist[i, tail:end], index[i, tail:end]) == 0
+        ):  # a ring that does not reach the pixel: no neighbourhood
             dist[i, :] = np.inf
             index[i, :] = 0
             continue
-        found = nearest_within(cells[0], (cell, 0, reach), point, dist[i, :near], index[i, :near])
         for j in range(near, end):  # listed already among the nearest of any ring
             for m in range(found):
                 if index[i, m] == index[i, j] and np.isfinite(dist[i, j]):

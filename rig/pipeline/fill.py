@@ -168,7 +168,7 @@ def _neighbourhoods(
     (rig.kernels.fill.fill_neighbourhoods), a span of pixels per thread."""
     k, reach = settings.neighbours, float(settings.reach_px)
     _, members, cells, ring_cell = grid or _search_grid(xy, ring, int(annulus.max(initial=0)) + 1)
-    arrays = (members, cells, np.ascontiguousarray(at), annulus.astype(np.int64))
+    arrays = (members, cells, ring.astype(np.int64), np.ascontiguousarray(at), annulus.astype(np.int64))
     dist, index = np.empty((len(at), 2 * k)), np.empty((len(at), 2 * k), np.int64)
 
     def search(span: tuple[int, int]) -> None:
