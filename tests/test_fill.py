@@ -70,13 +70,16 @@ def test_each_pixels_neighbourhood_is_the_nearest_of_any_ring_then_of_each_of_it
     xy = rng.uniform([0, 0], [400, 300], (1500, 2))
     ring = np.minimum((np.hypot(xy[:, 0] - 200, xy[:, 1] - 150) // 30).astype(np.int64), 5)
     ring[(xy[:, 0] > 250) & (ring == 3)] = 4  # ring 3 only on the left: pixels on the right it does not reach
+    ring[np.argsort(np.hypot(*(xy - 20.0).T))[:3]] = 6  # ring 6: three samples, fewer than its share
     at = rng.uniform([0, 0], [400, 300], (600, 2))
     annulus = np.minimum((np.hypot(at[:, 0] - 200, at[:, 1] - 150) // 30).astype(np.int64), 6)
     annulus[:100] = rng.integers(0, 7, 100)  # and some whose rings lie elsewhere
+    at[100:110], annulus[100:110] = rng.uniform(16, 24, (10, 2)), 6  # beside ring 6's three samples
     settings = FillSettings(neighbours=8)
     k, reach = settings.neighbours, float(settings.reach_px)
     dist, index = _neighbourhoods(xy, ring, at, annulus, settings)
-    reached_some, skipped_some = 0, 0
+    members = np.bincount(ring, minlength=7)
+    reached_some, skipped_some, skipped_short = 0, 0, 0
     for row in range(len(at)):
         d = np.hypot(*(xy - at[row]).T)
         order = np.argsort(d)
@@ -89,11 +92,14 @@ def test_each_pixels_neighbourhood_is_the_nearest_of_any_ring_then_of_each_of_it
             assert listed == [], row
             continue
         reached_some += 1
-        skipped_some += any(set(found) <= set(nearest) for found in per_ring)
+        # the search's own test: the nearest of any ring hold a ring's share, or all it has
+        skipped = [sum(ring[j] == r for j in nearest) >= min(share, members[r]) for r in wanted]
+        skipped_some += any(skipped)
+        skipped_short += any(s and members[r] < share for s, r in zip(skipped, wanted, strict=True))
         expected = sorted(set(nearest) | {j for found in per_ring for j in found})
         assert listed == expected, row
         assert np.allclose(np.sort(dist[row][np.isfinite(dist[row])]), np.sort(d[expected]))
-    assert reached_some > 200 and skipped_some > 50  # both kinds of pixel were met
+    assert reached_some > 200 and skipped_some > 50 and skipped_short > 0  # every kind of pixel was met
 
 
 def test_the_reach_test_turns_away_only_pixels_with_a_ring_out_of_reach() -> None:

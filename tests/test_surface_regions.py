@@ -20,7 +20,7 @@ from rig.evaluate.regions import (
     surface_regions,
     weighted_quantile,
 )
-from rig.evaluate.wholeness import true_areas
+from rig.evaluate.wholeness import promised, true_areas
 
 
 def _plane_grid(height: int, width: int, spacing_mm: float, slope: float = 0.0, z0: float = 0.0) -> np.ndarray:
@@ -313,11 +313,37 @@ def test_a_truths_areas_are_made_once_and_shared_read_only() -> None:
     assert np.allclose(true_areas(moved)[0], 1.0)  # type: ignore[arg-type]
 
 
+def test_a_truths_promise_is_kept_for_the_ring_sets_last_asked_for() -> None:
+    """Each scan of a standing scene by the same rings is promised the same pixels: made once
+    (between_rings, as made anew), shared read-only, kept for the last four ring sets asked for;
+    a ring set asked for longest ago is made anew."""
+    hit = np.ones((40, 50), bool)
+    truth = _Truth(_plane_grid(40, 50, 0.5), hit)
+    rows, cols = np.mgrid[0:40, 0:50].astype(np.float64)
+    truth.projector_uv, truth.lit = np.stack([cols * 4.0, rows * 4.0], axis=-1), hit
+    areas, centre = true_areas(truth), (100.0, 80.0)  # type: ignore[arg-type]
+    sets = {name: np.array([20.0, 40.0, 60.0]) + shift for name, shift in zip("ABCDE", range(0, 10, 2), strict=True)}
+    first = {name: promised(truth, sets[name], centre, areas) for name in "ABCD"}  # type: ignore[arg-type]
+    made = between_rings(polar_rows(truth.projector_uv, centre), areas[1], areas[0], hit, sets["A"])
+    assert np.array_equal(first["A"], made) and first["A"].any() and not first["A"].all()
+    assert not np.array_equal(first["A"], first["D"])
+    with pytest.raises(ValueError, match="read-only"):
+        first["A"][0, 0] = False
+    assert promised(truth, sets["A"], centre, areas) is first["A"]  # type: ignore[arg-type]  # asked for again
+    promised(truth, sets["E"], centre, areas)  # type: ignore[arg-type]  # a fifth: B, asked for longest ago, goes
+    assert promised(truth, sets["A"], centre, areas) is first["A"]  # type: ignore[arg-type]
+    again = promised(truth, sets["B"], centre, areas)  # type: ignore[arg-type]
+    assert again is not first["B"] and np.array_equal(again, first["B"])
+
+
 class _Truth:
-    """The parts of a bench's pixel truth the areas are made from."""
+    """The parts of a bench's pixel truth the areas (and, given projector_uv and lit, the promise)
+    are made from."""
 
     def __init__(self, points: np.ndarray, hit: np.ndarray) -> None:
         self.points, self.hit = points, hit
+        self.projector_uv: np.ndarray | None = None
+        self.lit: np.ndarray | None = None
 
 
 @pytest.mark.parametrize(("height", "width"), [(1, 1), (1, 9), (7, 1), (40, 33)])

@@ -74,12 +74,13 @@ def promised(
     except TypeError:  # a truth that cannot be referred to weakly: made each time
         kept = {}
     if key in kept:
+        kept[key] = kept.pop(key)  # the last asked for, kept longest
         return kept[key]
     area, region = areas
     target = between_rings(polar_rows(truth.projector_uv, center), region, area, truth.hit & truth.lit, radii)
     target.flags.writeable = False  # shared by every scan of this truth by these rings
     while len(kept) >= _PROMISES_KEPT:
-        del kept[next(iter(kept))]  # the oldest ring set
+        del kept[next(iter(kept))]  # the ring set asked for longest ago
     kept[key] = target
     return target
 

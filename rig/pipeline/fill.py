@@ -49,6 +49,10 @@ class FillSettings:
     bend_ridge: float = 0.05  # ridge on the bends, relative to the fit's own scale
     max_misfit_px: float = 2.0  # samples straying from their fit by more (rms, in footprints) span two surfaces
 
+    def __post_init__(self) -> None:
+        if self.neighbours < 2:  # half from each ring: none at all from either would test neither's reach
+            raise ValueError(f"FillSettings.neighbours must be at least 2, half from each ring: got {self.neighbours}")
+
 
 def fill_candidates(covered: np.ndarray, annulus: np.ndarray, lit: np.ndarray | None) -> np.ndarray:
     """Flat pixels that read an annulus, are lit and are not covered by a triangle."""

@@ -264,8 +264,9 @@ def warm_up(rig: Rig, codecs: list[Codec]) -> int:
     cold (an idle daemon hands its free memory back after each job), the first sequences of two
     5 MP cameras took three to four times as long as the rest while their arrays were faulted in,
     and one was dropped (decision 0042). One sequence warmed was not enough: while one sequence is
-    triangulated the next is decoded, so two sequences' arrays are live at once, and the heap grew
-    another ~150 MB in the first half second, enough to drop a sequence on most runs (decision 0047).
+    triangulated the next is decoded, so two sequences' arrays are live at once, and the heap went on
+    growing over the first several sequences, which dropped one to three sequences in every run
+    measured (decision 0047).
     How many pairs went all the way (a pair whose dark frames do not decode is logged and passed
     over: what it allocated on the way is in the heap too)."""
     cameras, dark = rig.config.cameras, dark_frames(rig)
