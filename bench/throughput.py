@@ -4,10 +4,10 @@
 fed again and again by a thread as hardware-triggered cameras at the case's rate would deliver it
 (every camera's frame k at once). The pipeline is live mode's own (rig.pipeline.live,
 rig.pipeline.sustained): each frame decoded as it arrives, each finished sequence triangulated on a
-worker thread while the next is decoded; before the clock, two sequences of dark frames in flight warm
-the heap, as live mode's start does (decisions 0042 and 0047). Two places drop whole sequences, never frames: the
-camera, when its buffer already holds a whole sequence the decoder has not read, and the worker,
-when a newer sequence replaces one still waiting.
+worker thread while the next is decoded; before the clock, two sequences of dark frames in flight
+warm the heap, as live mode's start does (decisions 0042 and 0047). Two places drop whole
+sequences, never frames: the camera, when its buffer already holds a whole sequence the decoder
+has not read, and the worker, when a newer sequence replaces one still waiting.
 
 Prints one JSON object {"cases": [...]}: per case clouds per second against the camera's
 sequences per second, sequences dropped, latency from a sequence's last frame to its depth images

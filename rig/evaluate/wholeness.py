@@ -74,8 +74,8 @@ def promised(
     except TypeError:  # a truth that cannot be referred to weakly: made each time
         kept = {}
     if key in kept:
-        kept[key] = kept.pop(key)  # the last asked for, kept longest
-        return kept[key]
+        target = kept[key] = kept.pop(key)  # to the back: the last asked for is kept longest
+        return target
     area, region = areas
     target = between_rings(polar_rows(truth.projector_uv, center), region, area, truth.hit & truth.lit, radii)
     target.flags.writeable = False  # shared by every scan of this truth by these rings
